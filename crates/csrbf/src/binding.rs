@@ -1,0 +1,175 @@
+//! A deformation's starts bound to a fixed set of points: each point's
+//! neighbouring starts and kernel weights, found once, so that new
+//! destinations update every point with one sparse product.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::deformation::Deformation;
+use crate::error::{Error, Result};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, for_each_cell};
+use crate::kernel::Kernel;
+
+/// Per-point kernel weights of one set of starts (one [`crate::System`]).
+///
+/// Weights are kept in f32 to halve the memory (about 8 bytes per
+/// point-start pair); a displacement through a binding agrees with
+/// [`Deformation::displacements`] to about 1e-7 relative.
+#[derive(Clone, Debug)]
+pub struct Binding {
+    kernel: Kernel,
+    radius: f64,
+    starts: usize,
+    points: usize,
+    chunks: Vec<Chunk>,
+}
+
+/// The rows of one cell of points.
+#[derive(Clone, Debug, Default)]
+struct Chunk {
+    /// Point indices of the rows.
+    rows: Vec<u32>,
+    /// The points, for the polynomial part.
+    positions: Vec<DVec3>,
+    /// Row `r` spans `offsets[r]..offsets[r + 1]` of `ids`/`weights`.
+    offsets: Vec<u32>,
+    ids: Vec<u32>,
+    weights: Vec<f32>,
+}
+
+impl Binding {
+    /// Finds, for every point, the starts of `deformation` within R and their
+    /// weights. Only the starts, kernel and R matter: any deformation solved
+    /// from the same [`crate::System`] can then be applied through it.
+    pub fn new<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
+        let blocks = Blocks::new(points, deformation.radius() * 0.5);
+        let mut chunks = vec![Chunk::default(); blocks.cells.len()];
+        let (kernel, radius) = (deformation.kernel(), deformation.radius());
+        let parallel = points.len() >= PARALLEL_POINTS;
+        // One chunk per cell: split `chunks` like a per-point buffer of length 1 per cell.
+        let one_each = Blocks { order: Vec::new(), cells: (0..chunks.len()).map(|c| (c, c + 1)).collect() };
+        for_each_cell(&one_each, &mut chunks, parallel, |(c, _), out, cand| {
+            let (s, e) = blocks.cells[c];
+            let idx = &blocks.order[s..e];
+            cand.gather(deformation.octree(), idx.iter().map(|&i| points[i as usize].to_dvec3()), radius);
+            let chunk = &mut out[0];
+            chunk.rows = idx.to_vec();
+            chunk.offsets.reserve(idx.len() + 1);
+            chunk.offsets.push(0);
+            for &i in idx {
+                let x = points[i as usize].to_dvec3();
+                chunk.positions.push(x);
+                cand.for_each_weight(x, kernel, radius, |j, w| {
+                    chunk.ids.push(j);
+                    chunk.weights.push(w as f32);
+                });
+                chunk.offsets.push(chunk.ids.len() as u32);
+            }
+        });
+        Binding { kernel, radius, starts: deformation.starts().len(), points: points.len(), chunks }
+    }
+
+    /// Number of points bound.
+    pub fn len(&self) -> usize {
+        self.points
+    }
+
+    /// Whether no point is bound.
+    pub fn is_empty(&self) -> bool {
+        self.points == 0
+    }
+
+    /// Stored point-start pairs.
+    pub fn pairs(&self) -> usize {
+        self.chunks.iter().map(|c| c.ids.len()).sum()
+    }
+
+    /// Bytes the binding holds.
+    pub fn bytes(&self) -> usize {
+        self.chunks
+            .iter()
+            .map(|c| 4 * c.rows.len() + 24 * c.positions.len() + 4 * c.offsets.len() + 8 * c.ids.len())
+            .sum()
+    }
+
+    /// Writes D of `deformation` at every bound point into `out` (point order).
+    ///
+    /// Fails when the deformation has other starts, kernel or radius than
+    /// the one the binding was made for, or `out` has the wrong length.
+    pub fn displacements_into(&self, deformation: &Deformation, out: &mut [Vec3]) -> Result<()> {
+        if deformation.kernel() != self.kernel
+            || deformation.radius() != self.radius
+            || deformation.starts().len() != self.starts
+        {
+            return Err(Error::PointCount {
+                what: "binding used with a deformation of other starts, kernel or radius",
+                expected: self.starts,
+                got: deformation.starts().len(),
+            });
+        }
+        if out.len() != self.points {
+            return Err(Error::PointCount { what: "displacement buffer", expected: self.points, got: out.len() });
+        }
+        let alpha = deformation.coefficients();
+        let affine = deformation.affine();
+        let eval = |chunk: &Chunk| -> Vec<Vec3> {
+            (0..chunk.rows.len())
+                .map(|r| {
+                    let (s, e) = (chunk.offsets[r] as usize, chunk.offsets[r + 1] as usize);
+                    let mut d = affine.map_or(DVec3::ZERO, |a| a.eval(chunk.positions[r]));
+                    for (&j, &w) in chunk.ids[s..e].iter().zip(&chunk.weights[s..e]) {
+                        d += alpha[j as usize] * w as f64;
+                    }
+                    d.as_vec3()
+                })
+                .collect()
+        };
+        let values: Vec<Vec<Vec3>> = if self.points >= PARALLEL_POINTS {
+            self.chunks.par_iter().map(eval).collect()
+        } else {
+            self.chunks.iter().map(eval).collect()
+        };
+        for (chunk, v) in self.chunks.iter().zip(values) {
+            for (&i, d) in chunk.rows.iter().zip(v) {
+                out[i as usize] = d;
+            }
+        }
+        Ok(())
+    }
+
+    /// D of `deformation` at every bound point (point order).
+    pub fn displacements(&self, deformation: &Deformation) -> Result<Vec<Vec3>> {
+        let mut out = vec![Vec3::ZERO; self.points];
+        self.displacements_into(deformation, &mut out)?;
+        Ok(out)
+    }
+}
+
+/// Positions at phase `t`: `out[i] = rest[i] + t * displacement[i]`.
+pub fn frame(rest: &[Vec3], displacement: &[Vec3], phase: f64, out: &mut [Vec3]) -> Result<()> {
+    if !(0.0..=1.0).contains(&phase) {
+        return Err(Error::BadPhase(phase));
+    }
+    if displacement.len() != rest.len() || out.len() != rest.len() {
+        return Err(Error::PointCount {
+            what: "frame buffers",
+            expected: rest.len(),
+            got: displacement.len().min(out.len()),
+        });
+    }
+    let t = phase as f32;
+    let kernel = |(o, (r, d)): (&mut [Vec3], (&[Vec3], &[Vec3]))| {
+        for ((o, r), d) in o.iter_mut().zip(r).zip(d) {
+            *o = *r + *d * t;
+        }
+    };
+    const CHUNK: usize = 1 << 15;
+    if rest.len() >= 4 * CHUNK {
+        out.par_chunks_mut(CHUNK)
+            .zip(rest.par_chunks(CHUNK).zip(displacement.par_chunks(CHUNK)))
+            .for_each(kernel);
+    } else {
+        kernel((out, (rest, displacement)));
+    }
+    Ok(())
+}

@@ -1,0 +1,183 @@
+//! A fitted deformation: the space map T(x) = x + D(x), evaluated anywhere.
+
+use glam::{DVec3, Vec3};
+
+use crate::error::{Error, Result};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, for_each_cell};
+use crate::kernel::{Kernel, Polynomial};
+use crate::octree::Octree;
+use crate::system::{FitOptions, System, prow};
+
+/// The linear part p(x) = c0 + c1 u.x + c2 u.y + c3 u.z, with
+/// u = (x - center) / scale (centred and scaled for conditioning).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Affine {
+    /// Centre of the starts.
+    pub center: DVec3,
+    /// Largest distance of a start from the centre.
+    pub scale: f64,
+    /// Coefficients of 1, u.x, u.y, u.z; each a vector for x, y, z.
+    pub coefficients: [DVec3; 4],
+}
+
+impl Affine {
+    /// p(x).
+    #[inline]
+    pub fn eval(&self, x: DVec3) -> DVec3 {
+        let p = prow(x, self.center, self.scale);
+        let c = &self.coefficients;
+        c[0] * p.x + c[1] * p.y + c[2] * p.z + c[3] * p.w
+    }
+}
+
+/// A deformation: everything needed to replay it (kernel, R, starts,
+/// coefficients, the polynomial part and the order after sorting), plus an
+/// octree over the starts for evaluation.
+#[derive(Clone, Debug)]
+pub struct Deformation {
+    kernel: Kernel,
+    radius: f64,
+    starts: Vec<DVec3>,
+    coefficients: Vec<DVec3>,
+    affine: Option<Affine>,
+    order: Vec<u32>,
+    octree: Octree,
+}
+
+impl PartialEq for Deformation {
+    fn eq(&self, o: &Self) -> bool {
+        self.kernel == o.kernel
+            && self.radius.to_bits() == o.radius.to_bits()
+            && self.starts == o.starts
+            && self.coefficients == o.coefficients
+            && self.affine == o.affine
+            && self.order == o.order
+    }
+}
+
+impl Deformation {
+    /// Fits the deformation carrying each start to its destination. Use
+    /// [`System`] directly to solve again for new destinations cheaply.
+    ///
+    /// ```
+    /// use csrbf::{Deformation, FitOptions, Kernel, Polynomial};
+    /// use glam::DVec3;
+    ///
+    /// let starts = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+    /// let targets = [DVec3::new(0.0, 0.0, 0.1), DVec3::X, DVec3::Y, DVec3::Z];
+    /// let opts = FitOptions::default().with_radius(1.5).with_polynomial(Polynomial::None);
+    /// let d = Deformation::fit(&starts, &targets, opts)?;
+    /// assert!((d.map(DVec3::ZERO) - targets[0]).length() < 1e-12);
+    /// assert_eq!(d.displacement_at(DVec3::splat(10.0)), DVec3::ZERO);
+    /// # Ok::<(), csrbf::Error>(())
+    /// ```
+    pub fn fit(starts: &[DVec3], targets: &[DVec3], options: FitOptions) -> Result<Deformation> {
+        if starts.len() != targets.len() {
+            return Err(Error::LengthMismatch { starts: starts.len(), targets: targets.len() });
+        }
+        System::new(starts, options)?.solve(targets)
+    }
+
+    /// Puts a deformation together from its stored parts (the replay file).
+    /// The octree is rebuilt when not given.
+    pub(crate) fn from_parts(
+        kernel: Kernel,
+        radius: f64,
+        starts: Vec<DVec3>,
+        coefficients: Vec<DVec3>,
+        affine: Option<Affine>,
+        order: Vec<u32>,
+        octree: Option<Octree>,
+    ) -> Deformation {
+        let octree = octree.unwrap_or_else(|| Octree::new(&starts));
+        Deformation { kernel, radius, starts, coefficients, affine, order, octree }
+    }
+
+    /// The kernel.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+    /// The radius of support R.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+    /// The polynomial term.
+    pub fn polynomial(&self) -> Polynomial {
+        if self.affine.is_some() { Polynomial::Linear } else { Polynomial::None }
+    }
+    /// The start points.
+    pub fn starts(&self) -> &[DVec3] {
+        &self.starts
+    }
+    /// The radial coefficients alpha, one vector per start.
+    pub fn coefficients(&self) -> &[DVec3] {
+        &self.coefficients
+    }
+    /// The polynomial part, if any.
+    pub fn affine(&self) -> Option<&Affine> {
+        self.affine.as_ref()
+    }
+    /// The order after sorting (`order[new] = start index`).
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+    /// The octree over the starts.
+    pub fn octree(&self) -> &Octree {
+        &self.octree
+    }
+
+    /// The displacement D(x) = sum alpha_j phi(|x - s_j| / R) + p(x).
+    pub fn displacement_at(&self, x: DVec3) -> DVec3 {
+        let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
+        let inv = 1.0 / self.radius;
+        self.octree.for_each_within(x, self.radius, |j, d2| {
+            d += self.coefficients[j as usize] * self.kernel.eval(d2.sqrt() * inv);
+        });
+        d
+    }
+
+    /// The mapped point T(x) = x + D(x).
+    pub fn map(&self, x: DVec3) -> DVec3 {
+        x + self.displacement_at(x)
+    }
+
+    /// D at every point, in parallel for large inputs.
+    pub fn displacements<P: Point>(&self, points: &[P]) -> Vec<DVec3> {
+        let mut sorted = vec![DVec3::ZERO; points.len()];
+        self.displacements_sorted(points, &mut sorted, |d| d);
+        sorted
+    }
+
+    /// D at every point as f32 vectors, for vertex buffers.
+    pub fn displacements_f32<P: Point>(&self, points: &[P]) -> Vec<Vec3> {
+        let mut out = vec![Vec3::ZERO; points.len()];
+        self.displacements_sorted(points, &mut out, |d| d.as_vec3());
+        out
+    }
+
+    /// Evaluates by cells and writes `conv(D)` into `out` (point order).
+    fn displacements_sorted<P: Point, T: Copy + Send + Sync + Default>(
+        &self,
+        points: &[P],
+        out: &mut [T],
+        conv: impl Fn(DVec3) -> T + Sync + Send,
+    ) {
+        let blocks = Blocks::new(points, self.radius * 0.5);
+        let mut sorted = vec![T::default(); points.len()];
+        let (kernel, radius) = (self.kernel, self.radius);
+        for_each_cell(&blocks, &mut sorted, points.len() >= PARALLEL_POINTS, |(s, e), out, cand| {
+            let idx = &blocks.order[s..e];
+            cand.gather(&self.octree, idx.iter().map(|&i| points[i as usize].to_dvec3()), radius);
+            for (o, &i) in out.iter_mut().zip(idx) {
+                let x = points[i as usize].to_dvec3();
+                let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
+                cand.for_each_weight(x, kernel, radius, |j, w| d += self.coefficients[j as usize] * w);
+                *o = conv(d);
+            }
+        });
+        for (k, &i) in blocks.order.iter().enumerate() {
+            out[i as usize] = sorted[k];
+        }
+    }
+}

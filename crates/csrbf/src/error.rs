@@ -1,0 +1,116 @@
+//! The engine's errors: each says what was wrong and where.
+
+/// Everything that can go wrong when fitting, evaluating or reading a deformation.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    /// A kernel name that is not one of c0, c2, c4, c6.
+    #[error("unknown kernel {0:?}: expected one of c0, c2, c4, c6")]
+    UnknownKernel(String),
+    /// A polynomial name that is not `none` or `linear`.
+    #[error("unknown polynomial {0:?}: expected one of none, linear")]
+    UnknownPolynomial(String),
+    /// The radius of support is zero, negative or not finite.
+    #[error("radius of support must be a finite number > 0, got {0}")]
+    BadRadius(f64),
+    /// No control vectors were given.
+    #[error("no control vectors: give at least one start and destination")]
+    NoControls,
+    /// Start and destination lists differ in length.
+    #[error("{starts} start points but {targets} destinations")]
+    LengthMismatch {
+        /// Number of start points.
+        starts: usize,
+        /// Number of destinations.
+        targets: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("control {index}: {what} has a coordinate that is not finite")]
+    NotFinite {
+        /// Index of the control vector.
+        index: usize,
+        /// `start` or `destination`.
+        what: &'static str,
+    },
+    /// Two start points coincide, so the system is singular.
+    #[error("controls {first} and {second} start at the same point; each start must be distinct")]
+    DuplicateStart {
+        /// The first of the two controls.
+        first: usize,
+        /// The second.
+        second: usize,
+    },
+    /// Two starts are so close for this radius that the kernel cannot tell them apart.
+    #[error(
+        "controls {first} and {second} start {distance:e} apart, too close to tell apart at radius {radius}: merge them or move one"
+    )]
+    StartsTooClose {
+        /// The first of the two controls.
+        first: usize,
+        /// The second.
+        second: usize,
+        /// Their distance.
+        distance: f64,
+        /// The radius of support.
+        radius: f64,
+    },
+    /// `linear` needs at least 4 starts.
+    #[error(
+        "the linear polynomial needs at least 4 start points, got {0}; use polynomial \"none\" for fewer"
+    )]
+    TooFewForLinear(usize),
+    /// All start points lie on one plane (or line), so the linear part is undetermined.
+    #[error(
+        "all start points lie on one plane (or line), so a linear polynomial is not determined by them; use polynomial \"none\" or add a start off that plane"
+    )]
+    CoplanarStarts,
+    /// The Cholesky factorisation met a pivot <= 0.
+    #[error(
+        "the system is not numerically positive definite: pivot of control {control} is not positive (starts too close together for this radius?)"
+    )]
+    NotPositiveDefinite {
+        /// The control vector whose pivot failed, in the caller's numbering.
+        control: usize,
+    },
+    /// Destinations were given for a different number of starts than the system has.
+    #[error("the system has {expected} start points but {got} destinations were given")]
+    TargetCount {
+        /// What the system was built for.
+        expected: usize,
+        /// What was given.
+        got: usize,
+    },
+    /// The phase is outside [0, 1].
+    #[error("phase must be within [0, 1], got {0}")]
+    BadPhase(f64),
+    /// A compact deformation file is damaged or of another version.
+    #[error("not a valid .csrbf file: {0}")]
+    Format(String),
+    /// The sparse solver failed for a reason other than a pivot.
+    #[error("sparse solver failed: {0}")]
+    Solver(String),
+    /// A region or binding was used with the wrong number of points.
+    #[error("{what}: expected {expected} points, got {got}")]
+    PointCount {
+        /// What was being matched.
+        what: &'static str,
+        /// Points it was made for.
+        expected: usize,
+        /// Points given.
+        got: usize,
+    },
+    /// A region names a part the mesh does not have.
+    #[error("region names part {0:?}, which the mesh does not have")]
+    UnknownGroup(String),
+    /// A vertex index in a region is out of range.
+    #[error("region vertex {index} is out of range for {count} points")]
+    RegionIndex {
+        /// The bad index.
+        index: usize,
+        /// The number of points.
+        count: usize,
+    },
+}
+
+/// The engine's result type.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,170 @@
+//! Blocked evaluation: points are bucketed into cells about R/2 wide, the
+//! octree is asked once per cell for the starts near the cell's bounds, and
+//! each point of the cell is tested against that short candidate list.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::kernel::Kernel;
+use crate::octree::Octree;
+
+/// A point type the engine evaluates at: f64 for numerics, f32 for vertex
+/// buffers.
+pub trait Point: Copy + Send + Sync {
+    /// The point in f64.
+    fn to_dvec3(self) -> DVec3;
+}
+
+impl Point for DVec3 {
+    #[inline]
+    fn to_dvec3(self) -> DVec3 {
+        self
+    }
+}
+
+impl Point for Vec3 {
+    #[inline]
+    fn to_dvec3(self) -> DVec3 {
+        self.as_dvec3()
+    }
+}
+
+/// Points grouped by cell: `order` lists point indices cell by cell and
+/// `cells[c]` is the range of cell `c` in it.
+pub(crate) struct Blocks {
+    pub(crate) order: Vec<u32>,
+    pub(crate) cells: Vec<(usize, usize)>,
+}
+
+/// Points below this count are evaluated on one thread.
+pub(crate) const PARALLEL_POINTS: usize = 8192;
+
+impl Blocks {
+    /// Buckets `points` into cells of about `cell` width by a counting sort.
+    pub(crate) fn new<P: Point>(points: &[P], cell: f64) -> Blocks {
+        let n = points.len();
+        if n == 0 {
+            return Blocks { order: Vec::new(), cells: Vec::new() };
+        }
+        let (lo, hi) = points.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| {
+                let p = p.to_dvec3();
+                (lo.min(p), hi.max(p))
+            },
+        );
+        let extent = (hi - lo).max(DVec3::ZERO);
+        let cap = (4 * n).clamp(64, 1 << 23) as f64;
+        let mut h = if cell > 0.0 && cell.is_finite() { cell } else { extent.max_element().max(1.0) };
+        let dims_of = |h: f64| (extent / h).floor().max(DVec3::ZERO) + 1.0;
+        let mut dims = dims_of(h);
+        while !(dims.x * dims.y * dims.z <= cap) {
+            let grow = ((dims.x * dims.y * dims.z) / cap).cbrt().max(1.01);
+            h = if grow.is_finite() { h * grow } else { extent.max_element().max(1.0) };
+            dims = dims_of(h);
+        }
+        let d = [dims.x as usize, dims.y as usize, dims.z as usize];
+        let key = |p: DVec3| -> usize {
+            let c = (p - lo) / h;
+            // `as` saturates: NaN goes to 0, overflow to the last cell.
+            let ix = (c.x as usize).min(d[0] - 1);
+            let iy = (c.y as usize).min(d[1] - 1);
+            let iz = (c.z as usize).min(d[2] - 1);
+            ix + d[0] * (iy + d[1] * iz)
+        };
+        let keys: Vec<u32> = points.iter().map(|p| key(p.to_dvec3()) as u32).collect();
+        let mut counts = vec![0u32; d[0] * d[1] * d[2] + 1];
+        for &k in &keys {
+            counts[k as usize + 1] += 1;
+        }
+        for c in 1..counts.len() {
+            counts[c] += counts[c - 1];
+        }
+        let mut next = counts;
+        let mut order = vec![0u32; n];
+        for (i, &k) in keys.iter().enumerate() {
+            order[next[k as usize] as usize] = i as u32;
+            next[k as usize] += 1;
+        }
+        let mut cells = Vec::new();
+        let mut s = 0;
+        while s < n {
+            let k = keys[order[s] as usize];
+            let mut e = s + 1;
+            while e < n && keys[order[e] as usize] == k {
+                e += 1;
+            }
+            cells.push((s, e));
+            s = e;
+        }
+        Blocks { order, cells }
+    }
+
+    /// Splits `out` (one value per point, in `order`) into one slice per cell.
+    pub(crate) fn split<'a, T>(&self, mut out: &'a mut [T]) -> Vec<&'a mut [T]> {
+        let mut slices = Vec::with_capacity(self.cells.len());
+        for &(s, e) in &self.cells {
+            let (head, tail) = out.split_at_mut(e - s);
+            slices.push(head);
+            out = tail;
+        }
+        slices
+    }
+}
+
+/// Candidate starts for a cell: positions and indices, gathered once.
+#[derive(Default)]
+pub(crate) struct Candidates {
+    pub(crate) pos: Vec<DVec3>,
+    pub(crate) id: Vec<u32>,
+}
+
+impl Candidates {
+    /// The starts within `radius` of the bounds of `cell_points`.
+    pub(crate) fn gather(&mut self, octree: &Octree, cell_points: impl Iterator<Item = DVec3>, radius: f64) {
+        let (lo, hi) = cell_points.fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(p), hi.max(p)),
+        );
+        self.pos.clear();
+        self.id.clear();
+        octree.for_each_near_box(lo, hi, radius, |i, p| {
+            self.pos.push(p);
+            self.id.push(i);
+        });
+    }
+
+    /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
+    #[inline]
+    pub(crate) fn for_each_weight(&self, x: DVec3, kernel: Kernel, radius: f64, mut f: impl FnMut(u32, f64)) {
+        let r2 = radius * radius;
+        let inv = 1.0 / radius;
+        for (p, &id) in self.pos.iter().zip(&self.id) {
+            let d2 = p.distance_squared(x);
+            if d2 < r2 {
+                f(id, kernel.eval(d2.sqrt() * inv));
+            }
+        }
+    }
+}
+
+/// Runs `work(cell_range, out_slice, candidates)` for every cell, in parallel
+/// when there are enough points.
+pub(crate) fn for_each_cell<T: Send>(
+    blocks: &Blocks,
+    out: &mut [T],
+    parallel: bool,
+    work: impl Fn((usize, usize), &mut [T], &mut Candidates) + Sync + Send,
+) {
+    let slices = blocks.split(out);
+    if parallel {
+        blocks.cells.par_iter().zip(slices).for_each_init(Candidates::default, |cand, (cell, out)| {
+            work(*cell, out, cand)
+        });
+    } else {
+        let mut cand = Candidates::default();
+        for (cell, out) in blocks.cells.iter().zip(slices) {
+            work(*cell, out, &mut cand);
+        }
+    }
+}

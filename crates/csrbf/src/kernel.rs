@@ -1,0 +1,167 @@
+//! Wendland's compactly supported radial functions.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// A Wendland function phi(r), zero for r >= 1, positive definite in R^3.
+///
+/// The argument is the distance divided by the radius of support R, so a
+/// kernel only ever sees r in [0, 1) where it is non-zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum Kernel {
+    /// psi_{2,0}: (1-r)^2, continuous only; the papers' face and fish.
+    C0,
+    /// psi_{3,1}: (1-r)^4 (4r+1), twice differentiable; the papers' bouncing ball.
+    #[default]
+    C2,
+    /// (1-r)^6 (35r^2+18r+3), four times differentiable.
+    C4,
+    /// (1-r)^8 (32r^3+25r^2+8r+1), six times differentiable.
+    C6,
+}
+
+impl Kernel {
+    /// Every kernel, in order of smoothness.
+    pub const ALL: [Kernel; 4] = [Kernel::C0, Kernel::C2, Kernel::C4, Kernel::C6];
+
+    /// phi(r) for r >= 0: the kernel's value at distance r * R.
+    #[inline]
+    pub fn eval(self, r: f64) -> f64 {
+        if r >= 1.0 {
+            return 0.0;
+        }
+        let s = 1.0 - r;
+        match self {
+            Kernel::C0 => s * s,
+            Kernel::C2 => {
+                let s2 = s * s;
+                s2 * s2 * (4.0 * r + 1.0)
+            }
+            Kernel::C4 => {
+                let s2 = s * s;
+                s2 * s2 * s2 * ((35.0 * r + 18.0) * r + 3.0)
+            }
+            Kernel::C6 => {
+                let s2 = s * s;
+                let s4 = s2 * s2;
+                s4 * s4 * (((32.0 * r + 25.0) * r + 8.0) * r + 1.0)
+            }
+        }
+    }
+
+    /// The lower-case name used in control files: `c0`, `c2`, `c4` or `c6`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::C0 => "c0",
+            Kernel::C2 => "c2",
+            Kernel::C4 => "c4",
+            Kernel::C6 => "c6",
+        }
+    }
+
+    pub(crate) fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub(crate) fn from_code(code: u8) -> Option<Kernel> {
+        Kernel::ALL.get(code as usize).copied()
+    }
+}
+
+impl fmt::Display for Kernel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Kernel {
+    type Err = crate::Error;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Kernel::ALL
+            .into_iter()
+            .find(|k| k.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| crate::Error::UnknownKernel(s.to_owned()))
+    }
+}
+
+/// The polynomial term added to the radial sum.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum Polynomial {
+    /// No polynomial: displacements are interpolated and the map is exactly
+    /// the identity farther than R from every start point.
+    None,
+    /// A linear polynomial with side conditions: any affine map is
+    /// reproduced exactly. Needs at least 4 start points not on one plane.
+    #[default]
+    Linear,
+}
+
+impl Polynomial {
+    /// Both choices.
+    pub const ALL: [Polynomial; 2] = [Polynomial::None, Polynomial::Linear];
+
+    /// The lower-case name used in control files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Polynomial::None => "none",
+            Polynomial::Linear => "linear",
+        }
+    }
+}
+
+impl fmt::Display for Polynomial {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Polynomial {
+    type Err = crate::Error;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Polynomial::ALL
+            .into_iter()
+            .find(|p| p.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| crate::Error::UnknownPolynomial(s.to_owned()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kernels_match_their_formulas_and_vanish_at_one() {
+        for i in 0..=100 {
+            let r = i as f64 / 100.0;
+            let s = 1.0 - r;
+            let want = [
+                s.powi(2),
+                s.powi(4) * (4.0 * r + 1.0),
+                s.powi(6) * (35.0 * r * r + 18.0 * r + 3.0),
+                s.powi(8) * (32.0 * r.powi(3) + 25.0 * r * r + 8.0 * r + 1.0),
+            ];
+            for (k, w) in Kernel::ALL.into_iter().zip(want) {
+                assert!((k.eval(r) - w).abs() <= 1e-14 * w.abs().max(1.0), "{k} at {r}");
+            }
+        }
+        for k in Kernel::ALL {
+            assert_eq!(k.eval(1.0), 0.0);
+            assert_eq!(k.eval(1.5), 0.0);
+        }
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for k in Kernel::ALL {
+            assert_eq!(k.name().parse::<Kernel>().ok(), Some(k));
+        }
+        assert!("c3".parse::<Kernel>().is_err());
+        assert_eq!("none".parse::<Polynomial>().ok(), Some(Polynomial::None));
+    }
+}

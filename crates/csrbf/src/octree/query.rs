@@ -1,0 +1,91 @@
+use glam::DVec3;
+
+use super::Octree;
+
+impl Octree {
+    /// Calls `f(index, distance²)` for every point closer than `radius` to `q`
+    /// (strictly: points at exactly `radius` get a zero kernel weight anyway).
+    pub fn for_each_within(&self, q: DVec3, radius: f64, mut f: impl FnMut(u32, f64)) {
+        let r2 = radius * radius;
+        self.visit(
+            |min, max| box_distance2(q, min, max) < r2,
+            |p, id| {
+                let d2 = p.distance_squared(q);
+                if d2 < r2 {
+                    f(id, d2);
+                }
+            },
+        );
+    }
+
+    /// The indices of every point closer than `radius` to `q`, in no set order.
+    pub fn within(&self, q: DVec3, radius: f64) -> Vec<u32> {
+        let mut out = Vec::new();
+        self.for_each_within(q, radius, |i, _| out.push(i));
+        out
+    }
+
+    /// Calls `f(index, point)` for every point closer than `radius` to the box
+    /// `[min, max]`: the candidates for any query point inside that box.
+    pub fn for_each_near_box(
+        &self,
+        min: DVec3,
+        max: DVec3,
+        radius: f64,
+        mut f: impl FnMut(u32, DVec3),
+    ) {
+        let r2 = radius * radius;
+        self.visit(
+            |nmin, nmax| box_box_distance2(min, max, nmin, nmax) < r2,
+            |p, id| {
+                if box_distance2(p, min, max) < r2 {
+                    f(id, p);
+                }
+            },
+        );
+    }
+
+    /// Depth-first walk: descends into nodes whose bounds pass `keep`, and
+    /// hands every point of a kept leaf to `point`.
+    #[inline]
+    fn visit(&self, keep: impl Fn(DVec3, DVec3) -> bool, mut point: impl FnMut(DVec3, u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = [0u32; 8 * (Self::MAX_DEPTH as usize + 1)];
+        let mut top = 1;
+        stack[0] = 0;
+        while top > 0 {
+            top -= 1;
+            let node = self.nodes[stack[top] as usize];
+            if !keep(node.min, node.max) {
+                continue;
+            }
+            if node.children == 0 {
+                let (s, e) = (node.start as usize, node.end as usize);
+                for (p, id) in self.points[s..e].iter().zip(&self.ids[s..e]) {
+                    point(*p, *id);
+                }
+            } else {
+                for c in 0..node.children {
+                    stack[top] = node.first_child + c;
+                    top += 1;
+                }
+            }
+        }
+    }
+}
+
+/// Squared distance from a point to a box (0 inside).
+#[inline]
+pub(crate) fn box_distance2(p: DVec3, min: DVec3, max: DVec3) -> f64 {
+    let d = (min - p).max(p - max).max(DVec3::ZERO);
+    d.length_squared()
+}
+
+/// Squared distance between two boxes (0 when they overlap).
+#[inline]
+fn box_box_distance2(amin: DVec3, amax: DVec3, bmin: DVec3, bmax: DVec3) -> f64 {
+    let d = (amin - bmax).max(bmin - amax).max(DVec3::ZERO);
+    d.length_squared()
+}

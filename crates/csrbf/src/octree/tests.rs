@@ -1,0 +1,71 @@
+use glam::DVec3;
+
+use super::Octree;
+use crate::testing::Rng;
+
+fn brute(points: &[DVec3], q: DVec3, r: f64) -> Vec<u32> {
+    (0..points.len() as u32)
+        .filter(|&i| points[i as usize].distance_squared(q) < r * r)
+        .collect()
+}
+
+#[test]
+fn matches_brute_force_on_random_clouds() {
+    for seed in 0..20 {
+        let mut rng = Rng::new(seed);
+        let n = 1 + rng.below(2000);
+        // Mix of uniform points, a dense cluster and exact duplicates.
+        let mut points: Vec<DVec3> = (0..n).map(|_| rng.vec3() * 3.0 - 1.0).collect();
+        for k in 0..n / 10 {
+            points.push(DVec3::splat(0.25) + rng.vec3() * 1e-4);
+            if k % 3 == 0 {
+                points.push(points[k]);
+            }
+        }
+        let tree = Octree::new(&points);
+        assert_eq!(tree.len(), points.len());
+        for _ in 0..50 {
+            let q = rng.vec3() * 4.0 - 1.5;
+            let r = rng.f64() * 0.8;
+            let mut got = tree.within(q, r);
+            got.sort_unstable();
+            assert_eq!(got, brute(&points, q, r), "seed {seed} q {q} r {r}");
+        }
+    }
+}
+
+#[test]
+fn box_query_returns_every_candidate() {
+    let mut rng = Rng::new(7);
+    let points: Vec<DVec3> = (0..3000).map(|_| rng.vec3()).collect();
+    let tree = Octree::new(&points);
+    for _ in 0..30 {
+        let lo = rng.vec3() * 0.8;
+        let hi = lo + rng.vec3() * 0.2;
+        let r = 0.05 + rng.f64() * 0.1;
+        let mut cand = Vec::new();
+        tree.for_each_near_box(lo, hi, r, |i, p| {
+            assert_eq!(p, points[i as usize]);
+            cand.push(i);
+        });
+        for _ in 0..20 {
+            let q = lo + (hi - lo) * rng.vec3();
+            for i in brute(&points, q, r) {
+                assert!(cand.contains(&i));
+            }
+        }
+    }
+}
+
+#[test]
+fn degenerate_inputs() {
+    assert!(Octree::new(&[]).within(DVec3::ZERO, 1.0).is_empty());
+    let same = vec![DVec3::ONE; 100];
+    let tree = Octree::new(&same);
+    assert_eq!(tree.within(DVec3::ONE, 0.1).len(), 100);
+    assert!(tree.depth() <= Octree::MAX_DEPTH);
+    // Points on a line: depth grows but stays bounded.
+    let line: Vec<DVec3> = (0..5000).map(|i| DVec3::new(i as f64, 0.0, 0.0)).collect();
+    let tree = Octree::new(&line);
+    assert_eq!(tree.within(DVec3::new(10.0, 0.0, 0.0), 2.5).len(), 5);
+}

@@ -1,0 +1,317 @@
+//! The papers' lazy pipeline: deformations applied one after another, each on
+//! a region of the object, recomputing only what an input change invalidates.
+//!
+//! Each stage caches its system (depends on the starts and options), its
+//! solved deformation (also on the destinations), its binding (on the stage's
+//! input points and region) and its displacements. A change marks only what
+//! depends on it: new destinations re-solve with the existing factor and
+//! re-use the binding; a new phase costs one multiply-add per point.
+
+use glam::{DVec3, Vec3};
+
+use crate::binding::Binding;
+use crate::deformation::Deformation;
+use crate::error::{Error, Result};
+use crate::region::Region;
+use crate::system::{FitOptions, System};
+
+/// One deformation of a pipeline, as the user describes it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stage {
+    /// Start points of the control vectors.
+    pub starts: Vec<DVec3>,
+    /// Their destinations.
+    pub targets: Vec<DVec3>,
+    /// Kernel, radius, polynomial, ordering, solver.
+    pub options: FitOptions,
+    /// Where it applies.
+    pub region: Region,
+    /// Phase in [0, 1]: 0 rest, 1 full deformation.
+    pub phase: f64,
+}
+
+impl Stage {
+    /// A stage over every point at full phase.
+    pub fn new(starts: Vec<DVec3>, targets: Vec<DVec3>, options: FitOptions) -> Stage {
+        Stage { starts, targets, options, region: Region::All, phase: 1.0 }
+    }
+
+    /// With this region.
+    pub fn with_region(mut self, region: Region) -> Stage {
+        self.region = region;
+        self
+    }
+
+    /// With this phase.
+    pub fn with_phase(mut self, phase: f64) -> Stage {
+        self.phase = phase;
+        self
+    }
+}
+
+/// How much work the pipeline has done: each counter goes up by one when that
+/// step runs. Tests use it to check that a change recomputes only what it must.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Work {
+    /// Systems built and factored.
+    pub systems: usize,
+    /// Solves for destinations.
+    pub solves: usize,
+    /// Bindings made (neighbour searches over the points).
+    pub bindings: usize,
+    /// Displacement products through a binding.
+    pub displacements: usize,
+    /// Stage outputs computed.
+    pub outputs: usize,
+}
+
+#[derive(Debug)]
+struct StageState {
+    stage: Stage,
+    /// Generation of the last change to starts/options, targets, region, phase.
+    gen_system: u64,
+    gen_targets: u64,
+    gen_region: u64,
+    gen_phase: u64,
+    system: Option<(u64, System)>,
+    deformation: Option<((u64, u64), Deformation)>,
+    /// Active points, and the generations (input, region, system) the binding was made from.
+    binding: Option<((u64, u64, u64), Vec<u32>, Binding)>,
+    displacement: Option<((u64, u64, u64, u64), Vec<Vec3>)>,
+    /// Output and the generations it came from; its own generation last.
+    output: Option<((u64, u64, u64), Vec<Vec3>, u64)>,
+}
+
+/// A chain of deformations over a set of rest points.
+#[derive(Debug)]
+pub struct Pipeline {
+    rest: Vec<Vec3>,
+    gen_rest: u64,
+    next_gen: u64,
+    stages: Vec<StageState>,
+    groups: Vec<(String, Vec<u32>)>,
+    work: Work,
+}
+
+impl Pipeline {
+    /// A pipeline over these rest points with no stage yet.
+    pub fn new(rest: Vec<Vec3>) -> Pipeline {
+        Pipeline { rest, gen_rest: 1, next_gen: 2, stages: Vec::new(), groups: Vec::new(), work: Work::default() }
+    }
+
+    /// Names parts of the points, for [`Region::Group`].
+    pub fn with_groups(mut self, groups: Vec<(String, Vec<u32>)>) -> Pipeline {
+        self.groups = groups;
+        self
+    }
+
+    fn bump(&mut self) -> u64 {
+        self.next_gen += 1;
+        self.next_gen
+    }
+
+    /// Adds a stage at the end; returns its index.
+    pub fn push(&mut self, stage: Stage) -> usize {
+        let g = self.bump();
+        self.stages.push(StageState {
+            stage,
+            gen_system: g,
+            gen_targets: g,
+            gen_region: g,
+            gen_phase: g,
+            system: None,
+            deformation: None,
+            binding: None,
+            displacement: None,
+            output: None,
+        });
+        self.stages.len() - 1
+    }
+
+    /// Number of stages.
+    pub fn len(&self) -> usize {
+        self.stages.len()
+    }
+
+    /// Whether there is no stage.
+    pub fn is_empty(&self) -> bool {
+        self.stages.is_empty()
+    }
+
+    /// The stage at `i`.
+    pub fn stage(&self, i: usize) -> Option<&Stage> {
+        self.stages.get(i).map(|s| &s.stage)
+    }
+
+    /// Work done so far.
+    pub fn work(&self) -> Work {
+        self.work
+    }
+
+    /// The rest points.
+    pub fn rest(&self) -> &[Vec3] {
+        &self.rest
+    }
+
+    /// Replaces the rest points (same or other count).
+    pub fn set_rest(&mut self, rest: Vec<Vec3>) {
+        self.rest = rest;
+        self.gen_rest = self.bump();
+    }
+
+    fn state(&mut self, i: usize) -> Result<&mut StageState> {
+        let n = self.stages.len();
+        self.stages.get_mut(i).ok_or(Error::PointCount { what: "stage index", expected: n, got: i })
+    }
+
+    /// New destinations for stage `i`: re-solves with the existing factor.
+    pub fn set_targets(&mut self, i: usize, targets: Vec<DVec3>) -> Result<()> {
+        let g = self.bump();
+        let s = self.state(i)?;
+        s.stage.targets = targets;
+        s.gen_targets = g;
+        Ok(())
+    }
+
+    /// New control vectors (starts and destinations) for stage `i`: rebuilds its system.
+    pub fn set_controls(&mut self, i: usize, starts: Vec<DVec3>, targets: Vec<DVec3>) -> Result<()> {
+        let g = self.bump();
+        let s = self.state(i)?;
+        s.stage.starts = starts;
+        s.stage.targets = targets;
+        s.gen_system = g;
+        s.gen_targets = g;
+        Ok(())
+    }
+
+    /// New options (kernel, radius, ...) for stage `i`: rebuilds its system.
+    pub fn set_options(&mut self, i: usize, options: FitOptions) -> Result<()> {
+        let g = self.bump();
+        let s = self.state(i)?;
+        s.stage.options = options;
+        s.gen_system = g;
+        Ok(())
+    }
+
+    /// A new region for stage `i`.
+    pub fn set_region(&mut self, i: usize, region: Region) -> Result<()> {
+        let g = self.bump();
+        let s = self.state(i)?;
+        s.stage.region = region;
+        s.gen_region = g;
+        Ok(())
+    }
+
+    /// A new phase for stage `i`, in [0, 1].
+    pub fn set_phase(&mut self, i: usize, phase: f64) -> Result<()> {
+        if !(0.0..=1.0).contains(&phase) {
+            return Err(Error::BadPhase(phase));
+        }
+        let g = self.bump();
+        let s = self.state(i)?;
+        s.stage.phase = phase;
+        s.gen_phase = g;
+        Ok(())
+    }
+
+    /// The deformation of stage `i`, fitting it if needed.
+    pub fn deformation(&mut self, i: usize) -> Result<&Deformation> {
+        self.refresh_deformation(i)?;
+        match &self.stages[i].deformation {
+            Some((_, d)) => Ok(d),
+            None => Err(Error::NoControls),
+        }
+    }
+
+    /// The system of stage `i`, building it if needed.
+    pub fn system(&mut self, i: usize) -> Result<&System> {
+        self.refresh_system(i)?;
+        match &self.stages[i].system {
+            Some((_, s)) => Ok(s),
+            None => Err(Error::NoControls),
+        }
+    }
+
+    fn refresh_system(&mut self, i: usize) -> Result<()> {
+        let s = self.state(i)?;
+        if s.system.as_ref().is_none_or(|(g, _)| *g != s.gen_system) {
+            let sys = System::new(&s.stage.starts, s.stage.options)?;
+            s.system = Some((s.gen_system, sys));
+            self.work.systems += 1;
+        }
+        Ok(())
+    }
+
+    fn refresh_deformation(&mut self, i: usize) -> Result<()> {
+        self.refresh_system(i)?;
+        let s = &mut self.stages[i];
+        let key = (s.gen_system, s.gen_targets);
+        if s.deformation.as_ref().is_none_or(|(k, _)| *k != key) {
+            let Some((_, sys)) = &s.system else { return Err(Error::NoControls) };
+            s.deformation = Some((key, sys.solve(&s.stage.targets)?));
+            self.work.solves += 1;
+        }
+        Ok(())
+    }
+
+    /// The points after every stage, recomputing only what changed.
+    pub fn evaluate(&mut self) -> Result<&[Vec3]> {
+        let mut input_gen = self.gen_rest;
+        for i in 0..self.stages.len() {
+            self.refresh_deformation(i)?;
+            input_gen = self.refresh_output(i, input_gen)?;
+        }
+        Ok(match self.stages.last() {
+            Some(StageState { output: Some((_, out, _)), .. }) => out,
+            _ => &self.rest,
+        })
+    }
+
+    /// Brings stage `i`'s output up to date for an input of generation
+    /// `input_gen`; returns the output's generation.
+    fn refresh_output(&mut self, i: usize, input_gen: u64) -> Result<u64> {
+        let (head, tail) = self.stages.split_at_mut(i);
+        let input: &[Vec3] = match head.last() {
+            Some(StageState { output: Some((_, out, _)), .. }) => out,
+            _ => &self.rest,
+        };
+        let s = &mut tail[0];
+        let groups = &self.groups;
+        let Some((_, def)) = &s.deformation else { return Err(Error::NoControls) };
+
+        let bkey = (input_gen, s.gen_region, s.gen_system);
+        if s.binding.as_ref().is_none_or(|(k, _, _)| *k != bkey) {
+            let lookup = |name: &str| groups.iter().find(|(n, _)| n == name).map(|(_, v)| v.clone());
+            let active = s.stage.region.select(&self.rest, &lookup)?;
+            let pts: Vec<Vec3> = active.iter().map(|&k| input[k as usize]).collect();
+            let b = Binding::new(def, &pts);
+            s.binding = Some((bkey, active, b));
+            self.work.bindings += 1;
+        }
+        let Some((_, active, binding)) = &s.binding else { return Err(Error::NoControls) };
+
+        let dkey = (input_gen, s.gen_region, s.gen_system, s.gen_targets);
+        if s.displacement.as_ref().is_none_or(|(k, _)| *k != dkey) {
+            s.displacement = Some((dkey, binding.displacements(def)?));
+            self.work.displacements += 1;
+        }
+        let Some((_, disp)) = &s.displacement else { return Err(Error::NoControls) };
+
+        let okey = (input_gen, dkey.3.max(dkey.2).max(dkey.1), s.gen_phase);
+        if let Some((k, _, g)) = &s.output
+            && *k == okey
+        {
+            return Ok(*g);
+        }
+        let mut out = input.to_vec();
+        let t = s.stage.phase as f32;
+        for (&k, d) in active.iter().zip(disp) {
+            out[k as usize] += *d * t;
+        }
+        self.next_gen += 1;
+        let g = self.next_gen;
+        s.output = Some((okey, out, g));
+        self.work.outputs += 1;
+        Ok(g)
+    }
+}

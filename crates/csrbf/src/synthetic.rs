@@ -1,0 +1,93 @@
+//! Seeded synthetic scenes for tests and benchmarks: points on a sphere and
+//! smooth random displacements.
+
+use glam::DVec3;
+
+/// A small seeded generator (SplitMix64): the same seed gives the same numbers
+/// on every machine.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator started from `seed`.
+    pub fn new(seed: u64) -> Rng {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform in [0, n); 0 when n is 0.
+    pub fn below(&mut self, n: usize) -> usize {
+        if n == 0 { 0 } else { (self.next_u64() % n as u64) as usize }
+    }
+
+    /// Uniform in the unit cube [0, 1)^3.
+    pub fn vec3(&mut self) -> DVec3 {
+        DVec3::new(self.f64(), self.f64(), self.f64())
+    }
+}
+
+/// `n` points of a Fibonacci lattice on the sphere of the given centre and
+/// radius. With `jitter > 0` each point is moved along the sphere by up to
+/// `jitter` times the lattice spacing (seeded), which keeps starts distinct.
+pub fn fibonacci_sphere(n: usize, center: DVec3, radius: f64, jitter: f64, seed: u64) -> Vec<DVec3> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut rng = Rng::new(seed);
+    let spacing = (4.0 * std::f64::consts::PI / n.max(1) as f64).sqrt();
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+            let rho = (1.0 - z * z).max(0.0).sqrt();
+            let theta = golden * i as f64;
+            let mut p = DVec3::new(rho * theta.cos(), rho * theta.sin(), z);
+            if jitter > 0.0 {
+                let d = (rng.vec3() - 0.5) * (2.0 * jitter * spacing);
+                p = (p + d - p * p.dot(d)).normalize();
+            }
+            center + p * radius
+        })
+        .collect()
+}
+
+/// A smooth random displacement field: a sum of a few seeded sine waves,
+/// scaled so that displacements are about `amplitude` long.
+pub fn smooth_displacements(points: &[DVec3], amplitude: f64, seed: u64) -> Vec<DVec3> {
+    let mut rng = Rng::new(seed);
+    let waves: Vec<(DVec3, DVec3, f64)> = (0..4)
+        .map(|_| {
+            let dir = (rng.vec3() - 0.5).normalize_or(DVec3::X) * (2.0 + 4.0 * rng.f64());
+            let amp = (rng.vec3() - 0.5) * 2.0;
+            (dir, amp, rng.f64() * 6.0)
+        })
+        .collect();
+    points
+        .iter()
+        .map(|p| {
+            let d: DVec3 = waves
+                .iter()
+                .map(|(k, a, phase)| *a * (k.dot(*p) + phase).sin())
+                .sum();
+            d * (amplitude * 0.5)
+        })
+        .collect()
+}
+
+/// The radius of support that gives each of `n` points spread evenly over a
+/// sphere of radius `sphere_radius` about `neighbours` neighbours.
+pub fn radius_for_neighbours(n: usize, sphere_radius: f64, neighbours: f64) -> f64 {
+    // A cap of chord radius R covers pi R^2 of the 4 pi r^2 surface.
+    let area = 4.0 * std::f64::consts::PI * sphere_radius * sphere_radius;
+    (neighbours * area / (std::f64::consts::PI * n.max(1) as f64)).sqrt()
+}
