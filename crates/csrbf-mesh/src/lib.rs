@@ -1,1 +1,219 @@
-pub fn x(){}
+//! Polygon meshes for csrbf: [`Mesh`] with positions, polygon faces, UVs,
+//! vertex colours and named parts, read and written as OBJ, PLY (ASCII and
+//! binary), STL (ASCII and binary), OFF and glTF 2.0 (`.gltf`, `.glb`).
+//!
+//! Vertex order and count are kept from the file (STL, which stores
+//! triangles apart, is welded on exact equal positions), so a deformed mesh
+//! can be compared with its input vertex by vertex. Every error names the
+//! file and the line or element.
+//!
+//! ```
+//! use csrbf_mesh::{Mesh, Format};
+//!
+//! let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\ng tri\nf 1 2 3\n";
+//! let mut mesh = Mesh::from_bytes(obj, Format::Obj, "tri.obj".as_ref())?;
+//! assert_eq!(mesh.positions.len(), 3);
+//! assert_eq!(mesh.part_vertices("tri"), Some(vec![0, 1, 2]));
+//! mesh.positions[2].z = 0.5;
+//! mesh.recompute_normals();
+//! let bytes = mesh.to_bytes(Format::Ply)?;
+//! let back = Mesh::from_bytes(&bytes, Format::Ply, "tri.ply".as_ref())?;
+//! assert_eq!(back.positions, mesh.positions);
+//! # Ok::<(), csrbf_mesh::MeshError>(())
+//! ```
+
+mod error;
+mod formats;
+mod geometry;
+mod io;
+
+pub use error::{MeshError, Result};
+pub use formats::Format;
+pub use io::{read, write, write_atomic};
+
+use glam::{Vec2, Vec3};
+
+/// Polygon faces in compressed form: face `f` is
+/// `indices[offsets[f]..offsets[f + 1]]`, vertex indices in the file's order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Faces {
+    /// Start of each face in `indices`, plus the end.
+    pub offsets: Vec<u32>,
+    /// Vertex indices of every face corner.
+    pub indices: Vec<u32>,
+}
+
+impl Faces {
+    /// No faces.
+    pub fn new() -> Faces {
+        Faces { offsets: vec![0], indices: Vec::new() }
+    }
+
+    /// Number of faces.
+    pub fn len(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// Whether there is no face.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The vertex indices of face `f`.
+    pub fn face(&self, f: usize) -> &[u32] {
+        &self.indices[self.offsets[f] as usize..self.offsets[f + 1] as usize]
+    }
+
+    /// Appends a face.
+    pub fn push(&mut self, corners: &[u32]) {
+        if self.offsets.is_empty() {
+            self.offsets.push(0);
+        }
+        self.indices.extend_from_slice(corners);
+        self.offsets.push(self.indices.len() as u32);
+    }
+
+    /// Every face.
+    pub fn iter(&self) -> impl Iterator<Item = &[u32]> + '_ {
+        (0..self.len()).map(|f| self.face(f))
+    }
+
+    /// Number of triangles after fan triangulation.
+    pub fn triangle_count(&self) -> usize {
+        self.iter().map(|f| f.len().saturating_sub(2)).sum()
+    }
+
+    /// Fan triangulation of every face.
+    pub fn triangles(&self) -> Vec<[u32; 3]> {
+        let mut out = Vec::with_capacity(self.triangle_count());
+        for f in self.iter() {
+            for k in 1..f.len().saturating_sub(1) {
+                out.push([f[0], f[k], f[k + 1]]);
+            }
+        }
+        out
+    }
+}
+
+/// Texture coordinates: per vertex, or per face corner with their own
+/// indices (as OBJ stores them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TexCoords {
+    /// The coordinates.
+    pub values: Vec<Vec2>,
+    /// For per-corner coordinates, the index into `values` of every face
+    /// corner (aligned with [`Faces::indices`]); `None` when per vertex.
+    pub corners: Option<Vec<u32>>,
+}
+
+impl TexCoords {
+    /// One coordinate per vertex, when every corner of a vertex has the same
+    /// coordinate (or the coordinates are per vertex already).
+    pub fn per_vertex(&self, faces: &Faces, vertices: usize) -> Option<Vec<Vec2>> {
+        let Some(corners) = &self.corners else {
+            return (self.values.len() == vertices).then(|| self.values.clone());
+        };
+        let mut out: Vec<Option<Vec2>> = vec![None; vertices];
+        for (&v, &t) in faces.indices.iter().zip(corners) {
+            let uv = *self.values.get(t as usize)?;
+            match &mut out[v as usize] {
+                Some(old) if *old != uv => return None,
+                slot => *slot = Some(uv),
+            }
+        }
+        Some(out.into_iter().map(|v| v.unwrap_or(Vec2::ZERO)).collect())
+    }
+}
+
+/// What a named part came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PartKind {
+    /// An OBJ `g` group or a glTF mesh.
+    Group,
+    /// An OBJ `o` object or a glTF node.
+    Object,
+    /// A material (`usemtl`, a glTF material).
+    Material,
+}
+
+impl PartKind {
+    /// The lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            PartKind::Group => "group",
+            PartKind::Object => "object",
+            PartKind::Material => "material",
+        }
+    }
+}
+
+/// A named set of faces.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    /// The name in the file.
+    pub name: String,
+    /// Group, object or material.
+    pub kind: PartKind,
+    /// Indices of the part's faces, ascending.
+    pub faces: Vec<u32>,
+}
+
+/// A material's look, where the file gives one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Its name.
+    pub name: String,
+    /// Base colour, linear RGBA.
+    pub color: [f32; 4],
+    /// An embedded base-colour image: its MIME type and bytes.
+    pub texture: Option<(String, Vec<u8>)>,
+}
+
+/// A polygon mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Polygon faces.
+    pub faces: Faces,
+    /// Texture coordinates, if the file has them.
+    pub uvs: Option<TexCoords>,
+    /// Per-vertex normals: from the file, or recomputed.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex colours, linear RGBA in [0, 1].
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// Named parts: groups, objects, materials.
+    pub parts: Vec<Part>,
+    /// Materials by name, for formats that carry them.
+    pub materials: Vec<Material>,
+    /// The OBJ material library the file referred to, kept for writing.
+    pub material_library: Option<String>,
+}
+
+impl Mesh {
+    /// The vertices of the faces of every part called `name`, ascending;
+    /// `None` when no part has that name.
+    pub fn part_vertices(&self, name: &str) -> Option<Vec<u32>> {
+        let mut found = false;
+        let mut mark = vec![false; self.positions.len()];
+        for p in self.parts.iter().filter(|p| p.name == name) {
+            found = true;
+            for &f in &p.faces {
+                for &v in self.faces.face(f as usize) {
+                    if let Some(m) = mark.get_mut(v as usize) {
+                        *m = true;
+                    }
+                }
+            }
+        }
+        found.then(|| (0..mark.len() as u32).filter(|&i| mark[i as usize]).collect())
+    }
+
+    /// Every part name with its vertex indices, for regions.
+    pub fn part_table(&self) -> Vec<(String, Vec<u32>)> {
+        let mut names: Vec<&str> = self.parts.iter().map(|p| p.name.as_str()).collect();
+        names.sort_unstable();
+        names.dedup();
+        names.into_iter().filter_map(|n| Some((n.to_owned(), self.part_vertices(n)?))).collect()
+    }
+}

@@ -1,0 +1,56 @@
+//! Mesh errors: each names the file and the line, element or index.
+
+use std::path::PathBuf;
+
+/// What went wrong reading, checking or writing a mesh.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MeshError {
+    /// The file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// The file's content is malformed.
+    #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line, for text formats.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// The mesh read fine but cannot be used: out-of-range indices, non-finite
+    /// coordinates, no vertices.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the face or vertex.
+        message: String,
+    },
+    /// The extension names no supported format.
+    #[error(
+        "{}: unknown mesh format {ext:?}; supported: .obj, .ply, .stl, .off, .gltf, .glb",
+        path.display()
+    )]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its extension.
+        ext: String,
+    },
+}
+
+impl MeshError {
+    pub(crate) fn parse(path: &std::path::Path, line: Option<usize>, message: impl Into<String>) -> MeshError {
+        MeshError::Parse { path: path.to_owned(), line, message: message.into() }
+    }
+}
+
+/// The mesh crate's result type.
+pub type Result<T, E = MeshError> = std::result::Result<T, E>;

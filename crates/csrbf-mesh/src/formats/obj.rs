@@ -1,0 +1,239 @@
+//! Wavefront OBJ: `v` (with optional colours), `vt`, `vn`, polygon `f`
+//! with any corner form and negative indices, `g`, `o`, `usemtl`, `mtllib`.
+
+use std::collections::HashMap;
+use std::fmt::Write;
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+
+use super::text::{lines, number, push_f32};
+use crate::{Faces, Mesh, MeshError, Part, PartKind, Result, TexCoords};
+
+pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
+    let mut mesh = Mesh { faces: Faces::new(), ..Mesh::default() };
+    let mut colors: Vec<[f32; 4]> = Vec::new();
+    let mut any_color = false;
+    let mut uvs: Vec<Vec2> = Vec::new();
+    let mut normals = 0usize;
+    let mut corners_uv: Vec<u32> = Vec::new();
+    let mut any_face_uv = false;
+    let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
+    let mut current: Vec<usize> = Vec::new();
+    let mut current_by_kind: HashMap<PartKind, Vec<usize>> = HashMap::new();
+    let mut corner = Vec::new();
+    let mut corner_uv = Vec::new();
+
+    for item in lines(bytes, path) {
+        let (ln, line) = item?;
+        let mut tok = line.split_ascii_whitespace();
+        let Some(key) = tok.next() else { continue };
+        match key {
+            "v" => {
+                let vals: Vec<f32> = tok
+                    .map(|t| number::<f32>(Some(t), path, ln, "vertex coordinate"))
+                    .collect::<Result<_>>()?;
+                if vals.len() < 3 {
+                    return Err(MeshError::parse(path, Some(ln), format!("a vertex needs 3 coordinates, found {}", vals.len())));
+                }
+                mesh.positions.push(Vec3::new(vals[0], vals[1], vals[2]));
+                if vals.len() >= 6 {
+                    any_color = true;
+                    colors.resize(mesh.positions.len() - 1, [1.0; 4]);
+                    colors.push([vals[3], vals[4], vals[5], 1.0]);
+                }
+            }
+            "vt" => {
+                let u = number::<f32>(tok.next(), path, ln, "texture u")?;
+                let v = tok.next().map(|t| number::<f32>(Some(t), path, ln, "texture v")).transpose()?.unwrap_or(0.0);
+                uvs.push(Vec2::new(u, v));
+            }
+            "vn" => {
+                for k in 0..3 {
+                    number::<f32>(tok.next(), path, ln, ["normal x", "normal y", "normal z"][k])?;
+                }
+                normals += 1;
+            }
+            "f" | "fo" => {
+                corner.clear();
+                corner_uv.clear();
+                for c in tok {
+                    let mut it = c.split('/');
+                    let v = resolve(it.next(), mesh.positions.len(), path, ln, "vertex")?;
+                    corner.push(v);
+                    if let Some(t) = it.next().filter(|t| !t.is_empty()) {
+                        corner_uv.push(resolve(Some(t), uvs.len(), path, ln, "texture coordinate")?);
+                    }
+                    if let Some(n) = it.next().filter(|t| !t.is_empty()) {
+                        resolve(Some(n), normals, path, ln, "normal")?;
+                    }
+                }
+                if corner.len() < 3 {
+                    return Err(MeshError::parse(path, Some(ln), format!("a face needs at least 3 corners, found {}", corner.len())));
+                }
+                if !corner_uv.is_empty() && corner_uv.len() != corner.len() {
+                    return Err(MeshError::parse(path, Some(ln), "some corners of the face have texture coordinates and some do not"));
+                }
+                let f = mesh.faces.len() as u32;
+                mesh.faces.push(&corner);
+                if corner_uv.is_empty() {
+                    corners_uv.extend(std::iter::repeat_n(u32::MAX, corner.len()));
+                } else {
+                    any_face_uv = true;
+                    corners_uv.extend_from_slice(&corner_uv);
+                }
+                for &p in &current {
+                    mesh.parts[p].faces.push(f);
+                }
+            }
+            "g" | "o" | "usemtl" => {
+                let kind = match key {
+                    "g" => PartKind::Group,
+                    "o" => PartKind::Object,
+                    _ => PartKind::Material,
+                };
+                let names: Vec<String> = if kind == PartKind::Group {
+                    tok.map(str::to_owned).collect()
+                } else {
+                    line[key.len()..].trim().split_ascii_whitespace().next().map(str::to_owned).into_iter().collect()
+                };
+                let mut ids = Vec::new();
+                for name in names {
+                    let id = *parts.entry((kind, name.clone())).or_insert_with(|| {
+                        mesh.parts.push(Part { name, kind, faces: Vec::new() });
+                        mesh.parts.len() - 1
+                    });
+                    ids.push(id);
+                }
+                current_by_kind.insert(kind, ids);
+                current = current_by_kind.values().flatten().copied().collect();
+            }
+            "mtllib" => mesh.material_library = Some(line[key.len()..].trim().to_owned()),
+            _ => {} // s, l, p, curves and vendor extensions carry nothing we keep.
+        }
+    }
+    if any_color {
+        colors.resize(mesh.positions.len(), [1.0; 4]);
+        mesh.colors = Some(colors);
+    }
+    if any_face_uv {
+        // Corners without coordinates point at one extra (0, 0).
+        let missing = uvs.len() as u32;
+        let mut need_default = false;
+        for c in &mut corners_uv {
+            if *c == u32::MAX {
+                *c = missing;
+                need_default = true;
+            }
+        }
+        if need_default {
+            uvs.push(Vec2::ZERO);
+        }
+        mesh.uvs = Some(TexCoords { values: uvs, corners: Some(corners_uv) });
+    }
+    mesh.parts.retain(|p| !p.faces.is_empty());
+    for p in &mut mesh.parts {
+        p.faces.dedup();
+    }
+    Ok(mesh)
+}
+
+/// A 1-based (or negative, relative) OBJ index into a list of `count` items.
+fn resolve(tok: Option<&str>, count: usize, path: &Path, line: usize, what: &str) -> Result<u32> {
+    let i: i64 = number(tok, path, line, &format!("{what} index"))?;
+    let idx = if i > 0 { i - 1 } else { count as i64 + i };
+    if i == 0 || idx < 0 || idx >= count as i64 {
+        return Err(MeshError::parse(
+            path,
+            Some(line),
+            format!("{what} index {i} is out of range: {count} defined so far"),
+        ));
+    }
+    Ok(idx as u32)
+}
+
+pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
+    let mut s = String::with_capacity(mesh.positions.len() * 40 + mesh.faces.indices.len() * 12);
+    s.push_str("# written by csrbf\n");
+    if let Some(lib) = &mesh.material_library {
+        let _ = writeln!(s, "mtllib {lib}");
+    }
+    for (i, p) in mesh.positions.iter().enumerate() {
+        s.push('v');
+        for c in p.to_array() {
+            s.push(' ');
+            push_f32(&mut s, c);
+        }
+        if let Some(col) = mesh.colors.as_ref().and_then(|c| c.get(i)) {
+            for c in &col[..3] {
+                s.push(' ');
+                push_f32(&mut s, *c);
+            }
+        }
+        s.push('\n');
+    }
+    if let Some(uv) = &mesh.uvs {
+        for t in &uv.values {
+            s.push_str("vt ");
+            push_f32(&mut s, t.x);
+            s.push(' ');
+            push_f32(&mut s, t.y);
+            s.push('\n');
+        }
+    }
+    if let Some(normals) = &mesh.normals {
+        for n in normals {
+            s.push_str("vn");
+            for c in n.to_array() {
+                s.push(' ');
+                push_f32(&mut s, c);
+            }
+            s.push('\n');
+        }
+    }
+    // Which part of each kind each face is in, to emit o/g/usemtl on change.
+    let nf = mesh.faces.len();
+    let mut labels: [Vec<Vec<&str>>; 3] = [vec![Vec::new(); nf], vec![Vec::new(); nf], vec![Vec::new(); nf]];
+    for p in &mesh.parts {
+        let k = match p.kind {
+            PartKind::Object => 0,
+            PartKind::Group => 1,
+            PartKind::Material => 2,
+        };
+        for &f in &p.faces {
+            labels[k][f as usize].push(&p.name);
+        }
+    }
+    let keys = ["o", "g", "usemtl"];
+    let mut last: [Option<&Vec<&str>>; 3] = [None, None, None];
+    for f in 0..nf {
+        for k in 0..3 {
+            let cur = &labels[k][f];
+            if last[k] != Some(cur) {
+                if !(cur.is_empty() && last[k].is_none()) {
+                    let name = if cur.is_empty() { "default".to_owned() } else { cur.join(" ") };
+                    let name = if k == 1 { name } else { cur.first().copied().unwrap_or("default").to_owned() };
+                    let _ = writeln!(s, "{} {}", keys[k], name);
+                }
+                last[k] = Some(cur);
+            }
+        }
+        s.push('f');
+        let start = mesh.faces.offsets[f] as usize;
+        for (c, &v) in mesh.faces.face(f).iter().enumerate() {
+            let _ = write!(s, " {}", v + 1);
+            let uv = mesh.uvs.as_ref().map(|uv| match &uv.corners {
+                Some(idx) => idx[start + c],
+                None => v,
+            });
+            match (uv, mesh.normals.is_some()) {
+                (Some(t), true) => { let _ = write!(s, "/{}/{}", t + 1, v + 1); }
+                (Some(t), false) => { let _ = write!(s, "/{}", t + 1); }
+                (None, true) => { let _ = write!(s, "//{}", v + 1); }
+                (None, false) => {}
+            }
+        }
+        s.push('\n');
+    }
+    s.into_bytes()
+}

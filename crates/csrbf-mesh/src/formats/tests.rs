@@ -1,0 +1,161 @@
+//! Every format on every real model, round trips and broken files.
+
+use std::path::{Path, PathBuf};
+
+use crate::{Format, Mesh, MeshError};
+
+/// The shared real models, or the copies bundled in the repository.
+pub(crate) fn models_dir() -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let shared = root.join("../shared/models");
+    if shared.is_dir() { shared } else { root.join("assets/models") }
+}
+
+fn models() -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(models_dir())
+        .expect("models directory")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| Format::from_path(p).is_ok())
+        .collect();
+    v.sort();
+    v
+}
+
+const OUT: [Format; 7] = [Format::Obj, Format::Ply, Format::PlyAscii, Format::Stl, Format::Off, Format::Gltf, Format::Glb];
+
+#[test]
+fn every_model_reads_and_round_trips_through_every_format() {
+    let models = models();
+    assert!(models.len() >= 5, "expected the real models, found {models:?}");
+    for path in models {
+        let mesh = crate::read(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!mesh.positions.is_empty() && !mesh.faces.is_empty(), "{}", path.display());
+        for fmt in OUT {
+            let bytes = mesh.to_bytes(fmt).expect("encode");
+            let back = Mesh::from_bytes(&bytes, fmt, Path::new("roundtrip")).unwrap_or_else(|e| panic!("{} via {fmt:?}: {e}", path.display()));
+            if fmt == Format::Stl {
+                // STL welds equal positions: at most as many vertices, same triangles.
+                assert!(back.positions.len() <= mesh.positions.len());
+                assert_eq!(back.faces.len(), mesh.faces.triangle_count());
+                continue;
+            }
+            assert_eq!(back.positions, mesh.positions, "{} via {fmt:?}: positions", path.display());
+            if matches!(fmt, Format::Gltf | Format::Glb) {
+                assert_eq!(back.faces.len(), mesh.faces.triangle_count());
+            } else {
+                assert_eq!(back.faces, mesh.faces, "{} via {fmt:?}: faces", path.display());
+            }
+            if mesh.colors.is_some() && fmt != Format::Stl {
+                assert!(back.colors.is_some(), "{} via {fmt:?} lost colours", path.display());
+            }
+        }
+    }
+}
+
+#[test]
+fn obj_keeps_groups_materials_and_corner_uvs() {
+    let src = b"mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 1 1 0 1 1 1\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\n\
+o body\ng left\nusemtl red\nf 1/1 2/2 3/3\ng right top\nusemtl blue\nf 2/2 4/4 3/3\nf -3/-3 -1/-1 -2/-2\n";
+    let m = Mesh::from_bytes(src, Format::Obj, Path::new("a.obj")).expect("parse");
+    assert_eq!(m.part_vertices("left"), Some(vec![0, 1, 2]));
+    assert_eq!(m.part_vertices("top"), Some(vec![1, 2, 3]));
+    assert_eq!(m.part_vertices("blue"), Some(vec![1, 2, 3]));
+    assert_eq!(m.part_vertices("body"), Some(vec![0, 1, 2, 3]));
+    assert_eq!(m.colors.as_ref().map(|c| c[1]), Some([0.0, 1.0, 0.0, 1.0]));
+    assert_eq!(m.material_library.as_deref(), Some("m.mtl"));
+    let back = Mesh::from_bytes(&m.to_bytes(Format::Obj).expect("enc"), Format::Obj, Path::new("b.obj")).expect("parse");
+    assert_eq!(back.faces, m.faces);
+    assert_eq!(back.uvs, m.uvs);
+    for name in ["left", "right", "top", "red", "blue", "body"] {
+        assert_eq!(back.part_vertices(name), m.part_vertices(name), "{name}");
+    }
+}
+
+#[test]
+fn gltf_keeps_materials_textures_and_uvs() {
+    let path = models_dir().join("assimp_BoxTextured.glb");
+    let m = crate::read(&path).expect("read");
+    assert!(m.uvs.is_some());
+    assert!(m.materials.iter().any(|mat| mat.texture.is_some()), "{:?}", m.materials);
+    let back = Mesh::from_bytes(&m.to_bytes(Format::Glb).expect("enc"), Format::Glb, Path::new("x.glb")).expect("parse");
+    assert_eq!(back.uvs, m.uvs);
+    assert_eq!(back.materials.len(), m.materials.len());
+    assert_eq!(back.materials[0].texture, m.materials[0].texture);
+}
+
+fn parse_err(bytes: &[u8], fmt: Format) -> String {
+    match Mesh::from_bytes(bytes, fmt, Path::new("bad.x")) {
+        Ok(m) => panic!("{fmt:?} accepted a broken file: {} vertices", m.positions.len()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn broken_files_are_errors_that_name_the_place() {
+    let cases: &[(&[u8], Format, &str)] = &[
+        (b"v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n", Format::Obj, "bad.x:3: a vertex needs 3 coordinates"),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", Format::Obj, "bad.x:4: vertex index 9 is out of range"),
+        (b"v 0 0 0\nv 1 x 0\n", Format::Obj, "bad.x:2: vertex coordinate: \"x\""),
+        (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", Format::Obj, "at least 3 corners"),
+        (b"v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", Format::Obj, "vertex 0 has a coordinate that is not finite"),
+        (b"# nothing\n", Format::Obj, "no vertices"),
+        (b"OFF\n3 1 0\n0 0 0\n1 0 0\n", Format::Off, "truncated: expected 3 vertices, found 2"),
+        (b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", Format::Off, "bad.x:6: face 0 refers to vertex 7"),
+        (b"PFF\n", Format::Off, "expected the OFF header"),
+        (b"OFF\n", Format::Off, "no vertex and face counts"),
+        (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n", Format::Ply, "truncated"),
+        (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", Format::Ply, "face 0 refers to vertex 5"),
+        (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0", Format::Ply, "truncated in vertex 0"),
+        (b"ply\nformat ascii 1.0\nelement vertex 1\n", Format::Ply, "end_header"),
+        (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n", Format::Stl, "truncated"),
+        (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0\n", Format::Stl, "bad.x:5: missing vertex z"),
+        (&[0u8; 90], Format::Stl, "truncated or not an STL file"),
+        (b"{\"asset\":{\"version\":\"2.0\"},\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":5}}]}]}", Format::Gltf, "glTF"),
+        (b"glTF\x02\0\0\0\xff\0\0\0", Format::Glb, "invalid glTF"),
+        (b"{not json", Format::Gltf, "invalid glTF"),
+    ];
+    for (bytes, fmt, want) in cases {
+        let e = parse_err(bytes, *fmt);
+        assert!(e.contains(want), "{fmt:?}: message {e:?} does not contain {want:?}");
+        assert!(e.starts_with("bad.x"), "{e:?} does not name the file");
+    }
+}
+
+#[test]
+fn truncated_real_files_never_panic() {
+    for path in models() {
+        let bytes = std::fs::read(&path).expect("read");
+        let fmt = Format::from_path(&path).expect("format");
+        for k in 1..12 {
+            let cut = bytes.len() * k / 12;
+            // An error, or (for text cut at a line end) a valid smaller mesh; never a panic.
+            if let Ok(m) = Mesh::from_bytes(&bytes[..cut], fmt, &path) {
+                m.validate(&path).expect("a mesh that reads is valid");
+            }
+        }
+    }
+}
+
+#[test]
+fn unknown_extension_lists_the_supported_ones() {
+    let e = crate::read(Path::new("model.fbx")).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("model.fbx") && e.contains(".obj") && e.contains(".glb"), "{e}");
+    assert!(matches!(crate::read(Path::new("/nonexistent/a.obj")), Err(MeshError::Io { .. })));
+}
+
+#[test]
+fn atomic_write_leaves_no_partial_file() {
+    let dir = std::env::temp_dir().join(format!("csrbf-mesh-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let target = dir.join("m.obj");
+    std::fs::write(&target, b"old").expect("write");
+    // A mesh that fails validation is refused before anything is written.
+    let bad = Mesh::default();
+    assert!(crate::write(&target, &bad).is_err());
+    assert_eq!(std::fs::read(&target).expect("read"), b"old");
+    // Writing into a missing directory fails and leaves nothing behind.
+    assert!(crate::write_atomic(&dir.join("missing/x.obj"), b"data").is_err());
+    let leftovers: Vec<_> = std::fs::read_dir(&dir).expect("dir").filter_map(|e| e.ok()).collect();
+    assert_eq!(leftovers.len(), 1);
+    std::fs::remove_dir_all(&dir).ok();
+}

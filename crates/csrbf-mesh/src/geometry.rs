@@ -1,0 +1,104 @@
+//! Checks and derived geometry: bounds, normals, validation.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::{Mesh, MeshError, Result};
+
+impl Mesh {
+    /// Smallest and largest coordinates; `None` for a mesh with no vertex.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        if self.positions.is_empty() {
+            return None;
+        }
+        Some(self.positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        ))
+    }
+
+    /// Length of the bounding-box diagonal (0 when empty).
+    pub fn diagonal(&self) -> f32 {
+        self.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length())
+    }
+
+    /// Area-weighted vertex normals from the faces (fan-triangulated).
+    /// Vertices on no face get +Z.
+    pub fn recompute_normals(&mut self) {
+        let mut n = vec![Vec3::ZERO; self.positions.len()];
+        for f in self.faces.iter() {
+            if f.len() < 3 {
+                continue;
+            }
+            let p0 = self.positions[f[0] as usize];
+            // Newell-style sum over the fan gives the polygon's area vector.
+            let mut area = Vec3::ZERO;
+            for k in 1..f.len() - 1 {
+                let a = self.positions[f[k] as usize] - p0;
+                let b = self.positions[f[k + 1] as usize] - p0;
+                area += a.cross(b);
+            }
+            for &v in f {
+                n[v as usize] += area;
+            }
+        }
+        for v in &mut n {
+            *v = v.try_normalize().unwrap_or(Vec3::Z);
+        }
+        self.normals = Some(n);
+    }
+
+    /// Checks what every consumer relies on: at least one vertex, finite
+    /// coordinates, faces of at least 3 corners with indices in range, and
+    /// attributes of matching lengths. `path` names the file in the message.
+    pub fn validate(&self, path: &Path) -> Result<()> {
+        let invalid = |message: String| MeshError::Invalid { path: path.to_owned(), message };
+        let n = self.positions.len();
+        if n == 0 {
+            return Err(invalid("the mesh has no vertices".into()));
+        }
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(invalid(format!("vertex {i} has a coordinate that is not finite: {}", self.positions[i])));
+        }
+        for (f, face) in self.faces.iter().enumerate() {
+            if face.len() < 3 {
+                return Err(invalid(format!("face {f} has {} corners; a face needs at least 3", face.len())));
+            }
+            if let Some(&v) = face.iter().find(|&&v| v as usize >= n) {
+                return Err(invalid(format!("face {f} refers to vertex {v}, but there are only {n} vertices")));
+            }
+        }
+        if let Some(uv) = &self.uvs {
+            match &uv.corners {
+                None if uv.values.len() != n => {
+                    return Err(invalid(format!("{} texture coordinates for {n} vertices", uv.values.len())));
+                }
+                Some(c) if c.len() != self.faces.indices.len() => {
+                    return Err(invalid("texture coordinate indices do not match the face corners".into()));
+                }
+                Some(c) => {
+                    if let Some(&t) = c.iter().find(|&&t| t as usize >= uv.values.len()) {
+                        return Err(invalid(format!(
+                            "a face refers to texture coordinate {t}, but there are only {}",
+                            uv.values.len()
+                        )));
+                    }
+                }
+                None => {}
+            }
+        }
+        if let Some(c) = &self.colors
+            && c.len() != n
+        {
+            return Err(invalid(format!("{} colours for {n} vertices", c.len())));
+        }
+        let faces = self.faces.len() as u32;
+        for p in &self.parts {
+            if let Some(&f) = p.faces.iter().find(|&&f| f >= faces) {
+                return Err(invalid(format!("part {:?} refers to face {f}, but there are only {faces}", p.name)));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,65 @@
+//! Reading and writing files: format by extension, validation on read,
+//! whole-or-nothing writes.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::{Format, Mesh, MeshError, Result};
+
+/// Reads and validates a mesh; the format comes from the extension.
+pub fn read(path: &Path) -> Result<Mesh> {
+    let format = Format::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.to_owned(), source })?;
+    Mesh::from_bytes(&bytes, format, path)
+}
+
+/// Writes a mesh whole or not at all; the format comes from the extension.
+pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
+    let format = Format::from_path(path)?;
+    let bytes = mesh.to_bytes_for(format, path)?;
+    write_atomic(path, &bytes)
+}
+
+/// Writes `bytes` to a temporary file beside `path`, then renames it over
+/// `path`: a reader never sees a partial file, and a failure leaves any old
+/// file as it was.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let io = |source| MeshError::Io { path: path.to_owned(), source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(e));
+    }
+    Ok(())
+}
+
+impl Mesh {
+    /// Parses a mesh from bytes and validates it; `path` names it in errors
+    /// and anchors relative references (glTF buffers).
+    pub fn from_bytes(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
+        let mesh = crate::formats::parse(bytes, format, path)?;
+        mesh.validate(path)?;
+        Ok(mesh)
+    }
+
+    /// Encodes the mesh in `format`.
+    pub fn to_bytes(&self, format: Format) -> Result<Vec<u8>> {
+        self.to_bytes_for(format, Path::new("<memory>"))
+    }
+
+    fn to_bytes_for(&self, format: Format, path: &Path) -> Result<Vec<u8>> {
+        self.validate(path)?;
+        Ok(crate::formats::encode(self, format))
+    }
+}
