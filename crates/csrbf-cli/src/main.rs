@@ -1,1 +1,117 @@
-fn main(){}
+//! `csrbf`: deform meshes by control vectors with compactly supported radial
+//! basis functions. Glue only: the work is in the `csrbf` and `csrbf-mesh` crates.
+
+mod bench;
+mod common;
+mod deform;
+mod info;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Real-time deformation of 3D models with compactly supported radial basis functions.
+#[derive(Parser)]
+#[command(name = "csrbf", version, about, long_about = None)]
+struct Cli {
+    /// Print nothing but errors.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Deform a mesh by a control file and write the result.
+    Deform {
+        /// Input mesh (.obj, .ply, .stl, .off, .gltf, .glb).
+        #[arg(long)]
+        mesh: PathBuf,
+        /// Control file (JSON).
+        #[arg(long)]
+        controls: PathBuf,
+        /// Phase in [0, 1]: 0 is the rest shape, 1 the full deformation.
+        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+        phase: f64,
+        /// Output mesh; the format comes from the extension.
+        #[arg(long)]
+        out: PathBuf,
+        /// Allow the output to replace an input file.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Fit the deformations of a control file and save them compactly (.csrbf, or .json for people).
+    Fit {
+        /// Control file (JSON).
+        #[arg(long)]
+        controls: PathBuf,
+        /// Output: .csrbf (binary, bit-exact) or .json.
+        #[arg(long)]
+        out: PathBuf,
+        /// Allow the output to replace an input file.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Apply a saved deformation (.csrbf) to a mesh.
+    Apply {
+        /// Input mesh.
+        #[arg(long)]
+        mesh: PathBuf,
+        /// Deformation file from `csrbf fit`.
+        #[arg(long)]
+        deformation: PathBuf,
+        /// Phase in [0, 1].
+        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+        phase: f64,
+        /// Output mesh.
+        #[arg(long)]
+        out: PathBuf,
+        /// Allow the output to replace an input file.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Describe a mesh, a control file (system size, band, memory) or a deformation file.
+    Info {
+        /// A mesh.
+        #[arg(long, group = "what")]
+        mesh: Option<PathBuf>,
+        /// A control file.
+        #[arg(long, group = "what")]
+        controls: Option<PathBuf>,
+        /// A deformation file.
+        #[arg(long, group = "what")]
+        deformation: Option<PathBuf>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Measure fit, bind, evaluate, refit and frame times (median of several runs).
+    Bench(bench::BenchArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let progress = common::Progress::new(!cli.quiet);
+    let result = match cli.command {
+        Command::Deform { mesh, controls, phase, out, force } => {
+            deform::deform(&mesh, &controls, phase, &out, force, &progress)
+        }
+        Command::Fit { controls, out, force } => deform::fit(&controls, &out, force, &progress),
+        Command::Apply { mesh, deformation, phase, out, force } => {
+            deform::apply(&mesh, &deformation, phase, &out, force, &progress)
+        }
+        Command::Info { mesh, controls, deformation, json } => {
+            info::info(mesh.as_deref(), controls.as_deref(), deformation.as_deref(), json)
+        }
+        Command::Bench(args) => bench::bench(&args, &progress),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

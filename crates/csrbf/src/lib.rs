@@ -63,6 +63,8 @@
 //! ```
 
 mod binding;
+#[cfg(feature = "serde")]
+pub mod controls;
 mod deformation;
 mod error;
 mod evaluate;
@@ -89,7 +91,7 @@ pub use evaluate::Point;
 pub use kernel::{Kernel, Polynomial};
 pub use octree::Octree;
 pub use ordering::Ordering;
-pub use pipeline::{Pipeline, Stage, Work};
+pub use pipeline::{Pipeline, Stage, Work, compose};
 pub use region::Region;
 pub use solver::SolverChoice;
 pub use system::{FitOptions, System, SystemStats};

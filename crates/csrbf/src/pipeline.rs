@@ -315,3 +315,34 @@ impl Pipeline {
         Ok(g)
     }
 }
+
+/// One-shot composition without bindings (the least memory): applies each
+/// deformation in order, at `phase`, to the points of its region (selected on
+/// the rest points); `groups` resolves part names.
+pub fn compose(
+    rest: &[Vec3],
+    stages: &[(Deformation, Region, f64)],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<Vec<Vec3>> {
+    let mut points = rest.to_vec();
+    for (def, region, phase) in stages {
+        if !(0.0..=1.0).contains(phase) {
+            return Err(Error::BadPhase(*phase));
+        }
+        let active = region.select(rest, groups)?;
+        let t = *phase as f32;
+        if active.len() == points.len() {
+            let d = def.displacements_f32(&points);
+            for (p, d) in points.iter_mut().zip(d) {
+                *p += d * t;
+            }
+        } else {
+            let sub: Vec<Vec3> = active.iter().map(|&i| points[i as usize]).collect();
+            let d = def.displacements_f32(&sub);
+            for (&i, d) in active.iter().zip(d) {
+                points[i as usize] += d * t;
+            }
+        }
+    }
+    Ok(points)
+}

@@ -1,0 +1,217 @@
+//! `bench`: fit, bind, evaluate, refit and frame, median of several runs, on a
+//! mesh and control file or on the synthetic scenes of the issue.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Result, bail};
+use clap::Args;
+use csrbf::synthetic::{fibonacci_sphere, radius_for_neighbours, smooth_displacements};
+use csrbf::{Binding, FitOptions, Kernel, Polynomial, SolverChoice, System, frame};
+use glam::{DVec3, Vec3};
+use serde_json::json;
+
+use crate::common::{Progress, read_controls, read_mesh};
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// A mesh to deform (with --controls).
+    #[arg(long, requires = "controls")]
+    mesh: Option<PathBuf>,
+    /// A control file (with --mesh); its first deformation is measured.
+    #[arg(long, requires = "mesh")]
+    controls: Option<PathBuf>,
+    /// A synthetic scene: fish (975 V / 92 N), face (6158 V / 32 N), 100k (100k V / 1k N), 1m (1M V / 10k N).
+    #[arg(long)]
+    scene: Option<String>,
+    /// Every synthetic scene in turn.
+    #[arg(long)]
+    all: bool,
+    /// Force a solver: auto, skyline or supernodal.
+    #[arg(long, default_value = "auto")]
+    solver: String,
+    /// Runs per phase; the median is reported.
+    #[arg(long, default_value_t = 7)]
+    runs: usize,
+    /// Print one JSON object (a list with --all).
+    #[arg(long)]
+    json: bool,
+    /// Write the synthetic scene's points (PLY) and controls (JSON) into this directory.
+    #[arg(long)]
+    export: Option<PathBuf>,
+}
+
+/// A benchmark input: rest points, starts, destinations and options.
+struct Scene {
+    name: String,
+    points: Vec<Vec3>,
+    starts: Vec<DVec3>,
+    targets: Vec<DVec3>,
+    options: FitOptions,
+}
+
+fn synthetic(name: &str) -> Result<Scene> {
+    let (v, n, radius) = match name {
+        "fish" => (975, 92, Some(0.3)),
+        "face" => (6158, 32, Some(0.2)),
+        "100k" => (100_000, 1_000, None),
+        "1m" => (1_000_000, 10_000, None),
+        other => bail!("unknown scene {other:?}: expected fish, face, 100k or 1m"),
+    };
+    let c = DVec3::splat(0.5);
+    let r = radius.unwrap_or_else(|| radius_for_neighbours(n, 0.4, 44.0));
+    let points = fibonacci_sphere(v, c, 0.4, 0.0, 0).into_iter().map(|p| p.as_vec3()).collect();
+    let starts = fibonacci_sphere(n, c, 0.4, 0.3, 1);
+    let targets = starts.iter().zip(smooth_displacements(&starts, 0.2 * r, 2)).map(|(s, d)| *s + d).collect();
+    let options = FitOptions::default().with_kernel(Kernel::C2).with_polynomial(Polynomial::Linear).with_radius(r);
+    Ok(Scene { name: name.to_owned(), points, starts, targets, options })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Runs `f` `runs` times; the median in milliseconds.
+fn time<T>(runs: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
+    let mut times = Vec::with_capacity(runs);
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let t = Instant::now();
+        let out = f()?;
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        last = Some(out);
+    }
+    match last {
+        Some(l) => Ok((median(times), l)),
+        None => bail!("no run"),
+    }
+}
+
+/// Peak resident memory of this process so far, in MB (Linux; 0 elsewhere).
+fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()))
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
+    let solver: SolverChoice = args.solver.parse().map_err(anyhow::Error::msg)?;
+    let scenes: Vec<Scene> = if args.all {
+        ["fish", "face", "100k", "1m"].into_iter().map(synthetic).collect::<Result<_>>()?
+    } else if let Some(s) = &args.scene {
+        vec![synthetic(s)?]
+    } else if let (Some(m), Some(c)) = (&args.mesh, &args.controls) {
+        let mesh = read_mesh(m, progress)?;
+        let spec = read_controls(c, progress)?.swap_remove(0);
+        vec![Scene { name: m.display().to_string(), points: mesh.positions, starts: spec.starts, targets: spec.targets, options: spec.options }]
+    } else {
+        bail!("give --mesh and --controls, --scene NAME or --all");
+    };
+    if let Some(dir) = &args.export {
+        for s in &scenes {
+            export(s, dir)?;
+        }
+        return Ok(());
+    }
+    let mut results = Vec::new();
+    for mut s in scenes {
+        s.options = s.options.with_solver(solver);
+        progress.say(format_args!("{}: {} vertices, {} controls, R {:.4}", s.name, s.points.len(), s.starts.len(), s.options.radius));
+        let r = run(&s, args.runs)?;
+        if !args.json {
+            println!(
+                "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",
+                s.name,
+                s.points.len(),
+                s.starts.len(),
+                s.options.radius,
+                r["solver"].as_str().unwrap_or(""),
+                r["neighbours_mean"].as_f64().unwrap_or(0.0).round(),
+                r["fit_ms"].as_f64().unwrap_or(0.0),
+                r["bind_ms"].as_f64().unwrap_or(0.0),
+                r["evaluate_ms"].as_f64().unwrap_or(0.0),
+                r["fit_evaluate_ms"].as_f64().unwrap_or(0.0),
+                r["refit_ms"].as_f64().unwrap_or(0.0),
+                r["frame_ms"].as_f64().unwrap_or(0.0),
+                r["peak_rss_mb"].as_f64().unwrap_or(0.0),
+            );
+        }
+        results.push(r);
+    }
+    if args.json {
+        let out = if results.len() == 1 { results.swap_remove(0) } else { json!(results) };
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    }
+    Ok(())
+}
+
+fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
+    // Fit: everything that depends on the controls.
+    let (fit_ms, (sys, def)) = time(runs, || {
+        let sys = System::new(&s.starts, s.options)?;
+        let def = sys.solve(&s.targets)?;
+        Ok((sys, def))
+    })?;
+    let (evaluate_ms, disp) = time(runs, || Ok(def.displacements_f32(&s.points)))?;
+    let (fit_evaluate_ms, _) = time(runs, || {
+        let d = System::new(&s.starts, s.options)?.solve(&s.targets)?;
+        Ok(d.displacements_f32(&s.points))
+    })?;
+    let (bind_ms, binding) = time(runs.min(3), || Ok(Binding::new(&def, &s.points)))?;
+    let moved: Vec<DVec3> = s.targets.iter().map(|t| *t + DVec3::new(0.0, 0.0, 0.01 * s.options.radius)).collect();
+    let mut out = disp.clone();
+    let (refit_ms, _) = time(runs, || {
+        let d = sys.solve(&moved)?;
+        binding.displacements_into(&d, &mut out)?;
+        Ok(())
+    })?;
+    let mut positions = vec![Vec3::ZERO; s.points.len()];
+    let mut k = 0;
+    let (frame_ms, _) = time(runs.max(11), || {
+        k += 1;
+        frame(&s.points, &out, (k % 10) as f64 / 10.0, &mut positions)?;
+        Ok(())
+    })?;
+    let st = sys.stats();
+    Ok(json!({
+        "scene": s.name,
+        "vertices": s.points.len(),
+        "controls": s.starts.len(),
+        "radius": s.options.radius,
+        "solver": st.solver,
+        "neighbours_mean": st.neighbours_mean,
+        "bandwidth": st.bandwidth,
+        "envelope": st.envelope,
+        "profile_bytes": st.profile_bytes,
+        "dense_bytes": st.dense_bytes,
+        "factor_bytes": st.factor_bytes,
+        "binding_mb": binding.bytes() as f64 / 1e6,
+        "pairs": binding.pairs(),
+        "fit_ms": fit_ms,
+        "bind_ms": bind_ms,
+        "evaluate_ms": evaluate_ms,
+        "fit_evaluate_ms": fit_evaluate_ms,
+        "refit_ms": refit_ms,
+        "frame_ms": frame_ms,
+        "peak_rss_mb": peak_rss_mb(),
+        "runs": runs,
+        "threads": rayon::current_num_threads(),
+    }))
+}
+
+fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
+    let mesh = csrbf_mesh::Mesh { positions: s.points.clone(), faces: csrbf_mesh::Faces::new(), ..Default::default() };
+    let base = dir.join(&s.name);
+    csrbf_mesh::write(&base.with_extension("ply"), &mesh)?;
+    let controls: Vec<_> = s
+        .starts
+        .iter()
+        .zip(&s.targets)
+        .map(|(a, b)| json!({ "from": a.to_array(), "to": b.to_array() }))
+        .collect();
+    let doc = json!({ "kernel": "c2", "radius": s.options.radius, "polynomial": "linear", "controls": controls });
+    csrbf_mesh::write_atomic(&base.with_extension("json"), serde_json::to_string(&doc)?.as_bytes())?;
+    Ok(())
+}

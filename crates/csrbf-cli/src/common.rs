@@ -1,0 +1,115 @@
+//! What the commands share: reading inputs with their names in errors,
+//! checking outputs before any work, progress messages.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use csrbf::controls::{ControlFile, ControlSpec};
+use csrbf::{Deformation, Region, System};
+use csrbf_mesh::{Format, Mesh};
+
+/// Progress lines on standard error, unless quiet.
+pub struct Progress {
+    on: bool,
+    start: Instant,
+}
+
+impl Progress {
+    pub fn new(on: bool) -> Progress {
+        Progress { on, start: Instant::now() }
+    }
+
+    pub fn say(&self, msg: impl std::fmt::Display) {
+        if self.on {
+            eprintln!("[{:7.2} s] {msg}", self.start.elapsed().as_secs_f64());
+        }
+    }
+}
+
+/// Reads and checks a control file; warnings about unknown keys are printed.
+pub fn read_controls(path: &Path, progress: &Progress) -> Result<Vec<ControlSpec>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read control file {}", path.display()))?;
+    let file = ControlFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    for w in &file.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    let n: usize = file.deformations.iter().map(|d| d.starts.len()).sum();
+    progress.say(format_args!("{}: {} deformation(s), {n} control vectors", path.display(), file.deformations.len()));
+    Ok(file.deformations)
+}
+
+/// Fits every deformation of a control file, naming the file and the
+/// deformation in errors.
+pub fn fit_all(specs: &[ControlSpec], path: &Path, progress: &Progress) -> Result<Vec<(Deformation, Region, f64)>> {
+    let mut out = Vec::with_capacity(specs.len());
+    for (i, s) in specs.iter().enumerate() {
+        let at = if specs.len() > 1 { format!("{}: deformations[{i}]", path.display()) } else { path.display().to_string() };
+        let t = Instant::now();
+        let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
+        let def = sys.solve(&s.targets).with_context(|| at.clone())?;
+        let st = sys.stats();
+        progress.say(format_args!(
+            "fitted {} controls ({}, R {}, {}): {} solver, band {} -> {}, {:.2} ms",
+            st.controls,
+            s.options.kernel,
+            s.options.radius,
+            s.options.polynomial,
+            st.solver,
+            st.bandwidth_before,
+            st.bandwidth,
+            t.elapsed().as_secs_f64() * 1e3
+        ));
+        out.push((def, s.region.clone(), s.phase));
+    }
+    Ok(out)
+}
+
+/// Reads a mesh, with progress.
+pub fn read_mesh(path: &Path, progress: &Progress) -> Result<Mesh> {
+    let t = Instant::now();
+    let mesh = csrbf_mesh::read(path)?;
+    progress.say(format_args!(
+        "read {}: {} vertices, {} faces ({:.0} ms)",
+        path.display(),
+        mesh.positions.len(),
+        mesh.faces.len(),
+        t.elapsed().as_secs_f64() * 1e3
+    ));
+    Ok(mesh)
+}
+
+/// Checks an output path before any work: a known extension (when `mesh`),
+/// an existing directory, and not one of the inputs unless forced.
+pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Result<()> {
+    if mesh {
+        Format::from_path(out)?;
+    }
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        bail!("{}: the output directory {} does not exist", out.display(), dir.display());
+    }
+    if out.is_dir() {
+        bail!("{}: is a directory; give a file name", out.display());
+    }
+    if let Ok(o) = out.canonicalize() {
+        for i in inputs {
+            if i.canonicalize().is_ok_and(|i| i == o) && !force {
+                bail!(
+                    "{}: the output is the same file as an input; refusing to overwrite it (pass --force to allow)",
+                    out.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Checks a phase given on the command line.
+pub fn check_phase(phase: f64) -> Result<()> {
+    if !(0.0..=1.0).contains(&phase) {
+        bail!("--phase must be within [0, 1], got {phase}");
+    }
+    Ok(())
+}
