@@ -68,7 +68,11 @@ pub fn fit_all(specs: &[ControlSpec], path: &Path, progress: &Progress) -> Resul
 /// Reads a mesh, with progress.
 pub fn read_mesh(path: &Path, progress: &Progress) -> Result<Mesh> {
     let t = Instant::now();
-    let mesh = csrbf_mesh::read(path)?;
+    let loaded = csrbf_mesh::load(path)?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    let mesh = loaded.mesh;
     progress.say(format_args!(
         "read {}: {} vertices, {} faces ({:.0} ms)",
         path.display(),
@@ -83,6 +87,7 @@ pub fn read_mesh(path: &Path, progress: &Progress) -> Result<Mesh> {
 /// an existing directory, and not one of the inputs unless forced.
 pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Result<()> {
     if mesh {
+        Format::from_path(inputs[0])?;
         Format::from_path(out)?;
     }
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())

@@ -97,9 +97,13 @@ fn controls_info(path: &Path) -> Result<Value> {
         }));
     }
     // The first deformation's figures at the top level; every one under "deformations".
-    let mut top = stages[0].clone();
-    top["file"] = json!(path.display().to_string());
-    top["deformations"] = json!(stages);
+    let mut top = json!({ "file": path.display().to_string(), "deformations_count": stages.len() });
+    if let (Some(t), Some(first)) = (top.as_object_mut(), stages[0].as_object()) {
+        t.extend(first.clone());
+    }
+    if stages.len() > 1 {
+        top["deformations"] = json!(stages);
+    }
     Ok(top)
 }
 

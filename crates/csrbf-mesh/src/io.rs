@@ -8,9 +8,33 @@ use crate::{Format, Mesh, MeshError, Result};
 
 /// Reads and validates a mesh; the format comes from the extension.
 pub fn read(path: &Path) -> Result<Mesh> {
+    load(path).map(|l| l.mesh)
+}
+
+/// A mesh with what was odd about its file but not wrong enough to refuse.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// The mesh.
+    pub mesh: Mesh,
+    /// Warnings naming the file, e.g. a text file cut in the middle of a line.
+    pub warnings: Vec<String>,
+}
+
+/// Reads and validates a mesh, and says what looked wrong without being an
+/// error: a text format with no line break at its end may have been cut off.
+pub fn load(path: &Path) -> Result<Loaded> {
     let format = Format::from_path(path)?;
     let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.to_owned(), source })?;
-    Mesh::from_bytes(&bytes, format, path)
+    let mesh = Mesh::from_bytes(&bytes, format, path)?;
+    let mut warnings = Vec::new();
+    let text = matches!(format, Format::Obj | Format::Off) || bytes.starts_with(b"ply\nformat ascii");
+    if text && !bytes.is_empty() && !bytes.ends_with(b"\n") {
+        warnings.push(format!(
+            "{}: the file does not end with a line break; it may have been cut off",
+            path.display()
+        ));
+    }
+    Ok(Loaded { mesh, warnings })
 }
 
 /// Writes a mesh whole or not at all; the format comes from the extension.

@@ -29,7 +29,7 @@ mod io;
 
 pub use error::{MeshError, Result};
 pub use formats::Format;
-pub use io::{read, write, write_atomic};
+pub use io::{Loaded, load, read, write, write_atomic};
 
 use glam::{Vec2, Vec3};
 

@@ -1,0 +1,139 @@
+use crate::support::*;
+
+#[test]
+fn deform_every_real_model_into_every_format() {
+    let dir = TempDir::new("every");
+    let mut models: Vec<_> = std::fs::read_dir(models_dir())
+        .expect("models")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| csrbf_mesh::Format::from_path(p).is_ok())
+        .collect();
+    models.sort();
+    assert!(models.len() >= 5);
+    let outs = ["obj", "ply", "stl", "off", "gltf", "glb"];
+    for (i, model) in models.iter().enumerate() {
+        let controls = dir.write(&format!("c{i}.json"), controls_for(model, "c2", "linear"));
+        let ext = outs[i % outs.len()];
+        let out = dir.path(&format!("m{i}.{ext}"));
+        ok(&["deform", "--quiet", "--mesh", arg(model), "--controls", arg(&controls), "--out", arg(&out)]);
+        let a = csrbf_mesh::read(model).expect("in");
+        let b = csrbf_mesh::read(&out).expect("out");
+        if ext != "stl" {
+            assert_eq!(a.positions.len(), b.positions.len(), "{} -> {ext}: vertex count", model.display());
+        }
+        // Somewhere moved, and the starts went to their destinations.
+        assert_ne!(a.positions, b.positions, "{}: nothing moved", model.display());
+    }
+}
+
+#[test]
+fn deform_moves_starts_to_destinations_and_phase_scales() {
+    let dir = TempDir::new("phase");
+    let mesh = root().join("assets/models/cgal_head.off");
+    let controls = root().join("assets/controls/head_smile.json");
+    let full = dir.path("full.ply");
+    let half = dir.path("half.ply");
+    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--out", arg(&full)]);
+    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--phase", "0.5", "--out", arg(&half)]);
+    let rest = csrbf_mesh::read(&mesh).expect("rest");
+    let f = csrbf_mesh::read(&full).expect("full");
+    let h = csrbf_mesh::read(&half).expect("half");
+    let spec: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&controls).expect("c")).expect("json");
+    for c in spec["controls"].as_array().expect("controls") {
+        let from: Vec<f32> = c["from"].as_array().expect("from").iter().map(|x| x.as_f64().expect("num") as f32).collect();
+        let to: Vec<f32> = c["to"].as_array().expect("to").iter().map(|x| x.as_f64().expect("num") as f32).collect();
+        let i = rest.positions.iter().position(|p| p.to_array() == [from[0], from[1], from[2]]).expect("start on a vertex");
+        let got = f.positions[i].to_array();
+        for k in 0..3 {
+            assert!((got[k] - to[k]).abs() < 1e-4, "vertex {i}: {got:?} vs {to:?}");
+        }
+    }
+    for ((r, f), h) in rest.positions.iter().zip(&f.positions).zip(&h.positions) {
+        assert!((*r + (*f - *r) * 0.5 - *h).length() < 1e-4);
+    }
+}
+
+#[test]
+fn fit_then_apply_equals_deform_and_json_is_readable() {
+    let dir = TempDir::new("fit");
+    let mesh = root().join("assets/models/cgal_head.off");
+    let controls = root().join("assets/controls/head_smile.json");
+    let d = dir.path("smile.csrbf");
+    ok(&["fit", "-q", "--controls", arg(&controls), "--out", arg(&d)]);
+    let a = dir.path("a.obj");
+    let b = dir.path("b.obj");
+    ok(&["apply", "-q", "--mesh", arg(&mesh), "--deformation", arg(&d), "--phase", "0.7", "--out", arg(&a)]);
+    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--phase", "0.7", "--out", arg(&b)]);
+    assert_eq!(std::fs::read(&a).expect("a"), std::fs::read(&b).expect("b"));
+    let j = dir.path("smile.json");
+    ok(&["fit", "-q", "--controls", arg(&controls), "--out", arg(&j)]);
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&j).expect("json")).expect("valid");
+    assert_eq!(v["deformations"][0]["kernel"], "c2");
+    assert_eq!(v["deformations"][0]["starts"].as_array().map(Vec::len), Some(34));
+    let info = ok(&["info", "--deformation", arg(&d), "--json"]);
+    assert!(info.contains("\"controls\": 34"), "{info}");
+}
+
+#[test]
+fn composition_with_regions_and_groups() {
+    let dir = TempDir::new("compose");
+    let mesh = dir.write(
+        "quad.obj",
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\ng left\nf 1 2 3 4\ng right\nf 2 5 6 3\n",
+    );
+    let controls = dir.write(
+        "c.json",
+        r#"{"deformations": [
+            {"radius": 5, "polynomial": "none", "region": {"group": "right"},
+             "controls": [{"from": [2, 0, 0], "to": [2, 0, 1]}]},
+            {"radius": 5, "polynomial": "none", "region": {"vertices": [0]},
+             "controls": [{"from": [0, 0, 0], "to": [0, 0, -1]}]}]}"#,
+    );
+    let out = dir.path("out.obj");
+    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--out", arg(&out)]);
+    let m = csrbf_mesh::read(&out).expect("out");
+    assert_eq!(m.positions[0].z, -1.0); // only vertex 0 in stage 2
+    assert!(m.positions[4].z > 0.99); // the start of stage 1
+    assert_eq!(m.positions[3].z, 0.0); // in neither region
+    assert_eq!(m.part_vertices("right"), Some(vec![1, 2, 4, 5]));
+}
+
+#[test]
+fn info_reports_the_system_figures() {
+    let controls = root().join("assets/controls/head_smile.json");
+    let v: serde_json::Value = serde_json::from_str(&ok(&["info", "--controls", arg(&controls), "--json"])).expect("json");
+    for key in ["controls", "nonzeros", "bandwidth", "envelope", "profile_bytes", "dense_bytes", "solver", "neighbours"] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    assert_eq!(v["dense_bytes"], 34 * 34 * 4);
+    let mesh = root().join("assets/models/cgal_head.off");
+    let m: serde_json::Value = serde_json::from_str(&ok(&["info", "--mesh", arg(&mesh), "--json"])).expect("json");
+    assert_eq!(m["vertices"], 1487);
+    assert_eq!(m["faces"], 2918);
+    let plain = ok(&["info", "--mesh", arg(&mesh)]);
+    assert!(plain.contains("vertices: 1487"));
+}
+
+#[test]
+fn bench_prints_every_phase() {
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["bench", "-q", "--scene", "fish", "--runs", "1", "--json"])).expect("json");
+    for key in ["fit_ms", "bind_ms", "evaluate_ms", "refit_ms", "frame_ms", "peak_rss_mb"] {
+        assert!(v[key].as_f64().is_some(), "missing {key}: {v}");
+    }
+    let mesh = root().join("assets/models/cgal_head.off");
+    let controls = root().join("assets/controls/head_smile.json");
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "bench", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--runs", "1", "--json", "--solver", "supernodal",
+    ]))
+    .expect("json");
+    assert_eq!(v["solver"], "supernodal");
+}
+
+#[test]
+fn help_on_every_command() {
+    for cmd in ["deform", "fit", "apply", "info", "bench"] {
+        let out = ok(&[cmd, "--help"]);
+        assert!(out.contains("Usage"), "{cmd}: {out}");
+    }
+}

@@ -1,0 +1,5 @@
+//! The `csrbf` binary on real models and on every bad input the issue lists.
+
+mod bad_input;
+mod commands;
+mod support;
