@@ -60,11 +60,27 @@ fn synthetic(name: &str) -> Result<Scene> {
     };
     let c = DVec3::splat(0.5);
     let r = radius.unwrap_or_else(|| radius_for_neighbours(n, 0.4, 44.0));
-    let points = fibonacci_sphere(v, c, 0.4, 0.0, 0).into_iter().map(|p| p.as_vec3()).collect();
+    let points = fibonacci_sphere(v, c, 0.4, 0.0, 0)
+        .into_iter()
+        .map(|p| p.as_vec3())
+        .collect();
     let starts = fibonacci_sphere(n, c, 0.4, 0.3, 1);
-    let targets = starts.iter().zip(smooth_displacements(&starts, 0.2 * r, 2)).map(|(s, d)| *s + d).collect();
-    let options = FitOptions::default().with_kernel(Kernel::C2).with_polynomial(Polynomial::Linear).with_radius(r);
-    Ok(Scene { name: name.to_owned(), points, starts, targets, options })
+    let targets = starts
+        .iter()
+        .zip(smooth_displacements(&starts, 0.2 * r, 2))
+        .map(|(s, d)| *s + d)
+        .collect();
+    let options = FitOptions::default()
+        .with_kernel(Kernel::C2)
+        .with_polynomial(Polynomial::Linear)
+        .with_radius(r);
+    Ok(Scene {
+        name: name.to_owned(),
+        points,
+        starts,
+        targets,
+        options,
+    })
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -92,20 +108,33 @@ fn time<T>(runs: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
 fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
         .map_or(0.0, |kb| kb / 1024.0)
 }
 
 pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
     let solver: SolverChoice = args.solver.parse().map_err(anyhow::Error::msg)?;
     let scenes: Vec<Scene> = if args.all {
-        ["fish", "face", "100k", "1m"].into_iter().map(synthetic).collect::<Result<_>>()?
+        ["fish", "face", "100k", "1m"]
+            .into_iter()
+            .map(synthetic)
+            .collect::<Result<_>>()?
     } else if let Some(s) = &args.scene {
         vec![synthetic(s)?]
     } else if let (Some(m), Some(c)) = (&args.mesh, &args.controls) {
         let mesh = read_mesh(m, progress)?;
         let spec = read_controls(c, progress)?.swap_remove(0);
-        vec![Scene { name: m.display().to_string(), points: mesh.positions, starts: spec.starts, targets: spec.targets, options: spec.options }]
+        vec![Scene {
+            name: m.display().to_string(),
+            points: mesh.positions,
+            starts: spec.starts,
+            targets: spec.targets,
+            options: spec.options,
+        }]
     } else {
         bail!("give --mesh and --controls, --scene NAME or --all");
     };
@@ -118,7 +147,13 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
     let mut results = Vec::new();
     for mut s in scenes {
         s.options = s.options.with_solver(solver);
-        progress.say(format_args!("{}: {} vertices, {} controls, R {:.4}", s.name, s.points.len(), s.starts.len(), s.options.radius));
+        progress.say(format_args!(
+            "{}: {} vertices, {} controls, R {:.4}",
+            s.name,
+            s.points.len(),
+            s.starts.len(),
+            s.options.radius
+        ));
         let r = run(&s, args.runs)?;
         if !args.json {
             println!(
@@ -141,7 +176,11 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         results.push(r);
     }
     if args.json {
-        let out = if results.len() == 1 { results.swap_remove(0) } else { json!(results) };
+        let out = if results.len() == 1 {
+            results.swap_remove(0)
+        } else {
+            json!(results)
+        };
         println!("{}", serde_json::to_string_pretty(&out)?);
     }
     Ok(())
@@ -160,7 +199,11 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         Ok(d.displacements_f32(&s.points))
     })?;
     let (bind_ms, binding) = time(runs.min(3), || Ok(Binding::new(&def, &s.points)))?;
-    let moved: Vec<DVec3> = s.targets.iter().map(|t| *t + DVec3::new(0.0, 0.0, 0.01 * s.options.radius)).collect();
+    let moved: Vec<DVec3> = s
+        .targets
+        .iter()
+        .map(|t| *t + DVec3::new(0.0, 0.0, 0.01 * s.options.radius))
+        .collect();
     let mut out = disp.clone();
     let (refit_ms, _) = time(runs, || {
         let d = sys.solve(&moved)?;
@@ -202,7 +245,11 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
 }
 
 fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
-    let mesh = csrbf_mesh::Mesh { positions: s.points.clone(), faces: csrbf_mesh::Faces::new(), ..Default::default() };
+    let mesh = csrbf_mesh::Mesh {
+        positions: s.points.clone(),
+        faces: csrbf_mesh::Faces::new(),
+        ..Default::default()
+    };
     let base = dir.join(&s.name);
     csrbf_mesh::write(&base.with_extension("ply"), &mesh)?;
     let controls: Vec<_> = s
@@ -212,6 +259,9 @@ fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
         .map(|(a, b)| json!({ "from": a.to_array(), "to": b.to_array() }))
         .collect();
     let doc = json!({ "kernel": "c2", "radius": s.options.radius, "polynomial": "linear", "controls": controls });
-    csrbf_mesh::write_atomic(&base.with_extension("json"), serde_json::to_string(&doc)?.as_bytes())?;
+    csrbf_mesh::write_atomic(
+        &base.with_extension("json"),
+        serde_json::to_string(&doc)?.as_bytes(),
+    )?;
     Ok(())
 }

@@ -17,7 +17,10 @@ pub struct Progress {
 
 impl Progress {
     pub fn new(on: bool) -> Progress {
-        Progress { on, start: Instant::now() }
+        Progress {
+            on,
+            start: Instant::now(),
+        }
     }
 
     pub fn say(&self, msg: impl std::fmt::Display) {
@@ -29,22 +32,35 @@ impl Progress {
 
 /// Reads and checks a control file; warnings about unknown keys are printed.
 pub fn read_controls(path: &Path, progress: &Progress) -> Result<Vec<ControlSpec>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read control file {}", path.display()))?;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read control file {}", path.display()))?;
     let file = ControlFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     for w in &file.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }
     let n: usize = file.deformations.iter().map(|d| d.starts.len()).sum();
-    progress.say(format_args!("{}: {} deformation(s), {n} control vectors", path.display(), file.deformations.len()));
+    progress.say(format_args!(
+        "{}: {} deformation(s), {n} control vectors",
+        path.display(),
+        file.deformations.len()
+    ));
     Ok(file.deformations)
 }
 
 /// Fits every deformation of a control file, naming the file and the
 /// deformation in errors.
-pub fn fit_all(specs: &[ControlSpec], path: &Path, progress: &Progress) -> Result<Vec<(Deformation, Region, f64)>> {
+pub fn fit_all(
+    specs: &[ControlSpec],
+    path: &Path,
+    progress: &Progress,
+) -> Result<Vec<(Deformation, Region, f64)>> {
     let mut out = Vec::with_capacity(specs.len());
     for (i, s) in specs.iter().enumerate() {
-        let at = if specs.len() > 1 { format!("{}: deformations[{i}]", path.display()) } else { path.display().to_string() };
+        let at = if specs.len() > 1 {
+            format!("{}: deformations[{i}]", path.display())
+        } else {
+            path.display().to_string()
+        };
         let t = Instant::now();
         let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
         let def = sys.solve(&s.targets).with_context(|| at.clone())?;
@@ -93,7 +109,11 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
         && !dir.is_dir()
     {
-        bail!("{}: the output directory {} does not exist", out.display(), dir.display());
+        bail!(
+            "{}: the output directory {} does not exist",
+            out.display(),
+            dir.display()
+        );
     }
     if out.is_dir() {
         bail!("{}: is a directory; give a file name", out.display());

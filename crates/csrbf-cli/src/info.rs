@@ -8,7 +8,12 @@ use serde_json::{Value, json};
 
 use crate::common::{Progress, read_controls};
 
-pub fn info(mesh: Option<&Path>, controls: Option<&Path>, deformation: Option<&Path>, as_json: bool) -> Result<()> {
+pub fn info(
+    mesh: Option<&Path>,
+    controls: Option<&Path>,
+    deformation: Option<&Path>,
+    as_json: bool,
+) -> Result<()> {
     let value = match (mesh, controls, deformation) {
         (Some(m), None, None) => mesh_info(m)?,
         (None, Some(c), None) => controls_info(c)?,
@@ -74,9 +79,15 @@ fn controls_info(path: &Path) -> Result<Value> {
     let specs = read_controls(path, &Progress::new(false))?;
     let mut stages = Vec::new();
     for (i, s) in specs.iter().enumerate() {
-        let sys = System::new(&s.starts, s.options).with_context(|| format!("{}: deformation {i}", path.display()))?;
+        let sys = System::new(&s.starts, s.options)
+            .with_context(|| format!("{}: deformation {i}", path.display()))?;
         let st = sys.stats();
-        let (lo, hi) = s.starts.iter().fold((s.starts[0], s.starts[0]), |(a, b), p| (a.min(*p), b.max(*p)));
+        let (lo, hi) = s
+            .starts
+            .iter()
+            .fold((s.starts[0], s.starts[0]), |(a, b), p| {
+                (a.min(*p), b.max(*p))
+            });
         stages.push(json!({
             "controls": st.controls,
             "kernel": s.options.kernel.name(),
@@ -122,5 +133,7 @@ fn deformation_info(path: &Path) -> Result<Value> {
             })
         })
         .collect();
-    Ok(json!({ "file": path.display().to_string(), "bytes": bytes.len(), "version": format::VERSION, "deformations": list }))
+    Ok(
+        json!({ "file": path.display().to_string(), "bytes": bytes.len(), "version": format::VERSION, "deformations": list }),
+    )
 }

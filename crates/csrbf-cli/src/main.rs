@@ -95,16 +95,36 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let progress = common::Progress::new(!cli.quiet);
     let result = match cli.command {
-        Command::Deform { mesh, controls, phase, out, force } => {
-            deform::deform(&mesh, &controls, phase, &out, force, &progress)
-        }
-        Command::Fit { controls, out, force } => deform::fit(&controls, &out, force, &progress),
-        Command::Apply { mesh, deformation, phase, out, force } => {
-            deform::apply(&mesh, &deformation, phase, &out, force, &progress)
-        }
-        Command::Info { mesh, controls, deformation, json } => {
-            info::info(mesh.as_deref(), controls.as_deref(), deformation.as_deref(), json)
-        }
+        Command::Deform {
+            mesh,
+            controls,
+            phase,
+            out,
+            force,
+        } => deform::deform(&mesh, &controls, phase, &out, force, &progress),
+        Command::Fit {
+            controls,
+            out,
+            force,
+        } => deform::fit(&controls, &out, force, &progress),
+        Command::Apply {
+            mesh,
+            deformation,
+            phase,
+            out,
+            force,
+        } => deform::apply(&mesh, &deformation, phase, &out, force, &progress),
+        Command::Info {
+            mesh,
+            controls,
+            deformation,
+            json,
+        } => info::info(
+            mesh.as_deref(),
+            controls.as_deref(),
+            deformation.as_deref(),
+            json,
+        ),
         Command::Bench(args) => bench::bench(&args, &progress),
     };
     match result {

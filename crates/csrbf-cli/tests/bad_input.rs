@@ -9,14 +9,32 @@ const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n";
 /// Runs `deform` and expects failure naming `file` and every `want`; the
 /// existing output must be left untouched and nothing else written.
 #[track_caller]
-fn deform_fails(dir: &TempDir, mesh: &std::path::Path, controls: &std::path::Path, extra: &[&str], want: &[&str]) {
+fn deform_fails(
+    dir: &TempDir,
+    mesh: &std::path::Path,
+    controls: &std::path::Path,
+    extra: &[&str],
+    want: &[&str],
+) {
     let out = dir.path("out.obj");
     std::fs::write(&out, "precious").expect("write");
     let before = dir.files();
-    let mut args = vec!["deform", "--mesh", arg(mesh), "--controls", arg(controls), "--out", arg(&out)];
+    let mut args = vec![
+        "deform",
+        "--mesh",
+        arg(mesh),
+        "--controls",
+        arg(controls),
+        "--out",
+        arg(&out),
+    ];
     args.extend_from_slice(extra);
     fails(&args, want);
-    assert_eq!(std::fs::read_to_string(&out).expect("out"), "precious", "output clobbered");
+    assert_eq!(
+        std::fs::read_to_string(&out).expect("out"),
+        "precious",
+        "output clobbered"
+    );
     assert_eq!(dir.files(), before, "a file was left behind");
 }
 
@@ -45,15 +63,31 @@ fn malformed_meshes_of_every_format() {
         std::fs::remove_file(&m).expect("rm");
     }
     // Truncated real files of each format.
-    for model in ["cgal_head.off", "assimp_Suzanne_248.obj", "pyvista_airplane.ply", "cgal_pig.stl", "assimp_BoxTextured.glb"] {
+    for model in [
+        "cgal_head.off",
+        "assimp_Suzanne_248.obj",
+        "pyvista_airplane.ply",
+        "cgal_pig.stl",
+        "assimp_BoxTextured.glb",
+    ] {
         let src = models_dir().join(model);
-        let Ok(bytes) = std::fs::read(&src) else { continue };
+        let Ok(bytes) = std::fs::read(&src) else {
+            continue;
+        };
         let m = dir.write(&format!("cut_{model}"), &bytes[..bytes.len() * 2 / 3 + 1]);
         if model.ends_with(".obj") {
             // OBJ has no counts or end marker: a cut can leave a valid file, so
             // the cut is warned about rather than refused.
             let out = dir.path("cut_out.obj");
-            let r = csrbf(&["deform", "--mesh", arg(&m), "--controls", arg(&c), "--out", arg(&out)]);
+            let r = csrbf(&[
+                "deform",
+                "--mesh",
+                arg(&m),
+                "--controls",
+                arg(&c),
+                "--out",
+                arg(&out),
+            ]);
             let err = String::from_utf8_lossy(&r.stderr);
             assert!(err.contains("may have been cut off"), "{err}");
             let _ = std::fs::remove_file(&out);
@@ -69,23 +103,71 @@ fn bad_control_files() {
     let dir = TempDir::new("badcontrols");
     let m = dir.write("m.obj", TRI);
     let cases: &[(&str, &[&str])] = &[
-        ("{\"radius\": 1, \"controls\": [", &["c.json", "line 1", "invalid JSON"]),
-        (r#"{"kernel": "c9", "radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["c.json", "kernel", "c0, c2, c4, c6"]),
-        (r#"{"polynomial": "cubic", "radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["polynomial", "none, linear"]),
-        (r#"{"radius": 0, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["radius", "> 0"]),
-        (r#"{"radius": -1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["radius", "> 0"]),
-        (r#"{"radius": "big", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["radius", "expected a number"]),
+        (
+            "{\"radius\": 1, \"controls\": [",
+            &["c.json", "line 1", "invalid JSON"],
+        ),
+        (
+            r#"{"kernel": "c9", "radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["c.json", "kernel", "c0, c2, c4, c6"],
+        ),
+        (
+            r#"{"polynomial": "cubic", "radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["polynomial", "none, linear"],
+        ),
+        (
+            r#"{"radius": 0, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["radius", "> 0"],
+        ),
+        (
+            r#"{"radius": -1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["radius", "> 0"],
+        ),
+        (
+            r#"{"radius": "big", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["radius", "expected a number"],
+        ),
         (r#"{"radius": 1e999, "controls": []}"#, &["c.json"]),
-        (r#"{"radius": 1, "controls": []}"#, &["controls", "no controls"]),
-        (r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [0,0], "to": [0,0,0]}]}"#, &["controls[1].from", "three numbers"]),
-        (r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,"x",0]}]}"#, &["controls[0].to[1]", "number"]),
-        (r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}, {"from": [0,0,0], "to": [1,0,0]}]}"#, &["controls 0 and 2", "same point"]),
-        (r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}]}"#, &["at least 4", "\"none\""]),
-        (r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}, {"from": [0,1,0], "to": [0,0,0]}, {"from": [1,1,0], "to": [0,0,0]}]}"#, &["one plane", "\"none\""]),
-        (r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1e-14,0,0], "to": [0,0,0]}]}"#, &["controls 0 and 1", "too close"]),
-        (r#"{"radius": 1, "polynomial": "none", "region": {"group": "nose"}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["nose"]),
-        (r#"{"radius": 1, "polynomial": "none", "region": {"vertices": [99]}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, &["vertex 99"]),
-        (r#"{"deformations": [{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}, {"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#, &["deformations[1]", "at least 4"]),
+        (
+            r#"{"radius": 1, "controls": []}"#,
+            &["controls", "no controls"],
+        ),
+        (
+            r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [0,0], "to": [0,0,0]}]}"#,
+            &["controls[1].from", "three numbers"],
+        ),
+        (
+            r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,"x",0]}]}"#,
+            &["controls[0].to[1]", "number"],
+        ),
+        (
+            r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}, {"from": [0,0,0], "to": [1,0,0]}]}"#,
+            &["controls 0 and 2", "same point"],
+        ),
+        (
+            r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}]}"#,
+            &["at least 4", "\"none\""],
+        ),
+        (
+            r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}, {"from": [0,1,0], "to": [0,0,0]}, {"from": [1,1,0], "to": [0,0,0]}]}"#,
+            &["one plane", "\"none\""],
+        ),
+        (
+            r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1e-14,0,0], "to": [0,0,0]}]}"#,
+            &["controls 0 and 1", "too close"],
+        ),
+        (
+            r#"{"radius": 1, "polynomial": "none", "region": {"group": "nose"}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["nose"],
+        ),
+        (
+            r#"{"radius": 1, "polynomial": "none", "region": {"vertices": [99]}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+            &["vertex 99"],
+        ),
+        (
+            r#"{"deformations": [{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}, {"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#,
+            &["deformations[1]", "at least 4"],
+        ),
     ];
     for (text, want) in cases {
         let c = dir.write("c.json", text);
@@ -103,15 +185,69 @@ fn bad_arguments_and_outputs() {
     deform_fails(&dir, &m, &c, &["--phase", "1.5"], &["phase", "[0, 1]"]);
     deform_fails(&dir, &m, &c, &["--phase", "-0.1"], &["phase"]);
     // Unknown output extension: listed formats, nothing written.
-    fails(&["deform", "--mesh", arg(&m), "--controls", arg(&c), "--out", arg(&dir.path("x.fbx"))], &["x.fbx", ".obj", ".glb"]);
-    fails(&["deform", "--mesh", arg(&dir.path("m.3ds")), "--controls", arg(&c), "--out", arg(&dir.path("o.obj"))], &["m.3ds", "unknown mesh format"]);
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&m),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&dir.path("x.fbx")),
+        ],
+        &["x.fbx", ".obj", ".glb"],
+    );
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&dir.path("m.3ds")),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&dir.path("o.obj")),
+        ],
+        &["m.3ds", "unknown mesh format"],
+    );
     // Output into a missing directory.
-    fails(&["deform", "--mesh", arg(&m), "--controls", arg(&c), "--out", arg(&dir.path("no/such/o.obj"))], &["does not exist"]);
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&m),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&dir.path("no/such/o.obj")),
+        ],
+        &["does not exist"],
+    );
     // Output equal to the input: refused, input intact; allowed with --force.
     let before = std::fs::read(&m).expect("m");
-    fails(&["deform", "--mesh", arg(&m), "--controls", arg(&c), "--out", arg(&m)], &["same file as an input", "--force"]);
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&m),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&m),
+        ],
+        &["same file as an input", "--force"],
+    );
     assert_eq!(std::fs::read(&m).expect("m"), before);
-    ok(&["deform", "-q", "--mesh", arg(&m), "--controls", arg(&c), "--out", arg(&m), "--force"]);
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&m),
+        "--controls",
+        arg(&c),
+        "--out",
+        arg(&m),
+        "--force",
+    ]);
     assert_ne!(std::fs::read(&m).expect("m"), before);
     assert_eq!(dir.files(), vec!["c.json", "m.obj", "out.obj"]);
 }
@@ -128,16 +264,69 @@ fn corrupt_and_wrong_version_deformation_files() {
     let mut flipped = bytes.clone();
     flipped[40] ^= 1;
     let bad = dir.write("flip.csrbf", &flipped);
-    fails(&["apply", "--mesh", arg(&m), "--deformation", arg(&bad), "--out", arg(&out)], &["flip.csrbf", "checksum"]);
+    fails(
+        &[
+            "apply",
+            "--mesh",
+            arg(&m),
+            "--deformation",
+            arg(&bad),
+            "--out",
+            arg(&out),
+        ],
+        &["flip.csrbf", "checksum"],
+    );
     let bad = dir.write("cut.csrbf", &bytes[..bytes.len() / 2]);
-    fails(&["apply", "--mesh", arg(&m), "--deformation", arg(&bad), "--out", arg(&out)], &["cut.csrbf"]);
+    fails(
+        &[
+            "apply",
+            "--mesh",
+            arg(&m),
+            "--deformation",
+            arg(&bad),
+            "--out",
+            arg(&out),
+        ],
+        &["cut.csrbf"],
+    );
     let mut v9 = bytes.clone();
     v9[6] = 9;
     let bad = dir.write("v9.csrbf", &v9);
-    fails(&["apply", "--mesh", arg(&m), "--deformation", arg(&bad), "--out", arg(&out)], &["v9.csrbf", "version 9"]);
+    fails(
+        &[
+            "apply",
+            "--mesh",
+            arg(&m),
+            "--deformation",
+            arg(&bad),
+            "--out",
+            arg(&out),
+        ],
+        &["v9.csrbf", "version 9"],
+    );
     let bad = dir.write("text.csrbf", "hello");
-    fails(&["apply", "--mesh", arg(&m), "--deformation", arg(&bad), "--out", arg(&out)], &["text.csrbf", "magic"]);
-    fails(&["fit", "--controls", arg(&c), "--out", arg(&dir.path("d.bin"))], &["d.bin", ".csrbf"]);
+    fails(
+        &[
+            "apply",
+            "--mesh",
+            arg(&m),
+            "--deformation",
+            arg(&bad),
+            "--out",
+            arg(&out),
+        ],
+        &["text.csrbf", "magic"],
+    );
+    fails(
+        &[
+            "fit",
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&dir.path("d.bin")),
+        ],
+        &["d.bin", ".csrbf"],
+    );
     assert!(!out.exists());
     fails(&["info"], &["--mesh"]);
 }

@@ -15,14 +15,33 @@ fn deform_every_real_model_into_every_format() {
         let controls = dir.write(&format!("c{i}.json"), controls_for(model, "c2", "linear"));
         let ext = outs[i % outs.len()];
         let out = dir.path(&format!("m{i}.{ext}"));
-        ok(&["deform", "--quiet", "--mesh", arg(model), "--controls", arg(&controls), "--out", arg(&out)]);
+        ok(&[
+            "deform",
+            "--quiet",
+            "--mesh",
+            arg(model),
+            "--controls",
+            arg(&controls),
+            "--out",
+            arg(&out),
+        ]);
         let a = csrbf_mesh::read(model).expect("in");
         let b = csrbf_mesh::read(&out).expect("out");
         if ext != "stl" {
-            assert_eq!(a.positions.len(), b.positions.len(), "{} -> {ext}: vertex count", model.display());
+            assert_eq!(
+                a.positions.len(),
+                b.positions.len(),
+                "{} -> {ext}: vertex count",
+                model.display()
+            );
         }
         // Somewhere moved, and the starts went to their destinations.
-        assert_ne!(a.positions, b.positions, "{}: nothing moved", model.display());
+        assert_ne!(
+            a.positions,
+            b.positions,
+            "{}: nothing moved",
+            model.display()
+        );
     }
 }
 
@@ -33,19 +52,57 @@ fn deform_moves_starts_to_destinations_and_phase_scales() {
     let controls = root().join("assets/controls/head_smile.json");
     let full = dir.path("full.ply");
     let half = dir.path("half.ply");
-    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--out", arg(&full)]);
-    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--phase", "0.5", "--out", arg(&half)]);
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&mesh),
+        "--controls",
+        arg(&controls),
+        "--out",
+        arg(&full),
+    ]);
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&mesh),
+        "--controls",
+        arg(&controls),
+        "--phase",
+        "0.5",
+        "--out",
+        arg(&half),
+    ]);
     let rest = csrbf_mesh::read(&mesh).expect("rest");
     let f = csrbf_mesh::read(&full).expect("full");
     let h = csrbf_mesh::read(&half).expect("half");
-    let spec: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&controls).expect("c")).expect("json");
+    let spec: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&controls).expect("c")).expect("json");
     for c in spec["controls"].as_array().expect("controls") {
-        let from: Vec<f32> = c["from"].as_array().expect("from").iter().map(|x| x.as_f64().expect("num") as f32).collect();
-        let to: Vec<f32> = c["to"].as_array().expect("to").iter().map(|x| x.as_f64().expect("num") as f32).collect();
-        let i = rest.positions.iter().position(|p| p.to_array() == [from[0], from[1], from[2]]).expect("start on a vertex");
+        let from: Vec<f32> = c["from"]
+            .as_array()
+            .expect("from")
+            .iter()
+            .map(|x| x.as_f64().expect("num") as f32)
+            .collect();
+        let to: Vec<f32> = c["to"]
+            .as_array()
+            .expect("to")
+            .iter()
+            .map(|x| x.as_f64().expect("num") as f32)
+            .collect();
+        let i = rest
+            .positions
+            .iter()
+            .position(|p| p.to_array() == [from[0], from[1], from[2]])
+            .expect("start on a vertex");
         let got = f.positions[i].to_array();
         for k in 0..3 {
-            assert!((got[k] - to[k]).abs() < 1e-4, "vertex {i}: {got:?} vs {to:?}");
+            assert!(
+                (got[k] - to[k]).abs() < 1e-4,
+                "vertex {i}: {got:?} vs {to:?}"
+            );
         }
     }
     for ((r, f), h) in rest.positions.iter().zip(&f.positions).zip(&h.positions) {
@@ -62,14 +119,40 @@ fn fit_then_apply_equals_deform_and_json_is_readable() {
     ok(&["fit", "-q", "--controls", arg(&controls), "--out", arg(&d)]);
     let a = dir.path("a.obj");
     let b = dir.path("b.obj");
-    ok(&["apply", "-q", "--mesh", arg(&mesh), "--deformation", arg(&d), "--phase", "0.7", "--out", arg(&a)]);
-    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--phase", "0.7", "--out", arg(&b)]);
+    ok(&[
+        "apply",
+        "-q",
+        "--mesh",
+        arg(&mesh),
+        "--deformation",
+        arg(&d),
+        "--phase",
+        "0.7",
+        "--out",
+        arg(&a),
+    ]);
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&mesh),
+        "--controls",
+        arg(&controls),
+        "--phase",
+        "0.7",
+        "--out",
+        arg(&b),
+    ]);
     assert_eq!(std::fs::read(&a).expect("a"), std::fs::read(&b).expect("b"));
     let j = dir.path("smile.json");
     ok(&["fit", "-q", "--controls", arg(&controls), "--out", arg(&j)]);
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&j).expect("json")).expect("valid");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&j).expect("json")).expect("valid");
     assert_eq!(v["deformations"][0]["kernel"], "c2");
-    assert_eq!(v["deformations"][0]["starts"].as_array().map(Vec::len), Some(34));
+    assert_eq!(
+        v["deformations"][0]["starts"].as_array().map(Vec::len),
+        Some(34)
+    );
     let info = ok(&["info", "--deformation", arg(&d), "--json"]);
     assert!(info.contains("\"controls\": 34"), "{info}");
 }
@@ -90,7 +173,16 @@ fn composition_with_regions_and_groups() {
              "controls": [{"from": [0, 0, 0], "to": [0, 0, -1]}]}]}"#,
     );
     let out = dir.path("out.obj");
-    ok(&["deform", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--out", arg(&out)]);
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&mesh),
+        "--controls",
+        arg(&controls),
+        "--out",
+        arg(&out),
+    ]);
     let m = csrbf_mesh::read(&out).expect("out");
     assert_eq!(m.positions[0].z, -1.0); // only vertex 0 in stage 2
     assert!(m.positions[4].z > 0.99); // the start of stage 1
@@ -101,13 +193,24 @@ fn composition_with_regions_and_groups() {
 #[test]
 fn info_reports_the_system_figures() {
     let controls = root().join("assets/controls/head_smile.json");
-    let v: serde_json::Value = serde_json::from_str(&ok(&["info", "--controls", arg(&controls), "--json"])).expect("json");
-    for key in ["controls", "nonzeros", "bandwidth", "envelope", "profile_bytes", "dense_bytes", "solver", "neighbours"] {
+    let v: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--controls", arg(&controls), "--json"])).expect("json");
+    for key in [
+        "controls",
+        "nonzeros",
+        "bandwidth",
+        "envelope",
+        "profile_bytes",
+        "dense_bytes",
+        "solver",
+        "neighbours",
+    ] {
         assert!(v.get(key).is_some(), "missing {key}: {v}");
     }
     assert_eq!(v["dense_bytes"], 34 * 34 * 4);
     let mesh = root().join("assets/models/cgal_head.off");
-    let m: serde_json::Value = serde_json::from_str(&ok(&["info", "--mesh", arg(&mesh), "--json"])).expect("json");
+    let m: serde_json::Value =
+        serde_json::from_str(&ok(&["info", "--mesh", arg(&mesh), "--json"])).expect("json");
     assert_eq!(m["vertices"], 1487);
     assert_eq!(m["faces"], 2918);
     let plain = ok(&["info", "--mesh", arg(&mesh)]);
@@ -116,15 +219,34 @@ fn info_reports_the_system_figures() {
 
 #[test]
 fn bench_prints_every_phase() {
-    let v: serde_json::Value =
-        serde_json::from_str(&ok(&["bench", "-q", "--scene", "fish", "--runs", "1", "--json"])).expect("json");
-    for key in ["fit_ms", "bind_ms", "evaluate_ms", "refit_ms", "frame_ms", "peak_rss_mb"] {
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "bench", "-q", "--scene", "fish", "--runs", "1", "--json",
+    ]))
+    .expect("json");
+    for key in [
+        "fit_ms",
+        "bind_ms",
+        "evaluate_ms",
+        "refit_ms",
+        "frame_ms",
+        "peak_rss_mb",
+    ] {
         assert!(v[key].as_f64().is_some(), "missing {key}: {v}");
     }
     let mesh = root().join("assets/models/cgal_head.off");
     let controls = root().join("assets/controls/head_smile.json");
     let v: serde_json::Value = serde_json::from_str(&ok(&[
-        "bench", "-q", "--mesh", arg(&mesh), "--controls", arg(&controls), "--runs", "1", "--json", "--solver", "supernodal",
+        "bench",
+        "-q",
+        "--mesh",
+        arg(&mesh),
+        "--controls",
+        arg(&controls),
+        "--runs",
+        "1",
+        "--json",
+        "--solver",
+        "supernodal",
     ]))
     .expect("json");
     assert_eq!(v["solver"], "supernodal");

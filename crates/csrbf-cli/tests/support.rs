@@ -46,11 +46,18 @@ pub fn root() -> PathBuf {
 /// The shared real models, or the bundled copies.
 pub fn models_dir() -> PathBuf {
     let shared = root().join("../shared/models");
-    if shared.is_dir() { shared } else { root().join("assets/models") }
+    if shared.is_dir() {
+        shared
+    } else {
+        root().join("assets/models")
+    }
 }
 
 pub fn csrbf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_csrbf")).args(args).output().expect("run csrbf")
+    Command::new(env!("CARGO_BIN_EXE_csrbf"))
+        .args(args)
+        .output()
+        .expect("run csrbf")
 }
 
 pub fn arg(p: &Path) -> &str {
@@ -61,7 +68,11 @@ pub fn arg(p: &Path) -> &str {
 #[track_caller]
 pub fn ok(args: &[&str]) -> String {
     let out = csrbf(args);
-    assert!(out.status.success(), "csrbf {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "csrbf {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
@@ -71,11 +82,17 @@ pub fn ok(args: &[&str]) -> String {
 pub fn fails(args: &[&str], want: &[&str]) -> String {
     let out = csrbf(args);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "csrbf {args:?} succeeded; stderr: {err}");
+    assert!(
+        !out.status.success(),
+        "csrbf {args:?} succeeded; stderr: {err}"
+    );
     assert_eq!(out.status.code(), Some(1), "exit code; stderr: {err}");
     assert!(!err.contains("panicked"), "csrbf {args:?} panicked: {err}");
     for w in want {
-        assert!(err.contains(w), "csrbf {args:?}: {err:?} does not contain {w:?}");
+        assert!(
+            err.contains(w),
+            "csrbf {args:?}: {err:?} does not contain {w:?}"
+        );
     }
     err
 }
@@ -91,11 +108,18 @@ pub fn controls_for(mesh: &Path, kernel: &str, poly: &str) -> String {
     let mut used = Vec::new();
     for i in 0..k {
         let v = m.positions[i * n / k].as_dvec3();
-        if used.iter().any(|u: &glam::DVec3| u.distance(v) < 1e-6 * diag) {
+        if used
+            .iter()
+            .any(|u: &glam::DVec3| u.distance(v) < 1e-6 * diag)
+        {
             continue;
         }
         used.push(v);
-        let d = if i < 3 { glam::DVec3::new(0.0, 0.1 * diag, 0.0) } else { glam::DVec3::ZERO };
+        let d = if i < 3 {
+            glam::DVec3::new(0.0, 0.1 * diag, 0.0)
+        } else {
+            glam::DVec3::ZERO
+        };
         controls.push(serde_json::json!({ "from": v.to_array(), "to": (v + d).to_array() }));
     }
     serde_json::json!({ "kernel": kernel, "radius": 0.25 * diag, "polynomial": poly, "controls": controls }).to_string()

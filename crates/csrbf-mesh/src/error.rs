@@ -47,8 +47,16 @@ pub enum MeshError {
 }
 
 impl MeshError {
-    pub(crate) fn parse(path: &std::path::Path, line: Option<usize>, message: impl Into<String>) -> MeshError {
-        MeshError::Parse { path: path.to_owned(), line, message: message.into() }
+    pub(crate) fn parse(
+        path: &std::path::Path,
+        line: Option<usize>,
+        message: impl Into<String>,
+    ) -> MeshError {
+        MeshError::Parse {
+            path: path.to_owned(),
+            line,
+            message: message.into(),
+        }
     }
 }
 

@@ -53,29 +53,45 @@ impl Mesh {
     /// coordinates, faces of at least 3 corners with indices in range, and
     /// attributes of matching lengths. `path` names the file in the message.
     pub fn validate(&self, path: &Path) -> Result<()> {
-        let invalid = |message: String| MeshError::Invalid { path: path.to_owned(), message };
+        let invalid = |message: String| MeshError::Invalid {
+            path: path.to_owned(),
+            message,
+        };
         let n = self.positions.len();
         if n == 0 {
             return Err(invalid("the mesh has no vertices".into()));
         }
         if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
-            return Err(invalid(format!("vertex {i} has a coordinate that is not finite: {}", self.positions[i])));
+            return Err(invalid(format!(
+                "vertex {i} has a coordinate that is not finite: {}",
+                self.positions[i]
+            )));
         }
         for (f, face) in self.faces.iter().enumerate() {
             if face.len() < 3 {
-                return Err(invalid(format!("face {f} has {} corners; a face needs at least 3", face.len())));
+                return Err(invalid(format!(
+                    "face {f} has {} corners; a face needs at least 3",
+                    face.len()
+                )));
             }
             if let Some(&v) = face.iter().find(|&&v| v as usize >= n) {
-                return Err(invalid(format!("face {f} refers to vertex {v}, but there are only {n} vertices")));
+                return Err(invalid(format!(
+                    "face {f} refers to vertex {v}, but there are only {n} vertices"
+                )));
             }
         }
         if let Some(uv) = &self.uvs {
             match &uv.corners {
                 None if uv.values.len() != n => {
-                    return Err(invalid(format!("{} texture coordinates for {n} vertices", uv.values.len())));
+                    return Err(invalid(format!(
+                        "{} texture coordinates for {n} vertices",
+                        uv.values.len()
+                    )));
                 }
                 Some(c) if c.len() != self.faces.indices.len() => {
-                    return Err(invalid("texture coordinate indices do not match the face corners".into()));
+                    return Err(invalid(
+                        "texture coordinate indices do not match the face corners".into(),
+                    ));
                 }
                 Some(c) => {
                     if let Some(&t) = c.iter().find(|&&t| t as usize >= uv.values.len()) {
@@ -96,7 +112,10 @@ impl Mesh {
         let faces = self.faces.len() as u32;
         for p in &self.parts {
             if let Some(&f) = p.faces.iter().find(|&&f| f >= faces) {
-                return Err(invalid(format!("part {:?} refers to face {f}, but there are only {faces}", p.name)));
+                return Err(invalid(format!(
+                    "part {:?} refers to face {f}, but there are only {faces}",
+                    p.name
+                )));
             }
         }
         Ok(())

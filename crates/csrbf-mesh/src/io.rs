@@ -24,10 +24,14 @@ pub struct Loaded {
 /// error: a text format with no line break at its end may have been cut off.
 pub fn load(path: &Path) -> Result<Loaded> {
     let format = Format::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io { path: path.to_owned(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
     let mesh = Mesh::from_bytes(&bytes, format, path)?;
     let mut warnings = Vec::new();
-    let text = matches!(format, Format::Obj | Format::Off) || bytes.starts_with(b"ply\nformat ascii");
+    let text =
+        matches!(format, Format::Obj | Format::Off) || bytes.starts_with(b"ply\nformat ascii");
     if text && !bytes.is_empty() && !bytes.ends_with(b"\n") {
         warnings.push(format!(
             "{}: the file does not end with a line break; it may have been cut off",
@@ -48,12 +52,18 @@ pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
 /// `path`: a reader never sees a partial file, and a failure leaves any old
 /// file as it was.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source| MeshError::Io { path: path.to_owned(), source };
+    let io = |source| MeshError::Io {
+        path: path.to_owned(),
+        source,
+    };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;

@@ -46,7 +46,10 @@ pub struct Faces {
 impl Faces {
     /// No faces.
     pub fn new() -> Faces {
-        Faces { offsets: vec![0], indices: Vec::new() }
+        Faces {
+            offsets: vec![0],
+            indices: Vec::new(),
+        }
     }
 
     /// Number of faces.
@@ -206,7 +209,11 @@ impl Mesh {
                 }
             }
         }
-        found.then(|| (0..mark.len() as u32).filter(|&i| mark[i as usize]).collect())
+        found.then(|| {
+            (0..mark.len() as u32)
+                .filter(|&i| mark[i as usize])
+                .collect()
+        })
     }
 
     /// Every part name with its vertex indices, for regions.
@@ -214,6 +221,9 @@ impl Mesh {
         let mut names: Vec<&str> = self.parts.iter().map(|p| p.name.as_str()).collect();
         names.sort_unstable();
         names.dedup();
-        names.into_iter().filter_map(|n| Some((n.to_owned(), self.part_vertices(n)?))).collect()
+        names
+            .into_iter()
+            .filter_map(|n| Some((n.to_owned(), self.part_vertices(n)?)))
+            .collect()
     }
 }

@@ -47,11 +47,18 @@ impl Binding {
         let (kernel, radius) = (deformation.kernel(), deformation.radius());
         let parallel = points.len() >= PARALLEL_POINTS;
         // One chunk per cell: split `chunks` like a per-point buffer of length 1 per cell.
-        let one_each = Blocks { order: Vec::new(), cells: (0..chunks.len()).map(|c| (c, c + 1)).collect() };
+        let one_each = Blocks {
+            order: Vec::new(),
+            cells: (0..chunks.len()).map(|c| (c, c + 1)).collect(),
+        };
         for_each_cell(&one_each, &mut chunks, parallel, |(c, _), out, cand| {
             let (s, e) = blocks.cells[c];
             let idx = &blocks.order[s..e];
-            cand.gather(deformation.octree(), idx.iter().map(|&i| points[i as usize].to_dvec3()), radius);
+            cand.gather(
+                deformation.octree(),
+                idx.iter().map(|&i| points[i as usize].to_dvec3()),
+                radius,
+            );
             let chunk = &mut out[0];
             chunk.rows = idx.to_vec();
             chunk.offsets.reserve(idx.len() + 1);
@@ -66,7 +73,13 @@ impl Binding {
                 chunk.offsets.push(chunk.ids.len() as u32);
             }
         });
-        Binding { kernel, radius, starts: deformation.starts().len(), points: points.len(), chunks }
+        Binding {
+            kernel,
+            radius,
+            starts: deformation.starts().len(),
+            points: points.len(),
+            chunks,
+        }
     }
 
     /// Number of points bound.
@@ -88,7 +101,9 @@ impl Binding {
     pub fn bytes(&self) -> usize {
         self.chunks
             .iter()
-            .map(|c| 4 * c.rows.len() + 24 * c.positions.len() + 4 * c.offsets.len() + 8 * c.ids.len())
+            .map(|c| {
+                4 * c.rows.len() + 24 * c.positions.len() + 4 * c.offsets.len() + 8 * c.ids.len()
+            })
             .sum()
     }
 
@@ -108,7 +123,11 @@ impl Binding {
             });
         }
         if out.len() != self.points {
-            return Err(Error::PointCount { what: "displacement buffer", expected: self.points, got: out.len() });
+            return Err(Error::PointCount {
+                what: "displacement buffer",
+                expected: self.points,
+                got: out.len(),
+            });
         }
         let alpha = deformation.coefficients();
         let affine = deformation.affine();

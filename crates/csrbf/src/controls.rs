@@ -62,12 +62,19 @@ impl ControlFile {
             message: format!("invalid JSON: {e}"),
         })?;
         let mut warnings = Vec::new();
-        let obj = root.as_object().ok_or_else(|| err("(top level)", "expected a JSON object"))?;
+        let obj = root
+            .as_object()
+            .ok_or_else(|| err("(top level)", "expected a JSON object"))?;
         let deformations = if let Some(list) = obj.get("deformations") {
             unknown_keys(obj, &["deformations"], "", &mut warnings);
-            let list = list.as_array().ok_or_else(|| err("deformations", "expected a list of deformations"))?;
+            let list = list
+                .as_array()
+                .ok_or_else(|| err("deformations", "expected a list of deformations"))?;
             if list.is_empty() {
-                return Err(err("deformations", "the list is empty: give at least one deformation"));
+                return Err(err(
+                    "deformations",
+                    "the list is empty: give at least one deformation",
+                ));
             }
             list.iter()
                 .enumerate()
@@ -76,18 +83,39 @@ impl ControlFile {
         } else {
             vec![spec(&root, "", &mut warnings)?]
         };
-        Ok(ControlFile { deformations, warnings })
+        Ok(ControlFile {
+            deformations,
+            warnings,
+        })
     }
 }
 
-const KEYS: &[&str] = &["kernel", "radius", "polynomial", "controls", "region", "phase", "solver", "ordering", "name", "comment"];
+const KEYS: &[&str] = &[
+    "kernel",
+    "radius",
+    "polynomial",
+    "controls",
+    "region",
+    "phase",
+    "solver",
+    "ordering",
+    "name",
+    "comment",
+];
 
 fn join(base: &str, key: &str) -> String {
-    if base.is_empty() { key.to_owned() } else { format!("{base}.{key}") }
+    if base.is_empty() {
+        key.to_owned()
+    } else {
+        format!("{base}.{key}")
+    }
 }
 
 fn err(location: &str, message: impl Into<String>) -> ControlError {
-    ControlError { location: location.to_owned(), message: message.into() }
+    ControlError {
+        location: location.to_owned(),
+        message: message.into(),
+    }
 }
 
 fn unknown_keys(obj: &Map<String, Value>, known: &[&str], base: &str, warnings: &mut Vec<String>) {
@@ -98,7 +126,12 @@ fn unknown_keys(obj: &Map<String, Value>, known: &[&str], base: &str, warnings: 
 
 fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec, ControlError> {
     let at = |k: &str| join(base, k);
-    let obj = v.as_object().ok_or_else(|| err(if base.is_empty() { "(top level)" } else { base }, "expected an object"))?;
+    let obj = v.as_object().ok_or_else(|| {
+        err(
+            if base.is_empty() { "(top level)" } else { base },
+            "expected an object",
+        )
+    })?;
     unknown_keys(obj, KEYS, base, warnings);
     let name = |k: &str| -> Result<Option<&str>, ControlError> {
         match obj.get(k) {
@@ -109,15 +142,21 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
     };
     let kernel = match name("kernel")? {
         None => Kernel::C2,
-        Some(s) => s.parse::<Kernel>().map_err(|e| err(&at("kernel"), e.to_string()))?,
+        Some(s) => s
+            .parse::<Kernel>()
+            .map_err(|e| err(&at("kernel"), e.to_string()))?,
     };
     let polynomial = match name("polynomial")? {
         None => Polynomial::Linear,
-        Some(s) => s.parse::<Polynomial>().map_err(|e| err(&at("polynomial"), e.to_string()))?,
+        Some(s) => s
+            .parse::<Polynomial>()
+            .map_err(|e| err(&at("polynomial"), e.to_string()))?,
     };
     let solver = match name("solver")? {
         None => SolverChoice::Auto,
-        Some(s) => s.parse::<SolverChoice>().map_err(|e| err(&at("solver"), e))?,
+        Some(s) => s
+            .parse::<SolverChoice>()
+            .map_err(|e| err(&at("solver"), e))?,
     };
     let ordering = match name("ordering")? {
         None | Some("auto") => Ordering::Auto,
@@ -125,33 +164,64 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         Some("breadth-first") => Ordering::BreadthFirst,
         Some("identity") => Ordering::Identity,
         Some(s) => {
-            return Err(err(&at("ordering"), format!("unknown ordering {s:?}: expected auto, rcm, breadth-first or identity")));
+            return Err(err(
+                &at("ordering"),
+                format!("unknown ordering {s:?}: expected auto, rcm, breadth-first or identity"),
+            ));
         }
     };
     let radius = match obj.get("radius") {
-        None => return Err(err(&at("radius"), "missing: give the radius of support in the mesh's units")),
-        Some(r) => r.as_f64().ok_or_else(|| err(&at("radius"), format!("expected a number, found {r}")))?,
+        None => {
+            return Err(err(
+                &at("radius"),
+                "missing: give the radius of support in the mesh's units",
+            ));
+        }
+        Some(r) => r
+            .as_f64()
+            .ok_or_else(|| err(&at("radius"), format!("expected a number, found {r}")))?,
     };
     if !(radius > 0.0 && radius.is_finite()) {
-        return Err(err(&at("radius"), format!("must be a finite number > 0, got {radius}")));
+        return Err(err(
+            &at("radius"),
+            format!("must be a finite number > 0, got {radius}"),
+        ));
     }
     let phase = match obj.get("phase") {
         None => 1.0,
-        Some(p) => p.as_f64().filter(|p| (0.0..=1.0).contains(p)).ok_or_else(|| err(&at("phase"), format!("must be a number within [0, 1], got {p}")))?,
+        Some(p) => p
+            .as_f64()
+            .filter(|p| (0.0..=1.0).contains(p))
+            .ok_or_else(|| {
+                err(
+                    &at("phase"),
+                    format!("must be a number within [0, 1], got {p}"),
+                )
+            })?,
     };
     let list = obj
         .get("controls")
-        .ok_or_else(|| err(&at("controls"), "missing: give a list of {\"from\": [x, y, z], \"to\": [x, y, z]}"))?
+        .ok_or_else(|| {
+            err(
+                &at("controls"),
+                "missing: give a list of {\"from\": [x, y, z], \"to\": [x, y, z]}",
+            )
+        })?
         .as_array()
         .ok_or_else(|| err(&at("controls"), "expected a list of control vectors"))?;
     if list.is_empty() {
-        return Err(err(&at("controls"), "no controls: give at least one {\"from\": [x, y, z], \"to\": [x, y, z]}"));
+        return Err(err(
+            &at("controls"),
+            "no controls: give at least one {\"from\": [x, y, z], \"to\": [x, y, z]}",
+        ));
     }
     let mut starts = Vec::with_capacity(list.len());
     let mut targets = Vec::with_capacity(list.len());
     for (i, c) in list.iter().enumerate() {
         let here = format!("{}[{i}]", at("controls"));
-        let c = c.as_object().ok_or_else(|| err(&here, "expected {\"from\": [x, y, z], \"to\": [x, y, z]}"))?;
+        let c = c
+            .as_object()
+            .ok_or_else(|| err(&here, "expected {\"from\": [x, y, z], \"to\": [x, y, z]}"))?;
         unknown_keys(c, &["from", "to", "name"], &here, warnings);
         starts.push(point(c.get("from"), &format!("{here}.from"))?);
         targets.push(point(c.get("to"), &format!("{here}.to"))?);
@@ -166,15 +236,29 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         .with_polynomial(polynomial)
         .with_solver(solver)
         .with_ordering(ordering);
-    Ok(ControlSpec { starts, targets, options, region, phase })
+    Ok(ControlSpec {
+        starts,
+        targets,
+        options,
+        region,
+        phase,
+    })
 }
 
 fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
     let v = v.ok_or_else(|| err(at, "missing: expected three numbers [x, y, z]"))?;
-    let a = v.as_array().filter(|a| a.len() == 3).ok_or_else(|| err(at, format!("expected three numbers [x, y, z], found {v}")))?;
+    let a = v
+        .as_array()
+        .filter(|a| a.len() == 3)
+        .ok_or_else(|| err(at, format!("expected three numbers [x, y, z], found {v}")))?;
     let mut p = [0.0; 3];
     for (k, x) in a.iter().enumerate() {
-        p[k] = x.as_f64().ok_or_else(|| err(&format!("{at}[{k}]"), format!("expected a number, found {x}")))?;
+        p[k] = x.as_f64().ok_or_else(|| {
+            err(
+                &format!("{at}[{k}]"),
+                format!("expected a number, found {x}"),
+            )
+        })?;
         if !p[k].is_finite() {
             return Err(err(&format!("{at}[{k}]"), "not a finite number"));
         }
@@ -204,16 +288,35 @@ fn region(v: &Value, at: &str) -> Result<Region, ControlError> {
             Region::Box { min, max }
         }
         "vertices" => {
-            let list = body.as_array().ok_or_else(|| err(&here, "expected a list of vertex indices"))?;
+            let list = body
+                .as_array()
+                .ok_or_else(|| err(&here, "expected a list of vertex indices"))?;
             let mut v = Vec::with_capacity(list.len());
             for (i, x) in list.iter().enumerate() {
-                let idx = x.as_u64().filter(|&x| x <= u32::MAX as u64).ok_or_else(|| err(&format!("{here}[{i}]"), format!("expected a vertex index, found {x}")))?;
+                let idx = x
+                    .as_u64()
+                    .filter(|&x| x <= u32::MAX as u64)
+                    .ok_or_else(|| {
+                        err(
+                            &format!("{here}[{i}]"),
+                            format!("expected a vertex index, found {x}"),
+                        )
+                    })?;
                 v.push(idx as u32);
             }
             Region::Vertices(v)
         }
-        "group" => Region::Group(body.as_str().ok_or_else(|| err(&here, "expected a part name"))?.to_owned()),
-        other => return Err(err(at, format!("unknown region {other:?}: expected sphere, box, vertices or group"))),
+        "group" => Region::Group(
+            body.as_str()
+                .ok_or_else(|| err(&here, "expected a part name"))?
+                .to_owned(),
+        ),
+        other => {
+            return Err(err(
+                at,
+                format!("unknown region {other:?}: expected sphere, box, vertices or group"),
+            ));
+        }
     })
 }
 
@@ -223,14 +326,19 @@ mod tests {
 
     #[test]
     fn the_issue_schema_and_defaults() {
-        let f = ControlFile::parse(r#"{"kernel": "c4", "radius": 0.3, "polynomial": "none",
-            "controls": [{"from": [0, 0, 0], "to": [1, 2, 3]}]}"#)
+        let f = ControlFile::parse(
+            r#"{"kernel": "c4", "radius": 0.3, "polynomial": "none",
+            "controls": [{"from": [0, 0, 0], "to": [1, 2, 3]}]}"#,
+        )
         .expect("parse");
         let d = &f.deformations[0];
         assert_eq!(d.options.kernel, Kernel::C4);
         assert_eq!(d.options.polynomial, Polynomial::None);
         assert_eq!(d.targets[0], DVec3::new(1.0, 2.0, 3.0));
-        let f = ControlFile::parse(r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}], "extra": 1}"#).expect("parse");
+        let f = ControlFile::parse(
+            r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}], "extra": 1}"#,
+        )
+        .expect("parse");
         assert_eq!(f.deformations[0].options.kernel, Kernel::C2);
         assert_eq!(f.deformations[0].options.polynomial, Polynomial::Linear);
         assert_eq!(f.warnings, vec!["extra: unknown key ignored".to_owned()]);
@@ -251,20 +359,50 @@ mod tests {
     fn errors_name_the_path() {
         let cases = [
             ("{", "line 1, column 1"),
-            (r#"{"radius": 1, "kernel": "c3", "controls": []}"#, "kernel: unknown kernel \"c3\": expected one of c0, c2, c4, c6"),
-            (r#"{"radius": 1, "polynomial": "cubic", "controls": []}"#, "polynomial: unknown polynomial \"cubic\": expected one of none, linear"),
-            (r#"{"radius": 0, "controls": []}"#, "radius: must be a finite number > 0"),
-            (r#"{"radius": -2, "controls": []}"#, "radius: must be a finite number > 0"),
+            (
+                r#"{"radius": 1, "kernel": "c3", "controls": []}"#,
+                "kernel: unknown kernel \"c3\": expected one of c0, c2, c4, c6",
+            ),
+            (
+                r#"{"radius": 1, "polynomial": "cubic", "controls": []}"#,
+                "polynomial: unknown polynomial \"cubic\": expected one of none, linear",
+            ),
+            (
+                r#"{"radius": 0, "controls": []}"#,
+                "radius: must be a finite number > 0",
+            ),
+            (
+                r#"{"radius": -2, "controls": []}"#,
+                "radius: must be a finite number > 0",
+            ),
             (r#"{"controls": []}"#, "radius: missing"),
             (r#"{"radius": 1, "controls": []}"#, "controls: no controls"),
-            (r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [0,0], "to": [1,1,1]}]}"#, "controls[1].from: expected three numbers"),
-            (r#"{"radius": 1, "controls": [{"from": [0,0,"a"], "to": [0,0,0]}]}"#, "controls[0].from[2]: expected a number"),
-            (r#"{"deformations": [{"radius": 1, "controls": [{"from": [0,0,0]}]}]}"#, "deformations[0].controls[0].to: missing"),
-            (r#"{"radius": 1, "phase": 3, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, "phase: must be a number within [0, 1]"),
-            (r#"{"radius": 1, "region": {"cone": 1}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#, "unknown region \"cone\""),
+            (
+                r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [0,0], "to": [1,1,1]}]}"#,
+                "controls[1].from: expected three numbers",
+            ),
+            (
+                r#"{"radius": 1, "controls": [{"from": [0,0,"a"], "to": [0,0,0]}]}"#,
+                "controls[0].from[2]: expected a number",
+            ),
+            (
+                r#"{"deformations": [{"radius": 1, "controls": [{"from": [0,0,0]}]}]}"#,
+                "deformations[0].controls[0].to: missing",
+            ),
+            (
+                r#"{"radius": 1, "phase": 3, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "phase: must be a number within [0, 1]",
+            ),
+            (
+                r#"{"radius": 1, "region": {"cone": 1}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "unknown region \"cone\"",
+            ),
         ];
         for (text, want) in cases {
-            let e = ControlFile::parse(text).err().map(|e| e.to_string()).unwrap_or_default();
+            let e = ControlFile::parse(text)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
             assert!(e.contains(want), "{text}: {e:?} does not contain {want:?}");
         }
     }

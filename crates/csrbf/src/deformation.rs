@@ -74,7 +74,10 @@ impl Deformation {
     /// ```
     pub fn fit(starts: &[DVec3], targets: &[DVec3], options: FitOptions) -> Result<Deformation> {
         if starts.len() != targets.len() {
-            return Err(Error::LengthMismatch { starts: starts.len(), targets: targets.len() });
+            return Err(Error::LengthMismatch {
+                starts: starts.len(),
+                targets: targets.len(),
+            });
         }
         System::new(starts, options)?.solve(targets)
     }
@@ -91,7 +94,15 @@ impl Deformation {
         octree: Option<Octree>,
     ) -> Deformation {
         let octree = octree.unwrap_or_else(|| Octree::new(&starts));
-        Deformation { kernel, radius, starts, coefficients, affine, order, octree }
+        Deformation {
+            kernel,
+            radius,
+            starts,
+            coefficients,
+            affine,
+            order,
+            octree,
+        }
     }
 
     /// The kernel.
@@ -104,7 +115,11 @@ impl Deformation {
     }
     /// The polynomial term.
     pub fn polynomial(&self) -> Polynomial {
-        if self.affine.is_some() { Polynomial::Linear } else { Polynomial::None }
+        if self.affine.is_some() {
+            Polynomial::Linear
+        } else {
+            Polynomial::None
+        }
     }
     /// The start points.
     pub fn starts(&self) -> &[DVec3] {
@@ -166,16 +181,27 @@ impl Deformation {
         let blocks = Blocks::new(points, self.radius * 0.5);
         let mut sorted = vec![T::default(); points.len()];
         let (kernel, radius) = (self.kernel, self.radius);
-        for_each_cell(&blocks, &mut sorted, points.len() >= PARALLEL_POINTS, |(s, e), out, cand| {
-            let idx = &blocks.order[s..e];
-            cand.gather(&self.octree, idx.iter().map(|&i| points[i as usize].to_dvec3()), radius);
-            for (o, &i) in out.iter_mut().zip(idx) {
-                let x = points[i as usize].to_dvec3();
-                let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
-                cand.for_each_weight(x, kernel, radius, |j, w| d += self.coefficients[j as usize] * w);
-                *o = conv(d);
-            }
-        });
+        for_each_cell(
+            &blocks,
+            &mut sorted,
+            points.len() >= PARALLEL_POINTS,
+            |(s, e), out, cand| {
+                let idx = &blocks.order[s..e];
+                cand.gather(
+                    &self.octree,
+                    idx.iter().map(|&i| points[i as usize].to_dvec3()),
+                    radius,
+                );
+                for (o, &i) in out.iter_mut().zip(idx) {
+                    let x = points[i as usize].to_dvec3();
+                    let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
+                    cand.for_each_weight(x, kernel, radius, |j, w| {
+                        d += self.coefficients[j as usize] * w
+                    });
+                    *o = conv(d);
+                }
+            },
+        );
         for (k, &i) in blocks.order.iter().enumerate() {
             out[i as usize] = sorted[k];
         }

@@ -44,7 +44,10 @@ impl Blocks {
     pub(crate) fn new<P: Point>(points: &[P], cell: f64) -> Blocks {
         let n = points.len();
         if n == 0 {
-            return Blocks { order: Vec::new(), cells: Vec::new() };
+            return Blocks {
+                order: Vec::new(),
+                cells: Vec::new(),
+            };
         }
         let (lo, hi) = points.iter().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
@@ -55,12 +58,20 @@ impl Blocks {
         );
         let extent = (hi - lo).max(DVec3::ZERO);
         let cap = (4 * n).clamp(64, 1 << 23) as f64;
-        let mut h = if cell > 0.0 && cell.is_finite() { cell } else { extent.max_element().max(1.0) };
+        let mut h = if cell > 0.0 && cell.is_finite() {
+            cell
+        } else {
+            extent.max_element().max(1.0)
+        };
         let dims_of = |h: f64| (extent / h).floor().max(DVec3::ZERO) + 1.0;
         let mut dims = dims_of(h);
         while !(dims.x * dims.y * dims.z <= cap) {
             let grow = ((dims.x * dims.y * dims.z) / cap).cbrt().max(1.01);
-            h = if grow.is_finite() { h * grow } else { extent.max_element().max(1.0) };
+            h = if grow.is_finite() {
+                h * grow
+            } else {
+                extent.max_element().max(1.0)
+            };
             dims = dims_of(h);
         }
         let d = [dims.x as usize, dims.y as usize, dims.z as usize];
@@ -121,7 +132,12 @@ pub(crate) struct Candidates {
 
 impl Candidates {
     /// The starts within `radius` of the bounds of `cell_points`.
-    pub(crate) fn gather(&mut self, octree: &Octree, cell_points: impl Iterator<Item = DVec3>, radius: f64) {
+    pub(crate) fn gather(
+        &mut self,
+        octree: &Octree,
+        cell_points: impl Iterator<Item = DVec3>,
+        radius: f64,
+    ) {
         let (lo, hi) = cell_points.fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(p), hi.max(p)),
@@ -136,7 +152,13 @@ impl Candidates {
 
     /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
     #[inline]
-    pub(crate) fn for_each_weight(&self, x: DVec3, kernel: Kernel, radius: f64, mut f: impl FnMut(u32, f64)) {
+    pub(crate) fn for_each_weight(
+        &self,
+        x: DVec3,
+        kernel: Kernel,
+        radius: f64,
+        mut f: impl FnMut(u32, f64),
+    ) {
         let r2 = radius * radius;
         let inv = 1.0 / radius;
         for (p, &id) in self.pos.iter().zip(&self.id) {
@@ -158,9 +180,13 @@ pub(crate) fn for_each_cell<T: Send>(
 ) {
     let slices = blocks.split(out);
     if parallel {
-        blocks.cells.par_iter().zip(slices).for_each_init(Candidates::default, |cand, (cell, out)| {
-            work(*cell, out, cand)
-        });
+        blocks
+            .cells
+            .par_iter()
+            .zip(slices)
+            .for_each_init(Candidates::default, |cand, (cell, out)| {
+                work(*cell, out, cand)
+            });
     } else {
         let mut cand = Candidates::default();
         for (cell, out) in blocks.cells.iter().zip(slices) {

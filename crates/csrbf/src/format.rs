@@ -63,10 +63,15 @@ pub fn encode(stages: &[(Deformation, Region)]) -> Vec<u8> {
 /// Decodes a file made by [`encode`], checking magic, version, sizes and checksum.
 pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
-        return Err(Error::Format("it does not start with the csrbf magic bytes".into()));
+        return Err(Error::Format(
+            "it does not start with the csrbf magic bytes".into(),
+        ));
     }
     if bytes.len() < 22 {
-        return Err(Error::Format(format!("truncated: only {} bytes", bytes.len())));
+        return Err(Error::Format(format!(
+            "truncated: only {} bytes",
+            bytes.len()
+        )));
     }
     let (body, tail) = bytes.split_at(bytes.len() - 8);
     let version = u16::from_le_bytes([bytes[6], bytes[7]]);
@@ -78,7 +83,9 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
     let mut sum = [0u8; 8];
     sum.copy_from_slice(tail);
     if u64::from_le_bytes(sum) != fnv1a(body) {
-        return Err(Error::Format("checksum mismatch: the file is damaged or truncated".into()));
+        return Err(Error::Format(
+            "checksum mismatch: the file is damaged or truncated".into(),
+        ));
     }
     let mut r = Reader { b: body, at: 8 };
     r.u16("header")?;
@@ -90,20 +97,32 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
         let poly = match r.u8("polynomial")? {
             0 => Polynomial::None,
             1 => Polynomial::Linear,
-            c => return Err(Error::Format(format!("stage {s}: unknown polynomial code {c}"))),
+            c => {
+                return Err(Error::Format(format!(
+                    "stage {s}: unknown polynomial code {c}"
+                )));
+            }
         };
         r.u16("reserved")?;
         let radius = r.f64("radius")?;
         if !(radius > 0.0 && radius.is_finite()) {
-            return Err(Error::Format(format!("stage {s}: radius {radius} is not valid")));
+            return Err(Error::Format(format!(
+                "stage {s}: radius {radius} is not valid"
+            )));
         }
         let n = r.u32("start count")? as usize;
         // Guard the allocations against a forged count.
         if n.saturating_mul(52) > r.b.len() - r.at.min(r.b.len()) {
-            return Err(Error::Format(format!("stage {s}: {n} starts do not fit in the file")));
+            return Err(Error::Format(format!(
+                "stage {s}: {n} starts do not fit in the file"
+            )));
         }
-        let starts = (0..n).map(|_| r.vec("starts")).collect::<Result<Vec<_>>>()?;
-        let coefficients = (0..n).map(|_| r.vec("coefficients")).collect::<Result<Vec<_>>>()?;
+        let starts = (0..n)
+            .map(|_| r.vec("starts"))
+            .collect::<Result<Vec<_>>>()?;
+        let coefficients = (0..n)
+            .map(|_| r.vec("coefficients"))
+            .collect::<Result<Vec<_>>>()?;
         let affine = match poly {
             Polynomial::None => None,
             Polynomial::Linear => {
@@ -113,18 +132,30 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
                 for v in &mut c {
                     *v = r.vec("polynomial coefficients")?;
                 }
-                Some(Affine { center, scale, coefficients: c })
+                Some(Affine {
+                    center,
+                    scale,
+                    coefficients: c,
+                })
             }
         };
         let order = (0..n).map(|_| r.u32("order")).collect::<Result<Vec<_>>>()?;
         if order.iter().any(|&o| o as usize >= n) {
-            return Err(Error::Format(format!("stage {s}: order refers to a start that does not exist")));
+            return Err(Error::Format(format!(
+                "stage {s}: order refers to a start that does not exist"
+            )));
         }
         let region = get_region(&mut r)?;
-        out.push((Deformation::from_parts(kernel, radius, starts, coefficients, affine, order, None), region));
+        out.push((
+            Deformation::from_parts(kernel, radius, starts, coefficients, affine, order, None),
+            region,
+        ));
     }
     if r.at != r.b.len() {
-        return Err(Error::Format(format!("{} unexpected bytes after the last stage", r.b.len() - r.at)));
+        return Err(Error::Format(format!(
+            "{} unexpected bytes after the last stage",
+            r.b.len() - r.at
+        )));
     }
     Ok(out)
 }
@@ -166,12 +197,22 @@ fn put_region(w: &mut Vec<u8>, region: &Region) {
 fn get_region(r: &mut Reader) -> Result<Region> {
     Ok(match r.u8("region tag")? {
         0 => Region::All,
-        1 => Region::Sphere { center: r.vec("region")?, radius: r.f64("region")? },
-        2 => Region::Box { min: r.vec("region")?, max: r.vec("region")? },
+        1 => Region::Sphere {
+            center: r.vec("region")?,
+            radius: r.f64("region")?,
+        },
+        2 => Region::Box {
+            min: r.vec("region")?,
+            max: r.vec("region")?,
+        },
         3 => {
             let n = r.u32("region size")? as usize;
             r.need(n.saturating_mul(4), "region vertices")?;
-            Region::Vertices((0..n).map(|_| r.u32("region vertices")).collect::<Result<_>>()?)
+            Region::Vertices(
+                (0..n)
+                    .map(|_| r.u32("region vertices"))
+                    .collect::<Result<_>>()?,
+            )
         }
         4 => {
             let n = r.u32("region name length")? as usize;
@@ -193,7 +234,10 @@ struct Reader<'a> {
 impl Reader<'_> {
     fn need(&self, n: usize, what: &str) -> Result<()> {
         if self.b.len().saturating_sub(self.at) < n {
-            return Err(Error::Format(format!("truncated at byte {} while reading {what}", self.at)));
+            return Err(Error::Format(format!(
+                "truncated at byte {} while reading {what}",
+                self.at
+            )));
         }
         Ok(())
     }
@@ -221,7 +265,11 @@ impl Reader<'_> {
         Ok(f64::from_le_bytes(a))
     }
     fn vec(&mut self, what: &str) -> Result<DVec3> {
-        Ok(DVec3::new(self.f64(what)?, self.f64(what)?, self.f64(what)?))
+        Ok(DVec3::new(
+            self.f64(what)?,
+            self.f64(what)?,
+            self.f64(what)?,
+        ))
     }
 }
 

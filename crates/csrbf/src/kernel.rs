@@ -147,7 +147,10 @@ mod tests {
                 s.powi(8) * (32.0 * r.powi(3) + 25.0 * r * r + 8.0 * r + 1.0),
             ];
             for (k, w) in Kernel::ALL.into_iter().zip(want) {
-                assert!((k.eval(r) - w).abs() <= 1e-14 * w.abs().max(1.0), "{k} at {r}");
+                assert!(
+                    (k.eval(r) - w).abs() <= 1e-14 * w.abs().max(1.0),
+                    "{k} at {r}"
+                );
             }
         }
         for k in Kernel::ALL {

@@ -15,7 +15,7 @@
 //! - [`Deformation`]: the fitted map, evaluated anywhere, in parallel;
 //! - [`Binding`]: per-point weights for repeated frames; [`frame`] gives v + t D(v);
 //! - [`Pipeline`]: deformations composed in order, each on a [`Region`], lazily;
-//! - [`format`]: the compact `.csrbf` replay file.
+//! - [`mod@format`]: the compact `.csrbf` replay file.
 //!
 //! # Radius of support and locality
 //!

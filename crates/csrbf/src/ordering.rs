@@ -24,12 +24,18 @@ impl Graph {
             neighbours.extend_from_slice(l);
             offsets.push(neighbours.len());
         }
-        Graph { offsets, neighbours }
+        Graph {
+            offsets,
+            neighbours,
+        }
     }
 
     /// A graph from compressed rows.
     pub(crate) fn from_parts(offsets: Vec<usize>, neighbours: Vec<u32>) -> Graph {
-        Graph { offsets, neighbours }
+        Graph {
+            offsets,
+            neighbours,
+        }
     }
 
     /// Number of nodes.
@@ -123,10 +129,17 @@ pub fn order(graph: &Graph, ordering: Ordering) -> (Vec<u32>, Band, Ordering) {
         return (p, b, ordering);
     }
     let mut best: Option<(Vec<u32>, Band, Ordering)> = None;
-    for o in [Ordering::ReverseCuthillMcKee, Ordering::BreadthFirst, Ordering::Identity] {
+    for o in [
+        Ordering::ReverseCuthillMcKee,
+        Ordering::BreadthFirst,
+        Ordering::Identity,
+    ] {
         let p = pick(o);
         let b = band(graph, &p);
-        if best.as_ref().is_none_or(|(_, bb, _)| b.envelope < bb.envelope) {
+        if best
+            .as_ref()
+            .is_none_or(|(_, bb, _)| b.envelope < bb.envelope)
+        {
             best = Some((p, b, o));
         }
     }
@@ -179,7 +192,12 @@ fn sweep(graph: &Graph, root: impl Fn(usize) -> usize, by_degree: bool) -> Vec<u
         while let Some(i) = queue.pop_front() {
             perm.push(i);
             buf.clear();
-            buf.extend(graph.neighbours(i as usize).iter().filter(|&&j| !seen[j as usize]));
+            buf.extend(
+                graph
+                    .neighbours(i as usize)
+                    .iter()
+                    .filter(|&&j| !seen[j as usize]),
+            );
             if by_degree {
                 buf.sort_by_key(|&j| (graph.degree(j as usize), j));
             }
@@ -267,7 +285,9 @@ mod tests {
 
     fn is_permutation(p: &[u32], n: usize) -> bool {
         let mut seen = vec![false; n];
-        p.len() == n && p.iter().all(|&i| !std::mem::replace(&mut seen[i as usize], true))
+        p.len() == n
+            && p.iter()
+                .all(|&i| !std::mem::replace(&mut seen[i as usize], true))
     }
 
     #[test]

@@ -33,7 +33,13 @@ pub struct Stage {
 impl Stage {
     /// A stage over every point at full phase.
     pub fn new(starts: Vec<DVec3>, targets: Vec<DVec3>, options: FitOptions) -> Stage {
-        Stage { starts, targets, options, region: Region::All, phase: 1.0 }
+        Stage {
+            starts,
+            targets,
+            options,
+            region: Region::All,
+            phase: 1.0,
+        }
     }
 
     /// With this region.
@@ -65,6 +71,25 @@ pub struct Work {
     pub outputs: usize,
 }
 
+/// Generations a cached value was computed from.
+type Key3 = (u64, u64, u64);
+
+/// A binding with the points it covers.
+#[derive(Debug)]
+struct Bound {
+    key: Key3,
+    active: Vec<u32>,
+    binding: Binding,
+}
+
+/// A stage's output, the generations it came from and its own generation.
+#[derive(Debug)]
+struct Output {
+    key: Key3,
+    points: Vec<Vec3>,
+    generation: u64,
+}
+
 #[derive(Debug)]
 struct StageState {
     stage: Stage,
@@ -76,10 +101,9 @@ struct StageState {
     system: Option<(u64, System)>,
     deformation: Option<((u64, u64), Deformation)>,
     /// Active points, and the generations (input, region, system) the binding was made from.
-    binding: Option<((u64, u64, u64), Vec<u32>, Binding)>,
-    displacement: Option<((u64, u64, u64, u64), Vec<Vec3>)>,
-    /// Output and the generations it came from; its own generation last.
-    output: Option<((u64, u64, u64), Vec<Vec3>, u64)>,
+    binding: Option<Bound>,
+    displacement: Option<(Key3, u64, Vec<Vec3>)>,
+    output: Option<Output>,
 }
 
 /// A chain of deformations over a set of rest points.
@@ -96,7 +120,14 @@ pub struct Pipeline {
 impl Pipeline {
     /// A pipeline over these rest points with no stage yet.
     pub fn new(rest: Vec<Vec3>) -> Pipeline {
-        Pipeline { rest, gen_rest: 1, next_gen: 2, stages: Vec::new(), groups: Vec::new(), work: Work::default() }
+        Pipeline {
+            rest,
+            gen_rest: 1,
+            next_gen: 2,
+            stages: Vec::new(),
+            groups: Vec::new(),
+            work: Work::default(),
+        }
     }
 
     /// Names parts of the points, for [`Region::Group`].
@@ -161,7 +192,11 @@ impl Pipeline {
 
     fn state(&mut self, i: usize) -> Result<&mut StageState> {
         let n = self.stages.len();
-        self.stages.get_mut(i).ok_or(Error::PointCount { what: "stage index", expected: n, got: i })
+        self.stages.get_mut(i).ok_or(Error::PointCount {
+            what: "stage index",
+            expected: n,
+            got: i,
+        })
     }
 
     /// New destinations for stage `i`: re-solves with the existing factor.
@@ -174,7 +209,12 @@ impl Pipeline {
     }
 
     /// New control vectors (starts and destinations) for stage `i`: rebuilds its system.
-    pub fn set_controls(&mut self, i: usize, starts: Vec<DVec3>, targets: Vec<DVec3>) -> Result<()> {
+    pub fn set_controls(
+        &mut self,
+        i: usize,
+        starts: Vec<DVec3>,
+        targets: Vec<DVec3>,
+    ) -> Result<()> {
         let g = self.bump();
         let s = self.state(i)?;
         s.stage.starts = starts;
@@ -247,7 +287,9 @@ impl Pipeline {
         let s = &mut self.stages[i];
         let key = (s.gen_system, s.gen_targets);
         if s.deformation.as_ref().is_none_or(|(k, _)| *k != key) {
-            let Some((_, sys)) = &s.system else { return Err(Error::NoControls) };
+            let Some((_, sys)) = &s.system else {
+                return Err(Error::NoControls);
+            };
             s.deformation = Some((key, sys.solve(&s.stage.targets)?));
             self.work.solves += 1;
         }
@@ -262,7 +304,9 @@ impl Pipeline {
             input_gen = self.refresh_output(i, input_gen)?;
         }
         Ok(match self.stages.last() {
-            Some(StageState { output: Some((_, out, _)), .. }) => out,
+            Some(StageState {
+                output: Some(o), ..
+            }) => &o.points,
             _ => &self.rest,
         })
     }
@@ -272,47 +316,74 @@ impl Pipeline {
     fn refresh_output(&mut self, i: usize, input_gen: u64) -> Result<u64> {
         let (head, tail) = self.stages.split_at_mut(i);
         let input: &[Vec3] = match head.last() {
-            Some(StageState { output: Some((_, out, _)), .. }) => out,
+            Some(StageState {
+                output: Some(o), ..
+            }) => &o.points,
             _ => &self.rest,
         };
         let s = &mut tail[0];
         let groups = &self.groups;
-        let Some((_, def)) = &s.deformation else { return Err(Error::NoControls) };
+        let Some((_, def)) = &s.deformation else {
+            return Err(Error::NoControls);
+        };
 
         let bkey = (input_gen, s.gen_region, s.gen_system);
-        if s.binding.as_ref().is_none_or(|(k, _, _)| *k != bkey) {
-            let lookup = |name: &str| groups.iter().find(|(n, _)| n == name).map(|(_, v)| v.clone());
+        if s.binding.as_ref().is_none_or(|b| b.key != bkey) {
+            let lookup = |name: &str| {
+                groups
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .map(|(_, v)| v.clone())
+            };
             let active = s.stage.region.select(&self.rest, &lookup)?;
             let pts: Vec<Vec3> = active.iter().map(|&k| input[k as usize]).collect();
-            let b = Binding::new(def, &pts);
-            s.binding = Some((bkey, active, b));
+            let binding = Binding::new(def, &pts);
+            s.binding = Some(Bound {
+                key: bkey,
+                active,
+                binding,
+            });
             self.work.bindings += 1;
         }
-        let Some((_, active, binding)) = &s.binding else { return Err(Error::NoControls) };
+        let Some(bound) = &s.binding else {
+            return Err(Error::NoControls);
+        };
 
-        let dkey = (input_gen, s.gen_region, s.gen_system, s.gen_targets);
-        if s.displacement.as_ref().is_none_or(|(k, _)| *k != dkey) {
-            s.displacement = Some((dkey, binding.displacements(def)?));
+        if s.displacement
+            .as_ref()
+            .is_none_or(|(k, t, _)| *k != bkey || *t != s.gen_targets)
+        {
+            s.displacement = Some((bkey, s.gen_targets, bound.binding.displacements(def)?));
             self.work.displacements += 1;
         }
-        let Some((_, disp)) = &s.displacement else { return Err(Error::NoControls) };
+        let Some((_, _, disp)) = &s.displacement else {
+            return Err(Error::NoControls);
+        };
 
-        let okey = (input_gen, dkey.3.max(dkey.2).max(dkey.1), s.gen_phase);
-        if let Some((k, _, g)) = &s.output
-            && *k == okey
+        let okey = (
+            input_gen,
+            bkey.1.max(bkey.2).max(s.gen_targets),
+            s.gen_phase,
+        );
+        if let Some(o) = &s.output
+            && o.key == okey
         {
-            return Ok(*g);
+            return Ok(o.generation);
         }
         let mut out = input.to_vec();
         let t = s.stage.phase as f32;
-        for (&k, d) in active.iter().zip(disp) {
+        for (&k, d) in bound.active.iter().zip(disp) {
             out[k as usize] += *d * t;
         }
         self.next_gen += 1;
-        let g = self.next_gen;
-        s.output = Some((okey, out, g));
+        let generation = self.next_gen;
+        s.output = Some(Output {
+            key: okey,
+            points: out,
+            generation,
+        });
         self.work.outputs += 1;
-        Ok(g)
+        Ok(generation)
     }
 }
 

@@ -43,15 +43,22 @@ impl Region {
     ) -> Result<Vec<u32>> {
         let n = points.len();
         let filter = |keep: &dyn Fn(DVec3) -> bool| -> Vec<u32> {
-            (0..n as u32).filter(|&i| keep(points[i as usize].as_dvec3())).collect()
+            (0..n as u32)
+                .filter(|&i| keep(points[i as usize].as_dvec3()))
+                .collect()
         };
         Ok(match self {
             Region::All => (0..n as u32).collect(),
-            Region::Sphere { center, radius } => filter(&|p| p.distance_squared(*center) <= radius * radius),
+            Region::Sphere { center, radius } => {
+                filter(&|p| p.distance_squared(*center) <= radius * radius)
+            }
             Region::Box { min, max } => filter(&|p| p.cmpge(*min).all() && p.cmple(*max).all()),
             Region::Vertices(v) => {
                 if let Some(&bad) = v.iter().find(|&&i| i as usize >= n) {
-                    return Err(Error::RegionIndex { index: bad as usize, count: n });
+                    return Err(Error::RegionIndex {
+                        index: bad as usize,
+                        count: n,
+                    });
                 }
                 let mut v = v.clone();
                 v.sort_unstable();
@@ -72,11 +79,17 @@ impl Region {
     /// lists and groups are returned unchanged.
     pub fn grown(&self, amount: f64) -> Region {
         match self {
-            Region::Sphere { center, radius } => Region::Sphere { center: *center, radius: (radius + amount).max(0.0) },
+            Region::Sphere { center, radius } => Region::Sphere {
+                center: *center,
+                radius: (radius + amount).max(0.0),
+            },
             Region::Box { min, max } => {
                 let d = DVec3::splat(amount);
                 let (lo, hi) = (*min - d, *max + d);
-                Region::Box { min: lo.min(hi), max: hi.max(lo) }
+                Region::Box {
+                    min: lo.min(hi),
+                    max: hi.max(lo),
+                }
             }
             other => other.clone(),
         }

@@ -40,10 +40,14 @@ impl SolverChoice {
 impl std::str::FromStr for SolverChoice {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        [SolverChoice::Auto, SolverChoice::Skyline, SolverChoice::Supernodal]
-            .into_iter()
-            .find(|c| c.name() == s)
-            .ok_or_else(|| format!("unknown solver {s:?}: expected auto, skyline or supernodal"))
+        [
+            SolverChoice::Auto,
+            SolverChoice::Skyline,
+            SolverChoice::Supernodal,
+        ]
+        .into_iter()
+        .find(|c| c.name() == s)
+        .ok_or_else(|| format!("unknown solver {s:?}: expected auto, skyline or supernodal"))
     }
 }
 
@@ -54,7 +58,10 @@ pub(crate) enum Factor {
     Skyline { profile: Profile, perm: Vec<u32> },
     /// faer's supernodal (or simplicial, for tiny systems) factor; it keeps
     /// its own fill-reducing permutation.
-    Supernodal { symbolic: SymbolicCholesky<u32>, values: Vec<f64> },
+    Supernodal {
+        symbolic: SymbolicCholesky<u32>,
+        values: Vec<f64>,
+    },
 }
 
 /// The lower triangle of A by columns: `col_ptr`, sorted `row_idx` (each
@@ -73,17 +80,22 @@ fn parallelism(work: f64) -> Par {
 impl Factor {
     /// Factors the profile; a failed pivot is reported by control index.
     pub(crate) fn skyline(mut profile: Profile, perm: Vec<u32>) -> Result<Factor> {
-        profile
-            .factor()
-            .map_err(|e| Error::NotPositiveDefinite { control: perm[e.row] as usize })?;
+        profile.factor().map_err(|e| Error::NotPositiveDefinite {
+            control: perm[e.row] as usize,
+        })?;
         Ok(Factor::Skyline { profile, perm })
     }
 
     /// Symbolic analysis (AMD ordering, elimination tree, supernodes).
     pub(crate) fn supernodal_symbolic(a: &LowerCsc) -> Result<SymbolicCholesky<u32>> {
         let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
-        factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, Default::default())
-            .map_err(|e| Error::Solver(format!("{e:?}")))
+        factorize_symbolic_cholesky(
+            pattern,
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| Error::Solver(format!("{e:?}")))
     }
 
     /// Numeric factorisation with a symbolic analysis already made.
@@ -92,8 +104,10 @@ impl Factor {
         let matrix = SparseColMatRef::new(pattern, &a.values);
         let mut values = vec![0.0; symbolic.len_val()];
         let par = parallelism(values.len() as f64 * 50.0);
-        let mut mem = MemBuffer::try_new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
-            .map_err(|e| Error::Solver(format!("{e:?}")))?;
+        let mut mem = MemBuffer::try_new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|e| Error::Solver(format!("{e:?}")))?;
         let result = symbolic.factorize_numeric_llt(
             &mut values,
             matrix,

@@ -30,7 +30,11 @@ impl Rng {
 
     /// Uniform in [0, n); 0 when n is 0.
     pub fn below(&mut self, n: usize) -> usize {
-        if n == 0 { 0 } else { (self.next_u64() % n as u64) as usize }
+        if n == 0 {
+            0
+        } else {
+            (self.next_u64() % n as u64) as usize
+        }
     }
 
     /// Uniform in the unit cube [0, 1)^3.
@@ -42,7 +46,13 @@ impl Rng {
 /// `n` points of a Fibonacci lattice on the sphere of the given centre and
 /// radius. With `jitter > 0` each point is moved along the sphere by up to
 /// `jitter` times the lattice spacing (seeded), which keeps starts distinct.
-pub fn fibonacci_sphere(n: usize, center: DVec3, radius: f64, jitter: f64, seed: u64) -> Vec<DVec3> {
+pub fn fibonacci_sphere(
+    n: usize,
+    center: DVec3,
+    radius: f64,
+    jitter: f64,
+    seed: u64,
+) -> Vec<DVec3> {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     let mut rng = Rng::new(seed);
     let spacing = (4.0 * std::f64::consts::PI / n.max(1) as f64).sqrt();

@@ -141,9 +141,17 @@ impl System {
         let (graph, close) = neighbour_graph(starts, &octree, radius, options.kernel);
         if let Some(c) = close {
             return Err(if c.d2 == 0.0 {
-                Error::DuplicateStart { first: c.first, second: c.second }
+                Error::DuplicateStart {
+                    first: c.first,
+                    second: c.second,
+                }
             } else {
-                Error::StartsTooClose { first: c.first, second: c.second, distance: c.d2.sqrt(), radius }
+                Error::StartsTooClose {
+                    first: c.first,
+                    second: c.second,
+                    distance: c.d2.sqrt(),
+                    radius,
+                }
             });
         }
         let n = starts.len();
@@ -175,19 +183,37 @@ impl System {
             Polynomial::None => None,
             Polynomial::Linear => Some(poly_block(starts, &factor)?),
         };
-        Ok(System { options, starts: starts.to_vec(), octree, order: perm, factor, poly, stats })
+        Ok(System {
+            options,
+            starts: starts.to_vec(),
+            octree,
+            order: perm,
+            factor,
+            poly,
+            stats,
+        })
     }
 
     /// Solves for the coefficients that carry each start to its destination.
     /// Only the right-hand sides change: nothing is assembled or factored again.
     pub fn solve(&self, targets: &[DVec3]) -> Result<Deformation> {
         if targets.len() != self.starts.len() {
-            return Err(Error::TargetCount { expected: self.starts.len(), got: targets.len() });
+            return Err(Error::TargetCount {
+                expected: self.starts.len(),
+                got: targets.len(),
+            });
         }
         if let Some(i) = targets.iter().position(|t| !t.is_finite()) {
-            return Err(Error::NotFinite { index: i, what: "destination" });
+            return Err(Error::NotFinite {
+                index: i,
+                what: "destination",
+            });
         }
-        let mut y: Vec<DVec3> = targets.iter().zip(&self.starts).map(|(t, s)| *t - *s).collect();
+        let mut y: Vec<DVec3> = targets
+            .iter()
+            .zip(&self.starts)
+            .map(|(t, s)| *t - *s)
+            .collect();
         self.factor.solve_in_place(&mut y);
         let affine = match &self.poly {
             None => None,
@@ -208,7 +234,11 @@ impl System {
                 for (yi, wi) in y.iter_mut().zip(&pb.w) {
                     *yi -= beta[0] * wi.x + beta[1] * wi.y + beta[2] * wi.z + beta[3] * wi.w;
                 }
-                Some(Affine { center: pb.center, scale: pb.scale, coefficients: beta })
+                Some(Affine {
+                    center: pb.center,
+                    scale: pb.scale,
+                    coefficients: beta,
+                })
             }
         };
         Ok(Deformation::from_parts(
@@ -251,7 +281,10 @@ fn validate(starts: &[DVec3], options: &FitOptions) -> Result<()> {
         return Err(Error::NoControls);
     }
     if let Some(i) = starts.iter().position(|s| !s.is_finite()) {
-        return Err(Error::NotFinite { index: i, what: "start" });
+        return Err(Error::NotFinite {
+            index: i,
+            what: "start",
+        });
     }
     if options.polynomial == Polynomial::Linear {
         if starts.len() < 4 {
@@ -313,7 +346,11 @@ fn neighbour_graph(
                 && phi0 - kernel.eval(d2.sqrt() / radius) <= 1e-10 * phi0
                 && close.is_none_or(|c| j < c.first)
             {
-                close = Some(ClosePair { first: j, second: i, d2 });
+                close = Some(ClosePair {
+                    first: j,
+                    second: i,
+                    d2,
+                });
             }
             l.push(j as u32);
         });
@@ -372,11 +409,17 @@ fn factor(
         let n = starts.len() as f64;
         let supernodal_flops = nnz_l * nnz_l / n * 0.5 + 2e5;
         if options.solver == SolverChoice::Auto && skyline_flops <= supernodal_flops {
-            return Factor::skyline(assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)), perm);
+            return Factor::skyline(
+                assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)),
+                perm,
+            );
         }
         return Factor::supernodal(symbolic, &a);
     }
-    Factor::skyline(assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)), perm)
+    Factor::skyline(
+        assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)),
+        perm,
+    )
 }
 
 fn assemble_profile(
@@ -416,7 +459,12 @@ fn lower_csc(graph: &Graph, phi: &impl Fn(usize, usize) -> f64, diag: f64) -> Lo
         }
         col_ptr.push(row_idx.len() as u32);
     }
-    LowerCsc { n, col_ptr, row_idx, values }
+    LowerCsc {
+        n,
+        col_ptr,
+        row_idx,
+        values,
+    }
 }
 
 /// Row (1, u) of P for a start, with u = (s - centre) / scale.
@@ -429,7 +477,11 @@ pub(crate) fn prow(s: DVec3, center: DVec3, scale: f64) -> DVec4 {
 fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock> {
     let n = starts.len() as f64;
     let center = starts.iter().copied().sum::<DVec3>() / n;
-    let scale = starts.iter().map(|s| s.distance(center)).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let scale = starts
+        .iter()
+        .map(|s| s.distance(center))
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
     let p: Vec<DVec4> = starts.iter().map(|s| prow(*s, center, scale)).collect();
     let mut w = p.clone();
     factor.solve_in_place(&mut w);
@@ -444,11 +496,20 @@ fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock> {
     if !(det > diag_product.abs() * 1e-14) || !det.is_finite() {
         return Err(Error::CoplanarStarts);
     }
-    Ok(PolyBlock { w, s_inv: s.inverse(), center, scale })
+    Ok(PolyBlock {
+        w,
+        s_inv: s.inverse(),
+        center,
+        scale,
+    })
 }
 
 /// `(0..n).map(f)`, in parallel when `n` is large enough to pay for it.
-pub(crate) fn maybe_par_map<T: Send>(n: usize, threshold: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+pub(crate) fn maybe_par_map<T: Send>(
+    n: usize,
+    threshold: usize,
+    f: impl Fn(usize) -> T + Sync + Send,
+) -> Vec<T> {
     if n >= threshold {
         (0..n).into_par_iter().map(f).collect()
     } else {

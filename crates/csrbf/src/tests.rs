@@ -10,12 +10,19 @@ use crate::*;
 fn scene(n: usize, seed: u64) -> (Vec<DVec3>, Vec<DVec3>) {
     let mut rng = Rng::new(seed);
     let starts: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
-    let targets = starts.iter().map(|s| *s + (rng.vec3() - 0.5) * 0.1).collect();
+    let targets = starts
+        .iter()
+        .map(|s| *s + (rng.vec3() - 0.5) * 0.1)
+        .collect();
     (starts, targets)
 }
 
 fn options(kernel: Kernel, poly: Polynomial, radius: f64, solver: SolverChoice) -> FitOptions {
-    FitOptions::default().with_kernel(kernel).with_polynomial(poly).with_radius(radius).with_solver(solver)
+    FitOptions::default()
+        .with_kernel(kernel)
+        .with_polynomial(poly)
+        .with_radius(radius)
+        .with_solver(solver)
 }
 
 const SOLVERS: [SolverChoice; 2] = [SolverChoice::Skyline, SolverChoice::Supernodal];
@@ -27,11 +34,19 @@ fn interpolates_exactly_at_the_starts() {
             for poly in Polynomial::ALL {
                 for solver in SOLVERS {
                     let (s, t) = scene(60 + seed as usize * 17, seed);
-                    let d = Deformation::fit(&s, &t, options(kernel, poly, 0.45, solver)).expect("fit");
-                    let scale = t.iter().zip(&s).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+                    let d =
+                        Deformation::fit(&s, &t, options(kernel, poly, 0.45, solver)).expect("fit");
+                    let scale = t
+                        .iter()
+                        .zip(&s)
+                        .map(|(a, b)| (*a - *b).length())
+                        .fold(0.0, f64::max);
                     for (si, ti) in s.iter().zip(&t) {
                         let err = (d.map(*si) - *ti).length();
-                        assert!(err <= 1e-9 * scale, "{kernel} {poly} {solver:?}: residual {err:e}");
+                        assert!(
+                            err <= 1e-9 * scale,
+                            "{kernel} {poly} {solver:?}: residual {err:e}"
+                        );
                     }
                 }
             }
@@ -44,7 +59,8 @@ fn matches_a_dense_solve_of_the_full_system() {
     for seed in 0..4 {
         let (s, t) = scene(40, 100 + seed);
         for poly in Polynomial::ALL {
-            let d = Deformation::fit(&s, &t, options(Kernel::C2, poly, 0.5, SolverChoice::Auto)).expect("fit");
+            let d = Deformation::fit(&s, &t, options(Kernel::C2, poly, 0.5, SolverChoice::Auto))
+                .expect("fit");
             // Dense [A P; P^T 0] with P = (1, x, y, z), solved by elimination.
             let n = s.len();
             let m = if poly == Polynomial::Linear { n + 4 } else { n };
@@ -68,7 +84,9 @@ fn matches_a_dense_solve_of_the_full_system() {
                 let x = crate::skyline::tests::dense_solve(&a, &b);
                 for _ in 0..20 {
                     let q = rng.vec3();
-                    let mut want: f64 = (0..n).map(|j| x[j] * Kernel::C2.eval(q.distance(s[j]) / 0.5)).sum();
+                    let mut want: f64 = (0..n)
+                        .map(|j| x[j] * Kernel::C2.eval(q.distance(s[j]) / 0.5))
+                        .sum();
                     if poly == Polynomial::Linear {
                         want += x[n] + x[n + 1] * q.x + x[n + 2] * q.y + x[n + 3] * q.z;
                     }
@@ -84,15 +102,24 @@ fn linear_reproduces_affine_maps() {
     for seed in 0..8 {
         let mut rng = Rng::new(seed);
         let (s, _) = scene(50, seed);
-        let m = DMat3::from_cols(rng.vec3() - 0.5, rng.vec3() - 0.5, rng.vec3() - 0.5) * 0.3 + DMat3::IDENTITY;
+        let m = DMat3::from_cols(rng.vec3() - 0.5, rng.vec3() - 0.5, rng.vec3() - 0.5) * 0.3
+            + DMat3::IDENTITY;
         let shift = rng.vec3() - 0.5;
         let t: Vec<DVec3> = s.iter().map(|p| m * *p + shift).collect();
         for kernel in Kernel::ALL {
-            let d = Deformation::fit(&s, &t, options(kernel, Polynomial::Linear, 0.4, SolverChoice::Auto)).expect("fit");
+            let d = Deformation::fit(
+                &s,
+                &t,
+                options(kernel, Polynomial::Linear, 0.4, SolverChoice::Auto),
+            )
+            .expect("fit");
             for _ in 0..50 {
                 let q = rng.vec3() * 3.0 - 1.0;
                 let err = (d.map(q) - (m * q + shift)).length();
-                assert!(err < 1e-9, "{kernel}: affine map not reproduced, error {err:e}");
+                assert!(
+                    err < 1e-9,
+                    "{kernel}: affine map not reproduced, error {err:e}"
+                );
             }
         }
     }
@@ -103,14 +130,26 @@ fn none_is_exactly_zero_beyond_the_radius() {
     for seed in 0..5 {
         let (s, t) = scene(80, seed);
         let r = 0.2;
-        let d = Deformation::fit(&s, &t, options(Kernel::C4, Polynomial::None, r, SolverChoice::Auto)).expect("fit");
+        let d = Deformation::fit(
+            &s,
+            &t,
+            options(Kernel::C4, Polynomial::None, r, SolverChoice::Auto),
+        )
+        .expect("fit");
         let mut rng = Rng::new(seed + 50);
         let points: Vec<DVec3> = (0..2000).map(|_| rng.vec3() * 1.6 - 0.3).collect();
         let disp = d.displacements(&points);
         for (p, dp) in points.iter().zip(&disp) {
-            let near = s.iter().map(|q| q.distance(*p)).fold(f64::INFINITY, f64::min);
+            let near = s
+                .iter()
+                .map(|q| q.distance(*p))
+                .fold(f64::INFINITY, f64::min);
             if near >= r {
-                assert_eq!(*dp, DVec3::ZERO, "moved at {p}, {near} from the nearest start");
+                assert_eq!(
+                    *dp,
+                    DVec3::ZERO,
+                    "moved at {p}, {near} from the nearest start"
+                );
             }
         }
     }
@@ -119,11 +158,25 @@ fn none_is_exactly_zero_beyond_the_radius() {
 #[test]
 fn the_map_is_symmetric_in_the_order_of_controls() {
     let (s, t) = scene(70, 9);
-    let d1 = Deformation::fit(&s, &t, options(Kernel::C2, Polynomial::Linear, 0.4, SolverChoice::Skyline)).expect("fit");
+    let d1 = Deformation::fit(
+        &s,
+        &t,
+        options(Kernel::C2, Polynomial::Linear, 0.4, SolverChoice::Skyline),
+    )
+    .expect("fit");
     let rev_s: Vec<DVec3> = s.iter().rev().copied().collect();
     let rev_t: Vec<DVec3> = t.iter().rev().copied().collect();
-    let d2 = Deformation::fit(&rev_s, &rev_t, options(Kernel::C2, Polynomial::Linear, 0.4, SolverChoice::Supernodal))
-        .expect("fit");
+    let d2 = Deformation::fit(
+        &rev_s,
+        &rev_t,
+        options(
+            Kernel::C2,
+            Polynomial::Linear,
+            0.4,
+            SolverChoice::Supernodal,
+        ),
+    )
+    .expect("fit");
     let mut rng = Rng::new(3);
     for _ in 0..100 {
         let q = rng.vec3();
@@ -138,7 +191,10 @@ fn solving_again_equals_a_fresh_fit() {
         let opts = options(Kernel::C2, Polynomial::Linear, 0.3, solver);
         let sys = System::new(&s, opts).expect("system");
         let _ = sys.solve(&t).expect("first");
-        let t2: Vec<DVec3> = s.iter().map(|p| *p + DVec3::new(0.01, 0.0, p.x * 0.05)).collect();
+        let t2: Vec<DVec3> = s
+            .iter()
+            .map(|p| *p + DVec3::new(0.01, 0.0, p.x * 0.05))
+            .collect();
         let again = sys.solve(&t2).expect("again");
         let fresh = Deformation::fit(&s, &t2, opts).expect("fresh");
         for (a, b) in again.coefficients().iter().zip(fresh.coefficients()) {
@@ -150,10 +206,17 @@ fn solving_again_equals_a_fresh_fit() {
 #[test]
 fn blocked_evaluation_and_binding_match_pointwise_evaluation() {
     let (s, t) = scene(300, 11);
-    let d = Deformation::fit(&s, &t, options(Kernel::C2, Polynomial::Linear, 0.25, SolverChoice::Auto)).expect("fit");
+    let d = Deformation::fit(
+        &s,
+        &t,
+        options(Kernel::C2, Polynomial::Linear, 0.25, SolverChoice::Auto),
+    )
+    .expect("fit");
     let mut rng = Rng::new(12);
     // Enough points to take the parallel path.
-    let pts: Vec<Vec3> = (0..20_000).map(|_| (rng.vec3() * 1.2 - 0.1).as_vec3()).collect();
+    let pts: Vec<Vec3> = (0..20_000)
+        .map(|_| (rng.vec3() * 1.2 - 0.1).as_vec3())
+        .collect();
     let blocked = d.displacements(&pts);
     let binding = Binding::new(&d, &pts);
     let bound = binding.displacements(&d).expect("binding");
@@ -163,9 +226,16 @@ fn blocked_evaluation_and_binding_match_pointwise_evaluation() {
         assert!((bound[i].as_dvec3() - want).length() < 1e-5 * (1.0 + want.length()));
     }
     // New destinations through the same binding.
-    let sys = System::new(&s, *System::new(&s, FitOptions::default().with_radius(0.25)).expect("s").options())
-        .expect("system");
-    let d2 = sys.solve(&s.iter().map(|p| *p * 1.01).collect::<Vec<_>>()).expect("solve");
+    let sys = System::new(
+        &s,
+        *System::new(&s, FitOptions::default().with_radius(0.25))
+            .expect("s")
+            .options(),
+    )
+    .expect("system");
+    let d2 = sys
+        .solve(&s.iter().map(|p| *p * 1.01).collect::<Vec<_>>())
+        .expect("solve");
     let bound2 = binding.displacements(&d2).expect("binding");
     for (i, p) in pts.iter().enumerate().step_by(97) {
         let want = d2.displacement_at(p.as_dvec3());
@@ -180,7 +250,10 @@ fn frames_scale_the_displacement_by_the_phase() {
     let mut out = vec![Vec3::ZERO; 2];
     frame(&rest, &disp, 0.25, &mut out).expect("frame");
     assert_eq!(out, vec![Vec3::X * 0.25, Vec3::new(1.0, 1.5, 1.0)]);
-    assert_eq!(frame(&rest, &disp, 1.5, &mut out), Err(Error::BadPhase(1.5)));
+    assert_eq!(
+        frame(&rest, &disp, 1.5, &mut out),
+        Err(Error::BadPhase(1.5))
+    );
     assert!(frame(&rest, &disp, f64::NAN, &mut out).is_err());
 }
 
@@ -188,22 +261,56 @@ fn frames_scale_the_displacement_by_the_phase() {
 fn bad_controls_are_named() {
     let (mut s, t) = scene(10, 1);
     let lin = FitOptions::default().with_radius(0.5);
-    assert_eq!(Deformation::fit(&[], &[], lin).err(), Some(Error::NoControls));
+    assert_eq!(
+        Deformation::fit(&[], &[], lin).err(),
+        Some(Error::NoControls)
+    );
     for r in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        assert_eq!(Deformation::fit(&s, &t, lin.with_radius(r)).err().map(|e| e.to_string().contains("radius")), Some(true));
+        assert_eq!(
+            Deformation::fit(&s, &t, lin.with_radius(r))
+                .err()
+                .map(|e| e.to_string().contains("radius")),
+            Some(true)
+        );
     }
     s[7] = s[3];
-    assert_eq!(Deformation::fit(&s, &t, lin).err(), Some(Error::DuplicateStart { first: 3, second: 7 }));
+    assert_eq!(
+        Deformation::fit(&s, &t, lin).err(),
+        Some(Error::DuplicateStart {
+            first: 3,
+            second: 7
+        })
+    );
     s[7].x = f64::NAN;
-    assert_eq!(Deformation::fit(&s, &t, lin).err(), Some(Error::NotFinite { index: 7, what: "start" }));
-    assert_eq!(Deformation::fit(&s[..3], &t[..3], lin).err(), Some(Error::TooFewForLinear(3)));
-    let flat: Vec<DVec3> = (0..20).map(|i| DVec3::new(i as f64 * 0.1, (i % 3) as f64 * 0.1, 0.5)).collect();
-    assert_eq!(Deformation::fit(&flat, &flat, lin).err(), Some(Error::CoplanarStarts));
+    assert_eq!(
+        Deformation::fit(&s, &t, lin).err(),
+        Some(Error::NotFinite {
+            index: 7,
+            what: "start"
+        })
+    );
+    assert_eq!(
+        Deformation::fit(&s[..3], &t[..3], lin).err(),
+        Some(Error::TooFewForLinear(3))
+    );
+    let flat: Vec<DVec3> = (0..20)
+        .map(|i| DVec3::new(i as f64 * 0.1, (i % 3) as f64 * 0.1, 0.5))
+        .collect();
+    assert_eq!(
+        Deformation::fit(&flat, &flat, lin).err(),
+        Some(Error::CoplanarStarts)
+    );
     // `none` handles the same flat set.
     assert!(Deformation::fit(&flat, &flat, lin.with_polynomial(Polynomial::None)).is_ok());
     let (s, t) = scene(10, 1);
     let sys = System::new(&s, lin).expect("system");
-    assert_eq!(sys.solve(&t[..4]).err(), Some(Error::TargetCount { expected: 10, got: 4 }));
+    assert_eq!(
+        sys.solve(&t[..4]).err(),
+        Some(Error::TargetCount {
+            expected: 10,
+            got: 4
+        })
+    );
 }
 
 #[test]
@@ -213,9 +320,17 @@ fn near_coincident_starts_are_named() {
     let t = s.clone();
     for solver in SOLVERS {
         for kernel in Kernel::ALL {
-            let err = Deformation::fit(&s, &t, options(kernel, Polynomial::None, 0.5, solver)).err();
+            let err =
+                Deformation::fit(&s, &t, options(kernel, Polynomial::None, 0.5, solver)).err();
             assert!(
-                matches!(err, Some(Error::StartsTooClose { first: 5, second: 20, .. })),
+                matches!(
+                    err,
+                    Some(Error::StartsTooClose {
+                        first: 5,
+                        second: 20,
+                        ..
+                    })
+                ),
                 "{solver:?} {kernel}: {err:?}"
             );
         }
@@ -242,18 +357,40 @@ fn a_failed_pivot_names_the_control_in_the_callers_numbering() {
 #[test]
 fn replay_file_round_trips_bit_exact_and_detects_damage() {
     let (s, t) = scene(50, 5);
-    let d1 = Deformation::fit(&s, &t, options(Kernel::C4, Polynomial::Linear, 0.3, SolverChoice::Auto)).expect("fit");
-    let d2 = Deformation::fit(&s, &t, options(Kernel::C0, Polynomial::None, 0.2, SolverChoice::Auto)).expect("fit");
+    let d1 = Deformation::fit(
+        &s,
+        &t,
+        options(Kernel::C4, Polynomial::Linear, 0.3, SolverChoice::Auto),
+    )
+    .expect("fit");
+    let d2 = Deformation::fit(
+        &s,
+        &t,
+        options(Kernel::C0, Polynomial::None, 0.2, SolverChoice::Auto),
+    )
+    .expect("fit");
     let stages = vec![
         (d1, Region::All),
-        (d2, Region::Sphere { center: DVec3::splat(0.5), radius: 0.3 }),
-        (Deformation::fit(&s, &t, FitOptions::default().with_radius(0.3)).expect("fit"), Region::Group("lips".into())),
+        (
+            d2,
+            Region::Sphere {
+                center: DVec3::splat(0.5),
+                radius: 0.3,
+            },
+        ),
+        (
+            Deformation::fit(&s, &t, FitOptions::default().with_radius(0.3)).expect("fit"),
+            Region::Group("lips".into()),
+        ),
     ];
     let bytes = format::encode(&stages);
     let back = format::decode(&bytes).expect("decode");
     assert_eq!(back, stages);
     for (a, b) in back.iter().zip(&stages) {
-        assert_eq!(a.0.displacement_at(DVec3::splat(0.4)), b.0.displacement_at(DVec3::splat(0.4)));
+        assert_eq!(
+            a.0.displacement_at(DVec3::splat(0.4)),
+            b.0.displacement_at(DVec3::splat(0.4))
+        );
     }
     // Every truncation and a flipped byte anywhere are refused, never a panic.
     for cut in (0..bytes.len()).step_by(7) {
@@ -266,7 +403,11 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
     }
     let mut v2 = bytes.clone();
     v2[6] = 2;
-    assert!(format::decode(&v2).err().is_some_and(|e| e.to_string().contains("version 2")));
+    assert!(
+        format::decode(&v2)
+            .err()
+            .is_some_and(|e| e.to_string().contains("version 2"))
+    );
 }
 
 #[test]
@@ -288,7 +429,10 @@ fn pipeline_composes_in_order_on_regions() {
         assert!((o.as_dvec3() - want).length() < 1e-5, "{o} vs {want}");
     }
     // A region: only points in the box move in stage 1.
-    let region = Region::Box { min: DVec3::ZERO, max: DVec3::splat(0.5) };
+    let region = Region::Box {
+        min: DVec3::ZERO,
+        max: DVec3::splat(0.5),
+    };
     p.set_region(0, region.clone()).expect("region");
     let out = p.evaluate().expect("evaluate").to_vec();
     for (o, r) in out.iter().zip(&rest) {
@@ -316,10 +460,20 @@ fn pipeline_recomputes_only_what_a_change_invalidates() {
     p.set_phase(1, 0.5).expect("phase");
     p.evaluate().expect("evaluate");
     let w1 = p.work();
-    assert_eq!((w1.systems, w1.solves, w1.bindings, w1.displacements, w1.outputs), (2, 2, 2, 2, w0.outputs + 1));
+    assert_eq!(
+        (
+            w1.systems,
+            w1.solves,
+            w1.bindings,
+            w1.displacements,
+            w1.outputs
+        ),
+        (2, 2, 2, 2, w0.outputs + 1)
+    );
     // New destinations in stage 1: re-solve, no new system, no new binding of stage 1;
     // stage 2's input moved, so it binds again but does not re-factor.
-    p.set_targets(0, s.iter().map(|q| *q + DVec3::Y * 0.01).collect()).expect("targets");
+    p.set_targets(0, s.iter().map(|q| *q + DVec3::Y * 0.01).collect())
+        .expect("targets");
     p.evaluate().expect("evaluate");
     let w2 = p.work();
     assert_eq!(w2.systems, 2);
@@ -341,5 +495,8 @@ fn system_reports_the_papers_memory_figures() {
     assert_eq!(st.dense_bytes, 33856);
     assert!(st.profile_bytes < st.dense_bytes);
     assert!(st.envelope <= st.envelope_before);
-    assert_eq!(st.nonzeros, 92 + (st.neighbours_mean * 92.0).round() as usize);
+    assert_eq!(
+        st.nonzeros,
+        92 + (st.neighbours_mean * 92.0).round() as usize
+    );
 }

@@ -17,7 +17,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // must be an error, never a crash.
     match std::panic::catch_unwind(|| parse_inner(bytes, path)) {
         Ok(r) => r,
-        Err(_) => Err(MeshError::parse(path, None, "malformed glTF: an accessor or buffer view is inconsistent")),
+        Err(_) => Err(MeshError::parse(
+            path,
+            None,
+            "malformed glTF: an accessor or buffer view is inconsistent",
+        )),
     }
 }
 
@@ -28,25 +32,37 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut buffers: Vec<Vec<u8>> = Vec::new();
     for b in doc.buffers() {
         let data = match b.source() {
-            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| err("buffer refers to a missing GLB binary chunk".into()))?,
+            gltf::buffer::Source::Bin => gltf
+                .blob
+                .clone()
+                .ok_or_else(|| err("buffer refers to a missing GLB binary chunk".into()))?,
             gltf::buffer::Source::Uri(uri) => load_uri(uri, path)?,
         };
         if data.len() < b.length() {
-            return Err(err(format!("buffer {} has {} bytes, the file declares {}", b.index(), data.len(), b.length())));
+            return Err(err(format!(
+                "buffer {} has {} bytes, the file declares {}",
+                b.index(),
+                data.len(),
+                b.length()
+            )));
         }
         buffers.push(data);
     }
-    let mut mesh = Mesh { faces: Faces::new(), ..Mesh::default() };
+    let mut mesh = Mesh {
+        faces: Faces::new(),
+        ..Mesh::default()
+    };
     let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut uvs: Vec<Vec2> = Vec::new();
     let (mut any_color, mut any_uv) = (false, false);
     let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
 
     // Nodes of the default scene (or of every scene), with world transforms.
-    let mut stack: Vec<(gltf::Node, Mat4)> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-        Some(scene) => scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
-        None => doc.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
-    };
+    let mut stack: Vec<(gltf::Node, Mat4)> =
+        match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(scene) => scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
+            None => doc.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
+        };
     stack.reverse();
     let mut guard = 0usize;
     while let Some((node, parent)) = stack.pop() {
@@ -64,16 +80,29 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 continue;
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-            let pos_acc = prim
-                .get(&gltf::Semantic::Positions)
-                .ok_or_else(|| err(format!("mesh {} has a primitive without positions", gmesh.index())))?;
-            if pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3 || pos_acc.data_type() != gltf::accessor::DataType::F32 {
-                return Err(err(format!("mesh {}: positions must be float VEC3", gmesh.index())));
+            let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
+                err(format!(
+                    "mesh {} has a primitive without positions",
+                    gmesh.index()
+                ))
+            })?;
+            if pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
+                || pos_acc.data_type() != gltf::accessor::DataType::F32
+            {
+                return Err(err(format!(
+                    "mesh {}: positions must be float VEC3",
+                    gmesh.index()
+                )));
             }
             let base = mesh.positions.len() as u32;
             let positions: Vec<Vec3> = reader
                 .read_positions()
-                .ok_or_else(|| err(format!("mesh {}: positions lie outside their buffer", gmesh.index())))?
+                .ok_or_else(|| {
+                    err(format!(
+                        "mesh {}: positions lie outside their buffer",
+                        gmesh.index()
+                    ))
+                })?
                 .map(|p| world.transform_point3(Vec3::from_array(p)))
                 .collect();
             let count = positions.len();
@@ -100,11 +129,18 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 Some(i) => i.into_u32().collect(),
                 None => (0..count as u32).collect(),
             };
-            if indices.len() % 3 != 0 {
-                return Err(err(format!("mesh {}: {} indices is not a whole number of triangles", gmesh.index(), indices.len())));
+            if !indices.len().is_multiple_of(3) {
+                return Err(err(format!(
+                    "mesh {}: {} indices is not a whole number of triangles",
+                    gmesh.index(),
+                    indices.len()
+                )));
             }
             if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
-                return Err(err(format!("mesh {}: index {bad} is out of range for {count} vertices", gmesh.index())));
+                return Err(err(format!(
+                    "mesh {}: index {bad} is out of range for {count} vertices",
+                    gmesh.index()
+                )));
             }
             let first_face = mesh.faces.len() as u32;
             for t in indices.chunks_exact(3) {
@@ -112,10 +148,13 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             }
             let faces: Vec<u32> = (first_face..mesh.faces.len() as u32).collect();
             let mat = prim.material();
-            let mat_name = mat.name().map(str::to_owned).unwrap_or_else(|| match mat.index() {
-                Some(i) => format!("material{i}"),
-                None => "default".to_owned(),
-            });
+            let mat_name = mat
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| match mat.index() {
+                    Some(i) => format!("material{i}"),
+                    None => "default".to_owned(),
+                });
             if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
                 mesh.materials.push(Material {
                     name: mat_name.clone(),
@@ -124,13 +163,28 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 });
             }
             let names = [
-                (PartKind::Group, gmesh.name().map(str::to_owned).unwrap_or_else(|| format!("mesh{}", gmesh.index()))),
-                (PartKind::Object, node.name().map(str::to_owned).unwrap_or_else(|| format!("node{}", node.index()))),
+                (
+                    PartKind::Group,
+                    gmesh
+                        .name()
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| format!("mesh{}", gmesh.index())),
+                ),
+                (
+                    PartKind::Object,
+                    node.name()
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| format!("node{}", node.index())),
+                ),
                 (PartKind::Material, mat_name),
             ];
             for (kind, name) in names {
                 let id = *parts.entry((kind, name.clone())).or_insert_with(|| {
-                    mesh.parts.push(Part { name, kind, faces: Vec::new() });
+                    mesh.parts.push(Part {
+                        name,
+                        kind,
+                        faces: Vec::new(),
+                    });
                     mesh.parts.len() - 1
                 });
                 mesh.parts[id].faces.extend_from_slice(&faces);
@@ -138,7 +192,10 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
         }
     }
     if any_uv {
-        mesh.uvs = Some(TexCoords { values: uvs, corners: None });
+        mesh.uvs = Some(TexCoords {
+            values: uvs,
+            corners: None,
+        });
     }
     if any_color {
         mesh.colors = Some(colors);
@@ -152,12 +209,20 @@ fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<
     match info.texture().source().source() {
         gltf::image::Source::View { view, mime_type } => {
             let b = buffers.get(view.buffer().index())?;
-            Some((mime_type.to_owned(), b.get(view.offset()..view.offset() + view.length())?.to_vec()))
+            Some((
+                mime_type.to_owned(),
+                b.get(view.offset()..view.offset() + view.length())?
+                    .to_vec(),
+            ))
         }
         gltf::image::Source::Uri { uri, mime_type } => {
             let data = load_uri(uri, path).ok()?;
             let mime = mime_type.map(str::to_owned).unwrap_or_else(|| {
-                if uri.ends_with(".jpg") || uri.ends_with(".jpeg") { "image/jpeg".into() } else { "image/png".into() }
+                if uri.ends_with(".jpg") || uri.ends_with(".jpeg") {
+                    "image/jpeg".into()
+                } else {
+                    "image/png".into()
+                }
             });
             Some((mime, data))
         }
@@ -166,10 +231,16 @@ fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<
 
 fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, data) = rest.split_once(";base64,").ok_or_else(|| MeshError::parse(path, None, "a data URI is not base64"))?;
-        return base64_decode(data).ok_or_else(|| MeshError::parse(path, None, "a data URI holds invalid base64"));
+        let (_, data) = rest
+            .split_once(";base64,")
+            .ok_or_else(|| MeshError::parse(path, None, "a data URI is not base64"))?;
+        return base64_decode(data)
+            .ok_or_else(|| MeshError::parse(path, None, "a data URI holds invalid base64"));
     }
-    let file = path.parent().unwrap_or(Path::new(".")).join(percent_decode(uri));
+    let file = path
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(percent_decode(uri));
     std::fs::read(&file).map_err(|source| MeshError::Io { path: file, source })
 }
 
@@ -179,12 +250,13 @@ fn percent_decode(s: &str) -> String {
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
     while i < b.len() {
-        if b[i] == b'%' && i + 2 < b.len() {
-            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
-                out.push((h * 16 + l) as u8);
-                i += 3;
-                continue;
-            }
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
         }
         out.push(b[i]);
         i += 1;
@@ -212,7 +284,9 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
 fn base64_encode(data: &[u8]) -> String {
     let mut s = String::with_capacity(data.len().div_ceil(3) * 4);
     for c in data.chunks(3) {
-        let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
         for k in 0..4 {
             if k <= c.len() {
                 s.push(B64[(n >> (18 - 6 * k) & 63) as usize] as char);
@@ -235,7 +309,7 @@ pub(crate) struct Builder {
 impl Builder {
     /// Appends bytes as a buffer view (4-byte aligned); returns its index.
     pub(crate) fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut v = json!({ "buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len() });
@@ -248,7 +322,13 @@ impl Builder {
     }
 
     /// A float accessor of `width` components per element ("VEC3", ...).
-    pub(crate) fn floats(&mut self, data: &[f32], width: usize, ty: &str, with_bounds: bool) -> usize {
+    pub(crate) fn floats(
+        &mut self,
+        data: &[f32],
+        width: usize,
+        ty: &str,
+        with_bounds: bool,
+    ) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
         let view = self.view(&bytes, Some(34962));
         let mut a = json!({ "bufferView": view, "componentType": 5126, "count": data.len() / width, "type": ty });
@@ -288,11 +368,11 @@ pub(crate) fn package(mut doc: Value, bin: Vec<u8>, glb: bool) -> Vec<u8> {
     if glb {
         doc["buffers"] = json!([{ "byteLength": bin.len() }]);
         let mut js = doc.to_string().into_bytes();
-        while js.len() % 4 != 0 {
+        while !js.len().is_multiple_of(4) {
             js.push(b' ');
         }
         let mut bin = bin;
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + js.len() + 8 + bin.len();
@@ -330,7 +410,10 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
             normals_mesh.normals.as_ref().map_or(&mesh.positions, |v| v)
         }
     };
-    let nrm: Vec<f32> = normals.iter().flat_map(|p| p.normalize_or(Vec3::Z).to_array()).collect();
+    let nrm: Vec<f32> = normals
+        .iter()
+        .flat_map(|p| p.normalize_or(Vec3::Z).to_array())
+        .collect();
     attributes["NORMAL"] = json!(b.floats(&nrm, 3, "VEC3", false));
     if let Some(uv) = mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, n)) {
         let t: Vec<f32> = uv.iter().flat_map(|v| v.to_array()).collect();
@@ -353,7 +436,8 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
         if idx.is_empty() {
             continue;
         }
-        let mut p = json!({ "attributes": attributes.clone(), "indices": b.indices(&idx), "mode": 4 });
+        let mut p =
+            json!({ "attributes": attributes.clone(), "indices": b.indices(&idx), "mode": 4 });
         if let Some(m) = m {
             p["material"] = json!(m);
         }
@@ -385,7 +469,8 @@ fn material_json(mesh: &Mesh, b: &mut Builder) -> (Vec<Value>, Vec<Value>, Vec<V
     for name in material_names(mesh) {
         let m = mesh.materials.iter().find(|m| m.name == name);
         let color = m.map_or([0.8, 0.8, 0.8, 1.0], |m| m.color);
-        let mut pbr = json!({ "baseColorFactor": color, "metallicFactor": 0.0, "roughnessFactor": 0.8 });
+        let mut pbr =
+            json!({ "baseColorFactor": color, "metallicFactor": 0.0, "roughnessFactor": 0.8 });
         if let Some((mime, bytes)) = m.and_then(|m| m.texture.as_ref()) {
             let view = b.view(bytes, None);
             images.push(json!({ "bufferView": view, "mimeType": mime }));
@@ -421,7 +506,9 @@ fn faces_by_material(mesh: &Mesh) -> Vec<(Option<usize>, Vec<u32>)> {
     }
     let mut groups: Vec<(Option<usize>, Vec<u32>)> = Vec::new();
     for key in std::iter::once(None).chain((0..names.len()).map(Some)) {
-        let faces: Vec<u32> = (0..mesh.faces.len() as u32).filter(|&f| of_face[f as usize] == key).collect();
+        let faces: Vec<u32> = (0..mesh.faces.len() as u32)
+            .filter(|&f| of_face[f as usize] == key)
+            .collect();
         if !faces.is_empty() {
             groups.push((key, faces));
         }

@@ -37,7 +37,10 @@ impl Format {
 
     /// The format of a path, by its extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Format> {
-        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
         Ok(match ext.as_str() {
             "obj" => Format::Obj,
             "ply" => Format::Ply,
@@ -45,7 +48,12 @@ impl Format {
             "off" => Format::Off,
             "gltf" => Format::Gltf,
             "glb" => Format::Glb,
-            _ => return Err(MeshError::UnknownFormat { path: path.to_owned(), ext }),
+            _ => {
+                return Err(MeshError::UnknownFormat {
+                    path: path.to_owned(),
+                    ext,
+                });
+            }
         })
     }
 }

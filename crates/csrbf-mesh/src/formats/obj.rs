@@ -11,7 +11,10 @@ use super::text::{lines, number, push_f32};
 use crate::{Faces, Mesh, MeshError, Part, PartKind, Result, TexCoords};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
-    let mut mesh = Mesh { faces: Faces::new(), ..Mesh::default() };
+    let mut mesh = Mesh {
+        faces: Faces::new(),
+        ..Mesh::default()
+    };
     let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut any_color = false;
     let mut uvs: Vec<Vec2> = Vec::new();
@@ -34,7 +37,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     .map(|t| number::<f32>(Some(t), path, ln, "vertex coordinate"))
                     .collect::<Result<_>>()?;
                 if vals.len() < 3 {
-                    return Err(MeshError::parse(path, Some(ln), format!("a vertex needs 3 coordinates, found {}", vals.len())));
+                    return Err(MeshError::parse(
+                        path,
+                        Some(ln),
+                        format!("a vertex needs 3 coordinates, found {}", vals.len()),
+                    ));
                 }
                 mesh.positions.push(Vec3::new(vals[0], vals[1], vals[2]));
                 if vals.len() >= 6 {
@@ -45,12 +52,21 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             }
             "vt" => {
                 let u = number::<f32>(tok.next(), path, ln, "texture u")?;
-                let v = tok.next().map(|t| number::<f32>(Some(t), path, ln, "texture v")).transpose()?.unwrap_or(0.0);
+                let v = tok
+                    .next()
+                    .map(|t| number::<f32>(Some(t), path, ln, "texture v"))
+                    .transpose()?
+                    .unwrap_or(0.0);
                 uvs.push(Vec2::new(u, v));
             }
             "vn" => {
                 for k in 0..3 {
-                    number::<f32>(tok.next(), path, ln, ["normal x", "normal y", "normal z"][k])?;
+                    number::<f32>(
+                        tok.next(),
+                        path,
+                        ln,
+                        ["normal x", "normal y", "normal z"][k],
+                    )?;
                 }
                 normals += 1;
             }
@@ -62,17 +78,31 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     let v = resolve(it.next(), mesh.positions.len(), path, ln, "vertex")?;
                     corner.push(v);
                     if let Some(t) = it.next().filter(|t| !t.is_empty()) {
-                        corner_uv.push(resolve(Some(t), uvs.len(), path, ln, "texture coordinate")?);
+                        corner_uv.push(resolve(
+                            Some(t),
+                            uvs.len(),
+                            path,
+                            ln,
+                            "texture coordinate",
+                        )?);
                     }
                     if let Some(n) = it.next().filter(|t| !t.is_empty()) {
                         resolve(Some(n), normals, path, ln, "normal")?;
                     }
                 }
                 if corner.len() < 3 {
-                    return Err(MeshError::parse(path, Some(ln), format!("a face needs at least 3 corners, found {}", corner.len())));
+                    return Err(MeshError::parse(
+                        path,
+                        Some(ln),
+                        format!("a face needs at least 3 corners, found {}", corner.len()),
+                    ));
                 }
                 if !corner_uv.is_empty() && corner_uv.len() != corner.len() {
-                    return Err(MeshError::parse(path, Some(ln), "some corners of the face have texture coordinates and some do not"));
+                    return Err(MeshError::parse(
+                        path,
+                        Some(ln),
+                        "some corners of the face have texture coordinates and some do not",
+                    ));
                 }
                 let f = mesh.faces.len() as u32;
                 mesh.faces.push(&corner);
@@ -95,12 +125,22 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 let names: Vec<String> = if kind == PartKind::Group {
                     tok.map(str::to_owned).collect()
                 } else {
-                    line[key.len()..].trim().split_ascii_whitespace().next().map(str::to_owned).into_iter().collect()
+                    line[key.len()..]
+                        .trim()
+                        .split_ascii_whitespace()
+                        .next()
+                        .map(str::to_owned)
+                        .into_iter()
+                        .collect()
                 };
                 let mut ids = Vec::new();
                 for name in names {
                     let id = *parts.entry((kind, name.clone())).or_insert_with(|| {
-                        mesh.parts.push(Part { name, kind, faces: Vec::new() });
+                        mesh.parts.push(Part {
+                            name,
+                            kind,
+                            faces: Vec::new(),
+                        });
                         mesh.parts.len() - 1
                     });
                     ids.push(id);
@@ -129,7 +169,10 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         if need_default {
             uvs.push(Vec2::ZERO);
         }
-        mesh.uvs = Some(TexCoords { values: uvs, corners: Some(corners_uv) });
+        mesh.uvs = Some(TexCoords {
+            values: uvs,
+            corners: Some(corners_uv),
+        });
     }
     mesh.parts.retain(|p| !p.faces.is_empty());
     for p in &mut mesh.parts {
@@ -193,7 +236,11 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
     }
     // Which part of each kind each face is in, to emit o/g/usemtl on change.
     let nf = mesh.faces.len();
-    let mut labels: [Vec<Vec<&str>>; 3] = [vec![Vec::new(); nf], vec![Vec::new(); nf], vec![Vec::new(); nf]];
+    let mut labels: [Vec<Vec<&str>>; 3] = [
+        vec![Vec::new(); nf],
+        vec![Vec::new(); nf],
+        vec![Vec::new(); nf],
+    ];
     for p in &mesh.parts {
         let k = match p.kind {
             PartKind::Object => 0,
@@ -206,13 +253,22 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
     }
     let keys = ["o", "g", "usemtl"];
     let mut last: [Option<&Vec<&str>>; 3] = [None, None, None];
+    #[allow(clippy::needless_range_loop)] // f indexes three label tables and the faces
     for f in 0..nf {
         for k in 0..3 {
             let cur = &labels[k][f];
             if last[k] != Some(cur) {
                 if !(cur.is_empty() && last[k].is_none()) {
-                    let name = if cur.is_empty() { "default".to_owned() } else { cur.join(" ") };
-                    let name = if k == 1 { name } else { cur.first().copied().unwrap_or("default").to_owned() };
+                    let name = if cur.is_empty() {
+                        "default".to_owned()
+                    } else {
+                        cur.join(" ")
+                    };
+                    let name = if k == 1 {
+                        name
+                    } else {
+                        cur.first().copied().unwrap_or("default").to_owned()
+                    };
                     let _ = writeln!(s, "{} {}", keys[k], name);
                 }
                 last[k] = Some(cur);
@@ -227,9 +283,15 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
                 None => v,
             });
             match (uv, mesh.normals.is_some()) {
-                (Some(t), true) => { let _ = write!(s, "/{}/{}", t + 1, v + 1); }
-                (Some(t), false) => { let _ = write!(s, "/{}", t + 1); }
-                (None, true) => { let _ = write!(s, "//{}", v + 1); }
+                (Some(t), true) => {
+                    let _ = write!(s, "/{}/{}", t + 1, v + 1);
+                }
+                (Some(t), false) => {
+                    let _ = write!(s, "/{}", t + 1);
+                }
+                (None, true) => {
+                    let _ = write!(s, "//{}", v + 1);
+                }
                 (None, false) => {}
             }
         }

@@ -11,20 +11,38 @@ use crate::{Faces, Mesh, MeshError, Result, TexCoords};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut it = lines(bytes, path);
-    let (ln, header) = it.next().transpose()?.ok_or_else(|| MeshError::parse(path, None, "the file is empty"))?;
+    let (ln, header) = it
+        .next()
+        .transpose()?
+        .ok_or_else(|| MeshError::parse(path, None, "the file is empty"))?;
     let mut words = header.split_ascii_whitespace();
     let magic = words.next().unwrap_or("");
     let Some(prefix) = magic.strip_suffix("OFF") else {
-        return Err(MeshError::parse(path, Some(ln), format!("expected the OFF header, found {magic:?}")));
+        return Err(MeshError::parse(
+            path,
+            Some(ln),
+            format!("expected the OFF header, found {magic:?}"),
+        ));
     };
     if prefix.contains('4') || prefix.contains('n') {
-        return Err(MeshError::parse(path, Some(ln), format!("{magic}: only 3-dimensional OFF is supported")));
+        return Err(MeshError::parse(
+            path,
+            Some(ln),
+            format!("{magic}: only 3-dimensional OFF is supported"),
+        ));
     }
-    let (has_st, has_c, has_n) = (prefix.contains("ST"), prefix.contains('C'), prefix.contains('N'));
+    let (has_st, has_c, has_n) = (
+        prefix.contains("ST"),
+        prefix.contains('C'),
+        prefix.contains('N'),
+    );
     // The counts may follow the keyword on the same line.
     let rest: Vec<&str> = words.collect();
     let (cl, counts): (usize, Vec<&str>) = if rest.is_empty() {
-        let (l, s) = it.next().transpose()?.ok_or_else(|| MeshError::parse(path, None, "truncated: no vertex and face counts"))?;
+        let (l, s) = it
+            .next()
+            .transpose()?
+            .ok_or_else(|| MeshError::parse(path, None, "truncated: no vertex and face counts"))?;
         (l, s.split_ascii_whitespace().collect())
     } else {
         (ln, rest)
@@ -32,27 +50,42 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let nv: usize = number(counts.first().copied(), path, cl, "vertex count")?;
     let nf: usize = number(counts.get(1).copied(), path, cl, "face count")?;
 
-    let mut mesh = Mesh { faces: Faces::new(), ..Mesh::default() };
+    let mut mesh = Mesh {
+        faces: Faces::new(),
+        ..Mesh::default()
+    };
     mesh.positions.reserve(nv.min(bytes.len() / 6));
     let mut colors = Vec::new();
     let mut uvs = Vec::new();
     for v in 0..nv {
-        let (l, s) = it
-            .next()
-            .transpose()?
-            .ok_or_else(|| MeshError::parse(path, None, format!("truncated: expected {nv} vertices, found {v}")))?;
+        let (l, s) = it.next().transpose()?.ok_or_else(|| {
+            MeshError::parse(
+                path,
+                None,
+                format!("truncated: expected {nv} vertices, found {v}"),
+            )
+        })?;
         let vals: Vec<f32> = s
             .split_ascii_whitespace()
             .map(|t| number::<f32>(Some(t), path, l, "vertex coordinate"))
             .collect::<Result<_>>()?;
-        let need = 3 + if has_n { 3 } else { 0 } + if has_c { 3 } else { 0 } + if has_st { 2 } else { 0 };
+        let need =
+            3 + if has_n { 3 } else { 0 } + if has_c { 3 } else { 0 } + if has_st { 2 } else { 0 };
         if vals.len() < need {
-            return Err(MeshError::parse(path, Some(l), format!("vertex {v} has {} numbers, expected {need}", vals.len())));
+            return Err(MeshError::parse(
+                path,
+                Some(l),
+                format!("vertex {v} has {} numbers, expected {need}", vals.len()),
+            ));
         }
         mesh.positions.push(Vec3::new(vals[0], vals[1], vals[2]));
         let mut k = 3 + if has_n { 3 } else { 0 };
         if has_c {
-            let rgba_len = if vals.len() >= k + 4 + if has_st { 2 } else { 0 } { 4 } else { 3 };
+            let rgba_len = if vals.len() >= k + 4 + if has_st { 2 } else { 0 } {
+                4
+            } else {
+                3
+            };
             let mut c = [1.0f32; 4];
             c[..rgba_len].copy_from_slice(&vals[k..k + rgba_len]);
             colors.push(c);
@@ -63,22 +96,33 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         }
     }
     for f in 0..nf {
-        let (l, s) = it
-            .next()
-            .transpose()?
-            .ok_or_else(|| MeshError::parse(path, None, format!("truncated: expected {nf} faces, found {f}")))?;
+        let (l, s) = it.next().transpose()?.ok_or_else(|| {
+            MeshError::parse(
+                path,
+                None,
+                format!("truncated: expected {nf} faces, found {f}"),
+            )
+        })?;
         let mut tok = s.split_ascii_whitespace();
         let k: usize = number(tok.next(), path, l, "face corner count")?;
         let mut corners = Vec::with_capacity(k);
         for _ in 0..k {
             let v: u32 = number(tok.next(), path, l, "face vertex index")?;
             if v as usize >= nv {
-                return Err(MeshError::parse(path, Some(l), format!("face {f} refers to vertex {v}, but there are only {nv}")));
+                return Err(MeshError::parse(
+                    path,
+                    Some(l),
+                    format!("face {f} refers to vertex {v}, but there are only {nv}"),
+                ));
             }
             corners.push(v);
         }
         if k < 3 {
-            return Err(MeshError::parse(path, Some(l), format!("face {f} has {k} corners; a face needs at least 3")));
+            return Err(MeshError::parse(
+                path,
+                Some(l),
+                format!("face {f} has {k} corners; a face needs at least 3"),
+            ));
         }
         mesh.faces.push(&corners);
     }
@@ -92,14 +136,20 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         mesh.colors = Some(colors);
     }
     if has_st {
-        mesh.uvs = Some(TexCoords { values: uvs, corners: None });
+        mesh.uvs = Some(TexCoords {
+            values: uvs,
+            corners: None,
+        });
     }
     Ok(mesh)
 }
 
 pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
     let mut s = String::with_capacity(mesh.positions.len() * 32 + mesh.faces.indices.len() * 8);
-    let uvs = mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, mesh.positions.len()));
+    let uvs = mesh
+        .uvs
+        .as_ref()
+        .and_then(|u| u.per_vertex(&mesh.faces, mesh.positions.len()));
     let _ = writeln!(
         s,
         "{}{}OFF\n{} {} 0",

@@ -70,14 +70,20 @@ enum Encoding {
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let err = |line: Option<usize>, m: String| MeshError::parse(path, line, m);
-    let end = find(bytes, b"end_header").ok_or_else(|| err(None, "no \"end_header\": not a PLY file, or truncated in its header".into()))?;
+    let end = find(bytes, b"end_header").ok_or_else(|| {
+        err(
+            None,
+            "no \"end_header\": not a PLY file, or truncated in its header".into(),
+        )
+    })?;
     let mut body = end + b"end_header".len();
     // The header ends with a line break (\n or \r\n).
     while body < bytes.len() && bytes[body] != b'\n' {
         body += 1;
     }
     body += 1;
-    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| err(None, "the header is not text".into()))?;
+    let header = std::str::from_utf8(&bytes[..end])
+        .map_err(|_| err(None, "the header is not text".into()))?;
     let mut encoding = None;
     let mut elements: Vec<Element> = Vec::new();
     for (i, line) in header.lines().enumerate() {
@@ -94,15 +100,23 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 })
             }
             Some("element") => {
-                let name = tok.get(1).ok_or_else(|| err(Some(ln), "element without a name".into()))?;
+                let name = tok
+                    .get(1)
+                    .ok_or_else(|| err(Some(ln), "element without a name".into()))?;
                 let count = tok
                     .get(2)
                     .and_then(|c| c.parse().ok())
                     .ok_or_else(|| err(Some(ln), format!("element {name} has no valid count")))?;
-                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    props: Vec::new(),
+                });
             }
             Some("property") => {
-                let el = elements.last_mut().ok_or_else(|| err(Some(ln), "property before any element".into()))?;
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| err(Some(ln), "property before any element".into()))?;
                 let bad = |t: &str| err(Some(ln), format!("unknown property type {t:?}"));
                 let prop = if tok.get(1) == Some(&"list") {
                     let (c, t, n) = (tok.get(2), tok.get(3), tok.get(4));
@@ -118,11 +132,20 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     let (Some(t), Some(n)) = (tok.get(1), tok.get(2)) else {
                         return Err(err(Some(ln), "incomplete property".into()));
                     };
-                    Property { name: n.to_string(), ty: Scalar::parse(t).ok_or_else(|| bad(t))?, list: None }
+                    Property {
+                        name: n.to_string(),
+                        ty: Scalar::parse(t).ok_or_else(|| bad(t))?,
+                        list: None,
+                    }
                 };
                 el.props.push(prop);
             }
-            Some(other) => return Err(err(Some(ln), format!("unexpected {other:?} in the PLY header"))),
+            Some(other) => {
+                return Err(err(
+                    Some(ln),
+                    format!("unexpected {other:?} in the PLY header"),
+                ));
+            }
         }
     }
     if !header.starts_with("ply") {
@@ -130,9 +153,17 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     }
     let encoding = encoding.ok_or_else(|| err(None, "the header has no format line".into()))?;
     let header_lines = header.lines().count() + 1;
-    let mut src = Source::new(&bytes[body.min(bytes.len())..], encoding, header_lines, path);
+    let mut src = Source::new(
+        &bytes[body.min(bytes.len())..],
+        encoding,
+        header_lines,
+        path,
+    );
 
-    let mut mesh = Mesh { faces: Faces::new(), ..Mesh::default() };
+    let mut mesh = Mesh {
+        faces: Faces::new(),
+        ..Mesh::default()
+    };
     let mut colors = Vec::new();
     let mut uvs = Vec::new();
     let mut normals = Vec::new();
@@ -140,14 +171,29 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     for el in &elements {
         let is_vertex = el.name == "vertex";
         let is_face = el.name == "face";
-        let find = |names: &[&str]| el.props.iter().position(|p| names.contains(&p.name.as_str()));
+        let find = |names: &[&str]| {
+            el.props
+                .iter()
+                .position(|p| names.contains(&p.name.as_str()))
+        };
         let (px, py, pz) = (find(&["x"]), find(&["y"]), find(&["z"]));
-        let col = [find(&["red", "r", "diffuse_red"]), find(&["green", "g", "diffuse_green"]), find(&["blue", "b", "diffuse_blue"]), find(&["alpha", "a"])];
-        let (tu, tv) = (find(&["u", "s", "texture_u", "texture_s"]), find(&["v", "t", "texture_v", "texture_t"]));
+        let col = [
+            find(&["red", "r", "diffuse_red"]),
+            find(&["green", "g", "diffuse_green"]),
+            find(&["blue", "b", "diffuse_blue"]),
+            find(&["alpha", "a"]),
+        ];
+        let (tu, tv) = (
+            find(&["u", "s", "texture_u", "texture_s"]),
+            find(&["v", "t", "texture_v", "texture_t"]),
+        );
         let (nx, ny, nz) = (find(&["nx"]), find(&["ny"]), find(&["nz"]));
         let list_prop = find(&["vertex_indices", "vertex_index"]);
         if is_vertex && (px.is_none() || py.is_none() || pz.is_none()) {
-            return Err(err(None, "the vertex element has no x, y and z properties".into()));
+            return Err(err(
+                None,
+                "the vertex element has no x, y and z properties".into(),
+            ));
         }
         if is_vertex {
             mesh.positions.reserve(el.count.min(bytes.len() / 12));
@@ -163,13 +209,17 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                         vals.push(0.0);
                         let n = src.scalar(ct, &el.name, r)?;
                         if !(0.0..=1e6).contains(&n) || n.fract() != 0.0 {
-                            return Err(src.error(format!("{} {r}: list length {n} is not valid", el.name)));
+                            return Err(
+                                src.error(format!("{} {r}: list length {n} is not valid", el.name))
+                            );
                         }
                         for _ in 0..n as usize {
                             let v = src.scalar(p.ty, &el.name, r)?;
                             if is_face && Some(k) == list_prop {
                                 if !(v >= 0.0 && v < u32::MAX as f64 && v.fract() == 0.0) {
-                                    return Err(src.error(format!("face {r}: vertex index {v} is not valid")));
+                                    return Err(src.error(format!(
+                                        "face {r}: vertex index {v} is not valid"
+                                    )));
                                 }
                                 corners.push(v as u32);
                             }
@@ -180,11 +230,16 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             src.end_record(&el.name, r)?;
             if is_vertex {
                 let get = |i: Option<usize>| i.map(|i| vals[i] as f32);
-                mesh.positions.push(Vec3::new(vals[px.unwrap_or(0)] as f32, vals[py.unwrap_or(0)] as f32, vals[pz.unwrap_or(0)] as f32));
+                mesh.positions.push(Vec3::new(
+                    vals[px.unwrap_or(0)] as f32,
+                    vals[py.unwrap_or(0)] as f32,
+                    vals[pz.unwrap_or(0)] as f32,
+                ));
                 if col[0].is_some() {
                     let scale = |i: Option<usize>| {
                         i.map_or(1.0, |i| {
-                            let integer = el.props[i].ty != Scalar::F32 && el.props[i].ty != Scalar::F64;
+                            let integer =
+                                el.props[i].ty != Scalar::F32 && el.props[i].ty != Scalar::F64;
                             (vals[i] / if integer { 255.0 } else { 1.0 }) as f32
                         })
                     };
@@ -198,7 +253,10 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 }
             } else if is_face {
                 if corners.len() < 3 {
-                    return Err(src.error(format!("face {r} has {} corners; a face needs at least 3", corners.len())));
+                    return Err(src.error(format!(
+                        "face {r} has {} corners; a face needs at least 3",
+                        corners.len()
+                    )));
                 }
                 mesh.faces.push(&corners);
             }
@@ -208,7 +266,10 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         mesh.colors = Some(colors);
     }
     if !uvs.is_empty() {
-        mesh.uvs = Some(TexCoords { values: uvs, corners: None });
+        mesh.uvs = Some(TexCoords {
+            values: uvs,
+            corners: None,
+        });
     }
     if !normals.is_empty() {
         mesh.normals = Some(normals);
@@ -236,7 +297,16 @@ struct Source<'a> {
 impl<'a> Source<'a> {
     fn new(bytes: &'a [u8], encoding: Encoding, header_lines: usize, path: &'a Path) -> Source<'a> {
         let newline: fn(&u8) -> bool = |b| *b == b'\n';
-        Source { bytes, at: 0, encoding, line: header_lines, tokens: Vec::new(), next_token: 0, lines: bytes.split(newline), path }
+        Source {
+            bytes,
+            at: 0,
+            encoding,
+            line: header_lines,
+            tokens: Vec::new(),
+            next_token: 0,
+            lines: bytes.split(newline),
+            path,
+        }
     }
 
     fn error(&self, message: String) -> MeshError {
@@ -266,7 +336,10 @@ impl<'a> Source<'a> {
 
     fn end_record(&mut self, element: &str, r: usize) -> Result<()> {
         if self.encoding == Encoding::Ascii && self.next_token < self.tokens.len() {
-            return Err(self.error(format!("{element} {r}: {} values more than the header declares", self.tokens.len() - self.next_token)));
+            return Err(self.error(format!(
+                "{element} {r}: {} values more than the header declares",
+                self.tokens.len() - self.next_token
+            )));
         }
         Ok(())
     }
@@ -274,10 +347,14 @@ impl<'a> Source<'a> {
     fn scalar(&mut self, ty: Scalar, element: &str, r: usize) -> Result<f64> {
         if self.encoding == Encoding::Ascii {
             let Some(tok) = self.tokens.get(self.next_token) else {
-                return Err(self.error(format!("truncated: {element} {r} has fewer values than the header declares")));
+                return Err(self.error(format!(
+                    "truncated: {element} {r} has fewer values than the header declares"
+                )));
             };
             self.next_token += 1;
-            return tok.parse::<f64>().map_err(|_| self.error(format!("{element} {r}: {tok:?} is not a number")));
+            return tok
+                .parse::<f64>()
+                .map_err(|_| self.error(format!("{element} {r}: {tok:?} is not a number")));
         }
         let n = ty.size();
         if self.at + n > self.bytes.len() {
@@ -306,7 +383,11 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
     let n = mesh.positions.len();
     let uvs = mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, n));
     let mut h = String::from("ply\n");
-    h.push_str(if ascii { "format ascii 1.0\n" } else { "format binary_little_endian 1.0\n" });
+    h.push_str(if ascii {
+        "format ascii 1.0\n"
+    } else {
+        "format binary_little_endian 1.0\n"
+    });
     h.push_str("comment written by csrbf\n");
     let _ = writeln!(h, "element vertex {n}");
     h.push_str("property float x\nproperty float y\nproperty float z\n");
@@ -314,12 +395,18 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
         h.push_str("property float nx\nproperty float ny\nproperty float nz\n");
     }
     if mesh.colors.is_some() {
-        h.push_str("property float red\nproperty float green\nproperty float blue\nproperty float alpha\n");
+        h.push_str(
+            "property float red\nproperty float green\nproperty float blue\nproperty float alpha\n",
+        );
     }
     if uvs.is_some() {
         h.push_str("property float u\nproperty float v\n");
     }
-    let face_records: usize = mesh.faces.iter().map(|f| if f.len() <= 255 { 1 } else { f.len() - 2 }).sum();
+    let face_records: usize = mesh
+        .faces
+        .iter()
+        .map(|f| if f.len() <= 255 { 1 } else { f.len() - 2 })
+        .sum();
     let _ = writeln!(h, "element face {face_records}");
     h.push_str("property list uchar int vertex_indices\nend_header\n");
     let mut floats: Vec<f32> = Vec::with_capacity(12);
@@ -358,7 +445,9 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
         let parts: Vec<Vec<u32>> = if f.len() <= 255 {
             vec![f.to_vec()]
         } else {
-            (1..f.len() - 1).map(|k| vec![f[0], f[k], f[k + 1]]).collect()
+            (1..f.len() - 1)
+                .map(|k| vec![f[0], f[k], f[k + 1]])
+                .collect()
         };
         for f in parts {
             if ascii {

@@ -17,12 +17,24 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             return parse_binary(bytes, count);
         }
     }
-    let head = bytes.iter().skip_while(|b| b.is_ascii_whitespace()).take(5).copied().collect::<Vec<_>>();
+    let head = bytes
+        .iter()
+        .skip_while(|b| b.is_ascii_whitespace())
+        .take(5)
+        .copied()
+        .collect::<Vec<_>>();
     if head.eq_ignore_ascii_case(b"solid") && std::str::from_utf8(bytes).is_ok() {
         return parse_ascii(bytes, path);
     }
     if bytes.len() < 84 {
-        return Err(MeshError::parse(path, None, format!("truncated: {} bytes, less than a binary STL header (84)", bytes.len())));
+        return Err(MeshError::parse(
+            path,
+            None,
+            format!(
+                "truncated: {} bytes, less than a binary STL header (84)",
+                bytes.len()
+            ),
+        ));
     }
     let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
     Err(MeshError::parse(
@@ -55,7 +67,13 @@ impl Welder {
 }
 
 fn parse_binary(bytes: &[u8], count: usize) -> Result<Mesh> {
-    let mut w = Welder { mesh: Mesh { faces: Faces::new(), ..Mesh::default() }, ..Welder::default() };
+    let mut w = Welder {
+        mesh: Mesh {
+            faces: Faces::new(),
+            ..Mesh::default()
+        },
+        ..Welder::default()
+    };
     for t in 0..count {
         let rec = &bytes[84 + 50 * t..84 + 50 * (t + 1)];
         let f = |k: usize| f32::from_le_bytes([rec[k], rec[k + 1], rec[k + 2], rec[k + 3]]);
@@ -71,7 +89,13 @@ fn parse_binary(bytes: &[u8], count: usize) -> Result<Mesh> {
 
 fn parse_ascii(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let text = std::str::from_utf8(bytes).map_err(|_| MeshError::parse(path, None, "not text"))?;
-    let mut w = Welder { mesh: Mesh { faces: Faces::new(), ..Mesh::default() }, ..Welder::default() };
+    let mut w = Welder {
+        mesh: Mesh {
+            faces: Faces::new(),
+            ..Mesh::default()
+        },
+        ..Welder::default()
+    };
     let mut corners: Vec<u32> = Vec::new();
     let mut in_solid = false;
     let mut ended = false;
@@ -83,8 +107,16 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 in_solid = true;
                 ended = false;
                 let name = line.trim_start()[5..].trim();
-                let name = if name.is_empty() { format!("solid{}", w.mesh.parts.len()) } else { name.to_owned() };
-                w.mesh.parts.push(Part { name, kind: PartKind::Object, faces: Vec::new() });
+                let name = if name.is_empty() {
+                    format!("solid{}", w.mesh.parts.len())
+                } else {
+                    name.to_owned()
+                };
+                w.mesh.parts.push(Part {
+                    name,
+                    kind: PartKind::Object,
+                    faces: Vec::new(),
+                });
             }
             Some("vertex") => {
                 let x = number(tok.next(), path, ln, "vertex x")?;
@@ -92,14 +124,17 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 let z = number(tok.next(), path, ln, "vertex z")?;
                 corners.push(w.vertex(Vec3::new(x, y, z)));
             }
-            Some("facet") | Some("outer") => {
-                if !in_solid {
-                    return Err(MeshError::parse(path, Some(ln), "facet outside of a solid"));
-                }
+            Some("facet") | Some("outer") if !in_solid => {
+                return Err(MeshError::parse(path, Some(ln), "facet outside of a solid"));
             }
+            Some("facet") | Some("outer") => {}
             Some("endloop") => {
                 if corners.len() < 3 {
-                    return Err(MeshError::parse(path, Some(ln), format!("a facet needs 3 vertices, found {}", corners.len())));
+                    return Err(MeshError::parse(
+                        path,
+                        Some(ln),
+                        format!("a facet needs 3 vertices, found {}", corners.len()),
+                    ));
                 }
                 let f = w.mesh.faces.len() as u32;
                 w.mesh.faces.push(&corners);
@@ -114,13 +149,21 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 ended = true;
             }
             Some(other) => {
-                return Err(MeshError::parse(path, Some(ln), format!("unexpected {other:?} in an ASCII STL file")));
+                return Err(MeshError::parse(
+                    path,
+                    Some(ln),
+                    format!("unexpected {other:?} in an ASCII STL file"),
+                ));
             }
             None => {}
         }
     }
     if !ended || !corners.is_empty() {
-        return Err(MeshError::parse(path, None, "truncated: the file ends before \"endsolid\""));
+        return Err(MeshError::parse(
+            path,
+            None,
+            "truncated: the file ends before \"endsolid\"",
+        ));
     }
     if w.mesh.parts.len() <= 1 {
         w.mesh.parts.clear();

@@ -8,7 +8,11 @@ use crate::{Format, Mesh, MeshError};
 pub(crate) fn models_dir() -> PathBuf {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let shared = root.join("../shared/models");
-    if shared.is_dir() { shared } else { root.join("assets/models") }
+    if shared.is_dir() {
+        shared
+    } else {
+        root.join("assets/models")
+    }
 }
 
 fn models() -> Vec<PathBuf> {
@@ -21,32 +25,62 @@ fn models() -> Vec<PathBuf> {
     v
 }
 
-const OUT: [Format; 7] = [Format::Obj, Format::Ply, Format::PlyAscii, Format::Stl, Format::Off, Format::Gltf, Format::Glb];
+const OUT: [Format; 7] = [
+    Format::Obj,
+    Format::Ply,
+    Format::PlyAscii,
+    Format::Stl,
+    Format::Off,
+    Format::Gltf,
+    Format::Glb,
+];
 
 #[test]
 fn every_model_reads_and_round_trips_through_every_format() {
     let models = models();
-    assert!(models.len() >= 5, "expected the real models, found {models:?}");
+    assert!(
+        models.len() >= 5,
+        "expected the real models, found {models:?}"
+    );
     for path in models {
         let mesh = crate::read(&path).unwrap_or_else(|e| panic!("{e}"));
-        assert!(!mesh.positions.is_empty() && !mesh.faces.is_empty(), "{}", path.display());
+        assert!(
+            !mesh.positions.is_empty() && !mesh.faces.is_empty(),
+            "{}",
+            path.display()
+        );
         for fmt in OUT {
             let bytes = mesh.to_bytes(fmt).expect("encode");
-            let back = Mesh::from_bytes(&bytes, fmt, Path::new("roundtrip")).unwrap_or_else(|e| panic!("{} via {fmt:?}: {e}", path.display()));
+            let back = Mesh::from_bytes(&bytes, fmt, Path::new("roundtrip"))
+                .unwrap_or_else(|e| panic!("{} via {fmt:?}: {e}", path.display()));
             if fmt == Format::Stl {
                 // STL welds equal positions: at most as many vertices, same triangles.
                 assert!(back.positions.len() <= mesh.positions.len());
                 assert_eq!(back.faces.len(), mesh.faces.triangle_count());
                 continue;
             }
-            assert_eq!(back.positions, mesh.positions, "{} via {fmt:?}: positions", path.display());
+            assert_eq!(
+                back.positions,
+                mesh.positions,
+                "{} via {fmt:?}: positions",
+                path.display()
+            );
             if matches!(fmt, Format::Gltf | Format::Glb) {
                 assert_eq!(back.faces.len(), mesh.faces.triangle_count());
             } else {
-                assert_eq!(back.faces, mesh.faces, "{} via {fmt:?}: faces", path.display());
+                assert_eq!(
+                    back.faces,
+                    mesh.faces,
+                    "{} via {fmt:?}: faces",
+                    path.display()
+                );
             }
             if mesh.colors.is_some() && fmt != Format::Stl {
-                assert!(back.colors.is_some(), "{} via {fmt:?} lost colours", path.display());
+                assert!(
+                    back.colors.is_some(),
+                    "{} via {fmt:?} lost colours",
+                    path.display()
+                );
             }
         }
     }
@@ -63,7 +97,12 @@ o body\ng left\nusemtl red\nf 1/1 2/2 3/3\ng right top\nusemtl blue\nf 2/2 4/4 3
     assert_eq!(m.part_vertices("body"), Some(vec![0, 1, 2, 3]));
     assert_eq!(m.colors.as_ref().map(|c| c[1]), Some([0.0, 1.0, 0.0, 1.0]));
     assert_eq!(m.material_library.as_deref(), Some("m.mtl"));
-    let back = Mesh::from_bytes(&m.to_bytes(Format::Obj).expect("enc"), Format::Obj, Path::new("b.obj")).expect("parse");
+    let back = Mesh::from_bytes(
+        &m.to_bytes(Format::Obj).expect("enc"),
+        Format::Obj,
+        Path::new("b.obj"),
+    )
+    .expect("parse");
     assert_eq!(back.faces, m.faces);
     assert_eq!(back.uvs, m.uvs);
     for name in ["left", "right", "top", "red", "blue", "body"] {
@@ -76,8 +115,17 @@ fn gltf_keeps_materials_textures_and_uvs() {
     let path = models_dir().join("assimp_BoxTextured.glb");
     let m = crate::read(&path).expect("read");
     assert!(m.uvs.is_some());
-    assert!(m.materials.iter().any(|mat| mat.texture.is_some()), "{:?}", m.materials);
-    let back = Mesh::from_bytes(&m.to_bytes(Format::Glb).expect("enc"), Format::Glb, Path::new("x.glb")).expect("parse");
+    assert!(
+        m.materials.iter().any(|mat| mat.texture.is_some()),
+        "{:?}",
+        m.materials
+    );
+    let back = Mesh::from_bytes(
+        &m.to_bytes(Format::Glb).expect("enc"),
+        Format::Glb,
+        Path::new("x.glb"),
+    )
+    .expect("parse");
     assert_eq!(back.uvs, m.uvs);
     assert_eq!(back.materials.len(), m.materials.len());
     assert_eq!(back.materials[0].texture, m.materials[0].texture);
@@ -85,7 +133,10 @@ fn gltf_keeps_materials_textures_and_uvs() {
 
 fn parse_err(bytes: &[u8], fmt: Format) -> String {
     match Mesh::from_bytes(bytes, fmt, Path::new("bad.x")) {
-        Ok(m) => panic!("{fmt:?} accepted a broken file: {} vertices", m.positions.len()),
+        Ok(m) => panic!(
+            "{fmt:?} accepted a broken file: {} vertices",
+            m.positions.len()
+        ),
         Err(e) => e.to_string(),
     }
 }
@@ -116,7 +167,10 @@ fn broken_files_are_errors_that_name_the_place() {
     ];
     for (bytes, fmt, want) in cases {
         let e = parse_err(bytes, *fmt);
-        assert!(e.contains(want), "{fmt:?}: message {e:?} does not contain {want:?}");
+        assert!(
+            e.contains(want),
+            "{fmt:?}: message {e:?} does not contain {want:?}"
+        );
         assert!(e.starts_with("bad.x"), "{e:?} does not name the file");
     }
 }
@@ -138,9 +192,18 @@ fn truncated_real_files_never_panic() {
 
 #[test]
 fn unknown_extension_lists_the_supported_ones() {
-    let e = crate::read(Path::new("model.fbx")).err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(e.contains("model.fbx") && e.contains(".obj") && e.contains(".glb"), "{e}");
-    assert!(matches!(crate::read(Path::new("/nonexistent/a.obj")), Err(MeshError::Io { .. })));
+    let e = crate::read(Path::new("model.fbx"))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        e.contains("model.fbx") && e.contains(".obj") && e.contains(".glb"),
+        "{e}"
+    );
+    assert!(matches!(
+        crate::read(Path::new("/nonexistent/a.obj")),
+        Err(MeshError::Io { .. })
+    ));
 }
 
 #[test]
@@ -155,7 +218,10 @@ fn atomic_write_leaves_no_partial_file() {
     assert_eq!(std::fs::read(&target).expect("read"), b"old");
     // Writing into a missing directory fails and leaves nothing behind.
     assert!(crate::write_atomic(&dir.join("missing/x.obj"), b"data").is_err());
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).expect("dir").filter_map(|e| e.ok()).collect();
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .collect();
     assert_eq!(leftovers.len(), 1);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -54,7 +54,9 @@ impl Octree {
         }
         // Counting sort of the node's points by octant.
         let octant = |p: DVec3| -> usize {
-            (p.x >= center.x) as usize | ((p.y >= center.y) as usize) << 1 | ((p.z >= center.z) as usize) << 2
+            (p.x >= center.x) as usize
+                | ((p.y >= center.y) as usize) << 1
+                | ((p.z >= center.z) as usize) << 2
         };
         let mut counts = [0usize; 8];
         for p in &self.points[s..e] {

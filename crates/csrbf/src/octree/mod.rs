@@ -65,7 +65,11 @@ impl Octree {
                 .max()
                 .unwrap_or(d)
         }
-        if self.nodes.is_empty() { 0 } else { walk(self, 0, 0) }
+        if self.nodes.is_empty() {
+            0
+        } else {
+            walk(self, 0, 0)
+        }
     }
 }
 

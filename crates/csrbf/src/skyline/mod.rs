@@ -65,7 +65,10 @@ impl Envelope {
 
     /// Largest row width below the diagonal.
     pub fn bandwidth(&self) -> usize {
-        (0..self.len()).map(|i| i - self.first(i)).max().unwrap_or(0)
+        (0..self.len())
+            .map(|i| i - self.first(i))
+            .max()
+            .unwrap_or(0)
     }
 
     /// Bytes in the papers' accounting: 4-byte values for the diagonal and

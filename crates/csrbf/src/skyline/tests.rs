@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)] // dense reference code indexes matrices
 use glam::DVec3;
 
 use super::*;
@@ -27,13 +28,19 @@ fn random_spd(n: usize, rng: &mut Rng) -> (Vec<Vec<f64>>, Graph) {
 /// Dense Gaussian elimination with partial pivoting: the plain reference.
 pub(crate) fn dense_solve(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
     let n = b.len();
-    let mut m: Vec<Vec<f64>> = a.iter().zip(b).map(|(r, &v)| {
-        let mut r = r.clone();
-        r.push(v);
-        r
-    }).collect();
+    let mut m: Vec<Vec<f64>> = a
+        .iter()
+        .zip(b)
+        .map(|(r, &v)| {
+            let mut r = r.clone();
+            r.push(v);
+            r
+        })
+        .collect();
     for c in 0..n {
-        let p = (c..n).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs())).unwrap_or(c);
+        let p = (c..n)
+            .max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))
+            .unwrap_or(c);
         m.swap(c, p);
         for r in c + 1..n {
             let f = m[r][c] / m[c][c];
@@ -66,7 +73,11 @@ fn factor_and_solve_match_a_dense_solve() {
         }
         for (i, &oi) in perm.iter().enumerate() {
             for (j, &oj) in perm.iter().enumerate() {
-                assert_eq!(p.get(i, j), a[oi as usize][oj as usize], "pattern lost an entry");
+                assert_eq!(
+                    p.get(i, j),
+                    a[oi as usize][oj as usize],
+                    "pattern lost an entry"
+                );
             }
         }
         p.factor().expect("SPD");
