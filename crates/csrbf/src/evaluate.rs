@@ -123,11 +123,16 @@ impl Blocks {
     }
 }
 
-/// Candidate starts for a cell: positions and indices, gathered once.
+/// Candidate starts for a cell, gathered once, laid out by coordinate so
+/// that the distance test runs over plain arrays (vectorised).
 #[derive(Default)]
 pub(crate) struct Candidates {
-    pub(crate) pos: Vec<DVec3>,
-    pub(crate) id: Vec<u32>,
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    zs: Vec<f64>,
+    id: Vec<u32>,
+    d2: Vec<f64>,
+    hits: Vec<u32>,
 }
 
 impl Candidates {
@@ -142,30 +147,68 @@ impl Candidates {
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(p), hi.max(p)),
         );
-        self.pos.clear();
+        self.xs.clear();
+        self.ys.clear();
+        self.zs.clear();
         self.id.clear();
         octree.for_each_near_box(lo, hi, radius, |i, p| {
-            self.pos.push(p);
+            self.xs.push(p.x);
+            self.ys.push(p.y);
+            self.zs.push(p.z);
             self.id.push(i);
         });
+        self.d2.resize(self.xs.len(), 0.0);
+        self.hits.resize(self.xs.len(), 0);
     }
 
     /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
     #[inline]
     pub(crate) fn for_each_weight(
-        &self,
+        &mut self,
         x: DVec3,
         kernel: Kernel,
         radius: f64,
+        f: impl FnMut(u32, f64),
+    ) {
+        // One copy of the loop per kernel, so phi is inlined in it.
+        match kernel {
+            Kernel::C0 => self.weights(x, radius, |r| Kernel::C0.eval(r), f),
+            Kernel::C2 => self.weights(x, radius, |r| Kernel::C2.eval(r), f),
+            Kernel::C4 => self.weights(x, radius, |r| Kernel::C4.eval(r), f),
+            Kernel::C6 => self.weights(x, radius, |r| Kernel::C6.eval(r), f),
+        }
+    }
+
+    #[inline(always)]
+    fn weights(
+        &mut self,
+        x: DVec3,
+        radius: f64,
+        phi: impl Fn(f64) -> f64,
         mut f: impl FnMut(u32, f64),
     ) {
         let r2 = radius * radius;
         let inv = 1.0 / radius;
-        for (p, &id) in self.pos.iter().zip(&self.id) {
-            let d2 = p.distance_squared(x);
-            if d2 < r2 {
-                f(id, kernel.eval(d2.sqrt() * inv));
+        let n = self.xs.len();
+        let (xs, ys, zs, d2) = (&self.xs[..n], &self.ys[..n], &self.zs[..n], &mut self.d2[..n]);
+        for k in 0..n {
+            let (dx, dy, dz) = (xs[k] - x.x, ys[k] - x.y, zs[k] - x.z);
+            d2[k] = dx * dx + dy * dy + dz * dz;
+        }
+        // Branch-free compaction of the hits: about half the candidates are
+        // within R, so a branch per candidate would mispredict half the time.
+        let hits = &mut self.hits[..n];
+        let mut m = 0;
+        for (k, &d) in d2.iter().enumerate() {
+            hits[m] = k as u32;
+            m += (d < r2) as usize;
+            if m == n {
+                break;
             }
+        }
+        for &k in &hits[..m] {
+            let k = k as usize;
+            f(self.id[k], phi(d2[k].sqrt() * inv));
         }
     }
 }
@@ -184,6 +227,7 @@ pub(crate) fn for_each_cell<T: Send>(
             .cells
             .par_iter()
             .zip(slices)
+            .with_min_len(8)
             .for_each_init(Candidates::default, |cand, (cell, out)| {
                 work(*cell, out, cand)
             });
