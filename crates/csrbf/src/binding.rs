@@ -42,7 +42,7 @@ impl Binding {
     /// weights. Only the starts, kernel and R matter: any deformation solved
     /// from the same [`crate::System`] can then be applied through it.
     pub fn new<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
-        let blocks = Blocks::new(points, deformation.radius() * 0.5);
+        let blocks = Blocks::for_starts(points, deformation.radius(), deformation.starts().len());
         let mut chunks = vec![Chunk::default(); blocks.cells.len()];
         let (kernel, radius) = (deformation.kernel(), deformation.radius());
         let parallel = points.len() >= PARALLEL_POINTS;
@@ -50,6 +50,7 @@ impl Binding {
         let one_each = Blocks {
             order: Vec::new(),
             cells: (0..chunks.len()).map(|c| (c, c + 1)).collect(),
+            identity: false,
         };
         for_each_cell(&one_each, &mut chunks, parallel, |(c, _), out, cand| {
             let (s, e) = blocks.cells[c];

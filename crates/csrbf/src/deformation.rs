@@ -178,12 +178,18 @@ impl Deformation {
         out: &mut [T],
         conv: impl Fn(DVec3) -> T + Sync + Send,
     ) {
-        let blocks = Blocks::new(points, self.radius * 0.5);
-        let mut sorted = vec![T::default(); points.len()];
+        let blocks = Blocks::for_starts(points, self.radius, self.starts.len());
+        let mut buffer = Vec::new();
+        let sorted = if blocks.identity {
+            &mut *out
+        } else {
+            buffer.resize(points.len(), T::default());
+            &mut buffer[..]
+        };
         let (kernel, radius) = (self.kernel, self.radius);
         for_each_cell(
             &blocks,
-            &mut sorted,
+            sorted,
             points.len() >= PARALLEL_POINTS,
             |(s, e), out, cand| {
                 let idx = &blocks.order[s..e];
@@ -202,8 +208,10 @@ impl Deformation {
                 }
             },
         );
-        for (k, &i) in blocks.order.iter().enumerate() {
-            out[i as usize] = sorted[k];
+        if !blocks.identity {
+            for (k, &i) in blocks.order.iter().enumerate() {
+                out[i as usize] = buffer[k];
+            }
         }
     }
 }

@@ -34,12 +34,36 @@ impl Point for Vec3 {
 pub(crate) struct Blocks {
     pub(crate) order: Vec<u32>,
     pub(crate) cells: Vec<(usize, usize)>,
+    /// Whether `order` is 0, 1, 2, ...: points were left in their order.
+    pub(crate) identity: bool,
 }
 
+/// With this many starts or fewer, every start is a candidate for every
+/// point: sorting points into cells would cost more than it saves.
+const FEW_STARTS: usize = 48;
+
 /// Points below this count are evaluated on one thread.
-pub(crate) const PARALLEL_POINTS: usize = 8192;
+pub(crate) const PARALLEL_POINTS: usize = 4096;
 
 impl Blocks {
+    /// Groups `points` for evaluation against `starts` starts of radius R:
+    /// runs of points in their own order when there are few starts, else
+    /// cells about R/2 wide.
+    pub(crate) fn for_starts<P: Point>(points: &[P], radius: f64, starts: usize) -> Blocks {
+        if starts > FEW_STARTS {
+            return Blocks::new(points, radius * 0.5);
+        }
+        let n = points.len();
+        const RUN: usize = 1024;
+        Blocks {
+            order: (0..n as u32).collect(),
+            cells: (0..n.div_ceil(RUN))
+                .map(|c| (c * RUN, ((c + 1) * RUN).min(n)))
+                .collect(),
+            identity: true,
+        }
+    }
+
     /// Buckets `points` into cells of about `cell` width by a counting sort.
     pub(crate) fn new<P: Point>(points: &[P], cell: f64) -> Blocks {
         let n = points.len();
@@ -47,6 +71,7 @@ impl Blocks {
             return Blocks {
                 order: Vec::new(),
                 cells: Vec::new(),
+                identity: true,
             };
         }
         let (lo, hi) = points.iter().fold(
@@ -108,7 +133,11 @@ impl Blocks {
             cells.push((s, e));
             s = e;
         }
-        Blocks { order, cells }
+        Blocks {
+            order,
+            cells,
+            identity: false,
+        }
     }
 
     /// Splits `out` (one value per point, in `order`) into one slice per cell.
@@ -131,8 +160,7 @@ pub(crate) struct Candidates {
     ys: Vec<f64>,
     zs: Vec<f64>,
     id: Vec<u32>,
-    d2: Vec<f64>,
-    hits: Vec<u32>,
+    avx2: bool,
 }
 
 impl Candidates {
@@ -157,8 +185,7 @@ impl Candidates {
             self.zs.push(p.z);
             self.id.push(i);
         });
-        self.d2.resize(self.xs.len(), 0.0);
-        self.hits.resize(self.xs.len(), 0);
+        self.avx2 = crate::simd::has_avx2_fma();
     }
 
     /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
@@ -190,25 +217,24 @@ impl Candidates {
         let r2 = radius * radius;
         let inv = 1.0 / radius;
         let n = self.xs.len();
-        let (xs, ys, zs, d2) = (&self.xs[..n], &self.ys[..n], &self.zs[..n], &mut self.d2[..n]);
-        for k in 0..n {
-            let (dx, dy, dz) = (xs[k] - x.x, ys[k] - x.y, zs[k] - x.z);
-            d2[k] = dx * dx + dy * dy + dz * dz;
-        }
-        // Branch-free compaction of the hits: about half the candidates are
-        // within R, so a branch per candidate would mispredict half the time.
-        let hits = &mut self.hits[..n];
-        let mut m = 0;
-        for (k, &d) in d2.iter().enumerate() {
-            hits[m] = k as u32;
-            m += (d < r2) as usize;
-            if m == n {
-                break;
+        // A bit mask of the hits per 64 candidates, then only the hits: no
+        // branch per candidate (about half are hits, which a branch would
+        // mispredict half the time).
+        for base in (0..n).step_by(64) {
+            let end = (base + 64).min(n);
+            let (xs, ys, zs) = (
+                &self.xs[base..end],
+                &self.ys[base..end],
+                &self.zs[base..end],
+            );
+            let mut bits = crate::simd::hit_mask(self.avx2, xs, ys, zs, x.to_array(), r2);
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (dx, dy, dz) = (xs[k] - x.x, ys[k] - x.y, zs[k] - x.z);
+                let d = dx * dx + dy * dy + dz * dz;
+                f(self.id[base + k], phi(d.sqrt() * inv));
             }
-        }
-        for &k in &hits[..m] {
-            let k = k as usize;
-            f(self.id[k], phi(d2[k].sqrt() * inv));
         }
     }
 }

@@ -74,6 +74,7 @@ mod octree;
 pub mod ordering;
 mod pipeline;
 mod region;
+mod simd;
 pub mod skyline;
 mod solver;
 pub mod synthetic;

@@ -390,9 +390,9 @@ fn factor(
     let skyline_flops = envelope.factor_flops();
     let choice = match options.solver {
         SolverChoice::Auto => {
-            // Below a few million multiply-adds the profile factor takes well
-            // under a millisecond; beyond, compare with the supernodal fill.
-            if skyline_flops < 3e6 {
+            // Below some 30 million multiply-adds the profile factor takes a few
+            // milliseconds at most; beyond, compare with the supernodal fill.
+            if skyline_flops < 3e7 {
                 SolverChoice::Skyline
             } else {
                 SolverChoice::Supernodal

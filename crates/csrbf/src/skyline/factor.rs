@@ -1,4 +1,5 @@
 use super::Profile;
+use crate::simd::dot;
 
 /// A pivot that did not stay positive: the row, in the profile's numbering.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,6 +15,27 @@ impl Profile {
     /// Fails at the first pivot that is not positive (relative to the
     /// diagonal entry it came from), naming its row.
     pub fn factor(&mut self) -> Result<(), PivotError> {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            #[allow(unsafe_code)]
+            unsafe {
+                return factor_avx2(self);
+            }
+        }
+        factor_body::<false>(self)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn factor_avx2(p: &mut Profile) -> Result<(), PivotError> {
+    factor_body::<true>(p)
+}
+
+impl Profile {
+    #[inline(always)]
+    fn factor_impl<const FMA: bool>(&mut self) -> Result<(), PivotError> {
         let n = self.envelope.len();
         for i in 0..n {
             let fi = self.envelope.first(i);
@@ -25,11 +47,11 @@ impl Profile {
                 // Columns k0..j of rows i and j.
                 let a = &self.off[ri.start + (k0 - fi)..ri.start + (j - fi)];
                 let b = &self.off[rj.start + (k0 - fj)..rj.end];
-                let s = self.off[ri.start + (j - fi)] - dot(a, b);
+                let s = self.off[ri.start + (j - fi)] - dot::<FMA>(a, b);
                 self.off[ri.start + (j - fi)] = s / self.diag[j];
             }
             let row = &self.off[ri];
-            let d = self.diag[i] - dot(row, row);
+            let d = self.diag[i] - dot::<FMA>(row, row);
             if !(d > self.diag[i].abs() * 1e-13) || !d.is_finite() {
                 return Err(PivotError { row: i });
             }
@@ -39,24 +61,7 @@ impl Profile {
     }
 }
 
-/// Dot product with four accumulators, so the compiler can vectorise it.
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0f64; 4];
-    let mut ca = a.chunks_exact(4);
-    let mut cb = b.chunks_exact(4);
-    for (x, y) in (&mut ca).zip(&mut cb) {
-        for k in 0..4 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+#[inline(always)]
+fn factor_body<const FMA: bool>(p: &mut Profile) -> Result<(), PivotError> {
+    p.factor_impl::<FMA>()
 }
