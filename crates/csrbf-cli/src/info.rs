@@ -101,6 +101,7 @@ fn controls_info(path: &Path) -> Result<Value> {
             "bandwidth": st.bandwidth,
             "envelope": st.envelope,
             "ordering": st.ordering,
+            "orderings": st.orderings.iter().map(|o| json!({ "ordering": o.ordering, "bandwidth": o.bandwidth, "envelope": o.envelope })).collect::<Vec<_>>(),
             "profile_bytes": st.profile_bytes,
             "dense_bytes": st.dense_bytes,
             "factor_bytes": st.factor_bytes,

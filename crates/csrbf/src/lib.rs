@@ -95,4 +95,4 @@ pub use ordering::Ordering;
 pub use pipeline::{Pipeline, Stage, Work, compose};
 pub use region::Region;
 pub use solver::SolverChoice;
-pub use system::{FitOptions, System, SystemStats};
+pub use system::{FitOptions, OrderingFigures, System, SystemStats};

@@ -114,36 +114,48 @@ pub fn reverse_cuthill_mckee(graph: &Graph) -> Vec<u32> {
     perm
 }
 
+/// A numbering chosen by [`order`], with the band of every candidate tried.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Chosen {
+    /// `perm[new] = old`.
+    pub perm: Vec<u32>,
+    /// Its band.
+    pub band: Band,
+    /// Which ordering it is.
+    pub ordering: Ordering,
+    /// Every ordering tried, with its band (one entry unless `Auto`).
+    pub tried: Vec<(Ordering, Band)>,
+}
+
 /// The numbering `ordering` asks for, and its band. `Auto` takes the smallest
 /// envelope of the candidates, so it never widens the caller's order.
-pub fn order(graph: &Graph, ordering: Ordering) -> (Vec<u32>, Band, Ordering) {
-    let identity = || (0..graph.len() as u32).collect::<Vec<_>>();
+pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
     let pick = |o: Ordering| match o {
         Ordering::BreadthFirst => breadth_first(graph),
         Ordering::ReverseCuthillMcKee => reverse_cuthill_mckee(graph),
-        _ => identity(),
+        _ => (0..graph.len() as u32).collect(),
     };
-    if ordering != Ordering::Auto {
-        let p = pick(ordering);
-        let b = band(graph, &p);
-        return (p, b, ordering);
-    }
-    let mut best: Option<(Vec<u32>, Band, Ordering)> = None;
-    for o in [
-        Ordering::ReverseCuthillMcKee,
-        Ordering::BreadthFirst,
-        Ordering::Identity,
-    ] {
-        let p = pick(o);
-        let b = band(graph, &p);
-        if best
-            .as_ref()
-            .is_none_or(|(_, bb, _)| b.envelope < bb.envelope)
-        {
-            best = Some((p, b, o));
+    let candidates: &[Ordering] = if ordering == Ordering::Auto {
+        &[
+            Ordering::ReverseCuthillMcKee,
+            Ordering::BreadthFirst,
+            Ordering::Identity,
+        ]
+    } else {
+        std::slice::from_ref(&ordering)
+    };
+    let mut best = Chosen::default();
+    for (k, &o) in candidates.iter().enumerate() {
+        let perm = pick(o);
+        let b = band(graph, &perm);
+        best.tried.push((o, b));
+        if k == 0 || b.envelope < best.band.envelope {
+            best.perm = perm;
+            best.band = b;
+            best.ordering = o;
         }
     }
-    best.unwrap_or_else(|| (Vec::new(), Band::default(), Ordering::Identity))
+    best
 }
 
 /// Bandwidth and envelope of the matrix with pattern `graph` under `perm`.
@@ -320,10 +332,12 @@ mod tests {
             }
             let g = Graph::from_lists(&lists);
             let ident = band(&g, &(0..n as u32).collect::<Vec<_>>());
-            let (p, b, _) = order(&g, Ordering::Auto);
-            assert!(is_permutation(&p, n));
-            assert_eq!(b, band(&g, &p));
-            assert!(b.envelope <= ident.envelope);
+            let c = order(&g, Ordering::Auto);
+            assert!(is_permutation(&c.perm, n));
+            assert_eq!(c.band, band(&g, &c.perm));
+            assert!(c.band.envelope <= ident.envelope);
+            assert_eq!(c.tried.len(), 3);
+            assert!(c.tried.iter().all(|(_, b)| c.band.envelope <= b.envelope));
         }
     }
 
@@ -332,6 +346,10 @@ mod tests {
         let g = Graph::from_lists(&[vec![1], vec![0], vec![], vec![4], vec![3]]);
         assert!(is_permutation(&reverse_cuthill_mckee(&g), 5));
         assert!(is_permutation(&breadth_first(&g), 5));
-        assert!(order(&Graph::from_lists(&[]), Ordering::Auto).0.is_empty());
+        assert!(
+            order(&Graph::from_lists(&[]), Ordering::Auto)
+                .perm
+                .is_empty()
+        );
     }
 }

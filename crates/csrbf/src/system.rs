@@ -94,6 +94,8 @@ pub struct SystemStats {
     pub envelope: usize,
     /// The ordering used.
     pub ordering: String,
+    /// Bandwidth and envelope of every ordering tried.
+    pub orderings: Vec<OrderingFigures>,
     /// Profile bytes in the papers' accounting (4-byte values and row starts).
     pub profile_bytes: usize,
     /// Dense N^2 bytes with 4-byte values, as in the papers.
@@ -104,6 +106,18 @@ pub struct SystemStats {
     pub skyline_flops: f64,
     /// Bytes the factor's f64 values take.
     pub factor_bytes: usize,
+}
+
+/// The band one ordering gives.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct OrderingFigures {
+    /// `identity`, `breadth-first` or `rcm`.
+    pub ordering: String,
+    /// Largest distance of a non-zero from the diagonal.
+    pub bandwidth: usize,
+    /// Entries below the diagonal inside the profile.
+    pub envelope: usize,
 }
 
 /// The symbolic and numeric state for one set of start points.
@@ -157,7 +171,8 @@ impl System {
         let n = starts.len();
         let identity: Vec<u32> = (0..n as u32).collect();
         let before = ordering::band(&graph, &identity);
-        let (perm, after, used) = ordering::order(&graph, options.ordering);
+        let chosen = ordering::order(&graph, options.ordering);
+        let (perm, after, used) = (chosen.perm, chosen.band, chosen.ordering);
         let envelope = Envelope::new(&graph, &perm);
         let skyline_flops = envelope.factor_flops();
 
@@ -169,6 +184,15 @@ impl System {
             bandwidth: after.bandwidth,
             envelope: after.envelope,
             ordering: used.name().to_owned(),
+            orderings: chosen
+                .tried
+                .iter()
+                .map(|(o, b)| OrderingFigures {
+                    ordering: o.name().to_owned(),
+                    bandwidth: b.bandwidth,
+                    envelope: b.envelope,
+                })
+                .collect(),
             profile_bytes: envelope.paper_bytes(),
             dense_bytes: 4 * n * n,
             skyline_flops,
