@@ -42,7 +42,7 @@ for p, d in moves:
     if p in seen:
         continue
     seen.add(p)
-    controls.append({"from": list(p), "to": [round(p[k] + d[k], 6) for k in range(3)]})
+    controls.append({"from": list(p), "to": [round(p[k] + 1.8 * d[k], 6) for k in range(3)]})
 
 doc = {"kernel": "c2", "radius": 3.5, "polynomial": "linear", "controls": controls}
 with open(os.path.join(root, "assets/controls/head_smile.json"), "w") as f:

@@ -23,6 +23,27 @@ impl Progress {
         }
     }
 
+    /// A progress bar on one line of standard error.
+    pub fn bar(&self, done: usize, total: usize) {
+        if !self.on || total == 0 {
+            return;
+        }
+        use std::io::IsTerminal;
+        if !std::io::stderr().is_terminal() {
+            // In a log, a line at every quarter.
+            if done == total || (done * 4 / total) != ((done - 1) * 4 / total) {
+                self.say(format_args!("{done}/{total}"));
+            }
+            return;
+        }
+        let width = 30;
+        let filled = done * width / total;
+        eprint!("\r[{}{}] {done}/{total}", "#".repeat(filled), ".".repeat(width - filled));
+        if done == total {
+            eprintln!();
+        }
+    }
+
     pub fn say(&self, msg: impl std::fmt::Display) {
         if self.on {
             eprintln!("[{:7.2} s] {msg}", self.start.elapsed().as_secs_f64());

@@ -1,0 +1,253 @@
+//! The scene file (`*.scene.json`): plain data, read and written with serde.
+//! Unknown keys are refused with their JSON path.
+
+use serde::{Deserialize, Serialize};
+
+/// A whole scene as written in its file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Length of the animation in seconds (> 0).
+    pub duration: f64,
+    /// Frames per second for movies. Default 30.
+    #[serde(default = "default_fps")]
+    pub fps: f64,
+    /// Picture size in pixels. Default 1024 x 768.
+    #[serde(default = "default_size")]
+    pub size: [u32; 2],
+    /// Background colour, linear RGB in [0, 1].
+    #[serde(default = "default_background")]
+    pub background: [f32; 3],
+    /// The camera.
+    pub camera: CameraFile,
+    /// Directional lights; one from the upper left when empty.
+    #[serde(default)]
+    pub lights: Vec<LightFile>,
+    /// The animation objects.
+    pub objects: Vec<ObjectFile>,
+}
+
+fn default_fps() -> f64 {
+    30.0
+}
+fn default_size() -> [u32; 2] {
+    [1024, 768]
+}
+fn default_background() -> [f32; 3] {
+    [0.035, 0.04, 0.05]
+}
+
+/// A pinhole camera.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraFile {
+    /// Where the eye is.
+    pub eye: [f64; 3],
+    /// What it looks at.
+    pub target: [f64; 3],
+    /// Up direction. Default +Y.
+    #[serde(default = "default_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view in degrees. Default 35.
+    #[serde(default = "default_fov")]
+    pub fov: f64,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    35.0
+}
+
+/// A directional light.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightFile {
+    /// Direction the light travels.
+    pub direction: [f64; 3],
+    /// Colour, linear RGB. Default white.
+    #[serde(default = "default_white")]
+    pub color: [f32; 3],
+    /// Intensity. Default 1.
+    #[serde(default = "default_one")]
+    pub intensity: f32,
+}
+
+fn default_white() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+fn default_one() -> f32 {
+    1.0
+}
+
+/// An animation object: a mesh, its parts, its movement and turning.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectFile {
+    /// Unique name.
+    pub name: String,
+    /// Mesh file, relative to the scene file.
+    pub mesh: String,
+    /// Uniform scale applied to the mesh in its local frame. Default 1.
+    #[serde(default = "default_scale")]
+    pub scale: f64,
+    /// Parts with their look and deformations; one part of the whole mesh when empty.
+    #[serde(default)]
+    pub parts: Vec<PartFile>,
+    /// Position keys of the object's frame (Kochanek-Bartels); fixed at the origin when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub trajectory: Vec<PositionKeyFile>,
+    /// Orientation keys, about the object's centre of gravity; none when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub orientation: Vec<OrientationKeyFile>,
+    /// `squad` (smooth, default) or `slerp`.
+    #[serde(default = "default_squad")]
+    pub interpolation: String,
+    /// Deformation by contact with another object, rebuilt every frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact: Option<ContactFile>,
+}
+
+fn default_scale() -> f64 {
+    1.0
+}
+fn default_squad() -> String {
+    "squad".into()
+}
+
+/// A part of an object.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartFile {
+    /// Name of the part.
+    pub name: String,
+    /// Which faces: `"all"`, `{"group": name}` (a group, object or material of
+    /// the mesh), or a region `{"sphere": ...}`, `{"box": ...}` (faces whose
+    /// every corner lies inside).
+    #[serde(default = "default_all")]
+    pub select: serde_json::Value,
+    /// Colour, linear RGB(A). Default light grey.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub color: Option<Vec<f32>>,
+    /// Texture image (PNG or JPEG), relative to the scene file; uses the mesh's UVs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texture: Option<String>,
+    /// Deformations of this part, each with its phase track.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub deformations: Vec<DeformationFile>,
+}
+
+fn default_all() -> serde_json::Value {
+    serde_json::Value::String("all".into())
+}
+
+/// A deformation of a part: a control file and its phase over time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeformationFile {
+    /// Control file (JSON), relative to the scene file, in the mesh's units.
+    pub controls: String,
+    /// Phase keys; phase 1 throughout when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub phase: Vec<PhaseKeyFile>,
+    /// `smooth` (default) or `linear` between phase keys.
+    #[serde(default = "default_smooth")]
+    pub easing: String,
+}
+
+fn default_smooth() -> String {
+    "smooth".into()
+}
+
+/// A phase key.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseKeyFile {
+    /// Time in seconds.
+    pub time: f64,
+    /// Phase in [0, 1].
+    pub phase: f64,
+}
+
+/// A position key with its Kochanek-Bartels parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PositionKeyFile {
+    /// Time in seconds (the timing mark).
+    pub time: f64,
+    /// Position of the object's frame.
+    pub position: [f64; 3],
+    /// Tension in [-1, 1]. Default 0.
+    #[serde(default)]
+    pub tension: f64,
+    /// Continuity in [-1, 1]. Default 0.
+    #[serde(default)]
+    pub continuity: f64,
+    /// Bias in [-1, 1]. Default 0.
+    #[serde(default)]
+    pub bias: f64,
+}
+
+/// An orientation key: exactly one of a quaternion, an axis and angle, or Euler angles.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrientationKeyFile {
+    /// Time in seconds.
+    pub time: f64,
+    /// Quaternion `[x, y, z, w]`; normalised with a warning when not unit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion: Option<[f64; 4]>,
+    /// Rotation axis, with `angle`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// Angle in degrees, with `axis`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle: Option<f64>,
+    /// Euler angles in degrees about X, Y, Z (applied in that order).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub euler: Option<[f64; 3]>,
+}
+
+/// Contact with another object: where that object (a ball) penetrates this
+/// one, the vertices inside it are pushed out to its surface by control
+/// vectors, and the deformation is rebuilt and solved every frame (the
+/// papers' ball in a deformable box).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactFile {
+    /// Name of the object that pushes (its bounding sphere is used).
+    pub with: String,
+    /// Kernel. Default c2.
+    #[serde(default = "default_c2")]
+    pub kernel: String,
+    /// The radius of support is this many times the penetration depth plus
+    /// the pusher's radius. Default 1.5.
+    #[serde(default = "default_reach")]
+    pub reach: f64,
+}
+
+fn default_c2() -> String {
+    "c2".into()
+}
+fn default_reach() -> f64 {
+    1.5
+}
+
+impl SceneFile {
+    /// Parses a scene file; errors carry the JSON path of the problem.
+    pub fn parse(text: &str) -> Result<SceneFile, (String, String)> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            let at = if path == "." { format!("line {}, column {}", inner.line(), inner.column()) } else { path };
+            (at, inner.to_string())
+        })
+    }
+
+    /// The file's text, pretty-printed.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+}

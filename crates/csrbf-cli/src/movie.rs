@@ -1,0 +1,172 @@
+//! `render` and `animate`: pictures and movies of meshes and scenes.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use csrbf_anim::{CameraFile, DeformationFile, ObjectFile, PartFile, Scene, SceneFile};
+use csrbf_render::movie::MovieWriter;
+use csrbf_render::{SceneOptions, SceneRenderer};
+
+use crate::common::{Progress, check_output};
+
+/// Look options shared by `render` and `animate`.
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct LookArgs {
+    /// Flat shading (one normal per face).
+    #[arg(long)]
+    pub flat: bool,
+    /// Draw the mesh's edges.
+    #[arg(long)]
+    pub wireframe: bool,
+    /// Draw the control vectors: starts, arrows to destinations, support spheres.
+    #[arg(long)]
+    pub overlay: bool,
+}
+
+impl LookArgs {
+    pub fn options(&self) -> SceneOptions {
+        let mut o = SceneOptions::default();
+        o.draw.flat = self.flat;
+        o.draw.wireframe = self.wireframe;
+        o.overlay = self.overlay;
+        o
+    }
+}
+
+/// Parses `WxH`.
+pub fn parse_size(s: &str) -> Result<[u32; 2]> {
+    let (w, h) = s.split_once(['x', 'X']).with_context(|| format!("--size {s:?}: expected WIDTHxHEIGHT, e.g. 1024x768"))?;
+    let w: u32 = w.trim().parse().with_context(|| format!("--size {s:?}: width is not a whole number"))?;
+    let h: u32 = h.trim().parse().with_context(|| format!("--size {s:?}: height is not a whole number"))?;
+    if w == 0 || h == 0 || w > 8192 || h > 8192 {
+        bail!("--size {s:?}: each side must be within 1..8192 pixels");
+    }
+    Ok([w, h])
+}
+
+/// A one-object scene looking at a mesh from a three-quarter view that frames it.
+pub fn mesh_scene(mesh: &Path, controls: Option<&Path>, phase: f64, size: [u32; 2]) -> Result<Scene> {
+    let m = csrbf_mesh::read(mesh)?;
+    let (lo, hi) = m.bounds().context("the mesh has no vertices")?;
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+    let centre = (lo + hi) * 0.5;
+    let radius = (hi - lo).length() * 0.5;
+    let fov = 35.0f64;
+    let dist = radius / (fov.to_radians() * 0.5).sin() * 1.05;
+    let dir = glam::DVec3::new(0.55, 0.35, 1.0).normalize();
+    let eye = centre + dir * dist;
+    let abs = |p: &Path| std::fs::canonicalize(p).map(|p| p.display().to_string()).unwrap_or_else(|_| p.display().to_string());
+    let deformations = controls
+        .map(|c| vec![DeformationFile { controls: abs(c), phase: vec![csrbf_anim::PhaseKeyFile { time: 0.0, phase }], easing: "linear".into() }])
+        .unwrap_or_default();
+    let file = SceneFile {
+        duration: 1.0,
+        fps: 30.0,
+        size,
+        background: [0.035, 0.04, 0.05],
+        camera: CameraFile { eye: eye.to_array(), target: centre.to_array(), up: [0.0, 1.0, 0.0], fov },
+        lights: vec![],
+        objects: vec![ObjectFile {
+            name: "mesh".into(),
+            mesh: abs(mesh),
+            scale: 1.0,
+            parts: vec![PartFile { name: "all".into(), select: "all".into(), color: Some(vec![0.78, 0.62, 0.45]), texture: None, deformations }],
+            trajectory: vec![],
+            orientation: vec![],
+            interpolation: "squad".into(),
+            contact: None,
+        }],
+    };
+    Ok(Scene::from_file(file, Path::new("."), mesh)?)
+}
+
+pub fn render(mesh: &Path, controls: Option<&Path>, phase: f64, out: &Path, size: Option<&str>, look: LookArgs, force: bool, progress: &Progress) -> Result<()> {
+    crate::common::check_phase(phase)?;
+    let inputs: Vec<&Path> = std::iter::once(mesh).chain(controls).collect();
+    check_output(out, &inputs, force, false)?;
+    if out.extension().map(|e| e.to_ascii_lowercase()) != Some("png".into()) {
+        bail!("{}: pictures are written as PNG; give a .png file", out.display());
+    }
+    let size = size.map(parse_size).transpose()?.unwrap_or([1024, 768]);
+    let scene = mesh_scene(mesh, controls, phase, size)?;
+    let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
+    progress.say(format_args!("rendering on {}", r.renderer().adapter()));
+    let t = Instant::now();
+    let img = r.render(&scene, &scene.frame(0.0), look.options())?;
+    img.save_png(out)?;
+    progress.say(format_args!("wrote {} ({}x{}, {:.0} ms)", out.display(), size[0], size[1], t.elapsed().as_secs_f64() * 1e3));
+    Ok(())
+}
+
+/// Options of `animate`.
+#[derive(clap::Args, Debug)]
+pub struct AnimateArgs {
+    /// The scene file (*.scene.json).
+    pub scene: PathBuf,
+    /// movie.mp4 (ffmpeg), movie.gif, or a folder for PNG frames.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Frames per second (default: the scene's).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// Picture size WIDTHxHEIGHT (default: the scene's).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Start time in seconds (default 0).
+    #[arg(long)]
+    pub from: Option<f64>,
+    /// End time in seconds (default: the scene's duration).
+    #[arg(long)]
+    pub to: Option<f64>,
+    #[command(flatten)]
+    pub look: LookArgs,
+    /// Allow replacing an existing output file.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn load_scene(path: &Path) -> Result<Scene> {
+    let scene = Scene::load(path)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(scene)
+}
+
+pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
+    if a.out.exists() && !a.out.is_dir() && !a.force {
+        bail!("{}: exists; pass --force to replace it", a.out.display());
+    }
+    let scene = load_scene(&a.scene)?;
+    let size = a.size.as_deref().map(parse_size).transpose()?.unwrap_or(scene.file.size);
+    let fps = a.fps.unwrap_or(scene.file.fps);
+    if !(fps > 0.0 && fps <= 240.0) {
+        bail!("--fps must be within (0, 240], got {fps}");
+    }
+    let (from, to) = (a.from.unwrap_or(0.0), a.to.unwrap_or(scene.file.duration));
+    if !(from >= 0.0 && to > from && to.is_finite()) {
+        bail!("--from {from} --to {to}: need 0 <= from < to");
+    }
+    let written = write_movie(&scene, &a.out, size, fps, from, to, a.look.options(), progress)?;
+    progress.say(format_args!("wrote {}", written.display()));
+    Ok(())
+}
+
+/// Renders frames from `from` to `to` into a movie; returns its path.
+#[allow(clippy::too_many_arguments)]
+pub fn write_movie(scene: &Scene, out: &Path, size: [u32; 2], fps: f64, from: f64, to: f64, options: SceneOptions, progress: &Progress) -> Result<PathBuf> {
+    let frames = ((to - from) * fps).round() as usize + 1;
+    let mut writer = MovieWriter::create(out, size[0], size[1], fps)?;
+    let mut r = SceneRenderer::new(scene, size[0], size[1])?;
+    progress.say(format_args!("{} frames of {}x{} at {fps} fps on {}", frames, size[0], size[1], r.renderer().adapter()));
+    let t = Instant::now();
+    for k in 0..frames {
+        let time = from + k as f64 / fps;
+        let img = r.render(scene, &scene.frame(time), options)?;
+        writer.push(&img)?;
+        progress.bar(k + 1, frames);
+    }
+    progress.say(format_args!("rendered {frames} frames in {:.1} s", t.elapsed().as_secs_f64()));
+    Ok(writer.finish()?)
+}

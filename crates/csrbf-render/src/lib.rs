@@ -1,0 +1,61 @@
+//! Pictures and movies of csrbf scenes, headless.
+//!
+//! [`Renderer`] draws [`View`]s (meshes with parts, colours and textures,
+//! lines, a control-vector overlay) with wgpu into its own multisampled
+//! colour and depth textures and reads them back as an [`Image`]: on a GPU
+//! where there is one, else on Mesa's software Vulkan driver (lavapipe).
+//! [`movie`] writes frames as MP4 (through ffmpeg), GIF (pure Rust) or a
+//! folder of PNGs, whole or not at all. No numerics live here.
+
+pub mod image;
+pub mod movie;
+mod renderer;
+mod scene_view;
+
+pub use image::Image;
+pub use renderer::{Camera, DrawMesh, DrawOptions, DrawPart, Light, Line, Renderer, TextureId, View};
+pub use scene_view::{SceneOptions, SceneRenderer, control_lines, default_lights};
+
+/// What can go wrong while rendering or writing pictures.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RenderError {
+    /// No graphics adapter: neither a GPU nor a software Vulkan/GL driver.
+    #[error(
+        "no graphics adapter found ({0}); on Linux without a GPU install Mesa's software driver (Debian: apt-get install mesa-vulkan-drivers libvulkan1)"
+    )]
+    NoAdapter(String),
+    /// A picture size of 0 or beyond the limit.
+    #[error("picture size {width} x {height} is not valid: each side must be within 1..=8192 pixels")]
+    BadSize {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+    },
+    /// A texture of inconsistent size.
+    #[error("texture is not valid: {0}")]
+    BadTexture(String),
+    /// The GPU failed while drawing or reading back.
+    #[error("graphics error: {0}")]
+    Gpu(String),
+    /// Encoding a picture or movie failed.
+    #[error("encoding failed: {0}")]
+    Encode(String),
+    /// A file could not be written.
+    #[error("{}: {message}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// ffmpeg is not installed.
+    #[error(
+        "ffmpeg was not found, so MP4 cannot be written: install it (Debian: apt-get install ffmpeg), or write a GIF (--out movie.gif) or frames (--out frames/)"
+    )]
+    NoFfmpeg,
+}
+
+/// The crate's result type.
+pub type Result<T, E = RenderError> = std::result::Result<T, E>;

@@ -1,0 +1,220 @@
+//! Movies from pictures: MP4 through ffmpeg, GIF in pure Rust, or a folder
+//! of numbered PNGs. Every output is written beside its target under a
+//! temporary name and renamed at the end, so it appears whole or not at all.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use crate::image::Image;
+use crate::{RenderError, Result};
+
+/// What kind of movie a path asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MovieFormat {
+    /// H.264 MP4 through ffmpeg.
+    Mp4,
+    /// Animated GIF.
+    Gif,
+    /// A folder of `frame_00000.png`, ...
+    Frames,
+}
+
+impl MovieFormat {
+    /// `.mp4`, `.gif`, or a folder (a path ending in `/`, an existing
+    /// folder, or no extension).
+    pub fn of(path: &Path) -> Result<MovieFormat> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("mp4") => Ok(MovieFormat::Mp4),
+            Some("gif") => Ok(MovieFormat::Gif),
+            None => Ok(MovieFormat::Frames),
+            _ if path.is_dir() => Ok(MovieFormat::Frames),
+            Some(other) => Err(RenderError::Io {
+                path: path.to_owned(),
+                message: format!("unknown movie format {other:?}: use .mp4, .gif or a folder for PNG frames"),
+            }),
+        }
+    }
+}
+
+/// Writes `bytes` to `path` whole or not at all.
+pub fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = temp_beside(path)?;
+    let result = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(path, e));
+    }
+    Ok(())
+}
+
+fn io(path: &Path, e: impl std::fmt::Display) -> RenderError {
+    RenderError::Io { path: path.to_owned(), message: e.to_string() }
+}
+
+/// A temporary name beside `path`; fails when the folder does not exist.
+fn temp_beside(path: &Path) -> Result<PathBuf> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(io(path, format!("the output folder {} does not exist", dir.display())));
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    Ok(dir.join(format!(".{name}.{}.tmp", std::process::id())))
+}
+
+enum Sink {
+    Mp4 { child: Child },
+    Gif { encoder: gif::Encoder<std::fs::File> },
+    Frames { count: usize },
+}
+
+/// A movie being written frame by frame.
+pub struct MovieWriter {
+    path: PathBuf,
+    tmp: PathBuf,
+    width: u32,
+    height: u32,
+    fps: f64,
+    sink: Option<Sink>,
+    frames: usize,
+}
+
+/// The ffmpeg program: `CSRBF_FFMPEG` if set, else `ffmpeg` on the PATH.
+fn ffmpeg() -> String {
+    std::env::var("CSRBF_FFMPEG").unwrap_or_else(|_| "ffmpeg".into())
+}
+
+impl MovieWriter {
+    /// Starts a movie of `width` x `height` pictures at `fps`. For MP4 it
+    /// checks that ffmpeg runs before any frame is drawn.
+    pub fn create(path: &Path, width: u32, height: u32, fps: f64) -> Result<MovieWriter> {
+        let format = MovieFormat::of(path)?;
+        if !(fps > 0.0 && fps <= 240.0) {
+            return Err(io(path, format!("frames per second must be within (0, 240], got {fps}")));
+        }
+        let tmp = temp_beside(path)?;
+        let sink = match format {
+            MovieFormat::Mp4 => {
+                let tmp_mp4 = tmp.with_extension("tmp.mp4");
+                let child = Command::new(ffmpeg())
+                    .args(["-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgba"])
+                    .args(["-s", &format!("{width}x{height}"), "-r", &format!("{fps}"), "-i", "-"])
+                    .args(["-vf", "scale=trunc(iw/2)*2:trunc(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p"])
+                    .args(["-crf", "20", "-movflags", "+faststart", "-f", "mp4"])
+                    .arg(&tmp_mp4)
+                    .stdin(Stdio::piped())
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::piped())
+                    .spawn()
+                    .map_err(|e| if e.kind() == std::io::ErrorKind::NotFound { RenderError::NoFfmpeg } else { io(path, e) })?;
+                return Ok(MovieWriter { path: path.to_owned(), tmp: tmp_mp4, width, height, fps, sink: Some(Sink::Mp4 { child }), frames: 0 });
+            }
+            MovieFormat::Gif => {
+                if width > u16::MAX as u32 || height > u16::MAX as u32 {
+                    return Err(io(path, "a GIF is at most 65535 pixels on a side"));
+                }
+                let file = std::fs::File::create(&tmp).map_err(|e| io(path, e))?;
+                let mut encoder = gif::Encoder::new(file, width as u16, height as u16, &[]).map_err(|e| RenderError::Encode(e.to_string()))?;
+                encoder.set_repeat(gif::Repeat::Infinite).map_err(|e| RenderError::Encode(e.to_string()))?;
+                Sink::Gif { encoder }
+            }
+            MovieFormat::Frames => {
+                if path.is_dir() && std::fs::read_dir(path).map(|mut d| d.next().is_some()).unwrap_or(false) {
+                    return Err(io(path, "the frames folder is not empty; give a new or empty folder"));
+                }
+                std::fs::create_dir(&tmp).map_err(|e| io(path, e))?;
+                Sink::Frames { count: 0 }
+            }
+        };
+        Ok(MovieWriter { path: path.to_owned(), tmp, width, height, fps, sink: Some(sink), frames: 0 })
+    }
+
+    /// Adds a picture of the movie's size.
+    pub fn push(&mut self, image: &Image) -> Result<()> {
+        if image.width != self.width || image.height != self.height {
+            return Err(RenderError::Encode(format!(
+                "frame of {} x {} in a movie of {} x {}",
+                image.width, image.height, self.width, self.height
+            )));
+        }
+        match self.sink.as_mut() {
+            Some(Sink::Mp4 { child }) => {
+                let stdin = child.stdin.as_mut().ok_or_else(|| RenderError::Encode("ffmpeg closed its input".into()))?;
+                stdin.write_all(&image.rgba).map_err(|e| RenderError::Encode(format!("ffmpeg stopped reading frames: {e}")))?;
+            }
+            Some(Sink::Gif { encoder }) => {
+                let mut rgba = image.rgba.clone();
+                let mut frame = gif::Frame::from_rgba_speed(self.width as u16, self.height as u16, &mut rgba, 10);
+                frame.delay = (100.0 / self.fps).round().max(1.0) as u16;
+                encoder.write_frame(&frame).map_err(|e| RenderError::Encode(e.to_string()))?;
+            }
+            Some(Sink::Frames { count }) => {
+                let p = self.tmp.join(format!("frame_{:05}.png", *count));
+                std::fs::write(&p, image.to_png()?).map_err(|e| io(&p, e))?;
+                *count += 1;
+            }
+            None => return Err(RenderError::Encode("the movie is already finished".into())),
+        }
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// Completes the movie and moves it into place.
+    pub fn finish(mut self) -> Result<PathBuf> {
+        match self.sink.take() {
+            Some(Sink::Mp4 { mut child }) => {
+                drop(child.stdin.take());
+                let out = child.wait_with_output().map_err(|e| io(&self.path, e))?;
+                if !out.status.success() {
+                    return Err(RenderError::Encode(format!("ffmpeg failed: {}", String::from_utf8_lossy(&out.stderr).trim())));
+                }
+                std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
+            }
+            Some(Sink::Gif { encoder }) => {
+                let file = encoder.into_inner().map_err(|e| RenderError::Encode(e.to_string()))?;
+                file.sync_all().map_err(|e| io(&self.path, e))?;
+                drop(file);
+                std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
+            }
+            Some(Sink::Frames { .. }) => {
+                if self.path.is_dir() {
+                    std::fs::remove_dir(&self.path).map_err(|e| io(&self.path, e))?;
+                }
+                std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
+            }
+            None => {}
+        }
+        Ok(self.path.clone())
+    }
+}
+
+impl Drop for MovieWriter {
+    /// An unfinished movie leaves nothing behind.
+    fn drop(&mut self) {
+        match self.sink.take() {
+            Some(Sink::Mp4 { mut child }) => {
+                drop(child.stdin.take());
+                let _ = child.kill();
+                let _ = child.wait();
+                let _ = std::fs::remove_file(&self.tmp);
+            }
+            Some(Sink::Gif { encoder }) => {
+                drop(encoder);
+                let _ = std::fs::remove_file(&self.tmp);
+            }
+            Some(Sink::Frames { .. }) => {
+                let _ = std::fs::remove_dir_all(&self.tmp);
+            }
+            None => {}
+        }
+    }
+}

@@ -1,0 +1,147 @@
+//! Pictures of `csrbf-anim` scenes: the one path from a scene frame to a
+//! [`View`], shared by stills, movies and (later) the studio's viewport.
+
+use csrbf_anim::{Frame, Scene};
+use glam::{Vec2, Vec3};
+
+use crate::{Camera, DrawMesh, DrawOptions, DrawPart, Image, Light, Line, Renderer, Result, TextureId};
+
+/// What to draw besides the surfaces.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[non_exhaustive]
+pub struct SceneOptions {
+    /// Shading and wireframe.
+    pub draw: DrawOptions,
+    /// Draw control vectors: starts, arrows to where they are at this phase
+    /// and to their destinations, and the support sphere of up to 16 of them.
+    pub overlay: bool,
+}
+
+/// Static per-object data prepared once: UVs, colours, triangles and
+/// textures of each part.
+struct Prepared {
+    uvs: Vec<Vec2>,
+    colors: Vec<[f32; 4]>,
+    parts: Vec<DrawPart>,
+}
+
+/// A renderer bound to one scene: textures uploaded and parts triangulated once.
+pub struct SceneRenderer {
+    renderer: Renderer,
+    prepared: Vec<Prepared>,
+}
+
+impl SceneRenderer {
+    /// Prepares `scene` for pictures of `width` x `height`.
+    pub fn new(scene: &Scene, width: u32, height: u32) -> Result<SceneRenderer> {
+        let mut renderer = Renderer::new(width, height)?;
+        let mut prepared = Vec::new();
+        for obj in &scene.objects {
+            let n = obj.mesh.positions.len();
+            let uvs = obj.mesh.uvs.as_ref().and_then(|u| u.per_vertex(&obj.mesh.faces, n)).unwrap_or_default();
+            let colors = obj.mesh.colors.clone().unwrap_or_default();
+            let mut parts = Vec::new();
+            for p in &obj.parts {
+                let texture: Option<TextureId> = match &p.texture {
+                    Some(t) => Some(renderer.texture(t.width, t.height, &t.rgba)?),
+                    None => None,
+                };
+                let mut indices = Vec::new();
+                for &f in &p.faces {
+                    let face = obj.mesh.faces.face(f as usize);
+                    for k in 1..face.len().saturating_sub(1) {
+                        indices.extend_from_slice(&[face[0], face[k], face[k + 1]]);
+                    }
+                }
+                parts.push(DrawPart { indices, color: p.color, texture });
+            }
+            prepared.push(Prepared { uvs, colors, parts });
+        }
+        Ok(SceneRenderer { renderer, prepared })
+    }
+
+    /// The renderer underneath.
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    /// Draws one frame of the scene.
+    pub fn render(&mut self, scene: &Scene, frame: &Frame, options: SceneOptions) -> Result<Image> {
+        let view = self.view(scene, frame, options);
+        self.renderer.render(&view)
+    }
+
+    /// The view of one frame: camera, lights, meshes and overlay.
+    pub fn view(&self, scene: &Scene, frame: &Frame, options: SceneOptions) -> View {
+        let f = &scene.file;
+        let v3 = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+        let camera = Camera { eye: v3(f.camera.eye), target: v3(f.camera.target), up: v3(f.camera.up), fov: f.camera.fov as f32 };
+        let mut lights: Vec<Light> =
+            f.lights.iter().map(|l| Light { direction: v3(l.direction), color: Vec3::from_array(l.color) * l.intensity }).collect();
+        if lights.is_empty() {
+            lights = default_lights(camera);
+        }
+        let mut meshes = Vec::new();
+        let mut overlay = Vec::new();
+        for (obj, prep) in frame.objects.iter().zip(&self.prepared) {
+            meshes.push(DrawMesh {
+                positions: obj.positions.clone(),
+                normals: obj.normals.clone(),
+                uvs: prep.uvs.clone(),
+                colors: prep.colors.clone(),
+                parts: prep.parts.clone(),
+            });
+            if options.overlay {
+                control_lines(&obj.controls, &mut overlay);
+            }
+        }
+        View { camera, lights, background: f.background, meshes, lines: Vec::new(), overlay, options: options.draw }
+    }
+}
+
+pub use crate::View;
+
+/// A key light from the upper left of the camera and a weaker fill from the right.
+pub fn default_lights(camera: Camera) -> Vec<Light> {
+    let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
+    let right = fwd.cross(camera.up).normalize_or(Vec3::X);
+    let up = right.cross(fwd);
+    vec![
+        Light { direction: (fwd - up * 0.8 + right * 0.6).normalize(), color: Vec3::splat(0.85) },
+        Light { direction: (fwd + up * 0.2 - right * 0.9).normalize(), color: Vec3::splat(0.3) },
+    ]
+}
+
+/// Overlay lines for control vectors (start, current, destination, R).
+pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], out: &mut Vec<Line>) {
+    const START: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
+    const NOW: [f32; 4] = [1.0, 0.55, 0.1, 1.0];
+    const GOAL: [f32; 4] = [1.0, 0.85, 0.3, 0.45];
+    const SUPPORT: [f32; 4] = [0.35, 0.7, 1.0, 0.35];
+    let size = controls.iter().map(|c| c.3).fold(f32::INFINITY, f32::min) * 0.06;
+    let mut spheres = 0;
+    for &(s, now, goal, r) in controls {
+        let k = if size.is_finite() { size } else { 0.01 };
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            out.push(Line { a: s - axis * k, b: s + axis * k, color: START });
+        }
+        out.push(Line { a: s, b: goal, color: GOAL });
+        out.push(Line { a: s, b: now, color: NOW });
+        // Support spheres of moving controls only (anchors would hide the model).
+        if spheres < 16 && goal.distance(s) > 1e-6 * r {
+            spheres += 1;
+            const SEG: usize = 32;
+            for (u, v) in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
+                for j in 0..SEG {
+                    let a0 = j as f32 / SEG as f32 * std::f32::consts::TAU;
+                    let a1 = (j + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
+                    out.push(Line {
+                        a: s + (u * a0.cos() + v * a0.sin()) * r,
+                        b: s + (u * a1.cos() + v * a1.sin()) * r,
+                        color: SUPPORT,
+                    });
+                }
+            }
+        }
+    }
+}
