@@ -241,7 +241,11 @@ impl SceneFile {
         serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
-            let at = if path == "." { format!("line {}, column {}", inner.line(), inner.column()) } else { path };
+            let at = if path == "." {
+                format!("line {}, column {}", inner.line(), inner.column())
+            } else {
+                path
+            };
             (at, inner.to_string())
         })
     }

@@ -21,15 +21,19 @@
 //! assert_eq!(t.position(1.0), DVec3::X);
 //! ```
 
+mod export;
 mod file;
 mod rotation;
 mod scene;
 mod spline;
 mod track;
 
+pub use export::export_gltf;
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
-pub use scene::{Animated, BoundStage, Contact, Frame, FrameObject, Object, Part, Scene, Texture, load_texture};
+pub use scene::{
+    Animated, BoundStage, Contact, Frame, FrameObject, Object, Part, Scene, Texture, load_texture,
+};
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};
 

@@ -15,14 +15,22 @@ pub struct OrientationKey {
 impl OrientationKey {
     /// A key from an axis and an angle in degrees.
     pub fn from_axis_angle(time: f64, axis: DVec3, degrees: f64) -> OrientationKey {
-        OrientationKey { time, rotation: DQuat::from_axis_angle(axis.normalize_or(DVec3::Y), degrees.to_radians()) }
+        OrientationKey {
+            time,
+            rotation: DQuat::from_axis_angle(axis.normalize_or(DVec3::Y), degrees.to_radians()),
+        }
     }
 
     /// A key from Euler angles in degrees, applied in the order X, then Y, then Z.
     pub fn from_euler_degrees(time: f64, xyz: DVec3) -> OrientationKey {
         OrientationKey {
             time,
-            rotation: DQuat::from_euler(EulerRot::ZYX, xyz.z.to_radians(), xyz.y.to_radians(), xyz.x.to_radians()),
+            rotation: DQuat::from_euler(
+                EulerRot::ZYX,
+                xyz.z.to_radians(),
+                xyz.y.to_radians(),
+                xyz.x.to_radians(),
+            ),
         }
     }
 }
@@ -69,7 +77,11 @@ impl Orientation {
                 (q * exp(-(a + b) * 0.25)).normalize()
             })
             .collect();
-        Orientation { keys, inner, interpolation }
+        Orientation {
+            keys,
+            inner,
+            interpolation,
+        }
     }
 
     /// The keys (after hemisphere alignment).
@@ -80,7 +92,9 @@ impl Orientation {
     /// The rotation at `time`: identity with no key; held before the first
     /// and after the last key.
     pub fn rotation(&self, time: f64) -> DQuat {
-        let Some((i, s)) = crate::spline::segment(self.keys.iter().map(|k| k.time), self.keys.len(), time) else {
+        let Some((i, s)) =
+            crate::spline::segment(self.keys.iter().map(|k| k.time), self.keys.len(), time)
+        else {
             return match (self.keys.first(), self.keys.last()) {
                 (Some(f), Some(l)) => {
                     if time >= l.time {
@@ -148,7 +162,10 @@ mod tests {
             }
             for (k, key) in keys().iter().enumerate() {
                 let q = o.rotation(key.time);
-                assert!(q.dot(key.rotation).abs() > 1.0 - 1e-12, "{interp:?} key {k}");
+                assert!(
+                    q.dot(key.rotation).abs() > 1.0 - 1e-12,
+                    "{interp:?} key {k}"
+                );
             }
         }
     }
@@ -157,7 +174,10 @@ mod tests {
     fn takes_the_short_way() {
         // 350 degrees about Y is -10 degrees: half way is -5, not 175.
         let o = Orientation::new(
-            vec![OrientationKey::from_axis_angle(0.0, DVec3::Y, 0.0), OrientationKey::from_axis_angle(1.0, DVec3::Y, 350.0)],
+            vec![
+                OrientationKey::from_axis_angle(0.0, DVec3::Y, 0.0),
+                OrientationKey::from_axis_angle(1.0, DVec3::Y, 350.0),
+            ],
             Interpolation::Slerp,
         );
         let half = o.rotation(0.5);
@@ -182,7 +202,10 @@ mod tests {
         };
         for t in [1.0, 2.5] {
             let (before, after) = (angular(t - 2.0 * h), angular(t + h));
-            assert!((before - after).length() < 1e-2 * before.length().max(1.0), "{before} vs {after} at {t}");
+            assert!(
+                (before - after).length() < 1e-2 * before.length().max(1.0),
+                "{before} vs {after} at {t}"
+            );
             assert!(w(t).is_finite());
         }
     }

@@ -26,6 +26,10 @@ pub struct Texture {
     pub height: u32,
     /// RGBA8 pixels, row by row from the top.
     pub rgba: Vec<u8>,
+    /// The file's bytes as encoded, for embedding in exports.
+    pub encoded: Vec<u8>,
+    /// `image/png` or `image/jpeg`.
+    pub mime: String,
 }
 
 /// A part of an object: faces with one look.
@@ -151,8 +155,15 @@ pub struct Frame {
 impl Scene {
     /// Reads, checks and prepares a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| AnimError::Io { path: path.to_owned(), message: e.to_string() })?;
-        let file = SceneFile::parse(&text).map_err(|(at, message)| AnimError::Scene { path: path.to_owned(), at, message })?;
+        let text = std::fs::read_to_string(path).map_err(|e| AnimError::Io {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })?;
+        let file = SceneFile::parse(&text).map_err(|(at, message)| AnimError::Scene {
+            path: path.to_owned(),
+            at,
+            message,
+        })?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::from_file(file, &dir, path)
     }
@@ -160,19 +171,31 @@ impl Scene {
     /// Prepares a scene from its description; relative paths start at `dir`;
     /// `name` names the scene in errors.
     pub fn from_file(file: SceneFile, dir: &Path, name: &Path) -> Result<Scene> {
-        let err = |at: String, message: String| AnimError::Scene { path: name.to_owned(), at, message };
+        let err = |at: String, message: String| AnimError::Scene {
+            path: name.to_owned(),
+            at,
+            message,
+        };
         check_scene(&file).map_err(|(a, m)| err(a, m))?;
         let mut warnings = Vec::new();
         let mut objects = Vec::with_capacity(file.objects.len());
         for (oi, of) in file.objects.iter().enumerate() {
             let at = |k: &str| format!("objects[{oi}].{k}");
             if file.objects[..oi].iter().any(|o| o.name == of.name) {
-                return Err(err(at("name"), format!("{:?} is used by an earlier object; names must be unique", of.name)));
+                return Err(err(
+                    at("name"),
+                    format!(
+                        "{:?} is used by an earlier object; names must be unique",
+                        of.name
+                    ),
+                ));
             }
-            objects.push(load_object(of, dir, &at, &mut warnings).map_err(|e| match e {
-                AnimError::Scene { at, message, .. } => err(at, message),
-                other => other,
-            })?);
+            objects.push(
+                load_object(of, dir, &at, &mut warnings).map_err(|e| match e {
+                    AnimError::Scene { at, message, .. } => err(at, message),
+                    other => other,
+                })?,
+            );
         }
         for (oi, of) in file.objects.iter().enumerate() {
             if let Some(c) = &of.contact {
@@ -181,15 +204,35 @@ impl Scene {
                     .iter()
                     .position(|o| o.name == c.with)
                     .filter(|&w| w != oi)
-                    .ok_or_else(|| err(format!("objects[{oi}].contact.with"), format!("no other object is called {:?}", c.with)))?;
-                let kernel = c.kernel.parse::<Kernel>().map_err(|e| err(format!("objects[{oi}].contact.kernel"), e.to_string()))?;
+                    .ok_or_else(|| {
+                        err(
+                            format!("objects[{oi}].contact.with"),
+                            format!("no other object is called {:?}", c.with),
+                        )
+                    })?;
+                let kernel = c
+                    .kernel
+                    .parse::<Kernel>()
+                    .map_err(|e| err(format!("objects[{oi}].contact.kernel"), e.to_string()))?;
                 if !(c.reach > 0.0 && c.reach.is_finite()) {
-                    return Err(err(format!("objects[{oi}].contact.reach"), format!("must be > 0, got {}", c.reach)));
+                    return Err(err(
+                        format!("objects[{oi}].contact.reach"),
+                        format!("must be > 0, got {}", c.reach),
+                    ));
                 }
-                objects[oi].contact = Some(Contact { with, kernel, reach: c.reach });
+                objects[oi].contact = Some(Contact {
+                    with,
+                    kernel,
+                    reach: c.reach,
+                });
             }
         }
-        Ok(Scene { file, dir: dir.to_owned(), objects, warnings })
+        Ok(Scene {
+            file,
+            dir: dir.to_owned(),
+            objects,
+            warnings,
+        })
     }
 
     /// Number of frames at the file's rate over its duration (both ends included).
@@ -220,15 +263,40 @@ impl Scene {
             }
             let (rot, shift) = obj.transform(time);
             let (rot32, shift32) = (rot.as_quat(), shift.as_vec3());
-            let mut m = Mesh { positions: local, faces: obj.mesh.faces.clone(), ..Mesh::default() };
+            let mut m = Mesh {
+                positions: local,
+                faces: obj.mesh.faces.clone(),
+                ..Mesh::default()
+            };
             m.recompute_normals();
-            let normals = m.normals.take().unwrap_or_default().into_iter().map(|n| rot32 * n).collect();
-            let positions = m.positions.into_iter().map(|p| rot32 * p + shift32).collect();
+            let normals = m
+                .normals
+                .take()
+                .unwrap_or_default()
+                .into_iter()
+                .map(|n| rot32 * n)
+                .collect();
+            let positions = m
+                .positions
+                .into_iter()
+                .map(|p| rot32 * p + shift32)
+                .collect();
             let controls = controls
                 .into_iter()
-                .map(|(s, p, g, r)| (rot32 * s + shift32, rot32 * p + shift32, rot32 * g + shift32, r))
+                .map(|(s, p, g, r)| {
+                    (
+                        rot32 * s + shift32,
+                        rot32 * p + shift32,
+                        rot32 * g + shift32,
+                        r,
+                    )
+                })
                 .collect();
-            objects.push(FrameObject { positions, normals, controls });
+            objects.push(FrameObject {
+                positions,
+                normals,
+                controls,
+            });
         }
         Frame { time, objects }
     }
@@ -236,7 +304,14 @@ impl Scene {
     /// Pushes the vertices of object `oi` inside the pusher's bounding sphere
     /// out to its surface: control vectors from the collision, system built
     /// and solved for this frame only.
-    fn contact(&self, oi: usize, c: &Contact, time: f64, local: &mut [Vec3], controls: &mut Vec<(Vec3, Vec3, Vec3, f32)>) {
+    fn contact(
+        &self,
+        oi: usize,
+        c: &Contact,
+        time: f64,
+        local: &mut [Vec3],
+        controls: &mut Vec<(Vec3, Vec3, Vec3, f32)>,
+    ) {
         let obj = &self.objects[oi];
         let pusher = &self.objects[c.with];
         let (prot, pshift) = pusher.transform(time);
@@ -260,8 +335,13 @@ impl Scene {
             return;
         }
         let radius = c.reach * (0.5 * r + depth);
-        let opts = FitOptions::default().with_kernel(c.kernel).with_polynomial(Polynomial::None).with_radius(radius);
-        let Ok(def) = System::new(&starts, opts).and_then(|s| s.solve(&targets)) else { return };
+        let opts = FitOptions::default()
+            .with_kernel(c.kernel)
+            .with_polynomial(Polynomial::None)
+            .with_radius(radius);
+        let Ok(def) = System::new(&starts, opts).and_then(|s| s.solve(&targets)) else {
+            return;
+        };
         let disp = def.displacements_f32(local);
         for (p, d) in local.iter_mut().zip(disp) {
             *p += d;
@@ -275,21 +355,33 @@ impl Scene {
 fn check_scene(f: &SceneFile) -> std::result::Result<(), (String, String)> {
     let bad = |at: &str, m: String| Err((at.to_owned(), m));
     if !(f.duration > 0.0 && f.duration.is_finite()) {
-        return bad("duration", format!("must be a number of seconds > 0, got {}", f.duration));
+        return bad(
+            "duration",
+            format!("must be a number of seconds > 0, got {}", f.duration),
+        );
     }
     if !(f.fps > 0.0 && f.fps <= 240.0) {
         return bad("fps", format!("must be within (0, 240], got {}", f.fps));
     }
     if f.size.iter().any(|&s| s == 0 || s > 8192) {
-        return bad("size", format!("each side must be within 1..8192 pixels, got {:?}", f.size));
+        return bad(
+            "size",
+            format!("each side must be within 1..8192 pixels, got {:?}", f.size),
+        );
     }
     let eye = DVec3::from_array(f.camera.eye);
     let target = DVec3::from_array(f.camera.target);
     if !eye.is_finite() || !target.is_finite() || eye.distance(target) == 0.0 {
-        return bad("camera", "eye and target must be finite and distinct".into());
+        return bad(
+            "camera",
+            "eye and target must be finite and distinct".into(),
+        );
     }
     if !(f.camera.fov > 1.0 && f.camera.fov < 179.0) {
-        return bad("camera.fov", format!("must be within (1, 179) degrees, got {}", f.camera.fov));
+        return bad(
+            "camera.fov",
+            format!("must be within (1, 179) degrees, got {}", f.camera.fov),
+        );
     }
     if f.objects.is_empty() {
         return bad("objects", "the scene has no object".into());
@@ -307,7 +399,10 @@ fn check_times(times: impl Iterator<Item = f64>, at: &dyn Fn(usize) -> String) -
         if let Some(p) = prev
             && t <= p
         {
-            return Err(scene_err(at(i), format!("time {t} is not after the previous key's {p}: keys must be in time order")));
+            return Err(scene_err(
+                at(i),
+                format!("time {t} is not after the previous key's {p}: keys must be in time order"),
+            ));
         }
         prev = Some(t);
     }
@@ -315,14 +410,27 @@ fn check_times(times: impl Iterator<Item = f64>, at: &dyn Fn(usize) -> String) -
 }
 
 fn scene_err(at: String, message: String) -> AnimError {
-    AnimError::Scene { path: PathBuf::new(), at, message }
+    AnimError::Scene {
+        path: PathBuf::new(),
+        at,
+        message,
+    }
 }
 
-fn load_object(of: &ObjectFile, dir: &Path, at: &dyn Fn(&str) -> String, warnings: &mut Vec<String>) -> Result<Object> {
+fn load_object(
+    of: &ObjectFile,
+    dir: &Path,
+    at: &dyn Fn(&str) -> String,
+    warnings: &mut Vec<String>,
+) -> Result<Object> {
     let mesh_path = dir.join(&of.mesh);
-    let mut mesh = csrbf_mesh::read(&mesh_path).map_err(|e| scene_err(at("mesh"), e.to_string()))?;
+    let mut mesh =
+        csrbf_mesh::read(&mesh_path).map_err(|e| scene_err(at("mesh"), e.to_string()))?;
     if !(of.scale > 0.0 && of.scale.is_finite()) {
-        return Err(scene_err(at("scale"), format!("must be > 0, got {}", of.scale)));
+        return Err(scene_err(
+            at("scale"),
+            format!("must be > 0, got {}", of.scale),
+        ));
     }
     if of.scale != 1.0 {
         for p in &mut mesh.positions {
@@ -331,7 +439,18 @@ fn load_object(of: &ObjectFile, dir: &Path, at: &dyn Fn(&str) -> String, warning
     }
     let (center, radius) = center_of_gravity(&mesh);
     let parts = if of.parts.is_empty() {
-        vec![make_part(&mesh, &PartFile { name: "all".into(), select: "all".into(), color: None, texture: None, deformations: vec![] }, dir, &|k| at(&format!("parts.{k}")))?]
+        vec![make_part(
+            &mesh,
+            &PartFile {
+                name: "all".into(),
+                select: "all".into(),
+                color: None,
+                texture: None,
+                deformations: vec![],
+            },
+            dir,
+            &|k| at(&format!("parts.{k}")),
+        )?]
     } else {
         of.parts
             .iter()
@@ -346,21 +465,38 @@ fn load_object(of: &ObjectFile, dir: &Path, at: &dyn Fn(&str) -> String, warning
             deformations.push(load_deformation(&mesh, &parts[pi], pi, df, dir, &here)?);
         }
     }
-    check_times(of.trajectory.iter().map(|k| k.time), &|i| at(&format!("trajectory[{i}].time")))?;
+    check_times(of.trajectory.iter().map(|k| k.time), &|i| {
+        at(&format!("trajectory[{i}].time"))
+    })?;
     for (i, k) in of.trajectory.iter().enumerate() {
-        for (name, v) in [("tension", k.tension), ("continuity", k.continuity), ("bias", k.bias)] {
+        for (name, v) in [
+            ("tension", k.tension),
+            ("continuity", k.continuity),
+            ("bias", k.bias),
+        ] {
             if !(-1.0..=1.0).contains(&v) {
-                return Err(scene_err(at(&format!("trajectory[{i}].{name}")), format!("must be within [-1, 1], got {v}")));
+                return Err(scene_err(
+                    at(&format!("trajectory[{i}].{name}")),
+                    format!("must be within [-1, 1], got {v}"),
+                ));
             }
         }
     }
     let trajectory = Trajectory::new(
         of.trajectory
             .iter()
-            .map(|k| PositionKey { time: k.time, position: DVec3::from_array(k.position), tension: k.tension, continuity: k.continuity, bias: k.bias })
+            .map(|k| PositionKey {
+                time: k.time,
+                position: DVec3::from_array(k.position),
+                tension: k.tension,
+                continuity: k.continuity,
+                bias: k.bias,
+            })
             .collect(),
     );
-    check_times(of.orientation.iter().map(|k| k.time), &|i| at(&format!("orientation[{i}].time")))?;
+    check_times(of.orientation.iter().map(|k| k.time), &|i| {
+        at(&format!("orientation[{i}].time"))
+    })?;
     let mut keys = Vec::new();
     for (i, k) in of.orientation.iter().enumerate() {
         let here = at(&format!("orientation[{i}]"));
@@ -369,22 +505,39 @@ fn load_object(of: &ObjectFile, dir: &Path, at: &dyn Fn(&str) -> String, warning
                 let q = DQuat::from_array(q);
                 let len = q.length();
                 if !(len > 1e-9) || !len.is_finite() {
-                    return Err(scene_err(format!("{here}.quaternion"), "a zero quaternion is no rotation".into()));
+                    return Err(scene_err(
+                        format!("{here}.quaternion"),
+                        "a zero quaternion is no rotation".into(),
+                    ));
                 }
                 if (len - 1.0).abs() > 1e-6 {
-                    warnings.push(format!("{here}.quaternion: length {len}, not 1: normalised"));
+                    warnings.push(format!(
+                        "{here}.quaternion: length {len}, not 1: normalised"
+                    ));
                 }
-                OrientationKey { time: k.time, rotation: q / len }
+                OrientationKey {
+                    time: k.time,
+                    rotation: q / len,
+                }
             }
             (None, Some(axis), Some(angle), None) => {
                 if DVec3::from_array(axis).length() == 0.0 {
-                    return Err(scene_err(format!("{here}.axis"), "the axis has zero length".into()));
+                    return Err(scene_err(
+                        format!("{here}.axis"),
+                        "the axis has zero length".into(),
+                    ));
                 }
                 OrientationKey::from_axis_angle(k.time, DVec3::from_array(axis), angle)
             }
-            (None, None, None, Some(e)) => OrientationKey::from_euler_degrees(k.time, DVec3::from_array(e)),
+            (None, None, None, Some(e)) => {
+                OrientationKey::from_euler_degrees(k.time, DVec3::from_array(e))
+            }
             _ => {
-                return Err(scene_err(here, "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\"".into()));
+                return Err(scene_err(
+                    here,
+                    "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\""
+                        .into(),
+                ));
             }
         };
         keys.push(key);
@@ -392,7 +545,12 @@ fn load_object(of: &ObjectFile, dir: &Path, at: &dyn Fn(&str) -> String, warning
     let interpolation = match of.interpolation.as_str() {
         "squad" => Interpolation::Squad,
         "slerp" => Interpolation::Slerp,
-        other => return Err(scene_err(at("interpolation"), format!("unknown interpolation {other:?}: expected squad or slerp"))),
+        other => {
+            return Err(scene_err(
+                at("interpolation"),
+                format!("unknown interpolation {other:?}: expected squad or slerp"),
+            ));
+        }
     };
     Ok(Object {
         name: of.name.clone(),
@@ -415,7 +573,10 @@ fn center_of_gravity(mesh: &Mesh) -> (DVec3, f64) {
     for f in mesh.faces.iter() {
         let p0 = mesh.positions[f[0] as usize].as_dvec3();
         for k in 1..f.len().saturating_sub(1) {
-            let (a, b) = (mesh.positions[f[k] as usize].as_dvec3(), mesh.positions[f[k + 1] as usize].as_dvec3());
+            let (a, b) = (
+                mesh.positions[f[k] as usize].as_dvec3(),
+                mesh.positions[f[k + 1] as usize].as_dvec3(),
+            );
             let w = (a - p0).cross(b - p0).length() * 0.5;
             sum += (p0 + a + b) / 3.0 * w;
             area += w;
@@ -424,9 +585,14 @@ fn center_of_gravity(mesh: &Mesh) -> (DVec3, f64) {
     let c = if area > 0.0 {
         sum / area
     } else {
-        mesh.positions.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / mesh.positions.len().max(1) as f64
+        mesh.positions.iter().map(|p| p.as_dvec3()).sum::<DVec3>()
+            / mesh.positions.len().max(1) as f64
     };
-    let r = mesh.positions.iter().map(|p| p.as_dvec3().distance(c)).fold(0.0, f64::max);
+    let r = mesh
+        .positions
+        .iter()
+        .map(|p| p.as_dvec3().distance(c))
+        .fold(0.0, f64::max);
     (c, r)
 }
 
@@ -435,11 +601,21 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
     let faces: Vec<u32> = match &pf.select {
         serde_json::Value::String(s) if s == "all" => (0..nf).collect(),
         serde_json::Value::Object(o) if o.contains_key("group") => {
-            let name = o["group"].as_str().ok_or_else(|| scene_err(at("select.group"), "expected a part name".into()))?;
-            let mut f: Vec<u32> = mesh.parts.iter().filter(|p| p.name == name).flat_map(|p| p.faces.iter().copied()).collect();
+            let name = o["group"]
+                .as_str()
+                .ok_or_else(|| scene_err(at("select.group"), "expected a part name".into()))?;
+            let mut f: Vec<u32> = mesh
+                .parts
+                .iter()
+                .filter(|p| p.name == name)
+                .flat_map(|p| p.faces.iter().copied())
+                .collect();
             if f.is_empty() {
                 let names: Vec<&str> = mesh.parts.iter().map(|p| p.name.as_str()).collect();
-                return Err(scene_err(at("select.group"), format!("the mesh has no part {name:?} (it has {names:?})")));
+                return Err(scene_err(
+                    at("select.group"),
+                    format!("the mesh has no part {name:?} (it has {names:?})"),
+                ));
             }
             f.sort_unstable();
             f.dedup();
@@ -449,16 +625,33 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
             // A region: faces whose every corner lies in it.
             let text = serde_json::json!({ "radius": 1, "controls": [{"from": [0, 0, 0], "to": [0, 0, 0]}], "region": other }).to_string();
             let region = ControlFile::parse(&text)
-                .map_err(|e| scene_err(at("select"), format!("expected \"all\", {{\"group\": name}}, or a region: {}", e.message)))?
+                .map_err(|e| {
+                    scene_err(
+                        at("select"),
+                        format!(
+                            "expected \"all\", {{\"group\": name}}, or a region: {}",
+                            e.message
+                        ),
+                    )
+                })?
                 .deformations
                 .remove(0)
                 .region;
-            let inside = region.select(&mesh.positions, &|n| mesh.part_vertices(n)).map_err(|e| scene_err(at("select"), e.to_string()))?;
+            let inside = region
+                .select(&mesh.positions, &|n| mesh.part_vertices(n))
+                .map_err(|e| scene_err(at("select"), e.to_string()))?;
             let mut mark = vec![false; mesh.positions.len()];
             for v in inside {
                 mark[v as usize] = true;
             }
-            (0..nf).filter(|&f| mesh.faces.face(f as usize).iter().all(|&v| mark[v as usize])).collect()
+            (0..nf)
+                .filter(|&f| {
+                    mesh.faces
+                        .face(f as usize)
+                        .iter()
+                        .all(|&v| mark[v as usize])
+                })
+                .collect()
         }
     };
     let mut mark = vec![false; mesh.positions.len()];
@@ -467,29 +660,60 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
             mark[v as usize] = true;
         }
     }
-    let vertices = (0..mark.len() as u32).filter(|&v| mark[v as usize]).collect();
+    let vertices = (0..mark.len() as u32)
+        .filter(|&v| mark[v as usize])
+        .collect();
     let color = match &pf.color {
         None => [0.8, 0.8, 0.8, 1.0],
-        Some(c) if (c.len() == 3 || c.len() == 4) && c.iter().all(|v| (0.0..=1.0).contains(v)) => [c[0], c[1], c[2], c.get(3).copied().unwrap_or(1.0)],
-        Some(c) => return Err(scene_err(at("color"), format!("expected 3 or 4 numbers in [0, 1], got {c:?}"))),
+        Some(c) if (c.len() == 3 || c.len() == 4) && c.iter().all(|v| (0.0..=1.0).contains(v)) => {
+            [c[0], c[1], c[2], c.get(3).copied().unwrap_or(1.0)]
+        }
+        Some(c) => {
+            return Err(scene_err(
+                at("color"),
+                format!("expected 3 or 4 numbers in [0, 1], got {c:?}"),
+            ));
+        }
     };
     let texture = match &pf.texture {
         None => None,
         Some(t) => Some(load_texture(&dir.join(t)).map_err(|m| scene_err(at("texture"), m))?),
     };
-    Ok(Part { name: pf.name.clone(), faces, vertices, color, texture })
+    Ok(Part {
+        name: pf.name.clone(),
+        faces,
+        vertices,
+        color,
+        texture,
+    })
 }
 
 /// Decodes a PNG or JPEG texture.
 pub fn load_texture(path: &Path) -> std::result::Result<Texture, String> {
-    let img = image::ImageReader::open(path)
-        .map_err(|e| format!("{}: {e}", path.display()))?
-        .with_guessed_format()
-        .map_err(|e| format!("{}: {e}", path.display()))?
-        .decode()
+    let encoded = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let format = image::guess_format(&encoded)
+        .map_err(|e| format!("{}: not an image: {e}", path.display()))?;
+    let mime = match format {
+        image::ImageFormat::Png => "image/png",
+        image::ImageFormat::Jpeg => "image/jpeg",
+        other => {
+            return Err(format!(
+                "{}: {other:?} images are not supported; use PNG or JPEG",
+                path.display()
+            ));
+        }
+    };
+    let img = image::load_from_memory_with_format(&encoded, format)
         .map_err(|e| format!("{}: cannot decode the image: {e}", path.display()))?
         .to_rgba8();
-    Ok(Texture { path: path.to_owned(), width: img.width(), height: img.height(), rgba: img.into_raw() })
+    Ok(Texture {
+        path: path.to_owned(),
+        width: img.width(),
+        height: img.height(),
+        rgba: img.into_raw(),
+        encoded,
+        mime: mime.into(),
+    })
 }
 
 fn load_deformation(
@@ -501,12 +725,17 @@ fn load_deformation(
     at: &dyn Fn(&str) -> String,
 ) -> Result<Animated> {
     let path = dir.join(&df.controls);
-    let text = std::fs::read_to_string(&path).map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-    let cf = ControlFile::parse(&text).map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+    let cf = ControlFile::parse(&text)
+        .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
     let mut stages = Vec::new();
     for spec in cf.deformations {
-        let sys = System::new(&spec.starts, spec.options).map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-        let deformation = sys.solve(&spec.targets).map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        let sys = System::new(&spec.starts, spec.options)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        let deformation = sys
+            .solve(&spec.targets)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
         // The stage acts on the part's vertices that are also in its region.
         let region: Vec<u32> = if spec.region == Region::All {
             part.vertices.clone()
@@ -519,27 +748,62 @@ fn load_deformation(
             for v in sel {
                 mark[v as usize] = true;
             }
-            part.vertices.iter().copied().filter(|&v| mark[v as usize]).collect()
+            part.vertices
+                .iter()
+                .copied()
+                .filter(|&v| mark[v as usize])
+                .collect()
         };
         let pts: Vec<Vec3> = region.iter().map(|&v| mesh.positions[v as usize]).collect();
         let binding = Binding::new(&deformation, &pts);
-        let displacement = binding.displacements(&deformation).map_err(|e| scene_err(at("controls"), e.to_string()))?;
-        let displacement = displacement.into_iter().map(|d| d * spec.phase as f32).collect();
-        stages.push(BoundStage { deformation, targets: spec.targets, vertices: region, binding, displacement });
+        let displacement = binding
+            .displacements(&deformation)
+            .map_err(|e| scene_err(at("controls"), e.to_string()))?;
+        let displacement = displacement
+            .into_iter()
+            .map(|d| d * spec.phase as f32)
+            .collect();
+        stages.push(BoundStage {
+            deformation,
+            targets: spec.targets,
+            vertices: region,
+            binding,
+            displacement,
+        });
     }
-    check_times(df.phase.iter().map(|k| k.time), &|i| at(&format!("phase[{i}].time")))?;
-    if let Some((i, k)) = df.phase.iter().enumerate().find(|(_, k)| !(0.0..=1.0).contains(&k.phase)) {
-        return Err(scene_err(at(&format!("phase[{i}].phase")), format!("must be within [0, 1], got {}", k.phase)));
+    check_times(df.phase.iter().map(|k| k.time), &|i| {
+        at(&format!("phase[{i}].time"))
+    })?;
+    if let Some((i, k)) = df
+        .phase
+        .iter()
+        .enumerate()
+        .find(|(_, k)| !(0.0..=1.0).contains(&k.phase))
+    {
+        return Err(scene_err(
+            at(&format!("phase[{i}].phase")),
+            format!("must be within [0, 1], got {}", k.phase),
+        ));
     }
     let easing = match df.easing.as_str() {
         "smooth" => Easing::Smooth,
         "linear" => Easing::Linear,
-        other => return Err(scene_err(at("easing"), format!("unknown easing {other:?}: expected smooth or linear"))),
+        other => {
+            return Err(scene_err(
+                at("easing"),
+                format!("unknown easing {other:?}: expected smooth or linear"),
+            ));
+        }
     };
     let track = if df.phase.is_empty() {
         PhaseTrack::constant(1.0)
     } else {
         PhaseTrack::new(df.phase.iter().map(|k| (k.time, k.phase)).collect(), easing)
     };
-    Ok(Animated { part: pi, controls: df.controls.clone(), stages, track })
+    Ok(Animated {
+        part: pi,
+        controls: df.controls.clone(),
+        stages,
+        track,
+    })
 }

@@ -26,7 +26,10 @@ impl PhaseTrack {
 
     /// A constant phase.
     pub fn constant(phase: f64) -> PhaseTrack {
-        PhaseTrack { keys: vec![(0.0, phase)], easing: Easing::Linear }
+        PhaseTrack {
+            keys: vec![(0.0, phase)],
+            easing: Easing::Linear,
+        }
     }
 
     /// The keys.
@@ -41,7 +44,9 @@ impl PhaseTrack {
 
     /// The phase at `time`, held before the first and after the last key.
     pub fn phase(&self, time: f64) -> f64 {
-        let Some((i, s)) = crate::spline::segment(self.keys.iter().map(|k| k.0), self.keys.len(), time) else {
+        let Some((i, s)) =
+            crate::spline::segment(self.keys.iter().map(|k| k.0), self.keys.len(), time)
+        else {
             return match (self.keys.first(), self.keys.last()) {
                 (Some(f), Some(l)) => {
                     if time >= l.0 {
@@ -68,7 +73,10 @@ mod tests {
 
     #[test]
     fn smile_hold_relax() {
-        let t = PhaseTrack::new(vec![(0.0, 0.0), (1.0, 1.0), (2.0, 1.0), (3.0, 0.0)], Easing::Smooth);
+        let t = PhaseTrack::new(
+            vec![(0.0, 0.0), (1.0, 1.0), (2.0, 1.0), (3.0, 0.0)],
+            Easing::Smooth,
+        );
         assert_eq!(t.phase(-1.0), 0.0);
         assert_eq!(t.phase(0.0), 0.0);
         assert_eq!(t.phase(1.0), 1.0);

@@ -38,7 +38,11 @@ impl Progress {
         }
         let width = 30;
         let filled = done * width / total;
-        eprint!("\r[{}{}] {done}/{total}", "#".repeat(filled), ".".repeat(width - filled));
+        eprint!(
+            "\r[{}{}] {done}/{total}",
+            "#".repeat(filled),
+            ".".repeat(width - filled)
+        );
         if done == total {
             eprintln!();
         }

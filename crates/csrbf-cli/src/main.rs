@@ -115,6 +115,17 @@ enum Command {
     },
     /// Render a scene file as a movie (MP4, GIF) or PNG frames.
     Animate(movie::AnimateArgs),
+    /// Export a scene as glTF 2.0 (.glb or .gltf): meshes, materials, motion, morph targets.
+    Export {
+        /// The scene file.
+        scene: PathBuf,
+        /// Output .glb or .gltf.
+        #[arg(long)]
+        out: PathBuf,
+        /// Allow replacing an existing output file.
+        #[arg(long)]
+        force: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -152,10 +163,26 @@ fn main() -> ExitCode {
             json,
         ),
         Command::Bench(args) => bench::bench(&args, &progress),
-        Command::Render { mesh, controls, phase, out, size, look, force } => {
-            movie::render(&mesh, controls.as_deref(), phase, &out, size.as_deref(), look, force, &progress)
-        }
+        Command::Render {
+            mesh,
+            controls,
+            phase,
+            out,
+            size,
+            look,
+            force,
+        } => movie::render(
+            &mesh,
+            controls.as_deref(),
+            phase,
+            &out,
+            size.as_deref(),
+            look,
+            force,
+            &progress,
+        ),
         Command::Animate(args) => movie::animate(&args, &progress),
+        Command::Export { scene, out, force } => movie::export(&scene, &out, force, &progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -36,9 +36,17 @@ impl LookArgs {
 
 /// Parses `WxH`.
 pub fn parse_size(s: &str) -> Result<[u32; 2]> {
-    let (w, h) = s.split_once(['x', 'X']).with_context(|| format!("--size {s:?}: expected WIDTHxHEIGHT, e.g. 1024x768"))?;
-    let w: u32 = w.trim().parse().with_context(|| format!("--size {s:?}: width is not a whole number"))?;
-    let h: u32 = h.trim().parse().with_context(|| format!("--size {s:?}: height is not a whole number"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--size {s:?}: expected WIDTHxHEIGHT, e.g. 1024x768"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .with_context(|| format!("--size {s:?}: width is not a whole number"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .with_context(|| format!("--size {s:?}: height is not a whole number"))?;
     if w == 0 || h == 0 || w > 8192 || h > 8192 {
         bail!("--size {s:?}: each side must be within 1..8192 pixels");
     }
@@ -46,7 +54,12 @@ pub fn parse_size(s: &str) -> Result<[u32; 2]> {
 }
 
 /// A one-object scene looking at a mesh from a three-quarter view that frames it.
-pub fn mesh_scene(mesh: &Path, controls: Option<&Path>, phase: f64, size: [u32; 2]) -> Result<Scene> {
+pub fn mesh_scene(
+    mesh: &Path,
+    controls: Option<&Path>,
+    phase: f64,
+    size: [u32; 2],
+) -> Result<Scene> {
     let m = csrbf_mesh::read(mesh)?;
     let (lo, hi) = m.bounds().context("the mesh has no vertices")?;
     let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
@@ -56,22 +69,43 @@ pub fn mesh_scene(mesh: &Path, controls: Option<&Path>, phase: f64, size: [u32; 
     let dist = radius / (fov.to_radians() * 0.5).sin() * 1.05;
     let dir = glam::DVec3::new(0.55, 0.35, 1.0).normalize();
     let eye = centre + dir * dist;
-    let abs = |p: &Path| std::fs::canonicalize(p).map(|p| p.display().to_string()).unwrap_or_else(|_| p.display().to_string());
+    let abs = |p: &Path| {
+        std::fs::canonicalize(p)
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|_| p.display().to_string())
+    };
     let deformations = controls
-        .map(|c| vec![DeformationFile { controls: abs(c), phase: vec![csrbf_anim::PhaseKeyFile { time: 0.0, phase }], easing: "linear".into() }])
+        .map(|c| {
+            vec![DeformationFile {
+                controls: abs(c),
+                phase: vec![csrbf_anim::PhaseKeyFile { time: 0.0, phase }],
+                easing: "linear".into(),
+            }]
+        })
         .unwrap_or_default();
     let file = SceneFile {
         duration: 1.0,
         fps: 30.0,
         size,
         background: [0.035, 0.04, 0.05],
-        camera: CameraFile { eye: eye.to_array(), target: centre.to_array(), up: [0.0, 1.0, 0.0], fov },
+        camera: CameraFile {
+            eye: eye.to_array(),
+            target: centre.to_array(),
+            up: [0.0, 1.0, 0.0],
+            fov,
+        },
         lights: vec![],
         objects: vec![ObjectFile {
             name: "mesh".into(),
             mesh: abs(mesh),
             scale: 1.0,
-            parts: vec![PartFile { name: "all".into(), select: "all".into(), color: Some(vec![0.78, 0.62, 0.45]), texture: None, deformations }],
+            parts: vec![PartFile {
+                name: "all".into(),
+                select: "all".into(),
+                color: Some(vec![0.78, 0.62, 0.45]),
+                texture: None,
+                deformations,
+            }],
             trajectory: vec![],
             orientation: vec![],
             interpolation: "squad".into(),
@@ -81,12 +115,24 @@ pub fn mesh_scene(mesh: &Path, controls: Option<&Path>, phase: f64, size: [u32; 
     Ok(Scene::from_file(file, Path::new("."), mesh)?)
 }
 
-pub fn render(mesh: &Path, controls: Option<&Path>, phase: f64, out: &Path, size: Option<&str>, look: LookArgs, force: bool, progress: &Progress) -> Result<()> {
+pub fn render(
+    mesh: &Path,
+    controls: Option<&Path>,
+    phase: f64,
+    out: &Path,
+    size: Option<&str>,
+    look: LookArgs,
+    force: bool,
+    progress: &Progress,
+) -> Result<()> {
     crate::common::check_phase(phase)?;
     let inputs: Vec<&Path> = std::iter::once(mesh).chain(controls).collect();
     check_output(out, &inputs, force, false)?;
     if out.extension().map(|e| e.to_ascii_lowercase()) != Some("png".into()) {
-        bail!("{}: pictures are written as PNG; give a .png file", out.display());
+        bail!(
+            "{}: pictures are written as PNG; give a .png file",
+            out.display()
+        );
     }
     let size = size.map(parse_size).transpose()?.unwrap_or([1024, 768]);
     let scene = mesh_scene(mesh, controls, phase, size)?;
@@ -95,7 +141,13 @@ pub fn render(mesh: &Path, controls: Option<&Path>, phase: f64, out: &Path, size
     let t = Instant::now();
     let img = r.render(&scene, &scene.frame(0.0), look.options())?;
     img.save_png(out)?;
-    progress.say(format_args!("wrote {} ({}x{}, {:.0} ms)", out.display(), size[0], size[1], t.elapsed().as_secs_f64() * 1e3));
+    progress.say(format_args!(
+        "wrote {} ({}x{}, {:.0} ms)",
+        out.display(),
+        size[0],
+        size[1],
+        t.elapsed().as_secs_f64() * 1e3
+    ));
     Ok(())
 }
 
@@ -139,7 +191,12 @@ pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
         bail!("{}: exists; pass --force to replace it", a.out.display());
     }
     let scene = load_scene(&a.scene)?;
-    let size = a.size.as_deref().map(parse_size).transpose()?.unwrap_or(scene.file.size);
+    let size = a
+        .size
+        .as_deref()
+        .map(parse_size)
+        .transpose()?
+        .unwrap_or(scene.file.size);
     let fps = a.fps.unwrap_or(scene.file.fps);
     if !(fps > 0.0 && fps <= 240.0) {
         bail!("--fps must be within (0, 240], got {fps}");
@@ -148,18 +205,42 @@ pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
     if !(from >= 0.0 && to > from && to.is_finite()) {
         bail!("--from {from} --to {to}: need 0 <= from < to");
     }
-    let written = write_movie(&scene, &a.out, size, fps, from, to, a.look.options(), progress)?;
+    let written = write_movie(
+        &scene,
+        &a.out,
+        size,
+        fps,
+        from,
+        to,
+        a.look.options(),
+        progress,
+    )?;
     progress.say(format_args!("wrote {}", written.display()));
     Ok(())
 }
 
 /// Renders frames from `from` to `to` into a movie; returns its path.
 #[allow(clippy::too_many_arguments)]
-pub fn write_movie(scene: &Scene, out: &Path, size: [u32; 2], fps: f64, from: f64, to: f64, options: SceneOptions, progress: &Progress) -> Result<PathBuf> {
+pub fn write_movie(
+    scene: &Scene,
+    out: &Path,
+    size: [u32; 2],
+    fps: f64,
+    from: f64,
+    to: f64,
+    options: SceneOptions,
+    progress: &Progress,
+) -> Result<PathBuf> {
     let frames = ((to - from) * fps).round() as usize + 1;
     let mut writer = MovieWriter::create(out, size[0], size[1], fps)?;
     let mut r = SceneRenderer::new(scene, size[0], size[1])?;
-    progress.say(format_args!("{} frames of {}x{} at {fps} fps on {}", frames, size[0], size[1], r.renderer().adapter()));
+    progress.say(format_args!(
+        "{} frames of {}x{} at {fps} fps on {}",
+        frames,
+        size[0],
+        size[1],
+        r.renderer().adapter()
+    ));
     let t = Instant::now();
     for k in 0..frames {
         let time = from + k as f64 / fps;
@@ -167,6 +248,35 @@ pub fn write_movie(scene: &Scene, out: &Path, size: [u32; 2], fps: f64, from: f6
         writer.push(&img)?;
         progress.bar(k + 1, frames);
     }
-    progress.say(format_args!("rendered {frames} frames in {:.1} s", t.elapsed().as_secs_f64()));
+    progress.say(format_args!(
+        "rendered {frames} frames in {:.1} s",
+        t.elapsed().as_secs_f64()
+    ));
     Ok(writer.finish()?)
+}
+
+pub fn export(scene: &Path, out: &Path, force: bool, progress: &Progress) -> Result<()> {
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if ext != "glb" && ext != "gltf" {
+        bail!(
+            "{}: unknown export format {ext:?}; supported: .glb, .gltf",
+            out.display()
+        );
+    }
+    if out.exists() && !force {
+        bail!("{}: exists; pass --force to replace it", out.display());
+    }
+    check_output(out, &[scene], force, false)?;
+    let s = load_scene(scene)?;
+    let bytes = csrbf_anim::export_gltf(&s, ext == "glb");
+    csrbf_mesh::write_atomic(out, &bytes)?;
+    progress.say(format_args!(
+        "wrote {} ({} bytes)",
+        out.display(),
+        bytes.len()
+    ));
+    Ok(())
 }

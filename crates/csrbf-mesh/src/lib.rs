@@ -23,7 +23,8 @@
 //! ```
 
 mod error;
-mod formats;
+/// The file formats.
+pub mod formats;
 mod geometry;
 mod io;
 

@@ -19,7 +19,12 @@ impl Image {
     /// The pixel at (x, y).
     pub fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
         let i = 4 * (y as usize * self.width as usize + x as usize);
-        [self.rgba[i], self.rgba[i + 1], self.rgba[i + 2], self.rgba[i + 3]]
+        [
+            self.rgba[i],
+            self.rgba[i + 1],
+            self.rgba[i + 2],
+            self.rgba[i + 3],
+        ]
     }
 
     /// PNG-encoded bytes.
@@ -30,8 +35,11 @@ impl Image {
             enc.set_color(png::ColorType::Rgba);
             enc.set_depth(png::BitDepth::Eight);
             enc.set_compression(png::Compression::Fast);
-            let mut w = enc.write_header().map_err(|e| RenderError::Encode(e.to_string()))?;
-            w.write_image_data(&self.rgba).map_err(|e| RenderError::Encode(e.to_string()))?;
+            let mut w = enc
+                .write_header()
+                .map_err(|e| RenderError::Encode(e.to_string()))?;
+            w.write_image_data(&self.rgba)
+                .map_err(|e| RenderError::Encode(e.to_string()))?;
         }
         Ok(out)
     }

@@ -13,7 +13,9 @@ mod renderer;
 mod scene_view;
 
 pub use image::Image;
-pub use renderer::{Camera, DrawMesh, DrawOptions, DrawPart, Light, Line, Renderer, TextureId, View};
+pub use renderer::{
+    Camera, DrawMesh, DrawOptions, DrawPart, Light, Line, Renderer, TextureId, View,
+};
 pub use scene_view::{SceneOptions, SceneRenderer, control_lines, default_lights};
 
 /// What can go wrong while rendering or writing pictures.
@@ -26,7 +28,9 @@ pub enum RenderError {
     )]
     NoAdapter(String),
     /// A picture size of 0 or beyond the limit.
-    #[error("picture size {width} x {height} is not valid: each side must be within 1..=8192 pixels")]
+    #[error(
+        "picture size {width} x {height} is not valid: each side must be within 1..=8192 pixels"
+    )]
     BadSize {
         /// Width asked for.
         width: u32,

@@ -24,7 +24,9 @@ impl MovieFormat {
     /// `.mp4`, `.gif`, or a folder (a path ending in `/`, an existing
     /// folder, or no extension).
     pub fn of(path: &Path) -> Result<MovieFormat> {
-        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
         match ext.as_deref() {
             Some("mp4") => Ok(MovieFormat::Mp4),
             Some("gif") => Ok(MovieFormat::Gif),
@@ -32,7 +34,9 @@ impl MovieFormat {
             _ if path.is_dir() => Ok(MovieFormat::Frames),
             Some(other) => Err(RenderError::Io {
                 path: path.to_owned(),
-                message: format!("unknown movie format {other:?}: use .mp4, .gif or a folder for PNG frames"),
+                message: format!(
+                    "unknown movie format {other:?}: use .mp4, .gif or a folder for PNG frames"
+                ),
             }),
         }
     }
@@ -50,7 +54,10 @@ pub fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 fn io(path: &Path, e: impl std::fmt::Display) -> RenderError {
-    RenderError::Io { path: path.to_owned(), message: e.to_string() }
+    RenderError::Io {
+        path: path.to_owned(),
+        message: e.to_string(),
+    }
 }
 
 /// A temporary name beside `path`; fails when the folder does not exist.
@@ -60,16 +67,28 @@ fn temp_beside(path: &Path) -> Result<PathBuf> {
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        return Err(io(path, format!("the output folder {} does not exist", dir.display())));
+        return Err(io(
+            path,
+            format!("the output folder {} does not exist", dir.display()),
+        ));
     }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
     Ok(dir.join(format!(".{name}.{}.tmp", std::process::id())))
 }
 
 enum Sink {
-    Mp4 { child: Child },
-    Gif { encoder: gif::Encoder<std::fs::File> },
-    Frames { count: usize },
+    Mp4 {
+        child: Child,
+    },
+    Gif {
+        encoder: gif::Encoder<std::fs::File>,
+    },
+    Frames {
+        count: usize,
+    },
 }
 
 /// A movie being written frame by frame.
@@ -94,43 +113,101 @@ impl MovieWriter {
     pub fn create(path: &Path, width: u32, height: u32, fps: f64) -> Result<MovieWriter> {
         let format = MovieFormat::of(path)?;
         if !(fps > 0.0 && fps <= 240.0) {
-            return Err(io(path, format!("frames per second must be within (0, 240], got {fps}")));
+            return Err(io(
+                path,
+                format!("frames per second must be within (0, 240], got {fps}"),
+            ));
         }
         let tmp = temp_beside(path)?;
         let sink = match format {
             MovieFormat::Mp4 => {
                 let tmp_mp4 = tmp.with_extension("tmp.mp4");
                 let child = Command::new(ffmpeg())
-                    .args(["-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgba"])
-                    .args(["-s", &format!("{width}x{height}"), "-r", &format!("{fps}"), "-i", "-"])
-                    .args(["-vf", "scale=trunc(iw/2)*2:trunc(ih/2)*2", "-c:v", "libx264", "-pix_fmt", "yuv420p"])
+                    .args([
+                        "-hide_banner",
+                        "-loglevel",
+                        "error",
+                        "-y",
+                        "-f",
+                        "rawvideo",
+                        "-pix_fmt",
+                        "rgba",
+                    ])
+                    .args([
+                        "-s",
+                        &format!("{width}x{height}"),
+                        "-r",
+                        &format!("{fps}"),
+                        "-i",
+                        "-",
+                    ])
+                    .args([
+                        "-vf",
+                        "scale=trunc(iw/2)*2:trunc(ih/2)*2",
+                        "-c:v",
+                        "libx264",
+                        "-pix_fmt",
+                        "yuv420p",
+                    ])
                     .args(["-crf", "20", "-movflags", "+faststart", "-f", "mp4"])
                     .arg(&tmp_mp4)
                     .stdin(Stdio::piped())
                     .stdout(Stdio::null())
                     .stderr(Stdio::piped())
                     .spawn()
-                    .map_err(|e| if e.kind() == std::io::ErrorKind::NotFound { RenderError::NoFfmpeg } else { io(path, e) })?;
-                return Ok(MovieWriter { path: path.to_owned(), tmp: tmp_mp4, width, height, fps, sink: Some(Sink::Mp4 { child }), frames: 0 });
+                    .map_err(|e| {
+                        if e.kind() == std::io::ErrorKind::NotFound {
+                            RenderError::NoFfmpeg
+                        } else {
+                            io(path, e)
+                        }
+                    })?;
+                return Ok(MovieWriter {
+                    path: path.to_owned(),
+                    tmp: tmp_mp4,
+                    width,
+                    height,
+                    fps,
+                    sink: Some(Sink::Mp4 { child }),
+                    frames: 0,
+                });
             }
             MovieFormat::Gif => {
                 if width > u16::MAX as u32 || height > u16::MAX as u32 {
                     return Err(io(path, "a GIF is at most 65535 pixels on a side"));
                 }
                 let file = std::fs::File::create(&tmp).map_err(|e| io(path, e))?;
-                let mut encoder = gif::Encoder::new(file, width as u16, height as u16, &[]).map_err(|e| RenderError::Encode(e.to_string()))?;
-                encoder.set_repeat(gif::Repeat::Infinite).map_err(|e| RenderError::Encode(e.to_string()))?;
+                let mut encoder = gif::Encoder::new(file, width as u16, height as u16, &[])
+                    .map_err(|e| RenderError::Encode(e.to_string()))?;
+                encoder
+                    .set_repeat(gif::Repeat::Infinite)
+                    .map_err(|e| RenderError::Encode(e.to_string()))?;
                 Sink::Gif { encoder }
             }
             MovieFormat::Frames => {
-                if path.is_dir() && std::fs::read_dir(path).map(|mut d| d.next().is_some()).unwrap_or(false) {
-                    return Err(io(path, "the frames folder is not empty; give a new or empty folder"));
+                if path.is_dir()
+                    && std::fs::read_dir(path)
+                        .map(|mut d| d.next().is_some())
+                        .unwrap_or(false)
+                {
+                    return Err(io(
+                        path,
+                        "the frames folder is not empty; give a new or empty folder",
+                    ));
                 }
                 std::fs::create_dir(&tmp).map_err(|e| io(path, e))?;
                 Sink::Frames { count: 0 }
             }
         };
-        Ok(MovieWriter { path: path.to_owned(), tmp, width, height, fps, sink: Some(sink), frames: 0 })
+        Ok(MovieWriter {
+            path: path.to_owned(),
+            tmp,
+            width,
+            height,
+            fps,
+            sink: Some(sink),
+            frames: 0,
+        })
     }
 
     /// Adds a picture of the movie's size.
@@ -143,14 +220,26 @@ impl MovieWriter {
         }
         match self.sink.as_mut() {
             Some(Sink::Mp4 { child }) => {
-                let stdin = child.stdin.as_mut().ok_or_else(|| RenderError::Encode("ffmpeg closed its input".into()))?;
-                stdin.write_all(&image.rgba).map_err(|e| RenderError::Encode(format!("ffmpeg stopped reading frames: {e}")))?;
+                let stdin = child
+                    .stdin
+                    .as_mut()
+                    .ok_or_else(|| RenderError::Encode("ffmpeg closed its input".into()))?;
+                stdin.write_all(&image.rgba).map_err(|e| {
+                    RenderError::Encode(format!("ffmpeg stopped reading frames: {e}"))
+                })?;
             }
             Some(Sink::Gif { encoder }) => {
                 let mut rgba = image.rgba.clone();
-                let mut frame = gif::Frame::from_rgba_speed(self.width as u16, self.height as u16, &mut rgba, 10);
+                let mut frame = gif::Frame::from_rgba_speed(
+                    self.width as u16,
+                    self.height as u16,
+                    &mut rgba,
+                    10,
+                );
                 frame.delay = (100.0 / self.fps).round().max(1.0) as u16;
-                encoder.write_frame(&frame).map_err(|e| RenderError::Encode(e.to_string()))?;
+                encoder
+                    .write_frame(&frame)
+                    .map_err(|e| RenderError::Encode(e.to_string()))?;
             }
             Some(Sink::Frames { count }) => {
                 let p = self.tmp.join(format!("frame_{:05}.png", *count));
@@ -175,12 +264,17 @@ impl MovieWriter {
                 drop(child.stdin.take());
                 let out = child.wait_with_output().map_err(|e| io(&self.path, e))?;
                 if !out.status.success() {
-                    return Err(RenderError::Encode(format!("ffmpeg failed: {}", String::from_utf8_lossy(&out.stderr).trim())));
+                    return Err(RenderError::Encode(format!(
+                        "ffmpeg failed: {}",
+                        String::from_utf8_lossy(&out.stderr).trim()
+                    )));
                 }
                 std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
             }
             Some(Sink::Gif { encoder }) => {
-                let file = encoder.into_inner().map_err(|e| RenderError::Encode(e.to_string()))?;
+                let file = encoder
+                    .into_inner()
+                    .map_err(|e| RenderError::Encode(e.to_string()))?;
                 file.sync_all().map_err(|e| io(&self.path, e))?;
                 drop(file);
                 std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;

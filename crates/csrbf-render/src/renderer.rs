@@ -86,7 +86,11 @@ pub struct DrawOptions {
 
 impl Default for DrawOptions {
     fn default() -> Self {
-        DrawOptions { flat: false, wireframe: false, ambient: 0.22 }
+        DrawOptions {
+            flat: false,
+            wireframe: false,
+            ambient: 0.22,
+        }
     }
 }
 
@@ -183,12 +187,19 @@ impl Renderer {
     /// adapter (a GPU, or lavapipe on the CPU); `WGPU_BACKEND` can force one.
     pub fn new(width: u32, height: u32) -> Result<Renderer> {
         check_size(width, height)?;
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-            .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
-        let adapter_name = format!("{} ({:?})", adapter.get_info().name, adapter.get_info().backend);
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-            .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter =
+            pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+                .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        let adapter_name = format!(
+            "{} ({:?})",
+            adapter.get_info().name,
+            adapter.get_info().backend
+        );
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+                .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("csrbf shader"),
             source: wgpu::ShaderSource::Wgsl(include_str!("shader.wgsl").into()),
@@ -249,13 +260,18 @@ impl Renderer {
         });
         let mesh_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x4];
         let line_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
-        let depth = |write: bool, compare: wgpu::CompareFunction, bias: i32| wgpu::DepthStencilState {
-            format: DEPTH,
-            depth_write_enabled: Some(write),
-            depth_compare: Some(compare),
-            stencil: wgpu::StencilState::default(),
-            bias: wgpu::DepthBiasState { constant: bias, slope_scale: if bias != 0 { 1.0 } else { 0.0 }, clamp: 0.0 },
-        };
+        let depth =
+            |write: bool, compare: wgpu::CompareFunction, bias: i32| wgpu::DepthStencilState {
+                format: DEPTH,
+                depth_write_enabled: Some(write),
+                depth_compare: Some(compare),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState {
+                    constant: bias,
+                    slope_scale: if bias != 0 { 1.0 } else { 0.0 },
+                    clamp: 0.0,
+                },
+            };
         let blend = Some(wgpu::ColorTargetState {
             format: COLOR,
             blend: Some(wgpu::BlendState::ALPHA_BLENDING),
@@ -277,9 +293,16 @@ impl Renderer {
                     compilation_options: Default::default(),
                     buffers,
                 },
-                primitive: wgpu::PrimitiveState { topology, cull_mode: None, ..Default::default() },
+                primitive: wgpu::PrimitiveState {
+                    topology,
+                    cull_mode: None,
+                    ..Default::default()
+                },
                 depth_stencil: Some(depth_state),
-                multisample: wgpu::MultisampleState { count: SAMPLES, ..Default::default() },
+                multisample: wgpu::MultisampleState {
+                    count: SAMPLES,
+                    ..Default::default()
+                },
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
                     entry_point: Some(fs),
@@ -303,10 +326,42 @@ impl Renderer {
         use wgpu::CompareFunction::{Always, LessEqual};
         use wgpu::PrimitiveTopology::{LineList, TriangleList};
         // The surface is pushed back a little so edges drawn on it win the depth test.
-        let mesh_pipeline = make("mesh", &mesh_layout, "vs_mesh", "fs_mesh", &mesh_buffers, TriangleList, depth(true, LessEqual, 2));
-        let line_pipeline = make("lines", &line_layout, "vs_line", "fs_line", &line_buffers, LineList, depth(true, LessEqual, 0));
-        let wire_pipeline = make("wire", &line_layout, "vs_line", "fs_line", &line_buffers, LineList, depth(false, LessEqual, 0));
-        let overlay_pipeline = make("overlay", &line_layout, "vs_line", "fs_line", &line_buffers, LineList, depth(false, Always, 0));
+        let mesh_pipeline = make(
+            "mesh",
+            &mesh_layout,
+            "vs_mesh",
+            "fs_mesh",
+            &mesh_buffers,
+            TriangleList,
+            depth(true, LessEqual, 2),
+        );
+        let line_pipeline = make(
+            "lines",
+            &line_layout,
+            "vs_line",
+            "fs_line",
+            &line_buffers,
+            LineList,
+            depth(true, LessEqual, 0),
+        );
+        let wire_pipeline = make(
+            "wire",
+            &line_layout,
+            "vs_line",
+            "fs_line",
+            &line_buffers,
+            LineList,
+            depth(false, LessEqual, 0),
+        );
+        let overlay_pipeline = make(
+            "overlay",
+            &line_layout,
+            "vs_line",
+            "fs_line",
+            &line_buffers,
+            LineList,
+            depth(false, Always, 0),
+        );
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals"),
             size: std::mem::size_of::<Globals>() as u64,
@@ -316,7 +371,10 @@ impl Renderer {
         let globals_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("globals"),
             layout: &globals_layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: globals.as_entire_binding() }],
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            }],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             address_mode_u: wgpu::AddressMode::Repeat,
@@ -364,10 +422,24 @@ impl Renderer {
 
     /// Uploads an RGBA8 (sRGB) texture for [`DrawPart::texture`].
     pub fn texture(&mut self, width: u32, height: u32, rgba: &[u8]) -> Result<TextureId> {
-        if width == 0 || height == 0 || rgba.len() != 4 * width as usize * height as usize || width > 16384 || height > 16384 {
-            return Err(RenderError::BadTexture(format!("{width} x {height} with {} bytes", rgba.len())));
+        if width == 0
+            || height == 0
+            || rgba.len() != 4 * width as usize * height as usize
+            || width > 16384
+            || height > 16384
+        {
+            return Err(RenderError::BadTexture(format!(
+                "{width} x {height} with {} bytes",
+                rgba.len()
+            )));
         }
-        self.textures.push(upload_texture(&self.device, &self.queue, width, height, rgba));
+        self.textures.push(upload_texture(
+            &self.device,
+            &self.queue,
+            width,
+            height,
+            rgba,
+        ));
         Ok(TextureId(self.textures.len() - 1))
     }
 
@@ -377,7 +449,8 @@ impl Renderer {
         let c = view.camera;
         let aspect = w as f32 / h as f32;
         let (near, far) = near_far(view);
-        let proj = glam::camera::rh::proj::directx::perspective(c.fov.to_radians(), aspect, near, far);
+        let proj =
+            glam::camera::rh::proj::directx::perspective(c.fov.to_radians(), aspect, near, far);
         let look = glam::camera::rh::view::look_at_mat4(c.eye, c.target, c.up);
         let vp: Mat4 = proj * look;
         let mut g = Globals {
@@ -385,13 +458,19 @@ impl Renderer {
             eye: c.eye.extend(1.0).to_array(),
             light_dir: [[0.0; 4]; 4],
             light_color: [[0.0; 4]; 4],
-            params: [view.lights.len().min(4) as f32, view.options.flat as u32 as f32, view.options.ambient, 0.0],
+            params: [
+                view.lights.len().min(4) as f32,
+                view.options.flat as u32 as f32,
+                view.options.ambient,
+                0.0,
+            ],
         };
         for (k, l) in view.lights.iter().take(4).enumerate() {
             g.light_dir[k] = l.direction.extend(0.0).to_array();
             g.light_color[k] = l.color.extend(1.0).to_array();
         }
-        self.queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
+        self.queue
+            .write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
 
         // Vertex data and one bind group per part.
         let mut meshes = Vec::new();
@@ -409,43 +488,71 @@ impl Renderer {
             if verts.is_empty() {
                 continue;
             }
-            let vb = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("vertices"),
-                contents: bytemuck::cast_slice(&verts),
-                usage: wgpu::BufferUsages::VERTEX,
-            });
+            let vb = self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("vertices"),
+                    contents: bytemuck::cast_slice(&verts),
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
             let mut parts = Vec::new();
             for p in &m.parts {
-                let idx: Vec<u32> = p.indices.iter().copied().filter(|&i| (i as usize) < n).collect();
+                let idx: Vec<u32> = p
+                    .indices
+                    .iter()
+                    .copied()
+                    .filter(|&i| (i as usize) < n)
+                    .collect();
                 if idx.len() < 3 {
                     continue;
                 }
-                let ib = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("indices"),
-                    contents: bytemuck::cast_slice(&idx[..idx.len() / 3 * 3]),
-                    usage: wgpu::BufferUsages::INDEX,
-                });
+                let ib = self
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("indices"),
+                        contents: bytemuck::cast_slice(&idx[..idx.len() / 3 * 3]),
+                        usage: wgpu::BufferUsages::INDEX,
+                    });
                 let tex = p.texture.and_then(|t| self.textures.get(t.0));
-                let u = PartUniform { color: p.color, flags: [tex.is_some() as u32 as f32, 0.0, 0.0, 0.0] };
-                let ub = self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("part"),
-                    contents: bytemuck::bytes_of(&u),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
+                let u = PartUniform {
+                    color: p.color,
+                    flags: [tex.is_some() as u32 as f32, 0.0, 0.0, 0.0],
+                };
+                let ub = self
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("part"),
+                        contents: bytemuck::bytes_of(&u),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
                 let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("part"),
                     layout: &self.part_layout,
                     entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: ub.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(tex.unwrap_or(&self.white)) },
-                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: ub.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(
+                                tex.unwrap_or(&self.white),
+                            ),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: wgpu::BindingResource::Sampler(&self.sampler),
+                        },
                     ],
                 });
                 if view.options.wireframe {
                     for t in idx.chunks_exact(3) {
                         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
                             for i in [a, b] {
-                                wire.push(LineVertex { pos: m.positions[i as usize].to_array(), color: [0.05, 0.05, 0.08, 0.85] });
+                                wire.push(LineVertex {
+                                    pos: m.positions[i as usize].to_array(),
+                                    color: [0.05, 0.05, 0.08, 0.85],
+                                });
                             }
                         }
                     }
@@ -460,14 +567,26 @@ impl Renderer {
             }
             let v: Vec<LineVertex> = lines
                 .iter()
-                .flat_map(|l| [LineVertex { pos: l.a.to_array(), color: l.color }, LineVertex { pos: l.b.to_array(), color: l.color }])
+                .flat_map(|l| {
+                    [
+                        LineVertex {
+                            pos: l.a.to_array(),
+                            color: l.color,
+                        },
+                        LineVertex {
+                            pos: l.b.to_array(),
+                            color: l.color,
+                        },
+                    ]
+                })
                 .collect();
             Some((
-                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("lines"),
-                    contents: bytemuck::cast_slice(&v),
-                    usage: wgpu::BufferUsages::VERTEX,
-                }),
+                self.device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("lines"),
+                        contents: bytemuck::cast_slice(&v),
+                        usage: wgpu::BufferUsages::VERTEX,
+                    }),
                 v.len() as u32,
             ))
         };
@@ -475,16 +594,21 @@ impl Renderer {
         let overlay = line_buf(&view.overlay);
         let wire_buf = (!wire.is_empty()).then(|| {
             (
-                self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("wire"),
-                    contents: bytemuck::cast_slice(&wire),
-                    usage: wgpu::BufferUsages::VERTEX,
-                }),
+                self.device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("wire"),
+                        contents: bytemuck::cast_slice(&wire),
+                        usage: wgpu::BufferUsages::VERTEX,
+                    }),
                 wire.len() as u32,
             )
         });
 
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        let mut enc = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
         {
             let bg = view.background;
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -494,13 +618,21 @@ impl Renderer {
                     depth_slice: None,
                     resolve_target: Some(&self.targets.resolve_view),
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r: bg[0] as f64, g: bg[1] as f64, b: bg[2] as f64, a: 1.0 }),
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg[0] as f64,
+                            g: bg[1] as f64,
+                            b: bg[2] as f64,
+                            a: 1.0,
+                        }),
                         store: wgpu::StoreOp::Discard,
                     },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &self.targets.depth,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
                     stencil_ops: None,
                 }),
                 timestamp_writes: None,
@@ -517,7 +649,11 @@ impl Renderer {
                     pass.draw_indexed(0..*count, 0, 0..1);
                 }
             }
-            for (pipeline, buf) in [(&self.line_pipeline, &scenery), (&self.wire_pipeline, &wire_buf), (&self.overlay_pipeline, &overlay)] {
+            for (pipeline, buf) in [
+                (&self.line_pipeline, &scenery),
+                (&self.wire_pipeline, &wire_buf),
+                (&self.overlay_pipeline, &overlay),
+            ] {
                 if let Some((b, n)) = buf {
                     pass.set_pipeline(pipeline);
                     pass.set_vertex_buffer(0, b.slice(..));
@@ -527,12 +663,25 @@ impl Renderer {
         }
         let t = &self.targets;
         enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo { texture: &t.resolve, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyTextureInfo {
+                texture: &t.resolve,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
             wgpu::TexelCopyBufferInfo {
                 buffer: &t.readback,
-                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(t.padded_row), rows_per_image: Some(h) },
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(t.padded_row),
+                    rows_per_image: Some(h),
+                },
             },
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
         );
         self.queue.submit([enc.finish()]);
         let slice = t.readback.slice(..);
@@ -548,14 +697,20 @@ impl Renderer {
             .map_err(|e| RenderError::Gpu(e.to_string()))?;
         let mut rgba = Vec::with_capacity(4 * w as usize * h as usize);
         {
-            let data = slice.get_mapped_range().map_err(|e| RenderError::Gpu(format!("{e:?}")))?;
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| RenderError::Gpu(format!("{e:?}")))?;
             for row in 0..h as usize {
                 let s = row * t.padded_row as usize;
                 rgba.extend_from_slice(&data[s..s + 4 * w as usize]);
             }
         }
         t.readback.unmap();
-        Ok(Image { width: w, height: h, rgba })
+        Ok(Image {
+            width: w,
+            height: h,
+            rgba,
+        })
     }
 }
 
@@ -578,16 +733,30 @@ fn near_far(view: &View) -> (f32, f32) {
     for l in view.lines.iter().chain(&view.overlay) {
         far = far.max(l.a.distance(eye)).max(l.b.distance(eye));
     }
-    let far = if far > 0.0 && far.is_finite() { far * 1.05 } else { 100.0 };
+    let far = if far > 0.0 && far.is_finite() {
+        far * 1.05
+    } else {
+        100.0
+    };
     (far * 1e-3, far)
 }
 
-fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, width: u32, height: u32, rgba: &[u8]) -> wgpu::TextureView {
+fn upload_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+) -> wgpu::TextureView {
     let tex = device.create_texture_with_data(
         queue,
         &wgpu::TextureDescriptor {
             label: Some("texture"),
-            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -602,7 +771,11 @@ fn upload_texture(device: &wgpu::Device, queue: &wgpu::Queue, width: u32, height
 }
 
 fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
-    let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
     let tex = |label: &str, format, samples, usage| {
         device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
@@ -615,10 +788,27 @@ fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
             view_formats: &[],
         })
     };
-    let msaa = tex("msaa", COLOR, SAMPLES, wgpu::TextureUsages::RENDER_ATTACHMENT).create_view(&Default::default());
-    let resolve = tex("resolve", COLOR, 1, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
+    let msaa = tex(
+        "msaa",
+        COLOR,
+        SAMPLES,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
+    .create_view(&Default::default());
+    let resolve = tex(
+        "resolve",
+        COLOR,
+        1,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
     let resolve_view = resolve.create_view(&Default::default());
-    let depth = tex("depth", DEPTH, SAMPLES, wgpu::TextureUsages::RENDER_ATTACHMENT).create_view(&Default::default());
+    let depth = tex(
+        "depth",
+        DEPTH,
+        SAMPLES,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
+    .create_view(&Default::default());
     let padded_row = (4 * width).div_ceil(256) * 256;
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
@@ -626,5 +816,14 @@ fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    Targets { width, height, msaa, resolve, resolve_view, depth, readback, padded_row }
+    Targets {
+        width,
+        height,
+        msaa,
+        resolve,
+        resolve_view,
+        depth,
+        readback,
+        padded_row,
+    }
 }

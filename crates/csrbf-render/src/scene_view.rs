@@ -4,7 +4,9 @@
 use csrbf_anim::{Frame, Scene};
 use glam::{Vec2, Vec3};
 
-use crate::{Camera, DrawMesh, DrawOptions, DrawPart, Image, Light, Line, Renderer, Result, TextureId};
+use crate::{
+    Camera, DrawMesh, DrawOptions, DrawPart, Image, Light, Line, Renderer, Result, TextureId,
+};
 
 /// What to draw besides the surfaces.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -38,7 +40,12 @@ impl SceneRenderer {
         let mut prepared = Vec::new();
         for obj in &scene.objects {
             let n = obj.mesh.positions.len();
-            let uvs = obj.mesh.uvs.as_ref().and_then(|u| u.per_vertex(&obj.mesh.faces, n)).unwrap_or_default();
+            let uvs = obj
+                .mesh
+                .uvs
+                .as_ref()
+                .and_then(|u| u.per_vertex(&obj.mesh.faces, n))
+                .unwrap_or_default();
             let colors = obj.mesh.colors.clone().unwrap_or_default();
             let mut parts = Vec::new();
             for p in &obj.parts {
@@ -53,7 +60,11 @@ impl SceneRenderer {
                         indices.extend_from_slice(&[face[0], face[k], face[k + 1]]);
                     }
                 }
-                parts.push(DrawPart { indices, color: p.color, texture });
+                parts.push(DrawPart {
+                    indices,
+                    color: p.color,
+                    texture,
+                });
             }
             prepared.push(Prepared { uvs, colors, parts });
         }
@@ -75,9 +86,20 @@ impl SceneRenderer {
     pub fn view(&self, scene: &Scene, frame: &Frame, options: SceneOptions) -> View {
         let f = &scene.file;
         let v3 = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        let camera = Camera { eye: v3(f.camera.eye), target: v3(f.camera.target), up: v3(f.camera.up), fov: f.camera.fov as f32 };
-        let mut lights: Vec<Light> =
-            f.lights.iter().map(|l| Light { direction: v3(l.direction), color: Vec3::from_array(l.color) * l.intensity }).collect();
+        let camera = Camera {
+            eye: v3(f.camera.eye),
+            target: v3(f.camera.target),
+            up: v3(f.camera.up),
+            fov: f.camera.fov as f32,
+        };
+        let mut lights: Vec<Light> = f
+            .lights
+            .iter()
+            .map(|l| Light {
+                direction: v3(l.direction),
+                color: Vec3::from_array(l.color) * l.intensity,
+            })
+            .collect();
         if lights.is_empty() {
             lights = default_lights(camera);
         }
@@ -95,7 +117,15 @@ impl SceneRenderer {
                 control_lines(&obj.controls, &mut overlay);
             }
         }
-        View { camera, lights, background: f.background, meshes, lines: Vec::new(), overlay, options: options.draw }
+        View {
+            camera,
+            lights,
+            background: f.background,
+            meshes,
+            lines: Vec::new(),
+            overlay,
+            options: options.draw,
+        }
     }
 }
 
@@ -107,8 +137,14 @@ pub fn default_lights(camera: Camera) -> Vec<Light> {
     let right = fwd.cross(camera.up).normalize_or(Vec3::X);
     let up = right.cross(fwd);
     vec![
-        Light { direction: (fwd - up * 0.8 + right * 0.6).normalize(), color: Vec3::splat(0.85) },
-        Light { direction: (fwd + up * 0.2 - right * 0.9).normalize(), color: Vec3::splat(0.3) },
+        Light {
+            direction: (fwd - up * 0.8 + right * 0.6).normalize(),
+            color: Vec3::splat(0.85),
+        },
+        Light {
+            direction: (fwd + up * 0.2 - right * 0.9).normalize(),
+            color: Vec3::splat(0.3),
+        },
     ]
 }
 
@@ -123,10 +159,22 @@ pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], out: &mut Vec<Line>) 
     for &(s, now, goal, r) in controls {
         let k = if size.is_finite() { size } else { 0.01 };
         for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
-            out.push(Line { a: s - axis * k, b: s + axis * k, color: START });
+            out.push(Line {
+                a: s - axis * k,
+                b: s + axis * k,
+                color: START,
+            });
         }
-        out.push(Line { a: s, b: goal, color: GOAL });
-        out.push(Line { a: s, b: now, color: NOW });
+        out.push(Line {
+            a: s,
+            b: goal,
+            color: GOAL,
+        });
+        out.push(Line {
+            a: s,
+            b: now,
+            color: NOW,
+        });
         // Support spheres of moving controls only (anchors would hide the model).
         if spheres < 16 && goal.distance(s) > 1e-6 * r {
             spheres += 1;

@@ -4,15 +4,32 @@ use csrbf_render::{Camera, DrawMesh, DrawOptions, DrawPart, Light, Renderer, Vie
 use glam::Vec3;
 
 fn quad_view() -> View {
-    let positions = vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
     View {
-        camera: Camera { eye: Vec3::new(0.0, 0.0, 4.0), target: Vec3::ZERO, up: Vec3::Y, fov: 45.0 },
-        lights: vec![Light { direction: Vec3::new(0.0, 0.0, -1.0), color: Vec3::ONE }],
+        camera: Camera {
+            eye: Vec3::new(0.0, 0.0, 4.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov: 45.0,
+        },
+        lights: vec![Light {
+            direction: Vec3::new(0.0, 0.0, -1.0),
+            color: Vec3::ONE,
+        }],
         background: [0.0, 0.0, 0.0],
         meshes: vec![DrawMesh {
             normals: vec![Vec3::Z; 4],
             positions,
-            parts: vec![DrawPart { indices: vec![0, 1, 2, 0, 2, 3], color: [1.0, 0.0, 0.0, 1.0], texture: None }],
+            parts: vec![DrawPart {
+                indices: vec![0, 1, 2, 0, 2, 3],
+                color: [1.0, 0.0, 0.0, 1.0],
+                texture: None,
+            }],
             ..Default::default()
         }],
         lines: vec![],
@@ -27,7 +44,10 @@ fn draws_a_lit_quad_on_the_background() {
     let img = r.render(&quad_view()).expect("render");
     assert_eq!((img.width, img.height), (64, 48));
     let centre = img.pixel(32, 24);
-    assert!(centre[0] > 200 && centre[1] < 40 && centre[2] < 40, "centre {centre:?}");
+    assert!(
+        centre[0] > 200 && centre[1] < 40 && centre[2] < 40,
+        "centre {centre:?}"
+    );
     assert_eq!(img.pixel(0, 0), [0, 0, 0, 255]);
     // Depth test: a second quad in front, green, hides the red one.
     let mut v = quad_view();
@@ -47,7 +67,10 @@ fn draws_a_lit_quad_on_the_background() {
 #[test]
 fn bad_sizes_are_refused() {
     for (w, h) in [(0, 10), (10, 0), (100_000, 10)] {
-        let e = Renderer::new(w, h).err().map(|e| e.to_string()).unwrap_or_default();
+        let e = Renderer::new(w, h)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains("not valid"), "{e}");
     }
 }

@@ -298,17 +298,21 @@ fn base64_encode(data: &[u8]) -> String {
     s
 }
 
-/// A binary buffer being laid out, with its views and accessors.
+/// A binary buffer being laid out, with its views and accessors (used by
+/// the scene exporter too).
 #[derive(Default)]
-pub(crate) struct Builder {
-    pub(crate) bin: Vec<u8>,
-    pub(crate) views: Vec<Value>,
-    pub(crate) accessors: Vec<Value>,
+pub struct Builder {
+    /// The binary buffer.
+    pub bin: Vec<u8>,
+    /// Buffer views, as glTF JSON.
+    pub views: Vec<Value>,
+    /// Accessors, as glTF JSON.
+    pub accessors: Vec<Value>,
 }
 
 impl Builder {
     /// Appends bytes as a buffer view (4-byte aligned); returns its index.
-    pub(crate) fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
+    pub fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
@@ -321,16 +325,33 @@ impl Builder {
         self.views.len() - 1
     }
 
-    /// A float accessor of `width` components per element ("VEC3", ...).
-    pub(crate) fn floats(
+    /// A float accessor of `width` components per element ("VEC3", ...);
+    /// `with_bounds` adds min and max (required for positions and animation inputs).
+    pub fn floats(&mut self, data: &[f32], width: usize, ty: &str, with_bounds: bool) -> usize {
+        self.floats_for(data, width, ty, with_bounds, Some(34962))
+    }
+
+    /// A float accessor for animation data: its buffer view has no vertex target.
+    pub fn animation_floats(
         &mut self,
         data: &[f32],
         width: usize,
         ty: &str,
         with_bounds: bool,
     ) -> usize {
+        self.floats_for(data, width, ty, with_bounds, None)
+    }
+
+    fn floats_for(
+        &mut self,
+        data: &[f32],
+        width: usize,
+        ty: &str,
+        with_bounds: bool,
+        target: Option<u32>,
+    ) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let view = self.view(&bytes, Some(34962));
+        let view = self.view(&bytes, target);
         let mut a = json!({ "bufferView": view, "componentType": 5126, "count": data.len() / width, "type": ty });
         if with_bounds {
             let mut lo = vec![f32::INFINITY; width];
@@ -349,7 +370,7 @@ impl Builder {
     }
 
     /// An index accessor.
-    pub(crate) fn indices(&mut self, data: &[u32]) -> usize {
+    pub fn indices(&mut self, data: &[u32]) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
         let view = self.view(&bytes, Some(34963));
         let max = data.iter().copied().max().unwrap_or(0);
@@ -364,7 +385,7 @@ impl Builder {
 
 /// Packs a glTF JSON document and its binary buffer as GLB or as JSON with
 /// the buffer in a data URI.
-pub(crate) fn package(mut doc: Value, bin: Vec<u8>, glb: bool) -> Vec<u8> {
+pub fn package(mut doc: Value, bin: Vec<u8>, glb: bool) -> Vec<u8> {
     if glb {
         doc["buffers"] = json!([{ "byteLength": bin.len() }]);
         let mut js = doc.to_string().into_bytes();

@@ -1,6 +1,7 @@
 //! The file formats, one module each, behind [`Format`].
 
-mod gltf;
+/// glTF reading and writing, and the buffer builder the scene exporter shares.
+pub mod gltf;
 mod obj;
 mod off;
 mod ply;
