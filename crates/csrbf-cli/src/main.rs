@@ -115,6 +115,8 @@ enum Command {
     },
     /// Render a scene file as a movie (MP4, GIF) or PNG frames.
     Animate(movie::AnimateArgs),
+    /// Write one of the papers' examples (face, fish, ball, brick, all): scene file, models, poster and movie.
+    Demo(movie::DemoArgs),
     /// Export a scene as glTF 2.0 (.glb or .gltf): meshes, materials, motion, morph targets.
     Export {
         /// The scene file.
@@ -182,6 +184,7 @@ fn main() -> ExitCode {
             &progress,
         ),
         Command::Animate(args) => movie::animate(&args, &progress),
+        Command::Demo(args) => movie::demo(&args, &progress),
         Command::Export { scene, out, force } => movie::export(&scene, &out, force, &progress),
     };
     match result {

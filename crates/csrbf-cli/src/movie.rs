@@ -280,3 +280,114 @@ pub fn export(scene: &Path, out: &Path, force: bool, progress: &Progress) -> Res
     ));
     Ok(())
 }
+
+/// Options of `demo`.
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// face, fish, ball, brick, or all.
+    pub name: String,
+    /// Folder to write into (made if missing; its parent must exist).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write an animated GIF instead of an MP4.
+    #[arg(long)]
+    pub gif: bool,
+    /// Picture size WIDTHxHEIGHT (default: the scene's, 1024x768).
+    #[arg(long)]
+    pub size: Option<String>,
+}
+
+pub fn demo(a: &DemoArgs, progress: &Progress) -> Result<()> {
+    let names: Vec<&str> = if a.name == "all" {
+        csrbf_anim::demos::DEMOS.to_vec()
+    } else {
+        vec![a.name.as_str()]
+    };
+    for name in &names {
+        if csrbf_anim::demos::demo(name).is_none() {
+            bail!(
+                "unknown demo {name:?}: expected one of {}, or all",
+                csrbf_anim::demos::DEMOS.join(", ")
+            );
+        }
+    }
+    if !a.out.is_dir() {
+        match a.out.parent() {
+            Some(p) if !p.as_os_str().is_empty() && !p.is_dir() => {
+                bail!(
+                    "{}: the parent folder {} does not exist",
+                    a.out.display(),
+                    p.display()
+                )
+            }
+            _ => std::fs::create_dir(&a.out)
+                .with_context(|| format!("cannot make {}", a.out.display()))?,
+        }
+    }
+    for name in names {
+        let Some(d) = csrbf_anim::demos::demo(name) else {
+            continue;
+        };
+        let dir = a.out.join(name);
+        std::fs::create_dir_all(dir.join("models"))
+            .with_context(|| format!("cannot make {}", dir.display()))?;
+        std::fs::create_dir_all(dir.join("controls"))?;
+        for (rel, bytes) in &d.files {
+            csrbf_mesh::write_atomic(&dir.join(rel), bytes)?;
+        }
+        let scene_path = dir.join(format!("{name}.scene.json"));
+        csrbf_mesh::write_atomic(&scene_path, d.scene.to_json().as_bytes())?;
+        let scene = load_scene(&scene_path)?;
+        let size = a
+            .size
+            .as_deref()
+            .map(parse_size)
+            .transpose()?
+            .unwrap_or(scene.file.size);
+        let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
+        let mut opts = SceneOptions::default();
+        r.render(&scene, &scene.frame(d.poster), opts)?
+            .save_png(&dir.join("poster.png"))?;
+        opts.overlay = true;
+        r.render(&scene, &scene.frame(d.poster), opts)?
+            .save_png(&dir.join("poster_controls.png"))?;
+        let movie = dir.join(if a.gif { "movie.gif" } else { "movie.mp4" });
+        let movie = match write_movie(
+            &scene,
+            &movie,
+            size,
+            scene.file.fps,
+            0.0,
+            scene.file.duration,
+            SceneOptions::default(),
+            progress,
+        ) {
+            Err(e)
+                if matches!(
+                    e.downcast_ref::<csrbf_render::RenderError>(),
+                    Some(csrbf_render::RenderError::NoFfmpeg)
+                ) =>
+            {
+                eprintln!("warning: {e}; writing a GIF instead");
+                write_movie(
+                    &scene,
+                    &dir.join("movie.gif"),
+                    size,
+                    scene.file.fps,
+                    0.0,
+                    scene.file.duration,
+                    SceneOptions::default(),
+                    progress,
+                )?
+            }
+            other => other?,
+        };
+        progress.say(format_args!(
+            "{name}: {} (scene {}, poster {})",
+            movie.display(),
+            scene_path.display(),
+            dir.join("poster.png").display()
+        ));
+    }
+    Ok(())
+}

@@ -26,27 +26,7 @@ impl Mesh {
     /// Area-weighted vertex normals from the faces (fan-triangulated).
     /// Vertices on no face get +Z.
     pub fn recompute_normals(&mut self) {
-        let mut n = vec![Vec3::ZERO; self.positions.len()];
-        for f in self.faces.iter() {
-            if f.len() < 3 {
-                continue;
-            }
-            let p0 = self.positions[f[0] as usize];
-            // Newell-style sum over the fan gives the polygon's area vector.
-            let mut area = Vec3::ZERO;
-            for k in 1..f.len() - 1 {
-                let a = self.positions[f[k] as usize] - p0;
-                let b = self.positions[f[k + 1] as usize] - p0;
-                area += a.cross(b);
-            }
-            for &v in f {
-                n[v as usize] += area;
-            }
-        }
-        for v in &mut n {
-            *v = v.try_normalize().unwrap_or(Vec3::Z);
-        }
-        self.normals = Some(n);
+        self.normals = Some(vertex_normals(&self.positions, &self.faces));
     }
 
     /// Checks what every consumer relies on: at least one vertex, finite
@@ -120,4 +100,28 @@ impl Mesh {
         }
         Ok(())
     }
+}
+
+/// Area-weighted vertex normals of `positions` over `faces` (fan-triangulated);
+/// vertices on no face get +Z.
+pub fn vertex_normals(positions: &[Vec3], faces: &crate::Faces) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for f in faces.iter() {
+        if f.len() < 3 || f.iter().any(|&v| v as usize >= positions.len()) {
+            continue;
+        }
+        let p0 = positions[f[0] as usize];
+        // The sum over the fan gives the polygon's area vector.
+        let mut area = Vec3::ZERO;
+        for k in 1..f.len() - 1 {
+            area += (positions[f[k] as usize] - p0).cross(positions[f[k + 1] as usize] - p0);
+        }
+        for &v in f {
+            n[v as usize] += area;
+        }
+    }
+    for v in &mut n {
+        *v = v.try_normalize().unwrap_or(Vec3::Z);
+    }
+    n
 }

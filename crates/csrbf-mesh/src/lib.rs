@@ -27,9 +27,11 @@ mod error;
 pub mod formats;
 mod geometry;
 mod io;
+pub mod shapes;
 
 pub use error::{MeshError, Result};
 pub use formats::Format;
+pub use geometry::vertex_normals;
 pub use io::{Loaded, load, read, write, write_atomic};
 
 use glam::{Vec2, Vec3};
