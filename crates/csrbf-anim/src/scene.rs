@@ -54,9 +54,9 @@ pub struct BoundStage {
     pub deformation: Deformation,
     /// Destinations of its control vectors, for the overlay.
     pub targets: Vec<DVec3>,
-    /// The vertices it moves.
+    /// The vertices it moves (those of its region with a displacement).
     pub vertices: Vec<u32>,
-    /// Their kernel weights.
+    /// Kernel weights of every vertex of its region.
     pub binding: Binding,
     /// Full displacement of each of `vertices`.
     pub displacement: Vec<Vec3>,
@@ -759,14 +759,17 @@ fn load_deformation(
         let displacement = binding
             .displacements(&deformation)
             .map_err(|e| scene_err(at("controls"), e.to_string()))?;
-        let displacement = displacement
-            .into_iter()
-            .map(|d| d * spec.phase as f32)
-            .collect();
+        // Keep only the vertices that move: a frame then touches nothing else.
+        let (vertices, displacement): (Vec<u32>, Vec<Vec3>) = region
+            .iter()
+            .zip(displacement)
+            .filter(|(_, d)| *d != Vec3::ZERO)
+            .map(|(&v, d)| (v, d * spec.phase as f32))
+            .unzip();
         stages.push(BoundStage {
             deformation,
             targets: spec.targets,
-            vertices: region,
+            vertices,
             binding,
             displacement,
         });

@@ -39,6 +39,13 @@ pub struct BenchArgs {
     /// Write the synthetic scene's points (PLY) and controls (JSON) into this directory.
     #[arg(long)]
     export: Option<PathBuf>,
+    /// The papers' table: Face, Fish, Ball, with frames per second for
+    /// deformation alone and with rendering at 1024x768.
+    #[arg(long)]
+    paper: bool,
+    /// Samples per pixel for --paper's rendering: 4 (smooth edges, as movies) or 1.
+    #[arg(long, default_value_t = 4)]
+    samples: u32,
 }
 
 /// A benchmark input: rest points, starts, destinations and options.
@@ -117,6 +124,9 @@ fn peak_rss_mb() -> f64 {
 }
 
 pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
+    if args.paper {
+        return paper(args, progress);
+    }
     let solver: SolverChoice = args.solver.parse().map_err(anyhow::Error::msg)?;
     let scenes: Vec<Scene> = if args.all {
         ["fish", "face", "100k", "1m"]
@@ -136,7 +146,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
             options: spec.options,
         }]
     } else {
-        bail!("give --mesh and --controls, --scene NAME or --all");
+        bail!("give --mesh and --controls, --scene NAME, --all or --paper");
     };
     if let Some(dir) = &args.export {
         for s in &scenes {
@@ -263,5 +273,123 @@ fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
         &base.with_extension("json"),
         serde_json::to_string(&doc)?.as_bytes(),
     )?;
+    Ok(())
+}
+
+/// The papers' table (Athlon 1 GHz, 2002, rendering at 1024x768 included):
+/// face 107 fps, fish 632, ball 72.
+fn paper(args: &BenchArgs, progress: &Progress) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("csrbf-paper-{}", std::process::id()));
+    let result = paper_in(&dir, args, progress);
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn paper_in(dir: &std::path::Path, args: &BenchArgs, progress: &Progress) -> Result<()> {
+    use csrbf_render::{SceneOptions, SceneRenderer};
+    let mut rows = Vec::new();
+    for (name, label, paper_fps) in [
+        ("face", "Face", 107.0),
+        ("fish", "Fish", 632.0),
+        ("ball", "Ball", 72.0),
+    ] {
+        let Some(d) = csrbf_anim::demos::demo(name) else {
+            continue;
+        };
+        let base = dir.join(name);
+        std::fs::create_dir_all(base.join("models"))?;
+        std::fs::create_dir_all(base.join("controls"))?;
+        for (rel, bytes) in &d.files {
+            std::fs::write(base.join(rel), bytes)?;
+        }
+        let path = base.join("scene.json");
+        std::fs::write(&path, d.scene.to_json())?;
+        let scene = csrbf_anim::Scene::load(&path)?;
+        let frames = scene.frame_count();
+        let times: Vec<f64> = (0..frames).map(|k| k as f64 / scene.file.fps).collect();
+        // Deformation alone: every frame of the animation, several passes.
+        let passes = args.runs.max(3);
+        let mut per_pass = Vec::new();
+        for _ in 0..passes {
+            let t = Instant::now();
+            for &time in &times {
+                std::hint::black_box(scene.frame(time));
+            }
+            per_pass.push(t.elapsed().as_secs_f64() / frames as f64);
+        }
+        let deform_s = median(per_pass);
+        // With rendering and read-back at 1024x768.
+        let mut r = SceneRenderer::with_samples(&scene, 1024, 768, args.samples)?;
+        r.render(&scene, &scene.frame(0.0), SceneOptions::default())?; // shader compilation
+        let t = Instant::now();
+        for &time in &times {
+            std::hint::black_box(r.render(&scene, &scene.frame(time), SceneOptions::default())?);
+        }
+        let render_s = t.elapsed().as_secs_f64() / frames as f64;
+        let obj = &scene.objects[if name == "ball" { 1 } else { 0 }];
+        let vectors: usize = scene
+            .frame(d.poster)
+            .objects
+            .iter()
+            .map(|o| o.controls.len())
+            .sum();
+        let radii: Vec<f64> = obj
+            .deformations
+            .iter()
+            .flat_map(|a| a.stages.iter().map(|s| s.deformation.radius()))
+            .collect();
+        let radius = if name == "ball" {
+            "varies".to_string()
+        } else {
+            radii
+                .iter()
+                .map(|r| format!("{r}"))
+                .collect::<Vec<_>>()
+                .join("/")
+        };
+        let vectors = if name == "ball" {
+            format!("varies ({vectors} at an impact)")
+        } else {
+            format!("{vectors}")
+        };
+        progress.say(format_args!("{label}: {frames} frames"));
+        rows.push(json!({
+            "model": label,
+            "vertices": obj.mesh.positions.len(),
+            "polygons": obj.mesh.faces.len(),
+            "triangles": obj.mesh.faces.triangle_count(),
+            "vectors": vectors,
+            "radius": radius,
+            "deformation_fps": 1.0 / deform_s,
+            "deformation_render_fps": 1.0 / render_s,
+            "paper_fps": paper_fps,
+            "deformation_x_paper": 1.0 / deform_s / paper_fps,
+            "render_x_paper": 1.0 / render_s / paper_fps,
+            "adapter": r.renderer().adapter(),
+        }));
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        println!(
+            "| model | vertices | polygons | vectors | R | deformation fps | x papers | with rendering 1024x768 fps | x papers | papers' fps |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|---|");
+        for r in &rows {
+            println!(
+                "| {} | {} | {} | {} | {} | {:.0} | {:.0}x | {:.1} | {:.2}x | {} |",
+                r["model"].as_str().unwrap_or(""),
+                r["vertices"],
+                r["polygons"],
+                r["vectors"].as_str().unwrap_or(""),
+                r["radius"].as_str().unwrap_or(""),
+                r["deformation_fps"].as_f64().unwrap_or(0.0),
+                r["deformation_x_paper"].as_f64().unwrap_or(0.0),
+                r["deformation_render_fps"].as_f64().unwrap_or(0.0),
+                r["render_x_paper"].as_f64().unwrap_or(0.0),
+                r["paper_fps"],
+            );
+        }
+    }
     Ok(())
 }

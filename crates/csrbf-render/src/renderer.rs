@@ -11,7 +11,8 @@ use crate::{RenderError, Result};
 
 const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-const SAMPLES: u32 = 4;
+/// Multisampling used unless asked otherwise: smooth edges.
+pub const DEFAULT_SAMPLES: u32 = 4;
 
 /// The camera: a pinhole looking from `eye` at `target`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -59,6 +60,10 @@ pub struct DrawMesh {
     pub colors: Vec<[f32; 4]>,
     /// Parts.
     pub parts: Vec<DrawPart>,
+    /// Non-zero when the parts (indices, colours, textures) are the same as
+    /// in the last picture that had this key at this place in the view: the
+    /// renderer then keeps their GPU buffers. 0: always upload.
+    pub key: u64,
 }
 
 /// A line segment with a colour (linear RGBA).
@@ -159,6 +164,7 @@ struct Targets {
     depth: wgpu::TextureView,
     readback: wgpu::Buffer,
     padded_row: u32,
+    samples: u32,
 }
 
 /// A headless renderer of a fixed picture size.
@@ -177,6 +183,37 @@ pub struct Renderer {
     textures: Vec<wgpu::TextureView>,
     white: wgpu::TextureView,
     targets: Targets,
+    samples: u32,
+    cache: Vec<MeshSlot>,
+}
+
+/// GPU buffers of one mesh slot of a view, kept between pictures.
+#[derive(Default)]
+struct MeshSlot {
+    key: u64,
+    vb: Option<wgpu::Buffer>,
+    vbytes: u64,
+    parts: Vec<(wgpu::Buffer, u32, wgpu::BindGroup)>,
+}
+
+/// Edges of every part's triangles, for the wireframe.
+fn wire_lines(m: &DrawMesh, wire: &mut Vec<LineVertex>) {
+    let n = m.positions.len();
+    for p in &m.parts {
+        for t in p.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i as usize >= n) {
+                continue;
+            }
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                for i in [a, b] {
+                    wire.push(LineVertex {
+                        pos: m.positions[i as usize].to_array(),
+                        color: [0.05, 0.05, 0.08, 0.85],
+                    });
+                }
+            }
+        }
+    }
 }
 
 impl Renderer {
@@ -186,7 +223,14 @@ impl Renderer {
     /// A renderer for pictures of `width` x `height`. Picks the system's
     /// adapter (a GPU, or lavapipe on the CPU); `WGPU_BACKEND` can force one.
     pub fn new(width: u32, height: u32) -> Result<Renderer> {
+        Renderer::with_samples(width, height, DEFAULT_SAMPLES)
+    }
+
+    /// A renderer with `samples` per pixel (1 or 4): 4 smooths edges, 1 is
+    /// faster on a software rasteriser.
+    pub fn with_samples(width: u32, height: u32, samples: u32) -> Result<Renderer> {
         check_size(width, height)?;
+        let samples = if samples >= 4 { 4 } else { 1 };
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter =
@@ -300,7 +344,7 @@ impl Renderer {
                 },
                 depth_stencil: Some(depth_state),
                 multisample: wgpu::MultisampleState {
-                    count: SAMPLES,
+                    count: samples,
                     ..Default::default()
                 },
                 fragment: Some(wgpu::FragmentState {
@@ -384,7 +428,7 @@ impl Renderer {
             ..Default::default()
         });
         let white = upload_texture(&device, &queue, 1, 1, &[255, 255, 255, 255]);
-        let targets = make_targets(&device, width, height);
+        let targets = make_targets(&device, width, height, samples);
         Ok(Renderer {
             device,
             queue,
@@ -400,6 +444,8 @@ impl Renderer {
             textures: Vec::new(),
             white,
             targets,
+            samples,
+            cache: Vec::new(),
         })
     }
 
@@ -416,7 +462,7 @@ impl Renderer {
     /// Changes the picture size.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
         check_size(width, height)?;
-        self.targets = make_targets(&self.device, width, height);
+        self.targets = make_targets(&self.device, width, height, self.samples);
         Ok(())
     }
 
@@ -473,94 +519,19 @@ impl Renderer {
             .write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
 
         // Vertex data and one bind group per part.
-        let mut meshes = Vec::new();
         let mut wire: Vec<LineVertex> = Vec::new();
-        for m in &view.meshes {
-            let n = m.positions.len();
-            let verts: Vec<Vertex> = (0..n)
-                .map(|i| Vertex {
-                    pos: m.positions[i].to_array(),
-                    normal: m.normals.get(i).copied().unwrap_or(Vec3::Z).to_array(),
-                    uv: m.uvs.get(i).copied().unwrap_or(Vec2::ZERO).to_array(),
-                    color: m.colors.get(i).copied().unwrap_or([1.0; 4]),
-                })
-                .collect();
-            if verts.is_empty() {
-                continue;
+        for (slot, m) in view.meshes.iter().enumerate() {
+            if self.cache.len() <= slot {
+                self.cache.push(MeshSlot::default());
             }
-            let vb = self
-                .device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("vertices"),
-                    contents: bytemuck::cast_slice(&verts),
-                    usage: wgpu::BufferUsages::VERTEX,
-                });
-            let mut parts = Vec::new();
-            for p in &m.parts {
-                let idx: Vec<u32> = p
-                    .indices
-                    .iter()
-                    .copied()
-                    .filter(|&i| (i as usize) < n)
-                    .collect();
-                if idx.len() < 3 {
-                    continue;
-                }
-                let ib = self
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("indices"),
-                        contents: bytemuck::cast_slice(&idx[..idx.len() / 3 * 3]),
-                        usage: wgpu::BufferUsages::INDEX,
-                    });
-                let tex = p.texture.and_then(|t| self.textures.get(t.0));
-                let u = PartUniform {
-                    color: p.color,
-                    flags: [tex.is_some() as u32 as f32, 0.0, 0.0, 0.0],
-                };
-                let ub = self
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("part"),
-                        contents: bytemuck::bytes_of(&u),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
-                let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("part"),
-                    layout: &self.part_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: ub.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(
-                                tex.unwrap_or(&self.white),
-                            ),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: wgpu::BindingResource::Sampler(&self.sampler),
-                        },
-                    ],
-                });
-                if view.options.wireframe {
-                    for t in idx.chunks_exact(3) {
-                        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                            for i in [a, b] {
-                                wire.push(LineVertex {
-                                    pos: m.positions[i as usize].to_array(),
-                                    color: [0.05, 0.05, 0.08, 0.85],
-                                });
-                            }
-                        }
-                    }
-                }
-                parts.push((ib, (idx.len() / 3 * 3) as u32, group));
+            let mut cached = std::mem::take(&mut self.cache[slot]);
+            self.upload_mesh(&mut cached, m);
+            self.cache[slot] = cached;
+            if view.options.wireframe {
+                wire_lines(m, &mut wire);
             }
-            meshes.push((vb, parts));
         }
+        self.cache.truncate(view.meshes.len());
         let line_buf = |lines: &[Line]| -> Option<(wgpu::Buffer, u32)> {
             if lines.is_empty() {
                 return None;
@@ -609,14 +580,19 @@ impl Renderer {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
+        let multisampled = self.targets.samples > 1;
         {
             let bg = view.background;
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("frame"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.targets.msaa,
+                    view: if multisampled {
+                        &self.targets.msaa
+                    } else {
+                        &self.targets.resolve_view
+                    },
                     depth_slice: None,
-                    resolve_target: Some(&self.targets.resolve_view),
+                    resolve_target: multisampled.then_some(&self.targets.resolve_view),
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(wgpu::Color {
                             r: bg[0] as f64,
@@ -624,7 +600,11 @@ impl Renderer {
                             b: bg[2] as f64,
                             a: 1.0,
                         }),
-                        store: wgpu::StoreOp::Discard,
+                        store: if multisampled {
+                            wgpu::StoreOp::Discard
+                        } else {
+                            wgpu::StoreOp::Store
+                        },
                     },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
@@ -641,8 +621,11 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.globals_group, &[]);
             pass.set_pipeline(&self.mesh_pipeline);
-            for (vb, parts) in &meshes {
-                pass.set_vertex_buffer(0, vb.slice(..));
+            for slot in &self.cache {
+                let (Some(vb), parts) = (&slot.vb, &slot.parts) else {
+                    continue;
+                };
+                pass.set_vertex_buffer(0, vb.slice(..slot.vbytes));
                 for (ib, count, group) in parts {
                     pass.set_bind_group(1, group, &[]);
                     pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
@@ -714,6 +697,96 @@ impl Renderer {
     }
 }
 
+impl Renderer {
+    /// Writes a mesh's vertices into its slot; rebuilds the slot's index
+    /// buffers and part bindings unless `m.key` says they are unchanged.
+    fn upload_mesh(&self, slot: &mut MeshSlot, m: &DrawMesh) {
+        let n = m.positions.len();
+        let verts: Vec<Vertex> = (0..n)
+            .map(|i| Vertex {
+                pos: m.positions[i].to_array(),
+                normal: m.normals.get(i).copied().unwrap_or(Vec3::Z).to_array(),
+                uv: m.uvs.get(i).copied().unwrap_or(Vec2::ZERO).to_array(),
+                color: m.colors.get(i).copied().unwrap_or([1.0; 4]),
+            })
+            .collect();
+        if verts.is_empty() {
+            slot.vb = None;
+            slot.parts.clear();
+            return;
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&verts);
+        match &slot.vb {
+            Some(vb) if vb.size() >= bytes.len() as u64 => self.queue.write_buffer(vb, 0, bytes),
+            _ => {
+                slot.vb = Some(
+                    self.device
+                        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some("vertices"),
+                            contents: bytes,
+                            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                        }),
+                );
+            }
+        }
+        slot.vbytes = bytes.len() as u64;
+        if m.key != 0 && slot.key == m.key {
+            return;
+        }
+        slot.key = m.key;
+        slot.parts.clear();
+        for p in &m.parts {
+            let idx: Vec<u32> = p
+                .indices
+                .iter()
+                .copied()
+                .filter(|&i| (i as usize) < n)
+                .collect();
+            if idx.len() < 3 {
+                continue;
+            }
+            let ib = self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("indices"),
+                    contents: bytemuck::cast_slice(&idx[..idx.len() / 3 * 3]),
+                    usage: wgpu::BufferUsages::INDEX,
+                });
+            let tex = p.texture.and_then(|t| self.textures.get(t.0));
+            let u = PartUniform {
+                color: p.color,
+                flags: [tex.is_some() as u32 as f32, 0.0, 0.0, 0.0],
+            };
+            let ub = self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("part"),
+                    contents: bytemuck::bytes_of(&u),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+            let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("part"),
+                layout: &self.part_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: ub.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(tex.unwrap_or(&self.white)),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Sampler(&self.sampler),
+                    },
+                ],
+            });
+            slot.parts.push((ib, (idx.len() / 3 * 3) as u32, group));
+        }
+    }
+}
+
 fn check_size(width: u32, height: u32) -> Result<()> {
     if width == 0 || height == 0 || width > Renderer::MAX_SIDE || height > Renderer::MAX_SIDE {
         return Err(RenderError::BadSize { width, height });
@@ -770,7 +843,7 @@ fn upload_texture(
     tex.create_view(&Default::default())
 }
 
-fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
+fn make_targets(device: &wgpu::Device, width: u32, height: u32, samples: u32) -> Targets {
     let size = wgpu::Extent3d {
         width,
         height,
@@ -791,7 +864,7 @@ fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
     let msaa = tex(
         "msaa",
         COLOR,
-        SAMPLES,
+        samples,
         wgpu::TextureUsages::RENDER_ATTACHMENT,
     )
     .create_view(&Default::default());
@@ -805,7 +878,7 @@ fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
     let depth = tex(
         "depth",
         DEPTH,
-        SAMPLES,
+        samples,
         wgpu::TextureUsages::RENDER_ATTACHMENT,
     )
     .create_view(&Default::default());
@@ -825,5 +898,6 @@ fn make_targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
         depth,
         readback,
         padded_row,
+        samples,
     }
 }

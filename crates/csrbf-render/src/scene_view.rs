@@ -31,12 +31,24 @@ struct Prepared {
 pub struct SceneRenderer {
     renderer: Renderer,
     prepared: Vec<Prepared>,
+    /// Cache key of the first object's parts (the others follow).
+    key: u64,
 }
 
 impl SceneRenderer {
     /// Prepares `scene` for pictures of `width` x `height`.
     pub fn new(scene: &Scene, width: u32, height: u32) -> Result<SceneRenderer> {
-        let mut renderer = Renderer::new(width, height)?;
+        SceneRenderer::with_samples(scene, width, height, crate::renderer::DEFAULT_SAMPLES)
+    }
+
+    /// Prepares `scene` with `samples` per pixel (1 or 4).
+    pub fn with_samples(
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        samples: u32,
+    ) -> Result<SceneRenderer> {
+        let mut renderer = Renderer::with_samples(width, height, samples)?;
         let mut prepared = Vec::new();
         for obj in &scene.objects {
             let n = obj.mesh.positions.len();
@@ -68,7 +80,13 @@ impl SceneRenderer {
             }
             prepared.push(Prepared { uvs, colors, parts });
         }
-        Ok(SceneRenderer { renderer, prepared })
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        let key = NEXT.fetch_add(1 << 20, std::sync::atomic::Ordering::Relaxed);
+        Ok(SceneRenderer {
+            renderer,
+            prepared,
+            key,
+        })
     }
 
     /// The renderer underneath.
@@ -105,8 +123,9 @@ impl SceneRenderer {
         }
         let mut meshes = Vec::new();
         let mut overlay = Vec::new();
-        for (obj, prep) in frame.objects.iter().zip(&self.prepared) {
+        for (k, (obj, prep)) in frame.objects.iter().zip(&self.prepared).enumerate() {
             meshes.push(DrawMesh {
+                key: self.key + k as u64,
                 positions: obj.positions.clone(),
                 normals: obj.normals.clone(),
                 uvs: prep.uvs.clone(),
