@@ -1,15 +1,19 @@
 #!/usr/bin/env bash
-# The main job: deform the bundled head by the bundled smile controls and
-# write the result (and its half-way phase) under out/.
+# The main job: renders the papers' face example (the bundled head smiles and
+# relaxes) as a movie with a poster and its scene file, and deforms the head
+# into mesh files, all under out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+scripts/setup.sh
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/xdg-$(id -u)}"
 mkdir -p out
 cargo build --release -q -p csrbf-cli
 bin=target/release/csrbf
 $bin info --controls assets/controls/head_smile.json
-$bin deform --mesh assets/models/cgal_head.off --controls assets/controls/head_smile.json --out out/head_smile.obj
-$bin deform --mesh assets/models/cgal_head.off --controls assets/controls/head_smile.json --phase 0.5 --out out/head_half.obj
-$bin fit --controls assets/controls/head_smile.json --out out/head_smile.csrbf
+$bin deform --mesh assets/models/cgal_head.off --controls assets/controls/head_smile.json --out out/head_smile.obj --force
+$bin fit --controls assets/controls/head_smile.json --out out/head_smile.csrbf --force
+$bin demo face --out out/demos
 echo
-echo "Wrote out/head_smile.obj (full smile), out/head_half.obj (phase 0.5) and out/head_smile.csrbf (replay file)."
-echo "Open the OBJ files in any mesh viewer (Blender, MeshLab, f3d) next to assets/models/cgal_head.off."
+echo "The movie:  out/demos/face/movie.mp4 (poster: out/demos/face/poster.png, scene: out/demos/face/face.scene.json)"
+echo "The mesh:   out/head_smile.obj (deformed), out/head_smile.csrbf (replay file)"
+echo "More:       $bin demo all --out out/demos   (face, fish, ball, brick)"

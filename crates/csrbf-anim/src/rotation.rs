@@ -202,13 +202,19 @@ mod tests {
         let o = Orientation::new(even, Interpolation::Squad);
         for t in [1.0, 2.0] {
             let (before, after) = (angular(&o, t - 2.0 * h), angular(&o, t + h));
-            assert!((before - after).length() < 1e-3 * before.length().max(1.0), "{before} vs {after} at {t}");
+            assert!(
+                (before - after).length() < 1e-3 * before.length().max(1.0),
+                "{before} vs {after} at {t}"
+            );
         }
         // Uneven spacing (timing marks): the turn keeps its direction through the key.
         let o = Orientation::new(keys(), Interpolation::Squad);
         for t in [1.0, 2.5] {
             let (before, after) = (angular(&o, t - 2.0 * h), angular(&o, t + h));
-            assert!(before.normalize().dot(after.normalize()) > 1.0 - 1e-6, "{before} vs {after} at {t}");
+            assert!(
+                before.normalize().dot(after.normalize()) > 1.0 - 1e-6,
+                "{before} vs {after} at {t}"
+            );
         }
     }
 }

@@ -19,7 +19,11 @@ impl Dir {
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).expect("dir");
         std::fs::copy(assets().join("models/cgal_head.off"), d.join("head.off")).expect("copy");
-        std::fs::copy(assets().join("controls/head_smile.json"), d.join("smile.json")).expect("copy");
+        std::fs::copy(
+            assets().join("controls/head_smile.json"),
+            d.join("smile.json"),
+        )
+        .expect("copy");
         Dir(d)
     }
     fn scene(&self, text: &str) -> PathBuf {
@@ -54,7 +58,11 @@ fn a_scene_round_trips_through_its_file() {
     assert_eq!(f, back);
     for name in demos::DEMOS {
         let d = demos::demo(name).expect("demo");
-        assert_eq!(SceneFile::parse(&d.scene.to_json()).expect("demo parses"), d.scene, "{name}");
+        assert_eq!(
+            SceneFile::parse(&d.scene.to_json()).expect("demo parses"),
+            d.scene,
+            "{name}"
+        );
     }
 }
 
@@ -75,16 +83,27 @@ fn frames_move_deform_and_turn() {
     let (rot, shift) = obj.transform(1.0);
     let st = &obj.deformations[0].stages[0];
     for (start, goal) in st.deformation.starts().iter().zip(&st.targets) {
-        let i = rest.iter().position(|p| p.as_dvec3().distance(*start) < 1e-5).expect("start on a vertex");
+        let i = rest
+            .iter()
+            .position(|p| p.as_dvec3().distance(*start) < 1e-5)
+            .expect("start on a vertex");
         let want = (rot * *goal + shift).as_vec3();
-        assert!((f1.objects[0].positions[i] - want).length() < 1e-3, "vertex {i}");
+        assert!(
+            (f1.objects[0].positions[i] - want).length() < 1e-3,
+            "vertex {i}"
+        );
     }
     // Turning about the centre of gravity keeps it on the trajectory.
     let c = obj.center;
     let moved = rot * c + shift;
     assert!((moved - (c + obj.trajectory.position(1.0))).length() < 1e-9);
     // Normals stay unit.
-    assert!(f1.objects[0].normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-3));
+    assert!(
+        f1.objects[0]
+            .normals
+            .iter()
+            .all(|n| (n.length() - 1.0).abs() < 1e-3)
+    );
     assert_eq!(f1.objects[0].controls.len(), 34);
 }
 
@@ -101,16 +120,32 @@ fn contact_pushes_walls_out_and_rebuilds_each_frame() {
     // At an impact the wall moves outward, and only near the ball.
     let f = s.frame(0.8);
     let rest = &s.objects[1].mesh.positions;
-    let moved: Vec<(Vec3, Vec3)> = f.objects[1].positions.iter().zip(rest).filter(|(a, b)| (**a - **b).length() > 1e-6).map(|(a, b)| (*a, *b)).collect();
+    let moved: Vec<(Vec3, Vec3)> = f.objects[1]
+        .positions
+        .iter()
+        .zip(rest)
+        .filter(|(a, b)| (**a - **b).length() > 1e-6)
+        .map(|(a, b)| (*a, *b))
+        .collect();
     assert!(!moved.is_empty());
     // The wall it hits (x = 1) goes outward where it hits.
-    let (a, b) = moved.iter().max_by(|p, q| (p.0 - p.1).length().total_cmp(&(q.0 - q.1).length())).copied().expect("moved");
+    let (a, b) = moved
+        .iter()
+        .max_by(|p, q| (p.0 - p.1).length().total_cmp(&(q.0 - q.1).length()))
+        .copied()
+        .expect("moved");
     assert!((b.x - 1.0).abs() < 1e-5 && a.x > b.x + 0.05, "{b} -> {a}");
     assert!(moved.iter().map(|(a, b)| a.x - b.x).sum::<f32>() > 0.0);
     assert!(moved.len() < 120, "{} vertices moved", moved.len());
     // Half way between impacts nothing touches.
     let f = s.frame(0.0);
-    assert!(f.objects[1].positions.iter().zip(rest).all(|(a, b)| (*a - *b).length() < 1e-6));
+    assert!(
+        f.objects[1]
+            .positions
+            .iter()
+            .zip(rest)
+            .all(|(a, b)| (*a - *b).length() < 1e-6)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -125,21 +160,81 @@ fn load_err(d: &Dir, text: &str) -> String {
 fn bad_scenes_are_named_by_path() {
     let d = Dir::new("bad");
     let cases: Vec<(String, &[&str])> = vec![
-        (GOOD.replace("\"duration\": 2.0", "\"duration\": 2.0, \"colour\": 1"), &["unknown field `colour`"]),
-        (GOOD.replace("\"name\": \"skin\"", "\"name\": \"skin\", \"colr\": 1"), &["objects[0].parts[0]", "colr"]),
-        (GOOD.replace("head.off", "missing.off"), &["objects[0].mesh", "missing.off"]),
-        (GOOD.replace("smile.json", "nothere.json"), &["objects[0].parts[0].deformations[0].controls", "nothere.json"]),
-        (GOOD.replace("\"duration\": 2.0", "\"duration\": 0"), &["duration", "> 0"]),
-        (GOOD.replace("{\"time\": 2, \"position\"", "{\"time\": -1, \"position\""), &["objects[0].trajectory[1].time", "time order"]),
-        (GOOD.replace("{\"time\": 1, \"phase\": 1}", "{\"time\": 0, \"phase\": 1}"), &["phase[1].time", "time order"]),
-        (GOOD.replace("{\"time\": 1, \"phase\": 1}", "{\"time\": 1, \"phase\": 2}"), &["phase[1].phase", "[0, 1]"]),
-        (GOOD.replace("\"euler\": [0, 30, 0]", "\"euler\": [0, 30, 0], \"angle\": 3"), &["orientation[1]", "exactly one"]),
-        (GOOD.replace("\"tension\": 0.5", "\"tension\": 5"), &["trajectory[1].tension", "[-1, 1]"]),
-        (GOOD.replace("\"camera\"", "\"size\": [0, 100], \"camera\""), &["size", "1..8192"]),
-        (GOOD.replace("\"camera\"", "\"size\": [100000, 100], \"camera\""), &["size", "1..8192"]),
-        (GOOD.replace("\"color\": [0.8, 0.5, 0.4]", "\"color\": [0.8, 0.5, 0.4], \"texture\": \"nope.png\""), &["parts[0].texture", "nope.png"]),
-        (GOOD.replace("\"color\": [0.8, 0.5, 0.4]", "\"color\": [0.8, 0.5, 0.4], \"texture\": \"head.off\""), &["parts[0].texture", "head.off"]),
-        (GOOD.replace("\"name\": \"skin\"", "\"name\": \"skin\", \"select\": {\"group\": \"lips\"}"), &["select.group", "lips"]),
+        (
+            GOOD.replace("\"duration\": 2.0", "\"duration\": 2.0, \"colour\": 1"),
+            &["unknown field `colour`"],
+        ),
+        (
+            GOOD.replace("\"name\": \"skin\"", "\"name\": \"skin\", \"colr\": 1"),
+            &["objects[0].parts[0]", "colr"],
+        ),
+        (
+            GOOD.replace("head.off", "missing.off"),
+            &["objects[0].mesh", "missing.off"],
+        ),
+        (
+            GOOD.replace("smile.json", "nothere.json"),
+            &[
+                "objects[0].parts[0].deformations[0].controls",
+                "nothere.json",
+            ],
+        ),
+        (
+            GOOD.replace("\"duration\": 2.0", "\"duration\": 0"),
+            &["duration", "> 0"],
+        ),
+        (
+            GOOD.replace("{\"time\": 2, \"position\"", "{\"time\": -1, \"position\""),
+            &["objects[0].trajectory[1].time", "time order"],
+        ),
+        (
+            GOOD.replace("{\"time\": 1, \"phase\": 1}", "{\"time\": 0, \"phase\": 1}"),
+            &["phase[1].time", "time order"],
+        ),
+        (
+            GOOD.replace("{\"time\": 1, \"phase\": 1}", "{\"time\": 1, \"phase\": 2}"),
+            &["phase[1].phase", "[0, 1]"],
+        ),
+        (
+            GOOD.replace(
+                "\"euler\": [0, 30, 0]",
+                "\"euler\": [0, 30, 0], \"angle\": 3",
+            ),
+            &["orientation[1]", "exactly one"],
+        ),
+        (
+            GOOD.replace("\"tension\": 0.5", "\"tension\": 5"),
+            &["trajectory[1].tension", "[-1, 1]"],
+        ),
+        (
+            GOOD.replace("\"camera\"", "\"size\": [0, 100], \"camera\""),
+            &["size", "1..8192"],
+        ),
+        (
+            GOOD.replace("\"camera\"", "\"size\": [100000, 100], \"camera\""),
+            &["size", "1..8192"],
+        ),
+        (
+            GOOD.replace(
+                "\"color\": [0.8, 0.5, 0.4]",
+                "\"color\": [0.8, 0.5, 0.4], \"texture\": \"nope.png\"",
+            ),
+            &["parts[0].texture", "nope.png"],
+        ),
+        (
+            GOOD.replace(
+                "\"color\": [0.8, 0.5, 0.4]",
+                "\"color\": [0.8, 0.5, 0.4], \"texture\": \"head.off\"",
+            ),
+            &["parts[0].texture", "head.off"],
+        ),
+        (
+            GOOD.replace(
+                "\"name\": \"skin\"",
+                "\"name\": \"skin\", \"select\": {\"group\": \"lips\"}",
+            ),
+            &["select.group", "lips"],
+        ),
         ("{\"duration\": ".to_string(), &["line 1"]),
     ];
     for (text, want) in cases {
@@ -157,7 +252,9 @@ fn a_non_unit_quaternion_is_normalised_with_a_warning() {
     let text = GOOD.replace("\"euler\": [0, 30, 0]", "\"quaternion\": [0, 0.5, 0, 1.5]");
     let s = Scene::load(&d.scene(&text)).expect("load");
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(s.warnings[0].contains("orientation[1].quaternion") && s.warnings[0].contains("normalised"));
+    assert!(
+        s.warnings[0].contains("orientation[1].quaternion") && s.warnings[0].contains("normalised")
+    );
     let q = s.objects[0].orientation.rotation(2.0);
     assert!((q.length() - 1.0).abs() < 1e-12);
     let zero = GOOD.replace("\"euler\": [0, 30, 0]", "\"quaternion\": [0, 0, 0, 0]");

@@ -91,28 +91,7 @@ enum Command {
     /// Measure fit, bind, evaluate, refit and frame times (median of several runs).
     Bench(bench::BenchArgs),
     /// Render a picture of a mesh, optionally deformed.
-    Render {
-        /// The mesh.
-        #[arg(long)]
-        mesh: PathBuf,
-        /// A control file to deform it by.
-        #[arg(long)]
-        controls: Option<PathBuf>,
-        /// Phase in [0, 1].
-        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-        phase: f64,
-        /// Output picture (.png).
-        #[arg(long)]
-        out: PathBuf,
-        /// Picture size WIDTHxHEIGHT (default 1024x768).
-        #[arg(long)]
-        size: Option<String>,
-        #[command(flatten)]
-        look: movie::LookArgs,
-        /// Allow the output to replace an input file.
-        #[arg(long)]
-        force: bool,
-    },
+    Render(movie::RenderArgs),
     /// Render a scene file as a movie (MP4, GIF) or PNG frames.
     Animate(movie::AnimateArgs),
     /// Write one of the papers' examples (face, fish, ball, brick, all): scene file, models, poster and movie.
@@ -165,24 +144,7 @@ fn main() -> ExitCode {
             json,
         ),
         Command::Bench(args) => bench::bench(&args, &progress),
-        Command::Render {
-            mesh,
-            controls,
-            phase,
-            out,
-            size,
-            look,
-            force,
-        } => movie::render(
-            &mesh,
-            controls.as_deref(),
-            phase,
-            &out,
-            size.as_deref(),
-            look,
-            force,
-            &progress,
-        ),
+        Command::Render(args) => movie::render(&args, &progress),
         Command::Animate(args) => movie::animate(&args, &progress),
         Command::Demo(args) => movie::demo(&args, &progress),
         Command::Export { scene, out, force } => movie::export(&scene, &out, force, &progress),

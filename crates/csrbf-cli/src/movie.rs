@@ -115,35 +115,58 @@ pub fn mesh_scene(
     Ok(Scene::from_file(file, Path::new("."), mesh)?)
 }
 
-pub fn render(
-    mesh: &Path,
-    controls: Option<&Path>,
-    phase: f64,
-    out: &Path,
-    size: Option<&str>,
-    look: LookArgs,
-    force: bool,
-    progress: &Progress,
-) -> Result<()> {
-    crate::common::check_phase(phase)?;
-    let inputs: Vec<&Path> = std::iter::once(mesh).chain(controls).collect();
-    check_output(out, &inputs, force, false)?;
-    if out.extension().map(|e| e.to_ascii_lowercase()) != Some("png".into()) {
+/// Options of `render`.
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// The mesh.
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// A control file to deform it by.
+    #[arg(long)]
+    pub controls: Option<PathBuf>,
+    /// Phase in [0, 1].
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub phase: f64,
+    /// Output picture (.png).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Picture size WIDTHxHEIGHT (default 1024x768).
+    #[arg(long)]
+    pub size: Option<String>,
+    #[command(flatten)]
+    pub look: LookArgs,
+    /// Allow the output to replace an input file.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
+    crate::common::check_phase(a.phase)?;
+    let inputs: Vec<&Path> = std::iter::once(a.mesh.as_path())
+        .chain(a.controls.as_deref())
+        .collect();
+    check_output(&a.out, &inputs, a.force, false)?;
+    if a.out.extension().map(|e| e.to_ascii_lowercase()) != Some("png".into()) {
         bail!(
             "{}: pictures are written as PNG; give a .png file",
-            out.display()
+            a.out.display()
         );
     }
-    let size = size.map(parse_size).transpose()?.unwrap_or([1024, 768]);
-    let scene = mesh_scene(mesh, controls, phase, size)?;
+    let size = a
+        .size
+        .as_deref()
+        .map(parse_size)
+        .transpose()?
+        .unwrap_or([1024, 768]);
+    let scene = mesh_scene(&a.mesh, a.controls.as_deref(), a.phase, size)?;
     let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
     progress.say(format_args!("rendering on {}", r.renderer().adapter()));
     let t = Instant::now();
-    let img = r.render(&scene, &scene.frame(0.0), look.options())?;
-    img.save_png(out)?;
+    let img = r.render(&scene, &scene.frame(0.0), a.look.options())?;
+    img.save_png(&a.out)?;
     progress.say(format_args!(
         "wrote {} ({}x{}, {:.0} ms)",
-        out.display(),
+        a.out.display(),
         size[0],
         size[1],
         t.elapsed().as_secs_f64() * 1e3

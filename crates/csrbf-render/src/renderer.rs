@@ -351,7 +351,7 @@ impl Renderer {
                     module: &shader,
                     entry_point: Some(fs),
                     compilation_options: Default::default(),
-                    targets: &[blend.clone()],
+                    targets: std::slice::from_ref(&blend),
                 }),
                 multiview_mask: None,
                 cache: None,

@@ -1,0 +1,367 @@
+use crate::support::*;
+
+fn head() -> std::path::PathBuf {
+    root().join("assets/models/cgal_head.off")
+}
+
+fn smile() -> std::path::PathBuf {
+    root().join("assets/controls/head_smile.json")
+}
+
+/// A copy of the face scene with its files, in `dir`.
+fn face_scene(dir: &TempDir) -> std::path::PathBuf {
+    std::fs::create_dir_all(dir.path("models")).expect("dir");
+    std::fs::create_dir_all(dir.path("controls")).expect("dir");
+    std::fs::copy(head(), dir.path("models/cgal_head.off")).expect("copy");
+    std::fs::copy(smile(), dir.path("controls/head_smile.json")).expect("copy");
+    let text =
+        std::fs::read_to_string(root().join("assets/scenes/face.scene.json")).expect("scene");
+    dir.write(
+        "face.scene.json",
+        text.replace("../models/", "models/")
+            .replace("../controls/", "controls/"),
+    )
+}
+
+#[test]
+fn render_writes_a_picture_of_the_deformed_mesh() {
+    let dir = TempDir::new("render");
+    let out = dir.path("head.png");
+    ok(&[
+        "render",
+        "-q",
+        "--mesh",
+        arg(&head()),
+        "--controls",
+        arg(&smile()),
+        "--out",
+        arg(&out),
+        "--size",
+        "160x120",
+        "--overlay",
+    ]);
+    let bytes = std::fs::read(&out).expect("png");
+    assert!(bytes.starts_with(b"\x89PNG"));
+    fails(
+        &[
+            "render",
+            "--mesh",
+            arg(&head()),
+            "--out",
+            arg(&dir.path("x.png")),
+            "--size",
+            "0x100",
+        ],
+        &["--size", "1..8192"],
+    );
+    fails(
+        &[
+            "render",
+            "--mesh",
+            arg(&head()),
+            "--out",
+            arg(&dir.path("x.png")),
+            "--size",
+            "99999x100",
+        ],
+        &["--size"],
+    );
+    fails(
+        &[
+            "render",
+            "--mesh",
+            arg(&head()),
+            "--out",
+            arg(&dir.path("x.jpg")),
+        ],
+        &["PNG"],
+    );
+    fails(
+        &[
+            "render",
+            "--mesh",
+            arg(&head()),
+            "--out",
+            arg(&dir.path("no/x.png")),
+        ],
+        &["does not exist"],
+    );
+    assert_eq!(dir.files(), vec!["head.png"]);
+}
+
+#[test]
+fn animate_writes_gif_frames_and_mp4_whole() {
+    let dir = TempDir::new("animate");
+    let scene = face_scene(&dir);
+    let gif = dir.path("face.gif");
+    ok(&[
+        "animate",
+        "-q",
+        arg(&scene),
+        "--out",
+        arg(&gif),
+        "--size",
+        "96x72",
+        "--fps",
+        "10",
+        "--to",
+        "0.5",
+    ]);
+    assert!(std::fs::read(&gif).expect("gif").starts_with(b"GIF89a"));
+    let frames = dir.path("frames");
+    ok(&[
+        "animate",
+        "-q",
+        arg(&scene),
+        "--out",
+        arg(&frames),
+        "--size",
+        "64x48",
+        "--fps",
+        "10",
+        "--from",
+        "1",
+        "--to",
+        "1.3",
+    ]);
+    let mut names: Vec<_> = std::fs::read_dir(&frames)
+        .expect("frames")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        vec![
+            "frame_00000.png",
+            "frame_00001.png",
+            "frame_00002.png",
+            "frame_00003.png"
+        ]
+    );
+    let have_ffmpeg = std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok();
+    if have_ffmpeg {
+        let mp4 = dir.path("face.mp4");
+        ok(&[
+            "animate",
+            "-q",
+            arg(&scene),
+            "--out",
+            arg(&mp4),
+            "--size",
+            "96x72",
+            "--to",
+            "0.3",
+        ]);
+        let bytes = std::fs::read(&mp4).expect("mp4");
+        assert_eq!(&bytes[4..8], b"ftyp");
+    }
+    // Without ffmpeg: a clear message suggesting GIF or frames, and no file.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_csrbf"))
+        .env("CSRBF_FFMPEG", "/nonexistent/ffmpeg")
+        .args([
+            "animate",
+            arg(&scene),
+            "--out",
+            arg(&dir.path("none.mp4")),
+            "--size",
+            "64x48",
+            "--to",
+            "0.2",
+        ])
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("ffmpeg was not found") && err.contains(".gif"),
+        "{err}"
+    );
+    assert!(!dir.path("none.mp4").exists());
+    // No temporary file left anywhere.
+    assert!(
+        dir.files().iter().all(|f| !f.contains(".tmp")),
+        "{:?}",
+        dir.files()
+    );
+}
+
+#[test]
+fn animate_refuses_bad_arguments_without_writing() {
+    let dir = TempDir::new("animate-bad");
+    let scene = face_scene(&dir);
+    let before = dir.files();
+    fails(
+        &[
+            "animate",
+            arg(&scene),
+            "--out",
+            arg(&dir.path("no/such/m.gif")),
+        ],
+        &["does not exist"],
+    );
+    fails(
+        &[
+            "animate",
+            arg(&scene),
+            "--out",
+            arg(&dir.path("m.gif")),
+            "--size",
+            "0x0",
+        ],
+        &["--size"],
+    );
+    fails(
+        &[
+            "animate",
+            arg(&scene),
+            "--out",
+            arg(&dir.path("m.gif")),
+            "--fps",
+            "0",
+        ],
+        &["--fps"],
+    );
+    fails(
+        &[
+            "animate",
+            arg(&scene),
+            "--out",
+            arg(&dir.path("m.gif")),
+            "--from",
+            "2",
+            "--to",
+            "1",
+        ],
+        &["--from"],
+    );
+    fails(
+        &["animate", arg(&scene), "--out", arg(&dir.path("m.avi"))],
+        &["m.avi", ".mp4"],
+    );
+    let bad = dir.write(
+        "bad.scene.json",
+        std::fs::read_to_string(&scene)
+            .expect("s")
+            .replace("\"fps\": 30", "\"fps\": 30, \"speed\": 2"),
+    );
+    fails(
+        &["animate", arg(&bad), "--out", arg(&dir.path("m.gif"))],
+        &["bad.scene.json", "speed"],
+    );
+    fails(
+        &[
+            "animate",
+            arg(&dir.path("missing.scene.json")),
+            "--out",
+            arg(&dir.path("m.gif")),
+        ],
+        &["missing.scene.json"],
+    );
+    let mut after = before.clone();
+    after.push("bad.scene.json".into());
+    after.sort();
+    assert_eq!(dir.files(), after);
+}
+
+/// Runs the Khronos glTF validator on a file; its report must have no error.
+fn validate(file: &std::path::Path) {
+    let script = root().join("scripts/validate_gltf.mjs");
+    let out = std::process::Command::new("node")
+        .arg(&script)
+        .arg(file)
+        .output();
+    let out =
+        out.expect("node is needed for the glTF validator: run scripts/test.sh, which installs it");
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "glTF validator: {report}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(report.contains(": 0 errors"), "{report}");
+}
+
+#[test]
+fn exports_pass_the_khronos_validator() {
+    let dir = TempDir::new("export");
+    let scene = face_scene(&dir);
+    for name in ["face.glb", "face.gltf"] {
+        let out = dir.path(name);
+        ok(&["export", "-q", arg(&scene), "--out", arg(&out)]);
+        validate(&out);
+    }
+    fails(
+        &["export", arg(&scene), "--out", arg(&dir.path("face.glb"))],
+        &["exists", "--force"],
+    );
+    fails(
+        &["export", arg(&scene), "--out", arg(&dir.path("face.fbx"))],
+        &[".glb"],
+    );
+    // Every demo exports valid glTF (the ball keeps its motion; contact is per frame).
+    for demo in ["fish", "ball", "brick"] {
+        ok(&[
+            "demo",
+            "-q",
+            demo,
+            "--out",
+            arg(&dir.path("demos")),
+            "--size",
+            "64x48",
+            "--gif",
+        ]);
+        let scene = dir.path(&format!("demos/{demo}/{demo}.scene.json"));
+        let out = dir.path(&format!("{demo}.glb"));
+        ok(&["export", "-q", arg(&scene), "--out", arg(&out)]);
+        validate(&out);
+    }
+    // A mesh written as glTF too.
+    let glb = dir.path("head.glb");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head()),
+        "--controls",
+        arg(&smile()),
+        "--out",
+        arg(&glb),
+    ]);
+    validate(&glb);
+}
+
+#[test]
+fn demo_writes_scene_poster_and_movie() {
+    let dir = TempDir::new("demo");
+    ok(&[
+        "demo",
+        "-q",
+        "face",
+        "--out",
+        arg(&dir.path("d")),
+        "--size",
+        "80x60",
+        "--gif",
+    ]);
+    for f in [
+        "face.scene.json",
+        "poster.png",
+        "poster_controls.png",
+        "movie.gif",
+        "models/cgal_head.off",
+        "controls/smile.json",
+    ] {
+        assert!(dir.path(&format!("d/face/{f}")).is_file(), "{f}");
+    }
+    fails(
+        &["demo", "whale", "--out", arg(&dir.path("d"))],
+        &["unknown demo", "face, fish, ball, brick"],
+    );
+    fails(
+        &["demo", "face", "--out", arg(&dir.path("no/such"))],
+        &["does not exist"],
+    );
+}
