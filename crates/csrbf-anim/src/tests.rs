@@ -260,3 +260,18 @@ fn a_non_unit_quaternion_is_normalised_with_a_warning() {
     let zero = GOOD.replace("\"euler\": [0, 30, 0]", "\"quaternion\": [0, 0, 0, 0]");
     assert!(load_err(&d, &zero).contains("zero quaternion"));
 }
+
+#[test]
+fn part_textures_load_from_png() {
+    let d = Dir::new("tex");
+    let img = image::RgbaImage::from_fn(4, 2, |x, _| image::Rgba([x as u8 * 60, 0, 0, 255]));
+    img.save(d.0.join("t.png")).expect("png");
+    let text = GOOD.replace(
+        "\"color\": [0.8, 0.5, 0.4]",
+        "\"color\": [0.8, 0.5, 0.4], \"texture\": \"t.png\"",
+    );
+    let s = Scene::load(&d.scene(&text)).expect("load");
+    let t = s.objects[0].parts[0].texture.as_ref().expect("texture");
+    assert_eq!((t.width, t.height, t.mime.as_str()), (4, 2, "image/png"));
+    assert_eq!(&t.rgba[4..8], &[60, 0, 0, 255]);
+}

@@ -1,6 +1,7 @@
 //! Real pictures on the system's adapter (lavapipe in CI).
 
 use csrbf_render::{Camera, DrawMesh, DrawOptions, DrawPart, Light, Renderer, View};
+
 use glam::Vec3;
 
 fn quad_view() -> View {
@@ -73,4 +74,48 @@ fn bad_sizes_are_refused() {
             .unwrap_or_default();
         assert!(e.contains("not valid"), "{e}");
     }
+}
+
+#[test]
+fn textures_and_flat_shading_reach_the_picture() {
+    let mut r = Renderer::new(64, 48).expect("renderer");
+    // A 4 x 1 texture: left half green, right half blue.
+    let tex = r
+        .texture(
+            4,
+            1,
+            &[
+                0, 255, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 0, 0, 255, 255,
+            ],
+        )
+        .expect("texture");
+    let mut v = quad_view();
+    v.meshes[0].uvs = vec![
+        glam::Vec2::new(0.0, 0.0),
+        glam::Vec2::new(1.0, 0.0),
+        glam::Vec2::new(1.0, 1.0),
+        glam::Vec2::new(0.0, 1.0),
+    ];
+    v.meshes[0].parts[0].color = [1.0; 4];
+    v.meshes[0].parts[0].texture = Some(tex);
+    let img = r.render(&v).expect("render");
+    let (left, right) = (img.pixel(27, 24), img.pixel(38, 24));
+    assert!(left[1] > 150 && left[2] < 100, "left {left:?}");
+    assert!(right[2] > 150 && right[1] < 100, "right {right:?}");
+    assert!(r.texture(2, 2, &[0; 4]).is_err());
+    // Flat shading of a tilted quad: one colour across it.
+    let mut v = quad_view();
+    for p in &mut v.meshes[0].positions {
+        p.z = p.x * 0.5;
+    }
+    v.meshes[0].normals = vec![
+        Vec3::new(0.3, 0.0, 1.0).normalize(),
+        Vec3::Z,
+        Vec3::Z,
+        Vec3::new(-0.3, 0.0, 1.0).normalize(),
+    ];
+    v.options.flat = true;
+    let img = r.render(&v).expect("render");
+    let (a, b) = (img.pixel(24, 24), img.pixel(40, 24));
+    assert!((a[0] as i32 - b[0] as i32).abs() <= 2, "{a:?} vs {b:?}");
 }
