@@ -163,3 +163,21 @@ pub fn check_phase(phase: f64) -> Result<()> {
     }
     Ok(())
 }
+
+/// The lower-case extension of `out` if it is one of `allowed`, else an
+/// error listing them (`what` names the kind of file).
+pub fn extension_in(out: &Path, allowed: &[&str], what: &str) -> Result<String> {
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if !allowed.contains(&ext.as_str()) {
+        let list: Vec<String> = allowed.iter().map(|a| format!(".{a}")).collect();
+        bail!(
+            "{}: unknown {what} {ext:?}; supported: {}",
+            out.display(),
+            list.join(", ")
+        );
+    }
+    Ok(ext)
+}

@@ -3,7 +3,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use csrbf::{Deformation, Region, compose, format};
 use csrbf_mesh::Mesh;
 
@@ -32,16 +32,7 @@ pub fn deform(
 
 pub fn fit(controls: &Path, out: &Path, force: bool, progress: &Progress) -> Result<()> {
     check_output(out, &[controls], force, false)?;
-    let ext = out
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    if ext != "csrbf" && ext != "json" {
-        bail!(
-            "{}: unknown deformation format {ext:?}; supported: .csrbf (binary), .json",
-            out.display()
-        );
-    }
+    let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
     let specs = read_controls(controls, progress)?;
     let stages: Vec<(Deformation, Region)> = fit_all(&specs, controls, progress)?
         .into_iter()

@@ -279,16 +279,7 @@ pub fn write_movie(
 }
 
 pub fn export(scene: &Path, out: &Path, force: bool, progress: &Progress) -> Result<()> {
-    let ext = out
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    if ext != "glb" && ext != "gltf" {
-        bail!(
-            "{}: unknown export format {ext:?}; supported: .glb, .gltf",
-            out.display()
-        );
-    }
+    let ext = crate::common::extension_in(out, &["glb", "gltf"], "export format")?;
     if out.exists() && !force {
         bail!("{}: exists; pass --force to replace it", out.display());
     }

@@ -197,6 +197,24 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// The index of the part of this kind and name, made (empty) if missing;
+    /// `index` remembers the parts made so far, for readers.
+    pub(crate) fn part_index(
+        &mut self,
+        index: &mut std::collections::HashMap<(PartKind, String), usize>,
+        kind: PartKind,
+        name: String,
+    ) -> usize {
+        *index.entry((kind, name.clone())).or_insert_with(|| {
+            self.parts.push(Part {
+                name,
+                kind,
+                faces: Vec::new(),
+            });
+            self.parts.len() - 1
+        })
+    }
+
     /// The vertices of the faces of every part called `name`, ascending;
     /// `None` when no part has that name.
     pub fn part_vertices(&self, name: &str) -> Option<Vec<u32>> {

@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::{Mat4, Vec2, Vec3};
 use serde_json::{Value, json};
 
-use crate::{Faces, Material, Mesh, MeshError, Part, PartKind, Result, TexCoords};
+use crate::{Faces, Material, Mesh, MeshError, PartKind, Result, TexCoords};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // The gltf crate asserts on some malformed accessors; a malformed file
@@ -179,14 +179,7 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 (PartKind::Material, mat_name),
             ];
             for (kind, name) in names {
-                let id = *parts.entry((kind, name.clone())).or_insert_with(|| {
-                    mesh.parts.push(Part {
-                        name,
-                        kind,
-                        faces: Vec::new(),
-                    });
-                    mesh.parts.len() - 1
-                });
+                let id = mesh.part_index(&mut parts, kind, name);
                 mesh.parts[id].faces.extend_from_slice(&faces);
             }
         }

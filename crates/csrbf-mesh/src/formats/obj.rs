@@ -8,7 +8,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 
 use super::text::{lines, number, push_f32};
-use crate::{Faces, Mesh, MeshError, Part, PartKind, Result, TexCoords};
+use crate::{Faces, Mesh, MeshError, PartKind, Result, TexCoords};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut mesh = Mesh {
@@ -135,14 +135,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 };
                 let mut ids = Vec::new();
                 for name in names {
-                    let id = *parts.entry((kind, name.clone())).or_insert_with(|| {
-                        mesh.parts.push(Part {
-                            name,
-                            kind,
-                            faces: Vec::new(),
-                        });
-                        mesh.parts.len() - 1
-                    });
+                    let id = mesh.part_index(&mut parts, kind, name);
                     ids.push(id);
                 }
                 current_by_kind.insert(kind, ids);
