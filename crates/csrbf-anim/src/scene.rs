@@ -107,6 +107,8 @@ pub struct Object {
     pub deformations: Vec<Animated>,
     /// Contact deformation.
     pub contact: Option<Contact>,
+    /// The mesh's faces as triangles, for the normals of every frame.
+    pub triangles: Vec<[u32; 3]>,
 }
 
 impl Object {
@@ -263,24 +265,11 @@ impl Scene {
             }
             let (rot, shift) = obj.transform(time);
             let (rot32, shift32) = (rot.as_quat(), shift.as_vec3());
-            let mut m = Mesh {
-                positions: local,
-                faces: obj.mesh.faces.clone(),
-                ..Mesh::default()
-            };
-            m.recompute_normals();
-            let normals = m
-                .normals
-                .take()
-                .unwrap_or_default()
+            let normals = csrbf_mesh::triangle_vertex_normals(&local, &obj.triangles)
                 .into_iter()
                 .map(|n| rot32 * n)
                 .collect();
-            let positions = m
-                .positions
-                .into_iter()
-                .map(|p| rot32 * p + shift32)
-                .collect();
+            let positions = local.into_iter().map(|p| rot32 * p + shift32).collect();
             let controls = controls
                 .into_iter()
                 .map(|(s, p, g, r)| {
@@ -554,7 +543,6 @@ fn load_object(
     };
     Ok(Object {
         name: of.name.clone(),
-        mesh,
         center,
         radius,
         parts,
@@ -562,6 +550,8 @@ fn load_object(
         orientation: Orientation::new(keys, interpolation),
         deformations,
         contact: None,
+        triangles: mesh.faces.triangles(),
+        mesh,
     })
 }
 

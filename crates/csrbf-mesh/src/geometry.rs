@@ -125,3 +125,31 @@ pub fn vertex_normals(positions: &[Vec3], faces: &crate::Faces) -> Vec<Vec3> {
     }
     n
 }
+
+/// Area-weighted vertex normals over a triangle list (faster than
+/// [`vertex_normals`] when the triangles are kept between calls); vertices on
+/// no triangle get +Z, triangles with an index out of range are skipped.
+pub fn triangle_vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let n = positions.len();
+    let mut acc = vec![Vec3::ZERO; n];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| i as usize);
+        if a >= n || b >= n || c >= n {
+            continue;
+        }
+        let (pa, pb, pc) = (positions[a], positions[b], positions[c]);
+        let area = (pb - pa).cross(pc - pa);
+        acc[a] += area;
+        acc[b] += area;
+        acc[c] += area;
+    }
+    for v in &mut acc {
+        let len2 = v.length_squared();
+        *v = if len2 > 0.0 {
+            *v * len2.sqrt().recip()
+        } else {
+            Vec3::Z
+        };
+    }
+    acc
+}
