@@ -43,7 +43,7 @@ pub(crate) struct Blocks {
 const FEW_STARTS: usize = 48;
 
 /// Points below this count are evaluated on one thread.
-pub(crate) const PARALLEL_POINTS: usize = 4096;
+pub(crate) const PARALLEL_POINTS: usize = 512;
 
 impl Blocks {
     /// Groups `points` for evaluation against `starts` starts of radius R:
@@ -54,7 +54,7 @@ impl Blocks {
             return Blocks::new(points, radius * 0.5);
         }
         let n = points.len();
-        const RUN: usize = 1024;
+        const RUN: usize = 256;
         Blocks {
             order: (0..n as u32).collect(),
             cells: (0..n.div_ceil(RUN))
@@ -253,7 +253,7 @@ pub(crate) fn for_each_cell<T: Send>(
             .cells
             .par_iter()
             .zip(slices)
-            .with_min_len(8)
+            .with_min_len(2)
             .for_each_init(Candidates::default, |cand, (cell, out)| {
                 work(*cell, out, cand)
             });
