@@ -72,6 +72,7 @@ fn part(name: &str, color: [f32; 4], deformations: Vec<DeformationFile>) -> Part
         select: "all".into(),
         color: Some(color.to_vec()),
         texture: None,
+        wireframe: false,
         deformations,
     }
 }
@@ -387,11 +388,9 @@ fn ball() -> Demo {
         vec![part("ball", [0.85, 0.15, 0.1, 1.0], vec![])],
     );
     ball.trajectory = trajectory;
-    let mut walls = object(
-        "box",
-        "models/box.obj",
-        vec![part("walls", [0.55, 0.75, 1.0, 0.38], vec![])],
-    );
+    let mut walls_part = part("walls", [0.55, 0.75, 1.0, 0.3], vec![]);
+    walls_part.wireframe = true;
+    let mut walls = object("box", "models/box.obj", vec![walls_part]);
     walls.contact = Some(ContactFile {
         with: "ball".into(),
         kernel: "c2".into(),

@@ -133,6 +133,9 @@ pub struct PartFile {
     /// Texture image (PNG or JPEG), relative to the scene file; uses the mesh's UVs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<String>,
+    /// Draw this part's edges. Default false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub wireframe: bool,
     /// Deformations of this part, each with its phase track.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub deformations: Vec<DeformationFile>,

@@ -45,6 +45,8 @@ pub struct Part {
     pub color: [f32; 4],
     /// Texture over the mesh's UVs.
     pub texture: Option<Texture>,
+    /// Whether its edges are drawn.
+    pub wireframe: bool,
 }
 
 /// One fitted deformation stage, bound to its vertices.
@@ -435,6 +437,7 @@ fn load_object(
                 select: "all".into(),
                 color: None,
                 texture: None,
+                wireframe: false,
                 deformations: vec![],
             },
             dir,
@@ -675,6 +678,7 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
         vertices,
         color,
         texture,
+        wireframe: pf.wireframe,
     })
 }
 

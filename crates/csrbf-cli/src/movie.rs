@@ -104,6 +104,7 @@ pub fn mesh_scene(
                 select: "all".into(),
                 color: Some(vec![0.78, 0.62, 0.45]),
                 texture: None,
+                wireframe: false,
                 deformations,
             }],
             trajectory: vec![],

@@ -45,6 +45,8 @@ pub struct DrawPart {
     pub color: [f32; 4],
     /// A texture made by [`Renderer::texture`].
     pub texture: Option<TextureId>,
+    /// Draw this part's edges even when the view's wireframe is off.
+    pub wireframe: bool,
 }
 
 /// A mesh to draw: per-vertex attributes and parts.
@@ -197,9 +199,9 @@ struct MeshSlot {
 }
 
 /// Edges of every part's triangles, for the wireframe.
-fn wire_lines(m: &DrawMesh, wire: &mut Vec<LineVertex>) {
+fn wire_lines(m: &DrawMesh, all: bool, wire: &mut Vec<LineVertex>) {
     let n = m.positions.len();
-    for p in &m.parts {
+    for p in m.parts.iter().filter(|p| all || p.wireframe) {
         for t in p.indices.chunks_exact(3) {
             if t.iter().any(|&i| i as usize >= n) {
                 continue;
@@ -527,8 +529,8 @@ impl Renderer {
             let mut cached = std::mem::take(&mut self.cache[slot]);
             self.upload_mesh(&mut cached, m);
             self.cache[slot] = cached;
-            if view.options.wireframe {
-                wire_lines(m, &mut wire);
+            if view.options.wireframe || m.parts.iter().any(|p| p.wireframe) {
+                wire_lines(m, view.options.wireframe, &mut wire);
             }
         }
         self.cache.truncate(view.meshes.len());

@@ -76,6 +76,7 @@ impl SceneRenderer {
                     indices,
                     color: p.color,
                     texture,
+                    wireframe: p.wireframe,
                 });
             }
             prepared.push(Prepared { uvs, colors, parts });

@@ -30,6 +30,7 @@ fn quad_view() -> View {
                 indices: vec![0, 1, 2, 0, 2, 3],
                 color: [1.0, 0.0, 0.0, 1.0],
                 texture: None,
+                wireframe: false,
             }],
             ..Default::default()
         }],
