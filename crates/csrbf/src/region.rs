@@ -95,3 +95,52 @@ impl Region {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn points() -> Vec<Vec3> {
+        (0..10).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect()
+    }
+
+    #[test]
+    fn regions_select_and_grow() {
+        let none = |_: &str| None;
+        let p = points();
+        let s = Region::Sphere {
+            center: DVec3::new(4.0, 0.0, 0.0),
+            radius: 1.5,
+        };
+        assert_eq!(s.select(&p, &none), Ok(vec![3, 4, 5]));
+        assert_eq!(s.grown(1.0).select(&p, &none), Ok(vec![2, 3, 4, 5, 6]));
+        assert_eq!(s.grown(-2.0).select(&p, &none), Ok(vec![]));
+        let b = Region::Box {
+            min: DVec3::new(0.5, -1.0, -1.0),
+            max: DVec3::new(2.5, 1.0, 1.0),
+        };
+        assert_eq!(b.select(&p, &none), Ok(vec![1, 2]));
+        assert_eq!(b.grown(1.0).select(&p, &none), Ok(vec![0, 1, 2, 3]));
+        assert_eq!(
+            Region::Vertices(vec![7, 2, 7]).select(&p, &none),
+            Ok(vec![2, 7])
+        );
+        assert_eq!(
+            Region::Vertices(vec![10]).select(&p, &none),
+            Err(Error::RegionIndex {
+                index: 10,
+                count: 10
+            })
+        );
+        let groups = |n: &str| (n == "tip").then(|| vec![9, 8]);
+        assert_eq!(
+            Region::Group("tip".into()).select(&p, &groups),
+            Ok(vec![8, 9])
+        );
+        assert_eq!(
+            Region::Group("toe".into()).select(&p, &groups),
+            Err(Error::UnknownGroup("toe".into()))
+        );
+        assert_eq!(Region::All.select(&p, &none).map(|v| v.len()), Ok(10));
+    }
+}
