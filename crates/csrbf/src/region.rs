@@ -114,7 +114,7 @@ mod tests {
         };
         assert_eq!(s.select(&p, &none), Ok(vec![3, 4, 5]));
         assert_eq!(s.grown(1.0).select(&p, &none), Ok(vec![2, 3, 4, 5, 6]));
-        assert_eq!(s.grown(-2.0).select(&p, &none), Ok(vec![]));
+        assert_eq!(s.grown(-2.0).select(&p, &none), Ok(vec![4]));
         let b = Region::Box {
             min: DVec3::new(0.5, -1.0, -1.0),
             max: DVec3::new(2.5, 1.0, 1.0),
