@@ -616,20 +616,15 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
         }
         other => {
             // A region: faces whose every corner lies in it.
-            let text = serde_json::json!({ "radius": 1, "controls": [{"from": [0, 0, 0], "to": [0, 0, 0]}], "region": other }).to_string();
-            let region = ControlFile::parse(&text)
-                .map_err(|e| {
-                    scene_err(
-                        at("select"),
-                        format!(
-                            "expected \"all\", {{\"group\": name}}, or a region: {}",
-                            e.message
-                        ),
-                    )
-                })?
-                .deformations
-                .remove(0)
-                .region;
+            let region = csrbf::controls::parse_region(other, &at("select")).map_err(|e| {
+                scene_err(
+                    at("select"),
+                    format!(
+                        "expected \"all\", {{\"group\": name}}, or a region: {}",
+                        e.message
+                    ),
+                )
+            })?;
             let inside = region
                 .select(&mesh.positions, &|n| mesh.part_vertices(n))
                 .map_err(|e| scene_err(at("select"), e.to_string()))?;

@@ -228,7 +228,7 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
     }
     let region = match obj.get("region") {
         None | Some(Value::Null) => Region::All,
-        Some(r) => region(r, &at("region"))?,
+        Some(r) => parse_region(r, &at("region"))?,
     };
     let options = FitOptions::default()
         .with_kernel(kernel)
@@ -266,7 +266,9 @@ fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
     Ok(DVec3::from_array(p))
 }
 
-fn region(v: &Value, at: &str) -> Result<Region, ControlError> {
+/// A region as written in a control file (`{"sphere": ...}`, `{"box": ...}`,
+/// `{"vertices": [...]}` or `{"group": name}`); `at` is its JSON path, for errors.
+pub fn parse_region(v: &Value, at: &str) -> Result<Region, ControlError> {
     let obj = v.as_object().filter(|o| o.len() == 1).ok_or_else(|| {
         err(at, "expected one of {\"sphere\": {\"center\": [x,y,z], \"radius\": r}}, {\"box\": {\"min\": [..], \"max\": [..]}}, {\"vertices\": [i, ...]}, {\"group\": \"name\"}")
     })?;
