@@ -86,6 +86,7 @@ pub fn fit_all(
         } else {
             path.display().to_string()
         };
+        warn_if_dense(s, &at);
         let t = Instant::now();
         let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
         let def = sys.solve(&s.targets).with_context(|| at.clone())?;
@@ -180,4 +181,33 @@ pub fn extension_in(out: &Path, allowed: &[&str], what: &str) -> Result<String> 
         );
     }
     Ok(ext)
+}
+
+/// Warns before a long fit when R reaches most of the starts: the system is
+/// then nearly dense (N^2 memory, N^3 work). Estimated from a sample of starts.
+fn warn_if_dense(s: &ControlSpec, at: &str) {
+    let n = s.starts.len();
+    if n < 2000 {
+        return;
+    }
+    let r2 = s.options.radius * s.options.radius;
+    let step = (n / 64).max(1);
+    let sample: Vec<_> = s.starts.iter().step_by(step).collect();
+    let within: usize = sample
+        .iter()
+        .map(|p| {
+            s.starts
+                .iter()
+                .filter(|q| q.distance_squared(**p) < r2)
+                .count()
+        })
+        .sum();
+    let fraction = within as f64 / (sample.len() * n) as f64;
+    if fraction > 0.2 {
+        eprintln!(
+            "warning: {at}: R = {} reaches about {:.0} % of the {n} starts, so the system is nearly dense and the fit will be slow and large; a smaller R keeps it sparse",
+            s.options.radius,
+            fraction * 100.0
+        );
+    }
 }
