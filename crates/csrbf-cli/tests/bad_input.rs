@@ -261,62 +261,32 @@ fn corrupt_and_wrong_version_deformation_files() {
     ok(&["fit", "-q", "--controls", arg(&c), "--out", arg(&d)]);
     let bytes = std::fs::read(&d).expect("d");
     let out = dir.path("o.obj");
+    let apply_fails = |bad: &std::path::Path, want: &[&str]| {
+        fails(
+            &[
+                "apply",
+                "--mesh",
+                arg(&m),
+                "--deformation",
+                arg(bad),
+                "--out",
+                arg(&out),
+            ],
+            want,
+        );
+    };
     let mut flipped = bytes.clone();
     flipped[40] ^= 1;
     let bad = dir.write("flip.csrbf", &flipped);
-    fails(
-        &[
-            "apply",
-            "--mesh",
-            arg(&m),
-            "--deformation",
-            arg(&bad),
-            "--out",
-            arg(&out),
-        ],
-        &["flip.csrbf", "checksum"],
-    );
+    apply_fails(&bad, &["flip.csrbf", "checksum"]);
     let bad = dir.write("cut.csrbf", &bytes[..bytes.len() / 2]);
-    fails(
-        &[
-            "apply",
-            "--mesh",
-            arg(&m),
-            "--deformation",
-            arg(&bad),
-            "--out",
-            arg(&out),
-        ],
-        &["cut.csrbf"],
-    );
+    apply_fails(&bad, &["cut.csrbf"]);
     let mut v9 = bytes.clone();
     v9[6] = 9;
     let bad = dir.write("v9.csrbf", &v9);
-    fails(
-        &[
-            "apply",
-            "--mesh",
-            arg(&m),
-            "--deformation",
-            arg(&bad),
-            "--out",
-            arg(&out),
-        ],
-        &["v9.csrbf", "version 9"],
-    );
+    apply_fails(&bad, &["v9.csrbf", "version 9"]);
     let bad = dir.write("text.csrbf", "hello");
-    fails(
-        &[
-            "apply",
-            "--mesh",
-            arg(&m),
-            "--deformation",
-            arg(&bad),
-            "--out",
-            arg(&out),
-        ],
-        &["text.csrbf", "magic"],
-    );
+    apply_fails(&bad, &["text.csrbf", "magic"]);
     fails(
         &[
             "fit",

@@ -117,6 +117,15 @@ pub fn uv_sphere(radius: f32, rings: u32, segments: u32) -> Mesh {
 mod tests {
     use super::*;
 
+    /// Signed volume: positive for a closed mesh with outward faces.
+    fn volume(m: &Mesh) -> f32 {
+        let tri = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            a.dot(b.cross(c)) / 6.0
+        };
+        m.faces.triangles().iter().map(tri).sum()
+    }
+
     #[test]
     fn the_papers_box_has_386_vertices_and_768_triangles() {
         let m = subdivided_box(Vec3::splat(2.0), [8, 8, 8]);
@@ -124,15 +133,7 @@ mod tests {
         assert_eq!(m.faces.triangle_count(), 768);
         m.validate(std::path::Path::new("box")).expect("valid");
         // Closed and outward: the signed volume is positive and equals 8.
-        let vol: f32 = m
-            .faces
-            .triangles()
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum();
+        let vol = volume(&m);
         assert!((vol - 8.0).abs() < 1e-3, "{vol}");
     }
 
@@ -140,15 +141,7 @@ mod tests {
     fn sphere_is_closed_and_outward() {
         let m = uv_sphere(1.0, 12, 24);
         m.validate(std::path::Path::new("sphere")).expect("valid");
-        let vol: f32 = m
-            .faces
-            .triangles()
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum();
+        let vol = volume(&m);
         assert!(vol > 3.9 && vol < 4.2, "{vol}");
     }
 }
