@@ -246,10 +246,29 @@ impl Scene {
 
     /// Every object's world vertices, normals and control vectors at `time`.
     pub fn frame(&self, time: f64) -> Frame {
-        let mut objects: Vec<FrameObject> = Vec::with_capacity(self.objects.len());
-        for (oi, obj) in self.objects.iter().enumerate() {
-            let mut local: Vec<Vec3> = obj.mesh.positions.clone();
-            let mut controls = Vec::new();
+        let mut f = Frame::default();
+        self.frame_into(time, &mut f);
+        f
+    }
+
+    /// [`Scene::frame`] into an existing frame, reusing its buffers: for
+    /// playback, where a frame a tick should allocate nothing.
+    pub fn frame_into(&self, time: f64, frame: &mut Frame) {
+        frame.time = time;
+        frame
+            .objects
+            .resize_with(self.objects.len(), FrameObject::default);
+        for (oi, (obj, out)) in self
+            .objects
+            .iter()
+            .zip(frame.objects.iter_mut())
+            .enumerate()
+        {
+            let local = &mut out.positions;
+            local.clear();
+            local.extend_from_slice(&obj.mesh.positions);
+            let controls = &mut out.controls;
+            controls.clear();
             for anim in &obj.deformations {
                 let t = anim.track.phase(time) as f32;
                 for st in &anim.stages {
@@ -263,33 +282,21 @@ impl Scene {
                 }
             }
             if let Some(c) = &obj.contact {
-                self.contact(oi, c, time, &mut local, &mut controls);
+                self.contact(oi, c, time, local, controls);
             }
             let (rot, shift) = obj.transform(time);
             let (rot32, shift32) = (rot.as_quat(), shift.as_vec3());
-            let normals = csrbf_mesh::triangle_vertex_normals(&local, &obj.triangles)
-                .into_iter()
-                .map(|n| rot32 * n)
-                .collect();
-            let positions = local.into_iter().map(|p| rot32 * p + shift32).collect();
-            let controls = controls
-                .into_iter()
-                .map(|(s, p, g, r)| {
-                    (
-                        rot32 * s + shift32,
-                        rot32 * p + shift32,
-                        rot32 * g + shift32,
-                        r,
-                    )
-                })
-                .collect();
-            objects.push(FrameObject {
-                positions,
-                normals,
-                controls,
-            });
+            csrbf_mesh::triangle_vertex_normals_into(local, &obj.triangles, &mut out.normals);
+            for (p, n) in local.iter_mut().zip(out.normals.iter_mut()) {
+                *p = rot32 * *p + shift32;
+                *n = rot32 * *n;
+            }
+            for (s, p, g, _) in controls.iter_mut() {
+                *s = rot32 * *s + shift32;
+                *p = rot32 * *p + shift32;
+                *g = rot32 * *g + shift32;
+            }
         }
-        Frame { time, objects }
     }
 
     /// Pushes the vertices of object `oi` inside the pusher's bounding sphere

@@ -130,8 +130,20 @@ pub fn vertex_normals(positions: &[Vec3], faces: &crate::Faces) -> Vec<Vec3> {
 /// [`vertex_normals`] when the triangles are kept between calls); vertices on
 /// no triangle get +Z, triangles with an index out of range are skipped.
 pub fn triangle_vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    triangle_vertex_normals_into(positions, triangles, &mut out);
+    out
+}
+
+/// [`triangle_vertex_normals`] into `out`, reusing its memory.
+pub fn triangle_vertex_normals_into(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    out: &mut Vec<Vec3>,
+) {
     let n = positions.len();
-    let mut acc = vec![Vec3::ZERO; n];
+    out.clear();
+    out.resize(n, Vec3::ZERO);
     for t in triangles {
         let [a, b, c] = t.map(|i| i as usize);
         if a >= n || b >= n || c >= n {
@@ -139,11 +151,11 @@ pub fn triangle_vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Ve
         }
         let (pa, pb, pc) = (positions[a], positions[b], positions[c]);
         let area = (pb - pa).cross(pc - pa);
-        acc[a] += area;
-        acc[b] += area;
-        acc[c] += area;
+        out[a] += area;
+        out[b] += area;
+        out[c] += area;
     }
-    for v in &mut acc {
+    for v in out.iter_mut() {
         let len2 = v.length_squared();
         *v = if len2 > 0.0 {
             *v * len2.sqrt().recip()
@@ -151,5 +163,4 @@ pub fn triangle_vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Ve
             Vec3::Z
         };
     }
-    acc
 }

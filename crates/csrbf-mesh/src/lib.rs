@@ -31,7 +31,7 @@ pub mod shapes;
 
 pub use error::{MeshError, Result};
 pub use formats::Format;
-pub use geometry::{triangle_vertex_normals, vertex_normals};
+pub use geometry::{triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals};
 pub use io::{Loaded, load, read, write, write_atomic};
 
 use glam::{Vec2, Vec3};
