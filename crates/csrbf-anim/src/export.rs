@@ -47,7 +47,8 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
             .as_ref()
             .and_then(|u| u.per_vertex(&obj.mesh.faces, n));
         if let Some(uv) = &uvs {
-            let t: Vec<f32> = uv.iter().flat_map(|v| v.to_array()).collect();
+            // glTF's texture origin is the top left.
+            let t: Vec<f32> = uv.iter().flat_map(|v| [v.x, 1.0 - v.y]).collect();
             attributes["TEXCOORD_0"] = json!(b.floats(&t, 2, "VEC2", false));
         }
         // One morph target per deformation stage.

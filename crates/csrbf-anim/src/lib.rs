@@ -33,7 +33,8 @@ pub use export::export_gltf;
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{
-    Animated, BoundStage, Contact, Frame, FrameObject, Object, Part, Scene, Texture, load_texture,
+    Animated, BoundStage, Contact, Frame, FrameObject, Object, Part, Scene, Texture,
+    decode_texture, load_texture,
 };
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};

@@ -671,7 +671,9 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
         }
     };
     let texture = match &pf.texture {
-        None => None,
+        // A part selected by a material of the mesh takes that material's
+        // embedded image (glTF) when the scene names none.
+        None => embedded_texture(mesh, &pf.select),
         Some(t) => Some(load_texture(&dir.join(t)).map_err(|m| scene_err(at("texture"), m))?),
     };
     Ok(Part {
@@ -684,9 +686,31 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
     })
 }
 
+/// The embedded texture of the material a part is selected by, or for a
+/// part of the whole mesh the only textured material's, if any.
+fn embedded_texture(mesh: &Mesh, select: &serde_json::Value) -> Option<Texture> {
+    let textured: Vec<_> = mesh
+        .materials
+        .iter()
+        .filter(|m| m.texture.is_some())
+        .collect();
+    let mat = match select.get("group").and_then(|g| g.as_str()) {
+        Some(name) => mesh.materials.iter().find(|m| m.name == name)?,
+        None if select.as_str() == Some("all") && textured.len() == 1 => textured[0],
+        None => return None,
+    };
+    let (_, bytes) = mat.texture.as_ref()?;
+    decode_texture(bytes.clone(), Path::new(&format!("material {}", mat.name))).ok()
+}
+
 /// Decodes a PNG or JPEG texture.
 pub fn load_texture(path: &Path) -> std::result::Result<Texture, String> {
     let encoded = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    decode_texture(encoded, path)
+}
+
+/// Decodes PNG or JPEG bytes; `path` names them in errors.
+pub fn decode_texture(encoded: Vec<u8>, path: &Path) -> std::result::Result<Texture, String> {
     let format = image::guess_format(&encoded)
         .map_err(|e| format!("{}: not an image: {e}", path.display()))?;
     let mime = match format {

@@ -102,7 +102,12 @@ pub fn mesh_scene(
             parts: vec![PartFile {
                 name: "all".into(),
                 select: "all".into(),
-                color: Some(vec![0.78, 0.62, 0.45]),
+                // A textured model (glTF) shows its own image; others a clay colour.
+                color: Some(if m.materials.iter().any(|x| x.texture.is_some()) {
+                    vec![1.0, 1.0, 1.0]
+                } else {
+                    vec![0.78, 0.62, 0.45]
+                }),
                 texture: None,
                 wireframe: false,
                 deformations,

@@ -365,3 +365,56 @@ fn demo_writes_scene_poster_and_movie() {
         &["does not exist"],
     );
 }
+
+#[test]
+fn render_shows_a_gltf_models_own_texture_upright() {
+    let dir = TempDir::new("texture");
+    let out = dir.path("box.png");
+    ok(&[
+        "render",
+        "-q",
+        "--mesh",
+        arg(&models_dir().join("assimp_BoxTextured.glb")),
+        "--out",
+        arg(&out),
+        "--size",
+        "200x150",
+    ]);
+    let img = image_rgba(&out);
+    // The Khronos box's image: sky blue above, green below, on every face.
+    let blue = |p: [u8; 4]| p[2] as i32 > p[0] as i32 + 50 && p[2] > p[1];
+    let green = |p: [u8; 4]| p[1] as i32 > p[2] as i32 + 30 && p[1] > p[0];
+    let (mut blue_y, mut green_y, mut nb, mut ng) = (0usize, 0usize, 0usize, 0usize);
+    for y in 0..img.1 {
+        for x in 0..img.0 {
+            let p = img.2[(y * img.0 + x) as usize];
+            if blue(p) {
+                blue_y += y as usize;
+                nb += 1;
+            } else if green(p) {
+                green_y += y as usize;
+                ng += 1;
+            }
+        }
+    }
+    assert!(
+        nb > 200 && ng > 200,
+        "blue {nb}, green {ng}: the texture is missing"
+    );
+    assert!(blue_y / nb < green_y / ng, "the texture is upside down");
+}
+
+/// Width, height and pixels of a PNG.
+fn image_rgba(path: &std::path::Path) -> (u32, u32, Vec<[u8; 4]>) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(path).expect("open"),
+    ));
+    let mut reader = decoder.read_info().expect("png");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("frame");
+    let px = buf[..info.buffer_size()]
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect();
+    (info.width, info.height, px)
+}

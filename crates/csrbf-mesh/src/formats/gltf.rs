@@ -111,7 +111,9 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 Some(t) => {
                     any_uv = true;
                     uvs.resize(base as usize, Vec2::ZERO);
-                    uvs.extend(t.into_f32().map(Vec2::from_array).take(count));
+                    // glTF puts the texture origin at the top left; meshes here keep OBJ's
+                    // bottom-left origin.
+                    uvs.extend(t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).take(count));
                 }
                 None => uvs.resize(base as usize, Vec2::ZERO),
             }
@@ -430,7 +432,7 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
         .collect();
     attributes["NORMAL"] = json!(b.floats(&nrm, 3, "VEC3", false));
     if let Some(uv) = mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, n)) {
-        let t: Vec<f32> = uv.iter().flat_map(|v| v.to_array()).collect();
+        let t: Vec<f32> = uv.iter().flat_map(|v| [v.x, 1.0 - v.y]).collect();
         attributes["TEXCOORD_0"] = json!(b.floats(&t, 2, "VEC2", false));
     }
     if let Some(c) = &mesh.colors {
