@@ -271,9 +271,11 @@ pub fn write_movie(
         r.renderer().adapter()
     ));
     let t = Instant::now();
+    let mut frame = csrbf_anim::Frame::default();
     for k in 0..frames {
         let time = from + k as f64 / fps;
-        let img = r.render(scene, &scene.frame(time), options)?;
+        scene.frame_into(time, &mut frame);
+        let img = r.render(scene, &frame, options)?;
         writer.push(&img)?;
         progress.bar(k + 1, frames);
     }
