@@ -7,11 +7,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reps: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(200);
     let demo = csrbf_anim::demos::demo(&name).ok_or("unknown demo")?;
     let dir = std::env::temp_dir().join(format!("csrbf-frames-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("models"))?;
-    std::fs::create_dir_all(dir.join("controls"))?;
-    for (rel, bytes) in &demo.files {
-        std::fs::write(dir.join(rel), bytes)?;
-    }
+    demo.write(&dir, &name)?;
     let scene = csrbf_anim::Scene::from_file(demo.scene, &dir, "demo".as_ref())?;
     let frames = scene.frame_count();
     let mut frame = csrbf_anim::Frame::default();

@@ -30,6 +30,30 @@ pub struct Demo {
     pub poster: f64,
 }
 
+impl Demo {
+    /// Writes the demo's files and its scene file (`NAME.scene.json`) into
+    /// `dir`, each whole or not at all; returns the scene file's path.
+    pub fn write(
+        &self,
+        dir: &std::path::Path,
+        name: &str,
+    ) -> csrbf_mesh::Result<std::path::PathBuf> {
+        for (rel, bytes) in &self.files {
+            let path = dir.join(rel);
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent).map_err(|source| csrbf_mesh::MeshError::Io {
+                    path: parent.to_owned(),
+                    source,
+                })?;
+            }
+            csrbf_mesh::write_atomic(&path, bytes)?;
+        }
+        let scene = dir.join(format!("{name}.scene.json"));
+        csrbf_mesh::write_atomic(&scene, self.scene.to_json().as_bytes())?;
+        Ok(scene)
+    }
+}
+
 /// The demos' names.
 pub const DEMOS: [&str; 4] = ["face", "fish", "ball", "brick"];
 

@@ -296,14 +296,7 @@ fn paper_in(dir: &std::path::Path, args: &BenchArgs, progress: &Progress) -> Res
         let Some(d) = csrbf_anim::demos::demo(name) else {
             continue;
         };
-        let base = dir.join(name);
-        std::fs::create_dir_all(base.join("models"))?;
-        std::fs::create_dir_all(base.join("controls"))?;
-        for (rel, bytes) in &d.files {
-            std::fs::write(base.join(rel), bytes)?;
-        }
-        let path = base.join("scene.json");
-        std::fs::write(&path, d.scene.to_json())?;
+        let path = d.write(&dir.join(name), name)?;
         let scene = csrbf_anim::Scene::load(&path)?;
         let frames = scene.frame_count();
         let times: Vec<f64> = (0..frames).map(|k| k as f64 / scene.file.fps).collect();

@@ -53,6 +53,11 @@ pub fn parse_size(s: &str) -> Result<[u32; 2]> {
     Ok([w, h])
 }
 
+/// The `--size` given, or `default`.
+fn size_or(size: Option<&str>, default: [u32; 2]) -> Result<[u32; 2]> {
+    Ok(size.map(parse_size).transpose()?.unwrap_or(default))
+}
+
 /// A one-object scene looking at a mesh from a three-quarter view that frames it.
 pub fn mesh_scene(
     mesh: &Path,
@@ -158,12 +163,7 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
             a.out.display()
         );
     }
-    let size = a
-        .size
-        .as_deref()
-        .map(parse_size)
-        .transpose()?
-        .unwrap_or([1024, 768]);
+    let size = size_or(a.size.as_deref(), [1024, 768])?;
     let scene = mesh_scene(&a.mesh, a.controls.as_deref(), a.phase, size)?;
     let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
     progress.say(format_args!("rendering on {}", r.renderer().adapter()));
@@ -220,12 +220,7 @@ pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
         bail!("{}: exists; pass --force to replace it", a.out.display());
     }
     let scene = load_scene(&a.scene)?;
-    let size = a
-        .size
-        .as_deref()
-        .map(parse_size)
-        .transpose()?
-        .unwrap_or(scene.file.size);
+    let size = size_or(a.size.as_deref(), scene.file.size)?;
     let fps = a.fps.unwrap_or(scene.file.fps);
     if !(fps > 0.0 && fps <= 240.0) {
         bail!("--fps must be within (0, 240], got {fps}");
@@ -351,21 +346,9 @@ pub fn demo(a: &DemoArgs, progress: &Progress) -> Result<()> {
             continue;
         };
         let dir = a.out.join(name);
-        std::fs::create_dir_all(dir.join("models"))
-            .with_context(|| format!("cannot make {}", dir.display()))?;
-        std::fs::create_dir_all(dir.join("controls"))?;
-        for (rel, bytes) in &d.files {
-            csrbf_mesh::write_atomic(&dir.join(rel), bytes)?;
-        }
-        let scene_path = dir.join(format!("{name}.scene.json"));
-        csrbf_mesh::write_atomic(&scene_path, d.scene.to_json().as_bytes())?;
+        let scene_path = d.write(&dir, name)?;
         let scene = load_scene(&scene_path)?;
-        let size = a
-            .size
-            .as_deref()
-            .map(parse_size)
-            .transpose()?
-            .unwrap_or(scene.file.size);
+        let size = size_or(a.size.as_deref(), scene.file.size)?;
         let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
         let mut opts = SceneOptions::default();
         r.render(&scene, &scene.frame(d.poster), opts)?
