@@ -21,6 +21,7 @@
 //! assert_eq!(t.position(1.0), DVec3::X);
 //! ```
 
+pub mod camera;
 pub mod demos;
 mod export;
 mod file;
@@ -29,6 +30,7 @@ mod scene;
 mod spline;
 mod track;
 
+pub use camera::{Camera, CameraError, Projection, ViewPreset};
 pub use export::export_gltf;
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};

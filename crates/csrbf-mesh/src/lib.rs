@@ -22,6 +22,7 @@
 //! # Ok::<(), csrbf_mesh::MeshError>(())
 //! ```
 
+pub mod bvh;
 mod error;
 /// The file formats.
 pub mod formats;
@@ -29,6 +30,7 @@ mod geometry;
 mod io;
 pub mod shapes;
 
+pub use bvh::{Bvh, Hit, Ray};
 pub use error::{MeshError, Result};
 pub use formats::Format;
 pub use geometry::{triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals};

@@ -6,6 +6,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
+pub use csrbf_anim::Camera;
+
 use crate::image::Image;
 use crate::{RenderError, Result};
 
@@ -13,19 +15,6 @@ const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// Multisampling used unless asked otherwise: smooth edges.
 pub const DEFAULT_SAMPLES: u32 = 4;
-
-/// The camera: a pinhole looking from `eye` at `target`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Camera {
-    /// Eye position.
-    pub eye: Vec3,
-    /// Point looked at.
-    pub target: Vec3,
-    /// Up direction.
-    pub up: Vec3,
-    /// Vertical field of view in degrees.
-    pub fov: f32,
-}
 
 /// A directional light.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -497,10 +486,7 @@ impl Renderer {
         let c = view.camera;
         let aspect = w as f32 / h as f32;
         let (near, far) = near_far(view);
-        let proj =
-            glam::camera::rh::proj::directx::perspective(c.fov.to_radians(), aspect, near, far);
-        let look = glam::camera::rh::view::look_at_mat4(c.eye, c.target, c.up);
-        let vp: Mat4 = proj * look;
+        let vp: Mat4 = c.view_proj(aspect, near, far);
         let mut g = Globals {
             view_proj: vp.to_cols_array_2d(),
             eye: c.eye.extend(1.0).to_array(),

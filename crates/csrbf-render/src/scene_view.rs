@@ -105,12 +105,12 @@ impl SceneRenderer {
     pub fn view(&self, scene: &Scene, frame: &Frame, options: SceneOptions) -> View {
         let f = &scene.file;
         let v3 = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        let camera = Camera {
-            eye: v3(f.camera.eye),
-            target: v3(f.camera.target),
-            up: v3(f.camera.up),
-            fov: f.camera.fov as f32,
-        };
+        let camera = Camera::perspective(
+            v3(f.camera.eye),
+            v3(f.camera.target),
+            v3(f.camera.up),
+            f.camera.fov as f32,
+        );
         let mut lights: Vec<Light> = f
             .lights
             .iter()

@@ -12,12 +12,7 @@ fn quad_view() -> View {
         Vec3::new(-1.0, 1.0, 0.0),
     ];
     View {
-        camera: Camera {
-            eye: Vec3::new(0.0, 0.0, 4.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov: 45.0,
-        },
+        camera: Camera::perspective(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 45.0),
         lights: vec![Light {
             direction: Vec3::new(0.0, 0.0, -1.0),
             color: Vec3::ONE,

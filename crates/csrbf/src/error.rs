@@ -99,6 +99,9 @@ pub enum Error {
         /// Points given.
         got: usize,
     },
+    /// A handle that cannot make control vectors (its message says why).
+    #[error("handle: {0}")]
+    BadHandle(String),
     /// A region names a part the mesh does not have.
     #[error("region names part {0:?}, which the mesh does not have")]
     UnknownGroup(String),

@@ -51,6 +51,40 @@ impl Kernel {
         }
     }
 
+    /// dphi/dr for r >= 0 (zero for r >= 1).
+    #[inline]
+    pub fn derivative(self, r: f64) -> f64 {
+        if r >= 1.0 {
+            return 0.0;
+        }
+        let s = 1.0 - r;
+        match self {
+            Kernel::C0 => -2.0 * s,
+            Kernel::C2 => -20.0 * r * s * s * s,
+            Kernel::C4 => -56.0 * r * s.powi(5) * (5.0 * r + 1.0),
+            Kernel::C6 => -22.0 * r * s.powi(7) * ((16.0 * r + 7.0) * r + 1.0),
+        }
+    }
+
+    /// The fold-free bound, as a fraction of R: a single control vector
+    /// shorter than `fold_free_ratio() * R` gives a map that folds nowhere.
+    ///
+    /// One vector d at start s gives T(x) = x + d phi(|x - s| / R) / phi(0),
+    /// whose Jacobian I + d grad(phi)^T / phi(0) has determinant
+    /// 1 + d . grad(phi) / phi(0) >= 1 - |d| max|phi'| / (R phi(0)). So T is
+    /// one-to-one when |d| < R phi(0) / max|phi'|: C0 1/2 (phi' largest at
+    /// r = 0), C2 64/135 = 0.474 (at r = 1/4), C4 0.400 (at r = 0.2356),
+    /// C6 0.355 (at r = 0.2153). Several vectors add their gradients, so
+    /// the bound is a guide there, not a proof; flipped faces are the check.
+    pub fn fold_free_ratio(self) -> f64 {
+        match self {
+            Kernel::C0 => 0.5,
+            Kernel::C2 => 64.0 / 135.0,
+            Kernel::C4 => 0.400_033_78,
+            Kernel::C6 => 0.354_723_01,
+        }
+    }
+
     /// The lower-case name used in control files: `c0`, `c2`, `c4` or `c6`.
     pub fn name(self) -> &'static str {
         match self {
@@ -156,6 +190,42 @@ mod tests {
         for k in Kernel::ALL {
             assert_eq!(k.eval(1.0), 0.0);
             assert_eq!(k.eval(1.5), 0.0);
+        }
+    }
+
+    #[test]
+    fn derivatives_and_fold_free_bounds_match_numbers() {
+        for k in Kernel::ALL {
+            let mut steepest: f64 = 0.0;
+            for i in 0..=20000 {
+                let r = i as f64 / 20000.0;
+                steepest = steepest.max(k.derivative(r).abs());
+                if i % 500 == 250 {
+                    let h = 1e-6;
+                    let numeric = (k.eval(r + h) - k.eval(r - h)) / (2.0 * h);
+                    assert!((numeric - k.derivative(r)).abs() < 1e-6, "{k}' at {r}");
+                }
+            }
+            let ratio = k.eval(0.0) / steepest;
+            assert!((ratio - k.fold_free_ratio()).abs() < 1e-6, "{k}: {ratio}");
+        }
+    }
+
+    #[test]
+    fn a_vector_at_the_bound_does_not_fold_and_past_it_does() {
+        // T(x) = x + d phi(|x| / R) / phi(0) along the line of d: monotone iff
+        // |d| < bound.
+        for k in Kernel::ALL {
+            let bound = k.fold_free_ratio();
+            let monotone = |len: f64| {
+                let t = |x: f64| x + len * k.eval(x.abs()) / k.eval(0.0);
+                (0..4000).all(|i| {
+                    let x = -1.0 + i as f64 / 2000.0;
+                    t(x + 1.0 / 2000.0) > t(x)
+                })
+            };
+            assert!(monotone(bound * 0.99), "{k}");
+            assert!(!monotone(bound * 1.05), "{k}");
         }
     }
 

@@ -66,9 +66,11 @@ mod binding;
 #[cfg(feature = "serde")]
 pub mod controls;
 mod deformation;
+mod diagnose;
 mod error;
 mod evaluate;
 pub mod format;
+pub mod handle;
 mod kernel;
 mod octree;
 pub mod ordering;
@@ -87,8 +89,10 @@ mod tests;
 
 pub use binding::{Binding, frame};
 pub use deformation::{Affine, Deformation};
+pub use diagnose::{Diagnostics, Warning, diagnose};
 pub use error::{Error, Result};
 pub use evaluate::Point;
+pub use handle::{Handle, HandleControls, Rotation};
 pub use kernel::{Kernel, Polynomial};
 pub use octree::Octree;
 pub use ordering::Ordering;

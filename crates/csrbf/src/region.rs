@@ -33,6 +33,22 @@ pub enum Region {
     Group(String),
 }
 
+impl std::fmt::Display for Region {
+    /// In words: `everything`, `sphere at (x, y, z) of radius r`, ...
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = |v: &DVec3| format!("({}, {}, {})", v.x, v.y, v.z);
+        match self {
+            Region::All => f.write_str("everything"),
+            Region::Sphere { center, radius } => {
+                write!(f, "sphere at {} of radius {radius}", p(center))
+            }
+            Region::Box { min, max } => write!(f, "box from {} to {}", p(min), p(max)),
+            Region::Vertices(v) => write!(f, "{} listed vertices", v.len()),
+            Region::Group(name) => write!(f, "part {name:?}"),
+        }
+    }
+}
+
 impl Region {
     /// The indices of the points in the region, ascending. `group` resolves a
     /// part name into point indices (None when there is no such part).

@@ -1,0 +1,628 @@
+//! What a deformation did to a mesh, and what in it may be wrong: vertices
+//! moved, faces turned over, control vectors past the fold-free bound,
+//! starts that reach no vertex, empty regions, supports cut off by a
+//! region's edge, and an affine part that moved vertices far from every
+//! start (a local edit made global).
+//!
+//! ```
+//! use csrbf::{Deformation, FitOptions, Polynomial, Region, diagnose};
+//! use glam::{DVec3, Vec3};
+//!
+//! let rest: Vec<Vec3> = (0..50).map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0)).collect();
+//! let d = Deformation::fit(&[DVec3::new(2.0, 0.0, 0.0)], &[DVec3::new(2.0, 0.3, 0.0)],
+//!     FitOptions::default().with_radius(1.0).with_polynomial(Polynomial::None))?;
+//! let stages = [(d, Region::All, 1.0)];
+//! let moved = csrbf::compose(&rest, &stages, &|_| None)?;
+//! let report = diagnose(&rest, &moved, &[], &stages, &|_| None)?;
+//! assert_eq!(report.moved, 19); // the points within R = 1 of x = 2
+//! assert!(report.warnings.is_empty());
+//! # Ok::<(), csrbf::Error>(())
+//! ```
+
+use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering as AtomicOrdering};
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::deformation::Deformation;
+use crate::error::{Error, Result};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, for_each_cell};
+use crate::kernel::{Kernel, Polynomial};
+use crate::region::Region;
+
+/// How many control indices a warning lists before "and N more".
+const LISTED: usize = 8;
+
+/// Something about a deformation a user should know.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Warning {
+    /// A deformation's region selects no vertex: it does nothing.
+    EmptyRegion {
+        /// Index of the deformation in the file.
+        stage: usize,
+        /// The region, in words.
+        region: String,
+    },
+    /// Control vectors longer than the kernel's fold-free bound (see
+    /// [`Kernel::fold_free_ratio`]): the map may fold near them.
+    PastFoldFreeBound {
+        /// Index of the deformation.
+        stage: usize,
+        /// The first few controls, by index.
+        controls: Vec<usize>,
+        /// How many.
+        count: usize,
+        /// The longest displacement (times the phase).
+        longest: f64,
+        /// The bound, fold_free_ratio x R.
+        bound: f64,
+        /// The kernel.
+        kernel: Kernel,
+    },
+    /// Starts farther than R from every vertex of the region: they move nothing.
+    StartsFarFromMesh {
+        /// Index of the deformation.
+        stage: usize,
+        /// The first few controls.
+        controls: Vec<usize>,
+        /// How many.
+        count: usize,
+        /// The radius of support.
+        radius: f64,
+    },
+    /// Controls whose support reaches vertices outside the region: the map is
+    /// cut off at the region's edge there (a seam may show).
+    SupportCrossesRegion {
+        /// Index of the deformation.
+        stage: usize,
+        /// The first few controls.
+        controls: Vec<usize>,
+        /// How many.
+        count: usize,
+    },
+    /// Vertices farther than R from every start moved: only the linear
+    /// polynomial can move them, so a local edit moved the whole model.
+    PolynomialLeak {
+        /// How many vertices.
+        vertices: usize,
+        /// The largest such move.
+        largest: f64,
+        /// One of them.
+        example: u32,
+    },
+    /// Faces turned over (see [`Diagnostics::flipped`]).
+    FlippedFaces {
+        /// How many.
+        count: usize,
+        /// The first few, by triangle index.
+        triangles: Vec<u32>,
+    },
+}
+
+fn list(v: &[usize], count: usize) -> String {
+    let mut s = v
+        .iter()
+        .map(|i| i.to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    if count > v.len() {
+        s.push_str(&format!(" and {} more", count - v.len()));
+    }
+    s
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Warning::EmptyRegion { stage, region } => write!(
+                f,
+                "deformation {stage}: its region ({region}) holds no vertex, so it moves nothing"
+            ),
+            Warning::PastFoldFreeBound {
+                stage,
+                controls,
+                count,
+                longest,
+                bound,
+                kernel,
+            } => write!(
+                f,
+                "deformation {stage}: {count} control vector(s) longer than the fold-free bound of {kernel} ({:.3} R = {bound:.4}; longest {longest:.4}): controls {}; the surface may fold there: use a larger radius or shorter moves",
+                kernel.fold_free_ratio(),
+                list(controls, *count)
+            ),
+            Warning::StartsFarFromMesh {
+                stage,
+                controls,
+                count,
+                radius,
+            } => write!(
+                f,
+                "deformation {stage}: {count} start(s) lie farther than R = {radius} from every vertex it acts on, so they move nothing: controls {}",
+                list(controls, *count)
+            ),
+            Warning::SupportCrossesRegion {
+                stage,
+                controls,
+                count,
+            } => write!(
+                f,
+                "deformation {stage}: the support of {count} control(s) reaches past the region's edge, where the map is cut off (a seam may show): controls {}",
+                list(controls, *count)
+            ),
+            Warning::PolynomialLeak {
+                vertices,
+                largest,
+                example,
+            } => write!(
+                f,
+                "{vertices} vertices farther than R from every start moved (up to {largest:.4}, e.g. vertex {example}): the linear polynomial made a local edit global; use \"polynomial\": \"none\" to keep it local"
+            ),
+            Warning::FlippedFaces { count, triangles } => write!(
+                f,
+                "{count} face(s) turned over (triangles {}): the deformation folds the surface; use a larger radius, shorter moves or more controls",
+                list(
+                    &triangles.iter().map(|&t| t as usize).collect::<Vec<_>>(),
+                    *count
+                )
+            ),
+        }
+    }
+}
+
+/// The figures of one deformed mesh.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct Diagnostics {
+    /// Vertices that moved (by more than 1e-6 of the rest diagonal).
+    pub moved: usize,
+    /// The largest move.
+    pub largest_move: f64,
+    /// The vertex that moved most.
+    pub largest_move_vertex: Option<u32>,
+    /// Triangles turned over: a face whose deformed normal points against
+    /// the deformed normals of its corners (the surface around it) where at
+    /// rest it did not. A rigid turn of a whole part flips nothing.
+    pub flipped: Vec<u32>,
+    /// Everything worth a warning, in the order found.
+    pub warnings: Vec<Warning>,
+}
+
+/// Diagnoses a deformed mesh: `rest` and `moved` positions, its `triangles`
+/// (may be empty: no face checks), and the deformations that moved it, each
+/// with its region and phase (as given to [`crate::compose`]). Regions and
+/// reach are judged on the rest positions (for later stages of a chain this
+/// is an approximation). `groups` resolves part names.
+pub fn diagnose(
+    rest: &[Vec3],
+    moved: &[Vec3],
+    triangles: &[[u32; 3]],
+    stages: &[(Deformation, Region, f64)],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<Diagnostics> {
+    if moved.len() != rest.len() {
+        return Err(Error::PointCount {
+            what: "deformed points",
+            expected: rest.len(),
+            got: moved.len(),
+        });
+    }
+    let (lo, hi) = rest.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let diagonal = if rest.is_empty() {
+        0.0
+    } else {
+        (hi - lo).length() as f64
+    };
+    let tol = (diagonal * 1e-6).max(f64::MIN_POSITIVE);
+    let moves: Vec<f64> = rest
+        .par_iter()
+        .zip(moved.par_iter())
+        .with_min_len(4096)
+        .map(|(a, b)| a.as_dvec3().distance(b.as_dvec3()))
+        .collect();
+    let moved_count = moves.iter().filter(|&&m| m > tol).count();
+    let largest = moves
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .filter(|m| *m.1 > 0.0);
+
+    let mut warnings = Vec::new();
+    // Vertices within R of some start of a deformation acting on them.
+    let mut near_any = vec![false; rest.len()];
+    let mut any_linear = false;
+    for (k, (def, region, phase)) in stages.iter().enumerate() {
+        any_linear |= def.polynomial() == Polynomial::Linear;
+        let selected = region.select(rest, groups)?;
+        if selected.is_empty() {
+            warnings.push(Warning::EmptyRegion {
+                stage: k,
+                region: region.to_string(),
+            });
+            continue;
+        }
+        // Control vectors past the fold-free bound.
+        let lengths: Vec<f64> = def
+            .displacements(def.starts())
+            .iter()
+            .map(|d| d.length() * phase)
+            .collect();
+        let bound = def.kernel().fold_free_ratio() * def.radius();
+        let over: Vec<usize> = (0..lengths.len()).filter(|&j| lengths[j] > bound).collect();
+        if !over.is_empty() {
+            warnings.push(Warning::PastFoldFreeBound {
+                stage: k,
+                controls: over.iter().copied().take(LISTED).collect(),
+                count: over.len(),
+                longest: over.iter().map(|&j| lengths[j]).fold(0.0, f64::max),
+                bound,
+                kernel: def.kernel(),
+            });
+        }
+        // Which starts reach a vertex of the region, which vertices a start.
+        let all = selected.len() == rest.len();
+        let inside: Vec<Vec3> = if all {
+            Vec::new()
+        } else {
+            selected.iter().map(|&i| rest[i as usize]).collect()
+        };
+        let (near, touched) = reach(def, if all { rest } else { &inside });
+        if all {
+            for (n, &x) in near_any.iter_mut().zip(&near) {
+                *n |= x;
+            }
+        } else {
+            for (&i, &x) in selected.iter().zip(&near) {
+                near_any[i as usize] |= x;
+            }
+        }
+        let far: Vec<usize> = (0..touched.len()).filter(|&j| !touched[j]).collect();
+        if !far.is_empty() {
+            warnings.push(Warning::StartsFarFromMesh {
+                stage: k,
+                controls: far.iter().copied().take(LISTED).collect(),
+                count: far.len(),
+                radius: def.radius(),
+            });
+        }
+        if !all {
+            let mut is_in = vec![false; rest.len()];
+            for &i in &selected {
+                is_in[i as usize] = true;
+            }
+            let outside: Vec<Vec3> = (0..rest.len())
+                .filter(|&i| !is_in[i])
+                .map(|i| rest[i])
+                .collect();
+            let (_, crossing) = reach(def, &outside);
+            let cut: Vec<usize> = (0..crossing.len())
+                .filter(|&j| crossing[j] && touched[j] && lengths[j] > tol)
+                .collect();
+            if !cut.is_empty() {
+                warnings.push(Warning::SupportCrossesRegion {
+                    stage: k,
+                    controls: cut.iter().copied().take(LISTED).collect(),
+                    count: cut.len(),
+                });
+            }
+        }
+    }
+    if any_linear {
+        let leaked: Vec<usize> = (0..rest.len())
+            .filter(|&i| !near_any[i] && moves[i] > tol)
+            .collect();
+        if let Some(&worst) = leaked
+            .iter()
+            .max_by(|a, b| moves[**a].total_cmp(&moves[**b]))
+        {
+            warnings.push(Warning::PolynomialLeak {
+                vertices: leaked.len(),
+                largest: moves[worst],
+                example: worst as u32,
+            });
+        }
+    }
+    let flipped = flipped_faces(rest, moved, triangles);
+    if !flipped.is_empty() {
+        warnings.push(Warning::FlippedFaces {
+            count: flipped.len(),
+            triangles: flipped.iter().copied().take(LISTED).collect(),
+        });
+    }
+    Ok(Diagnostics {
+        moved: moved_count,
+        largest_move: largest.map(|m| *m.1).unwrap_or(0.0),
+        largest_move_vertex: largest.map(|m| m.0 as u32),
+        flipped,
+        warnings,
+    })
+}
+
+/// For each point, whether some start lies within R; for each start,
+/// whether some point lies within R. Blocked like evaluation.
+fn reach(def: &Deformation, points: &[Vec3]) -> (Vec<bool>, Vec<bool>) {
+    let starts = def.starts().len();
+    let touched: Vec<AtomicBool> = (0..starts).map(|_| AtomicBool::new(false)).collect();
+    let mut near = vec![false; points.len()];
+    if points.is_empty() || starts == 0 {
+        return (near, vec![false; starts]);
+    }
+    let radius = def.radius();
+    let blocks = Blocks::for_starts(points, radius, starts);
+    let mut out = vec![false; points.len()];
+    for_each_cell(
+        &blocks,
+        &mut out,
+        points.len() >= PARALLEL_POINTS,
+        |(s, e), out, cand| {
+            let cell = blocks.order[s..e]
+                .iter()
+                .map(|&i| points[i as usize].as_dvec3());
+            cand.gather(def.octree(), cell, radius);
+            for (k, &i) in blocks.order[s..e].iter().enumerate() {
+                let x: DVec3 = points[i as usize].as_dvec3();
+                cand.for_each_weight(x, Kernel::C0, radius, |j, _| {
+                    out[k] = true;
+                    touched[j as usize].store(true, AtomicOrdering::Relaxed);
+                });
+            }
+        },
+    );
+    for (k, &i) in blocks.order.iter().enumerate() {
+        near[i as usize] = out[k];
+    }
+    (
+        near,
+        touched.into_iter().map(AtomicBool::into_inner).collect(),
+    )
+}
+
+/// Triangles whose deformed normal opposes the deformed vertex normals of
+/// their corners while at rest it agreed with the rest ones.
+fn flipped_faces(rest: &[Vec3], moved: &[Vec3], triangles: &[[u32; 3]]) -> Vec<u32> {
+    let n = rest.len();
+    let ok = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
+    let face = |p: &[Vec3], t: &[u32; 3]| -> DVec3 {
+        let (a, b, c) = (
+            p[t[0] as usize].as_dvec3(),
+            p[t[1] as usize].as_dvec3(),
+            p[t[2] as usize].as_dvec3(),
+        );
+        (b - a).cross(c - a)
+    };
+    let vertex_normals = |p: &[Vec3]| -> Vec<DVec3> {
+        let mut out = vec![DVec3::ZERO; n];
+        for t in triangles.iter().filter(|t| ok(t)) {
+            let f = face(p, t);
+            for &i in t {
+                out[i as usize] += f;
+            }
+        }
+        out
+    };
+    if triangles.is_empty() {
+        return Vec::new();
+    }
+    let (vr, vm) = (vertex_normals(rest), vertex_normals(moved));
+    triangles
+        .par_iter()
+        .enumerate()
+        .with_min_len(4096)
+        .filter(|(_, t)| ok(t))
+        .filter(|(_, t)| {
+            let (fr, fm) = (face(rest, t), face(moved, t));
+            let (sr, sm) = (
+                vr[t[0] as usize] + vr[t[1] as usize] + vr[t[2] as usize],
+                vm[t[0] as usize] + vm[t[1] as usize] + vm[t[2] as usize],
+            );
+            fr.dot(sr) > 0.0 && fm.dot(sm) < 0.0
+        })
+        .map(|(i, _)| i as u32)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{FitOptions, compose};
+
+    /// A flat grid of n x n vertices in the XY plane, two triangles a square.
+    fn grid(n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut p = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                p.push(Vec3::new(
+                    i as f32 / (n - 1) as f32,
+                    j as f32 / (n - 1) as f32,
+                    0.0,
+                ));
+            }
+        }
+        let mut t = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let a = (j * n + i) as u32;
+                let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
+                t.push([a, b, d]);
+                t.push([a, d, c]);
+            }
+        }
+        (p, t)
+    }
+
+    fn run(stages: &[(Deformation, Region, f64)]) -> (Diagnostics, Vec<Vec3>) {
+        let (rest, tris) = grid(41);
+        let moved = compose(&rest, stages, &|_| None).expect("compose");
+        (
+            diagnose(&rest, &moved, &tris, stages, &|_| None).expect("diagnose"),
+            moved,
+        )
+    }
+
+    fn one(from: DVec3, to: DVec3, r: f64, poly: Polynomial) -> Deformation {
+        Deformation::fit(
+            &[from],
+            &[to],
+            FitOptions::default().with_radius(r).with_polynomial(poly),
+        )
+        .or_else(|_| {
+            // Linear needs 4 starts: pin three far corners.
+            let s = [
+                from,
+                DVec3::new(0.0, 0.0, 0.0),
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(0.0, 1.0, 0.5),
+            ];
+            let t = [to, s[1], s[2], s[3]];
+            Deformation::fit(
+                &s,
+                &t,
+                FitOptions::default().with_radius(r).with_polynomial(poly),
+            )
+        })
+        .expect("fit")
+    }
+
+    #[test]
+    fn a_small_bump_is_clean() {
+        let d = one(
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(0.5, 0.5, 0.05),
+            0.2,
+            Polynomial::None,
+        );
+        let (r, _) = run(&[(d, Region::All, 1.0)]);
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        assert!(r.moved > 0 && r.moved < 41 * 41 / 5);
+        assert!((r.largest_move - 0.05).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_sideways_shove_past_the_bound_folds_and_is_said() {
+        // C2 bound: 0.474 R. A shove of 0.8 R along the surface folds it.
+        let d = one(
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(0.66, 0.5, 0.0),
+            0.2,
+            Polynomial::None,
+        );
+        let (r, _) = run(&[(d, Region::All, 1.0)]);
+        assert!(
+            r.warnings
+                .iter()
+                .any(|w| matches!(w, Warning::PastFoldFreeBound { .. }))
+        );
+        assert!(!r.flipped.is_empty(), "{:?}", r.warnings);
+        // Half as far is within the bound: no fold.
+        let d = one(
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(0.58, 0.5, 0.0),
+            0.2,
+            Polynomial::None,
+        );
+        let (r, _) = run(&[(d, Region::All, 1.0)]);
+        assert!(
+            r.flipped.is_empty() && r.warnings.is_empty(),
+            "{:?}",
+            r.warnings
+        );
+    }
+
+    #[test]
+    fn far_starts_empty_regions_cut_supports_and_leaks_are_named() {
+        let far = one(
+            DVec3::new(5.0, 5.0, 5.0),
+            DVec3::new(5.0, 5.0, 5.05),
+            0.2,
+            Polynomial::None,
+        );
+        let (r, _) = run(&[(far.clone(), Region::All, 1.0)]);
+        assert!(
+            matches!(
+                r.warnings[..],
+                [Warning::StartsFarFromMesh { count: 1, .. }]
+            ),
+            "{:?}",
+            r.warnings
+        );
+        let empty = Region::Sphere {
+            center: DVec3::splat(9.0),
+            radius: 0.1,
+        };
+        let (r, _) = run(&[(far, empty, 1.0)]);
+        assert!(matches!(
+            r.warnings[..],
+            [Warning::EmptyRegion { stage: 0, .. }]
+        ));
+        let bump = one(
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(0.5, 0.5, 0.05),
+            0.3,
+            Polynomial::None,
+        );
+        let half = Region::Box {
+            min: DVec3::new(0.0, 0.0, -1.0),
+            max: DVec3::new(0.55, 1.0, 1.0),
+        };
+        let (r, _) = run(&[(bump, half, 1.0)]);
+        assert!(
+            matches!(
+                r.warnings[..],
+                [Warning::SupportCrossesRegion { count: 1, .. }]
+            ),
+            "{:?}",
+            r.warnings
+        );
+        // A linear polynomial fitted to a lifted corner tilts the whole sheet.
+        let lin = one(
+            DVec3::new(0.9, 0.9, 0.0),
+            DVec3::new(0.9, 0.9, 0.1),
+            0.2,
+            Polynomial::Linear,
+        );
+        let (r, _) = run(&[(lin, Region::All, 1.0)]);
+        assert!(
+            r.warnings
+                .iter()
+                .any(|w| matches!(w, Warning::PolynomialLeak { .. })),
+            "{:?}",
+            r.warnings
+        );
+    }
+
+    #[test]
+    fn reach_agrees_with_brute_force() {
+        let (rest, _) = grid(60);
+        let starts: Vec<DVec3> = (0..70)
+            .map(|k| {
+                DVec3::new(
+                    (k as f64 * 0.37).fract() * 1.4 - 0.2,
+                    (k as f64 * 0.71).fract() * 1.4 - 0.2,
+                    0.05,
+                )
+            })
+            .collect();
+        let d = Deformation::fit(
+            &starts,
+            &starts,
+            FitOptions::default()
+                .with_radius(0.08)
+                .with_polynomial(Polynomial::None),
+        )
+        .expect("fit");
+        let (near, touched) = reach(&d, &rest);
+        for (i, p) in rest.iter().enumerate() {
+            let want = starts.iter().any(|s| s.distance(p.as_dvec3()) < 0.08);
+            assert_eq!(near[i], want, "point {i}");
+        }
+        for (j, s) in starts.iter().enumerate() {
+            let want = rest.iter().any(|p| s.distance(p.as_dvec3()) < 0.08);
+            assert_eq!(touched[j], want, "start {j}");
+        }
+    }
+}
