@@ -44,7 +44,7 @@ for p, d in moves:
     seen.add(p)
     controls.append({"from": list(p), "to": [round(p[k] + 1.8 * d[k], 6) for k in range(3)]})
 
-doc = {"kernel": "c2", "radius": 3.5, "polynomial": "linear", "controls": controls}
+doc = {"kernel": "c2", "radius": 3.5, "polynomial": "none", "controls": controls}
 with open(os.path.join(root, "assets/controls/head_smile.json"), "w") as f:
     json.dump(doc, f, indent=1)
 print(len(controls), "controls")

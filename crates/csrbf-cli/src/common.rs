@@ -77,15 +77,13 @@ pub fn read_controls(path: &Path, progress: &Progress) -> Result<Vec<ControlSpec
 pub fn fit_all(
     specs: &[ControlSpec],
     path: &Path,
+    mesh: Option<&Mesh>,
     progress: &Progress,
 ) -> Result<Vec<(Deformation, Region, f64)>> {
+    let specs = resolve_all(specs, path, mesh, progress)?;
     let mut out = Vec::with_capacity(specs.len());
     for (i, s) in specs.iter().enumerate() {
-        let at = if specs.len() > 1 {
-            format!("{}: deformations[{i}]", path.display())
-        } else {
-            path.display().to_string()
-        };
+        let at = stage_name(path, i, specs.len());
         warn_if_dense(s, &at);
         let t = Instant::now();
         let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
@@ -103,6 +101,46 @@ pub fn fit_all(
             t.elapsed().as_secs_f64() * 1e3
         ));
         out.push((def, s.region.clone(), s.phase));
+    }
+    Ok(out)
+}
+
+fn stage_name(path: &Path, i: usize, count: usize) -> String {
+    if count > 1 {
+        format!("{}: deformations[{i}]", path.display())
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// Turns every handle into control vectors on the mesh (which a handle
+/// needs); deformations without one are kept as they are.
+pub fn resolve_all(
+    specs: &[ControlSpec],
+    path: &Path,
+    mesh: Option<&Mesh>,
+    progress: &Progress,
+) -> Result<Vec<ControlSpec>> {
+    let mut out = Vec::with_capacity(specs.len());
+    for (i, s) in specs.iter().enumerate() {
+        if !s.needs_mesh() {
+            out.push(s.clone());
+            continue;
+        }
+        let at = stage_name(path, i, specs.len());
+        let Some(m) = mesh else {
+            bail!("{at}: handle: a handle is sampled on the mesh; give --mesh");
+        };
+        let t = Instant::now();
+        let r = s
+            .resolve(&m.positions, &|n| m.part_vertices(n))
+            .with_context(|| at.clone())?;
+        progress.say(format_args!(
+            "{at}: handle made {} control vectors ({:.1} ms)",
+            r.starts.len() - s.starts.len(),
+            t.elapsed().as_secs_f64() * 1e3
+        ));
+        out.push(r);
     }
     Ok(out)
 }

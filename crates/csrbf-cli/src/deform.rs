@@ -4,7 +4,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use csrbf::{Deformation, Region, compose, format};
+use csrbf::{Deformation, Region, compose, diagnose, format};
 use csrbf_mesh::Mesh;
 
 use crate::common::{Progress, check_output, check_phase, fit_all, read_controls, read_mesh};
@@ -15,26 +15,35 @@ pub fn deform(
     phase: f64,
     out: &Path,
     force: bool,
+    json: bool,
     progress: &Progress,
 ) -> Result<()> {
     check_phase(phase)?;
     check_output(out, &[mesh, controls], force, true)?;
     let specs = read_controls(controls, progress)?;
-    let stages = fit_all(&specs, controls, progress)?;
     let mut m = read_mesh(mesh, progress)?;
+    let stages = fit_all(&specs, controls, Some(&m), progress)?;
     // The file's phase of each deformation, scaled by the command's.
     let stages: Vec<_> = stages
         .into_iter()
         .map(|(d, r, p)| (d, r, p * phase))
         .collect();
-    move_and_write(&mut m, &stages, mesh, out, progress)
+    move_and_write(&mut m, &stages, mesh, out, json, progress)
 }
 
-pub fn fit(controls: &Path, out: &Path, force: bool, progress: &Progress) -> Result<()> {
-    check_output(out, &[controls], force, false)?;
+pub fn fit(
+    controls: &Path,
+    mesh: Option<&Path>,
+    out: &Path,
+    force: bool,
+    progress: &Progress,
+) -> Result<()> {
+    let inputs: Vec<&Path> = std::iter::once(controls).chain(mesh).collect();
+    check_output(out, &inputs, force, false)?;
     let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
     let specs = read_controls(controls, progress)?;
-    let stages: Vec<(Deformation, Region)> = fit_all(&specs, controls, progress)?
+    let m = mesh.map(|p| read_mesh(p, progress)).transpose()?;
+    let stages: Vec<(Deformation, Region)> = fit_all(&specs, controls, m.as_ref(), progress)?
         .into_iter()
         .map(|(d, r, _)| (d, r))
         .collect();
@@ -58,6 +67,7 @@ pub fn apply(
     phase: f64,
     out: &Path,
     force: bool,
+    json: bool,
     progress: &Progress,
 ) -> Result<()> {
     check_phase(phase)?;
@@ -72,7 +82,7 @@ pub fn apply(
     ));
     let mut m = read_mesh(mesh, progress)?;
     let stages: Vec<_> = stages.into_iter().map(|(d, r)| (d, r, phase)).collect();
-    move_and_write(&mut m, &stages, mesh, out, progress)
+    move_and_write(&mut m, &stages, mesh, out, json, progress)
 }
 
 /// Moves the vertices, recomputes normals where the mesh had them, writes.
@@ -81,27 +91,53 @@ fn move_and_write(
     stages: &[(Deformation, Region, f64)],
     mesh_path: &Path,
     out: &Path,
+    json: bool,
     progress: &Progress,
 ) -> Result<()> {
     let t = Instant::now();
     let lookup = |name: &str| m.part_vertices(name);
     let moved =
         compose(&m.positions, stages, &lookup).with_context(|| mesh_path.display().to_string())?;
-    let max_move = moved
-        .iter()
-        .zip(&m.positions)
-        .map(|(a, b)| a.distance(*b))
-        .fold(0.0f32, f32::max);
+    let deform_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let triangles = m.faces.triangles();
+    let report = diagnose(&m.positions, &moved, &triangles, stages, &lookup)
+        .with_context(|| mesh_path.display().to_string())?;
+    let diagnose_ms = t.elapsed().as_secs_f64() * 1e3;
     m.positions = moved;
     if m.normals.is_some() {
         m.recompute_normals();
     }
     progress.say(format_args!(
-        "deformed {} vertices in {:.1} ms (largest move {max_move})",
+        "deformed {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) turned over (checked in {diagnose_ms:.1} ms)",
         m.positions.len(),
-        t.elapsed().as_secs_f64() * 1e3
+        report.moved,
+        report.largest_move,
+        report
+            .largest_move_vertex
+            .map(|v| format!(" (vertex {v})"))
+            .unwrap_or_default(),
+        report.flipped.len(),
     ));
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
     csrbf_mesh::write(out, m)?;
     progress.say(format_args!("wrote {}", out.display()));
+    if json {
+        let value = serde_json::json!({
+            "output": out.display().to_string(),
+            "vertices": m.positions.len(),
+            "moved": report.moved,
+            "largest_move": report.largest_move,
+            "largest_move_vertex": report.largest_move_vertex,
+            "flipped_faces": report.flipped.len(),
+            "flipped": report.flipped.iter().take(1000).collect::<Vec<_>>(),
+            "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
+            "deform_ms": deform_ms,
+            "diagnose_ms": diagnose_ms,
+        });
+        println!("{}", serde_json::to_string_pretty(&value)?);
+    }
     Ok(())
 }

@@ -6,6 +6,7 @@ mod common;
 mod deform;
 mod info;
 mod movie;
+mod view;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -42,12 +43,18 @@ enum Command {
         /// Allow the output to replace an input file.
         #[arg(long)]
         force: bool,
+        /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
+        #[arg(long)]
+        json: bool,
     },
     /// Fit the deformations of a control file and save them compactly (.csrbf, or .json for people).
     Fit {
         /// Control file (JSON).
         #[arg(long)]
         controls: PathBuf,
+        /// The mesh, for control files with a handle (sampled on it).
+        #[arg(long)]
+        mesh: Option<PathBuf>,
         /// Output: .csrbf (binary, bit-exact) or .json.
         #[arg(long)]
         out: PathBuf,
@@ -72,6 +79,9 @@ enum Command {
         /// Allow the output to replace an input file.
         #[arg(long)]
         force: bool,
+        /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
+        #[arg(long)]
+        json: bool,
     },
     /// Describe a mesh, a control file (system size, band, memory) or a deformation file.
     Info {
@@ -90,8 +100,10 @@ enum Command {
     },
     /// Measure fit, bind, evaluate, refit and frame times (median of several runs).
     Bench(bench::BenchArgs),
-    /// Render a picture of a mesh, optionally deformed.
+    /// Render a picture of a mesh, optionally deformed, from a chosen view.
     Render(movie::RenderArgs),
+    /// What lies under a pixel of the picture `render` draws with the same flags: point, triangle, vertex, part.
+    Pick(view::PickArgs),
     /// Render a scene file as a movie (MP4, GIF) or PNG frames.
     Animate(movie::AnimateArgs),
     /// Write one of the papers' examples (face, fish, ball, brick, all): scene file, models, poster and movie.
@@ -119,19 +131,22 @@ fn main() -> ExitCode {
             phase,
             out,
             force,
-        } => deform::deform(&mesh, &controls, phase, &out, force, &progress),
+            json,
+        } => deform::deform(&mesh, &controls, phase, &out, force, json, &progress),
         Command::Fit {
             controls,
+            mesh,
             out,
             force,
-        } => deform::fit(&controls, &out, force, &progress),
+        } => deform::fit(&controls, mesh.as_deref(), &out, force, &progress),
         Command::Apply {
             mesh,
             deformation,
             phase,
             out,
             force,
-        } => deform::apply(&mesh, &deformation, phase, &out, force, &progress),
+            json,
+        } => deform::apply(&mesh, &deformation, phase, &out, force, json, &progress),
         Command::Info {
             mesh,
             controls,
@@ -145,6 +160,7 @@ fn main() -> ExitCode {
         ),
         Command::Bench(args) => bench::bench(&args, &progress),
         Command::Render(args) => movie::render(&args, &progress),
+        Command::Pick(args) => view::pick(&args, &progress),
         Command::Animate(args) => movie::animate(&args, &progress),
         Command::Demo(args) => movie::demo(&args, &progress),
         Command::Export { scene, out, force } => movie::export(&scene, &out, force, &progress),

@@ -53,18 +53,23 @@ pub fn parse_size(s: &str) -> Result<[u32; 2]> {
     Ok([w, h])
 }
 
+/// The picture size of `render` and `pick` unless `--size` says otherwise.
+pub const DEFAULT_SIZE: [u32; 2] = [1024, 768];
+
 /// The `--size` given, or `default`.
-fn size_or(size: Option<&str>, default: [u32; 2]) -> Result<[u32; 2]> {
+pub fn size_or(size: Option<&str>, default: [u32; 2]) -> Result<[u32; 2]> {
     Ok(size.map(parse_size).transpose()?.unwrap_or(default))
 }
 
-/// A one-object scene looking at a mesh from a three-quarter view that frames it.
+/// A one-object scene of a mesh, looking at it from a three-quarter view
+/// that frames its rest shape (`view::aim` sets the camera the flags ask for);
+/// also gives the mesh as read.
 pub fn mesh_scene(
     mesh: &Path,
     controls: Option<&Path>,
     phase: f64,
     size: [u32; 2],
-) -> Result<Scene> {
+) -> Result<(Scene, csrbf_mesh::Mesh)> {
     let m = csrbf_mesh::read(mesh)?;
     let (lo, hi) = m.bounds().context("the mesh has no vertices")?;
     let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
@@ -123,7 +128,7 @@ pub fn mesh_scene(
             contact: None,
         }],
     };
-    Ok(Scene::from_file(file, Path::new("."), mesh)?)
+    Ok((Scene::from_file(file, Path::new("."), mesh)?, m))
 }
 
 /// Options of `render`.
@@ -146,6 +151,8 @@ pub struct RenderArgs {
     pub size: Option<String>,
     #[command(flatten)]
     pub look: LookArgs,
+    #[command(flatten)]
+    pub camera: crate::view::CameraArgs,
     /// Allow the output to replace an input file.
     #[arg(long)]
     pub force: bool,
@@ -163,8 +170,17 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
             a.out.display()
         );
     }
-    let size = size_or(a.size.as_deref(), [1024, 768])?;
-    let scene = mesh_scene(&a.mesh, a.controls.as_deref(), a.phase, size)?;
+    if a.look.overlay && a.controls.is_none() {
+        bail!("--overlay draws control vectors: give --controls too");
+    }
+    let size = size_or(a.size.as_deref(), DEFAULT_SIZE)?;
+    let aimed = crate::view::aim(&a.mesh, a.controls.as_deref(), a.phase, size, &a.camera)?;
+    let scene = aimed.scene;
+    progress.say(format_args!(
+        "up {} ({})",
+        csrbf_anim::camera::axis_name(aimed.up.0),
+        aimed.up.1
+    ));
     let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
     progress.say(format_args!("rendering on {}", r.renderer().adapter()));
     let t = Instant::now();

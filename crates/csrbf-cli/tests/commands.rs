@@ -3,13 +3,8 @@ use crate::support::*;
 #[test]
 fn deform_every_real_model_into_every_format() {
     let dir = TempDir::new("every");
-    let mut models: Vec<_> = std::fs::read_dir(models_dir())
-        .expect("models")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| csrbf_mesh::Format::from_path(p).is_ok())
-        .collect();
-    models.sort();
-    assert!(models.len() >= 5);
+    let models = all_models();
+    assert!(models.len() >= 7);
     let outs = ["obj", "ply", "stl", "off", "gltf", "glb"];
     for (i, model) in models.iter().enumerate() {
         let controls = dir.write(&format!("c{i}.json"), controls_for(model, "c2", "linear"));

@@ -374,7 +374,7 @@ fn render_shows_a_gltf_models_own_texture_upright() {
         "render",
         "-q",
         "--mesh",
-        arg(&models_dir().join("assimp_BoxTextured.glb")),
+        arg(&model("assimp_BoxTextured.glb")),
         "--out",
         arg(&out),
         "--size",
@@ -405,7 +405,7 @@ fn render_shows_a_gltf_models_own_texture_upright() {
 }
 
 /// Width, height and pixels of a PNG.
-fn image_rgba(path: &std::path::Path) -> (u32, u32, Vec<[u8; 4]>) {
+pub fn image_rgba(path: &std::path::Path) -> (u32, u32, Vec<[u8; 4]>) {
     let decoder = png::Decoder::new(std::io::BufReader::new(
         std::fs::File::open(path).expect("open"),
     ));

@@ -1,5 +1,6 @@
 //! The `csrbf` binary on real models and on every bad input the issue lists.
 
+mod aim;
 mod bad_input;
 mod commands;
 mod pictures;

@@ -10,9 +10,10 @@
 //! (`deformations[1].controls[3].from`) or, for syntax errors, the line and
 //! column.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use serde_json::{Map, Value};
 
+use crate::handle::{Handle, Rotation};
 use crate::kernel::{Kernel, Polynomial};
 use crate::ordering::Ordering;
 use crate::region::Region;
@@ -42,6 +43,41 @@ pub struct ControlSpec {
     pub region: Region,
     /// Phase of this deformation within a chain (default 1).
     pub phase: f64,
+    /// A handle whose control vectors are added to `starts` and `targets`
+    /// by [`ControlSpec::resolve`] (they depend on the mesh).
+    pub handle: Option<Handle>,
+    /// Where the handle's pins go.
+    pub anchor: Option<Region>,
+}
+
+impl ControlSpec {
+    /// Whether the control vectors depend on a mesh (a handle).
+    pub fn needs_mesh(&self) -> bool {
+        self.handle.is_some()
+    }
+
+    /// The same deformation with its handle turned into control vectors on
+    /// `points` (added after the file's own controls); `groups` resolves
+    /// part names. Without a handle, a copy.
+    pub fn resolve(
+        &self,
+        points: &[Vec3],
+        groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    ) -> crate::Result<ControlSpec> {
+        let mut out = self.clone();
+        if let Some(h) = out.handle.take() {
+            let v = h.controls(
+                points,
+                out.anchor.take().as_ref(),
+                self.options.radius,
+                self.options.polynomial,
+                groups,
+            )?;
+            out.starts.extend(v.starts);
+            out.targets.extend(v.targets);
+        }
+        Ok(out)
+    }
 }
 
 /// A parsed control file: its deformations and warnings about keys it did
@@ -101,6 +137,8 @@ const KEYS: &[&str] = &[
     "ordering",
     "name",
     "comment",
+    "handle",
+    "anchor",
 ];
 
 fn join(base: &str, key: &str) -> String {
@@ -147,7 +185,7 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
             .map_err(|e| err(&at("kernel"), e.to_string()))?,
     };
     let polynomial = match name("polynomial")? {
-        None => Polynomial::Linear,
+        None => Polynomial::default(),
         Some(s) => s
             .parse::<Polynomial>()
             .map_err(|e| err(&at("polynomial"), e.to_string()))?,
@@ -199,33 +237,30 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
                 )
             })?,
     };
-    let list = obj
-        .get("controls")
-        .ok_or_else(|| {
-            err(
+    let handle = match obj.get("handle") {
+        None | Some(Value::Null) => None,
+        Some(h) => Some(parse_handle(h, &at("handle"), warnings)?),
+    };
+    let anchor = match obj.get("anchor") {
+        None | Some(Value::Null) => None,
+        Some(_) if handle.is_none() => {
+            return Err(err(
+                &at("anchor"),
+                "an anchor needs a handle: give \"handle\" too",
+            ));
+        }
+        Some(r) => Some(parse_region(r, &at("anchor"))?),
+    };
+    let (starts, targets) = match obj.get("controls") {
+        None if handle.is_some() => (Vec::new(), Vec::new()),
+        None => {
+            return Err(err(
                 &at("controls"),
-                "missing: give a list of {\"from\": [x, y, z], \"to\": [x, y, z]}",
-            )
-        })?
-        .as_array()
-        .ok_or_else(|| err(&at("controls"), "expected a list of control vectors"))?;
-    if list.is_empty() {
-        return Err(err(
-            &at("controls"),
-            "no controls: give at least one {\"from\": [x, y, z], \"to\": [x, y, z]}",
-        ));
-    }
-    let mut starts = Vec::with_capacity(list.len());
-    let mut targets = Vec::with_capacity(list.len());
-    for (i, c) in list.iter().enumerate() {
-        let here = format!("{}[{i}]", at("controls"));
-        let c = c
-            .as_object()
-            .ok_or_else(|| err(&here, "expected {\"from\": [x, y, z], \"to\": [x, y, z]}"))?;
-        unknown_keys(c, &["from", "to", "name"], &here, warnings);
-        starts.push(point(c.get("from"), &format!("{here}.from"))?);
-        targets.push(point(c.get("to"), &format!("{here}.to"))?);
-    }
+                "missing: give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} or a \"handle\"",
+            ));
+        }
+        Some(list) => vectors(list, &at("controls"), handle.is_some(), warnings)?,
+    };
     let region = match obj.get("region") {
         None | Some(Value::Null) => Region::All,
         Some(r) => parse_region(r, &at("region"))?,
@@ -242,7 +277,126 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         options,
         region,
         phase,
+        handle,
+        anchor,
     })
+}
+
+fn vectors(
+    list: &Value,
+    here: &str,
+    may_be_empty: bool,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<DVec3>, Vec<DVec3>), ControlError> {
+    let list = list
+        .as_array()
+        .ok_or_else(|| err(here, "expected a list of control vectors"))?;
+    if list.is_empty() && !may_be_empty {
+        return Err(err(
+            here,
+            "no controls: give at least one {\"from\": [x, y, z], \"to\": [x, y, z]}",
+        ));
+    }
+    let mut starts = Vec::with_capacity(list.len());
+    let mut targets = Vec::with_capacity(list.len());
+    for (i, c) in list.iter().enumerate() {
+        let here = format!("{here}[{i}]");
+        let c = c
+            .as_object()
+            .ok_or_else(|| err(&here, "expected {\"from\": [x, y, z], \"to\": [x, y, z]}"))?;
+        unknown_keys(c, &["from", "to", "name"], &here, warnings);
+        starts.push(point(c.get("from"), &format!("{here}.from"))?);
+        targets.push(point(c.get("to"), &format!("{here}.to"))?);
+    }
+    Ok((starts, targets))
+}
+
+fn number(v: Option<&Value>, at: &str) -> Result<Option<f64>, ControlError> {
+    match v {
+        None | Some(Value::Null) => Ok(None),
+        Some(x) => x
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .map(Some)
+            .ok_or_else(|| err(at, format!("expected a finite number, found {x}"))),
+    }
+}
+
+/// `{"select": <region>, "rotate": {"axis": [..], "angle_deg": a, "pivot": [..]},
+/// "scale": s, "translate": [..], "samples": n}`.
+fn parse_handle(v: &Value, at: &str, warnings: &mut Vec<String>) -> Result<Handle, ControlError> {
+    let obj = v.as_object().ok_or_else(|| {
+        err(at, "expected {\"select\": <region>, \"rotate\": {...}, \"scale\": s, \"translate\": [x, y, z]}")
+    })?;
+    unknown_keys(
+        obj,
+        &[
+            "select",
+            "rotate",
+            "scale",
+            "translate",
+            "samples",
+            "comment",
+        ],
+        at,
+        warnings,
+    );
+    let here = |k: &str| format!("{at}.{k}");
+    let select = parse_region(
+        obj.get("select")
+            .ok_or_else(|| err(&here("select"), "missing: give the region that moves"))?,
+        &here("select"),
+    )?;
+    let mut h = Handle::new(select);
+    if let Some(r) = obj.get("rotate").filter(|r| !r.is_null()) {
+        let ro = r.as_object().ok_or_else(|| {
+            err(
+                &here("rotate"),
+                "expected {\"axis\": [x, y, z], \"angle_deg\": a, \"pivot\": [x, y, z]}",
+            )
+        })?;
+        let rat = here("rotate");
+        unknown_keys(ro, &["axis", "angle_deg", "pivot"], &rat, warnings);
+        let axis = point(ro.get("axis"), &format!("{rat}.axis"))?;
+        if !(axis.length() > 0.0) {
+            return Err(err(&format!("{rat}.axis"), "the axis must not be zero"));
+        }
+        let angle = number(ro.get("angle_deg"), &format!("{rat}.angle_deg"))?
+            .ok_or_else(|| err(&format!("{rat}.angle_deg"), "missing: the angle in degrees"))?;
+        let mut rot = Rotation::new(axis, angle);
+        if ro.get("pivot").is_some_and(|p| !p.is_null()) {
+            rot = rot.with_pivot(point(ro.get("pivot"), &format!("{rat}.pivot"))?);
+        }
+        h = h.with_rotation(rot);
+    }
+    if let Some(s) = number(obj.get("scale"), &here("scale"))? {
+        if !(s > 0.0) {
+            return Err(err(&here("scale"), format!("must be > 0, got {s}")));
+        }
+        h = h.with_scale(s);
+    }
+    if obj.get("translate").is_some_and(|t| !t.is_null()) {
+        h = h.with_translation(point(obj.get("translate"), &here("translate"))?);
+    }
+    if let Some(n) = obj.get("samples").filter(|n| !n.is_null()) {
+        let n = n
+            .as_u64()
+            .filter(|&n| (1..=100_000).contains(&n))
+            .ok_or_else(|| {
+                err(
+                    &here("samples"),
+                    format!("expected a whole number within 1..100000, found {n}"),
+                )
+            })?;
+        h = h.with_samples(n as usize);
+    }
+    if h.rotate.is_none() && h.scale.is_none() && h.translate.is_none() {
+        return Err(err(
+            at,
+            "the handle does not move: give rotate, scale or translate",
+        ));
+    }
+    Ok(h)
 }
 
 fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
@@ -287,6 +441,15 @@ pub fn parse_region(v: &Value, at: &str) -> Result<Region, ControlError> {
         "box" => {
             let min = point(body.get("min"), &format!("{here}.min"))?;
             let max = point(body.get("max"), &format!("{here}.max"))?;
+            if let Some(k) = (0..3).find(|&k| min[k] > max[k]) {
+                return Err(err(
+                    &format!("{here}.min[{k}]"),
+                    format!(
+                        "is greater than max[{k}] ({} > {}): the box is empty",
+                        min[k], max[k]
+                    ),
+                ));
+            }
             Region::Box { min, max }
         }
         "vertices" => {
@@ -342,7 +505,7 @@ mod tests {
         )
         .expect("parse");
         assert_eq!(f.deformations[0].options.kernel, Kernel::C2);
-        assert_eq!(f.deformations[0].options.polynomial, Polynomial::Linear);
+        assert_eq!(f.deformations[0].options.polynomial, Polynomial::None);
         assert_eq!(f.warnings, vec!["extra: unknown key ignored".to_owned()]);
     }
 
@@ -355,6 +518,36 @@ mod tests {
         assert_eq!(f.deformations.len(), 2);
         assert_eq!(f.deformations[1].region, Region::Group("lips".into()));
         assert_eq!(f.deformations[1].phase, 0.5);
+    }
+
+    #[test]
+    fn handles_become_control_vectors_on_the_mesh() {
+        let f = ControlFile::parse(
+            r#"{"radius": 3, "handle": {"select": {"box": {"min": [6, -1, -1], "max": [11, 1, 1]}},
+                "rotate": {"axis": [0, 0, 1], "angle_deg": 90, "pivot": [5, 0, 0]}},
+                "anchor": {"box": {"min": [-1, -1, -1], "max": [4, 1, 1]}}}"#,
+        )
+        .expect("parse");
+        let spec = &f.deformations[0];
+        assert!(spec.needs_mesh() && spec.starts.is_empty());
+        let points: Vec<Vec3> = (0..=100)
+            .map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0))
+            .collect();
+        let r = spec.resolve(&points, &|_| None).expect("resolve");
+        assert!(!r.needs_mesh() && r.starts.len() > 2);
+        let tip = r
+            .starts
+            .iter()
+            .position(|s| s.x == 10.0)
+            .expect("the tip is sampled");
+        assert!(r.targets[tip].distance(DVec3::new(5.0, 5.0, 0.0)) < 1e-9);
+        // Pins do not move.
+        assert!(
+            r.starts
+                .iter()
+                .zip(&r.targets)
+                .any(|(s, t)| s == t && s.x <= 4.0)
+        );
     }
 
     #[test]
@@ -398,6 +591,38 @@ mod tests {
             (
                 r#"{"radius": 1, "region": {"cone": 1}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
                 "unknown region \"cone\"",
+            ),
+            (
+                r#"{"radius": 1, "region": {"box": {"min": [0,2,0], "max": [1,1,1]}}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "region.box.min[1]: is greater than max[1]",
+            ),
+            (
+                r#"{"radius": 1, "anchor": {"group": "body"}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "anchor: an anchor needs a handle",
+            ),
+            (
+                r#"{"radius": 1, "handle": {"select": {"group": "ear"}, "rotate": {"axis": [0,0,0], "angle_deg": 90}}}"#,
+                "handle.rotate.axis: the axis must not be zero",
+            ),
+            (
+                r#"{"radius": 1, "handle": {"select": {"group": "ear"}, "rotate": {"axis": [0,0,1]}}}"#,
+                "handle.rotate.angle_deg: missing",
+            ),
+            (
+                r#"{"radius": 1, "handle": {"select": {"group": "ear"}}}"#,
+                "handle: the handle does not move",
+            ),
+            (
+                r#"{"radius": 1, "handle": {"rotate": {"axis": [0,0,1], "angle_deg": 5}}}"#,
+                "handle.select: missing",
+            ),
+            (
+                r#"{"radius": 1, "handle": {"select": {"group": "ear"}, "scale": -1}}"#,
+                "handle.scale: must be > 0",
+            ),
+            (
+                r#"{"radius": 1, "handle": {"select": {"group": "ear"}, "scale": 2, "samples": 0}}"#,
+                "handle.samples: expected a whole number",
             ),
         ];
         for (text, want) in cases {

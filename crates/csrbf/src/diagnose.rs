@@ -45,8 +45,9 @@ pub enum Warning {
         /// The region, in words.
         region: String,
     },
-    /// Control vectors longer than the kernel's fold-free bound (see
-    /// [`Kernel::fold_free_ratio`]): the map may fold near them.
+    /// Control vectors whose displacement, less the mean of their
+    /// neighbours' (starts within R), is longer than the kernel's fold-free
+    /// bound (see [`Kernel::fold_free_ratio`]): the map may fold near them.
     PastFoldFreeBound {
         /// Index of the deformation.
         stage: usize,
@@ -129,7 +130,7 @@ impl fmt::Display for Warning {
                 kernel,
             } => write!(
                 f,
-                "deformation {stage}: {count} control vector(s) longer than the fold-free bound of {kernel} ({:.3} R = {bound:.4}; longest {longest:.4}): controls {}; the surface may fold there: use a larger radius or shorter moves",
+                "deformation {stage}: {count} control vector(s) move farther from their neighbours than the fold-free bound of {kernel} ({:.3} R = {bound:.4}; worst {longest:.4}): controls {}; the surface may fold there: use a larger radius or shorter moves",
                 kernel.fold_free_ratio(),
                 list(controls, *count)
             ),
@@ -246,20 +247,21 @@ pub fn diagnose(
             });
             continue;
         }
-        // Control vectors past the fold-free bound.
-        let lengths: Vec<f64> = def
-            .displacements(def.starts())
-            .iter()
-            .map(|d| d.length() * phase)
-            .collect();
+        // Control vectors past the fold-free bound, relative to their
+        // neighbours' (a rigid motion of many starts is not a fold).
+        let moves = def.displacements(def.starts());
+        let lengths: Vec<f64> = moves.iter().map(|d| d.length() * phase).collect();
+        let relative = relative_moves(def, &moves, *phase);
         let bound = def.kernel().fold_free_ratio() * def.radius();
-        let over: Vec<usize> = (0..lengths.len()).filter(|&j| lengths[j] > bound).collect();
+        let over: Vec<usize> = (0..relative.len())
+            .filter(|&j| relative[j] > bound)
+            .collect();
         if !over.is_empty() {
             warnings.push(Warning::PastFoldFreeBound {
                 stage: k,
                 controls: over.iter().copied().take(LISTED).collect(),
                 count: over.len(),
-                longest: over.iter().map(|&j| lengths[j]).fold(0.0, f64::max),
+                longest: over.iter().map(|&j| relative[j]).fold(0.0, f64::max),
                 bound,
                 kernel: def.kernel(),
             });
@@ -341,6 +343,29 @@ pub fn diagnose(
         flipped,
         warnings,
     })
+}
+
+/// Each control's displacement less the mean of its neighbours' (the other
+/// starts within R; none: zero), times the phase. One lone vector keeps its
+/// length, the fold-free bound's case; starts moving together count little.
+fn relative_moves(def: &Deformation, moves: &[DVec3], phase: f64) -> Vec<f64> {
+    let starts = def.starts();
+    let radius = def.radius();
+    (0..starts.len())
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|j| {
+            let (mut sum, mut n) = (DVec3::ZERO, 0usize);
+            def.octree().for_each_within(starts[j], radius, |k, _| {
+                if k as usize != j {
+                    sum += moves[k as usize];
+                    n += 1;
+                }
+            });
+            let mean = if n > 0 { sum / n as f64 } else { DVec3::ZERO };
+            (moves[j] - mean).length() * phase
+        })
+        .collect()
 }
 
 /// For each point, whether some start lies within R; for each start,

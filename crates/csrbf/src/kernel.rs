@@ -126,12 +126,15 @@ impl FromStr for Kernel {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Polynomial {
-    /// No polynomial: displacements are interpolated and the map is exactly
-    /// the identity farther than R from every start point.
-    None,
-    /// A linear polynomial with side conditions: any affine map is
-    /// reproduced exactly. Needs at least 4 start points not on one plane.
+    /// No polynomial (the default): displacements are interpolated and the
+    /// map is exactly the identity farther than R from every start point, so
+    /// an edit stays local.
     #[default]
+    None,
+    /// A linear polynomial with side conditions (the papers' choice): any
+    /// affine map is reproduced exactly, but an affine part fitted to a
+    /// local edit moves the whole model. Needs at least 4 start points not
+    /// on one plane.
     Linear,
 }
 

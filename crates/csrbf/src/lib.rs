@@ -26,10 +26,13 @@
 //!
 //! # The polynomial term
 //!
-//! [`Polynomial::Linear`] adds p(x) = b0 + B x with side conditions, so any
-//! affine map given by the control vectors (a translation, rotation or
-//! scaling) is reproduced exactly, even far from the starts. It needs at least
-//! 4 starts not on one plane. Choose `None` for purely local dents and bulges.
+//! The default, [`Polynomial::None`], keeps every edit local: what lies
+//! farther than R from every start does not move. [`Polynomial::Linear`] (the
+//! papers' choice) adds p(x) = b0 + B x with side conditions, so any affine
+//! map given by the control vectors (a translation, rotation or scaling) is
+//! reproduced exactly, even far from the starts; but an affine part fitted to
+//! a local edit then moves the whole model ([`diagnose`] says so). It needs at
+//! least 4 starts not on one plane.
 //!
 //! # Conditioning
 //!
@@ -49,7 +52,10 @@
 //!
 //! let starts = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::ONE];
 //! let targets: Vec<DVec3> = starts.iter().map(|s| *s + DVec3::new(0.0, 0.0, 0.1)).collect();
-//! let opts = FitOptions::default().with_kernel(Kernel::C2).with_radius(2.0);
+//! let opts = FitOptions::default()
+//!     .with_kernel(Kernel::C2)
+//!     .with_radius(2.0)
+//!     .with_polynomial(Polynomial::Linear);
 //! let d = Deformation::fit(&starts, &targets, opts)?;
 //!
 //! let mesh = vec![Vec3::new(0.5, 0.5, 0.5), Vec3::new(3.0, 3.0, 3.0)];

@@ -22,7 +22,7 @@ pub struct FitOptions {
     pub kernel: Kernel,
     /// Radius of support R, in the units of the points. Default 1.
     pub radius: f64,
-    /// The polynomial term. Default linear.
+    /// The polynomial term. Default none (local edits stay local).
     pub polynomial: Polynomial,
     /// Renumbering for the profile. Default automatic.
     pub ordering: Ordering,
@@ -35,7 +35,7 @@ impl Default for FitOptions {
         FitOptions {
             kernel: Kernel::C2,
             radius: 1.0,
-            polynomial: Polynomial::Linear,
+            polynomial: Polynomial::None,
             ordering: Ordering::Auto,
             solver: SolverChoice::Auto,
         }

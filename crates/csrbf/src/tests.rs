@@ -260,7 +260,9 @@ fn frames_scale_the_displacement_by_the_phase() {
 #[test]
 fn bad_controls_are_named() {
     let (mut s, t) = scene(10, 1);
-    let lin = FitOptions::default().with_radius(0.5);
+    let lin = FitOptions::default()
+        .with_radius(0.5)
+        .with_polynomial(Polynomial::Linear);
     assert_eq!(
         Deformation::fit(&[], &[], lin).err(),
         Some(Error::NoControls)
@@ -419,7 +421,10 @@ fn pipeline_composes_in_order_on_regions() {
     let shift: Vec<DVec3> = s.iter().map(|p| *p + DVec3::X * 0.1).collect();
     let scale_s: Vec<DVec3> = s.iter().map(|p| *p * 2.0).collect();
     let scaled: Vec<DVec3> = scale_s.iter().map(|p| *p * 1.5).collect();
-    let opts = FitOptions::default().with_radius(0.5);
+    // Affine maps everywhere: the linear polynomial reproduces them.
+    let opts = FitOptions::default()
+        .with_radius(0.5)
+        .with_polynomial(Polynomial::Linear);
     let mut p = Pipeline::new(rest.clone());
     p.push(Stage::new(s.clone(), shift, opts));
     p.push(Stage::new(scale_s, scaled, opts));

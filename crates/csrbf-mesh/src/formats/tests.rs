@@ -4,24 +4,41 @@ use std::path::{Path, PathBuf};
 
 use crate::{Format, Mesh, MeshError};
 
-/// The shared real models, or the copies bundled in the repository.
-pub(crate) fn models_dir() -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let shared = root.join("../shared/models");
-    if shared.is_dir() {
-        shared
-    } else {
-        root.join("assets/models")
-    }
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// The bundled models, and those of `../shared/models` as an extra when that
+/// folder is beside the checkout (said on standard error).
 fn models() -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(models_dir())
-        .expect("models directory")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| Format::from_path(p).is_ok())
-        .collect();
-    v.sort();
+    let list = |dir: &Path| -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+            .unwrap_or_default();
+        v.retain(|p| Format::from_path(p).is_ok());
+        v.sort();
+        v
+    };
+    let mut v = list(&root().join("assets/models"));
+    let shared = root().join("../shared/models");
+    if shared.is_dir() {
+        let extra: Vec<PathBuf> = list(&shared)
+            .into_iter()
+            .filter(|p| !v.iter().any(|m| m.file_name() == p.file_name()))
+            .collect();
+        eprintln!(
+            "also using {} models from {}",
+            extra.len(),
+            shared.display()
+        );
+        v.extend(extra);
+    } else {
+        eprintln!("{} not found: the bundled models only", shared.display());
+    }
+    assert!(
+        v.len() >= 7,
+        "the bundled models are missing from assets/models"
+    );
     v
 }
 
@@ -112,7 +129,7 @@ o body\ng left\nusemtl red\nf 1/1 2/2 3/3\ng right top\nusemtl blue\nf 2/2 4/4 3
 
 #[test]
 fn gltf_keeps_materials_textures_and_uvs() {
-    let path = models_dir().join("assimp_BoxTextured.glb");
+    let path = root().join("assets/models/assimp_BoxTextured.glb");
     let m = crate::read(&path).expect("read");
     assert!(m.uvs.is_some());
     assert!(

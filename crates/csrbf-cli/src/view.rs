@@ -1,0 +1,323 @@
+//! Aiming: the camera flags `render` and `pick` share, the up axis guessed
+//! from a model, and `pick` (what lies under a pixel).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use csrbf_anim::camera::{axis_name, parse_axis};
+use csrbf_anim::{Camera, CameraFile, Scene, ViewPreset};
+use csrbf_mesh::{Bvh, Format, Mesh};
+use glam::{Vec2, Vec3};
+
+use crate::common::Progress;
+use crate::movie::{mesh_scene, size_or};
+
+/// Where the camera stands: a preset view or an explicit eye, the model's up
+/// axis, the field of view and a zoom.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct CameraArgs {
+    /// Look from: front, back, left, right, top, bottom or iso (default iso).
+    #[arg(long)]
+    pub view: Option<String>,
+    /// The model's up axis: x, y, z, -x, -y, -z (default: guessed from the model, and said).
+    #[arg(long, allow_hyphen_values = true)]
+    pub up: Option<String>,
+    /// Eye position X,Y,Z (overrides --view).
+    #[arg(long, allow_hyphen_values = true)]
+    pub eye: Option<String>,
+    /// Point looked at X,Y,Z (default: the centre of the deformed model).
+    #[arg(long, allow_hyphen_values = true)]
+    pub target: Option<String>,
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 35.0)]
+    pub fov: f32,
+    /// Closer (> 1) or farther (< 1) than the framing of the whole model.
+    #[arg(long, default_value_t = 1.0)]
+    pub zoom: f32,
+}
+
+/// Parses `X,Y,Z`.
+fn parse_point(flag: &str, s: &str) -> Result<Vec3> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .ok()
+        .filter(|v: &Vec<f32>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
+        .with_context(|| format!("{flag} {s:?}: expected three finite numbers X,Y,Z"))?;
+    Ok(Vec3::new(v[0], v[1], v[2]))
+}
+
+/// The model's up axis when the user did not say: glTF is +Y by its
+/// specification, STL +Z by the habit of CAD tools; otherwise +Z when the
+/// model is clearly taller along Z than along Y, else +Y.
+pub fn guess_up(mesh: &Mesh, path: &Path) -> (Vec3, &'static str) {
+    match Format::from_path(path) {
+        Ok(Format::Gltf | Format::Glb) => return (Vec3::Y, "glTF is Y-up"),
+        Ok(Format::Stl) => return (Vec3::Z, "STL files are usually Z-up"),
+        _ => {}
+    }
+    let Some((lo, hi)) = mesh.bounds() else {
+        return (Vec3::Y, "empty model");
+    };
+    let e = hi - lo;
+    if e.z > 1.5 * e.y && e.z >= e.x {
+        (Vec3::Z, "the model is tallest along Z")
+    } else {
+        (Vec3::Y, "the usual convention")
+    }
+}
+
+impl CameraArgs {
+    /// The camera for a picture of `size` of the box `lo`..`hi`, with `up`
+    /// the model's up axis.
+    pub fn camera(&self, lo: Vec3, hi: Vec3, up: Vec3, size: [u32; 2]) -> Result<Camera> {
+        if !(self.fov > 1.0 && self.fov < 179.0) {
+            bail!("--fov {}: must be within (1, 179) degrees", self.fov);
+        }
+        if !(self.zoom > 0.0 && self.zoom.is_finite()) {
+            bail!("--zoom {}: must be a finite number > 0", self.zoom);
+        }
+        let preset: ViewPreset = self
+            .view
+            .as_deref()
+            .unwrap_or("iso")
+            .parse()
+            .map_err(|e: String| anyhow::anyhow!("--view: {e}"))?;
+        let aspect = size[0] as f32 / size[1] as f32;
+        let dir = Camera::preset_direction(preset, up);
+        let mut cam = Camera::framing(dir, up, lo, hi, self.fov, aspect, self.zoom);
+        if let Some(t) = &self.target {
+            let target = parse_point("--target", t)?;
+            let shift = target - cam.target;
+            cam.target = target;
+            cam.eye += shift;
+        }
+        if let Some(e) = &self.eye {
+            cam.eye = parse_point("--eye", e)?;
+            if self.zoom != 1.0 {
+                cam.eye = cam.target + (cam.eye - cam.target) / self.zoom;
+            }
+        }
+        cam.check().map_err(|e| {
+            anyhow::anyhow!("camera (--eye, --target, --up): {e}; eye and target must differ and up must not point along the view")
+        })?;
+        Ok(cam)
+    }
+
+    /// The up axis given, or guessed from the model (with the reason).
+    pub fn up(&self, mesh: &Mesh, path: &Path) -> Result<(Vec3, String)> {
+        match &self.up {
+            Some(u) => Ok((
+                parse_axis(u).map_err(|e| anyhow::anyhow!("--up: {e}"))?,
+                "given".into(),
+            )),
+            None => {
+                let (u, why) = guess_up(mesh, path);
+                Ok((u, format!("guessed: {why}; give --up to change")))
+            }
+        }
+    }
+}
+
+/// A one-object scene of a mesh (deformed at `phase` when controls are
+/// given) seen by the camera the flags describe: the picture `render` draws
+/// and `pick` looks into.
+pub struct Aimed {
+    /// The scene, its camera set.
+    pub scene: Scene,
+    /// The camera.
+    pub camera: Camera,
+    /// The rest mesh.
+    pub mesh: Mesh,
+    /// The up axis and why.
+    pub up: (Vec3, String),
+}
+
+/// Loads the mesh and controls and aims the camera at the deformed model.
+pub fn aim(
+    mesh_path: &Path,
+    controls: Option<&Path>,
+    phase: f64,
+    size: [u32; 2],
+    args: &CameraArgs,
+) -> Result<Aimed> {
+    let (mut scene, mesh) = mesh_scene(mesh_path, controls, phase, size)?;
+    let up = args.up(&mesh, mesh_path)?;
+    // Frame the deformed model, so a large edit stays in the picture.
+    let frame = scene.frame(0.0);
+    let (lo, hi) = frame
+        .objects
+        .iter()
+        .flat_map(|o| o.positions.iter())
+        .filter(|p| p.is_finite())
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    if !lo.is_finite() || !hi.is_finite() {
+        bail!(
+            "{}: the mesh has no finite vertex to look at",
+            mesh_path.display()
+        );
+    }
+    // A model whose points all coincide still gets a picture.
+    let pad = ((hi - lo).length() * 1e-3).max(1e-3 * lo.abs().max(hi.abs()).max_element().max(1.0));
+    let (lo, hi) = (lo - Vec3::splat(pad), hi + Vec3::splat(pad));
+    let camera = args.camera(lo, hi, up.0, size)?;
+    let Camera {
+        eye,
+        target,
+        up: cam_up,
+        ..
+    } = camera;
+    let fov = match camera.projection {
+        csrbf_anim::Projection::Perspective { fov } => fov as f64,
+        csrbf_anim::Projection::Orthographic { .. } => args.fov as f64,
+    };
+    scene.file.camera = CameraFile {
+        eye: eye.as_dvec3().to_array(),
+        target: target.as_dvec3().to_array(),
+        up: cam_up.as_dvec3().to_array(),
+        fov,
+    };
+    Ok(Aimed {
+        scene,
+        camera,
+        mesh,
+        up,
+    })
+}
+
+/// Options of `pick`.
+#[derive(clap::Args, Debug)]
+pub struct PickArgs {
+    /// The mesh.
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// A control file: pick on the deformed mesh.
+    #[arg(long)]
+    pub controls: Option<PathBuf>,
+    /// Phase in [0, 1].
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub phase: f64,
+    /// The pixel X,Y (from the top-left corner) of the picture `render` draws with the same flags.
+    #[arg(long)]
+    pub pixel: String,
+    /// Picture size WIDTHxHEIGHT (default 1024x768, as `render`).
+    #[arg(long)]
+    pub size: Option<String>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
+    crate::common::check_phase(a.phase)?;
+    let size = size_or(a.size.as_deref(), crate::movie::DEFAULT_SIZE)?;
+    let (x, y) = a
+        .pixel
+        .split_once(',')
+        .and_then(|(x, y)| Some((x.trim().parse::<f32>().ok()?, y.trim().parse::<f32>().ok()?)))
+        .with_context(|| format!("--pixel {:?}: expected X,Y, e.g. 512,384", a.pixel))?;
+    if !(x >= 0.0 && y >= 0.0 && x < size[0] as f32 && y < size[1] as f32) {
+        bail!(
+            "--pixel {},{}: outside the {}x{} picture (0..{} across, 0..{} down)",
+            x,
+            y,
+            size[0],
+            size[1],
+            size[0] - 1,
+            size[1] - 1
+        );
+    }
+    let aimed = aim(&a.mesh, a.controls.as_deref(), a.phase, size, &a.camera)?;
+    let positions = &aimed.scene.frame(0.0).objects[0].positions;
+    let triangles = aimed.mesh.faces.triangles();
+    let t = Instant::now();
+    let bvh = Bvh::new(positions, &triangles);
+    let build_ms = t.elapsed().as_secs_f64() * 1e3;
+    // The centre of the pixel, as the renderer samples it.
+    let ray = aimed
+        .camera
+        .ray(Vec2::new(x.floor() + 0.5, y.floor() + 0.5), size);
+    let t = Instant::now();
+    let hit = bvh.cast(positions, &ray);
+    let query_us = t.elapsed().as_secs_f64() * 1e6;
+    progress.say(format_args!(
+        "up {} ({}); BVH over {} triangles in {build_ms:.1} ms, query {query_us:.1} us",
+        axis_name(aimed.up.0),
+        aimed.up.1,
+        bvh.len()
+    ));
+    let value = match hit {
+        None => serde_json::json!({ "hit": false, "pixel": [x, y] }),
+        Some(h) => {
+            let tri = triangles[h.triangle as usize];
+            let w = h.barycentric;
+            let rest = &aimed.mesh.positions;
+            let rest_point = rest[tri[0] as usize] * w[0]
+                + rest[tri[1] as usize] * w[1]
+                + rest[tri[2] as usize] * w[2];
+            let nearest = (0..3)
+                .max_by(|&a, &b| w[a].total_cmp(&w[b]))
+                .map(|k| tri[k])
+                .unwrap_or(tri[0]);
+            let face = face_of_triangle(&aimed.mesh, h.triangle as usize);
+            let parts: Vec<String> = aimed
+                .mesh
+                .parts
+                .iter()
+                .filter(|p| p.faces.binary_search(&(face as u32)).is_ok())
+                .map(|p| format!("{} {}", p.kind.name(), p.name))
+                .collect();
+            serde_json::json!({
+                "hit": true,
+                "pixel": [x, y],
+                "point": h.point.to_array(),
+                "rest_point": rest_point.to_array(),
+                "distance": h.t,
+                "triangle": h.triangle,
+                "face": face,
+                "nearest_vertex": nearest,
+                "nearest_vertex_position": rest[nearest as usize].to_array(),
+                "parts": parts,
+            })
+        }
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&value)?);
+    } else if value["hit"] == false {
+        println!("pixel {x},{y}: no surface (background)");
+    } else {
+        let v = &value;
+        println!("pixel {x},{y}:");
+        println!("  point        {}", v["point"]);
+        println!(
+            "  rest point   {}  (use it as a control's \"from\")",
+            v["rest_point"]
+        );
+        println!("  triangle     {}  (face {})", v["triangle"], v["face"]);
+        println!(
+            "  nearest      vertex {} at {}",
+            v["nearest_vertex"], v["nearest_vertex_position"]
+        );
+        println!("  parts        {}", v["parts"]);
+    }
+    Ok(())
+}
+
+/// The polygon a fan triangle came from.
+fn face_of_triangle(mesh: &Mesh, triangle: usize) -> usize {
+    let mut seen = 0;
+    for (f, corners) in mesh.faces.iter().enumerate() {
+        let n = corners.len().saturating_sub(2);
+        if triangle < seen + n {
+            return f;
+        }
+        seen += n;
+    }
+    mesh.faces.len().saturating_sub(1)
+}

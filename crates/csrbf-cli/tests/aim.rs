@@ -1,0 +1,302 @@
+//! Aiming and trusting an edit (issue 6): camera flags, `pick` against the
+//! picture `render` draws, handles on a real model, diagnostics.
+
+use serde_json::Value;
+
+use crate::pictures::image_rgba;
+use crate::support::*;
+
+fn json(args: &[&str]) -> Value {
+    serde_json::from_str(&ok(args)).expect("JSON on standard output")
+}
+
+#[test]
+fn pick_finds_what_render_draws_at_that_pixel() {
+    let dir = TempDir::new("pick");
+    let head = model("cgal_head.off");
+    let shot = dir.path("front.png");
+    let flags = ["--view", "front", "--size", "160x120", "--zoom", "1.2"];
+    let mut args = vec!["render", "-q", "--mesh", arg(&head), "--out", arg(&shot)];
+    args.extend(flags);
+    ok(&args);
+    let (w, h, px) = image_rgba(&shot);
+    assert_eq!((w, h), (160, 120));
+    let background = px[0];
+    let mut hits = 0;
+    for (x, y) in [
+        (80, 60),
+        (0, 0),
+        (159, 119),
+        (70, 30),
+        (95, 90),
+        (40, 60),
+        (120, 60),
+    ] {
+        let pixel = format!("{x},{y}");
+        let mut args = vec![
+            "pick",
+            "-q",
+            "--mesh",
+            arg(&head),
+            "--pixel",
+            &pixel,
+            "--json",
+        ];
+        args.extend(flags);
+        let v = json(&args);
+        let drawn = px[(y * w + x) as usize] != background;
+        assert_eq!(
+            v["hit"] == true,
+            drawn,
+            "pixel {pixel}: pick {v} vs picture"
+        );
+        if drawn {
+            hits += 1;
+            // The rest point lies on the mesh's triangle (no controls: equals the point).
+            let p = &v["point"];
+            let r = &v["rest_point"];
+            for k in 0..3 {
+                let (a, b) = (p[k].as_f64().expect("x"), r[k].as_f64().expect("x"));
+                assert!((a - b).abs() < 1e-4, "{p} vs {r}");
+            }
+        }
+    }
+    assert!(hits >= 3, "the head should cover the middle of the picture");
+}
+
+#[test]
+fn a_handle_turns_suzannes_ear_as_a_rigid_body_without_folding() {
+    let dir = TempDir::new("ear");
+    let suzanne = model("assimp_Suzanne_248.obj");
+    let pivot = [0.9, 0.85, -0.3];
+    let controls = dir.write(
+        "ear.json",
+        serde_json::json!({
+            "kernel": "c2", "radius": 0.8,
+            "handle": {"select": {"box": {"min": [1.1, -2, -2], "max": [2, 2, 2]}},
+                       "rotate": {"axis": [0, 1, 0], "angle_deg": 90, "pivot": pivot}},
+            "anchor": {"box": {"min": [-2, -2, -2], "max": [0.6, 2, 2]}}
+        })
+        .to_string(),
+    );
+    let out = dir.path("ear.obj");
+    let v = json(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&suzanne),
+        "--controls",
+        arg(&controls),
+        "--out",
+        arg(&out),
+        "--json",
+    ]);
+    assert_eq!(v["flipped_faces"], 0, "{v}");
+    assert_eq!(v["warnings"].as_array().map(Vec::len), Some(0), "{v}");
+    let a = csrbf_mesh::read(&suzanne).expect("in");
+    let b = csrbf_mesh::read(&out).expect("out");
+    // The ear's tip (the centroid of its outermost vertices, not samples).
+    let tip: Vec<usize> = (0..a.positions.len())
+        .filter(|&i| a.positions[i].x >= 1.3)
+        .collect();
+    let centre = |m: &csrbf_mesh::Mesh| {
+        tip.iter().map(|&i| m.positions[i]).sum::<glam::Vec3>() / tip.len() as f32
+    };
+    let p = glam::Vec3::from_array(pivot.map(|x| x as f32));
+    let (u, w) = (centre(&a) - p, centre(&b) - p);
+    // Turned about +Y: angle in the XZ plane, length kept.
+    let angle = (u.z * w.x - u.x * w.z)
+        .atan2(u.x * w.x + u.z * w.z)
+        .to_degrees();
+    assert!((angle - 90.0).abs() < 2.0, "tip turned {angle} degrees");
+    assert!(
+        (w.length() / u.length() - 1.0).abs() < 0.03,
+        "length {} -> {}",
+        u.length(),
+        w.length()
+    );
+    // The anchor (x <= 0.6) stays nearly put, and what lies farther than R
+    // from the ear (x < 0.3) does not move at all.
+    for (i, (r, m)) in a.positions.iter().zip(&b.positions).enumerate() {
+        if r.x < 0.3 {
+            assert!(r.distance(*m) < 1e-6, "vertex {i} moved {}", r.distance(*m));
+        } else if r.x <= 0.6 {
+            assert!(
+                r.distance(*m) < 0.02,
+                "anchor vertex {i} moved {}",
+                r.distance(*m)
+            );
+        }
+    }
+    // `fit` stores the handle's vectors like any others; `apply` replays them.
+    let fitted = dir.path("ear.csrbf");
+    ok(&[
+        "fit",
+        "-q",
+        "--controls",
+        arg(&controls),
+        "--mesh",
+        arg(&suzanne),
+        "--out",
+        arg(&fitted),
+    ]);
+    let replay = dir.path("replay.obj");
+    ok(&[
+        "apply",
+        "-q",
+        "--mesh",
+        arg(&suzanne),
+        "--deformation",
+        arg(&fitted),
+        "--out",
+        arg(&replay),
+    ]);
+    let c = csrbf_mesh::read(&replay).expect("replay");
+    for (x, y) in b.positions.iter().zip(&c.positions) {
+        assert!(x.distance(*y) < 1e-5);
+    }
+}
+
+#[test]
+fn deform_reports_moves_folds_and_leaks() {
+    let dir = TempDir::new("diag");
+    let head = model("cgal_head.off");
+    let smile = root().join("assets/controls/head_smile.json");
+    let out = dir.path("smile.obj");
+    let v = json(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&smile),
+        "--out",
+        arg(&out),
+        "--json",
+    ]);
+    assert!(v["moved"].as_u64().expect("moved") > 100);
+    assert_eq!(v["flipped_faces"], 0);
+    assert_eq!(v["warnings"].as_array().map(Vec::len), Some(0), "{v}");
+    // The papers' linear polynomial moves the back of the head too: said.
+    let text = std::fs::read_to_string(&smile)
+        .expect("smile")
+        .replace("\"none\"", "\"linear\"");
+    let linear = dir.write("linear.json", text);
+    let v = json(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&linear),
+        "--out",
+        arg(&out),
+        "--force",
+        "--json",
+    ]);
+    let warnings = v["warnings"].to_string();
+    assert!(
+        warnings.contains("linear polynomial made a local edit global"),
+        "{warnings}"
+    );
+    // A shove far past the fold-free bound folds the surface: said, with the faces.
+    let fold = dir.write(
+        "fold.json",
+        r#"{"radius": 2, "controls": [{"from": [0.9, 12.9, 4.5], "to": [0.9, 10.5, 4.5]}]}"#,
+    );
+    let v = json(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&fold),
+        "--out",
+        arg(&out),
+        "--force",
+        "--json",
+    ]);
+    assert!(v["flipped_faces"].as_u64().expect("flipped") > 0, "{v}");
+    assert!(v["warnings"].to_string().contains("fold-free bound"), "{v}");
+}
+
+#[test]
+fn bad_aims_and_handles_are_named() {
+    let dir = TempDir::new("badaim");
+    let head = model("cgal_head.off");
+    let h = arg(&head);
+    let png = dir.path("x.png");
+    let p = arg(&png);
+    fails(
+        &["pick", "--mesh", h, "--pixel", "2000,10"],
+        &["--pixel", "outside the 1024x768 picture"],
+    );
+    fails(
+        &["pick", "--mesh", h, "--pixel", "ten,10"],
+        &["--pixel", "expected X,Y"],
+    );
+    fails(
+        &[
+            "render", "--mesh", h, "--out", p, "--eye", "1,2,3", "--target", "1,2,3",
+        ],
+        &["camera", "must be finite and distinct"],
+    );
+    fails(
+        &[
+            "render", "--mesh", h, "--out", p, "--eye", "0,9,0", "--target", "0,0,0", "--up", "y",
+        ],
+        &["camera", "not parallel"],
+    );
+    fails(
+        &["render", "--mesh", h, "--out", p, "--view", "sideways"],
+        &["--view", "unknown view"],
+    );
+    fails(
+        &["render", "--mesh", h, "--out", p, "--up", "w"],
+        &["--up", "unknown axis"],
+    );
+    fails(
+        &["render", "--mesh", h, "--out", p, "--overlay"],
+        &["--overlay", "--controls"],
+    );
+    fails(
+        &["render", "--mesh", h, "--out", p, "--eye", "1,nan,3"],
+        &["--eye", "three finite numbers"],
+    );
+    assert!(!png.exists());
+    let out = dir.path("o.obj");
+    let o = arg(&out);
+    let cases = [
+        (
+            r#"{"radius": 2, "handle": {"select": {"group": "x"}, "rotate": {"axis": [0, 0, 0], "angle_deg": 9}}}"#,
+            "handle.rotate.axis",
+        ),
+        (
+            r#"{"radius": 2, "handle": {"select": {"box": {"min": [90, 90, 90], "max": [91, 91, 91]}}, "scale": 2}}"#,
+            "holds none of the 1487 points",
+        ),
+        (
+            r#"{"radius": 2, "handle": {"select": {"sphere": {"center": [2.15, 10.18, 4.42], "radius": 1}}, "scale": 2}, "anchor": {"sphere": {"center": [2.15, 10.18, 4.42], "radius": 2}}}"#,
+            "share",
+        ),
+    ];
+    for (i, (text, want)) in cases.iter().enumerate() {
+        let c = dir.write(&format!("c{i}.json"), text);
+        fails(
+            &["deform", "--mesh", h, "--controls", arg(&c), "--out", o],
+            &[want],
+        );
+        assert!(!out.exists());
+    }
+    let c = dir.write("handle.json", cases[1].0);
+    fails(
+        &[
+            "fit",
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&dir.path("f.csrbf")),
+        ],
+        &["handle", "give --mesh"],
+    );
+}
