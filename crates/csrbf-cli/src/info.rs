@@ -6,7 +6,20 @@ use anyhow::{Context, Result, bail};
 use csrbf::{System, format};
 use serde_json::{Value, json};
 
-use crate::common::{Progress, read_controls};
+use csrbf::Octree;
+use glam::{DVec3, Vec3};
+
+use crate::common::{Progress, read_controls, read_mesh, resolve_all};
+
+/// For each start, how many vertices lie within R of it.
+fn vertices_within(vertices: &[Vec3], starts: &[DVec3], radius: f64) -> Vec<usize> {
+    let tree = Octree::new(starts);
+    let mut count = vec![0usize; starts.len()];
+    for v in vertices {
+        tree.for_each_within(v.as_dvec3(), radius, |j, _| count[j as usize] += 1);
+    }
+    count
+}
 
 pub fn info(
     mesh: Option<&Path>,
@@ -16,9 +29,9 @@ pub fn info(
 ) -> Result<()> {
     let value = match (mesh, controls, deformation) {
         (Some(m), None, None) => mesh_info(m)?,
-        (None, Some(c), None) => controls_info(c)?,
+        (m, Some(c), None) => controls_info(c, m)?,
         (None, None, Some(d)) => deformation_info(d)?,
-        _ => bail!("give one of --mesh, --controls or --deformation"),
+        _ => bail!("give --mesh, --controls (with --mesh for handles and reach), or --deformation"),
     };
     if as_json {
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -58,8 +71,26 @@ fn mesh_info(path: &Path) -> Result<Value> {
     let parts: Vec<Value> = m
         .parts
         .iter()
-        .map(|p| json!({ "name": p.name, "kind": p.kind.name(), "faces": p.faces.len() }))
+        .map(|p| {
+            let verts = m.part_vertices(&p.name).unwrap_or_default();
+            let pts: Vec<Vec3> = verts.iter().map(|&v| m.positions[v as usize]).collect();
+            let (lo, hi) = pts.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+            );
+            let centroid = pts.iter().copied().sum::<Vec3>() / pts.len().max(1) as f32;
+            json!({
+                "name": p.name,
+                "kind": p.kind.name(),
+                "faces": p.faces.len(),
+                "vertices": verts.len(),
+                "bounds": if pts.is_empty() { Value::Null } else { json!({ "min": lo.to_array(), "max": hi.to_array() }) },
+                "centroid": if pts.is_empty() { Value::Null } else { json!(centroid.to_array()) },
+            })
+        })
         .collect();
+    let centroid = m.positions.iter().copied().sum::<Vec3>() / m.positions.len().max(1) as f32;
+    let (up, why) = crate::view::guess_up(&m, path);
     Ok(json!({
         "file": path.display().to_string(),
         "vertices": m.positions.len(),
@@ -67,6 +98,8 @@ fn mesh_info(path: &Path) -> Result<Value> {
         "triangles": m.faces.triangle_count(),
         "bounds": { "min": lo.to_array(), "max": hi.to_array() },
         "diagonal": m.diagonal(),
+        "centroid": centroid.to_array(),
+        "up": format!("{} ({why})", csrbf_anim::camera::axis_name(up)),
         "uvs": m.uvs.is_some(),
         "colors": m.colors.is_some(),
         "normals": m.normals.is_some(),
@@ -75,8 +108,12 @@ fn mesh_info(path: &Path) -> Result<Value> {
     }))
 }
 
-fn controls_info(path: &Path) -> Result<Value> {
-    let specs = read_controls(path, &Progress::new(false))?;
+fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
+    let quiet = Progress::new(false);
+    let specs = read_controls(path, &quiet)?;
+    let mesh = mesh_path.map(|m| read_mesh(m, &quiet)).transpose()?;
+    let generated: Vec<usize> = specs.iter().map(|s| s.starts.len()).collect();
+    let specs = resolve_all(&specs, path, mesh.as_ref(), &quiet)?;
     let mut stages = Vec::new();
     for (i, s) in specs.iter().enumerate() {
         let sys = System::new(&s.starts, s.options)
@@ -107,6 +144,44 @@ fn controls_info(path: &Path) -> Result<Value> {
             "factor_bytes": st.factor_bytes,
             "solver": st.solver,
         }));
+        let stage = stages
+            .last_mut()
+            .and_then(Value::as_object_mut)
+            .context("stage")?;
+        if s.starts.len() > generated[i] {
+            // The vectors a handle made, after the file's own.
+            let made: Vec<Value> = (generated[i]..s.starts.len())
+                .map(|j| json!({ "from": s.starts[j].to_array(), "to": s.targets[j].to_array() }))
+                .collect();
+            stage.insert("handle_vectors".into(), json!(made));
+        }
+        if let Some(m) = &mesh {
+            // Per control: the vertices within R of its start.
+            let def = System::new(&s.starts, s.options)
+                .and_then(|sys| sys.solve(&s.targets))
+                .with_context(|| format!("{}: deformation {i}", path.display()))?;
+            let within = vertices_within(&m.positions, &s.starts, s.options.radius);
+            stage.insert("vertices_within_r".into(), json!(within));
+            let stages1 = [(def, s.region.clone(), s.phase)];
+            let lookup = |n: &str| m.part_vertices(n);
+            let moved = csrbf::compose(&m.positions, &stages1, &lookup)?;
+            let report = csrbf::diagnose(
+                &m.positions,
+                &moved,
+                &m.faces.triangles(),
+                &stages1,
+                &lookup,
+            )?;
+            stage.insert(
+                "diagnostics".into(),
+                json!({
+                    "moved": report.moved,
+                    "largest_move": report.largest_move,
+                    "flipped_faces": report.flipped.len(),
+                    "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
+                }),
+            );
+        }
     }
     // The first deformation's figures at the top level; every one under "deformations".
     let mut top = json!({ "file": path.display().to_string(), "deformations_count": stages.len() });
@@ -130,7 +205,7 @@ fn deformation_info(path: &Path) -> Result<Value> {
                 "kernel": d.kernel().name(),
                 "radius": d.radius(),
                 "polynomial": d.polynomial().name(),
-                "region": format!("{r:?}"),
+                "region": r.to_string(),
             })
         })
         .collect();

@@ -85,14 +85,14 @@ enum Command {
     },
     /// Describe a mesh, a control file (system size, band, memory) or a deformation file.
     Info {
-        /// A mesh.
-        #[arg(long, group = "what")]
+        /// A mesh: counts, bounds, centroid, up axis, and each part's vertices, bounds and centroid.
+        #[arg(long)]
         mesh: Option<PathBuf>,
-        /// A control file.
-        #[arg(long, group = "what")]
+        /// A control file (with --mesh: the vectors its handles make, vertices within R, diagnostics).
+        #[arg(long)]
         controls: Option<PathBuf>,
         /// A deformation file.
-        #[arg(long, group = "what")]
+        #[arg(long)]
         deformation: Option<PathBuf>,
         /// Print one JSON object.
         #[arg(long)]

@@ -142,11 +142,11 @@ fn bad_control_files() {
             &["controls 0 and 2", "same point"],
         ),
         (
-            r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}]}"#,
+            r#"{"radius": 1, "polynomial": "linear", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}]}"#,
             &["at least 4", "\"none\""],
         ),
         (
-            r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}, {"from": [0,1,0], "to": [0,0,0]}, {"from": [1,1,0], "to": [0,0,0]}]}"#,
+            r#"{"radius": 1, "polynomial": "linear", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [1,0,0], "to": [0,0,0]}, {"from": [0,1,0], "to": [0,0,0]}, {"from": [1,1,0], "to": [0,0,0]}]}"#,
             &["one plane", "\"none\""],
         ),
         (
@@ -162,7 +162,7 @@ fn bad_control_files() {
             &["vertex 99"],
         ),
         (
-            r#"{"deformations": [{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}, {"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#,
+            r#"{"deformations": [{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}, {"radius": 1, "polynomial": "linear", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#,
             &["deformations[1]", "at least 4"],
         ),
     ];
