@@ -6,20 +6,9 @@ use anyhow::{Context, Result, bail};
 use csrbf::{System, format};
 use serde_json::{Value, json};
 
-use csrbf::Octree;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use crate::common::{Progress, read_controls, read_mesh, resolve_all};
-
-/// For each start, how many vertices lie within R of it.
-fn vertices_within(vertices: &[Vec3], starts: &[DVec3], radius: f64) -> Vec<usize> {
-    let tree = Octree::new(starts);
-    let mut count = vec![0usize; starts.len()];
-    for v in vertices {
-        tree.for_each_within(v.as_dvec3(), radius, |j, _| count[j as usize] += 1);
-    }
-    count
-}
 
 pub fn info(
     mesh: Option<&Path>,
@@ -90,7 +79,7 @@ fn mesh_info(path: &Path) -> Result<Value> {
         })
         .collect();
     let centroid = m.positions.iter().copied().sum::<Vec3>() / m.positions.len().max(1) as f32;
-    let (up, why) = crate::view::guess_up(&m, path);
+    let (up, why) = csrbf_mesh::guess_up(&m, path);
     Ok(json!({
         "file": path.display().to_string(),
         "vertices": m.positions.len(),
@@ -160,7 +149,7 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
             let def = System::new(&s.starts, s.options)
                 .and_then(|sys| sys.solve(&s.targets))
                 .with_context(|| format!("{}: deformation {i}", path.display()))?;
-            let within = vertices_within(&m.positions, &s.starts, s.options.radius);
+            let within = csrbf::vertices_within(&m.positions, &s.starts, s.options.radius);
             stage.insert("vertices_within_r".into(), json!(within));
             let stages1 = [(def, s.region.clone(), s.phase)];
             let lookup = |n: &str| m.part_vertices(n);

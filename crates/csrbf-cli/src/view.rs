@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use csrbf_anim::camera::{axis_name, parse_axis};
 use csrbf_anim::{Camera, CameraFile, Scene, ViewPreset};
-use csrbf_mesh::{Bvh, Format, Mesh};
+use csrbf_mesh::{Bvh, Mesh};
 use glam::{Vec2, Vec3};
 
 use crate::common::Progress;
@@ -47,26 +47,6 @@ fn parse_point(flag: &str, s: &str) -> Result<Vec3> {
         .filter(|v: &Vec<f32>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
         .with_context(|| format!("{flag} {s:?}: expected three finite numbers X,Y,Z"))?;
     Ok(Vec3::new(v[0], v[1], v[2]))
-}
-
-/// The model's up axis when the user did not say: glTF is +Y by its
-/// specification, STL +Z by the habit of CAD tools; otherwise +Z when the
-/// model is clearly taller along Z than along Y, else +Y.
-pub fn guess_up(mesh: &Mesh, path: &Path) -> (Vec3, &'static str) {
-    match Format::from_path(path) {
-        Ok(Format::Gltf | Format::Glb) => return (Vec3::Y, "glTF is Y-up"),
-        Ok(Format::Stl) => return (Vec3::Z, "STL files are usually Z-up"),
-        _ => {}
-    }
-    let Some((lo, hi)) = mesh.bounds() else {
-        return (Vec3::Y, "empty model");
-    };
-    let e = hi - lo;
-    if e.z > 1.5 * e.y && e.z >= e.x {
-        (Vec3::Z, "the model is tallest along Z")
-    } else {
-        (Vec3::Y, "the usual convention")
-    }
 }
 
 impl CameraArgs {
@@ -114,7 +94,7 @@ impl CameraArgs {
                 "given".into(),
             )),
             None => {
-                let (u, why) = guess_up(mesh, path);
+                let (u, why) = csrbf_mesh::guess_up(mesh, path);
                 Ok((u, format!("guessed: {why}; give --up to change")))
             }
         }
@@ -133,6 +113,8 @@ pub struct Aimed {
     pub mesh: Mesh,
     /// The up axis and why.
     pub up: (Vec3, String),
+    /// The model's positions in the picture (deformed at the phase).
+    pub positions: Vec<Vec3>,
 }
 
 /// Loads the mesh and controls and aims the camera at the deformed model.
@@ -146,11 +128,9 @@ pub fn aim(
     let (mut scene, mesh) = mesh_scene(mesh_path, controls, phase, size)?;
     let up = args.up(&mesh, mesh_path)?;
     // Frame the deformed model, so a large edit stays in the picture.
-    let frame = scene.frame(0.0);
-    let (lo, hi) = frame
-        .objects
+    let positions = scene.frame(0.0).objects.swap_remove(0).positions;
+    let (lo, hi) = positions
         .iter()
-        .flat_map(|o| o.positions.iter())
         .filter(|p| p.is_finite())
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(*p), hi.max(*p))
@@ -186,6 +166,7 @@ pub fn aim(
         camera,
         mesh,
         up,
+        positions,
     })
 }
 
@@ -234,7 +215,7 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
         );
     }
     let aimed = aim(&a.mesh, a.controls.as_deref(), a.phase, size, &a.camera)?;
-    let positions = &aimed.scene.frame(0.0).objects[0].positions;
+    let positions = &aimed.positions;
     let triangles = aimed.mesh.faces.triangles();
     let t = Instant::now();
     let bvh = Bvh::new(positions, &triangles);
@@ -265,7 +246,7 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
                 .max_by(|&a, &b| w[a].total_cmp(&w[b]))
                 .map(|k| tri[k])
                 .unwrap_or(tri[0]);
-            let face = face_of_triangle(&aimed.mesh, h.triangle as usize);
+            let face = aimed.mesh.faces.face_of_triangle(h.triangle as usize);
             let parts: Vec<String> = aimed
                 .mesh
                 .parts
@@ -307,17 +288,4 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
         println!("  parts        {}", v["parts"]);
     }
     Ok(())
-}
-
-/// The polygon a fan triangle came from.
-fn face_of_triangle(mesh: &Mesh, triangle: usize) -> usize {
-    let mut seen = 0;
-    for (f, corners) in mesh.faces.iter().enumerate() {
-        let n = corners.len().saturating_sub(2);
-        if triangle < seen + n {
-            return f;
-        }
-        seen += n;
-    }
-    mesh.faces.len().saturating_sub(1)
 }

@@ -164,3 +164,24 @@ pub fn triangle_vertex_normals_into(
         };
     }
 }
+
+/// The model's up axis when the user did not say, with the reason: glTF is
+/// +Y by its specification, STL +Z by the habit of CAD tools; otherwise +Z
+/// when the model is clearly taller along Z than along Y, else +Y.
+pub fn guess_up(mesh: &crate::Mesh, path: &Path) -> (Vec3, &'static str) {
+    use crate::Format;
+    match Format::from_path(path) {
+        Ok(Format::Gltf | Format::Glb) => return (Vec3::Y, "glTF is Y-up"),
+        Ok(Format::Stl) => return (Vec3::Z, "STL files are usually Z-up"),
+        _ => {}
+    }
+    let Some((lo, hi)) = mesh.bounds() else {
+        return (Vec3::Y, "empty model");
+    };
+    let e = hi - lo;
+    if e.z > 1.5 * e.y && e.z >= e.x {
+        (Vec3::Z, "the model is tallest along Z")
+    } else {
+        (Vec3::Y, "the usual convention")
+    }
+}

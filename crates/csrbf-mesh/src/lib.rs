@@ -33,7 +33,9 @@ pub mod shapes;
 pub use bvh::{Bvh, Hit, Ray};
 pub use error::{MeshError, Result};
 pub use formats::Format;
-pub use geometry::{triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals};
+pub use geometry::{
+    guess_up, triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals,
+};
 pub use io::{Loaded, load, read, write, write_atomic};
 
 use glam::{Vec2, Vec3};
@@ -89,6 +91,19 @@ impl Faces {
     /// Number of triangles after fan triangulation.
     pub fn triangle_count(&self) -> usize {
         self.iter().map(|f| f.len().saturating_sub(2)).sum()
+    }
+
+    /// The face a triangle of [`Faces::triangles`] came from (the last face
+    /// for an index past the end).
+    pub fn face_of_triangle(&self, triangle: usize) -> usize {
+        let mut seen = 0;
+        for (f, corners) in self.iter().enumerate() {
+            seen += corners.len().saturating_sub(2);
+            if triangle < seen {
+                return f;
+            }
+        }
+        self.len().saturating_sub(1)
     }
 
     /// Fan triangulation of every face.

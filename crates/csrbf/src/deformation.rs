@@ -160,23 +160,53 @@ impl Deformation {
     /// D at every point, in parallel for large inputs.
     pub fn displacements<P: Point>(&self, points: &[P]) -> Vec<DVec3> {
         let mut sorted = vec![DVec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut sorted, |d| d);
+        self.displacements_sorted(points, &mut sorted, |d, _| d, |_| {});
         sorted
     }
 
     /// D at every point as f32 vectors, for vertex buffers.
     pub fn displacements_f32<P: Point>(&self, points: &[P]) -> Vec<Vec3> {
         let mut out = vec![Vec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut out, |d| d.as_vec3());
+        self.displacements_sorted(points, &mut out, |d, _| d.as_vec3(), |_| {});
         out
     }
 
-    /// Evaluates by cells and writes `conv(D)` into `out` (point order).
+    /// D at every point as f32 vectors, with what the diagnostics need from
+    /// the same pass: whether each point lies within R of some start, and
+    /// whether each start lies within R of some point.
+    pub(crate) fn displacements_reach(&self, points: &[Vec3]) -> (Vec<Vec3>, Vec<bool>, Vec<bool>) {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let touched: Vec<AtomicBool> = self.starts.iter().map(|_| AtomicBool::new(false)).collect();
+        let mut out = vec![(Vec3::ZERO, false); points.len()];
+        self.displacements_sorted(
+            points,
+            &mut out,
+            |d, near| (d.as_vec3(), near),
+            |j| {
+                // A read first: a start hit by many points is written once.
+                let t = &touched[j as usize];
+                if !t.load(Ordering::Relaxed) {
+                    t.store(true, Ordering::Relaxed);
+                }
+            },
+        );
+        let (d, near) = out.into_iter().unzip();
+        (
+            d,
+            near,
+            touched.into_iter().map(AtomicBool::into_inner).collect(),
+        )
+    }
+
+    /// Evaluates by cells and writes `conv(D, near)` into `out` (point
+    /// order), `near` telling whether any start lay within R; `hit(j)` is
+    /// called for every start within R of a point.
     fn displacements_sorted<P: Point, T: Copy + Send + Sync + Default>(
         &self,
         points: &[P],
         out: &mut [T],
-        conv: impl Fn(DVec3) -> T + Sync + Send,
+        conv: impl Fn(DVec3, bool) -> T + Sync + Send,
+        hit: impl Fn(u32) + Sync + Send,
     ) {
         let blocks = Blocks::for_starts(points, self.radius, self.starts.len());
         let mut buffer = Vec::new();
@@ -201,10 +231,13 @@ impl Deformation {
                 for (o, &i) in out.iter_mut().zip(idx) {
                     let x = points[i as usize].to_dvec3();
                     let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
+                    let mut near = false;
                     cand.for_each_weight(x, kernel, radius, |j, w| {
-                        d += self.coefficients[j as usize] * w
+                        d += self.coefficients[j as usize] * w;
+                        near = true;
+                        hit(j);
                     });
-                    *o = conv(d);
+                    *o = conv(d, near);
                 }
             },
         );

@@ -195,13 +195,51 @@ pub struct Diagnostics {
 /// (may be empty: no face checks), and the deformations that moved it, each
 /// with its region and phase (as given to [`crate::compose`]). Regions and
 /// reach are judged on the rest positions (for later stages of a chain this
-/// is an approximation). `groups` resolves part names.
+/// is an approximation: [`compose_diagnosed`] judges each stage on the points
+/// it moved, at no extra evaluation). `groups` resolves part names.
 pub fn diagnose(
     rest: &[Vec3],
     moved: &[Vec3],
     triangles: &[[u32; 3]],
     stages: &[(Deformation, Region, f64)],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<Diagnostics> {
+    diagnose_with(rest, moved, triangles, stages, groups, None)
+}
+
+/// [`crate::compose`] and [`diagnose`] in one: the reach of every start is
+/// recorded while each stage is evaluated, so the diagnostics cost little
+/// more than the faces' check.
+pub fn compose_diagnosed(
+    rest: &[Vec3],
+    stages: &[(Deformation, Region, f64)],
+    triangles: &[[u32; 3]],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<(Vec<Vec3>, Diagnostics)> {
+    let mut traced = Vec::with_capacity(stages.len());
+    let moved = crate::pipeline::compose_traced(rest, stages, groups, Some(&mut traced))?;
+    let report = diagnose_with(rest, &moved, triangles, stages, groups, Some(&traced))?;
+    Ok((moved, report))
+}
+
+/// What one stage's evaluation saw: the points of its region, which of them
+/// lie within R of a start, which starts lie within R of one of them.
+pub(crate) struct StageReach {
+    /// The region's points, ascending.
+    pub(crate) selected: Vec<u32>,
+    /// Per selected point.
+    pub(crate) near: Vec<bool>,
+    /// Per start.
+    pub(crate) touched: Vec<bool>,
+}
+
+fn diagnose_with(
+    rest: &[Vec3],
+    moved: &[Vec3],
+    triangles: &[[u32; 3]],
+    stages: &[(Deformation, Region, f64)],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    traced: Option<&[StageReach]>,
 ) -> Result<Diagnostics> {
     if moved.len() != rest.len() {
         return Err(Error::PointCount {
@@ -239,7 +277,22 @@ pub fn diagnose(
     let mut any_linear = false;
     for (k, (def, region, phase)) in stages.iter().enumerate() {
         any_linear |= def.polynomial() == Polynomial::Linear;
-        let selected = region.select(rest, groups)?;
+        let own;
+        let seen: &StageReach = match traced {
+            Some(t) => &t[k],
+            None => {
+                let selected = region.select(rest, groups)?;
+                let inside: Vec<Vec3> = selected.iter().map(|&i| rest[i as usize]).collect();
+                let (near, touched) = reach(def, &inside);
+                own = StageReach {
+                    selected,
+                    near,
+                    touched,
+                };
+                &own
+            }
+        };
+        let (selected, near, touched) = (&seen.selected, &seen.near, &seen.touched);
         if selected.is_empty() {
             warnings.push(Warning::EmptyRegion {
                 stage: k,
@@ -268,20 +321,8 @@ pub fn diagnose(
         }
         // Which starts reach a vertex of the region, which vertices a start.
         let all = selected.len() == rest.len();
-        let inside: Vec<Vec3> = if all {
-            Vec::new()
-        } else {
-            selected.iter().map(|&i| rest[i as usize]).collect()
-        };
-        let (near, touched) = reach(def, if all { rest } else { &inside });
-        if all {
-            for (n, &x) in near_any.iter_mut().zip(&near) {
-                *n |= x;
-            }
-        } else {
-            for (&i, &x) in selected.iter().zip(&near) {
-                near_any[i as usize] |= x;
-            }
+        for (&i, &x) in selected.iter().zip(near) {
+            near_any[i as usize] |= x;
         }
         let far: Vec<usize> = (0..touched.len()).filter(|&j| !touched[j]).collect();
         if !far.is_empty() {
@@ -294,7 +335,7 @@ pub fn diagnose(
         }
         if !all {
             let mut is_in = vec![false; rest.len()];
-            for &i in &selected {
+            for &i in selected {
                 is_in[i as usize] = true;
             }
             let outside: Vec<Vec3> = (0..rest.len())
@@ -329,7 +370,12 @@ pub fn diagnose(
             });
         }
     }
-    let flipped = flipped_faces(rest, moved, triangles);
+    let flipped = flipped_faces(
+        rest,
+        moved,
+        triangles,
+        &moves.iter().map(|&m| m > tol).collect::<Vec<bool>>(),
+    );
     if !flipped.is_empty() {
         warnings.push(Warning::FlippedFaces {
             count: flipped.len(),
@@ -343,6 +389,30 @@ pub fn diagnose(
         flipped,
         warnings,
     })
+}
+
+/// For each start, how many of `points` lie within `radius` of it (the
+/// vertices a control vector can move).
+pub fn vertices_within(points: &[Vec3], starts: &[DVec3], radius: f64) -> Vec<usize> {
+    let tree = crate::octree::Octree::new(starts);
+    points
+        .par_chunks(16384)
+        .map(|chunk| {
+            let mut count = vec![0usize; starts.len()];
+            for p in chunk {
+                tree.for_each_within(p.as_dvec3(), radius, |j, _| count[j as usize] += 1);
+            }
+            count
+        })
+        .reduce(
+            || vec![0usize; starts.len()],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            },
+        )
 }
 
 /// Each control's displacement less the mean of its neighbours' (the other
@@ -393,7 +463,12 @@ fn reach(def: &Deformation, points: &[Vec3]) -> (Vec<bool>, Vec<bool>) {
                 let x: DVec3 = points[i as usize].as_dvec3();
                 cand.for_each_weight(x, Kernel::C0, radius, |j, _| {
                     out[k] = true;
-                    touched[j as usize].store(true, AtomicOrdering::Relaxed);
+                    // A read first: a start hit by many points is written
+                    // once, not once per point (no cache line ping-pong).
+                    let t = &touched[j as usize];
+                    if !t.load(AtomicOrdering::Relaxed) {
+                        t.store(true, AtomicOrdering::Relaxed);
+                    }
                 });
             }
         },
@@ -409,45 +484,64 @@ fn reach(def: &Deformation, points: &[Vec3]) -> (Vec<bool>, Vec<bool>) {
 
 /// Triangles whose deformed normal opposes the deformed vertex normals of
 /// their corners while at rest it agreed with the rest ones.
-fn flipped_faces(rest: &[Vec3], moved: &[Vec3], triangles: &[[u32; 3]]) -> Vec<u32> {
+///
+/// Only faces with a corner that moved can turn over; only the vertex
+/// normals of their corners are needed (a local edit costs little).
+fn flipped_faces(
+    rest: &[Vec3],
+    moved: &[Vec3],
+    triangles: &[[u32; 3]],
+    has_moved: &[bool],
+) -> Vec<u32> {
     let n = rest.len();
-    let ok = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
-    let face = |p: &[Vec3], t: &[u32; 3]| -> DVec3 {
-        let (a, b, c) = (
-            p[t[0] as usize].as_dvec3(),
-            p[t[1] as usize].as_dvec3(),
-            p[t[2] as usize].as_dvec3(),
-        );
-        (b - a).cross(c - a)
-    };
-    let vertex_normals = |p: &[Vec3]| -> Vec<DVec3> {
-        let mut out = vec![DVec3::ZERO; n];
-        for t in triangles.iter().filter(|t| ok(t)) {
-            let f = face(p, t);
-            for &i in t {
-                out[i as usize] += f;
-            }
-        }
-        out
-    };
     if triangles.is_empty() {
         return Vec::new();
     }
-    let (vr, vm) = (vertex_normals(rest), vertex_normals(moved));
-    triangles
-        .par_iter()
-        .enumerate()
+    let ok = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
+    // Faces that may have turned over, and the vertices whose normals they need.
+    let candidates: Vec<u32> = (0..triangles.len() as u32)
+        .into_par_iter()
         .with_min_len(4096)
-        .filter(|(_, t)| ok(t))
-        .filter(|(_, t)| {
-            let (fr, fm) = (face(rest, t), face(moved, t));
-            let (sr, sm) = (
-                vr[t[0] as usize] + vr[t[1] as usize] + vr[t[2] as usize],
-                vm[t[0] as usize] + vm[t[1] as usize] + vm[t[2] as usize],
-            );
-            fr.dot(sr) > 0.0 && fm.dot(sm) < 0.0
+        .filter(|&f| {
+            let t = &triangles[f as usize];
+            ok(t) && t.iter().any(|&i| has_moved[i as usize])
         })
-        .map(|(i, _)| i as u32)
+        .collect();
+    if candidates.is_empty() {
+        return Vec::new();
+    }
+    let mut needed = vec![false; n];
+    for &f in &candidates {
+        for &i in &triangles[f as usize] {
+            needed[i as usize] = true;
+        }
+    }
+    let face = |p: &[Vec3], t: &[u32; 3]| -> Vec3 {
+        let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
+        (b - a).cross(c - a)
+    };
+    // Vertex normals of the needed vertices: the sum of the (area-weighted)
+    // normals of the faces around them, at rest and deformed.
+    let mut vr = vec![Vec3::ZERO; n];
+    let mut vm = vec![Vec3::ZERO; n];
+    for t in triangles {
+        if ok(t) && t.iter().any(|&i| needed[i as usize]) {
+            let (fr, fm) = (face(rest, t), face(moved, t));
+            for &i in t {
+                vr[i as usize] += fr;
+                vm[i as usize] += fm;
+            }
+        }
+    }
+    candidates
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&f| {
+            let t = &triangles[f as usize];
+            let [a, b, c] = t.map(|i| i as usize);
+            face(rest, t).dot(vr[a] + vr[b] + vr[c]) > 0.0
+                && face(moved, t).dot(vm[a] + vm[b] + vm[c]) < 0.0
+        })
         .collect()
 }
 
@@ -618,6 +712,25 @@ mod tests {
             "{:?}",
             r.warnings
         );
+    }
+
+    #[test]
+    fn vertices_within_counts_like_brute_force() {
+        let (rest, _) = grid(30);
+        let starts = [
+            DVec3::new(0.5, 0.5, 0.0),
+            DVec3::new(0.0, 0.0, 0.1),
+            DVec3::splat(9.0),
+        ];
+        let got = vertices_within(&rest, &starts, 0.2);
+        for (j, s) in starts.iter().enumerate() {
+            let want = rest
+                .iter()
+                .filter(|p| p.as_dvec3().distance(*s) < 0.2)
+                .count();
+            assert_eq!(got[j], want);
+        }
+        assert_eq!(got[2], 0);
     }
 
     #[test]

@@ -95,7 +95,7 @@ mod tests;
 
 pub use binding::{Binding, frame};
 pub use deformation::{Affine, Deformation};
-pub use diagnose::{Diagnostics, Warning, diagnose};
+pub use diagnose::{Diagnostics, Warning, compose_diagnosed, diagnose, vertices_within};
 pub use error::{Error, Result};
 pub use evaluate::Point;
 pub use handle::{Handle, HandleControls, Rotation};

@@ -11,6 +11,7 @@ use glam::{DVec3, Vec3};
 
 use crate::binding::Binding;
 use crate::deformation::Deformation;
+use crate::diagnose::StageReach;
 use crate::error::{Error, Result};
 use crate::region::Region;
 use crate::system::{FitOptions, System};
@@ -395,6 +396,16 @@ pub fn compose(
     stages: &[(Deformation, Region, f64)],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<Vec<Vec3>> {
+    compose_traced(rest, stages, groups, None)
+}
+
+/// [`compose`], recording each stage's reach for the diagnostics when asked.
+pub(crate) fn compose_traced(
+    rest: &[Vec3],
+    stages: &[(Deformation, Region, f64)],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    mut trace: Option<&mut Vec<StageReach>>,
+) -> Result<Vec<Vec3>> {
     let mut points = rest.to_vec();
     for (def, region, phase) in stages {
         if !(0.0..=1.0).contains(phase) {
@@ -402,14 +413,30 @@ pub fn compose(
         }
         let active = region.select(rest, groups)?;
         let t = *phase as f32;
-        if active.len() == points.len() {
-            let d = def.displacements_f32(&points);
+        let all = active.len() == points.len();
+        let sub: Vec<Vec3> = if all {
+            Vec::new()
+        } else {
+            active.iter().map(|&i| points[i as usize]).collect()
+        };
+        let input = if all { &points[..] } else { &sub[..] };
+        let d = match trace.as_deref_mut() {
+            None => def.displacements_f32(input),
+            Some(trace) => {
+                let (d, near, touched) = def.displacements_reach(input);
+                trace.push(StageReach {
+                    selected: active.clone(),
+                    near,
+                    touched,
+                });
+                d
+            }
+        };
+        if all {
             for (p, d) in points.iter_mut().zip(d) {
                 *p += d * t;
             }
         } else {
-            let sub: Vec<Vec3> = active.iter().map(|&i| points[i as usize]).collect();
-            let d = def.displacements_f32(&sub);
             for (&i, d) in active.iter().zip(d) {
                 points[i as usize] += d * t;
             }

@@ -256,3 +256,27 @@ fn assert_close_uvs(a: &Mesh, b: &Mesh) {
         assert!((*x - *y).length() < 1e-6, "{x} vs {y}");
     }
 }
+
+#[test]
+fn triangles_know_their_faces() {
+    let mut faces = crate::Faces::new();
+    faces.push(&[0, 1, 2]);
+    faces.push(&[0, 2, 3, 4, 5]);
+    faces.push(&[1, 2, 3, 4]);
+    let owners: Vec<usize> = (0..faces.triangle_count())
+        .map(|t| faces.face_of_triangle(t))
+        .collect();
+    assert_eq!(owners, vec![0, 1, 1, 1, 2, 2]);
+}
+
+#[test]
+fn up_is_guessed_from_the_format_and_the_shape() {
+    let mut tall = Mesh::default();
+    tall.positions = vec![glam::Vec3::ZERO, glam::Vec3::new(1.0, 1.0, 5.0)];
+    assert_eq!(crate::guess_up(&tall, Path::new("a.obj")).0, glam::Vec3::Z);
+    assert_eq!(crate::guess_up(&tall, Path::new("a.glb")).0, glam::Vec3::Y);
+    let mut wide = tall.clone();
+    wide.positions[1] = glam::Vec3::new(5.0, 1.0, 1.0);
+    assert_eq!(crate::guess_up(&wide, Path::new("a.off")).0, glam::Vec3::Y);
+    assert_eq!(crate::guess_up(&wide, Path::new("a.stl")).0, glam::Vec3::Z);
+}
