@@ -28,12 +28,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut plain, mut checked) = (Vec::new(), Vec::new());
     for _ in 0..runs {
         let t = Instant::now();
-        std::hint::black_box(csrbf::compose(&mesh.positions, &stages, &lookup)?);
+        std::hint::black_box(csrbf::compose(
+            &mesh.positions,
+            &stages,
+            file.combine,
+            &lookup,
+        )?);
         plain.push(t.elapsed().as_secs_f64() * 1e3);
         let t = Instant::now();
         std::hint::black_box(csrbf::compose_diagnosed(
             &mesh.positions,
             &stages,
+            file.combine,
             &triangles,
             &lookup,
         )?);

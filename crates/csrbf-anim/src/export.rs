@@ -7,7 +7,33 @@
 use csrbf_mesh::formats::gltf::{Builder, package};
 use serde_json::{Value, json};
 
+use csrbf::Combine;
+
 use crate::scene::Scene;
+
+/// What [`export_gltf`] cannot represent exactly, in words, for the user.
+pub fn export_notes(scene: &Scene) -> Vec<String> {
+    let mut notes = Vec::new();
+    for obj in &scene.objects {
+        for anim in &obj.deformations {
+            if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+                notes.push(format!(
+                    "{}: {}: its {} deformations are chained; glTF morph targets add, so the chain is exported as one morph target (the whole chain at full phase) weighted by its phase track: exact at phases 0 and 1, a straight blend between (\"combine\": \"add\" exports exactly)",
+                    obj.name,
+                    anim.controls,
+                    anim.stages.len()
+                ));
+            }
+        }
+        if obj.contact.is_some() {
+            notes.push(format!(
+                "{}: its contact deformation is rebuilt every frame and has no morph-target form; it is left out (the objects still move)",
+                obj.name
+            ));
+        }
+    }
+    notes
+}
 
 /// The scene as glTF: binary `.glb` or `.gltf` JSON with an embedded buffer.
 pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
@@ -56,6 +82,16 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         let mut target_names = Vec::new();
         let mut tracks = Vec::new();
         for anim in &obj.deformations {
+            if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+                // A chain is not a sum of targets: one target, the whole
+                // chain at full phase (see `export_notes`).
+                let full = Scene::chained_displacement(&obj.mesh.positions, anim);
+                let d: Vec<f32> = full.iter().flat_map(|v| v.to_array()).collect();
+                targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
+                target_names.push(anim.controls.clone());
+                tracks.push(&anim.track);
+                continue;
+            }
             for (si, st) in anim.stages.iter().enumerate() {
                 let mut d = vec![0.0f32; 3 * n];
                 for (&v, dv) in st.vertices.iter().zip(&st.displacement) {

@@ -31,7 +31,7 @@ mod spline;
 mod track;
 
 pub use camera::{Camera, CameraError, Projection, ViewPreset};
-pub use export::export_gltf;
+pub use export::{export_gltf, export_notes};
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{

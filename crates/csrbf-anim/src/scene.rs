@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use csrbf::controls::ControlFile;
-use csrbf::{Binding, Deformation, FitOptions, Kernel, Polynomial, Region, System};
+use csrbf::{Binding, Combine, Deformation, FitOptions, Kernel, Polynomial, Region, System};
 use csrbf_mesh::Mesh;
 use glam::{DQuat, DVec3, Vec3};
 
@@ -60,8 +60,15 @@ pub struct BoundStage {
     pub vertices: Vec<u32>,
     /// Kernel weights of every vertex of its region.
     pub binding: Binding,
-    /// Full displacement of each of `vertices`.
+    /// Full displacement of each of `vertices` (times the stage's phase in
+    /// its file), computed once at rest. Empty for a chained stage after the
+    /// first, which is evaluated every frame at the points the stages before
+    /// it moved.
     pub displacement: Vec<Vec3>,
+    /// Phase of the stage within its control file.
+    pub phase: f32,
+    /// Every vertex of its region (in the part).
+    pub region: Vec<u32>,
 }
 
 /// A deformation of a part with its phase track.
@@ -71,8 +78,10 @@ pub struct Animated {
     pub part: usize,
     /// The control file, as named in the scene.
     pub controls: String,
-    /// Its stages (a control file may chain several).
+    /// Its stages (a control file may hold several).
     pub stages: Vec<BoundStage>,
+    /// How they act together (the control file's `combine`).
+    pub combine: Combine,
     /// Phase over time.
     pub track: PhaseTrack,
 }
@@ -271,9 +280,14 @@ impl Scene {
             controls.clear();
             for anim in &obj.deformations {
                 let t = anim.track.phase(time) as f32;
+                if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+                    Self::chain_frame(&obj.mesh.positions, anim, t, local);
+                }
                 for st in &anim.stages {
-                    for (&v, d) in st.vertices.iter().zip(&st.displacement) {
-                        local[v as usize] += *d * t;
+                    if anim.combine == Combine::Add || anim.stages.len() == 1 {
+                        for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                            local[v as usize] += *d * t;
+                        }
                     }
                     for (s, g) in st.deformation.starts().iter().zip(&st.targets) {
                         let (s, g) = (s.as_vec3(), g.as_vec3());
@@ -297,6 +311,42 @@ impl Scene {
                 *g = rot32 * *g + shift32;
             }
         }
+    }
+
+    /// Adds what a chained control file does at track phase `t`: each stage after
+    /// the first is evaluated at the points this file's stages before it moved
+    /// (other files of the part add, as blend shapes do).
+    fn chain_frame(rest: &[Vec3], anim: &Animated, t: f32, local: &mut [Vec3]) {
+        for (l, d) in local.iter_mut().zip(Self::chain_at(rest, anim, t)) {
+            *l += d;
+        }
+    }
+
+    /// The displacement of every vertex by a chained control file at full
+    /// track phase (each stage at its own phase in the file).
+    pub fn chained_displacement(rest: &[Vec3], anim: &Animated) -> Vec<Vec3> {
+        Self::chain_at(rest, anim, 1.0)
+    }
+
+    fn chain_at(rest: &[Vec3], anim: &Animated, t: f32) -> Vec<Vec3> {
+        let mut x = rest.to_vec();
+        for (si, st) in anim.stages.iter().enumerate() {
+            if si == 0 {
+                for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                    x[v as usize] += *d * t;
+                }
+            } else {
+                let pts: Vec<Vec3> = st.region.iter().map(|&v| x[v as usize]).collect();
+                let d = st.deformation.displacements_f32(&pts);
+                for (&v, d) in st.region.iter().zip(d) {
+                    x[v as usize] += d * (st.phase * t);
+                }
+            }
+        }
+        for (x, r) in x.iter_mut().zip(rest) {
+            *x -= *r;
+        }
+        x
     }
 
     /// Pushes the vertices of object `oi` inside the pusher's bounding sphere
@@ -750,7 +800,12 @@ fn load_deformation(
     let cf = ControlFile::parse(&text)
         .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
     let mut stages = Vec::new();
-    for spec in cf.deformations {
+    let lookup = |n: &str| mesh.part_vertices(n);
+    for (si, spec) in cf.deformations.iter().enumerate() {
+        // Handles become control vectors on the rest mesh.
+        let spec = spec
+            .resolve(&mesh.positions, &lookup)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
         let sys = System::new(&spec.starts, spec.options)
             .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
         let deformation = sys
@@ -776,22 +831,29 @@ fn load_deformation(
         };
         let pts: Vec<Vec3> = region.iter().map(|&v| mesh.positions[v as usize]).collect();
         let binding = Binding::new(&deformation, &pts);
-        let displacement = binding
-            .displacements(&deformation)
-            .map_err(|e| scene_err(at("controls"), e.to_string()))?;
-        // Keep only the vertices that move: a frame then touches nothing else.
-        let (vertices, displacement): (Vec<u32>, Vec<Vec3>) = region
-            .iter()
-            .zip(displacement)
-            .filter(|(_, d)| *d != Vec3::ZERO)
-            .map(|(&v, d)| (v, d * spec.phase as f32))
-            .unzip();
+        let per_frame = cf.combine == Combine::Chain && si > 0;
+        let (vertices, displacement) = if per_frame {
+            (region.clone(), Vec::new())
+        } else {
+            let displacement = binding
+                .displacements(&deformation)
+                .map_err(|e| scene_err(at("controls"), e.to_string()))?;
+            // Keep only the vertices that move: a frame then touches nothing else.
+            region
+                .iter()
+                .zip(displacement)
+                .filter(|(_, d)| *d != Vec3::ZERO)
+                .map(|(&v, d)| (v, d * spec.phase as f32))
+                .unzip()
+        };
         stages.push(BoundStage {
             deformation,
             targets: spec.targets,
             vertices,
             binding,
             displacement,
+            phase: spec.phase as f32,
+            region,
         });
     }
     check_times(df.phase.iter().map(|k| k.time), &|i| {
@@ -827,6 +889,7 @@ fn load_deformation(
         part: pi,
         controls: df.controls.clone(),
         stages,
+        combine: cf.combine,
         track,
     })
 }

@@ -275,3 +275,58 @@ fn part_textures_load_from_png() {
     assert_eq!((t.width, t.height, t.mime.as_str()), (4, 2, "image/png"));
     assert_eq!(&t.rgba[4..8], &[60, 0, 0, 255]);
 }
+
+/// Issue 6: a control file of several deformations means the same in a scene
+/// as in `csrbf deform` (`csrbf::compose`), chained or added, at any phase.
+#[test]
+fn scenes_combine_deformations_as_compose_does() {
+    let d = Dir::new("combine");
+    let two = |combine: &str| {
+        format!(
+            r#"{{"combine": "{combine}", "deformations": [
+              {{"radius": 4, "controls": [{{"from": [2.15, 10.18, 4.42], "to": [2.15, 11.5, 5.0]}}]}},
+              {{"radius": 3, "phase": 0.6, "region": {{"box": {{"min": [-9, 8, -9], "max": [9, 20, 9]}}}},
+               "controls": [{{"from": [2.3, 11.2, 4.6], "to": [3.2, 11.2, 4.6]}}]}}]}}"#
+        )
+    };
+    let mesh = csrbf_mesh::read(&d.0.join("head.off")).expect("head");
+    let mut checked = 0;
+    for combine in ["chain", "add"] {
+        std::fs::write(d.0.join("two.json"), two(combine)).expect("write");
+        let text = GOOD
+            .replace("smile.json", "two.json")
+            .replace(r#""trajectory": [{"time": 0, "position": [0, 0, 0]}, {"time": 2, "position": [1, 0, 0], "tension": 0.5}],"#, "")
+            .replace(r#""orientation": [{"time": 0, "axis": [0, 1, 0], "angle": 0}, {"time": 2, "euler": [0, 30, 0]}]"#, r#""orientation": []"#);
+        let scene = Scene::load(&d.scene(&text)).expect("scene");
+        let file = csrbf::controls::ControlFile::parse(&two(combine)).expect("controls");
+        for (time, track) in [(1.0, 1.0f64), (0.5, 0.5)] {
+            let stages: Vec<_> = file
+                .deformations
+                .iter()
+                .map(|s| {
+                    let def =
+                        csrbf::Deformation::fit(&s.starts, &s.targets, s.options).expect("fit");
+                    (def, s.region.clone(), s.phase * track)
+                })
+                .collect();
+            let want = csrbf::compose(&mesh.positions, &stages, file.combine, &|n| {
+                mesh.part_vertices(n)
+            })
+            .expect("compose");
+            // The scene eases its phase track: compare where it is linear.
+            let phase = scene.objects[0].deformations[0].track.phase(time);
+            if (phase - track).abs() > 1e-9 {
+                continue;
+            }
+            let got = &scene.frame(time).objects[0].positions;
+            let worst = got
+                .iter()
+                .zip(&want)
+                .map(|(a, b)| a.distance(*b))
+                .fold(0.0f32, f32::max);
+            assert!(worst < 1e-4, "{combine} at {time}: off by {worst}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 4, "every time compared");
+}

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use csrbf::synthetic::{fibonacci_sphere, radius_for_neighbours, smooth_displacements};
 use csrbf::{Binding, FitOptions, Kernel, Polynomial, SolverChoice, System, frame};
@@ -137,7 +137,10 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         vec![synthetic(s)?]
     } else if let (Some(m), Some(c)) = (&args.mesh, &args.controls) {
         let mesh = read_mesh(m, progress)?;
-        let spec = read_controls(c, progress)?.swap_remove(0);
+        let spec = read_controls(c, progress)?.deformations.swap_remove(0);
+        let spec = spec
+            .resolve(&mesh.positions, &|n| mesh.part_vertices(n))
+            .with_context(|| c.display().to_string())?;
         vec![Scene {
             name: m.display().to_string(),
             points: mesh.positions,

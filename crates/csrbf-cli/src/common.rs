@@ -56,7 +56,7 @@ impl Progress {
 }
 
 /// Reads and checks a control file; warnings about unknown keys are printed.
-pub fn read_controls(path: &Path, progress: &Progress) -> Result<Vec<ControlSpec>> {
+pub fn read_controls(path: &Path, progress: &Progress) -> Result<ControlFile> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read control file {}", path.display()))?;
     let file = ControlFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -69,7 +69,7 @@ pub fn read_controls(path: &Path, progress: &Progress) -> Result<Vec<ControlSpec
         path.display(),
         file.deformations.len()
     ));
-    Ok(file.deformations)
+    Ok(file)
 }
 
 /// Fits every deformation of a control file, naming the file and the

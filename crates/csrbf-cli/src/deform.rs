@@ -4,7 +4,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use csrbf::{Deformation, Region, compose_diagnosed, format};
+use csrbf::{Combine, Deformation, Region, compose_diagnosed, format};
 use csrbf_mesh::Mesh;
 
 use crate::common::{Progress, check_output, check_phase, fit_all, read_controls, read_mesh};
@@ -20,15 +20,19 @@ pub fn deform(
 ) -> Result<()> {
     check_phase(phase)?;
     check_output(out, &[mesh, controls], force, true)?;
-    let specs = read_controls(controls, progress)?;
+    let file = read_controls(controls, progress)?;
     let mut m = read_mesh(mesh, progress)?;
-    let stages = fit_all(&specs, controls, Some(&m), progress)?;
-    // The file's phase of each deformation, scaled by the command's.
-    let stages: Vec<_> = stages
-        .into_iter()
-        .map(|(d, r, p)| (d, r, p * phase))
-        .collect();
-    move_and_write(&mut m, &stages, mesh, out, json, progress)
+    let stages = fit_all(&file.deformations, controls, Some(&m), progress)?;
+    move_and_write(
+        &mut m,
+        &stages,
+        file.combine,
+        phase,
+        mesh,
+        out,
+        json,
+        progress,
+    )
 }
 
 pub fn fit(
@@ -41,16 +45,13 @@ pub fn fit(
     let inputs: Vec<&Path> = std::iter::once(controls).chain(mesh).collect();
     check_output(out, &inputs, force, false)?;
     let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
-    let specs = read_controls(controls, progress)?;
+    let file = read_controls(controls, progress)?;
     let m = mesh.map(|p| read_mesh(p, progress)).transpose()?;
-    let stages: Vec<(Deformation, Region)> = fit_all(&specs, controls, m.as_ref(), progress)?
-        .into_iter()
-        .map(|(d, r, _)| (d, r))
-        .collect();
+    let stages = fit_all(&file.deformations, controls, m.as_ref(), progress)?;
     let bytes = if ext == "json" {
-        serde_json::to_vec_pretty(&format::to_json(&stages))?
+        serde_json::to_vec_pretty(&format::to_json(&stages, file.combine))?
     } else {
-        format::encode(&stages)
+        format::encode(&stages, file.combine)
     };
     csrbf_mesh::write_atomic(out, &bytes)?;
     progress.say(format_args!(
@@ -74,21 +75,34 @@ pub fn apply(
     check_output(out, &[mesh, deformation], force, true)?;
     let bytes = std::fs::read(deformation)
         .with_context(|| format!("cannot read {}", deformation.display()))?;
-    let stages = format::decode(&bytes).with_context(|| deformation.display().to_string())?;
+    let replay = format::decode(&bytes).with_context(|| deformation.display().to_string())?;
     progress.say(format_args!(
-        "{}: {} deformation(s)",
+        "{}: {} deformation(s), {}",
         deformation.display(),
-        stages.len()
+        replay.stages.len(),
+        replay.combine
     ));
     let mut m = read_mesh(mesh, progress)?;
-    let stages: Vec<_> = stages.into_iter().map(|(d, r)| (d, r, phase)).collect();
-    move_and_write(&mut m, &stages, mesh, out, json, progress)
+    move_and_write(
+        &mut m,
+        &replay.stages,
+        replay.combine,
+        phase,
+        mesh,
+        out,
+        json,
+        progress,
+    )
 }
 
-/// Moves the vertices, recomputes normals where the mesh had them, writes.
+/// Moves the vertices (each stage at its own phase times `phase`),
+/// recomputes normals where the mesh had them, writes.
+#[allow(clippy::too_many_arguments)]
 fn move_and_write(
     m: &mut Mesh,
     stages: &[(Deformation, Region, f64)],
+    combine: Combine,
+    phase: f64,
     mesh_path: &Path,
     out: &Path,
     json: bool,
@@ -97,7 +111,11 @@ fn move_and_write(
     let t = Instant::now();
     let lookup = |name: &str| m.part_vertices(name);
     let triangles = m.faces.triangles();
-    let (moved, report) = compose_diagnosed(&m.positions, stages, &triangles, &lookup)
+    let stages: Vec<(Deformation, Region, f64)> = stages
+        .iter()
+        .map(|(d, r, p)| (d.clone(), r.clone(), p * phase))
+        .collect();
+    let (moved, report) = compose_diagnosed(&m.positions, &stages, combine, &triangles, &lookup)
         .with_context(|| mesh_path.display().to_string())?;
     let deform_ms = t.elapsed().as_secs_f64() * 1e3;
     m.positions = moved;

@@ -99,7 +99,8 @@ fn mesh_info(path: &Path) -> Result<Value> {
 
 fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
     let quiet = Progress::new(false);
-    let specs = read_controls(path, &quiet)?;
+    let file = read_controls(path, &quiet)?;
+    let specs = file.deformations;
     let mesh = mesh_path.map(|m| read_mesh(m, &quiet)).transpose()?;
     let generated: Vec<usize> = specs.iter().map(|s| s.starts.len()).collect();
     let specs = resolve_all(&specs, path, mesh.as_ref(), &quiet)?;
@@ -153,7 +154,7 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
             stage.insert("vertices_within_r".into(), json!(within));
             let stages1 = [(def, s.region.clone(), s.phase)];
             let lookup = |n: &str| m.part_vertices(n);
-            let moved = csrbf::compose(&m.positions, &stages1, &lookup)?;
+            let moved = csrbf::compose(&m.positions, &stages1, csrbf::Combine::Chain, &lookup)?;
             let report = csrbf::diagnose(
                 &m.positions,
                 &moved,
@@ -185,20 +186,26 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
 
 fn deformation_info(path: &Path) -> Result<Value> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let stages = format::decode(&bytes).with_context(|| path.display().to_string())?;
-    let list: Vec<Value> = stages
+    let replay = format::decode(&bytes).with_context(|| path.display().to_string())?;
+    let list: Vec<Value> = replay
+        .stages
         .iter()
-        .map(|(d, r)| {
+        .map(|(d, r, phase)| {
             json!({
                 "controls": d.starts().len(),
                 "kernel": d.kernel().name(),
                 "radius": d.radius(),
                 "polynomial": d.polynomial().name(),
+                "phase": phase,
                 "region": r.to_string(),
             })
         })
         .collect();
-    Ok(
-        json!({ "file": path.display().to_string(), "bytes": bytes.len(), "version": format::VERSION, "deformations": list }),
-    )
+    Ok(json!({
+        "file": path.display().to_string(),
+        "bytes": bytes.len(),
+        "version": u16::from_le_bytes([bytes[6], bytes[7]]),
+        "combine": replay.combine.name(),
+        "deformations": list,
+    }))
 }

@@ -121,7 +121,35 @@ enum Command {
     },
 }
 
+/// Mesa's Vulkan driver prints "error: XDG_RUNTIME_DIR is invalid or not set"
+/// (twice, then works) when the variable is missing, as in containers and
+/// cron jobs: give it a private folder before any thread starts.
+fn runtime_dir() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!(
+        "csrbf-runtime-{}",
+        std::env::var("USER").unwrap_or_else(|_| "user".into())
+    ));
+    let made = std::fs::create_dir_all(&dir).is_ok();
+    #[cfg(unix)]
+    let made = made && {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).is_ok()
+    };
+    if made {
+        // SAFETY: called first thing in `main`, before any other thread exists,
+        // so nothing can read the environment while it changes.
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var("XDG_RUNTIME_DIR", &dir);
+        }
+    }
+}
+
 fn main() -> ExitCode {
+    runtime_dir();
     let cli = Cli::parse();
     let progress = common::Progress::new(!cli.quiet);
     let result = match cli.command {

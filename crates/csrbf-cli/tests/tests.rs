@@ -3,5 +3,6 @@
 mod aim;
 mod bad_input;
 mod commands;
+mod meaning;
 mod pictures;
 mod support;

@@ -16,6 +16,7 @@ use serde_json::{Map, Value};
 use crate::handle::{Handle, Rotation};
 use crate::kernel::{Kernel, Polynomial};
 use crate::ordering::Ordering;
+use crate::pipeline::Combine;
 use crate::region::Region;
 use crate::solver::SolverChoice;
 use crate::system::FitOptions;
@@ -86,6 +87,8 @@ impl ControlSpec {
 pub struct ControlFile {
     /// The deformations, in order.
     pub deformations: Vec<ControlSpec>,
+    /// How they act together (`"combine"`, default chain).
+    pub combine: Combine,
     /// Keys that were ignored, with their paths.
     pub warnings: Vec<String>,
 }
@@ -101,8 +104,25 @@ impl ControlFile {
         let obj = root
             .as_object()
             .ok_or_else(|| err("(top level)", "expected a JSON object"))?;
+        let combine = match obj.get("combine") {
+            None | Some(Value::Null) => Combine::default(),
+            Some(Value::String(c)) => c
+                .parse::<Combine>()
+                .map_err(|e| err("combine", e.to_string()))?,
+            Some(other) => {
+                return Err(err(
+                    "combine",
+                    format!("expected \"chain\" or \"add\", found {other}"),
+                ));
+            }
+        };
         let deformations = if let Some(list) = obj.get("deformations") {
-            unknown_keys(obj, &["deformations"], "", &mut warnings);
+            unknown_keys(
+                obj,
+                &["deformations", "combine", "comment"],
+                "",
+                &mut warnings,
+            );
             let list = list
                 .as_array()
                 .ok_or_else(|| err("deformations", "expected a list of deformations"))?;
@@ -121,6 +141,7 @@ impl ControlFile {
         };
         Ok(ControlFile {
             deformations,
+            combine,
             warnings,
         })
     }
@@ -139,6 +160,7 @@ const KEYS: &[&str] = &[
     "comment",
     "handle",
     "anchor",
+    "combine",
 ];
 
 fn join(base: &str, key: &str) -> String {
@@ -595,6 +617,14 @@ mod tests {
             (
                 r#"{"radius": 1, "region": {"box": {"min": [0,2,0], "max": [1,1,1]}}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
                 "region.box.min[1]: is greater than max[1]",
+            ),
+            (
+                r#"{"combine": "blend", "deformations": [{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#,
+                "combine: unknown combine \"blend\": expected chain or add",
+            ),
+            (
+                r#"{"combine": 3, "radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "combine: expected \"chain\" or \"add\"",
             ),
             (
                 r#"{"radius": 1, "anchor": {"group": "body"}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,

@@ -12,7 +12,7 @@
 //! let d = Deformation::fit(&[DVec3::new(2.0, 0.0, 0.0)], &[DVec3::new(2.0, 0.3, 0.0)],
 //!     FitOptions::default().with_radius(1.0).with_polynomial(Polynomial::None))?;
 //! let stages = [(d, Region::All, 1.0)];
-//! let moved = csrbf::compose(&rest, &stages, &|_| None)?;
+//! let moved = csrbf::compose(&rest, &stages, csrbf::Combine::Chain, &|_| None)?;
 //! let report = diagnose(&rest, &moved, &[], &stages, &|_| None)?;
 //! assert_eq!(report.moved, 19); // the points within R = 1 of x = 2
 //! assert!(report.warnings.is_empty());
@@ -213,11 +213,12 @@ pub fn diagnose(
 pub fn compose_diagnosed(
     rest: &[Vec3],
     stages: &[(Deformation, Region, f64)],
+    combine: crate::Combine,
     triangles: &[[u32; 3]],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<(Vec<Vec3>, Diagnostics)> {
     let mut traced = Vec::with_capacity(stages.len());
-    let moved = crate::pipeline::compose_traced(rest, stages, groups, Some(&mut traced))?;
+    let moved = crate::pipeline::compose_traced(rest, stages, combine, groups, Some(&mut traced))?;
     let report = diagnose_with(rest, &moved, triangles, stages, groups, Some(&traced))?;
     Ok((moved, report))
 }
@@ -548,7 +549,7 @@ fn flipped_faces(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{FitOptions, compose};
+    use crate::{Combine, FitOptions, compose, compose_diagnosed};
 
     /// A flat grid of n x n vertices in the XY plane, two triangles a square.
     fn grid(n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
@@ -574,13 +575,16 @@ mod tests {
         (p, t)
     }
 
+    /// Diagnoses both ways (after the fact, and while composing): they agree.
     fn run(stages: &[(Deformation, Region, f64)]) -> (Diagnostics, Vec<Vec3>) {
         let (rest, tris) = grid(41);
-        let moved = compose(&rest, stages, &|_| None).expect("compose");
-        (
-            diagnose(&rest, &moved, &tris, stages, &|_| None).expect("diagnose"),
-            moved,
-        )
+        let moved = compose(&rest, stages, Combine::Chain, &|_| None).expect("compose");
+        let after = diagnose(&rest, &moved, &tris, stages, &|_| None).expect("diagnose");
+        let (moved2, during) =
+            compose_diagnosed(&rest, stages, Combine::Chain, &tris, &|_| None).expect("both");
+        assert_eq!(moved, moved2);
+        assert_eq!(after, during);
+        (after, moved)
     }
 
     fn one(from: DVec3, to: DVec3, r: f64, poly: Polynomial) -> Deformation {

@@ -99,6 +99,9 @@ pub enum Error {
         /// Points given.
         got: usize,
     },
+    /// A combine name that is not `chain` or `add`.
+    #[error("unknown combine {0:?}: expected chain or add")]
+    UnknownCombine(String),
     /// A handle that cannot make control vectors (its message says why).
     #[error("handle: {0}")]
     BadHandle(String),

@@ -1,44 +1,67 @@
-//! The compact replay file (`.csrbf`): everything needed to replay a chain
-//! of deformations for any number of frames, in a small versioned binary
-//! format that loads back bit-exact.
+//! The compact replay file (`.csrbf`): everything needed to replay the
+//! deformations of a control file for any number of frames, in a small
+//! versioned binary format that loads back bit-exact.
 //!
 //! Layout (all little-endian):
 //!
 //! ```text
-//! magic "CSRBF\0" | version u16 = 1 | reserved u16 | stages u32
+//! magic "CSRBF\0" | version u16 = 2 | combine u16 (0 chain, 1 add) | stages u32
 //! per stage:
-//!   kernel u8 | polynomial u8 | reserved u16 | radius f64 | n u32
+//!   kernel u8 | polynomial u8 | reserved u16 | radius f64 | phase f64 | n u32
 //!   starts 3n f64 | coefficients 3n f64
 //!   if linear: centre 3 f64 | scale f64 | coefficients 12 f64
 //!   order n u32
 //!   region: tag u8 (0 all, 1 sphere, 2 box, 3 vertices, 4 group) and its data
 //! checksum u64: FNV-1a of every byte before it
 //! ```
+//!
+//! Field by field: the kernel (C0-C6) and polynomial (none, linear), the
+//! radius of support R, the stage's phase within the file (in [0, 1]), the
+//! starts and their coefficients alpha, the affine part (centre, scale and
+//! the 4 coefficient vectors of p(x)) when linear, the order the system was
+//! factored in (kept so a refit is bit-exact), and the region. Version 1
+//! files (no combine, no phase) still read: chained, every phase 1.
+//!
+//! The checksum proves the bytes were not damaged; the values are checked
+//! too: a NaN or infinite start, coefficient, affine term or phase is refused.
 
 use glam::DVec3;
 
 use crate::deformation::{Affine, Deformation};
 use crate::error::{Error, Result};
 use crate::kernel::{Kernel, Polynomial};
+use crate::pipeline::Combine;
 use crate::region::Region;
 
 /// The file's first bytes.
 pub const MAGIC: &[u8; 6] = b"CSRBF\0";
-/// The version this build writes and reads.
-pub const VERSION: u16 = 1;
+/// The version this build writes (it reads this one and version 1).
+pub const VERSION: u16 = 2;
 
-/// Encodes a chain of deformations with their regions.
-pub fn encode(stages: &[(Deformation, Region)]) -> Vec<u8> {
+/// What a `.csrbf` file holds: deformations with their regions and phases,
+/// and how they combine.
+#[derive(Clone, Debug)]
+pub struct Replay {
+    /// Deformation, region and phase of each stage, in order.
+    pub stages: Vec<(Deformation, Region, f64)>,
+    /// How the stages act together.
+    pub combine: Combine,
+}
+
+/// Encodes deformations with their regions and phases (borrowed: nothing is
+/// copied but into the bytes).
+pub fn encode(stages: &[(Deformation, Region, f64)], combine: Combine) -> Vec<u8> {
     let mut w = Vec::new();
     w.extend_from_slice(MAGIC);
     w.extend_from_slice(&VERSION.to_le_bytes());
-    w.extend_from_slice(&0u16.to_le_bytes());
+    w.extend_from_slice(&(combine as u16).to_le_bytes());
     w.extend_from_slice(&(stages.len() as u32).to_le_bytes());
-    for (d, region) in stages {
+    for (d, region, phase) in stages {
         w.push(d.kernel().code());
         w.push(d.polynomial() as u8);
         w.extend_from_slice(&0u16.to_le_bytes());
         w.extend_from_slice(&d.radius().to_le_bytes());
+        w.extend_from_slice(&phase.to_le_bytes());
         w.extend_from_slice(&(d.starts().len() as u32).to_le_bytes());
         for v in d.starts().iter().chain(d.coefficients()) {
             put_vec(&mut w, *v);
@@ -60,8 +83,9 @@ pub fn encode(stages: &[(Deformation, Region)]) -> Vec<u8> {
     w
 }
 
-/// Decodes a file made by [`encode`], checking magic, version, sizes and checksum.
-pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
+/// Decodes a file made by [`encode`] (or a version 1 file), checking magic,
+/// version, sizes, checksum and that every value is finite.
+pub fn decode(bytes: &[u8]) -> Result<Replay> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         return Err(Error::Format(
             "it does not start with the csrbf magic bytes".into(),
@@ -75,9 +99,9 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
     }
     let (body, tail) = bytes.split_at(bytes.len() - 8);
     let version = u16::from_le_bytes([bytes[6], bytes[7]]);
-    if version != VERSION {
+    if version != VERSION && version != 1 {
         return Err(Error::Format(format!(
-            "version {version} is not supported (this build reads version {VERSION})"
+            "version {version} is not supported (this build reads versions 1 and {VERSION})"
         )));
     }
     let mut sum = [0u8; 8];
@@ -88,7 +112,11 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
         ));
     }
     let mut r = Reader { b: body, at: 8 };
-    r.u16("header")?;
+    let combine = match (version, r.u16("header")?) {
+        (1, _) | (_, 0) => Combine::Chain,
+        (_, 1) => Combine::Add,
+        (_, c) => return Err(Error::Format(format!("unknown combine code {c}"))),
+    };
     let count = r.u32("stage count")? as usize;
     let mut out = Vec::new();
     for s in 0..count {
@@ -108,6 +136,12 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
         if !(radius > 0.0 && radius.is_finite()) {
             return Err(Error::Format(format!(
                 "stage {s}: radius {radius} is not valid"
+            )));
+        }
+        let phase = if version == 1 { 1.0 } else { r.f64("phase")? };
+        if !(0.0..=1.0).contains(&phase) {
+            return Err(Error::Format(format!(
+                "stage {s}: phase {phase} is not within [0, 1]"
             )));
         }
         let n = r.u32("start count")? as usize;
@@ -146,9 +180,28 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
             )));
         }
         let region = get_region(&mut r)?;
+        let finite = |what: &str, v: &[DVec3]| -> Result<()> {
+            match v.iter().position(|x| !x.is_finite()) {
+                Some(i) => Err(Error::Format(format!(
+                    "stage {s}: {what} {i} is not finite (NaN or infinite)"
+                ))),
+                None => Ok(()),
+            }
+        };
+        finite("start", &starts)?;
+        finite("coefficient", &coefficients)?;
+        if let Some(a) = &affine {
+            finite("affine coefficient", &a.coefficients)?;
+            if !(a.center.is_finite() && a.scale.is_finite() && a.scale != 0.0) {
+                return Err(Error::Format(format!(
+                    "stage {s}: the affine part's centre or scale is not finite"
+                )));
+            }
+        }
         out.push((
             Deformation::from_parts(kernel, radius, starts, coefficients, affine, order, None),
             region,
+            phase,
         ));
     }
     if r.at != r.b.len() {
@@ -157,7 +210,10 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<(Deformation, Region)>> {
             r.b.len() - r.at
         )));
     }
-    Ok(out)
+    Ok(Replay {
+        stages: out,
+        combine,
+    })
 }
 
 fn put_vec(w: &mut Vec<u8>, v: DVec3) {
@@ -286,13 +342,14 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// The deformation for people to read: kernel, R, polynomial, starts,
 /// coefficients, the polynomial part, the order and the region.
 #[cfg(feature = "serde")]
-pub fn to_json(stages: &[(Deformation, Region)]) -> serde_json::Value {
+pub fn to_json(stages: &[(Deformation, Region, f64)], combine: Combine) -> serde_json::Value {
     let list: Vec<serde_json::Value> = stages
         .iter()
-        .map(|(d, region)| {
+        .map(|(d, region, phase)| {
             serde_json::json!({
                 "kernel": d.kernel(),
                 "radius": d.radius(),
+                "phase": phase,
                 "polynomial": d.polynomial(),
                 "starts": d.starts().iter().map(|v| v.to_array()).collect::<Vec<_>>(),
                 "coefficients": d.coefficients().iter().map(|v| v.to_array()).collect::<Vec<_>>(),
@@ -302,5 +359,68 @@ pub fn to_json(stages: &[(Deformation, Region)]) -> serde_json::Value {
             })
         })
         .collect();
-    serde_json::json!({ "format": "csrbf", "version": VERSION, "deformations": list })
+    serde_json::json!({ "format": "csrbf", "version": VERSION, "combine": combine, "deformations": list })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A version 1 file (no combine, no phase) as an earlier build wrote it.
+    fn version_1(coefficient: f64) -> Vec<u8> {
+        let mut w = Vec::new();
+        w.extend_from_slice(MAGIC);
+        w.extend_from_slice(&1u16.to_le_bytes());
+        w.extend_from_slice(&0u16.to_le_bytes());
+        w.extend_from_slice(&1u32.to_le_bytes());
+        w.push(Kernel::C2.code());
+        w.push(Polynomial::None as u8);
+        w.extend_from_slice(&0u16.to_le_bytes());
+        w.extend_from_slice(&2.0f64.to_le_bytes());
+        w.extend_from_slice(&1u32.to_le_bytes());
+        put_vec(&mut w, DVec3::new(1.0, 2.0, 3.0));
+        put_vec(&mut w, DVec3::new(0.0, coefficient, 0.0));
+        w.extend_from_slice(&0u32.to_le_bytes());
+        w.push(0);
+        let sum = fnv1a(&w);
+        w.extend_from_slice(&sum.to_le_bytes());
+        w
+    }
+
+    #[test]
+    fn version_1_files_still_read_chained_at_full_phase() {
+        let r = decode(&version_1(0.5)).expect("version 1");
+        assert_eq!(r.combine, Combine::Chain);
+        assert_eq!(r.stages.len(), 1);
+        let (d, region, phase) = &r.stages[0];
+        assert_eq!((region, *phase), (&Region::All, 1.0));
+        assert_eq!(
+            d.displacement_at(DVec3::new(1.0, 2.0, 3.0)),
+            DVec3::new(0.0, 0.5, 0.0)
+        );
+    }
+
+    /// Issue 7: a checksum only proves the bytes arrived; values are checked too.
+    #[test]
+    fn non_finite_values_are_refused_with_a_valid_checksum() {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let e = decode(&version_1(bad))
+                .expect_err("NaN accepted")
+                .to_string();
+            assert!(e.contains("coefficient 0 is not finite"), "{e}");
+        }
+        let d = Deformation::from_parts(
+            Kernel::C2,
+            1.0,
+            vec![DVec3::new(f64::NAN, 0.0, 0.0)],
+            vec![DVec3::ZERO],
+            None,
+            vec![0],
+            None,
+        );
+        let e = decode(&encode(&[(d, Region::All, 1.0)], Combine::Chain))
+            .expect_err("NaN start accepted")
+            .to_string();
+        assert!(e.contains("start 0 is not finite"), "{e}");
+    }
 }

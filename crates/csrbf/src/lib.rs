@@ -102,7 +102,7 @@ pub use handle::{Handle, HandleControls, Rotation};
 pub use kernel::{Kernel, Polynomial};
 pub use octree::Octree;
 pub use ordering::Ordering;
-pub use pipeline::{Pipeline, Stage, Work, compose};
+pub use pipeline::{Combine, Pipeline, Stage, Work, compose};
 pub use region::Region;
 pub use solver::SolverChoice;
 pub use system::{FitOptions, OrderingFigures, System, SystemStats};

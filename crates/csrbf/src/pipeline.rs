@@ -16,6 +16,50 @@ use crate::error::{Error, Result};
 use crate::region::Region;
 use crate::system::{FitOptions, System};
 
+/// How the deformations of one file act together.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum Combine {
+    /// Each deformation moves the points the ones before it moved (the
+    /// papers' VTK pipeline; the default): later starts are in deformed
+    /// coordinates.
+    #[default]
+    Chain,
+    /// Every deformation is evaluated at the rest points and their
+    /// displacements are added (blend shapes, as glTF morph targets are).
+    Add,
+}
+
+impl Combine {
+    /// Both choices.
+    pub const ALL: [Combine; 2] = [Combine::Chain, Combine::Add];
+
+    /// The lower-case name used in control files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Combine::Chain => "chain",
+            Combine::Add => "add",
+        }
+    }
+}
+
+impl std::fmt::Display for Combine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Combine {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Combine> {
+        Combine::ALL
+            .into_iter()
+            .find(|c| c.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| Error::UnknownCombine(s.to_owned()))
+    }
+}
+
 /// One deformation of a pipeline, as the user describes it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stage {
@@ -115,6 +159,7 @@ pub struct Pipeline {
     next_gen: u64,
     stages: Vec<StageState>,
     groups: Vec<(String, Vec<u32>)>,
+    combine: Combine,
     work: Work,
 }
 
@@ -127,7 +172,27 @@ impl Pipeline {
             next_gen: 2,
             stages: Vec::new(),
             groups: Vec::new(),
+            combine: Combine::Chain,
             work: Work::default(),
+        }
+    }
+
+    /// With stages combined this way (default [`Combine::Chain`]).
+    pub fn with_combine(mut self, combine: Combine) -> Pipeline {
+        self.set_combine(combine);
+        self
+    }
+
+    /// How the stages combine.
+    pub fn combine(&self) -> Combine {
+        self.combine
+    }
+
+    /// Changes how the stages combine; every stage is bound again.
+    pub fn set_combine(&mut self, combine: Combine) {
+        if combine != self.combine {
+            self.combine = combine;
+            self.gen_rest = self.bump();
         }
     }
 
@@ -328,7 +393,12 @@ impl Pipeline {
             return Err(Error::NoControls);
         };
 
-        let bkey = (input_gen, s.gen_region, s.gen_system);
+        // Chained stages are bound on their input, added ones on the rest points.
+        let (bind_input, bind_gen) = match self.combine {
+            Combine::Chain => (input, input_gen),
+            Combine::Add => (&self.rest[..], self.gen_rest),
+        };
+        let bkey = (bind_gen, s.gen_region, s.gen_system);
         if s.binding.as_ref().is_none_or(|b| b.key != bkey) {
             let lookup = |name: &str| {
                 groups
@@ -337,7 +407,7 @@ impl Pipeline {
                     .map(|(_, v)| v.clone())
             };
             let active = s.stage.region.select(&self.rest, &lookup)?;
-            let pts: Vec<Vec3> = active.iter().map(|&k| input[k as usize]).collect();
+            let pts: Vec<Vec3> = active.iter().map(|&k| bind_input[k as usize]).collect();
             let binding = Binding::new(def, &pts);
             s.binding = Some(Bound {
                 key: bkey,
@@ -389,20 +459,24 @@ impl Pipeline {
 }
 
 /// One-shot composition without bindings (the least memory): applies each
-/// deformation in order, at `phase`, to the points of its region (selected on
-/// the rest points); `groups` resolves part names.
+/// deformation, at `phase`, to the points of its region (selected on the rest
+/// points), combined as `combine` says: [`Combine::Chain`] evaluates each at
+/// the points the ones before it moved, [`Combine::Add`] every one at the
+/// rest points. `groups` resolves part names.
 pub fn compose(
     rest: &[Vec3],
     stages: &[(Deformation, Region, f64)],
+    combine: Combine,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<Vec<Vec3>> {
-    compose_traced(rest, stages, groups, None)
+    compose_traced(rest, stages, combine, groups, None)
 }
 
 /// [`compose`], recording each stage's reach for the diagnostics when asked.
 pub(crate) fn compose_traced(
     rest: &[Vec3],
     stages: &[(Deformation, Region, f64)],
+    combine: Combine,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
     mut trace: Option<&mut Vec<StageReach>>,
 ) -> Result<Vec<Vec3>> {
@@ -414,12 +488,17 @@ pub(crate) fn compose_traced(
         let active = region.select(rest, groups)?;
         let t = *phase as f32;
         let all = active.len() == points.len();
+        // Where this stage is evaluated: the moved points, or the rest ones.
+        let from = match combine {
+            Combine::Chain => &points[..],
+            Combine::Add => rest,
+        };
         let sub: Vec<Vec3> = if all {
             Vec::new()
         } else {
-            active.iter().map(|&i| points[i as usize]).collect()
+            active.iter().map(|&i| from[i as usize]).collect()
         };
-        let input = if all { &points[..] } else { &sub[..] };
+        let input = if all { from } else { &sub[..] };
         let d = match trace.as_deref_mut() {
             None => def.displacements_f32(input),
             Some(trace) => {

@@ -372,22 +372,27 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
     )
     .expect("fit");
     let stages = vec![
-        (d1, Region::All),
+        (d1, Region::All, 1.0),
         (
             d2,
             Region::Sphere {
                 center: DVec3::splat(0.5),
                 radius: 0.3,
             },
+            0.25,
         ),
         (
             Deformation::fit(&s, &t, FitOptions::default().with_radius(0.3)).expect("fit"),
             Region::Group("lips".into()),
+            0.5,
         ),
     ];
-    let bytes = format::encode(&stages);
+    let bytes = format::encode(&stages, Combine::Add);
     let back = format::decode(&bytes).expect("decode");
-    assert_eq!(back, stages);
+    // Every field of every stage, the phase too (issue 10), and the combine.
+    assert_eq!(back.stages, stages);
+    assert_eq!(back.combine, Combine::Add);
+    let back = back.stages;
     for (a, b) in back.iter().zip(&stages) {
         assert_eq!(
             a.0.displacement_at(DVec3::splat(0.4)),
@@ -403,12 +408,12 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
         bad[at] ^= 0x40;
         assert!(format::decode(&bad).is_err(), "flip at {at} accepted");
     }
-    let mut v2 = bytes.clone();
-    v2[6] = 2;
+    let mut v3 = bytes.clone();
+    v3[6] = 3;
     assert!(
-        format::decode(&v2)
+        format::decode(&v3)
             .err()
-            .is_some_and(|e| e.to_string().contains("version 2"))
+            .is_some_and(|e| e.to_string().contains("version 3"))
     );
 }
 
@@ -504,4 +509,62 @@ fn system_reports_the_papers_memory_figures() {
         st.nonzeros,
         92 + (st.neighbours_mean * 92.0).round() as usize
     );
+}
+
+/// Issue 6: one meaning for a file of several deformations, in the one-shot
+/// and the lazy form, for both ways of combining them.
+#[test]
+fn chain_and_add_mean_the_same_in_compose_and_the_pipeline() {
+    let mut rng = Rng::new(33);
+    let rest: Vec<Vec3> = (0..400).map(|_| rng.vec3().as_vec3()).collect();
+    let (s1, t1) = scene(15, 4);
+    let (s2, t2) = scene(12, 5);
+    let opts = FitOptions::default().with_radius(0.45);
+    let d1 = Deformation::fit(&s1, &t1, opts).expect("fit 1");
+    let d2 = Deformation::fit(&s2, &t2, opts).expect("fit 2");
+    let half = Region::Box {
+        min: DVec3::ZERO,
+        max: DVec3::new(0.6, 1.0, 1.0),
+    };
+    let stages = vec![
+        (d1.clone(), Region::All, 1.0),
+        (d2.clone(), half.clone(), 0.5),
+    ];
+    let none = |_: &str| None;
+    // Add: both displacements at the rest points.
+    let added = compose(&rest, &stages, Combine::Add, &none).expect("add");
+    let in_half = half.select(&rest, &none).expect("select");
+    for (i, (p, r)) in added.iter().zip(&rest).enumerate() {
+        let mut want = r.as_dvec3() + d1.displacement_at(r.as_dvec3());
+        if in_half.binary_search(&(i as u32)).is_ok() {
+            want += d2.displacement_at(r.as_dvec3()) * 0.5;
+        }
+        assert!((p.as_dvec3() - want).length() < 1e-5, "add, point {i}");
+    }
+    // Chain: the second at the points the first moved.
+    let chained = compose(&rest, &stages, Combine::Chain, &none).expect("chain");
+    for (i, (p, r)) in chained.iter().zip(&rest).enumerate() {
+        let x = (r.as_dvec3() + d1.displacement_at(r.as_dvec3()))
+            .as_vec3()
+            .as_dvec3();
+        let mut want = x;
+        if in_half.binary_search(&(i as u32)).is_ok() {
+            want += d2.displacement_at(x) * 0.5;
+        }
+        assert!((p.as_dvec3() - want).length() < 1e-5, "chain, point {i}");
+    }
+    assert!(added != chained);
+    // The lazy pipeline gives the same points either way, and switching rebinds.
+    let mut p = Pipeline::new(rest.clone());
+    p.push(Stage::new(s1, t1, opts));
+    p.push(Stage::new(s2, t2, opts).with_region(half).with_phase(0.5));
+    for (combine, want) in [(Combine::Chain, &chained), (Combine::Add, &added)] {
+        p.set_combine(combine);
+        let got = p.evaluate().expect("evaluate");
+        for (a, b) in got.iter().zip(want.iter()) {
+            assert!(a.distance(*b) < 1e-5, "{combine}");
+        }
+    }
+    assert_eq!("add".parse::<Combine>(), Ok(Combine::Add));
+    assert!("blend".parse::<Combine>().is_err());
 }
