@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use csrbf_anim::{CameraFile, DeformationFile, ObjectFile, PartFile, Scene, SceneFile};
 use csrbf_render::movie::MovieWriter;
-use csrbf_render::{SceneOptions, SceneRenderer};
+use csrbf_render::{Overlay, SceneOptions, SceneRenderer};
 
 use crate::common::{Progress, check_output};
 
@@ -19,9 +19,17 @@ pub struct LookArgs {
     /// Draw the mesh's edges.
     #[arg(long)]
     pub wireframe: bool,
-    /// Draw the control vectors: starts, arrows to destinations, support spheres.
+    /// Draw the control vectors: `full` (starts, arrows, support spheres; the default
+    /// when the flag has no value) or `arrows` (starts and arrows, for many vectors).
+    #[arg(long, num_args = 0..=1, default_missing_value = "full", value_parser = parse_overlay)]
+    pub overlay: Option<Overlay>,
+    /// Draw an axis gizmo (X red, Y green, Z blue) in the lower left corner.
     #[arg(long)]
-    pub overlay: bool,
+    pub gizmo: bool,
+}
+
+fn parse_overlay(s: &str) -> Result<Overlay, String> {
+    s.parse()
 }
 
 impl LookArgs {
@@ -29,7 +37,8 @@ impl LookArgs {
         let mut o = SceneOptions::default();
         o.draw.flat = self.flat;
         o.draw.wireframe = self.wireframe;
-        o.overlay = self.overlay;
+        o.overlay = self.overlay.unwrap_or_default();
+        o.gizmo = self.gizmo;
         o
     }
 }
@@ -153,6 +162,9 @@ pub struct RenderArgs {
     pub look: LookArgs,
     #[command(flatten)]
     pub camera: crate::view::CameraArgs,
+    /// Rest (left) and deformed (right) side by side, seen by one camera.
+    #[arg(long)]
+    pub before_after: bool,
     /// Allow the output to replace an input file.
     #[arg(long)]
     pub force: bool,
@@ -170,21 +182,53 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
             a.out.display()
         );
     }
-    if a.look.overlay && a.controls.is_none() {
+    if a.look.overlay.is_some_and(|o| o != Overlay::Off) && a.controls.is_none() {
         bail!("--overlay draws control vectors: give --controls too");
     }
     let size = size_or(a.size.as_deref(), DEFAULT_SIZE)?;
-    let aimed = crate::view::aim(&a.mesh, a.controls.as_deref(), a.phase, size, &a.camera)?;
+    if a.before_after && a.controls.is_none() {
+        bail!("--before-after shows a deformation: give --controls too");
+    }
+    if a.before_after && size[0] < 2 {
+        bail!("--before-after needs a picture at least 2 pixels wide");
+    }
+    // Side by side, each half of the picture.
+    let panel = if a.before_after {
+        [size[0] / 2, size[1]]
+    } else {
+        size
+    };
+    let aimed = crate::view::aim(
+        &a.mesh,
+        a.controls.as_deref(),
+        a.phase,
+        panel,
+        &a.camera,
+        a.before_after,
+    )?;
     let scene = aimed.scene;
     progress.say(format_args!(
         "up {} ({})",
         csrbf_anim::camera::axis_name(aimed.up.0),
         aimed.up.1
     ));
-    let mut r = SceneRenderer::new(&scene, size[0], size[1])?;
+    let mut r = SceneRenderer::new(&scene, panel[0], panel[1])?;
     progress.say(format_args!("rendering on {}", r.renderer().adapter()));
     let t = Instant::now();
-    let img = r.render(&scene, &scene.frame(0.0), a.look.options())?;
+    let frame = scene.frame(0.0);
+    let mut img = r.render(&scene, &frame, a.look.options())?;
+    if a.before_after {
+        let mut rest = frame.clone();
+        let obj = &mut rest.objects[0];
+        obj.positions.clone_from(&aimed.mesh.positions);
+        csrbf_mesh::triangle_vertex_normals_into(
+            &obj.positions,
+            &aimed.mesh.faces.triangles(),
+            &mut obj.normals,
+        );
+        let before = r.render(&scene, &rest, a.look.options())?;
+        img = side_by_side(&before, &img, size[0]);
+    }
     img.save_png(&a.out)?;
     progress.say(format_args!(
         "wrote {} ({}x{}, {:.0} ms)",
@@ -194,6 +238,32 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
         t.elapsed().as_secs_f64() * 1e3
     ));
     Ok(())
+}
+
+/// Two pictures of one height next to each other in a picture `width` wide
+/// (a last odd column is left background).
+fn side_by_side(
+    left: &csrbf_render::Image,
+    right: &csrbf_render::Image,
+    width: u32,
+) -> csrbf_render::Image {
+    let h = left.height;
+    let mut rgba = Vec::with_capacity(4 * width as usize * h as usize);
+    for y in 0..h {
+        for img in [left, right] {
+            let row = 4 * (y * img.width) as usize;
+            rgba.extend_from_slice(&img.rgba[row..row + 4 * img.width as usize]);
+        }
+        let last = 4 * (y * right.width + right.width - 1) as usize;
+        for _ in (left.width + right.width)..width {
+            rgba.extend_from_slice(&right.rgba[last..last + 4]);
+        }
+    }
+    csrbf_render::Image {
+        width,
+        height: h,
+        rgba,
+    }
 }
 
 /// Options of `animate`.
@@ -372,7 +442,7 @@ pub fn demo(a: &DemoArgs, progress: &Progress) -> Result<()> {
         let mut opts = SceneOptions::default();
         r.render(&scene, &scene.frame(d.poster), opts)?
             .save_png(&dir.join("poster.png"))?;
-        opts.overlay = true;
+        opts.overlay = Overlay::Full;
         r.render(&scene, &scene.frame(d.poster), opts)?
             .save_png(&dir.join("poster_controls.png"))?;
         let movie = dir.join(if a.gif { "movie.gif" } else { "movie.mp4" });

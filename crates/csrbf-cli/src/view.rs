@@ -124,13 +124,17 @@ pub fn aim(
     phase: f64,
     size: [u32; 2],
     args: &CameraArgs,
+    with_rest: bool,
 ) -> Result<Aimed> {
     let (mut scene, mesh) = mesh_scene(mesh_path, controls, phase, size)?;
     let up = args.up(&mesh, mesh_path)?;
-    // Frame the deformed model, so a large edit stays in the picture.
+    // Frame the deformed model, so a large edit stays in the picture (and
+    // the rest one too when both are shown).
     let positions = scene.frame(0.0).objects.swap_remove(0).positions;
+    let rest: &[Vec3] = if with_rest { &mesh.positions } else { &[] };
     let (lo, hi) = positions
         .iter()
+        .chain(rest)
         .filter(|p| p.is_finite())
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(*p), hi.max(*p))
@@ -214,7 +218,14 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
             size[1] - 1
         );
     }
-    let aimed = aim(&a.mesh, a.controls.as_deref(), a.phase, size, &a.camera)?;
+    let aimed = aim(
+        &a.mesh,
+        a.controls.as_deref(),
+        a.phase,
+        size,
+        &a.camera,
+        false,
+    )?;
     let positions = &aimed.positions;
     let triangles = aimed.mesh.faces.triangles();
     let t = Instant::now();

@@ -300,3 +300,101 @@ fn bad_aims_and_handles_are_named() {
         &["handle", "give --mesh"],
     );
 }
+
+#[test]
+fn before_after_arrows_only_and_the_gizmo_draw_what_they_say() {
+    let dir = TempDir::new("looks");
+    let head = model("cgal_head.off");
+    let smile = root().join("assets/controls/head_smile.json");
+    let base = [
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&smile),
+        "--view",
+        "front",
+        "--size",
+        "200x100",
+    ];
+    let shot = |name: &str, extra: &[&str]| {
+        let out = dir.path(name);
+        let mut args = vec!["render"];
+        args.extend(base);
+        args.extend(extra);
+        args.extend(["--out", arg(&out)]);
+        ok(&args);
+        image_rgba(&out)
+    };
+    // Side by side: two 100-pixel panels, the same camera; the right one deformed.
+    let (w, h, px) = shot("ba.png", &["--before-after"]);
+    assert_eq!((w, h), (200, 100));
+    let left: Vec<_> = (0..100)
+        .flat_map(|y| (0..100).map(move |x| (x, y)))
+        .map(|(x, y)| px[y * 200 + x])
+        .collect();
+    let right: Vec<_> = (0..100)
+        .flat_map(|y| (100..200).map(move |x| (x, y)))
+        .map(|(x, y)| px[y * 200 + x])
+        .collect();
+    let differ = left.iter().zip(&right).filter(|(a, b)| a != b).count();
+    assert!(
+        differ > 20 && differ < 5000,
+        "{differ} pixels differ between rest and smile"
+    );
+    // Arrows only draw fewer overlay pixels than the full overlay (no spheres).
+    let (_, _, plain) = shot("plain.png", &[]);
+    let (_, _, full) = shot("full.png", &["--overlay"]);
+    let (_, _, arrows) = shot("arrows.png", &["--overlay", "arrows"]);
+    let changed = |a: &[[u8; 4]]| a.iter().zip(&plain).filter(|(x, y)| x != y).count();
+    assert!(
+        changed(&arrows) > 0 && changed(&arrows) < changed(&full),
+        "{} vs {}",
+        changed(&arrows),
+        changed(&full)
+    );
+    // The gizmo: a red, a green and a blue stroke in the lower left corner.
+    let (w, _, g) = shot("gizmo.png", &["--gizmo"]);
+    let corner = |pred: &dyn Fn([u8; 4]) -> bool| {
+        (50..100)
+            .flat_map(|y| (0..60).map(move |x| (x, y)))
+            .filter(|&(x, y)| pred(g[y * w as usize + x]))
+            .count()
+    };
+    assert!(
+        corner(&|p| p[0] > 150 && p[1] < 120 && p[2] < 120) > 3,
+        "no red axis"
+    );
+    assert!(
+        corner(&|p| p[1] > 150 && p[0] < 150 && p[2] < 150) > 3,
+        "no green axis"
+    );
+    assert!(corner(&|p| p[2] > 180 && p[0] < 150) > 3, "no blue axis");
+    let out = dir.path("bad.png");
+    // A bad flag value is clap's usage error: exit 2, the message names it.
+    let r = csrbf(&[
+        "render",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&smile),
+        "--overlay",
+        "circles",
+        "--out",
+        arg(&out),
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("unknown overlay \"circles\""));
+    fails(
+        &[
+            "render",
+            "--mesh",
+            arg(&head),
+            "--before-after",
+            "--out",
+            arg(&out),
+        ],
+        &["--before-after", "--controls"],
+    );
+    assert!(!out.exists());
+}

@@ -16,7 +16,9 @@ pub use image::Image;
 pub use renderer::{
     Camera, DrawMesh, DrawOptions, DrawPart, Light, Line, Renderer, TextureId, View,
 };
-pub use scene_view::{SceneOptions, SceneRenderer, control_lines, default_lights};
+pub use scene_view::{
+    Overlay, SceneOptions, SceneRenderer, axis_gizmo, control_lines, default_lights,
+};
 
 /// What can go wrong while rendering or writing pictures.
 #[derive(Debug, thiserror::Error)]

@@ -440,6 +440,16 @@ impl Renderer {
         })
     }
 
+    /// Picture width in pixels.
+    pub fn width(&self) -> u32 {
+        self.targets.width
+    }
+
+    /// Picture height in pixels.
+    pub fn height(&self) -> u32 {
+        self.targets.height
+    }
+
     /// The adapter in use, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)".
     pub fn adapter(&self) -> &str {
         &self.adapter_name

@@ -8,15 +8,43 @@ use crate::{
     Camera, DrawMesh, DrawOptions, DrawPart, Image, Light, Line, Renderer, Result, TextureId,
 };
 
+/// How control vectors are drawn over the picture.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Overlay {
+    /// Not at all (default).
+    #[default]
+    Off,
+    /// Starts, arrows to where they are at this phase and to their
+    /// destinations, and the support sphere of up to 16 moving ones.
+    Full,
+    /// Starts and arrows only: for files with many vectors.
+    Arrows,
+}
+
+impl std::str::FromStr for Overlay {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Overlay, String> {
+        match s {
+            "full" => Ok(Overlay::Full),
+            "arrows" => Ok(Overlay::Arrows),
+            "off" => Ok(Overlay::Off),
+            _ => Err(format!(
+                "unknown overlay {s:?}: expected full, arrows or off"
+            )),
+        }
+    }
+}
+
 /// What to draw besides the surfaces.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[non_exhaustive]
 pub struct SceneOptions {
     /// Shading and wireframe.
     pub draw: DrawOptions,
-    /// Draw control vectors: starts, arrows to where they are at this phase
-    /// and to their destinations, and the support sphere of up to 16 of them.
-    pub overlay: bool,
+    /// Control vectors over the picture.
+    pub overlay: Overlay,
+    /// An axis gizmo (X red, Y green, Z blue) in the lower left corner.
+    pub gizmo: bool,
 }
 
 /// Static per-object data prepared once: UVs, colours, triangles and
@@ -133,9 +161,17 @@ impl SceneRenderer {
                 colors: prep.colors.clone(),
                 parts: prep.parts.clone(),
             });
-            if options.overlay {
-                control_lines(&obj.controls, &mut overlay);
+            if options.overlay != Overlay::Off {
+                control_lines(
+                    &obj.controls,
+                    options.overlay == Overlay::Full,
+                    &mut overlay,
+                );
             }
+        }
+        if options.gizmo {
+            let (w, h) = (self.renderer.width(), self.renderer.height());
+            axis_gizmo(&camera, [w, h], &mut overlay);
         }
         View {
             camera,
@@ -168,14 +204,51 @@ pub fn default_lights(camera: Camera) -> Vec<Light> {
     ]
 }
 
-/// Overlay lines for control vectors (start, current, destination, R).
-pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], out: &mut Vec<Line>) {
+/// Three short axes (X red, Y green, Z blue) seen from the camera, in the
+/// lower left corner of a picture of `size` (35 pixels long, less on small
+/// pictures).
+pub fn axis_gizmo(camera: &Camera, size: [u32; 2], out: &mut Vec<Line>) {
+    let margin = (size[0].min(size[1]) as f32 * 0.15).clamp(12.0, 50.0);
+    let corner = Vec2::new(margin, size[1] as f32 - margin);
+    let ray = camera.ray(corner, size);
+    // A point a short way in front of the eye; the axes' length there covers
+    // about 40 pixels.
+    let dist = (camera.target - camera.eye).length() * 0.5;
+    let origin = ray.at(dist);
+    let Some((p0, _)) = camera.project(origin, size) else {
+        return;
+    };
+    let (right, _, _) = camera.basis();
+    let Some((p1, _)) = camera.project(origin + right * dist * 0.01, size) else {
+        return;
+    };
+    let per_unit = (p1 - p0).length() / (dist * 0.01);
+    if !(per_unit > 0.0 && per_unit.is_finite()) {
+        return;
+    }
+    let len = margin * 0.7 / per_unit;
+    for (axis, color) in [
+        (Vec3::X, [0.95, 0.25, 0.2, 1.0]),
+        (Vec3::Y, [0.3, 0.85, 0.3, 1.0]),
+        (Vec3::Z, [0.3, 0.5, 1.0, 1.0]),
+    ] {
+        out.push(Line {
+            a: origin,
+            b: origin + axis * len,
+            color,
+        });
+    }
+}
+
+/// Overlay lines for control vectors (start, current, destination, R);
+/// `spheres`: also the support spheres of up to 16 moving ones.
+pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], spheres: bool, out: &mut Vec<Line>) {
     const START: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
     const NOW: [f32; 4] = [1.0, 0.55, 0.1, 1.0];
     const GOAL: [f32; 4] = [1.0, 0.85, 0.3, 0.45];
     const SUPPORT: [f32; 4] = [0.35, 0.7, 1.0, 0.35];
     let size = controls.iter().map(|c| c.3).fold(f32::INFINITY, f32::min) * 0.06;
-    let mut spheres = 0;
+    let (spheres_on, mut drawn) = (spheres, 0);
     for &(s, now, goal, r) in controls {
         let k = if size.is_finite() { size } else { 0.01 };
         for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
@@ -196,8 +269,8 @@ pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], out: &mut Vec<Line>) 
             color: NOW,
         });
         // Support spheres of moving controls only (anchors would hide the model).
-        if spheres < 16 && goal.distance(s) > 1e-6 * r {
-            spheres += 1;
+        if spheres_on && drawn < 16 && goal.distance(s) > 1e-6 * r {
+            drawn += 1;
             const SEG: usize = 32;
             for (u, v) in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
                 for j in 0..SEG {
