@@ -41,7 +41,7 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
     let (mut nodes, mut meshes, mut materials, mut images, mut textures) =
         (vec![], vec![], vec![], vec![], vec![]);
     let fps = scene.file.fps;
-    let frames = (scene.file.duration * fps).round() as usize + 1;
+    let frames = scene.frame_count();
     let times: Vec<f32> = (0..frames)
         .map(|k| (k as f64 / fps).min(scene.file.duration) as f32)
         .collect();

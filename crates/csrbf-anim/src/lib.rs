@@ -28,6 +28,7 @@ mod file;
 mod rotation;
 mod scene;
 mod spline;
+pub mod still;
 mod track;
 
 pub use camera::{Camera, CameraError, Projection, ViewPreset};
@@ -35,8 +36,8 @@ pub use export::{export_gltf, export_notes};
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{
-    Animated, BoundStage, Contact, Frame, FrameObject, Object, Part, Scene, Texture,
-    decode_texture, load_texture,
+    Animated, Assets, BoundStage, Contact, Frame, FrameObject, MAX_FRAMES, Object, Part, Scene,
+    Texture, decode_texture, frame_count, load_texture,
 };
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};

@@ -2,6 +2,7 @@
 //! bound once, tracks built. [`Scene::frame`] gives every object's world
 //! vertices at a time.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use csrbf::controls::ControlFile;
@@ -132,6 +133,64 @@ impl Object {
     }
 }
 
+/// Meshes and control files given as values instead of files: the studio's
+/// open documents. A scene looks each path up here (as it resolves it:
+/// relative to the scene's folder) before reading the disk.
+#[derive(Clone, Debug, Default)]
+pub struct Assets {
+    meshes: HashMap<PathBuf, Mesh>,
+    controls: HashMap<PathBuf, ControlFile>,
+}
+
+impl Assets {
+    /// No values: every path is read from the disk.
+    pub fn new() -> Assets {
+        Assets::default()
+    }
+
+    /// Uses `mesh` wherever a scene names `path`.
+    pub fn set_mesh(&mut self, path: impl Into<PathBuf>, mesh: Mesh) {
+        self.meshes.insert(path.into(), mesh);
+    }
+
+    /// Uses `controls` wherever a scene names `path`.
+    pub fn set_controls(&mut self, path: impl Into<PathBuf>, controls: ControlFile) {
+        self.controls.insert(path.into(), controls);
+    }
+
+    /// The mesh at `path`: the value given, else read from the file.
+    fn mesh(&self, path: &Path) -> std::result::Result<Mesh, String> {
+        match self.meshes.get(path) {
+            Some(m) => Ok(m.clone()),
+            None => csrbf_mesh::read(path).map_err(|e| e.to_string()),
+        }
+    }
+
+    /// The control file at `path`: the value given, else read and parsed.
+    fn controls(&self, path: &Path) -> std::result::Result<ControlFile, String> {
+        if let Some(c) = self.controls.get(path) {
+            return Ok(c.clone());
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        ControlFile::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+}
+
+/// Most frames a scene, a movie or an export may have (about 55 minutes at
+/// 30 fps): beyond it a scene or a time range is refused before any work.
+pub const MAX_FRAMES: usize = 100_000;
+
+/// Frames of a stretch of `span` seconds at `fps`, both ends included: the
+/// one formula for movies, playback and export.
+pub fn frame_count(span: f64, fps: f64) -> usize {
+    let n = (span * fps).round();
+    if n.is_finite() && n >= 0.0 {
+        (n as usize).saturating_add(1)
+    } else {
+        1
+    }
+}
+
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -184,6 +243,17 @@ impl Scene {
     /// Prepares a scene from its description; relative paths start at `dir`;
     /// `name` names the scene in errors.
     pub fn from_file(file: SceneFile, dir: &Path, name: &Path) -> Result<Scene> {
+        Scene::from_file_with(file, dir, name, &Assets::default())
+    }
+
+    /// [`Scene::from_file`], taking meshes and control files from `assets`
+    /// where it has them (values, not files).
+    pub fn from_file_with(
+        file: SceneFile,
+        dir: &Path,
+        name: &Path,
+        assets: &Assets,
+    ) -> Result<Scene> {
         let err = |at: String, message: String| AnimError::Scene {
             path: name.to_owned(),
             at,
@@ -203,43 +273,14 @@ impl Scene {
                     ),
                 ));
             }
-            objects.push(
-                load_object(of, dir, &at, &mut warnings).map_err(|e| match e {
+            objects.push(load_object(of, dir, assets, &at, &mut warnings).map_err(
+                |e| match e {
                     AnimError::Scene { at, message, .. } => err(at, message),
                     other => other,
-                })?,
-            );
+                },
+            )?);
         }
-        for (oi, of) in file.objects.iter().enumerate() {
-            if let Some(c) = &of.contact {
-                let with = file
-                    .objects
-                    .iter()
-                    .position(|o| o.name == c.with)
-                    .filter(|&w| w != oi)
-                    .ok_or_else(|| {
-                        err(
-                            format!("objects[{oi}].contact.with"),
-                            format!("no other object is called {:?}", c.with),
-                        )
-                    })?;
-                let kernel = c
-                    .kernel
-                    .parse::<Kernel>()
-                    .map_err(|e| err(format!("objects[{oi}].contact.kernel"), e.to_string()))?;
-                if !(c.reach > 0.0 && c.reach.is_finite()) {
-                    return Err(err(
-                        format!("objects[{oi}].contact.reach"),
-                        format!("must be > 0, got {}", c.reach),
-                    ));
-                }
-                objects[oi].contact = Some(Contact {
-                    with,
-                    kernel,
-                    reach: c.reach,
-                });
-            }
-        }
+        resolve_contacts(&file, &mut objects).map_err(|(a, m)| err(a, m))?;
         Ok(Scene {
             file,
             dir: dir.to_owned(),
@@ -250,7 +291,65 @@ impl Scene {
 
     /// Number of frames at the file's rate over its duration (both ends included).
     pub fn frame_count(&self) -> usize {
-        (self.file.duration * self.file.fps).round() as usize + 1
+        frame_count(self.file.duration, self.file.fps)
+    }
+
+    /// Replaces object `index` by `object` and prepares only it again (its
+    /// mesh, parts, deformations), taking meshes and control files from
+    /// `assets` where it has them: what the Composer does when one object is
+    /// edited. On error the scene is left as it was.
+    pub fn update_object(
+        &mut self,
+        index: usize,
+        object: ObjectFile,
+        assets: &Assets,
+    ) -> Result<()> {
+        let name = PathBuf::from("(scene)");
+        let err = |at: String, message: String| AnimError::Scene {
+            path: name.clone(),
+            at,
+            message,
+        };
+        if index >= self.objects.len() {
+            return Err(err(
+                format!("objects[{index}]"),
+                format!("there are only {} objects", self.objects.len()),
+            ));
+        }
+        let mut file = self.file.clone();
+        file.objects[index] = object;
+        check_scene(&file).map_err(|(a, m)| err(a, m))?;
+        if file
+            .objects
+            .iter()
+            .enumerate()
+            .any(|(k, o)| k != index && o.name == file.objects[index].name)
+        {
+            return Err(err(
+                format!("objects[{index}].name"),
+                format!(
+                    "{:?} is used by another object; names must be unique",
+                    file.objects[index].name
+                ),
+            ));
+        }
+        let mut warnings = Vec::new();
+        let at = |k: &str| format!("objects[{index}].{k}");
+        let fresh = load_object(&file.objects[index], &self.dir, assets, &at, &mut warnings)
+            .map_err(|e| match e {
+                AnimError::Scene { at, message, .. } => err(at, message),
+                other => other,
+            })?;
+        let mut objects = self.objects.clone();
+        objects[index] = fresh;
+        for o in &mut objects {
+            o.contact = None;
+        }
+        resolve_contacts(&file, &mut objects).map_err(|(a, m)| err(a, m))?;
+        self.file = file;
+        self.objects = objects;
+        self.warnings.extend(warnings);
+        Ok(())
     }
 
     /// Every object's world vertices, normals and control vectors at `time`.
@@ -411,6 +510,16 @@ fn check_scene(f: &SceneFile) -> std::result::Result<(), (String, String)> {
     if !(f.fps > 0.0 && f.fps <= 240.0) {
         return bad("fps", format!("must be within (0, 240], got {}", f.fps));
     }
+    let frames = frame_count(f.duration, f.fps);
+    if frames > MAX_FRAMES {
+        return bad(
+            "duration",
+            format!(
+                "{} s at {} fps is {frames} frames, more than the limit of {MAX_FRAMES} (movies and glTF export sample every frame): shorten it or lower fps",
+                f.duration, f.fps
+            ),
+        );
+    }
     if f.size.iter().any(|&s| s == 0 || s > 8192) {
         return bad(
             "size",
@@ -457,6 +566,44 @@ fn check_times(times: impl Iterator<Item = f64>, at: &dyn Fn(usize) -> String) -
     Ok(())
 }
 
+/// Finds the object each contact deformation names and checks its numbers.
+fn resolve_contacts(
+    file: &SceneFile,
+    objects: &mut [Object],
+) -> std::result::Result<(), (String, String)> {
+    for (oi, of) in file.objects.iter().enumerate() {
+        if let Some(c) = &of.contact {
+            let with = file
+                .objects
+                .iter()
+                .position(|o| o.name == c.with)
+                .filter(|&w| w != oi)
+                .ok_or_else(|| {
+                    (
+                        format!("objects[{oi}].contact.with"),
+                        format!("no other object is called {:?}", c.with),
+                    )
+                })?;
+            let kernel = c
+                .kernel
+                .parse::<Kernel>()
+                .map_err(|e| (format!("objects[{oi}].contact.kernel"), e.to_string()))?;
+            if !(c.reach > 0.0 && c.reach.is_finite()) {
+                return Err((
+                    format!("objects[{oi}].contact.reach"),
+                    format!("must be > 0, got {}", c.reach),
+                ));
+            }
+            objects[oi].contact = Some(Contact {
+                with,
+                kernel,
+                reach: c.reach,
+            });
+        }
+    }
+    Ok(())
+}
+
 fn scene_err(at: String, message: String) -> AnimError {
     AnimError::Scene {
         path: PathBuf::new(),
@@ -468,12 +615,14 @@ fn scene_err(at: String, message: String) -> AnimError {
 fn load_object(
     of: &ObjectFile,
     dir: &Path,
+    assets: &Assets,
     at: &dyn Fn(&str) -> String,
     warnings: &mut Vec<String>,
 ) -> Result<Object> {
     let mesh_path = dir.join(&of.mesh);
-    let mut mesh =
-        csrbf_mesh::read(&mesh_path).map_err(|e| scene_err(at("mesh"), e.to_string()))?;
+    let mut mesh = assets
+        .mesh(&mesh_path)
+        .map_err(|e| scene_err(at("mesh"), e))?;
     if !(of.scale > 0.0 && of.scale.is_finite()) {
         return Err(scene_err(
             at("scale"),
@@ -511,7 +660,9 @@ fn load_object(
     for (pi, pf) in of.parts.iter().enumerate() {
         for (di, df) in pf.deformations.iter().enumerate() {
             let here = |k: &str| at(&format!("parts[{pi}].deformations[{di}].{k}"));
-            deformations.push(load_deformation(&mesh, &parts[pi], pi, df, dir, &here)?);
+            deformations.push(load_deformation(
+                &mesh, &parts[pi], pi, df, dir, assets, &here,
+            )?);
         }
     }
     check_times(of.trajectory.iter().map(|k| k.time), &|i| {
@@ -792,13 +943,13 @@ fn load_deformation(
     pi: usize,
     df: &crate::file::DeformationFile,
     dir: &Path,
+    assets: &Assets,
     at: &dyn Fn(&str) -> String,
 ) -> Result<Animated> {
     let path = dir.join(&df.controls);
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-    let cf = ControlFile::parse(&text)
-        .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+    let cf = assets
+        .controls(&path)
+        .map_err(|e| scene_err(at("controls"), e))?;
     let mut stages = Vec::new();
     let lookup = |n: &str| mesh.part_vertices(n);
     for (si, spec) in cf.deformations.iter().enumerate() {

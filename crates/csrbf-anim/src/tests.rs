@@ -330,3 +330,81 @@ fn scenes_combine_deformations_as_compose_does() {
     }
     assert_eq!(checked, 4, "every time compared");
 }
+
+/// Issue 6: scenes built and changed from memory, for the Composer.
+#[test]
+fn scenes_take_meshes_and_controls_as_values_and_update_one_object() {
+    let d = Dir::new("assets");
+    let mut file = SceneFile::parse(GOOD).expect("parse");
+    // Values under the paths the scene names: the files need not exist.
+    let mut head = csrbf_mesh::read(&d.0.join("head.off")).expect("head");
+    for p in &mut head.positions {
+        p.y += 100.0;
+    }
+    let smile = csrbf::controls::ControlFile::parse(
+        &std::fs::read_to_string(d.0.join("smile.json")).expect("smile"),
+    )
+    .expect("controls");
+    let mut assets = Assets::new();
+    assets.set_mesh(d.0.join("virtual.off"), head);
+    assets.set_controls(d.0.join("virtual.json"), smile);
+    file.objects[0].mesh = "virtual.off".into();
+    file.objects[0].parts[0].deformations[0].controls = "virtual.json".into();
+    let mut scene =
+        Scene::from_file_with(file.clone(), &d.0, Path::new("mem"), &assets).expect("from memory");
+    assert!(scene.objects[0].mesh.positions[0].y > 90.0);
+    // Without the values, the same file fails naming what is missing.
+    let e = Scene::from_file(file.clone(), &d.0, Path::new("mem"))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        e.contains("objects[0].mesh") && e.contains("virtual.off"),
+        "{e}"
+    );
+    // One object changed: only it is prepared again; a bad change leaves the scene as it was.
+    let before = scene.frame(1.0).objects[0].positions.clone();
+    let mut moved = file.objects[0].clone();
+    moved.scale = 2.0;
+    scene
+        .update_object(0, moved.clone(), &assets)
+        .expect("update");
+    let after = scene.frame(1.0).objects[0].positions.clone();
+    assert_ne!(before, after);
+    assert_eq!(scene.file.objects[0].scale, 2.0);
+    let mut bad = moved;
+    bad.scale = -1.0;
+    let e = scene
+        .update_object(0, bad, &assets)
+        .expect_err("negative scale");
+    assert!(e.to_string().contains("objects[0].scale"), "{e}");
+    assert_eq!(scene.file.objects[0].scale, 2.0);
+    assert!(
+        scene
+            .update_object(3, file.objects[0].clone(), &assets)
+            .is_err()
+    );
+}
+
+/// Issue 7: a scene asking for more frames than any movie or export may
+/// have is refused before anything is sampled.
+#[test]
+fn endless_scenes_are_refused_by_their_frame_count() {
+    let d = Dir::new("endless");
+    for (duration, fps) in ["1e9", "1e6"].iter().zip([30.0, 30.0]) {
+        let text = GOOD.replace(
+            "\"duration\": 2.0",
+            &format!("\"duration\": {duration}, \"fps\": {fps}"),
+        );
+        let e = Scene::load(&d.scene(&text))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.contains("duration") && e.contains("more than the limit of 100000"),
+            "{e}"
+        );
+    }
+    assert_eq!(frame_count(2.0, 30.0), 61);
+    assert_eq!(frame_count(f64::NAN, 30.0), 1);
+}

@@ -30,9 +30,9 @@ pub struct BenchArgs {
     /// Force a solver: auto, skyline or supernodal.
     #[arg(long, default_value = "auto")]
     solver: String,
-    /// Runs per phase; the median is reported.
-    #[arg(long, default_value_t = 7)]
-    runs: usize,
+    /// Runs per phase, 1 to 1000; the median is reported.
+    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    runs: u32,
     /// Print one JSON object (a list with --all).
     #[arg(long)]
     json: bool,
@@ -167,7 +167,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
             s.starts.len(),
             s.options.radius
         ));
-        let r = run(&s, args.runs)?;
+        let r = run(&s, args.runs as usize)?;
         if !args.json {
             println!(
                 "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",

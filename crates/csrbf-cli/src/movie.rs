@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use csrbf_anim::{CameraFile, DeformationFile, ObjectFile, PartFile, Scene, SceneFile};
-use csrbf_render::movie::MovieWriter;
+use csrbf_anim::Scene;
+use csrbf_render::movie::{MovieOptions, render_movie};
 use csrbf_render::{Overlay, SceneOptions, SceneRenderer};
 
 use crate::common::{Progress, check_output};
@@ -70,9 +70,9 @@ pub fn size_or(size: Option<&str>, default: [u32; 2]) -> Result<[u32; 2]> {
     Ok(size.map(parse_size).transpose()?.unwrap_or(default))
 }
 
-/// A one-object scene of a mesh, looking at it from a three-quarter view
-/// that frames its rest shape (`view::aim` sets the camera the flags ask for);
-/// also gives the mesh as read.
+/// A one-object scene of a mesh, deformed at `phase` by a control file when
+/// given (`csrbf_anim::still::mesh_scene`; `view::aim` sets the camera the
+/// flags ask for); also gives the mesh as read.
 pub fn mesh_scene(
     mesh: &Path,
     controls: Option<&Path>,
@@ -80,64 +80,12 @@ pub fn mesh_scene(
     size: [u32; 2],
 ) -> Result<(Scene, csrbf_mesh::Mesh)> {
     let m = csrbf_mesh::read(mesh)?;
-    let (lo, hi) = m.bounds().context("the mesh has no vertices")?;
-    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
-    let centre = (lo + hi) * 0.5;
-    let radius = (hi - lo).length() * 0.5;
-    let fov = 35.0f64;
-    let dist = radius / (fov.to_radians() * 0.5).sin() * 1.05;
-    let dir = glam::DVec3::new(0.55, 0.35, 1.0).normalize();
-    let eye = centre + dir * dist;
-    let abs = |p: &Path| {
-        std::fs::canonicalize(p)
-            .map(|p| p.display().to_string())
-            .unwrap_or_else(|_| p.display().to_string())
-    };
-    let deformations = controls
-        .map(|c| {
-            vec![DeformationFile {
-                controls: abs(c),
-                phase: vec![csrbf_anim::PhaseKeyFile { time: 0.0, phase }],
-                easing: "linear".into(),
-            }]
-        })
-        .unwrap_or_default();
-    let file = SceneFile {
-        duration: 1.0,
-        fps: 30.0,
-        size,
-        background: [0.035, 0.04, 0.05],
-        camera: CameraFile {
-            eye: eye.to_array(),
-            target: centre.to_array(),
-            up: [0.0, 1.0, 0.0],
-            fov,
-        },
-        lights: vec![],
-        objects: vec![ObjectFile {
-            name: "mesh".into(),
-            mesh: abs(mesh),
-            scale: 1.0,
-            parts: vec![PartFile {
-                name: "all".into(),
-                select: "all".into(),
-                // A textured model (glTF) shows its own image; others a clay colour.
-                color: Some(if m.materials.iter().any(|x| x.texture.is_some()) {
-                    vec![1.0, 1.0, 1.0]
-                } else {
-                    vec![0.78, 0.62, 0.45]
-                }),
-                texture: None,
-                wireframe: false,
-                deformations,
-            }],
-            trajectory: vec![],
-            orientation: vec![],
-            interpolation: "squad".into(),
-            contact: None,
-        }],
-    };
-    Ok((Scene::from_file(file, Path::new("."), mesh)?, m))
+    let quiet = Progress::new(false);
+    let controls = controls
+        .map(|c| crate::common::read_controls(c, &quiet).map(|f| (c, f)))
+        .transpose()?;
+    let scene = csrbf_anim::still::mesh_scene(mesh, m.clone(), controls, phase, size)?;
+    Ok((scene, m))
 }
 
 /// Options of `render`.
@@ -315,56 +263,43 @@ pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
     if !(from >= 0.0 && to > from && to.is_finite()) {
         bail!("--from {from} --to {to}: need 0 <= from < to");
     }
-    let written = write_movie(
-        &scene,
-        &a.out,
-        size,
-        fps,
-        from,
-        to,
-        a.look.options(),
-        progress,
-    )?;
+    let mut options = MovieOptions::of(&scene);
+    (options.size, options.fps, options.from, options.to) = (size, fps, from, to);
+    options.look = a.look.options();
+    let written = write_movie(&scene, &a.out, options, progress)?;
     progress.say(format_args!("wrote {}", written.display()));
     Ok(())
 }
 
-/// Renders frames from `from` to `to` into a movie; returns its path.
-#[allow(clippy::too_many_arguments)]
+/// Renders a scene into a movie through the library's frame loop, with a
+/// progress bar; returns where it went.
 pub fn write_movie(
     scene: &Scene,
     out: &Path,
-    size: [u32; 2],
-    fps: f64,
-    from: f64,
-    to: f64,
-    options: SceneOptions,
+    options: MovieOptions,
     progress: &Progress,
 ) -> Result<PathBuf> {
-    let frames = ((to - from) * fps).round() as usize + 1;
-    let mut writer = MovieWriter::create(out, size[0], size[1], fps)?;
-    let mut r = SceneRenderer::new(scene, size[0], size[1])?;
-    progress.say(format_args!(
-        "{} frames of {}x{} at {fps} fps on {}",
-        frames,
-        size[0],
-        size[1],
-        r.renderer().adapter()
-    ));
     let t = Instant::now();
-    let mut frame = csrbf_anim::Frame::default();
-    for k in 0..frames {
-        let time = from + k as f64 / fps;
-        scene.frame_into(time, &mut frame);
-        let img = r.render(scene, &frame, options)?;
-        writer.push(&img)?;
-        progress.bar(k + 1, frames);
+    progress.say(format_args!(
+        "{} frames of {}x{} at {} fps",
+        options.frames(),
+        options.size[0],
+        options.size[1],
+        options.fps
+    ));
+    let written = render_movie(scene, out, options, &mut |done, total| {
+        progress.bar(done, total);
+        true
+    })?;
+    if let Some(why) = &written.fell_back {
+        eprintln!("warning: {why}; wrote a GIF instead");
     }
     progress.say(format_args!(
-        "rendered {frames} frames in {:.1} s",
+        "rendered {} frames in {:.1} s",
+        written.frames,
         t.elapsed().as_secs_f64()
     ));
-    Ok(writer.finish()?)
+    Ok(written.path)
 }
 
 pub fn export(scene: &Path, out: &Path, force: bool, progress: &Progress) -> Result<()> {
@@ -446,36 +381,10 @@ pub fn demo(a: &DemoArgs, progress: &Progress) -> Result<()> {
         r.render(&scene, &scene.frame(d.poster), opts)?
             .save_png(&dir.join("poster_controls.png"))?;
         let movie = dir.join(if a.gif { "movie.gif" } else { "movie.mp4" });
-        let movie = match write_movie(
-            &scene,
-            &movie,
-            size,
-            scene.file.fps,
-            0.0,
-            scene.file.duration,
-            SceneOptions::default(),
-            progress,
-        ) {
-            Err(e)
-                if matches!(
-                    e.downcast_ref::<csrbf_render::RenderError>(),
-                    Some(csrbf_render::RenderError::NoFfmpeg)
-                ) =>
-            {
-                eprintln!("warning: {e}; writing a GIF instead");
-                write_movie(
-                    &scene,
-                    &dir.join("movie.gif"),
-                    size,
-                    scene.file.fps,
-                    0.0,
-                    scene.file.duration,
-                    SceneOptions::default(),
-                    progress,
-                )?
-            }
-            other => other?,
-        };
+        let mut options = MovieOptions::of(&scene);
+        options.size = size;
+        options.gif_fallback = true;
+        let movie = write_movie(&scene, &movie, options, progress)?;
         progress.say(format_args!(
             "{name}: {} (scene {}, poster {})",
             movie.display(),

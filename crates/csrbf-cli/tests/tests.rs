@@ -3,6 +3,7 @@
 mod aim;
 mod bad_input;
 mod commands;
+mod limits;
 mod meaning;
 mod pictures;
 mod support;

@@ -56,6 +56,9 @@ pub enum RenderError {
         /// What went wrong.
         message: String,
     },
+    /// The caller stopped the work; nothing was left on disk.
+    #[error("cancelled")]
+    Cancelled,
     /// ffmpeg is not installed.
     #[error(
         "ffmpeg was not found, so MP4 cannot be written: install it (Debian: apt-get install ffmpeg), or write a GIF (--out movie.gif) or frames (--out frames/)"

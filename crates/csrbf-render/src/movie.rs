@@ -312,3 +312,116 @@ impl Drop for MovieWriter {
         }
     }
 }
+
+pub use csrbf_anim::MAX_FRAMES;
+
+/// What to render of a scene as a movie.
+#[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
+pub struct MovieOptions {
+    /// Picture size.
+    pub size: [u32; 2],
+    /// Frames per second.
+    pub fps: f64,
+    /// First time drawn, in seconds.
+    pub from: f64,
+    /// Last time drawn, in seconds.
+    pub to: f64,
+    /// Look of every frame.
+    pub look: crate::SceneOptions,
+    /// Write a GIF beside the asked-for MP4 when ffmpeg is missing.
+    pub gif_fallback: bool,
+}
+
+impl MovieOptions {
+    /// The whole scene at its own size and rate.
+    pub fn of(scene: &csrbf_anim::Scene) -> MovieOptions {
+        MovieOptions {
+            size: scene.file.size,
+            fps: scene.file.fps,
+            from: 0.0,
+            to: scene.file.duration,
+            look: crate::SceneOptions::default(),
+            gif_fallback: false,
+        }
+    }
+
+    /// How many frames that is: both ends included.
+    pub fn frames(&self) -> usize {
+        csrbf_anim::frame_count(self.to - self.from, self.fps)
+    }
+}
+
+/// A movie written.
+#[derive(Clone, Debug)]
+pub struct Written {
+    /// Where it is (the GIF when it fell back).
+    pub path: PathBuf,
+    /// Frames in it.
+    pub frames: usize,
+    /// Why it is a GIF instead of the MP4 asked for, when it fell back.
+    pub fell_back: Option<String>,
+}
+
+/// Renders a scene from `options.from` to `options.to` into a movie at
+/// `out` (MP4, GIF or a folder of PNGs, by [`MovieFormat::of`]).
+/// `progress(done, total)` is called after every frame; returning false
+/// cancels, and nothing is left on disk. The one frame loop of `csrbf
+/// animate`, the demos and the studio's export.
+pub fn render_movie(
+    scene: &csrbf_anim::Scene,
+    out: &Path,
+    options: MovieOptions,
+    progress: &mut dyn FnMut(usize, usize) -> bool,
+) -> Result<Written> {
+    let o = options;
+    if !(o.fps > 0.0 && o.fps <= 240.0) {
+        return Err(io(
+            out,
+            format!("frames per second must be within (0, 240], got {}", o.fps),
+        ));
+    }
+    if !(o.from >= 0.0 && o.to > o.from && o.to.is_finite()) {
+        return Err(io(
+            out,
+            format!("times {} to {}: need 0 <= from < to, finite", o.from, o.to),
+        ));
+    }
+    let frames = o.frames();
+    if frames > MAX_FRAMES {
+        return Err(io(
+            out,
+            format!(
+                "{:.0} s at {} fps is {frames} frames, more than the limit of {MAX_FRAMES}: shorten the time range or lower the rate",
+                o.to - o.from,
+                o.fps
+            ),
+        ));
+    }
+    let (writer, fell_back) = match MovieWriter::create(out, o.size[0], o.size[1], o.fps) {
+        Err(RenderError::NoFfmpeg) if o.gif_fallback => {
+            let gif = out.with_extension("gif");
+            let w = MovieWriter::create(&gif, o.size[0], o.size[1], o.fps)?;
+            (w, Some(RenderError::NoFfmpeg.to_string()))
+        }
+        other => (other?, None),
+    };
+    let mut writer = writer;
+    let mut r = crate::SceneRenderer::new(scene, o.size[0], o.size[1])?;
+    let mut frame = csrbf_anim::Frame::default();
+    for k in 0..frames {
+        let time = (o.from + k as f64 / o.fps).min(o.to);
+        scene.frame_into(time, &mut frame);
+        let img = r.render(scene, &frame, o.look)?;
+        writer.push(&img)?;
+        if !progress(k + 1, frames) {
+            // Dropping the writer removes what it wrote.
+            return Err(RenderError::Cancelled);
+        }
+    }
+    Ok(Written {
+        path: writer.finish()?,
+        frames,
+        fell_back,
+    })
+}

@@ -45,6 +45,9 @@ pub struct SceneOptions {
     pub overlay: Overlay,
     /// An axis gizmo (X red, Y green, Z blue) in the lower left corner.
     pub gizmo: bool,
+    /// Look through this camera instead of the scene's (the studio's
+    /// viewport). Default none.
+    pub camera: Option<Camera>,
 }
 
 /// Static per-object data prepared once: UVs, colours, triangles and
@@ -123,65 +126,118 @@ impl SceneRenderer {
         &self.renderer
     }
 
-    /// Draws one frame of the scene.
+    /// The renderer underneath, to change its size or draw with it.
+    pub fn renderer_mut(&mut self) -> &mut Renderer {
+        &mut self.renderer
+    }
+
+    /// Draws one frame of the scene and reads it back.
     pub fn render(&mut self, scene: &Scene, frame: &Frame, options: SceneOptions) -> Result<Image> {
-        let view = self.view(scene, frame, options);
+        let view = view_of(
+            &self.prepared,
+            self.key,
+            self.renderer.size(),
+            scene,
+            frame,
+            options,
+        );
         self.renderer.render(&view)
     }
 
-    /// The view of one frame: camera, lights, meshes and overlay.
-    pub fn view(&self, scene: &Scene, frame: &Frame, options: SceneOptions) -> View {
-        let f = &scene.file;
-        let v3 = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        let camera = Camera::perspective(
+    /// Draws one frame of the scene into a texture view the caller owns (of
+    /// the renderer's format and size), without reading it back: the
+    /// interactive path.
+    pub fn draw_into(
+        &mut self,
+        scene: &Scene,
+        frame: &Frame,
+        options: SceneOptions,
+        target: &wgpu::TextureView,
+    ) {
+        let view = view_of(
+            &self.prepared,
+            self.key,
+            self.renderer.size(),
+            scene,
+            frame,
+            options,
+        );
+        self.renderer.draw_into(&view, target);
+    }
+
+    /// The view of one frame: camera, lights, meshes (borrowed from the frame
+    /// and from what was prepared) and overlay.
+    pub fn view<'a>(&'a self, scene: &Scene, frame: &'a Frame, options: SceneOptions) -> View<'a> {
+        view_of(
+            &self.prepared,
+            self.key,
+            self.renderer.size(),
+            scene,
+            frame,
+            options,
+        )
+    }
+}
+
+fn view_of<'a>(
+    prepared: &'a [Prepared],
+    key: u64,
+    size: (u32, u32),
+    scene: &Scene,
+    frame: &'a Frame,
+    options: SceneOptions,
+) -> View<'a> {
+    let f = &scene.file;
+    let v3 = |a: [f64; 3]| Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+    let camera = options.camera.unwrap_or_else(|| {
+        Camera::perspective(
             v3(f.camera.eye),
             v3(f.camera.target),
             v3(f.camera.up),
             f.camera.fov as f32,
-        );
-        let mut lights: Vec<Light> = f
-            .lights
-            .iter()
-            .map(|l| Light {
-                direction: v3(l.direction),
-                color: Vec3::from_array(l.color) * l.intensity,
-            })
-            .collect();
-        if lights.is_empty() {
-            lights = default_lights(camera);
+        )
+    });
+    let mut lights: Vec<Light> = f
+        .lights
+        .iter()
+        .map(|l| Light {
+            direction: v3(l.direction),
+            color: Vec3::from_array(l.color) * l.intensity,
+        })
+        .collect();
+    if lights.is_empty() {
+        lights = default_lights(camera);
+    }
+    let mut meshes = Vec::new();
+    let mut overlay = Vec::new();
+    for (k, (obj, prep)) in frame.objects.iter().zip(prepared).enumerate() {
+        meshes.push(DrawMesh {
+            key: key + k as u64,
+            positions: &obj.positions,
+            normals: &obj.normals,
+            uvs: &prep.uvs,
+            colors: &prep.colors,
+            parts: &prep.parts,
+        });
+        if options.overlay != Overlay::Off {
+            control_lines(
+                &obj.controls,
+                options.overlay == Overlay::Full,
+                &mut overlay,
+            );
         }
-        let mut meshes = Vec::new();
-        let mut overlay = Vec::new();
-        for (k, (obj, prep)) in frame.objects.iter().zip(&self.prepared).enumerate() {
-            meshes.push(DrawMesh {
-                key: self.key + k as u64,
-                positions: obj.positions.clone(),
-                normals: obj.normals.clone(),
-                uvs: prep.uvs.clone(),
-                colors: prep.colors.clone(),
-                parts: prep.parts.clone(),
-            });
-            if options.overlay != Overlay::Off {
-                control_lines(
-                    &obj.controls,
-                    options.overlay == Overlay::Full,
-                    &mut overlay,
-                );
-            }
-        }
-        if options.gizmo {
-            let (w, h) = (self.renderer.width(), self.renderer.height());
-            axis_gizmo(&camera, [w, h], &mut overlay);
-        }
-        View {
-            camera,
-            lights,
-            background: f.background,
-            meshes,
-            lines: Vec::new(),
-            overlay,
-            options: options.draw,
-        }
+    }
+    if options.gizmo {
+        axis_gizmo(&camera, [size.0, size.1], &mut overlay);
+    }
+    View {
+        camera,
+        lights,
+        background: f.background,
+        meshes,
+        lines: Vec::new(),
+        overlay,
+        options: options.draw,
     }
 }
 

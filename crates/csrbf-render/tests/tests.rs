@@ -2,33 +2,60 @@
 
 use csrbf_render::{Camera, DrawMesh, DrawOptions, DrawPart, Light, Renderer, View};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-fn quad_view() -> View {
-    let positions = vec![
-        Vec3::new(-1.0, -1.0, 0.0),
-        Vec3::new(1.0, -1.0, 0.0),
-        Vec3::new(1.0, 1.0, 0.0),
-        Vec3::new(-1.0, 1.0, 0.0),
-    ];
+/// The data of a quad the views borrow.
+struct Quad {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    parts: Vec<DrawPart>,
+}
+
+impl Quad {
+    fn new(color: [f32; 4]) -> Quad {
+        Quad {
+            positions: vec![
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(-1.0, 1.0, 0.0),
+            ],
+            normals: vec![Vec3::Z; 4],
+            uvs: vec![],
+            parts: vec![DrawPart {
+                indices: vec![0, 1, 2, 0, 2, 3],
+                color,
+                texture: None,
+                wireframe: false,
+            }],
+        }
+    }
+
+    fn mesh(&self) -> DrawMesh<'_> {
+        DrawMesh {
+            positions: &self.positions,
+            normals: &self.normals,
+            uvs: &self.uvs,
+            parts: &self.parts,
+            ..Default::default()
+        }
+    }
+}
+
+fn camera() -> Camera {
+    Camera::perspective(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 45.0)
+}
+
+fn view(meshes: Vec<DrawMesh<'_>>) -> View<'_> {
     View {
-        camera: Camera::perspective(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 45.0),
+        camera: camera(),
         lights: vec![Light {
             direction: Vec3::new(0.0, 0.0, -1.0),
             color: Vec3::ONE,
         }],
         background: [0.0, 0.0, 0.0],
-        meshes: vec![DrawMesh {
-            normals: vec![Vec3::Z; 4],
-            positions,
-            parts: vec![DrawPart {
-                indices: vec![0, 1, 2, 0, 2, 3],
-                color: [1.0, 0.0, 0.0, 1.0],
-                texture: None,
-                wireframe: false,
-            }],
-            ..Default::default()
-        }],
+        meshes,
         lines: vec![],
         overlay: vec![],
         options: DrawOptions::default(),
@@ -38,7 +65,8 @@ fn quad_view() -> View {
 #[test]
 fn draws_a_lit_quad_on_the_background() {
     let mut r = Renderer::new(64, 48).expect("renderer (install mesa-vulkan-drivers)");
-    let img = r.render(&quad_view()).expect("render");
+    let red = Quad::new([1.0, 0.0, 0.0, 1.0]);
+    let img = r.render(&view(vec![red.mesh()])).expect("render");
     assert_eq!((img.width, img.height), (64, 48));
     let centre = img.pixel(32, 24);
     assert!(
@@ -47,18 +75,85 @@ fn draws_a_lit_quad_on_the_background() {
     );
     assert_eq!(img.pixel(0, 0), [0, 0, 0, 255]);
     // Depth test: a second quad in front, green, hides the red one.
-    let mut v = quad_view();
-    let mut front = v.meshes[0].clone();
-    for p in &mut front.positions {
+    let mut green = Quad::new([0.0, 1.0, 0.0, 1.0]);
+    for p in &mut green.positions {
         p.z = 1.0;
         *p *= 0.5;
     }
-    front.parts[0].color = [0.0, 1.0, 0.0, 1.0];
-    v.meshes.insert(0, front);
-    let img = r.render(&v).expect("render");
+    let img = r
+        .render(&view(vec![green.mesh(), red.mesh()]))
+        .expect("render");
     let c = img.pixel(32, 24);
     assert!(c[1] > 200 && c[0] < 40, "centre {c:?}");
     assert!(img.to_png().expect("png").starts_with(b"\x89PNG"));
+}
+
+/// What the camera says is inside the quad is drawn, what it says is
+/// outside is background: picking and drawing share one camera.
+#[test]
+fn the_camera_projects_where_the_renderer_draws() {
+    let size = [96u32, 64u32];
+    let mut r = Renderer::new(size[0], size[1]).expect("renderer");
+    let quad = Quad::new([1.0, 1.0, 1.0, 1.0]);
+    let img = r.render(&view(vec![quad.mesh()])).expect("render");
+    let (lo, _) = camera()
+        .project(Vec3::new(-1.0, 1.0, 0.0), size)
+        .expect("corner");
+    let (hi, _) = camera()
+        .project(Vec3::new(1.0, -1.0, 0.0), size)
+        .expect("corner");
+    for (x, y) in [(2.0, 2.0), (-2.0, -2.0), (-2.0, 2.0), (2.0, -2.0)] {
+        let inside = (lo + hi) * 0.5 + (hi - lo) * 0.5 * Vec2::new(x, y) * 0.4;
+        let outside = (lo + hi) * 0.5 + (hi - lo) * 0.5 * Vec2::new(x, y) * 0.6;
+        let lit = |p: Vec2| img.pixel(p.x as u32, p.y as u32)[0] > 100;
+        assert!(lit(inside), "{inside} should be on the quad");
+        assert!(!lit(outside), "{outside} should be background");
+    }
+    // And the ray through a lit pixel meets the quad's plane inside it.
+    let ray = camera().ray(Vec2::new(20.5, 40.5), size);
+    let t = -ray.origin.z / ray.dir.z;
+    let p = ray.at(t);
+    assert_eq!(
+        img.pixel(20, 40)[0] > 100,
+        p.x.abs() < 1.0 && p.y.abs() < 1.0
+    );
+}
+
+/// An app's device, another colour format, and drawing without read-back.
+#[test]
+fn draws_on_a_given_device_into_a_given_texture() {
+    let headless = Renderer::new(32, 24).expect("renderer");
+    let (device, queue) = (headless.device().clone(), headless.queue().clone());
+    let format = wgpu::TextureFormat::Bgra8UnormSrgb;
+    let mut r = Renderer::on_device(device.clone(), queue, format, 32, 24, 4).expect("on device");
+    assert_eq!(r.format(), format);
+    let red = Quad::new([1.0, 0.0, 0.0, 1.0]);
+    let target = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("app"),
+        size: wgpu::Extent3d {
+            width: 32,
+            height: 24,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    r.draw_into(
+        &view(vec![red.mesh()]),
+        &target.create_view(&Default::default()),
+    );
+    // The same renderer still reads pictures back, BGRA turned into RGBA.
+    let img = r.render(&view(vec![red.mesh()])).expect("render");
+    let c = img.pixel(16, 12);
+    assert!(c[0] > 200 && c[2] < 40, "centre {c:?}");
+    r.resize(40, 20).expect("resize");
+    assert_eq!(r.size(), (40, 20));
+    let img = r.render(&view(vec![red.mesh()])).expect("render");
+    assert_eq!((img.width, img.height), (40, 20));
 }
 
 #[test]
@@ -85,33 +180,73 @@ fn textures_and_flat_shading_reach_the_picture() {
             ],
         )
         .expect("texture");
-    let mut v = quad_view();
-    v.meshes[0].uvs = vec![
-        glam::Vec2::new(0.0, 0.0),
-        glam::Vec2::new(1.0, 0.0),
-        glam::Vec2::new(1.0, 1.0),
-        glam::Vec2::new(0.0, 1.0),
+    let mut q = Quad::new([1.0; 4]);
+    q.uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 1.0),
     ];
-    v.meshes[0].parts[0].color = [1.0; 4];
-    v.meshes[0].parts[0].texture = Some(tex);
-    let img = r.render(&v).expect("render");
+    q.parts[0].texture = Some(tex);
+    let img = r.render(&view(vec![q.mesh()])).expect("render");
     let (left, right) = (img.pixel(27, 24), img.pixel(38, 24));
     assert!(left[1] > 150 && left[2] < 100, "left {left:?}");
     assert!(right[2] > 150 && right[1] < 100, "right {right:?}");
     assert!(r.texture(2, 2, &[0; 4]).is_err());
     // Flat shading of a tilted quad: one colour across it.
-    let mut v = quad_view();
-    for p in &mut v.meshes[0].positions {
+    let mut q = Quad::new([1.0, 0.0, 0.0, 1.0]);
+    for p in &mut q.positions {
         p.z = p.x * 0.5;
     }
-    v.meshes[0].normals = vec![
+    q.normals = vec![
         Vec3::new(0.3, 0.0, 1.0).normalize(),
         Vec3::Z,
         Vec3::Z,
         Vec3::new(-0.3, 0.0, 1.0).normalize(),
     ];
+    let mut v = view(vec![q.mesh()]);
     v.options.flat = true;
     let img = r.render(&v).expect("render");
     let (a, b) = (img.pixel(24, 24), img.pixel(40, 24));
     assert!((a[0] as i32 - b[0] as i32).abs() <= 2, "{a:?} vs {b:?}");
+}
+
+/// The library's frame loop: a GIF of a demo scene, cancelled half way
+/// (nothing left on disk), refused when it asks for too many frames.
+#[test]
+fn movies_render_cancel_cleanly_and_refuse_endless_ranges() {
+    use csrbf_render::movie::{MovieOptions, render_movie};
+    let dir = std::env::temp_dir().join(format!("csrbf-render-movie-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let demo = csrbf_anim::demos::demo("ball").expect("demo");
+    let scene_path = demo.write(&dir, "ball").expect("write demo");
+    let scene = csrbf_anim::Scene::load(&scene_path).expect("scene");
+    let mut o = MovieOptions::of(&scene);
+    o.size = [64, 48];
+    o.to = 0.5;
+    let gif = dir.join("m.gif");
+    let mut seen = 0;
+    let w = render_movie(&scene, &gif, o, &mut |done, total| {
+        seen = done;
+        assert_eq!(total, o.frames());
+        true
+    })
+    .expect("movie");
+    assert_eq!(
+        (w.path.clone(), w.frames, seen),
+        (gif.clone(), o.frames(), o.frames())
+    );
+    assert!(gif.is_file());
+    // Cancelled after two frames: an error, and neither the movie nor a temporary file.
+    let cancelled = dir.join("c.gif");
+    let before: Vec<_> = std::fs::read_dir(&dir).expect("dir").collect();
+    let e = render_movie(&scene, &cancelled, o, &mut |done, _| done < 2).expect_err("cancel");
+    assert!(e.to_string().contains("cancelled"));
+    assert!(!cancelled.exists());
+    assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), before.len());
+    // A range of a billion seconds is refused before anything is drawn.
+    o.to = 1e9;
+    let e = render_movie(&scene, &dir.join("e.gif"), o, &mut |_, _| true).expect_err("endless");
+    assert!(e.to_string().contains("more than the limit"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

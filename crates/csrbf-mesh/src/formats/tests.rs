@@ -271,8 +271,10 @@ fn triangles_know_their_faces() {
 
 #[test]
 fn up_is_guessed_from_the_format_and_the_shape() {
-    let mut tall = Mesh::default();
-    tall.positions = vec![glam::Vec3::ZERO, glam::Vec3::new(1.0, 1.0, 5.0)];
+    let tall = Mesh {
+        positions: vec![glam::Vec3::ZERO, glam::Vec3::new(1.0, 1.0, 5.0)],
+        ..Default::default()
+    };
     assert_eq!(crate::guess_up(&tall, Path::new("a.obj")).0, glam::Vec3::Z);
     assert_eq!(crate::guess_up(&tall, Path::new("a.glb")).0, glam::Vec3::Y);
     let mut wide = tall.clone();

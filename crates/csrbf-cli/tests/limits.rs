@@ -1,0 +1,44 @@
+//! Issue 7: inputs that asked for unbounded work are refused at once, with
+//! the limit named, before any file is written.
+
+use crate::support::*;
+
+#[test]
+fn endless_movies_and_runs_are_refused_before_any_work() {
+    let dir = TempDir::new("limits");
+    ok(&[
+        "demo",
+        "-q",
+        "ball",
+        "--out",
+        arg(&dir.path("d")),
+        "--gif",
+        "--size",
+        "64x48",
+    ]);
+    let scene = dir.path("d/ball/ball.scene.json");
+    assert!(scene.is_file(), "the demo writes its scene");
+    let out = dir.path("m.gif");
+    let t = std::time::Instant::now();
+    fails(
+        &["animate", arg(&scene), "--out", arg(&out), "--to", "1e9"],
+        &["more than the limit of 100000"],
+    );
+    assert!(t.elapsed().as_secs() < 20, "refused before rendering");
+    assert!(!out.exists());
+    // A scene file whose duration is endless: refused by every command.
+    let text = std::fs::read_to_string(&scene).expect("scene");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("json");
+    let mut v = v;
+    v["duration"] = serde_json::json!(1e9);
+    let endless = dir.write("d/ball/endless.scene.json", v.to_string());
+    fails(
+        &["export", arg(&endless), "--out", arg(&dir.path("e.glb"))],
+        &["duration", "more than the limit"],
+    );
+    assert!(!dir.path("e.glb").exists());
+    // Benchmark runs are bounded (a usage error names the flag).
+    let r = csrbf(&["bench", "--scene", "fish", "--runs", "4294967295"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--runs"));
+}
