@@ -70,6 +70,8 @@ pub struct BoundStage {
     pub phase: f32,
     /// Every vertex of its region (in the part).
     pub region: Vec<u32>,
+    /// The weight of each of `region` (1, or less in a falloff).
+    pub weights: Vec<f32>,
 }
 
 /// A deformation of a part with its phase track.
@@ -437,8 +439,8 @@ impl Scene {
             } else {
                 let pts: Vec<Vec3> = st.region.iter().map(|&v| x[v as usize]).collect();
                 let d = st.deformation.displacements_f32(&pts);
-                for (&v, d) in st.region.iter().zip(d) {
-                    x[v as usize] += d * (st.phase * t);
+                for ((&v, d), w) in st.region.iter().zip(d).zip(&st.weights) {
+                    x[v as usize] += d * (st.phase * t * w);
                 }
             }
         }
@@ -962,23 +964,25 @@ fn load_deformation(
         let deformation = sys
             .solve(&spec.targets)
             .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-        // The stage acts on the part's vertices that are also in its region.
-        let region: Vec<u32> = if spec.region == Region::All {
-            part.vertices.clone()
+        // The stage acts on the part's vertices that are also in its region,
+        // each by its weight there (less than 1 in a falloff).
+        let (region, weights): (Vec<u32>, Vec<f32>) = if spec.region == Region::All {
+            (part.vertices.clone(), vec![1.0; part.vertices.len()])
         } else {
-            let sel = spec
+            let (sel, w) = spec
                 .region
-                .select(&mesh.positions, &|n| mesh.part_vertices(n))
+                .weights(&mesh.positions, &|n| mesh.part_vertices(n))
                 .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-            let mut mark = vec![false; mesh.positions.len()];
-            for v in sel {
-                mark[v as usize] = true;
+            let mut weight = vec![0.0f32; mesh.positions.len()];
+            for (v, w) in sel.into_iter().zip(w) {
+                weight[v as usize] = w;
             }
             part.vertices
                 .iter()
                 .copied()
-                .filter(|&v| mark[v as usize])
-                .collect()
+                .filter(|&v| weight[v as usize] > 0.0)
+                .map(|v| (v, weight[v as usize]))
+                .unzip()
         };
         let pts: Vec<Vec3> = region.iter().map(|&v| mesh.positions[v as usize]).collect();
         let binding = Binding::new(&deformation, &pts);
@@ -993,8 +997,9 @@ fn load_deformation(
             region
                 .iter()
                 .zip(displacement)
-                .filter(|(_, d)| *d != Vec3::ZERO)
-                .map(|(&v, d)| (v, d * spec.phase as f32))
+                .zip(&weights)
+                .filter(|((_, d), _)| *d != Vec3::ZERO)
+                .map(|((&v, d), w)| (v, d * (spec.phase as f32 * w)))
                 .unzip()
         };
         stages.push(BoundStage {
@@ -1005,6 +1010,7 @@ fn load_deformation(
             displacement,
             phase: spec.phase as f32,
             region,
+            weights,
         });
     }
     check_times(df.phase.iter().map(|k| k.time), &|i| {

@@ -285,7 +285,7 @@ fn scenes_combine_deformations_as_compose_does() {
         format!(
             r#"{{"combine": "{combine}", "deformations": [
               {{"radius": 4, "controls": [{{"from": [2.15, 10.18, 4.42], "to": [2.15, 11.5, 5.0]}}]}},
-              {{"radius": 3, "phase": 0.6, "region": {{"box": {{"min": [-9, 8, -9], "max": [9, 20, 9]}}}},
+              {{"radius": 3, "phase": 0.6, "region": {{"box": {{"min": [-9, 11, -9], "max": [9, 20, 9]}}, "falloff": 1.5}},
                "controls": [{{"from": [2.3, 11.2, 4.6], "to": [3.2, 11.2, 4.6]}}]}}]}}"#
         )
     };

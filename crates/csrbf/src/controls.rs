@@ -444,7 +444,41 @@ fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
 
 /// A region as written in a control file (`{"sphere": ...}`, `{"box": ...}`,
 /// `{"vertices": [...]}` or `{"group": name}`); `at` is its JSON path, for errors.
+///
+/// A `"falloff": width` beside the kind blends the region's edge smoothly
+/// over that width instead of cutting it (not wider than the region).
 pub fn parse_region(v: &Value, at: &str) -> Result<Region, ControlError> {
+    let Some(width) = v.as_object().and_then(|o| o.get("falloff")) else {
+        return parse_plain_region(v, at);
+    };
+    let here = format!("{at}.falloff");
+    let width = width
+        .as_f64()
+        .filter(|w| *w > 0.0 && w.is_finite())
+        .ok_or_else(|| err(&here, format!("expected a width > 0, found {width}")))?;
+    let mut plain = v.as_object().cloned().unwrap_or_default();
+    plain.remove("falloff");
+    let inner = parse_plain_region(&Value::Object(plain), at)?;
+    if let Some(size) = inner.size()
+        && width > size
+    {
+        return Err(err(
+            &here,
+            format!(
+                "{width} is wider than the region itself ({size} across): the blend would reach farther than the region it softens"
+            ),
+        ));
+    }
+    if inner == Region::All {
+        return Err(err(&here, "everything has no edge to blend"));
+    }
+    Ok(Region::Falloff {
+        inner: Box::new(inner),
+        width,
+    })
+}
+
+fn parse_plain_region(v: &Value, at: &str) -> Result<Region, ControlError> {
     let obj = v.as_object().filter(|o| o.len() == 1).ok_or_else(|| {
         err(at, "expected one of {\"sphere\": {\"center\": [x,y,z], \"radius\": r}}, {\"box\": {\"min\": [..], \"max\": [..]}}, {\"vertices\": [i, ...]}, {\"group\": \"name\"}")
     })?;
@@ -543,6 +577,25 @@ mod tests {
     }
 
     #[test]
+    fn regions_may_have_a_falloff() {
+        let f = ControlFile::parse(
+            r#"{"radius": 1, "region": {"box": {"min": [0,0,0], "max": [2,2,2]}, "falloff": 0.5},
+                "controls": [{"from": [0,0,0], "to": [0,0,1]}]}"#,
+        )
+        .expect("parse");
+        assert_eq!(
+            f.deformations[0].region,
+            Region::Falloff {
+                inner: Box::new(Region::Box {
+                    min: DVec3::ZERO,
+                    max: DVec3::splat(2.0)
+                }),
+                width: 0.5
+            }
+        );
+    }
+
+    #[test]
     fn handles_become_control_vectors_on_the_mesh() {
         let f = ControlFile::parse(
             r#"{"radius": 3, "handle": {"select": {"box": {"min": [6, -1, -1], "max": [11, 1, 1]}},
@@ -617,6 +670,14 @@ mod tests {
             (
                 r#"{"radius": 1, "region": {"box": {"min": [0,2,0], "max": [1,1,1]}}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
                 "region.box.min[1]: is greater than max[1]",
+            ),
+            (
+                r#"{"radius": 1, "region": {"sphere": {"center": [0,0,0], "radius": 1}, "falloff": 3}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "region.falloff: 3 is wider than the region itself (2 across)",
+            ),
+            (
+                r#"{"radius": 1, "region": {"sphere": {"center": [0,0,0], "radius": 1}, "falloff": -1}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
+                "region.falloff: expected a width > 0",
             ),
             (
                 r#"{"combine": "blend", "deformations": [{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#,

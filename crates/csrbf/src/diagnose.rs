@@ -334,7 +334,8 @@ fn diagnose_with(
                 radius: def.radius(),
             });
         }
-        if !all {
+        // A falloff blends smoothly: no seam to warn of.
+        if !all && !matches!(region, Region::Falloff { .. }) {
             let mut is_in = vec![false; rest.len()];
             for &i in selected {
                 is_in[i as usize] = true;

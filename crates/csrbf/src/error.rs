@@ -105,6 +105,9 @@ pub enum Error {
     /// A handle that cannot make control vectors (its message says why).
     #[error("handle: {0}")]
     BadHandle(String),
+    /// A region that cannot be used (its message says why).
+    #[error("region: {0}")]
+    BadRegion(String),
     /// A region names a part the mesh does not have.
     #[error("region names part {0:?}, which the mesh does not have")]
     UnknownGroup(String),

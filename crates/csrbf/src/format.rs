@@ -247,6 +247,11 @@ fn put_region(w: &mut Vec<u8>, region: &Region) {
             w.extend_from_slice(&(name.len() as u32).to_le_bytes());
             w.extend_from_slice(name.as_bytes());
         }
+        Region::Falloff { inner, width } => {
+            w.push(5);
+            w.extend_from_slice(&width.to_le_bytes());
+            put_region(w, inner);
+        }
     }
 }
 
@@ -277,6 +282,19 @@ fn get_region(r: &mut Reader) -> Result<Region> {
                 String::from_utf8(bytes.to_vec())
                     .map_err(|_| Error::Format("region name is not UTF-8".into()))?,
             )
+        }
+        5 => {
+            let width = r.f64("region falloff")?;
+            let inner = get_region(r)?;
+            if !(width > 0.0 && width.is_finite()) || matches!(inner, Region::Falloff { .. }) {
+                return Err(Error::Format(format!(
+                    "region falloff {width} is not valid"
+                )));
+            }
+            Region::Falloff {
+                inner: Box::new(inner),
+                width,
+            }
         }
         t => return Err(Error::Format(format!("unknown region tag {t}"))),
     })

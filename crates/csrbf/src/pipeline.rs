@@ -124,6 +124,8 @@ type Key3 = (u64, u64, u64);
 struct Bound {
     key: Key3,
     active: Vec<u32>,
+    /// Weight of each active point (1, or less in a region's falloff).
+    weights: Vec<f32>,
     binding: Binding,
 }
 
@@ -406,12 +408,13 @@ impl Pipeline {
                     .find(|(n, _)| n == name)
                     .map(|(_, v)| v.clone())
             };
-            let active = s.stage.region.select(&self.rest, &lookup)?;
+            let (active, weights) = s.stage.region.weights(&self.rest, &lookup)?;
             let pts: Vec<Vec3> = active.iter().map(|&k| bind_input[k as usize]).collect();
             let binding = Binding::new(def, &pts);
             s.binding = Some(Bound {
                 key: bkey,
                 active,
+                weights,
                 binding,
             });
             self.work.bindings += 1;
@@ -443,8 +446,8 @@ impl Pipeline {
         }
         let mut out = input.to_vec();
         let t = s.stage.phase as f32;
-        for (&k, d) in bound.active.iter().zip(disp) {
-            out[k as usize] += *d * t;
+        for ((&k, d), w) in bound.active.iter().zip(disp).zip(&bound.weights) {
+            out[k as usize] += *d * (t * w);
         }
         self.next_gen += 1;
         let generation = self.next_gen;
@@ -485,9 +488,9 @@ pub(crate) fn compose_traced(
         if !(0.0..=1.0).contains(phase) {
             return Err(Error::BadPhase(*phase));
         }
-        let active = region.select(rest, groups)?;
+        let (active, weights) = region.weights(rest, groups)?;
         let t = *phase as f32;
-        let all = active.len() == points.len();
+        let all = active.len() == points.len() && !matches!(region, Region::Falloff { .. });
         // Where this stage is evaluated: the moved points, or the rest ones.
         let from = match combine {
             Combine::Chain => &points[..],
@@ -516,8 +519,8 @@ pub(crate) fn compose_traced(
                 *p += d * t;
             }
         } else {
-            for (&i, d) in active.iter().zip(d) {
-                points[i as usize] += d * t;
+            for ((&i, d), w) in active.iter().zip(d).zip(weights) {
+                points[i as usize] += d * (t * w);
             }
         }
     }

@@ -31,6 +31,16 @@ pub enum Region {
     /// A named part of the mesh (group, object or material), resolved by the
     /// caller into point indices.
     Group(String),
+    /// Another region with a smooth edge: points inside it move fully, points
+    /// within `width` of it (of its surface for a sphere or box, of its
+    /// nearest point for a list or part) move by a weight falling smoothly
+    /// to zero, instead of a hard cut.
+    Falloff {
+        /// The region itself (not itself a falloff).
+        inner: Box<Region>,
+        /// Width of the blend, in the mesh's units.
+        width: f64,
+    },
 }
 
 impl std::fmt::Display for Region {
@@ -45,6 +55,7 @@ impl std::fmt::Display for Region {
             Region::Box { min, max } => write!(f, "box from {} to {}", p(min), p(max)),
             Region::Vertices(v) => write!(f, "{} listed vertices", v.len()),
             Region::Group(name) => write!(f, "part {name:?}"),
+            Region::Falloff { inner, width } => write!(f, "{inner}, blended over {width}"),
         }
     }
 }
@@ -88,7 +99,84 @@ impl Region {
                 v.dedup();
                 v
             }
+            Region::Falloff { .. } => self.weights(points, group)?.0,
         })
+    }
+
+    /// The points the region moves, ascending, with the weight of each (1
+    /// inside, smoothly less in a falloff's blend, never 0).
+    pub fn weights(
+        &self,
+        points: &[Vec3],
+        group: &dyn Fn(&str) -> Option<Vec<u32>>,
+    ) -> Result<(Vec<u32>, Vec<f32>)> {
+        let Region::Falloff { inner, width } = self else {
+            let v = self.select(points, group)?;
+            let w = vec![1.0; v.len()];
+            return Ok((v, w));
+        };
+        let width = *width;
+        if matches!(**inner, Region::Falloff { .. }) || !(width > 0.0 && width.is_finite()) {
+            return Err(Error::BadRegion(format!(
+                "a falloff needs a width > 0 around a plain region, got {self}"
+            )));
+        }
+        // Distance of a point outside the inner region to it.
+        let inside = inner.select(points, group)?;
+        let outside_distance: Box<dyn Fn(DVec3) -> f64 + Sync> = match &**inner {
+            Region::All => return Ok((inside.clone(), vec![1.0; inside.len()])),
+            Region::Sphere { center, radius } => {
+                let (c, r) = (*center, *radius);
+                Box::new(move |p: DVec3| (p.distance(c) - r).max(0.0))
+            }
+            Region::Box { min, max } => {
+                let (lo, hi) = (*min, *max);
+                Box::new(move |p: DVec3| (lo - p).max(p - hi).max(DVec3::ZERO).length())
+            }
+            _ => {
+                let pts: Vec<DVec3> = inside
+                    .iter()
+                    .map(|&i| points[i as usize].as_dvec3())
+                    .collect();
+                let tree = crate::octree::Octree::new(&pts);
+                Box::new(move |p: DVec3| {
+                    let mut best = f64::INFINITY;
+                    tree.for_each_within(p, width, |_, d2| best = best.min(d2));
+                    best.sqrt()
+                })
+            }
+        };
+        let mut is_in = vec![false; points.len()];
+        for &i in &inside {
+            is_in[i as usize] = true;
+        }
+        let mut out = Vec::new();
+        let mut w = Vec::new();
+        for (i, p) in points.iter().enumerate() {
+            if is_in[i] {
+                out.push(i as u32);
+                w.push(1.0);
+                continue;
+            }
+            let d = outside_distance(p.as_dvec3());
+            if d < width {
+                let s = 1.0 - d / width;
+                out.push(i as u32);
+                w.push((s * s * (3.0 - 2.0 * s)) as f32);
+            }
+        }
+        Ok((out, w))
+    }
+
+    /// The size of the region across (a sphere's diameter, a box's largest
+    /// side), for checking a falloff; None for lists and parts.
+    pub fn size(&self) -> Option<f64> {
+        match self {
+            Region::Sphere { radius, .. } => Some(2.0 * radius),
+            Region::Box { min, max } => Some((*max - *min).max_element()),
+            Region::Falloff { inner, .. } => inner.size(),
+            _ => None,
+        }
     }
 
     /// Grows (positive) or shrinks (negative) a sphere or box by `amount`;
@@ -107,6 +195,10 @@ impl Region {
                     max: hi.max(lo),
                 }
             }
+            Region::Falloff { inner, width } => Region::Falloff {
+                inner: Box::new(inner.grown(amount)),
+                width: *width,
+            },
             other => other.clone(),
         }
     }
@@ -118,6 +210,43 @@ mod tests {
 
     fn points() -> Vec<Vec3> {
         (0..10).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect()
+    }
+
+    #[test]
+    fn falloffs_blend_smoothly_to_zero() {
+        let none = |_: &str| None;
+        let p = points();
+        let s = Region::Sphere {
+            center: DVec3::new(4.0, 0.0, 0.0),
+            radius: 1.5,
+        };
+        let f = Region::Falloff {
+            inner: Box::new(s.clone()),
+            width: 2.0,
+        };
+        let (v, w) = f.weights(&p, &none).expect("weights");
+        // 3, 4, 5 inside; 2 and 6 at 0.5 past the edge; 1 and 7 at 1.5.
+        assert_eq!(v, vec![1, 2, 3, 4, 5, 6, 7]);
+        assert_eq!(&w[2..5], &[1.0, 1.0, 1.0]);
+        assert!((w[1] - 0.84375).abs() < 1e-6 && w[1] == w[5], "{w:?}");
+        assert!((w[0] - 0.15625).abs() < 1e-6 && w[0] == w[6], "{w:?}");
+        assert_eq!(f.select(&p, &none), Ok(v));
+        // Lists blend by distance to their nearest point.
+        let list = Region::Falloff {
+            inner: Box::new(Region::Vertices(vec![0])),
+            width: 2.0,
+        };
+        let (v, w) = list.weights(&p, &none).expect("weights");
+        assert_eq!(v, vec![0, 1]);
+        assert_eq!(w[0], 1.0);
+        assert!((w[1] - 0.5).abs() < 1e-6);
+        // A plain region weighs 1 everywhere it selects.
+        assert_eq!(s.weights(&p, &none).expect("w").1, vec![1.0; 3]);
+        let bad = Region::Falloff {
+            inner: Box::new(s),
+            width: -1.0,
+        };
+        assert!(bad.weights(&p, &none).is_err());
     }
 
     #[test]

@@ -568,3 +568,61 @@ fn chain_and_add_mean_the_same_in_compose_and_the_pipeline() {
     assert_eq!("add".parse::<Combine>(), Ok(Combine::Add));
     assert!("blend".parse::<Combine>().is_err());
 }
+
+/// Issue 6: a region's falloff scales the displacement by the weight the
+/// region gives each point, in `compose` and the `Pipeline` alike.
+#[test]
+fn falloffs_scale_the_displacement_smoothly() {
+    let rest: Vec<Vec3> = (0..60)
+        .map(|i| Vec3::new(i as f32 * 0.05, 0.0, 0.0))
+        .collect();
+    let d = Deformation::fit(
+        &[DVec3::new(1.5, 0.0, 0.0)],
+        &[DVec3::new(1.5, 0.3, 0.0)],
+        FitOptions::default().with_radius(2.0),
+    )
+    .expect("fit");
+    let region = Region::Falloff {
+        inner: Box::new(Region::Box {
+            min: DVec3::new(-1.0, -1.0, -1.0),
+            max: DVec3::new(1.0, 1.0, 1.0),
+        }),
+        width: 0.8,
+    };
+    let none = |_: &str| None;
+    let (sel, w) = region.weights(&rest, &none).expect("weights");
+    let out = compose(
+        &rest,
+        &[(d.clone(), region.clone(), 1.0)],
+        Combine::Chain,
+        &none,
+    )
+    .expect("compose");
+    for (i, p) in rest.iter().enumerate() {
+        let weight = sel
+            .iter()
+            .position(|&k| k as usize == i)
+            .map_or(0.0, |k| w[k]);
+        let want = p.as_dvec3() + d.displacement_at(p.as_dvec3()) * weight as f64;
+        assert!((out[i].as_dvec3() - want).length() < 1e-5, "point {i}");
+    }
+    // Inside moves fully, past the blend nothing moves, and the blend is monotone.
+    assert!(out[10].y > 0.0 && out[59].y == 0.0);
+    let ys: Vec<f32> = (20..37)
+        .map(|i| out[i].y / d.displacement_at(rest[i].as_dvec3()).y as f32)
+        .collect();
+    assert!(ys.windows(2).all(|p| p[1] <= p[0] + 1e-6), "{ys:?}");
+    let mut p = Pipeline::new(rest.clone());
+    p.push(
+        Stage::new(
+            vec![DVec3::new(1.5, 0.0, 0.0)],
+            vec![DVec3::new(1.5, 0.3, 0.0)],
+            FitOptions::default().with_radius(2.0),
+        )
+        .with_region(region),
+    );
+    let lazy = p.evaluate().expect("evaluate");
+    for (a, b) in lazy.iter().zip(&out) {
+        assert!(a.distance(*b) < 1e-5);
+    }
+}
