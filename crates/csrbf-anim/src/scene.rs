@@ -98,6 +98,9 @@ pub struct Contact {
     pub kernel: Kernel,
     /// Reach factor for the radius of support.
     pub reach: f64,
+    /// The longest edge of the pushed mesh, for the margin that keeps the
+    /// pusher behind its faces.
+    pub spacing: f64,
 }
 
 /// An animation object.
@@ -467,7 +470,13 @@ impl Scene {
         let centre_world = prot * pusher.center + pshift;
         let (rot, shift) = obj.transform(time);
         let centre = rot.inverse() * (centre_world - shift);
-        let r = pusher.radius;
+        // Vertices are pushed a little past the sphere: the faces between
+        // them are chords that sag inside it by about h^2 / (8 r) for
+        // vertices h apart, and near the rim a chord from a pushed vertex to
+        // one left on the wall dips deeper. Four times the sag, h^2 / (2 r),
+        // keeps the ball behind the wall (the demo's test checks every frame).
+        let margin = c.spacing * c.spacing / (2.0 * pusher.radius);
+        let r = pusher.radius + margin;
         let mut starts = Vec::new();
         let mut targets = Vec::new();
         let mut depth: f64 = 0.0;
@@ -596,10 +605,18 @@ fn resolve_contacts(
                     format!("must be > 0, got {}", c.reach),
                 ));
             }
+            let o = &objects[oi];
+            let spacing = o
+                .triangles
+                .iter()
+                .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+                .map(|(a, b)| o.mesh.positions[a as usize].distance(o.mesh.positions[b as usize]))
+                .fold(0.0f32, f32::max) as f64;
             objects[oi].contact = Some(Contact {
                 with,
                 kernel,
                 reach: c.reach,
+                spacing,
             });
         }
     }

@@ -408,3 +408,70 @@ fn endless_scenes_are_refused_by_their_frame_count() {
     assert_eq!(frame_count(2.0, 30.0), 61);
     assert_eq!(frame_count(f64::NAN, 30.0), 1);
 }
+
+/// Whether `p` lies inside the closed triangle mesh, by the parity of the
+/// crossings of a ray (a direction no edge of a box is parallel to).
+fn inside(p: Vec3, positions: &[Vec3], triangles: &[[u32; 3]]) -> bool {
+    let dir = Vec3::new(0.5773, 0.5801, 0.5745).normalize();
+    let mut crossings = 0;
+    for t in triangles {
+        let (a, b, c) = (
+            positions[t[0] as usize],
+            positions[t[1] as usize],
+            positions[t[2] as usize],
+        );
+        let (e1, e2) = (b - a, c - a);
+        let h = dir.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let s = p - a;
+        let u = s.dot(h) / det;
+        let q = s.cross(e1);
+        let v = dir.dot(q) / det;
+        let t = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 {
+            crossings += 1;
+        }
+    }
+    crossings % 2 == 1
+}
+
+/// Issue 6: the ball never shows through the wall: at every frame of the
+/// demo, every vertex of the ball lies inside the deformed box.
+#[test]
+fn the_ball_stays_inside_the_bulging_box() {
+    let d = Dir::new("ball");
+    let demo = demos::demo("ball").expect("demo");
+    let path = demo.write(&d.0, "ball").expect("write");
+    let scene = Scene::load(&path).expect("scene");
+    let ball = scene
+        .objects
+        .iter()
+        .position(|o| o.name == "ball")
+        .expect("ball");
+    let walls = scene
+        .objects
+        .iter()
+        .position(|o| o.name == "box")
+        .expect("box");
+    let tris = &scene.objects[walls].triangles;
+    let mut worst = (0, 0.0f64);
+    for k in 0..scene.frame_count() {
+        let f = scene.frame(k as f64 / scene.file.fps);
+        let out = f.objects[ball]
+            .positions
+            .iter()
+            .filter(|p| !inside(**p, &f.objects[walls].positions, tris))
+            .count();
+        if out > 0 && (out as f64) > worst.1 {
+            worst = (k, out as f64);
+        }
+    }
+    assert_eq!(
+        worst.1, 0.0,
+        "frame {}: {} ball vertices outside the box",
+        worst.0, worst.1
+    );
+}
