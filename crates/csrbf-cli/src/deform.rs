@@ -136,6 +136,9 @@ fn move_and_write(
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
+    if let Some(lost) = csrbf_mesh::Format::from_path(out)?.loses(m) {
+        eprintln!("warning: {}: {lost}", out.display());
+    }
     csrbf_mesh::write(out, m)?;
     progress.say(format_args!("wrote {}", out.display()));
     if json {

@@ -254,3 +254,38 @@ fn help_on_every_command() {
         assert!(out.contains("Usage"), "{cmd}: {out}");
     }
 }
+
+/// Issue 6: STL cannot keep what the others keep, and says so.
+#[test]
+fn writing_stl_warns_what_it_loses() {
+    let dir = TempDir::new("stlwarn");
+    let duck = model("pybullet_duck.obj");
+    let c = dir.write("c.json", controls_for(&duck, "c2", "none"));
+    let out = dir.path("d.stl");
+    let r = csrbf(&[
+        "deform",
+        "--mesh",
+        arg(&duck),
+        "--controls",
+        arg(&c),
+        "--out",
+        arg(&out),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(
+        err.contains("STL stores triangles, not vertices") && err.contains("UVs"),
+        "{err}"
+    );
+    let ply = dir.path("d.ply");
+    let r = csrbf(&[
+        "deform",
+        "--mesh",
+        arg(&duck),
+        "--controls",
+        arg(&c),
+        "--out",
+        arg(&ply),
+    ]);
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("STL stores"));
+}

@@ -1,8 +1,13 @@
 //! glTF 2.0 in (`.gltf` with embedded, data-URI or external buffers, and
 //! `.glb`) and out. Reading flattens the default scene into one mesh in world
-//! space: each primitive's vertices are appended in order, triangles become
-//! faces, and meshes, nodes and materials become named parts. Writing makes
-//! one node with one mesh, one primitive per material part.
+//! space: each primitive's vertices are appended in order (primitives that
+//! share their accessors share their vertices), triangles become faces, and
+//! meshes, nodes and materials become named parts. Writing makes one node
+//! with one mesh, one primitive per material part, over one set of vertex
+//! accessors; vertices are split where UVs have seams. The mesh's `csrbf`
+//! extras keep the parts (groups, objects, materials) by triangle and the
+//! source of every split vertex, so this reader gives back the vertex order
+//! and count, the parts and the per-corner UVs it was given.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -56,6 +61,12 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut uvs: Vec<Vec2> = Vec::new();
     let (mut any_color, mut any_uv) = (false, false);
     let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
+    // Primitives that share their vertex accessors (one mesh, a primitive
+    // per material) share their vertices too.
+    let mut shared: HashMap<(usize, usize, Option<usize>, Option<usize>), (u32, usize)> =
+        HashMap::new();
+    let mut meshes_seen = 0usize;
+    let mut extras: Option<Value> = None;
 
     // Nodes of the default scene (or of every scene), with world transforms.
     let mut stack: Vec<(gltf::Node, Mat4)> =
@@ -75,6 +86,14 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             stack.push((child, world));
         }
         let Some(gmesh) = node.mesh() else { continue };
+        meshes_seen += 1;
+        if extras.is_none() {
+            extras = gmesh
+                .extras()
+                .as_ref()
+                .and_then(|r| serde_json::from_str::<Value>(r.get()).ok())
+                .and_then(|v| v.get("csrbf").cloned());
+        }
         for prim in gmesh.primitives() {
             if prim.mode() != gltf::mesh::Mode::Triangles {
                 continue;
@@ -93,6 +112,20 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     "mesh {}: positions must be float VEC3",
                     gmesh.index()
                 )));
+            }
+            let key = (
+                node.index(),
+                pos_acc.index(),
+                prim.get(&gltf::Semantic::TexCoords(0)).map(|a| a.index()),
+                prim.get(&gltf::Semantic::Colors(0)).map(|a| a.index()),
+            );
+            if let Some(&(base, count)) = shared.get(&key) {
+                let first_face = mesh.faces.len() as u32;
+                push_triangles(&mut mesh, &reader, base, count, gmesh.index(), &err)?;
+                name_parts(
+                    &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
+                );
+                continue;
             }
             let base = mesh.positions.len() as u32;
             let positions: Vec<Vec3> = reader
@@ -127,63 +160,12 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 None => colors.resize(base as usize, [1.0; 4]),
             }
             colors.resize(mesh.positions.len(), [1.0; 4]);
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..count as u32).collect(),
-            };
-            if !indices.len().is_multiple_of(3) {
-                return Err(err(format!(
-                    "mesh {}: {} indices is not a whole number of triangles",
-                    gmesh.index(),
-                    indices.len()
-                )));
-            }
-            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
-                return Err(err(format!(
-                    "mesh {}: index {bad} is out of range for {count} vertices",
-                    gmesh.index()
-                )));
-            }
+            shared.insert(key, (base, count));
             let first_face = mesh.faces.len() as u32;
-            for t in indices.chunks_exact(3) {
-                mesh.faces.push(&[base + t[0], base + t[1], base + t[2]]);
-            }
-            let faces: Vec<u32> = (first_face..mesh.faces.len() as u32).collect();
-            let mat = prim.material();
-            let mat_name = mat
-                .name()
-                .map(str::to_owned)
-                .unwrap_or_else(|| match mat.index() {
-                    Some(i) => format!("material{i}"),
-                    None => "default".to_owned(),
-                });
-            if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
-                mesh.materials.push(Material {
-                    name: mat_name.clone(),
-                    color: mat.pbr_metallic_roughness().base_color_factor(),
-                    texture: texture_of(&mat, &buffers, path),
-                });
-            }
-            let names = [
-                (
-                    PartKind::Group,
-                    gmesh
-                        .name()
-                        .map(str::to_owned)
-                        .unwrap_or_else(|| format!("mesh{}", gmesh.index())),
-                ),
-                (
-                    PartKind::Object,
-                    node.name()
-                        .map(str::to_owned)
-                        .unwrap_or_else(|| format!("node{}", node.index())),
-                ),
-                (PartKind::Material, mat_name),
-            ];
-            for (kind, name) in names {
-                let id = mesh.part_index(&mut parts, kind, name);
-                mesh.parts[id].faces.extend_from_slice(&faces);
-            }
+            push_triangles(&mut mesh, &reader, base, count, gmesh.index(), &err)?;
+            name_parts(
+                &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
+            );
         }
     }
     if any_uv {
@@ -195,7 +177,163 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     if any_color {
         mesh.colors = Some(colors);
     }
+    if meshes_seen == 1
+        && let Some(extras) = extras
+    {
+        apply_extras(&mut mesh, &extras);
+    }
     Ok(mesh)
+}
+
+/// The triangles of a primitive over vertices `base..base + count`.
+fn push_triangles<'a, 's, F>(
+    mesh: &mut Mesh,
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    base: u32,
+    count: usize,
+    mesh_index: usize,
+    err: &dyn Fn(String) -> MeshError,
+) -> Result<()>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..count as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(err(format!(
+            "mesh {mesh_index}: {} indices is not a whole number of triangles",
+            indices.len()
+        )));
+    }
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
+        return Err(err(format!(
+            "mesh {mesh_index}: index {bad} is out of range for {count} vertices"
+        )));
+    }
+    for t in indices.chunks_exact(3) {
+        mesh.faces.push(&[base + t[0], base + t[1], base + t[2]]);
+    }
+    Ok(())
+}
+
+/// The faces from `first_face` on belong to the primitive's mesh, node and
+/// material parts; the material is recorded once.
+#[allow(clippy::too_many_arguments)]
+fn name_parts(
+    mesh: &mut Mesh,
+    parts: &mut HashMap<(PartKind, String), usize>,
+    node: &gltf::Node,
+    gmesh: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    first_face: u32,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) {
+    let faces: Vec<u32> = (first_face..mesh.faces.len() as u32).collect();
+    let mat = prim.material();
+    let mat_name = mat
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| match mat.index() {
+            Some(i) => format!("material{i}"),
+            None => "default".to_owned(),
+        });
+    if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
+        mesh.materials.push(Material {
+            name: mat_name.clone(),
+            color: mat.pbr_metallic_roughness().base_color_factor(),
+            texture: texture_of(&mat, buffers, path),
+        });
+    }
+    let names = [
+        (
+            PartKind::Group,
+            gmesh
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| format!("mesh{}", gmesh.index())),
+        ),
+        (
+            PartKind::Object,
+            node.name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| format!("node{}", node.index())),
+        ),
+        (PartKind::Material, mat_name),
+    ];
+    for (kind, name) in names {
+        let id = mesh.part_index(parts, kind, name);
+        mesh.parts[id].faces.extend_from_slice(&faces);
+    }
+}
+
+/// What this writer keeps in a mesh's `csrbf` extras: the parts by
+/// triangle, and the source vertex of every vertex split at a UV seam (the
+/// split vertices are welded back, the UVs kept per corner).
+fn apply_extras(mesh: &mut Mesh, extras: &Value) {
+    let n = mesh.positions.len();
+    if let Some(src) = extras.get("source_vertices").and_then(Value::as_array) {
+        let source: Option<Vec<u32>> = src.iter().map(|v| v.as_u64().map(|v| v as u32)).collect();
+        // Ours: the first vertices are the originals, the rest copies of them.
+        let kept = source.as_ref().map_or(0, |s| {
+            s.iter()
+                .enumerate()
+                .take_while(|&(i, &v)| v as usize == i)
+                .count()
+        });
+        if let Some(source) =
+            source.filter(|s| s.len() == n && s[kept..].iter().all(|&v| (v as usize) < kept))
+        {
+            // UVs per corner from the split vertices, before welding.
+            if let Some(uv) = &mesh.uvs {
+                mesh.uvs = Some(TexCoords {
+                    values: uv.values.clone(),
+                    corners: Some(mesh.faces.indices.clone()),
+                });
+            }
+            for v in &mut mesh.faces.indices {
+                *v = source[*v as usize];
+            }
+            mesh.positions.truncate(kept);
+            if let Some(c) = &mut mesh.colors {
+                c.truncate(kept);
+            }
+        }
+    }
+    if let Some(list) = extras.get("parts").and_then(Value::as_array) {
+        let faces = mesh.faces.len() as u64;
+        let mut restored = Vec::new();
+        for p in list {
+            let name = p.get("name").and_then(Value::as_str);
+            let kind = match p.get("kind").and_then(Value::as_str) {
+                Some("group") => Some(PartKind::Group),
+                Some("object") => Some(PartKind::Object),
+                Some("material") => Some(PartKind::Material),
+                _ => None,
+            };
+            let tris: Option<Vec<u32>> =
+                p.get("triangles").and_then(Value::as_array).and_then(|a| {
+                    a.iter()
+                        .map(|t| t.as_u64().filter(|&t| t < faces).map(|t| t as u32))
+                        .collect()
+                });
+            match (name, kind, tris) {
+                (Some(name), Some(kind), Some(mut faces)) => {
+                    faces.sort_unstable();
+                    restored.push(crate::Part {
+                        name: name.to_owned(),
+                        kind,
+                        faces,
+                    });
+                }
+                // Not ours after all: keep the parts the file's structure gave.
+                _ => return,
+            }
+        }
+        mesh.parts = restored;
+    }
 }
 
 /// The base-colour image of a material, when it is embedded.
@@ -415,7 +553,19 @@ pub fn package(mut doc: Value, bin: Vec<u8>, glb: bool) -> Vec<u8> {
 pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
     let n = mesh.positions.len();
     let mut b = Builder::default();
-    let pos: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+    // glTF keeps one UV per vertex: where the mesh's UVs have seams (one
+    // vertex, several UVs), the vertex is written once per UV, and the
+    // `csrbf` extras name the source vertex of each written one so this
+    // reader welds them back (other readers see an ordinary split mesh).
+    let split = split_uv_seams(mesh);
+    let source: Vec<u32> = split
+        .as_ref()
+        .map_or_else(|| (0..n as u32).collect(), |s| s.source.clone());
+    let corner_vertex = |c: usize, v: u32| -> u32 { split.as_ref().map_or(v, |s| s.corners[c]) };
+    let pos: Vec<f32> = source
+        .iter()
+        .flat_map(|&v| mesh.positions[v as usize].to_array())
+        .collect();
     let mut attributes = json!({ "POSITION": b.floats(&pos, 3, "VEC3", true) });
     let mut normals_mesh;
     let normals = match &mesh.normals {
@@ -426,27 +576,43 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
             normals_mesh.normals.as_ref().map_or(&mesh.positions, |v| v)
         }
     };
-    let nrm: Vec<f32> = normals
+    let nrm: Vec<f32> = source
         .iter()
-        .flat_map(|p| p.normalize_or(Vec3::Z).to_array())
+        .flat_map(|&v| normals[v as usize].normalize_or(Vec3::Z).to_array())
         .collect();
     attributes["NORMAL"] = json!(b.floats(&nrm, 3, "VEC3", false));
-    if let Some(uv) = mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, n)) {
+    let uv_values: Option<Vec<Vec2>> = match &split {
+        Some(s) => Some(s.uvs.clone()),
+        None => mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, n)),
+    };
+    if let Some(uv) = &uv_values {
         let t: Vec<f32> = uv.iter().flat_map(|v| [v.x, 1.0 - v.y]).collect();
         attributes["TEXCOORD_0"] = json!(b.floats(&t, 2, "VEC2", false));
     }
     if let Some(c) = &mesh.colors {
-        let t: Vec<f32> = c.iter().flatten().copied().collect();
+        let t: Vec<f32> = source.iter().flat_map(|&v| c[v as usize]).collect();
         attributes["COLOR_0"] = json!(b.floats(&t, 4, "VEC4", false));
     }
     let (materials, images, textures) = material_json(mesh, &mut b);
     let mut primitives = Vec::new();
+    // Where each polygon's triangles land when read back (primitive by
+    // primitive), for the parts in the extras.
+    let mut triangles_of: Vec<Vec<u32>> = vec![Vec::new(); mesh.faces.len()];
+    let mut next_triangle = 0u32;
+    let starts = face_starts(&mesh.faces);
     for (m, faces) in faces_by_material(mesh) {
         let mut idx = Vec::new();
         for f in faces {
             let face = mesh.faces.face(f as usize);
+            let c0 = starts[f as usize];
             for k in 1..face.len().saturating_sub(1) {
-                idx.extend_from_slice(&[face[0], face[k], face[k + 1]]);
+                idx.extend_from_slice(&[
+                    corner_vertex(c0, face[0]),
+                    corner_vertex(c0 + k, face[k]),
+                    corner_vertex(c0 + k + 1, face[k + 1]),
+                ]);
+                triangles_of[f as usize].push(next_triangle);
+                next_triangle += 1;
             }
         }
         if idx.is_empty() {
@@ -459,12 +625,28 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
         }
         primitives.push(p);
     }
+    let parts: Vec<Value> = mesh
+        .parts
+        .iter()
+        .map(|p| {
+            let tris: Vec<u32> = p
+                .faces
+                .iter()
+                .flat_map(|&f| triangles_of.get(f as usize).cloned().unwrap_or_default())
+                .collect();
+            json!({ "name": p.name, "kind": p.kind.name(), "triangles": tris })
+        })
+        .collect();
+    let mut extras = json!({ "parts": parts });
+    if split.is_some() {
+        extras["source_vertices"] = json!(source);
+    }
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": "csrbf" },
         "scene": 0,
         "scenes": [{ "nodes": [0] }],
         "nodes": [{ "mesh": 0, "name": "mesh" }],
-        "meshes": [{ "primitives": primitives, "name": "mesh" }],
+        "meshes": [{ "primitives": primitives, "name": "mesh", "extras": { "csrbf": extras } }],
     });
     if !materials.is_empty() {
         doc["materials"] = json!(materials);
@@ -477,6 +659,65 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
     doc["bufferViews"] = json!(b.views);
     doc["accessors"] = json!(b.accessors);
     package(doc, b.bin, glb)
+}
+
+/// The index of each face's first corner in the face list's corners.
+fn face_starts(faces: &Faces) -> Vec<usize> {
+    let mut at = 0;
+    faces
+        .iter()
+        .map(|f| {
+            let s = at;
+            at += f.len();
+            s
+        })
+        .collect()
+}
+
+/// Vertices split where per-corner UVs differ: the source vertex of each
+/// written vertex, its UV, and the written vertex of every face corner.
+struct Split {
+    source: Vec<u32>,
+    uvs: Vec<Vec2>,
+    corners: Vec<u32>,
+}
+
+fn split_uv_seams(mesh: &Mesh) -> Option<Split> {
+    let uv = mesh.uvs.as_ref()?;
+    let corners = uv.corners.as_ref()?;
+    if uv.per_vertex(&mesh.faces, mesh.positions.len()).is_some() {
+        return None;
+    }
+    let n = mesh.positions.len();
+    // Every vertex keeps its own index for its first UV; later UVs get new
+    // vertices after the originals, so the first n keep their order.
+    let mut first: Vec<Option<u32>> = vec![None; n];
+    let mut extra: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut source: Vec<u32> = (0..n as u32).collect();
+    let mut uvs = vec![Vec2::ZERO; n];
+    let mut out = Vec::with_capacity(corners.len());
+    for (&v, &t) in mesh.faces.indices.iter().zip(corners) {
+        let value = uv.values.get(t as usize).copied().unwrap_or(Vec2::ZERO);
+        let written = match first[v as usize] {
+            None => {
+                first[v as usize] = Some(t);
+                uvs[v as usize] = value;
+                v
+            }
+            Some(t0) if uv.values.get(t0 as usize) == uv.values.get(t as usize) => v,
+            Some(_) => *extra.entry((v, t)).or_insert_with(|| {
+                source.push(v);
+                uvs.push(value);
+                (source.len() - 1) as u32
+            }),
+        };
+        out.push(written);
+    }
+    Some(Split {
+        source,
+        uvs,
+        corners: out,
+    })
 }
 
 /// Materials as glTF JSON, with embedded textures as buffer views.

@@ -36,6 +36,46 @@ impl Format {
     /// The extensions recognised, for messages.
     pub const EXTENSIONS: &'static str = ".obj, .ply, .stl, .off, .gltf, .glb";
 
+    /// What writing `mesh` in this format cannot keep, when anything: STL
+    /// stores triangles, not vertices, so reading it back gives vertices in
+    /// the order the triangles first use them, without unused ones, with
+    /// coincident ones merged, and no parts, UVs or colours.
+    pub fn loses(self, mesh: &crate::Mesh) -> Option<String> {
+        if self != Format::Stl {
+            return None;
+        }
+        let mut seen = vec![false; mesh.positions.len()];
+        let mut order = Vec::with_capacity(mesh.positions.len());
+        for &v in &mesh.faces.indices {
+            if let Some(s) = seen.get_mut(v as usize)
+                && !*s
+            {
+                *s = true;
+                order.push(v);
+            }
+        }
+        let unused = mesh.positions.len() - order.len();
+        let reordered = order.iter().enumerate().any(|(i, &v)| v as usize != i);
+        let mut lost = Vec::new();
+        if unused > 0 {
+            lost.push(format!("{unused} unused vertices"));
+        }
+        if reordered {
+            lost.push(
+                "the vertex order (vertices come back in the order triangles use them)".into(),
+            );
+        }
+        if !mesh.parts.is_empty() || mesh.uvs.is_some() || mesh.colors.is_some() {
+            lost.push("parts, UVs and colours".into());
+        }
+        (!lost.is_empty()).then(|| {
+            format!(
+                "STL stores triangles, not vertices: it cannot keep {}; use PLY, OBJ, OFF or glTF to compare vertex by vertex",
+                lost.join(", ")
+            )
+        })
+    }
+
     /// The format of a path, by its extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Format> {
         let ext = path

@@ -282,3 +282,44 @@ fn up_is_guessed_from_the_format_and_the_shape() {
     assert_eq!(crate::guess_up(&wide, Path::new("a.off")).0, glam::Vec3::Y);
     assert_eq!(crate::guess_up(&wide, Path::new("a.stl")).0, glam::Vec3::Z);
 }
+
+/// Issue 6: glTF reads back what it writes: four materials over one set of
+/// vertices, groups and objects, and UVs with seams, vertex for vertex.
+#[test]
+fn gltf_reads_back_parts_shared_vertices_and_uv_seams() {
+    let src = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 0 0\nv 2 1 0\n\
+vt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 0.5 0.5\n\
+o body\ng left\nusemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 2/2 4/4 3/3\n\
+g right\nusemtl c\nf 2/5 5/2 6/4\nusemtl d\nf 2/5 6/4 4/3\n";
+    let m = Mesh::from_bytes(src, Format::Obj, Path::new("a.obj")).expect("parse");
+    assert!(
+        m.uvs
+            .as_ref()
+            .is_some_and(|u| u.per_vertex(&m.faces, 6).is_none()),
+        "the test needs a seam"
+    );
+    for fmt in [Format::Glb, Format::Gltf] {
+        let back = Mesh::from_bytes(&m.to_bytes(fmt).expect("enc"), fmt, Path::new("b.glb"))
+            .expect("read back");
+        assert_eq!(back.positions, m.positions, "{fmt:?}: vertices");
+        assert_eq!(back.faces, m.faces, "{fmt:?}: faces");
+        for name in ["left", "right", "body", "a", "b", "c", "d"] {
+            assert_eq!(
+                back.part_vertices(name),
+                m.part_vertices(name),
+                "{fmt:?}: part {name}"
+            );
+        }
+        // The same UV at every face corner.
+        let uv_at = |mesh: &Mesh, c: usize| {
+            let u = mesh.uvs.as_ref().expect("uvs");
+            u.values[u.corners.as_ref().map_or(mesh.faces.indices[c], |k| k[c]) as usize]
+        };
+        for c in 0..m.faces.indices.len() {
+            assert!(
+                (uv_at(&back, c) - uv_at(&m, c)).length() < 1e-6,
+                "{fmt:?}: corner {c}"
+            );
+        }
+    }
+}
