@@ -42,3 +42,26 @@ fn endless_movies_and_runs_are_refused_before_any_work() {
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("--runs"));
 }
+
+/// Issue 7: a legal long output name is not refused for its temporary's sake.
+#[test]
+fn a_255_byte_output_name_is_written() {
+    let dir = TempDir::new("longname");
+    let head = model("cgal_head.off");
+    let c = root().join("assets/controls/head_smile.json");
+    let name = format!("{}.ply", "h".repeat(251));
+    assert_eq!(name.len(), 255);
+    let out = dir.path(&name);
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&c),
+        "--out",
+        arg(&out),
+    ]);
+    assert!(out.is_file());
+    assert_eq!(dir.files(), vec![name], "no temporary left beside it");
+}

@@ -2,7 +2,7 @@
 //! whole-or-nothing writes.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::{Format, Mesh, MeshError, Result};
 
@@ -48,23 +48,37 @@ pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
     write_atomic(path, &bytes)
 }
 
-/// Writes `bytes` to a temporary file beside `path`, then renames it over
-/// `path`: a reader never sees a partial file, and a failure leaves any old
-/// file as it was.
+/// The prefix of every temporary file csrbf writes (`.csrbf-PID-N.tmp`).
+pub const TEMP_PREFIX: &str = ".csrbf-";
+
+/// A temporary name beside `path`, short (a legal 255-byte output name must
+/// not fail for its temporary's sake) and naming this process, so a later
+/// run can tell a stale one; the folder must exist.
+pub fn temp_beside(path: &Path) -> std::io::Result<PathBuf> {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!("the output folder {} does not exist", dir.display()),
+        ));
+    }
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    Ok(dir.join(format!("{TEMP_PREFIX}{}-{n}.tmp", std::process::id())))
+}
+
+/// Writes `bytes` to a temporary file beside `path`, flushes it to disk,
+/// then renames it over `path`: a reader never sees a partial file, and a
+/// failure leaves any old file as it was.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let io = |source| MeshError::Io {
         path: path.to_owned(),
         source,
     };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let tmp = temp_beside(path).map_err(io)?;
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;

@@ -36,7 +36,7 @@ pub use formats::Format;
 pub use geometry::{
     guess_up, triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals,
 };
-pub use io::{Loaded, load, read, write, write_atomic};
+pub use io::{Loaded, TEMP_PREFIX, load, read, temp_beside, write, write_atomic};
 
 use glam::{Vec2, Vec3};
 

@@ -44,13 +44,10 @@ impl MovieFormat {
 
 /// Writes `bytes` to `path` whole or not at all.
 pub fn write_whole(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temp_beside(path)?;
-    let result = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(path, e));
-    }
-    Ok(())
+    csrbf_mesh::write_atomic(path, bytes).map_err(|e| match e {
+        csrbf_mesh::MeshError::Io { source, .. } => io(path, source),
+        other => io(path, other),
+    })
 }
 
 fn io(path: &Path, e: impl std::fmt::Display) -> RenderError {
@@ -60,23 +57,9 @@ fn io(path: &Path, e: impl std::fmt::Display) -> RenderError {
     }
 }
 
-/// A temporary name beside `path`; fails when the folder does not exist.
+/// A temporary name beside `path` (csrbf-mesh's, the one rule for all).
 fn temp_beside(path: &Path) -> Result<PathBuf> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(io(
-            path,
-            format!("the output folder {} does not exist", dir.display()),
-        ));
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    Ok(dir.join(format!(".{name}.{}.tmp", std::process::id())))
+    csrbf_mesh::temp_beside(path).map_err(|e| io(path, e))
 }
 
 enum Sink {
