@@ -182,6 +182,7 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
     if out.is_dir() {
         bail!("{}: is a directory; give a file name", out.display());
     }
+    remove_stale_temps(out);
     if let Ok(o) = out.canonicalize() {
         for i in inputs {
             if i.canonicalize().is_ok_and(|i| i == o) && !force {
@@ -193,6 +194,21 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
         }
     }
     Ok(())
+}
+
+/// Removes temporaries an earlier, killed run left beside `out`.
+pub fn remove_stale_temps(out: &Path) {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let n = csrbf_mesh::remove_stale_temps(dir);
+    if n > 0 {
+        eprintln!(
+            "note: removed {n} temporary file(s) an interrupted run left in {}",
+            dir.display()
+        );
+    }
 }
 
 /// Checks a phase given on the command line.

@@ -150,6 +150,13 @@ fn runtime_dir() {
 
 fn main() -> ExitCode {
     runtime_dir();
+    // Ctrl-C or SIGTERM (Windows' console events too): stop ffmpeg, remove
+    // what was being written, and leave with the shell's code for it.
+    let _ = ctrlc::set_handler(|| {
+        csrbf_render::movie::interrupt();
+        eprintln!("interrupted: partial files removed");
+        std::process::exit(130);
+    });
     let cli = Cli::parse();
     let progress = common::Progress::new(!cli.quiet);
     let result = match cli.command {

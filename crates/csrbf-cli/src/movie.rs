@@ -253,6 +253,7 @@ pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
     if a.out.exists() && !a.out.is_dir() && !a.force {
         bail!("{}: exists; pass --force to replace it", a.out.display());
     }
+    crate::common::remove_stale_temps(&a.out);
     let scene = load_scene(&a.scene)?;
     let size = size_or(a.size.as_deref(), scene.file.size)?;
     let fps = a.fps.unwrap_or(scene.file.fps);

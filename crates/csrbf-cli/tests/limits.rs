@@ -65,3 +65,79 @@ fn a_255_byte_output_name_is_written() {
     assert!(out.is_file());
     assert_eq!(dir.files(), vec![name], "no temporary left beside it");
 }
+
+/// Issue 7: SIGTERM in the middle of a movie leaves no partial file and no
+/// ffmpeg; a temporary that a killed run left is removed by the next run.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_movie_leaves_nothing_and_stale_temporaries_are_swept() {
+    let dir = TempDir::new("interrupt");
+    ok(&[
+        "demo",
+        "-q",
+        "ball",
+        "--out",
+        arg(&dir.path("d")),
+        "--gif",
+        "--size",
+        "64x48",
+    ]);
+    let scene = dir.path("d/ball/ball.scene.json");
+    for out in ["m.gif", "frames/", "m.mp4"] {
+        let target = dir.path(out);
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_csrbf"))
+            .args([
+                "animate",
+                arg(&scene),
+                "--out",
+                arg(&target),
+                "--size",
+                "320x240",
+                "--fps",
+                "60",
+            ])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("spawn");
+        // Wait until it is writing, then stop it.
+        let started = std::time::Instant::now();
+        while !std::fs::read_dir(dir.path(""))
+            .expect("dir")
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with(".csrbf-"))
+        {
+            assert!(
+                started.elapsed().as_secs() < 60,
+                "{out}: never started writing"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let _ = std::process::Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status();
+        let status = child.wait().expect("wait");
+        assert_eq!(status.code(), Some(130), "{out}: exit code");
+        let left: Vec<String> = std::fs::read_dir(dir.path(""))
+            .expect("dir")
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".csrbf-") || n.starts_with("m.") || n.starts_with("frames"))
+            .collect();
+        assert!(left.is_empty(), "{out}: left {left:?}");
+    }
+    // A temporary of a process that is gone is removed by the next run there.
+    let stale = dir.write(".csrbf-999999999-0.tmp", "partial");
+    let head = model("cgal_head.off");
+    let c = root().join("assets/controls/head_smile.json");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&c),
+        "--out",
+        arg(&dir.path("h.ply")),
+    ]);
+    assert!(!stale.exists(), "a stale temporary survived");
+}

@@ -70,6 +70,67 @@ pub fn temp_beside(path: &Path) -> std::io::Result<PathBuf> {
     Ok(dir.join(format!("{TEMP_PREFIX}{}-{n}.tmp", std::process::id())))
 }
 
+/// Temporaries being written right now, for [`remove_live_temps`].
+static LIVE: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Notes a temporary file or folder being written, so an interruption can
+/// remove it ([`remove_live_temps`]).
+pub fn track_temp(path: &Path) {
+    if let Ok(mut live) = LIVE.lock() {
+        live.push(path.to_owned());
+    }
+}
+
+/// The temporary is renamed or removed: no longer ours to clean up.
+pub fn untrack_temp(path: &Path) {
+    if let Ok(mut live) = LIVE.lock() {
+        live.retain(|p| p != path);
+    }
+}
+
+/// Removes every temporary still being written (on SIGINT or SIGTERM).
+pub fn remove_live_temps() {
+    if let Ok(mut live) = LIVE.lock() {
+        for p in live.drain(..) {
+            let _ = std::fs::remove_file(&p).or_else(|_| std::fs::remove_dir_all(&p));
+        }
+    }
+}
+
+/// Removes temporaries that an earlier run of csrbf left in `dir` when it
+/// was killed (`.csrbf-PID-...` whose process is gone). Where a process's
+/// life cannot be seen (no `/proc`), nothing is removed.
+pub fn remove_stale_temps(dir: &Path) -> usize {
+    if !Path::new("/proc/self").exists() {
+        return 0;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix(TEMP_PREFIX)
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists() {
+            continue;
+        }
+        let p = e.path();
+        if std::fs::remove_file(&p)
+            .or_else(|_| std::fs::remove_dir_all(&p))
+            .is_ok()
+        {
+            removed += 1;
+        }
+    }
+    removed
+}
+
 /// Writes `bytes` to a temporary file beside `path`, flushes it to disk,
 /// then renames it over `path`: a reader never sees a partial file, and a
 /// failure leaves any old file as it was.
@@ -79,17 +140,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         source,
     };
     let tmp = temp_beside(path).map_err(io)?;
+    track_temp(&tmp);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
-    if let Err(e) = result {
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-        return Err(io(e));
     }
-    Ok(())
+    untrack_temp(&tmp);
+    result.map_err(io)
 }
 
 impl Mesh {

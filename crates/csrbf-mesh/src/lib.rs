@@ -36,7 +36,10 @@ pub use formats::Format;
 pub use geometry::{
     guess_up, triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals,
 };
-pub use io::{Loaded, TEMP_PREFIX, load, read, temp_beside, write, write_atomic};
+pub use io::{
+    Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, temp_beside,
+    track_temp, untrack_temp, write, write_atomic,
+};
 
 use glam::{Vec2, Vec3};
 

@@ -145,6 +145,8 @@ impl MovieWriter {
                             io(path, e)
                         }
                     })?;
+                track_child(child.id());
+                csrbf_mesh::track_temp(&tmp_mp4);
                 return Ok(MovieWriter {
                     path: path.to_owned(),
                     tmp: tmp_mp4,
@@ -182,6 +184,7 @@ impl MovieWriter {
                 Sink::Frames { count: 0 }
             }
         };
+        csrbf_mesh::track_temp(&tmp);
         Ok(MovieWriter {
             path: path.to_owned(),
             tmp,
@@ -245,7 +248,10 @@ impl MovieWriter {
         match self.sink.take() {
             Some(Sink::Mp4 { mut child }) => {
                 drop(child.stdin.take());
-                let out = child.wait_with_output().map_err(|e| io(&self.path, e))?;
+                let id = child.id();
+                let out = child.wait_with_output().map_err(|e| io(&self.path, e));
+                untrack_child(id);
+                let out = out?;
                 if !out.status.success() {
                     return Err(RenderError::Encode(format!(
                         "ffmpeg failed: {}",
@@ -270,8 +276,41 @@ impl MovieWriter {
             }
             None => {}
         }
+        csrbf_mesh::untrack_temp(&self.tmp);
         Ok(self.path.clone())
     }
+}
+
+/// ffmpeg processes writing movies right now, for [`interrupt`].
+static CHILDREN: std::sync::Mutex<Vec<u32>> = std::sync::Mutex::new(Vec::new());
+
+fn track_child(id: u32) {
+    if let Ok(mut c) = CHILDREN.lock() {
+        c.push(id);
+    }
+}
+
+fn untrack_child(id: u32) {
+    if let Ok(mut c) = CHILDREN.lock() {
+        c.retain(|&x| x != id);
+    }
+}
+
+/// On SIGINT or SIGTERM (called from the handler): stops every ffmpeg this
+/// process started and removes every temporary file or folder being
+/// written, movies and meshes alike, so an interruption leaves no litter.
+pub fn interrupt() {
+    if let Ok(mut children) = CHILDREN.lock() {
+        for id in children.drain(..) {
+            let id = id.to_string();
+            let _ = if cfg!(windows) {
+                Command::new("taskkill").args(["/PID", &id, "/F"]).output()
+            } else {
+                Command::new("kill").args(["-KILL", &id]).output()
+            };
+        }
+    }
+    csrbf_mesh::remove_live_temps();
 }
 
 impl Drop for MovieWriter {
@@ -282,6 +321,7 @@ impl Drop for MovieWriter {
                 drop(child.stdin.take());
                 let _ = child.kill();
                 let _ = child.wait();
+                untrack_child(child.id());
                 let _ = std::fs::remove_file(&self.tmp);
             }
             Some(Sink::Gif { encoder }) => {
@@ -293,6 +333,7 @@ impl Drop for MovieWriter {
             }
             None => {}
         }
+        csrbf_mesh::untrack_temp(&self.tmp);
     }
 }
 
