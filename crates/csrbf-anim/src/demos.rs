@@ -5,10 +5,11 @@
 //! walls bulge where it hits, the system rebuilt and solved every frame;
 //! figure 9) and `brick` (the same control vectors with three radii; figure 2).
 
+use csrbf::controls::{ControlFile, ControlSpec};
+use csrbf::{Combine, FitOptions, Kernel, Polynomial};
 use csrbf_mesh::shapes::{subdivided_box, uv_sphere};
 use csrbf_mesh::{Format, Mesh};
 use glam::{DVec3, Vec3};
-use serde_json::json;
 
 use crate::file::*;
 use crate::spline::{PositionKey, Trajectory};
@@ -128,16 +129,20 @@ fn mesh_bytes(m: &Mesh, f: Format) -> Vec<u8> {
     m.to_bytes(f).unwrap_or_default()
 }
 
-/// A control file: kernel, R, polynomial and (start, destination) pairs.
-fn controls(kernel: &str, radius: f64, poly: &str, pairs: &[(DVec3, DVec3)]) -> Vec<u8> {
-    let c: Vec<_> = pairs
-        .iter()
-        .map(|(a, b)| json!({ "from": a.to_array(), "to": b.to_array() }))
-        .collect();
-    serde_json::to_vec_pretty(
-        &json!({ "kernel": kernel, "radius": radius, "polynomial": poly, "controls": c }),
-    )
-    .unwrap_or_default()
+/// A control file (the engine's writer): kernel, R, no polynomial, and
+/// (start, destination) pairs.
+fn controls(kernel: Kernel, radius: f64, pairs: &[(DVec3, DVec3)]) -> Vec<u8> {
+    let spec = ControlSpec::new(
+        pairs.iter().map(|p| p.0).collect(),
+        pairs.iter().map(|p| p.1).collect(),
+        FitOptions::default()
+            .with_kernel(kernel)
+            .with_radius(radius)
+            .with_polynomial(Polynomial::None),
+    );
+    ControlFile::new(vec![spec], Combine::Chain)
+        .to_text()
+        .into_bytes()
 }
 
 fn face() -> Demo {
@@ -363,15 +368,9 @@ fn fish() -> Demo {
         ),
         files: vec![
             ("models/pybullet_duck.obj".into(), DUCK.to_vec()),
-            ("controls/beak.json".into(), controls("c0", 0.3, "none", &b)),
-            (
-                "controls/tail.json".into(),
-                controls("c0", 0.45, "none", &t),
-            ),
-            (
-                "controls/wings.json".into(),
-                controls("c0", 0.4, "none", &w),
-            ),
+            ("controls/beak.json".into(), controls(Kernel::C0, 0.3, &b)),
+            ("controls/tail.json".into(), controls(Kernel::C0, 0.45, &t)),
+            ("controls/wings.json".into(), controls(Kernel::C0, 0.4, &w)),
         ],
         poster: 2.4,
     }
@@ -446,7 +445,7 @@ fn brick() -> Demo {
     let mut files = vec![("models/brick.obj".into(), mesh_bytes(&brick, Format::Obj))];
     for (i, r) in [0.3, 0.6, 1.2].into_iter().enumerate() {
         let name = format!("controls/brick_r{r}.json");
-        files.push((name.clone(), controls("c2", r, "none", &pairs)));
+        files.push((name.clone(), controls(Kernel::C2, r, &pairs)));
         let mut o = object(
             &format!("brick R {r}"),
             "models/brick.obj",

@@ -6,6 +6,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use csrbf::Combine;
+use csrbf::controls::{ControlFile, ControlSpec};
 use csrbf::synthetic::{fibonacci_sphere, radius_for_neighbours, smooth_displacements};
 use csrbf::{Binding, FitOptions, Kernel, Polynomial, SolverChoice, System, frame};
 use glam::{DVec3, Vec3};
@@ -265,17 +267,9 @@ fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
     };
     let base = dir.join(&s.name);
     csrbf_mesh::write(&base.with_extension("ply"), &mesh)?;
-    let controls: Vec<_> = s
-        .starts
-        .iter()
-        .zip(&s.targets)
-        .map(|(a, b)| json!({ "from": a.to_array(), "to": b.to_array() }))
-        .collect();
-    let doc = json!({ "kernel": "c2", "radius": s.options.radius, "polynomial": "linear", "controls": controls });
-    csrbf_mesh::write_atomic(
-        &base.with_extension("json"),
-        serde_json::to_string(&doc)?.as_bytes(),
-    )?;
+    let spec = ControlSpec::new(s.starts.clone(), s.targets.clone(), s.options);
+    let file = ControlFile::new(vec![spec], Combine::Chain);
+    csrbf_mesh::write_atomic(&base.with_extension("json"), file.to_text().as_bytes())?;
     Ok(())
 }
 

@@ -99,6 +99,12 @@ pub enum Error {
         /// Points given.
         got: usize,
     },
+    /// A solver name that is not auto, skyline or supernodal.
+    #[error("unknown solver {0:?}: expected auto, skyline or supernodal")]
+    UnknownSolver(String),
+    /// An ordering name that is not auto, rcm, breadth-first or identity.
+    #[error("unknown ordering {0:?}: expected auto, rcm, breadth-first or identity")]
+    UnknownOrdering(String),
     /// A combine name that is not `chain` or `add`.
     #[error("unknown combine {0:?}: expected chain or add")]
     UnknownCombine(String),

@@ -4,6 +4,7 @@ use std::fmt;
 use std::str::FromStr;
 
 /// A Wendland function phi(r), zero for r >= 1, positive definite in R^3.
+/// The default is [`Kernel::C2`] (smooth, the papers' bouncing ball).
 ///
 /// The argument is the distance divided by the radius of support R, so a
 /// kernel only ever sees r in [0, 1) where it is non-zero.

@@ -80,7 +80,15 @@ pub enum Ordering {
 }
 
 impl Ordering {
-    /// The lower-case name used in reports.
+    /// Every choice.
+    pub const ALL: [Ordering; 4] = [
+        Ordering::Auto,
+        Ordering::ReverseCuthillMcKee,
+        Ordering::BreadthFirst,
+        Ordering::Identity,
+    ];
+
+    /// The lower-case name used in control files and reports.
     pub fn name(self) -> &'static str {
         match self {
             Ordering::Identity => "identity",
@@ -88,6 +96,22 @@ impl Ordering {
             Ordering::ReverseCuthillMcKee => "rcm",
             Ordering::Auto => "auto",
         }
+    }
+}
+
+impl std::fmt::Display for Ordering {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Ordering {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> Result<Self, crate::Error> {
+        Ordering::ALL
+            .into_iter()
+            .find(|o| o.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| crate::Error::UnknownOrdering(s.to_owned()))
     }
 }
 

@@ -37,17 +37,28 @@ impl SolverChoice {
     }
 }
 
+impl SolverChoice {
+    /// Every choice.
+    pub const ALL: [SolverChoice; 3] = [
+        SolverChoice::Auto,
+        SolverChoice::Skyline,
+        SolverChoice::Supernodal,
+    ];
+}
+
+impl std::fmt::Display for SolverChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl std::str::FromStr for SolverChoice {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        [
-            SolverChoice::Auto,
-            SolverChoice::Skyline,
-            SolverChoice::Supernodal,
-        ]
-        .into_iter()
-        .find(|c| c.name() == s)
-        .ok_or_else(|| format!("unknown solver {s:?}: expected auto, skyline or supernodal"))
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        SolverChoice::ALL
+            .into_iter()
+            .find(|c| c.name().eq_ignore_ascii_case(s))
+            .ok_or_else(|| Error::UnknownSolver(s.to_owned()))
     }
 }
 
