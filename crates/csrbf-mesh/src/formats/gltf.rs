@@ -30,6 +30,10 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     }
 }
 
+/// A primitive's node and its position, UV and colour accessors: primitives
+/// with the same key share their vertices.
+type SharedKey = (usize, usize, Option<usize>, Option<usize>);
+
 fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let err = |m: String| MeshError::parse(path, None, m);
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("invalid glTF: {e}")))?;
@@ -63,8 +67,7 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
     // Primitives that share their vertex accessors (one mesh, a primitive
     // per material) share their vertices too.
-    let mut shared: HashMap<(usize, usize, Option<usize>, Option<usize>), (u32, usize)> =
-        HashMap::new();
+    let mut shared: HashMap<SharedKey, (u32, usize)> = HashMap::new();
     let mut meshes_seen = 0usize;
     let mut extras: Option<Value> = None;
 
