@@ -104,13 +104,7 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         }
         let mut primitives = Vec::new();
         for p in &obj.parts {
-            let mut idx = Vec::new();
-            for &f in &p.faces {
-                let face = obj.mesh.faces.face(f as usize);
-                for k in 1..face.len().saturating_sub(1) {
-                    idx.extend_from_slice(&[face[0], face[k], face[k + 1]]);
-                }
-            }
+            let idx = obj.mesh.faces.triangle_indices(&p.faces);
             if idx.is_empty() {
                 continue;
             }

@@ -791,12 +791,9 @@ fn center_of_gravity(mesh: &Mesh) -> (DVec3, f64) {
     let mut sum = DVec3::ZERO;
     let mut area = 0.0;
     for f in mesh.faces.iter() {
-        let p0 = mesh.positions[f[0] as usize].as_dvec3();
-        for k in 1..f.len().saturating_sub(1) {
-            let (a, b) = (
-                mesh.positions[f[k] as usize].as_dvec3(),
-                mesh.positions[f[k + 1] as usize].as_dvec3(),
-            );
+        for [p0, a, b] in csrbf_mesh::fan(f) {
+            let p = |i: u32| mesh.positions[i as usize].as_dvec3();
+            let (p0, a, b) = (p(p0), p(a), p(b));
             let w = (a - p0).cross(b - p0).length() * 0.5;
             sum += (p0 + a + b) / 3.0 * w;
             area += w;

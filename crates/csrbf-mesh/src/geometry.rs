@@ -110,11 +110,11 @@ pub fn vertex_normals(positions: &[Vec3], faces: &crate::Faces) -> Vec<Vec3> {
         if f.len() < 3 || f.iter().any(|&v| v as usize >= positions.len()) {
             continue;
         }
-        let p0 = positions[f[0] as usize];
         // The sum over the fan gives the polygon's area vector.
         let mut area = Vec3::ZERO;
-        for k in 1..f.len() - 1 {
-            area += (positions[f[k] as usize] - p0).cross(positions[f[k + 1] as usize] - p0);
+        for [a, b, c] in crate::fan(f) {
+            let p = |i: u32| positions[i as usize];
+            area += (p(b) - p(a)).cross(p(c) - p(a));
         }
         for &v in f {
             n[v as usize] += area;

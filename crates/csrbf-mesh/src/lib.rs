@@ -113,12 +113,29 @@ impl Faces {
     pub fn triangles(&self) -> Vec<[u32; 3]> {
         let mut out = Vec::with_capacity(self.triangle_count());
         for f in self.iter() {
-            for k in 1..f.len().saturating_sub(1) {
-                out.push([f[0], f[k], f[k + 1]]);
+            out.extend(fan(f));
+        }
+        out
+    }
+
+    /// The fan triangles of the faces listed (a part's), flattened into an
+    /// index list.
+    pub fn triangle_indices(&self, faces: &[u32]) -> Vec<u32> {
+        let mut out = Vec::new();
+        for &f in faces {
+            if (f as usize) < self.len() {
+                out.extend(fan(self.face(f as usize)).flatten());
             }
         }
         out
     }
+}
+
+/// The fan triangulation of one polygon: `[c0, ck, ck+1]` for k in 1..n-1;
+/// nothing for fewer than 3 corners. The one triangulation every writer,
+/// renderer and measure uses.
+pub fn fan<T: Copy>(corners: &[T]) -> impl Iterator<Item = [T; 3]> + '_ {
+    (1..corners.len().saturating_sub(1)).map(move |k| [corners[0], corners[k], corners[k + 1]])
 }
 
 /// Texture coordinates: per vertex, or per face corner with their own

@@ -96,13 +96,7 @@ impl SceneRenderer {
                     Some(t) => Some(renderer.texture(t.width, t.height, &t.rgba)?),
                     None => None,
                 };
-                let mut indices = Vec::new();
-                for &f in &p.faces {
-                    let face = obj.mesh.faces.face(f as usize);
-                    for k in 1..face.len().saturating_sub(1) {
-                        indices.extend_from_slice(&[face[0], face[k], face[k + 1]]);
-                    }
-                }
+                let indices = obj.mesh.faces.triangle_indices(&p.faces);
                 parts.push(DrawPart {
                     indices,
                     color: p.color,

@@ -608,11 +608,12 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
         for f in faces {
             let face = mesh.faces.face(f as usize);
             let c0 = starts[f as usize];
-            for k in 1..face.len().saturating_sub(1) {
+            let local: Vec<usize> = (0..face.len()).collect();
+            for [a, b, c] in crate::fan(&local) {
                 idx.extend_from_slice(&[
-                    corner_vertex(c0, face[0]),
-                    corner_vertex(c0 + k, face[k]),
-                    corner_vertex(c0 + k + 1, face[k + 1]),
+                    corner_vertex(c0 + a, face[a]),
+                    corner_vertex(c0 + b, face[b]),
+                    corner_vertex(c0 + c, face[c]),
                 ]);
                 triangles_of[f as usize].push(next_triangle);
                 next_triangle += 1;

@@ -445,9 +445,7 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
         let parts: Vec<Vec<u32>> = if f.len() <= 255 {
             vec![f.to_vec()]
         } else {
-            (1..f.len() - 1)
-                .map(|k| vec![f[0], f[k], f[k + 1]])
-                .collect()
+            crate::fan(f).map(|t| t.to_vec()).collect()
         };
         for f in parts {
             if ascii {
