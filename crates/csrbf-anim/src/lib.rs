@@ -36,8 +36,8 @@ pub use export::{export_gltf, export_notes};
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{
-    Animated, Assets, BoundStage, Contact, Frame, FrameObject, MAX_FRAMES, Object, Part, Scene,
-    Texture, decode_texture, frame_count, load_texture,
+    Animated, Assets, BoundStage, Contact, Frame, FrameObject, MAX_FPS, MAX_FRAMES, MAX_SIDE,
+    Object, Part, Scene, Texture, decode_texture, frame_count, load_texture,
 };
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};

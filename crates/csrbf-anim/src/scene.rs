@@ -181,6 +181,11 @@ impl Assets {
     }
 }
 
+/// Largest picture side, in pixels (scenes, stills, movies, the renderer).
+pub const MAX_SIDE: u32 = 8192;
+/// Highest frame rate of a scene or movie.
+pub const MAX_FPS: f64 = 240.0;
+
 /// Most frames a scene, a movie or an export may have (about 55 minutes at
 /// 30 fps): beyond it a scene or a time range is refused before any work.
 pub const MAX_FRAMES: usize = 100_000;
@@ -518,8 +523,11 @@ fn check_scene(f: &SceneFile) -> std::result::Result<(), (String, String)> {
             format!("must be a number of seconds > 0, got {}", f.duration),
         );
     }
-    if !(f.fps > 0.0 && f.fps <= 240.0) {
-        return bad("fps", format!("must be within (0, 240], got {}", f.fps));
+    if !(f.fps > 0.0 && f.fps <= MAX_FPS) {
+        return bad(
+            "fps",
+            format!("must be within (0, {MAX_FPS}], got {}", f.fps),
+        );
     }
     let frames = frame_count(f.duration, f.fps);
     if frames > MAX_FRAMES {
@@ -531,10 +539,13 @@ fn check_scene(f: &SceneFile) -> std::result::Result<(), (String, String)> {
             ),
         );
     }
-    if f.size.iter().any(|&s| s == 0 || s > 8192) {
+    if f.size.iter().any(|&s| s == 0 || s > MAX_SIDE) {
         return bad(
             "size",
-            format!("each side must be within 1..8192 pixels, got {:?}", f.size),
+            format!(
+                "each side must be within 1..{MAX_SIDE} pixels, got {:?}",
+                f.size
+            ),
         );
     }
     let eye = DVec3::from_array(f.camera.eye);

@@ -56,8 +56,11 @@ pub fn parse_size(s: &str) -> Result<[u32; 2]> {
         .trim()
         .parse()
         .with_context(|| format!("--size {s:?}: height is not a whole number"))?;
-    if w == 0 || h == 0 || w > 8192 || h > 8192 {
-        bail!("--size {s:?}: each side must be within 1..8192 pixels");
+    if w == 0 || h == 0 || w > csrbf_anim::MAX_SIDE || h > csrbf_anim::MAX_SIDE {
+        bail!(
+            "--size {s:?}: each side must be within 1..{} pixels",
+            csrbf_anim::MAX_SIDE
+        );
     }
     Ok([w, h])
 }
@@ -257,8 +260,11 @@ pub fn animate(a: &AnimateArgs, progress: &Progress) -> Result<()> {
     let scene = load_scene(&a.scene)?;
     let size = size_or(a.size.as_deref(), scene.file.size)?;
     let fps = a.fps.unwrap_or(scene.file.fps);
-    if !(fps > 0.0 && fps <= 240.0) {
-        bail!("--fps must be within (0, 240], got {fps}");
+    if !(fps > 0.0 && fps <= csrbf_anim::MAX_FPS) {
+        bail!(
+            "--fps must be within (0, {}], got {fps}",
+            csrbf_anim::MAX_FPS
+        );
     }
     let (from, to) = (a.from.unwrap_or(0.0), a.to.unwrap_or(scene.file.duration));
     if !(from >= 0.0 && to > from && to.is_finite()) {

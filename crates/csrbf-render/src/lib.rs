@@ -31,7 +31,8 @@ pub enum RenderError {
     NoAdapter(String),
     /// A picture size of 0 or beyond the limit.
     #[error(
-        "picture size {width} x {height} is not valid: each side must be within 1..=8192 pixels"
+        "picture size {width} x {height} is not valid: each side must be within 1..={} pixels",
+        csrbf_anim::MAX_SIDE
     )]
     BadSize {
         /// Width asked for.

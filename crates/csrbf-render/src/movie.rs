@@ -95,10 +95,13 @@ impl MovieWriter {
     /// checks that ffmpeg runs before any frame is drawn.
     pub fn create(path: &Path, width: u32, height: u32, fps: f64) -> Result<MovieWriter> {
         let format = MovieFormat::of(path)?;
-        if !(fps > 0.0 && fps <= 240.0) {
+        if !(fps > 0.0 && fps <= csrbf_anim::MAX_FPS) {
             return Err(io(
                 path,
-                format!("frames per second must be within (0, 240], got {fps}"),
+                format!(
+                    "frames per second must be within (0, {}], got {fps}",
+                    csrbf_anim::MAX_FPS
+                ),
             ));
         }
         let tmp = temp_beside(path)?;
@@ -399,10 +402,14 @@ pub fn render_movie(
     progress: &mut dyn FnMut(usize, usize) -> bool,
 ) -> Result<Written> {
     let o = options;
-    if !(o.fps > 0.0 && o.fps <= 240.0) {
+    if !(o.fps > 0.0 && o.fps <= csrbf_anim::MAX_FPS) {
         return Err(io(
             out,
-            format!("frames per second must be within (0, 240], got {}", o.fps),
+            format!(
+                "frames per second must be within (0, {}], got {}",
+                csrbf_anim::MAX_FPS,
+                o.fps
+            ),
         ));
     }
     if !(o.from >= 0.0 && o.to > o.from && o.to.is_finite()) {

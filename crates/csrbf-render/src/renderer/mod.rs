@@ -174,7 +174,7 @@ pub struct Renderer {
 
 impl Renderer {
     /// Largest side accepted, in pixels.
-    pub const MAX_SIDE: u32 = 8192;
+    pub const MAX_SIDE: u32 = csrbf_anim::MAX_SIDE;
 
     /// A renderer for pictures of `width` x `height`. Picks the system's
     /// adapter (a GPU, or lavapipe on the CPU); `WGPU_BACKEND` can force one.
