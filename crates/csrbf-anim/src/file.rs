@@ -239,7 +239,7 @@ fn default_reach() -> f64 {
 
 impl SceneFile {
     /// Parses a scene file; errors carry the JSON path of the problem.
-    pub fn parse(text: &str) -> Result<SceneFile, (String, String)> {
+    pub fn parse(text: &str) -> Result<SceneFile, ParseError> {
         let de = &mut serde_json::Deserializer::from_str(text);
         serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
@@ -249,7 +249,10 @@ impl SceneFile {
             } else {
                 path
             };
-            (at, inner.to_string())
+            ParseError {
+                at,
+                message: inner.to_string(),
+            }
         })
     }
 
@@ -257,4 +260,15 @@ impl SceneFile {
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
+}
+
+/// A scene file that does not parse: where (a JSON path such as
+/// `objects[0].trajectory[2].time`, or a line and column) and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{at}: {message}")]
+pub struct ParseError {
+    /// JSON path, or line and column.
+    pub at: String,
+    /// What is wrong.
+    pub message: String,
 }

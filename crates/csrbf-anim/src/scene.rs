@@ -241,10 +241,12 @@ impl Scene {
             path: path.to_owned(),
             message: e.to_string(),
         })?;
-        let file = SceneFile::parse(&text).map_err(|(at, message)| AnimError::Scene {
-            path: path.to_owned(),
-            at,
-            message,
+        let file = SceneFile::parse(&text).map_err(|crate::file::ParseError { at, message }| {
+            AnimError::Scene {
+                path: path.to_owned(),
+                at,
+                message,
+            }
         })?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::from_file(file, &dir, path)
@@ -902,7 +904,9 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
         // A part selected by a material of the mesh takes that material's
         // embedded image (glTF) when the scene names none.
         None => embedded_texture(mesh, &pf.select),
-        Some(t) => Some(load_texture(&dir.join(t)).map_err(|m| scene_err(at("texture"), m))?),
+        Some(t) => {
+            Some(load_texture(&dir.join(t)).map_err(|e| scene_err(at("texture"), e.to_string()))?)
+        }
     };
     Ok(Part {
         name: pf.name.clone(),
@@ -931,28 +935,43 @@ fn embedded_texture(mesh: &Mesh, select: &serde_json::Value) -> Option<Texture> 
     decode_texture(bytes.clone(), Path::new(&format!("material {}", mat.name))).ok()
 }
 
+/// A texture that cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{}: {reason}", path.display())]
+pub struct TextureError {
+    /// The image file (or the material that embeds it).
+    pub path: PathBuf,
+    /// Why.
+    pub reason: String,
+}
+
 /// Decodes a PNG or JPEG texture.
-pub fn load_texture(path: &Path) -> std::result::Result<Texture, String> {
-    let encoded = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+pub fn load_texture(path: &Path) -> std::result::Result<Texture, TextureError> {
+    let encoded = std::fs::read(path).map_err(|e| TextureError {
+        path: path.to_owned(),
+        reason: e.to_string(),
+    })?;
     decode_texture(encoded, path)
 }
 
 /// Decodes PNG or JPEG bytes; `path` names them in errors.
-pub fn decode_texture(encoded: Vec<u8>, path: &Path) -> std::result::Result<Texture, String> {
-    let format = image::guess_format(&encoded)
-        .map_err(|e| format!("{}: not an image: {e}", path.display()))?;
+pub fn decode_texture(encoded: Vec<u8>, path: &Path) -> std::result::Result<Texture, TextureError> {
+    let bad = |reason: String| TextureError {
+        path: path.to_owned(),
+        reason,
+    };
+    let format = image::guess_format(&encoded).map_err(|e| bad(format!("not an image: {e}")))?;
     let mime = match format {
         image::ImageFormat::Png => "image/png",
         image::ImageFormat::Jpeg => "image/jpeg",
         other => {
-            return Err(format!(
-                "{}: {other:?} images are not supported; use PNG or JPEG",
-                path.display()
-            ));
+            return Err(bad(format!(
+                "{other:?} images are not supported; use PNG or JPEG"
+            )));
         }
     };
     let img = image::load_from_memory_with_format(&encoded, format)
-        .map_err(|e| format!("{}: cannot decode the image: {e}", path.display()))?
+        .map_err(|e| bad(format!("cannot decode the image: {e}")))?
         .to_rgba8();
     Ok(Texture {
         path: path.to_owned(),

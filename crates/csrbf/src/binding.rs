@@ -117,10 +117,13 @@ impl Binding {
             || deformation.radius() != self.radius
             || deformation.starts().len() != self.starts
         {
-            return Err(Error::PointCount {
-                what: "binding used with a deformation of other starts, kernel or radius",
-                expected: self.starts,
-                got: deformation.starts().len(),
+            return Err(Error::BindingMismatch {
+                bound_starts: self.starts,
+                bound_kernel: self.kernel,
+                bound_radius: self.radius,
+                starts: deformation.starts().len(),
+                kernel: deformation.kernel(),
+                radius: deformation.radius(),
             });
         }
         if out.len() != self.points {
@@ -167,9 +170,7 @@ impl Binding {
 
 /// Positions at phase `t`: `out[i] = rest[i] + t * displacement[i]`.
 pub fn frame(rest: &[Vec3], displacement: &[Vec3], phase: f64, out: &mut [Vec3]) -> Result<()> {
-    if !(0.0..=1.0).contains(&phase) {
-        return Err(Error::BadPhase(phase));
-    }
+    crate::error::check_phase(phase)?;
     if displacement.len() != rest.len() || out.len() != rest.len() {
         return Err(Error::PointCount {
             what: "frame buffers",

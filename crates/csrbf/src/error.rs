@@ -114,6 +114,32 @@ pub enum Error {
     /// A region that cannot be used (its message says why).
     #[error("region: {0}")]
     BadRegion(String),
+    /// A pipeline stage that does not exist.
+    #[error("stage {index} does not exist: the pipeline has {count} stage(s)")]
+    StageIndex {
+        /// The index asked for.
+        index: usize,
+        /// How many stages there are.
+        count: usize,
+    },
+    /// A binding used with a deformation it was not made for.
+    #[error(
+        "the binding was made for {bound_starts} starts (kernel {bound_kernel}, R {bound_radius}), not this deformation's {starts} (kernel {kernel}, R {radius}): bind again"
+    )]
+    BindingMismatch {
+        /// Starts the binding was made for.
+        bound_starts: usize,
+        /// Its kernel.
+        bound_kernel: crate::Kernel,
+        /// Its radius.
+        bound_radius: f64,
+        /// The deformation's starts.
+        starts: usize,
+        /// Its kernel.
+        kernel: crate::Kernel,
+        /// Its radius.
+        radius: f64,
+    },
     /// A region names a part the mesh does not have.
     #[error("region names part {0:?}, which the mesh does not have")]
     UnknownGroup(String),
@@ -129,3 +155,12 @@ pub enum Error {
 
 /// The engine's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The one check of a phase: within [0, 1] (NaN is not).
+pub(crate) fn check_phase(phase: f64) -> Result<()> {
+    if (0.0..=1.0).contains(&phase) {
+        Ok(())
+    } else {
+        Err(Error::BadPhase(phase))
+    }
+}

@@ -93,7 +93,8 @@ impl Stage {
         self
     }
 
-    /// With this phase.
+    /// With this phase, in [0, 1]; a phase outside is refused when the
+    /// pipeline evaluates (the one check, as [`Pipeline::set_phase`] makes).
     pub fn with_phase(mut self, phase: f64) -> Stage {
         self.phase = phase;
         self
@@ -260,11 +261,9 @@ impl Pipeline {
 
     fn state(&mut self, i: usize) -> Result<&mut StageState> {
         let n = self.stages.len();
-        self.stages.get_mut(i).ok_or(Error::PointCount {
-            what: "stage index",
-            expected: n,
-            got: i,
-        })
+        self.stages
+            .get_mut(i)
+            .ok_or(Error::StageIndex { index: i, count: n })
     }
 
     /// New destinations for stage `i`: re-solves with the existing factor.
@@ -312,9 +311,7 @@ impl Pipeline {
 
     /// A new phase for stage `i`, in [0, 1].
     pub fn set_phase(&mut self, i: usize, phase: f64) -> Result<()> {
-        if !(0.0..=1.0).contains(&phase) {
-            return Err(Error::BadPhase(phase));
-        }
+        crate::error::check_phase(phase)?;
         let g = self.bump();
         let s = self.state(i)?;
         s.stage.phase = phase;
@@ -325,19 +322,19 @@ impl Pipeline {
     /// The deformation of stage `i`, fitting it if needed.
     pub fn deformation(&mut self, i: usize) -> Result<&Deformation> {
         self.refresh_deformation(i)?;
-        match &self.stages[i].deformation {
-            Some((_, d)) => Ok(d),
-            None => Err(Error::NoControls),
-        }
+        // refresh_deformation filled it, or returned the error.
+        Ok(&self.stages[i]
+            .deformation
+            .as_ref()
+            .expect("just refreshed")
+            .1)
     }
 
     /// The system of stage `i`, building it if needed.
     pub fn system(&mut self, i: usize) -> Result<&System> {
         self.refresh_system(i)?;
-        match &self.stages[i].system {
-            Some((_, s)) => Ok(s),
-            None => Err(Error::NoControls),
-        }
+        // refresh_system filled it, or returned the error.
+        Ok(&self.stages[i].system.as_ref().expect("just refreshed").1)
     }
 
     fn refresh_system(&mut self, i: usize) -> Result<()> {
@@ -355,9 +352,8 @@ impl Pipeline {
         let s = &mut self.stages[i];
         let key = (s.gen_system, s.gen_targets);
         if s.deformation.as_ref().is_none_or(|(k, _)| *k != key) {
-            let Some((_, sys)) = &s.system else {
-                return Err(Error::NoControls);
-            };
+            // refresh_system above filled it, or returned the error.
+            let (_, sys) = s.system.as_ref().expect("system refreshed first");
             s.deformation = Some((key, sys.solve(&s.stage.targets)?));
             self.work.solves += 1;
         }
@@ -391,9 +387,10 @@ impl Pipeline {
         };
         let s = &mut tail[0];
         let groups = &self.groups;
-        let Some((_, def)) = &s.deformation else {
-            return Err(Error::NoControls);
-        };
+        // A phase set when the stage was made is checked here, as set_phase checks.
+        crate::error::check_phase(s.stage.phase)?;
+        // evaluate refreshed the deformation before the output.
+        let (_, def) = s.deformation.as_ref().expect("deformation refreshed first");
 
         // Chained stages are bound on their input, added ones on the rest points.
         let (bind_input, bind_gen) = match self.combine {
@@ -419,9 +416,8 @@ impl Pipeline {
             });
             self.work.bindings += 1;
         }
-        let Some(bound) = &s.binding else {
-            return Err(Error::NoControls);
-        };
+        // Filled just above.
+        let bound = s.binding.as_ref().expect("binding refreshed");
 
         if s.displacement
             .as_ref()
@@ -430,9 +426,8 @@ impl Pipeline {
             s.displacement = Some((bkey, s.gen_targets, bound.binding.displacements(def)?));
             self.work.displacements += 1;
         }
-        let Some((_, _, disp)) = &s.displacement else {
-            return Err(Error::NoControls);
-        };
+        // Filled just above.
+        let (_, _, disp) = s.displacement.as_ref().expect("displacement refreshed");
 
         let okey = (
             input_gen,
@@ -485,9 +480,7 @@ pub(crate) fn compose_traced(
 ) -> Result<Vec<Vec3>> {
     let mut points = rest.to_vec();
     for (def, region, phase) in stages {
-        if !(0.0..=1.0).contains(phase) {
-            return Err(Error::BadPhase(*phase));
-        }
+        crate::error::check_phase(*phase)?;
         let (active, weights) = region.weights(rest, groups)?;
         let t = *phase as f32;
         let all = active.len() == points.len() && !matches!(region, Region::Falloff { .. });

@@ -626,3 +626,36 @@ fn falloffs_scale_the_displacement_smoothly() {
         assert!(a.distance(*b) < 1e-5);
     }
 }
+
+/// Issue 10: bad stage indices, phases and bindings get errors of their own.
+#[test]
+fn stage_indices_phases_and_bindings_are_named() {
+    let (s, t) = scene(12, 9);
+    let opts = FitOptions::default().with_radius(0.5);
+    let mut p = Pipeline::new(vec![Vec3::ZERO; 4]);
+    p.push(Stage::new(s.clone(), t.clone(), opts).with_phase(7.0));
+    assert_eq!(p.evaluate().err(), Some(Error::BadPhase(7.0)));
+    assert_eq!(p.set_phase(0, 2.0), Err(Error::BadPhase(2.0)));
+    p.set_phase(0, 0.5).expect("phase");
+    assert!(p.evaluate().is_ok());
+    assert_eq!(
+        p.set_phase(9, 0.5),
+        Err(Error::StageIndex { index: 9, count: 1 })
+    );
+    assert!(
+        p.deformation(3)
+            .err()
+            .is_some_and(|e| e.to_string().contains("stage 3 does not exist"))
+    );
+    let d = Deformation::fit(&s, &t, opts).expect("fit");
+    let other = Deformation::fit(&s[..5], &t[..5], opts).expect("fit");
+    let b = Binding::new(&d, &[Vec3::ZERO; 3]);
+    assert!(matches!(
+        b.displacements(&other),
+        Err(Error::BindingMismatch {
+            bound_starts: 12,
+            starts: 5,
+            ..
+        })
+    ));
+}
