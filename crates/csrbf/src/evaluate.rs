@@ -160,7 +160,7 @@ pub(crate) struct Candidates {
     ys: Vec<f64>,
     zs: Vec<f64>,
     id: Vec<u32>,
-    avx2: bool,
+    cpu: Option<crate::simd::Avx2Fma>,
 }
 
 impl Candidates {
@@ -185,7 +185,7 @@ impl Candidates {
             self.zs.push(p.z);
             self.id.push(i);
         });
-        self.avx2 = crate::simd::has_avx2_fma();
+        self.cpu = crate::simd::Avx2Fma::detect();
     }
 
     /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
@@ -227,7 +227,7 @@ impl Candidates {
                 &self.ys[base..end],
                 &self.zs[base..end],
             );
-            let mut bits = crate::simd::hit_mask(self.avx2, xs, ys, zs, x.to_array(), r2);
+            let mut bits = crate::simd::hit_mask(self.cpu, xs, ys, zs, x.to_array(), r2);
             while bits != 0 {
                 let k = bits.trailing_zeros() as usize;
                 bits &= bits - 1;

@@ -5,9 +5,22 @@
 //! `#[inline(always)]` body; a `#[target_feature]` wrapper compiles it again
 //! with AVX2 and FMA, and is called only after a runtime check.
 
-/// Whether this CPU has AVX2 and FMA (checked once, then cached by std).
+/// Proof that this CPU has AVX2 and FMA: only [`Avx2Fma::detect`] makes
+/// one, so a safe function taking it may call code compiled for them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2Fma(());
+
+impl Avx2Fma {
+    /// The proof, when the CPU has both (checked once, then cached by std).
+    #[inline]
+    pub(crate) fn detect() -> Option<Avx2Fma> {
+        has_avx2_fma().then_some(Avx2Fma(()))
+    }
+}
+
+/// Whether this CPU has AVX2 and FMA.
 #[inline]
-pub(crate) fn has_avx2_fma() -> bool {
+fn has_avx2_fma() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
@@ -65,10 +78,10 @@ fn hit_mask_avx2(xs: &[f64], ys: &[f64], zs: &[f64], x: [f64; 3], r2: f64) -> u6
     hit_mask_body(xs, ys, zs, x, r2)
 }
 
-/// [`hit_mask_body`], dispatched on the CPU.
+/// [`hit_mask_body`], compiled for AVX2 when the proof is given.
 #[inline]
 pub(crate) fn hit_mask(
-    avx2: bool,
+    cpu: Option<Avx2Fma>,
     xs: &[f64],
     ys: &[f64],
     zs: &[f64],
@@ -76,13 +89,46 @@ pub(crate) fn hit_mask(
     r2: f64,
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` is true only when `has_avx2_fma()` said so.
+    if let Some(Avx2Fma(())) = cpu {
+        // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
         #[allow(unsafe_code)]
         unsafe {
             return hit_mask_avx2(xs, ys, zs, x, r2);
         }
     }
-    let _ = avx2;
+    let _ = cpu;
     hit_mask_body(xs, ys, zs, x, r2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scalar fallback and the AVX2 code agree (on a machine that has
+    /// AVX2 both run; elsewhere the fallback is checked against itself).
+    #[test]
+    fn fallbacks_agree_with_the_vector_code() {
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut r = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for n in [0, 1, 7, 8, 33, 64] {
+            let (xs, ys, zs): (Vec<f64>, Vec<f64>, Vec<f64>) = (0..n)
+                .map(|_| (r(), r(), r()))
+                .fold((vec![], vec![], vec![]), |mut a, p| {
+                    a.0.push(p.0);
+                    a.1.push(p.1);
+                    a.2.push(p.2);
+                    a
+                });
+            let q = [r(), r(), r()];
+            let want = hit_mask(None, &xs, &ys, &zs, q, 0.3);
+            assert_eq!(hit_mask(Avx2Fma::detect(), &xs, &ys, &zs, q, 0.3), want);
+            assert_eq!(dot::<false>(&xs, &ys), dot::<false>(&ys, &xs));
+            assert!((dot::<true>(&xs, &ys) - dot::<false>(&xs, &ys)).abs() < 1e-12);
+        }
+    }
 }

@@ -16,14 +16,26 @@ impl Profile {
     /// diagonal entry it came from), naming its row.
     pub fn factor(&mut self) -> Result<(), PivotError> {
         #[cfg(target_arch = "x86_64")]
-        if crate::simd::has_avx2_fma() {
-            // SAFETY: the CPU has AVX2 and FMA, checked just above.
-            #[allow(unsafe_code)]
-            unsafe {
-                return factor_avx2(self);
-            }
+        if let Some(cpu) = crate::simd::Avx2Fma::detect() {
+            return factor_with(cpu, self);
         }
         factor_body::<false>(self)
+    }
+
+    /// [`Profile::factor`] without vector instructions: what a CPU without
+    /// AVX2 runs (tested against the vector code on one with it).
+    #[cfg(test)]
+    pub(crate) fn factor_scalar(&mut self) -> Result<(), PivotError> {
+        factor_body::<false>(self)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn factor_with(_cpu: crate::simd::Avx2Fma, p: &mut Profile) -> Result<(), PivotError> {
+    // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+    #[allow(unsafe_code)]
+    unsafe {
+        factor_avx2(p)
     }
 }
 

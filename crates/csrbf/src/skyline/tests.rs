@@ -80,7 +80,20 @@ fn factor_and_solve_match_a_dense_solve() {
                 );
             }
         }
+        // The scalar fallback gives the same factor as the dispatched code.
+        let mut scalar = p.clone();
+        scalar.factor_scalar().expect("SPD");
         p.factor().expect("SPD");
+        for i in 0..n {
+            for j in 0..=i {
+                assert_close(
+                    p.get(i, j),
+                    scalar.get(i, j),
+                    1e-12,
+                    "scalar vs vector factor",
+                );
+            }
+        }
         let b: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
         let mut x: Vec<DVec3> = perm.iter().map(|&o| b[o as usize]).collect();
         p.solve_in_place(&mut x);
