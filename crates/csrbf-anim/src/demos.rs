@@ -86,7 +86,7 @@ fn object(name: &str, mesh: &str, parts: Vec<PartFile>) -> ObjectFile {
         parts,
         trajectory: vec![],
         orientation: vec![],
-        interpolation: "squad".into(),
+        interpolation: Interpolation::Squad,
         contact: None,
     }
 }
@@ -95,7 +95,7 @@ fn part(name: &str, color: [f32; 4], deformations: Vec<DeformationFile>) -> Part
     PartFile {
         name: name.into(),
         select: "all".into(),
-        color: Some(color.to_vec()),
+        color: Some(Color(color)),
         texture: None,
         wireframe: false,
         deformations,
@@ -109,7 +109,7 @@ fn track(controls: &str, keys: &[(f64, f64)]) -> DeformationFile {
             .iter()
             .map(|&(time, phase)| PhaseKeyFile { time, phase })
             .collect(),
-        easing: "smooth".into(),
+        easing: Easing::Smooth,
     }
 }
 
@@ -359,7 +359,7 @@ fn fish() -> Demo {
     );
     obj.trajectory = keys;
     obj.orientation = orientation;
-    obj.interpolation = "squad".into();
+    obj.interpolation = Interpolation::Squad;
     Demo {
         scene: scene(
             duration,
@@ -416,7 +416,7 @@ fn ball() -> Demo {
     let mut walls = object("box", "models/box.obj", vec![walls_part]);
     walls.contact = Some(ContactFile {
         with: "ball".into(),
-        kernel: "c2".into(),
+        kernel: Kernel::C2,
         reach: 1.5,
     });
     Demo {

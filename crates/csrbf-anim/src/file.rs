@@ -1,7 +1,11 @@
 //! The scene file (`*.scene.json`): plain data, read and written with serde.
 //! Unknown keys are refused with their JSON path.
 
+use csrbf::Kernel;
 use serde::{Deserialize, Serialize};
+
+pub use crate::rotation::Interpolation;
+pub use crate::track::Easing;
 
 /// A whole scene as written in its file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -102,8 +106,8 @@ pub struct ObjectFile {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub orientation: Vec<OrientationKeyFile>,
     /// `squad` (smooth, default) or `slerp`.
-    #[serde(default = "default_squad")]
-    pub interpolation: String,
+    #[serde(default)]
+    pub interpolation: Interpolation,
     /// Deformation by contact with another object, rebuilt every frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact: Option<ContactFile>,
@@ -111,9 +115,6 @@ pub struct ObjectFile {
 
 fn default_scale() -> f64 {
     1.0
-}
-fn default_squad() -> String {
-    "squad".into()
 }
 
 /// A part of an object.
@@ -127,9 +128,9 @@ pub struct PartFile {
     /// every corner lies inside).
     #[serde(default = "default_all")]
     pub select: serde_json::Value,
-    /// Colour, linear RGB(A). Default light grey.
+    /// Colour, linear RGB or RGBA in [0, 1]. Default light grey.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub color: Option<Vec<f32>>,
+    pub color: Option<Color>,
     /// Texture image (PNG or JPEG), relative to the scene file; uses the mesh's UVs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<String>,
@@ -155,12 +156,8 @@ pub struct DeformationFile {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub phase: Vec<PhaseKeyFile>,
     /// `smooth` (default) or `linear` between phase keys.
-    #[serde(default = "default_smooth")]
-    pub easing: String,
-}
-
-fn default_smooth() -> String {
-    "smooth".into()
+    #[serde(default)]
+    pub easing: Easing,
 }
 
 /// A phase key.
@@ -222,17 +219,14 @@ pub struct ContactFile {
     /// Name of the object that pushes (its bounding sphere is used).
     pub with: String,
     /// Kernel. Default c2.
-    #[serde(default = "default_c2")]
-    pub kernel: String,
+    #[serde(default)]
+    pub kernel: Kernel,
     /// The radius of support is this many times the penetration depth plus
     /// the pusher's radius. Default 1.5.
     #[serde(default = "default_reach")]
     pub reach: f64,
 }
 
-fn default_c2() -> String {
-    "c2".into()
-}
 fn default_reach() -> f64 {
     1.5
 }
@@ -271,4 +265,38 @@ pub struct ParseError {
     pub at: String,
     /// What is wrong.
     pub message: String,
+}
+
+/// A colour: linear RGB or RGBA, each in [0, 1] (written as 3 or 4 numbers).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "Vec<f32>", into = "Vec<f32>")]
+pub struct Color(pub [f32; 4]);
+
+impl Color {
+    /// An opaque colour.
+    pub fn rgb(r: f32, g: f32, b: f32) -> Color {
+        Color([r, g, b, 1.0])
+    }
+}
+
+impl TryFrom<Vec<f32>> for Color {
+    type Error = String;
+    fn try_from(v: Vec<f32>) -> Result<Color, String> {
+        if !(v.len() == 3 || v.len() == 4) || !v.iter().all(|c| (0.0..=1.0).contains(c)) {
+            return Err(format!(
+                "expected 3 or 4 numbers in [0, 1] (RGB or RGBA), got {v:?}"
+            ));
+        }
+        Ok(Color([v[0], v[1], v[2], v.get(3).copied().unwrap_or(1.0)]))
+    }
+}
+
+impl From<Color> for Vec<f32> {
+    fn from(c: Color) -> Vec<f32> {
+        if c.0[3] == 1.0 {
+            c.0[..3].to_vec()
+        } else {
+            c.0.to_vec()
+        }
+    }
 }

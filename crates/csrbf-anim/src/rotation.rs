@@ -35,8 +35,9 @@ impl OrientationKey {
     }
 }
 
-/// How to interpolate between orientation keys.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How to interpolate between orientation keys (`"squad"` or `"slerp"` in files).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Interpolation {
     /// Spherical linear between neighbouring keys: constant speed, corners at keys.
     Slerp,

@@ -11,9 +11,9 @@ use csrbf_mesh::Mesh;
 use glam::{DQuat, DVec3, Vec3};
 
 use crate::file::{ObjectFile, PartFile, SceneFile};
-use crate::rotation::{Interpolation, Orientation, OrientationKey};
+use crate::rotation::{Orientation, OrientationKey};
 use crate::spline::{PositionKey, Trajectory};
-use crate::track::{Easing, PhaseTrack};
+use crate::track::PhaseTrack;
 use crate::{AnimError, Result};
 
 /// A decoded texture image.
@@ -180,6 +180,9 @@ impl Assets {
         ControlFile::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
     }
 }
+
+/// The colour of a part that names none: light grey.
+pub const DEFAULT_PART_COLOR: [f32; 4] = [0.8, 0.8, 0.8, 1.0];
 
 /// Largest picture side, in pixels (scenes, stills, movies, the renderer).
 pub const MAX_SIDE: u32 = 8192;
@@ -608,10 +611,7 @@ fn resolve_contacts(
                         format!("no other object is called {:?}", c.with),
                     )
                 })?;
-            let kernel = c
-                .kernel
-                .parse::<Kernel>()
-                .map_err(|e| (format!("objects[{oi}].contact.kernel"), e.to_string()))?;
+            let kernel = c.kernel;
             if !(c.reach > 0.0 && c.reach.is_finite()) {
                 return Err((
                     format!("objects[{oi}].contact.reach"),
@@ -774,16 +774,7 @@ fn load_object(
         };
         keys.push(key);
     }
-    let interpolation = match of.interpolation.as_str() {
-        "squad" => Interpolation::Squad,
-        "slerp" => Interpolation::Slerp,
-        other => {
-            return Err(scene_err(
-                at("interpolation"),
-                format!("unknown interpolation {other:?}: expected squad or slerp"),
-            ));
-        }
-    };
+    let interpolation = of.interpolation;
     Ok(Object {
         name: of.name.clone(),
         center,
@@ -888,18 +879,7 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
     let vertices = (0..mark.len() as u32)
         .filter(|&v| mark[v as usize])
         .collect();
-    let color = match &pf.color {
-        None => [0.8, 0.8, 0.8, 1.0],
-        Some(c) if (c.len() == 3 || c.len() == 4) && c.iter().all(|v| (0.0..=1.0).contains(v)) => {
-            [c[0], c[1], c[2], c.get(3).copied().unwrap_or(1.0)]
-        }
-        Some(c) => {
-            return Err(scene_err(
-                at("color"),
-                format!("expected 3 or 4 numbers in [0, 1], got {c:?}"),
-            ));
-        }
-    };
+    let color = pf.color.map_or(DEFAULT_PART_COLOR, |c| c.0);
     let texture = match &pf.texture {
         // A part selected by a material of the mesh takes that material's
         // embedded image (glTF) when the scene names none.
@@ -1071,16 +1051,7 @@ fn load_deformation(
             format!("must be within [0, 1], got {}", k.phase),
         ));
     }
-    let easing = match df.easing.as_str() {
-        "smooth" => Easing::Smooth,
-        "linear" => Easing::Linear,
-        other => {
-            return Err(scene_err(
-                at("easing"),
-                format!("unknown easing {other:?}: expected smooth or linear"),
-            ));
-        }
-    };
+    let easing = df.easing;
     let track = if df.phase.is_empty() {
         PhaseTrack::constant(1.0)
     } else {

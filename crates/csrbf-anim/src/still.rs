@@ -9,7 +9,9 @@ use csrbf_mesh::Mesh;
 use glam::Vec3;
 
 use crate::camera::{Camera, ViewPreset};
-use crate::file::{CameraFile, DeformationFile, ObjectFile, PartFile, PhaseKeyFile, SceneFile};
+use crate::file::{
+    CameraFile, Color, DeformationFile, ObjectFile, PartFile, PhaseKeyFile, SceneFile,
+};
 use crate::scene::{Assets, Scene};
 use crate::{AnimError, Result};
 
@@ -47,7 +49,7 @@ pub fn mesh_scene(
             vec![DeformationFile {
                 controls: path.display().to_string(),
                 phase: vec![PhaseKeyFile { time: 0.0, phase }],
-                easing: "linear".into(),
+                easing: crate::Easing::Linear,
             }]
         }
         None => Vec::new(),
@@ -74,9 +76,9 @@ pub fn mesh_scene(
                 name: "all".into(),
                 select: "all".into(),
                 color: Some(if textured {
-                    vec![1.0; 3]
+                    Color([1.0; 4])
                 } else {
-                    CLAY.to_vec()
+                    Color([CLAY[0], CLAY[1], CLAY[2], 1.0])
                 }),
                 texture: None,
                 wireframe: false,
@@ -84,7 +86,7 @@ pub fn mesh_scene(
             }],
             trajectory: vec![],
             orientation: vec![],
-            interpolation: "squad".into(),
+            interpolation: crate::Interpolation::Squad,
             contact: None,
         }],
     };

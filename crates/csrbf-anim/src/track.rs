@@ -1,8 +1,9 @@
 //! Phase tracks: the phase of a deformation over time, so a face can smile,
 //! hold and relax.
 
-/// How a phase track moves between keys.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How a phase track moves between keys (`"smooth"` or `"linear"` in files).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Easing {
     /// Straight lines between keys.
     Linear,
