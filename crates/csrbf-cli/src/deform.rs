@@ -4,7 +4,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use csrbf::{Combine, Deformation, Region, compose_diagnosed, format};
+use csrbf::{Combine, Deformation, Region, compose_diagnosed};
 use csrbf_mesh::Mesh;
 
 use crate::common::{Progress, check_output, check_phase, fit_all, read_controls, read_mesh};
@@ -35,70 +35,10 @@ pub fn deform(
     )
 }
 
-pub fn fit(
-    controls: &Path,
-    mesh: Option<&Path>,
-    out: &Path,
-    force: bool,
-    progress: &Progress,
-) -> Result<()> {
-    let inputs: Vec<&Path> = std::iter::once(controls).chain(mesh).collect();
-    check_output(out, &inputs, force, false)?;
-    let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
-    let file = read_controls(controls, progress)?;
-    let m = mesh.map(|p| read_mesh(p, progress)).transpose()?;
-    let stages = fit_all(&file.deformations, controls, m.as_ref(), progress)?;
-    let bytes = if ext == "json" {
-        serde_json::to_vec_pretty(&format::to_json(&stages, file.combine))?
-    } else {
-        format::encode(&stages, file.combine)
-    };
-    csrbf_mesh::write_atomic(out, &bytes)?;
-    progress.say(format_args!(
-        "wrote {} ({} bytes)",
-        out.display(),
-        bytes.len()
-    ));
-    Ok(())
-}
-
-pub fn apply(
-    mesh: &Path,
-    deformation: &Path,
-    phase: f64,
-    out: &Path,
-    force: bool,
-    json: bool,
-    progress: &Progress,
-) -> Result<()> {
-    check_phase(phase)?;
-    check_output(out, &[mesh, deformation], force, true)?;
-    let bytes = std::fs::read(deformation)
-        .with_context(|| format!("cannot read {}", deformation.display()))?;
-    let replay = format::decode(&bytes).with_context(|| deformation.display().to_string())?;
-    progress.say(format_args!(
-        "{}: {} deformation(s), {}",
-        deformation.display(),
-        replay.stages.len(),
-        replay.combine
-    ));
-    let mut m = read_mesh(mesh, progress)?;
-    move_and_write(
-        &mut m,
-        &replay.stages,
-        replay.combine,
-        phase,
-        mesh,
-        out,
-        json,
-        progress,
-    )
-}
-
 /// Moves the vertices (each stage at its own phase times `phase`),
 /// recomputes normals where the mesh had them, writes.
 #[allow(clippy::too_many_arguments)]
-fn move_and_write(
+pub(crate) fn move_and_write(
     m: &mut Mesh,
     stages: &[(Deformation, Region, f64)],
     combine: Combine,

@@ -1,11 +1,18 @@
 //! `csrbf`: deform meshes by control vectors with compactly supported radial
 //! basis functions. Glue only: the work is in the `csrbf` and `csrbf-mesh` crates.
 
+mod animate;
+mod apply;
 mod bench;
 mod common;
 mod deform;
+mod demo;
+mod export;
+mod fit;
 mod info;
-mod movie;
+mod look;
+mod pick;
+mod render;
 mod view;
 
 use std::path::PathBuf;
@@ -101,13 +108,13 @@ enum Command {
     /// Measure fit, bind, evaluate, refit and frame times (median of several runs).
     Bench(bench::BenchArgs),
     /// Render a picture of a mesh, optionally deformed, from a chosen view.
-    Render(movie::RenderArgs),
+    Render(render::RenderArgs),
     /// What lies under a pixel of the picture `render` draws with the same flags: point, triangle, vertex, part.
-    Pick(view::PickArgs),
+    Pick(pick::PickArgs),
     /// Render a scene file as a movie (MP4, GIF) or PNG frames.
-    Animate(movie::AnimateArgs),
+    Animate(animate::AnimateArgs),
     /// Write one of the papers' examples (face, fish, ball, brick, all): scene file, models, poster and movie.
-    Demo(movie::DemoArgs),
+    Demo(demo::DemoArgs),
     /// Export a scene as glTF 2.0 (.glb or .gltf): meshes, materials, motion, morph targets.
     Export {
         /// The scene file.
@@ -173,7 +180,7 @@ fn main() -> ExitCode {
             mesh,
             out,
             force,
-        } => deform::fit(&controls, mesh.as_deref(), &out, force, &progress),
+        } => fit::fit(&controls, mesh.as_deref(), &out, force, &progress),
         Command::Apply {
             mesh,
             deformation,
@@ -181,7 +188,7 @@ fn main() -> ExitCode {
             out,
             force,
             json,
-        } => deform::apply(&mesh, &deformation, phase, &out, force, json, &progress),
+        } => apply::apply(&mesh, &deformation, phase, &out, force, json, &progress),
         Command::Info {
             mesh,
             controls,
@@ -194,11 +201,11 @@ fn main() -> ExitCode {
             json,
         ),
         Command::Bench(args) => bench::bench(&args, &progress),
-        Command::Render(args) => movie::render(&args, &progress),
-        Command::Pick(args) => view::pick(&args, &progress),
-        Command::Animate(args) => movie::animate(&args, &progress),
-        Command::Demo(args) => movie::demo(&args, &progress),
-        Command::Export { scene, out, force } => movie::export(&scene, &out, force, &progress),
+        Command::Render(args) => render::render(&args, &progress),
+        Command::Pick(args) => pick::pick(&args, &progress),
+        Command::Animate(args) => animate::animate(&args, &progress),
+        Command::Demo(args) => demo::demo(&args, &progress),
+        Command::Export { scene, out, force } => export::export(&scene, &out, force, &progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,42 @@
+//! `apply`: a saved deformation (`.csrbf`) replayed on a mesh.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use csrbf::format;
+
+use crate::common::{Progress, check_output, check_phase, read_mesh};
+use crate::deform::move_and_write;
+
+pub fn apply(
+    mesh: &Path,
+    deformation: &Path,
+    phase: f64,
+    out: &Path,
+    force: bool,
+    json: bool,
+    progress: &Progress,
+) -> Result<()> {
+    check_phase(phase)?;
+    check_output(out, &[mesh, deformation], force, true)?;
+    let bytes = std::fs::read(deformation)
+        .with_context(|| format!("cannot read {}", deformation.display()))?;
+    let replay = format::decode(&bytes).with_context(|| deformation.display().to_string())?;
+    progress.say(format_args!(
+        "{}: {} deformation(s), {}",
+        deformation.display(),
+        replay.stages.len(),
+        replay.combine
+    ));
+    let mut m = read_mesh(mesh, progress)?;
+    move_and_write(
+        &mut m,
+        &replay.stages,
+        replay.combine,
+        phase,
+        mesh,
+        out,
+        json,
+        progress,
+    )
+}

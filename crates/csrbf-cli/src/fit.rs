@@ -1,0 +1,35 @@
+//! `fit`: the deformations of a control file, fitted and saved compactly.
+
+use std::path::Path;
+
+use anyhow::Result;
+use csrbf::format;
+
+use crate::common::{Progress, check_output, fit_all, read_controls, read_mesh};
+
+pub fn fit(
+    controls: &Path,
+    mesh: Option<&Path>,
+    out: &Path,
+    force: bool,
+    progress: &Progress,
+) -> Result<()> {
+    let inputs: Vec<&Path> = std::iter::once(controls).chain(mesh).collect();
+    check_output(out, &inputs, force, false)?;
+    let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
+    let file = read_controls(controls, progress)?;
+    let m = mesh.map(|p| read_mesh(p, progress)).transpose()?;
+    let stages = fit_all(&file.deformations, controls, m.as_ref(), progress)?;
+    let bytes = if ext == "json" {
+        serde_json::to_vec_pretty(&format::to_json(&stages, file.combine))?
+    } else {
+        format::encode(&stages, file.combine)
+    };
+    csrbf_mesh::write_atomic(out, &bytes)?;
+    progress.say(format_args!(
+        "wrote {} ({} bytes)",
+        out.display(),
+        bytes.len()
+    ));
+    Ok(())
+}
