@@ -1,0 +1,501 @@
+//! Files to objects: checks, meshes, parts, deformations (fitted and bound
+//! once), tracks, contacts.
+
+use std::path::{Path, PathBuf};
+
+use csrbf::{Binding, Combine, Region, System};
+use csrbf_mesh::Mesh;
+use glam::{DQuat, DVec3, Vec3};
+
+use crate::file::{ObjectFile, PartFile, SceneFile};
+use crate::rotation::{Orientation, OrientationKey};
+use crate::spline::{PositionKey, Trajectory};
+use crate::track::PhaseTrack;
+use crate::{AnimError, Result};
+
+use super::texture::embedded_texture;
+use super::{
+    Animated, Assets, BoundStage, Contact, DEFAULT_PART_COLOR, MAX_FPS, MAX_FRAMES, MAX_SIDE,
+    Object, Part, frame_count, load_texture,
+};
+
+pub(super) fn check_scene(f: &SceneFile) -> std::result::Result<(), (String, String)> {
+    let bad = |at: &str, m: String| Err((at.to_owned(), m));
+    if !(f.duration > 0.0 && f.duration.is_finite()) {
+        return bad(
+            "duration",
+            format!("must be a number of seconds > 0, got {}", f.duration),
+        );
+    }
+    if !(f.fps > 0.0 && f.fps <= MAX_FPS) {
+        return bad(
+            "fps",
+            format!("must be within (0, {MAX_FPS}], got {}", f.fps),
+        );
+    }
+    let frames = frame_count(f.duration, f.fps);
+    if frames > MAX_FRAMES {
+        return bad(
+            "duration",
+            format!(
+                "{} s at {} fps is {frames} frames, more than the limit of {MAX_FRAMES} (movies and glTF export sample every frame): shorten it or lower fps",
+                f.duration, f.fps
+            ),
+        );
+    }
+    if f.size.iter().any(|&s| s == 0 || s > MAX_SIDE) {
+        return bad(
+            "size",
+            format!(
+                "each side must be within 1..{MAX_SIDE} pixels, got {:?}",
+                f.size
+            ),
+        );
+    }
+    let eye = DVec3::from_array(f.camera.eye);
+    let target = DVec3::from_array(f.camera.target);
+    if !eye.is_finite() || !target.is_finite() || eye.distance(target) == 0.0 {
+        return bad(
+            "camera",
+            "eye and target must be finite and distinct".into(),
+        );
+    }
+    if !(f.camera.fov > 1.0 && f.camera.fov < 179.0) {
+        return bad(
+            "camera.fov",
+            format!("must be within (1, 179) degrees, got {}", f.camera.fov),
+        );
+    }
+    if f.objects.is_empty() {
+        return bad("objects", "the scene has no object".into());
+    }
+    Ok(())
+}
+
+/// Checks that key times increase strictly.
+fn check_times(times: impl Iterator<Item = f64>, at: &dyn Fn(usize) -> String) -> Result<()> {
+    let mut prev: Option<f64> = None;
+    for (i, t) in times.enumerate() {
+        if !t.is_finite() {
+            return Err(scene_err(at(i), format!("time {t} is not a number")));
+        }
+        if let Some(p) = prev
+            && t <= p
+        {
+            return Err(scene_err(
+                at(i),
+                format!("time {t} is not after the previous key's {p}: keys must be in time order"),
+            ));
+        }
+        prev = Some(t);
+    }
+    Ok(())
+}
+
+/// Finds the object each contact deformation names and checks its numbers.
+pub(super) fn resolve_contacts(
+    file: &SceneFile,
+    objects: &mut [Object],
+) -> std::result::Result<(), (String, String)> {
+    for (oi, of) in file.objects.iter().enumerate() {
+        if let Some(c) = &of.contact {
+            let with = file
+                .objects
+                .iter()
+                .position(|o| o.name == c.with)
+                .filter(|&w| w != oi)
+                .ok_or_else(|| {
+                    (
+                        format!("objects[{oi}].contact.with"),
+                        format!("no other object is called {:?}", c.with),
+                    )
+                })?;
+            let kernel = c.kernel;
+            if !(c.reach > 0.0 && c.reach.is_finite()) {
+                return Err((
+                    format!("objects[{oi}].contact.reach"),
+                    format!("must be > 0, got {}", c.reach),
+                ));
+            }
+            let o = &objects[oi];
+            let spacing = o
+                .triangles
+                .iter()
+                .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+                .map(|(a, b)| o.mesh.positions[a as usize].distance(o.mesh.positions[b as usize]))
+                .fold(0.0f32, f32::max) as f64;
+            objects[oi].contact = Some(Contact {
+                with,
+                kernel,
+                reach: c.reach,
+                spacing,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn scene_err(at: String, message: String) -> AnimError {
+    AnimError::Scene {
+        path: PathBuf::new(),
+        at,
+        message,
+    }
+}
+
+pub(super) fn load_object(
+    of: &ObjectFile,
+    dir: &Path,
+    assets: &Assets,
+    at: &dyn Fn(&str) -> String,
+    warnings: &mut Vec<String>,
+) -> Result<Object> {
+    let mesh_path = dir.join(&of.mesh);
+    let mut mesh = assets
+        .mesh(&mesh_path)
+        .map_err(|e| scene_err(at("mesh"), e))?;
+    if !(of.scale > 0.0 && of.scale.is_finite()) {
+        return Err(scene_err(
+            at("scale"),
+            format!("must be > 0, got {}", of.scale),
+        ));
+    }
+    if of.scale != 1.0 {
+        for p in &mut mesh.positions {
+            *p *= of.scale as f32;
+        }
+    }
+    let (center, radius) = center_of_gravity(&mesh);
+    let parts = if of.parts.is_empty() {
+        vec![make_part(
+            &mesh,
+            &PartFile {
+                name: "all".into(),
+                select: "all".into(),
+                color: None,
+                texture: None,
+                wireframe: false,
+                deformations: vec![],
+            },
+            dir,
+            &|k| at(&format!("parts.{k}")),
+        )?]
+    } else {
+        of.parts
+            .iter()
+            .enumerate()
+            .map(|(pi, pf)| make_part(&mesh, pf, dir, &|k| at(&format!("parts[{pi}].{k}"))))
+            .collect::<Result<Vec<_>>>()?
+    };
+    let mut deformations = Vec::new();
+    for (pi, pf) in of.parts.iter().enumerate() {
+        for (di, df) in pf.deformations.iter().enumerate() {
+            let here = |k: &str| at(&format!("parts[{pi}].deformations[{di}].{k}"));
+            deformations.push(load_deformation(
+                &mesh, &parts[pi], pi, df, dir, assets, &here,
+            )?);
+        }
+    }
+    check_times(of.trajectory.iter().map(|k| k.time), &|i| {
+        at(&format!("trajectory[{i}].time"))
+    })?;
+    for (i, k) in of.trajectory.iter().enumerate() {
+        for (name, v) in [
+            ("tension", k.tension),
+            ("continuity", k.continuity),
+            ("bias", k.bias),
+        ] {
+            if !(-1.0..=1.0).contains(&v) {
+                return Err(scene_err(
+                    at(&format!("trajectory[{i}].{name}")),
+                    format!("must be within [-1, 1], got {v}"),
+                ));
+            }
+        }
+    }
+    let trajectory = Trajectory::new(
+        of.trajectory
+            .iter()
+            .map(|k| PositionKey {
+                time: k.time,
+                position: DVec3::from_array(k.position),
+                tension: k.tension,
+                continuity: k.continuity,
+                bias: k.bias,
+            })
+            .collect(),
+    );
+    check_times(of.orientation.iter().map(|k| k.time), &|i| {
+        at(&format!("orientation[{i}].time"))
+    })?;
+    let mut keys = Vec::new();
+    for (i, k) in of.orientation.iter().enumerate() {
+        let here = at(&format!("orientation[{i}]"));
+        let key = match (k.quaternion, k.axis, k.angle, k.euler) {
+            (Some(q), None, None, None) => {
+                let q = DQuat::from_array(q);
+                let len = q.length();
+                if !(len > 1e-9) || !len.is_finite() {
+                    return Err(scene_err(
+                        format!("{here}.quaternion"),
+                        "a zero quaternion is no rotation".into(),
+                    ));
+                }
+                if (len - 1.0).abs() > 1e-6 {
+                    warnings.push(format!(
+                        "{here}.quaternion: length {len}, not 1: normalised"
+                    ));
+                }
+                OrientationKey {
+                    time: k.time,
+                    rotation: q / len,
+                }
+            }
+            (None, Some(axis), Some(angle), None) => {
+                if DVec3::from_array(axis).length() == 0.0 {
+                    return Err(scene_err(
+                        format!("{here}.axis"),
+                        "the axis has zero length".into(),
+                    ));
+                }
+                OrientationKey::from_axis_angle(k.time, DVec3::from_array(axis), angle)
+            }
+            (None, None, None, Some(e)) => {
+                OrientationKey::from_euler_degrees(k.time, DVec3::from_array(e))
+            }
+            _ => {
+                return Err(scene_err(
+                    here,
+                    "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\""
+                        .into(),
+                ));
+            }
+        };
+        keys.push(key);
+    }
+    let interpolation = of.interpolation;
+    Ok(Object {
+        name: of.name.clone(),
+        center,
+        radius,
+        parts,
+        trajectory,
+        orientation: Orientation::new(keys, interpolation),
+        deformations,
+        contact: None,
+        triangles: mesh.faces.triangles(),
+        mesh,
+    })
+}
+
+/// Area-weighted centroid of the surface (vertex mean when there is no
+/// face), and the largest distance of a vertex from it.
+fn center_of_gravity(mesh: &Mesh) -> (DVec3, f64) {
+    let mut sum = DVec3::ZERO;
+    let mut area = 0.0;
+    for f in mesh.faces.iter() {
+        for [p0, a, b] in csrbf_mesh::fan(f) {
+            let p = |i: u32| mesh.positions[i as usize].as_dvec3();
+            let (p0, a, b) = (p(p0), p(a), p(b));
+            let w = (a - p0).cross(b - p0).length() * 0.5;
+            sum += (p0 + a + b) / 3.0 * w;
+            area += w;
+        }
+    }
+    let c = if area > 0.0 {
+        sum / area
+    } else {
+        mesh.positions.iter().map(|p| p.as_dvec3()).sum::<DVec3>()
+            / mesh.positions.len().max(1) as f64
+    };
+    let r = mesh
+        .positions
+        .iter()
+        .map(|p| p.as_dvec3().distance(c))
+        .fold(0.0, f64::max);
+    (c, r)
+}
+
+fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String) -> Result<Part> {
+    let nf = mesh.faces.len() as u32;
+    let faces: Vec<u32> = match &pf.select {
+        serde_json::Value::String(s) if s == "all" => (0..nf).collect(),
+        serde_json::Value::Object(o) if o.contains_key("group") => {
+            let name = o["group"]
+                .as_str()
+                .ok_or_else(|| scene_err(at("select.group"), "expected a part name".into()))?;
+            let mut f: Vec<u32> = mesh
+                .parts
+                .iter()
+                .filter(|p| p.name == name)
+                .flat_map(|p| p.faces.iter().copied())
+                .collect();
+            if f.is_empty() {
+                let names: Vec<&str> = mesh.parts.iter().map(|p| p.name.as_str()).collect();
+                return Err(scene_err(
+                    at("select.group"),
+                    format!("the mesh has no part {name:?} (it has {names:?})"),
+                ));
+            }
+            f.sort_unstable();
+            f.dedup();
+            f
+        }
+        other => {
+            // A region: faces whose every corner lies in it.
+            let region = csrbf::controls::parse_region(other, &at("select")).map_err(|e| {
+                scene_err(
+                    at("select"),
+                    format!(
+                        "expected \"all\", {{\"group\": name}}, or a region: {}",
+                        e.message
+                    ),
+                )
+            })?;
+            let inside = region
+                .select(&mesh.positions, &|n| mesh.part_vertices(n))
+                .map_err(|e| scene_err(at("select"), e.to_string()))?;
+            let mut mark = vec![false; mesh.positions.len()];
+            for v in inside {
+                mark[v as usize] = true;
+            }
+            (0..nf)
+                .filter(|&f| {
+                    mesh.faces
+                        .face(f as usize)
+                        .iter()
+                        .all(|&v| mark[v as usize])
+                })
+                .collect()
+        }
+    };
+    let mut mark = vec![false; mesh.positions.len()];
+    for &f in &faces {
+        for &v in mesh.faces.face(f as usize) {
+            mark[v as usize] = true;
+        }
+    }
+    let vertices = (0..mark.len() as u32)
+        .filter(|&v| mark[v as usize])
+        .collect();
+    let color = pf.color.map_or(DEFAULT_PART_COLOR, |c| c.0);
+    let texture = match &pf.texture {
+        // A part selected by a material of the mesh takes that material's
+        // embedded image (glTF) when the scene names none.
+        None => embedded_texture(mesh, &pf.select),
+        Some(t) => {
+            Some(load_texture(&dir.join(t)).map_err(|e| scene_err(at("texture"), e.to_string()))?)
+        }
+    };
+    Ok(Part {
+        name: pf.name.clone(),
+        faces,
+        vertices,
+        color,
+        texture,
+        wireframe: pf.wireframe,
+    })
+}
+
+fn load_deformation(
+    mesh: &Mesh,
+    part: &Part,
+    pi: usize,
+    df: &crate::file::DeformationFile,
+    dir: &Path,
+    assets: &Assets,
+    at: &dyn Fn(&str) -> String,
+) -> Result<Animated> {
+    let path = dir.join(&df.controls);
+    let cf = assets
+        .controls(&path)
+        .map_err(|e| scene_err(at("controls"), e))?;
+    let mut stages = Vec::new();
+    let lookup = |n: &str| mesh.part_vertices(n);
+    for (si, spec) in cf.deformations.iter().enumerate() {
+        // Handles become control vectors on the rest mesh.
+        let spec = spec
+            .resolve(&mesh.positions, &lookup)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        let sys = System::new(&spec.starts, spec.options)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        let deformation = sys
+            .solve(&spec.targets)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        // The stage acts on the part's vertices that are also in its region,
+        // each by its weight there (less than 1 in a falloff).
+        let (region, weights): (Vec<u32>, Vec<f32>) = if spec.region == Region::All {
+            (part.vertices.clone(), vec![1.0; part.vertices.len()])
+        } else {
+            let (sel, w) = spec
+                .region
+                .weights(&mesh.positions, &|n| mesh.part_vertices(n))
+                .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+            let mut weight = vec![0.0f32; mesh.positions.len()];
+            for (v, w) in sel.into_iter().zip(w) {
+                weight[v as usize] = w;
+            }
+            part.vertices
+                .iter()
+                .copied()
+                .filter(|&v| weight[v as usize] > 0.0)
+                .map(|v| (v, weight[v as usize]))
+                .unzip()
+        };
+        let pts: Vec<Vec3> = region.iter().map(|&v| mesh.positions[v as usize]).collect();
+        let binding = Binding::new(&deformation, &pts);
+        let per_frame = cf.combine == Combine::Chain && si > 0;
+        let (vertices, displacement) = if per_frame {
+            (region.clone(), Vec::new())
+        } else {
+            let displacement = binding
+                .displacements(&deformation)
+                .map_err(|e| scene_err(at("controls"), e.to_string()))?;
+            // Keep only the vertices that move: a frame then touches nothing else.
+            region
+                .iter()
+                .zip(displacement)
+                .zip(&weights)
+                .filter(|((_, d), _)| *d != Vec3::ZERO)
+                .map(|((&v, d), w)| (v, d * (spec.phase as f32 * w)))
+                .unzip()
+        };
+        stages.push(BoundStage {
+            deformation,
+            targets: spec.targets,
+            vertices,
+            binding,
+            displacement,
+            phase: spec.phase as f32,
+            region,
+            weights,
+        });
+    }
+    check_times(df.phase.iter().map(|k| k.time), &|i| {
+        at(&format!("phase[{i}].time"))
+    })?;
+    if let Some((i, k)) = df
+        .phase
+        .iter()
+        .enumerate()
+        .find(|(_, k)| !(0.0..=1.0).contains(&k.phase))
+    {
+        return Err(scene_err(
+            at(&format!("phase[{i}].phase")),
+            format!("must be within [0, 1], got {}", k.phase),
+        ));
+    }
+    let easing = df.easing;
+    let track = if df.phase.is_empty() {
+        PhaseTrack::constant(1.0)
+    } else {
+        PhaseTrack::new(df.phase.iter().map(|k| (k.time, k.phase)).collect(), easing)
+    };
+    Ok(Animated {
+        part: pi,
+        controls: df.controls.clone(),
+        stages,
+        combine: cf.combine,
+        track,
+    })
+}
