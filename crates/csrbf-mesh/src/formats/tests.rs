@@ -323,3 +323,25 @@ g right\nusemtl c\nf 2/5 5/2 6/4\nusemtl d\nf 2/5 6/4 4/3\n";
         }
     }
 }
+
+/// Issue 7: a glTF from the web must not read local files.
+#[test]
+fn gltf_buffers_outside_the_model_folder_are_refused() {
+    for uri in [
+        "http://example.com/a.bin",
+        "file:///etc/passwd",
+        "../secret.bin",
+        "/etc/passwd",
+        "sub/../../x.bin",
+        "C:/x.bin",
+    ] {
+        let doc = format!(
+            r#"{{"asset": {{"version": "2.0"}}, "buffers": [{{"uri": "{uri}", "byteLength": 4}}]}}"#
+        );
+        let e = parse_err(doc.as_bytes(), Format::Gltf);
+        assert!(
+            e.contains("is refused") && e.contains("own folder"),
+            "{uri}: {e}"
+        );
+    }
+}

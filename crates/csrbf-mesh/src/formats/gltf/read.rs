@@ -1,0 +1,416 @@
+//! Reading glTF: the default scene flattened into one mesh in world space.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{Mat4, Vec2, Vec3};
+use serde_json::Value;
+
+use super::base64::base64_decode;
+use crate::{Faces, Material, Mesh, MeshError, PartKind, Result, TexCoords};
+
+pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
+    // The gltf crate asserts on some malformed accessors; a malformed file
+    // must be an error, never a crash.
+    match std::panic::catch_unwind(|| parse_inner(bytes, path)) {
+        Ok(r) => r,
+        Err(_) => Err(MeshError::parse(
+            path,
+            None,
+            "malformed glTF: an accessor or buffer view is inconsistent",
+        )),
+    }
+}
+
+/// A primitive's node and its position, UV and colour accessors: primitives
+/// with the same key share their vertices.
+type SharedKey = (usize, usize, Option<usize>, Option<usize>);
+
+fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
+    let err = |m: String| MeshError::parse(path, None, m);
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("invalid glTF: {e}")))?;
+    let doc = &gltf.document;
+    let mut buffers: Vec<Vec<u8>> = Vec::new();
+    for b in doc.buffers() {
+        let data = match b.source() {
+            gltf::buffer::Source::Bin => gltf
+                .blob
+                .clone()
+                .ok_or_else(|| err("buffer refers to a missing GLB binary chunk".into()))?,
+            gltf::buffer::Source::Uri(uri) => load_uri(uri, path)?,
+        };
+        if data.len() < b.length() {
+            return Err(err(format!(
+                "buffer {} has {} bytes, the file declares {}",
+                b.index(),
+                data.len(),
+                b.length()
+            )));
+        }
+        buffers.push(data);
+    }
+    let mut mesh = Mesh {
+        faces: Faces::new(),
+        ..Mesh::default()
+    };
+    let mut colors: Vec<[f32; 4]> = Vec::new();
+    let mut uvs: Vec<Vec2> = Vec::new();
+    let (mut any_color, mut any_uv) = (false, false);
+    let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
+    // Primitives that share their vertex accessors (one mesh, a primitive
+    // per material) share their vertices too.
+    let mut shared: HashMap<SharedKey, (u32, usize)> = HashMap::new();
+    let mut meshes_seen = 0usize;
+    let mut extras: Option<Value> = None;
+
+    // Nodes of the default scene (or of every scene), with world transforms.
+    let mut stack: Vec<(gltf::Node, Mat4)> =
+        match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(scene) => scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
+            None => doc.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
+        };
+    stack.reverse();
+    let mut guard = 0usize;
+    while let Some((node, parent)) = stack.pop() {
+        guard += 1;
+        if guard > 1_000_000 {
+            return Err(err("the node hierarchy has a cycle".into()));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((child, world));
+        }
+        let Some(gmesh) = node.mesh() else { continue };
+        meshes_seen += 1;
+        if extras.is_none() {
+            extras = gmesh
+                .extras()
+                .as_ref()
+                .and_then(|r| serde_json::from_str::<Value>(r.get()).ok())
+                .and_then(|v| v.get("csrbf").cloned());
+        }
+        for prim in gmesh.primitives() {
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                continue;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+            let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
+                err(format!(
+                    "mesh {} has a primitive without positions",
+                    gmesh.index()
+                ))
+            })?;
+            if pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
+                || pos_acc.data_type() != gltf::accessor::DataType::F32
+            {
+                return Err(err(format!(
+                    "mesh {}: positions must be float VEC3",
+                    gmesh.index()
+                )));
+            }
+            let key = (
+                node.index(),
+                pos_acc.index(),
+                prim.get(&gltf::Semantic::TexCoords(0)).map(|a| a.index()),
+                prim.get(&gltf::Semantic::Colors(0)).map(|a| a.index()),
+            );
+            if let Some(&(base, count)) = shared.get(&key) {
+                let first_face = mesh.faces.len() as u32;
+                push_triangles(&mut mesh, &reader, base, count, gmesh.index(), &err)?;
+                name_parts(
+                    &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
+                );
+                continue;
+            }
+            let base = mesh.positions.len() as u32;
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| {
+                    err(format!(
+                        "mesh {}: positions lie outside their buffer",
+                        gmesh.index()
+                    ))
+                })?
+                .map(|p| world.transform_point3(Vec3::from_array(p)))
+                .collect();
+            let count = positions.len();
+            mesh.positions.extend(positions);
+            match reader.read_tex_coords(0) {
+                Some(t) => {
+                    any_uv = true;
+                    uvs.resize(base as usize, Vec2::ZERO);
+                    // glTF puts the texture origin at the top left; meshes here keep OBJ's
+                    // bottom-left origin.
+                    uvs.extend(t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).take(count));
+                }
+                None => uvs.resize(base as usize, Vec2::ZERO),
+            }
+            uvs.resize(mesh.positions.len(), Vec2::ZERO);
+            match reader.read_colors(0) {
+                Some(c) => {
+                    any_color = true;
+                    colors.resize(base as usize, [1.0; 4]);
+                    colors.extend(c.into_rgba_f32().take(count));
+                }
+                None => colors.resize(base as usize, [1.0; 4]),
+            }
+            colors.resize(mesh.positions.len(), [1.0; 4]);
+            shared.insert(key, (base, count));
+            let first_face = mesh.faces.len() as u32;
+            push_triangles(&mut mesh, &reader, base, count, gmesh.index(), &err)?;
+            name_parts(
+                &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
+            );
+        }
+    }
+    if any_uv {
+        mesh.uvs = Some(TexCoords {
+            values: uvs,
+            corners: None,
+        });
+    }
+    if any_color {
+        mesh.colors = Some(colors);
+    }
+    if meshes_seen == 1
+        && let Some(extras) = extras
+    {
+        apply_extras(&mut mesh, &extras);
+    }
+    Ok(mesh)
+}
+
+/// The triangles of a primitive over vertices `base..base + count`.
+fn push_triangles<'a, 's, F>(
+    mesh: &mut Mesh,
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    base: u32,
+    count: usize,
+    mesh_index: usize,
+    err: &dyn Fn(String) -> MeshError,
+) -> Result<()>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..count as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(err(format!(
+            "mesh {mesh_index}: {} indices is not a whole number of triangles",
+            indices.len()
+        )));
+    }
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= count) {
+        return Err(err(format!(
+            "mesh {mesh_index}: index {bad} is out of range for {count} vertices"
+        )));
+    }
+    for t in indices.chunks_exact(3) {
+        mesh.faces.push(&[base + t[0], base + t[1], base + t[2]]);
+    }
+    Ok(())
+}
+
+/// The faces from `first_face` on belong to the primitive's mesh, node and
+/// material parts; the material is recorded once.
+#[allow(clippy::too_many_arguments)]
+fn name_parts(
+    mesh: &mut Mesh,
+    parts: &mut HashMap<(PartKind, String), usize>,
+    node: &gltf::Node,
+    gmesh: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    first_face: u32,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) {
+    let faces: Vec<u32> = (first_face..mesh.faces.len() as u32).collect();
+    let mat = prim.material();
+    let mat_name = mat
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| match mat.index() {
+            Some(i) => format!("material{i}"),
+            None => "default".to_owned(),
+        });
+    if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
+        mesh.materials.push(Material {
+            name: mat_name.clone(),
+            color: mat.pbr_metallic_roughness().base_color_factor(),
+            texture: texture_of(&mat, buffers, path),
+        });
+    }
+    let names = [
+        (
+            PartKind::Group,
+            gmesh
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| format!("mesh{}", gmesh.index())),
+        ),
+        (
+            PartKind::Object,
+            node.name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| format!("node{}", node.index())),
+        ),
+        (PartKind::Material, mat_name),
+    ];
+    for (kind, name) in names {
+        let id = mesh.part_index(parts, kind, name);
+        mesh.parts[id].faces.extend_from_slice(&faces);
+    }
+}
+
+/// What this writer keeps in a mesh's `csrbf` extras: the parts by
+/// triangle, and the source vertex of every vertex split at a UV seam (the
+/// split vertices are welded back, the UVs kept per corner).
+fn apply_extras(mesh: &mut Mesh, extras: &Value) {
+    let n = mesh.positions.len();
+    if let Some(src) = extras.get("source_vertices").and_then(Value::as_array) {
+        let source: Option<Vec<u32>> = src.iter().map(|v| v.as_u64().map(|v| v as u32)).collect();
+        // Ours: the first vertices are the originals, the rest copies of them.
+        let kept = source.as_ref().map_or(0, |s| {
+            s.iter()
+                .enumerate()
+                .take_while(|&(i, &v)| v as usize == i)
+                .count()
+        });
+        if let Some(source) =
+            source.filter(|s| s.len() == n && s[kept..].iter().all(|&v| (v as usize) < kept))
+        {
+            // UVs per corner from the split vertices, before welding.
+            if let Some(uv) = &mesh.uvs {
+                mesh.uvs = Some(TexCoords {
+                    values: uv.values.clone(),
+                    corners: Some(mesh.faces.indices.clone()),
+                });
+            }
+            for v in &mut mesh.faces.indices {
+                *v = source[*v as usize];
+            }
+            mesh.positions.truncate(kept);
+            if let Some(c) = &mut mesh.colors {
+                c.truncate(kept);
+            }
+        }
+    }
+    if let Some(list) = extras.get("parts").and_then(Value::as_array) {
+        let faces = mesh.faces.len() as u64;
+        let mut restored = Vec::new();
+        for p in list {
+            let name = p.get("name").and_then(Value::as_str);
+            let kind = match p.get("kind").and_then(Value::as_str) {
+                Some("group") => Some(PartKind::Group),
+                Some("object") => Some(PartKind::Object),
+                Some("material") => Some(PartKind::Material),
+                _ => None,
+            };
+            let tris: Option<Vec<u32>> =
+                p.get("triangles").and_then(Value::as_array).and_then(|a| {
+                    a.iter()
+                        .map(|t| t.as_u64().filter(|&t| t < faces).map(|t| t as u32))
+                        .collect()
+                });
+            match (name, kind, tris) {
+                (Some(name), Some(kind), Some(mut faces)) => {
+                    faces.sort_unstable();
+                    restored.push(crate::Part {
+                        name: name.to_owned(),
+                        kind,
+                        faces,
+                    });
+                }
+                // Not ours after all: keep the parts the file's structure gave.
+                _ => return,
+            }
+        }
+        mesh.parts = restored;
+    }
+}
+
+/// The base-colour image of a material, when it is embedded.
+fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<(String, Vec<u8>)> {
+    let info = mat.pbr_metallic_roughness().base_color_texture()?;
+    match info.texture().source().source() {
+        gltf::image::Source::View { view, mime_type } => {
+            let b = buffers.get(view.buffer().index())?;
+            Some((
+                mime_type.to_owned(),
+                b.get(view.offset()..view.offset() + view.length())?
+                    .to_vec(),
+            ))
+        }
+        gltf::image::Source::Uri { uri, mime_type } => {
+            let data = load_uri(uri, path).ok()?;
+            let mime = mime_type.map(str::to_owned).unwrap_or_else(|| {
+                if uri.ends_with(".jpg") || uri.ends_with(".jpeg") {
+                    "image/jpeg".into()
+                } else {
+                    "image/png".into()
+                }
+            });
+            Some((mime, data))
+        }
+    }
+}
+
+fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (_, data) = rest
+            .split_once(";base64,")
+            .ok_or_else(|| MeshError::parse(path, None, "a data URI is not base64"))?;
+        return base64_decode(data)
+            .ok_or_else(|| MeshError::parse(path, None, "a data URI holds invalid base64"));
+    }
+    // A model from the web must not read local files: a buffer is a file in
+    // the model's own folder (or below it), never a URL or a path out of it.
+    let decoded = percent_decode(uri);
+    let rel = Path::new(&decoded);
+    // A scheme (`http:`) or a drive (`C:`): a colon before any slash.
+    let scheme = uri
+        .split('/')
+        .next()
+        .is_some_and(|first| first.contains(':'));
+    let escapes = rel.is_absolute()
+        || rel.has_root()
+        || rel.components().any(|c| {
+            !matches!(
+                c,
+                std::path::Component::Normal(_) | std::path::Component::CurDir
+            )
+        });
+    if scheme || escapes {
+        return Err(MeshError::parse(
+            path,
+            None,
+            format!(
+                "buffer URI {uri:?} is refused: only data URIs and files in the model's own folder are read"
+            ),
+        ));
+    }
+    let file = path.parent().unwrap_or(Path::new(".")).join(rel);
+    std::fs::read(&file).map_err(|source| MeshError::Io { path: file, source })
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let hex = |c: u8| (c as char).to_digit(16);
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
