@@ -1,0 +1,101 @@
+//! Assembling A (profile or compressed columns) and choosing the solver.
+
+use glam::DVec3;
+
+use super::FitOptions;
+use crate::error::Result;
+use crate::ordering::{self, Band, Graph};
+use crate::skyline::{Envelope, Profile};
+use crate::solver::{Factor, LowerCsc, SolverChoice};
+
+/// Chooses and runs the factorisation.
+pub(super) fn factor(
+    starts: &[DVec3],
+    graph: &Graph,
+    perm: Vec<u32>,
+    envelope: Envelope,
+    options: &FitOptions,
+    _band: Band,
+) -> Result<Factor> {
+    let kernel = options.kernel;
+    let inv_r = 1.0 / options.radius;
+    let phi = |i: usize, j: usize| kernel.eval(starts[i].distance(starts[j]) * inv_r);
+    let skyline_flops = envelope.factor_flops();
+    let choice = match options.solver {
+        SolverChoice::Auto => {
+            // Below some 30 million multiply-adds the profile factor takes a few
+            // milliseconds at most; beyond, compare with the supernodal fill.
+            if skyline_flops < 3e7 {
+                SolverChoice::Skyline
+            } else {
+                SolverChoice::Supernodal
+            }
+        }
+        c => c,
+    };
+    if choice == SolverChoice::Supernodal {
+        let a = lower_csc(graph, &phi, kernel.eval(0.0));
+        let symbolic = Factor::supernodal_symbolic(&a)?;
+        // The supernodal work is about sum over columns of count^2; the
+        // profile's is its flops. Take the profile when it is not worse.
+        let nnz_l = symbolic.len_val() as f64;
+        let n = starts.len() as f64;
+        let supernodal_flops = nnz_l * nnz_l / n * 0.5 + 2e5;
+        if options.solver == SolverChoice::Auto && skyline_flops <= supernodal_flops {
+            return Factor::skyline(
+                assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)),
+                perm,
+            );
+        }
+        return Factor::supernodal(symbolic, &a);
+    }
+    Factor::skyline(
+        assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)),
+        perm,
+    )
+}
+
+fn assemble_profile(
+    graph: &Graph,
+    perm: &[u32],
+    envelope: Envelope,
+    phi: &impl Fn(usize, usize) -> f64,
+    diag: f64,
+) -> Profile {
+    let inv = ordering::inverse(perm);
+    let mut p = Profile::zeros(envelope);
+    for (new, &old) in perm.iter().enumerate() {
+        p.set(new, new, diag);
+        for &j in graph.neighbours(old as usize) {
+            let nj = inv[j as usize] as usize;
+            if nj < new {
+                p.set(new, nj, phi(old as usize, j as usize));
+            }
+        }
+    }
+    p
+}
+
+fn lower_csc(graph: &Graph, phi: &impl Fn(usize, usize) -> f64, diag: f64) -> LowerCsc {
+    let n = graph.len();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(n + graph.edge_entries() / 2);
+    let mut values = Vec::with_capacity(row_idx.capacity());
+    col_ptr.push(0u32);
+    for j in 0..n {
+        row_idx.push(j as u32);
+        values.push(diag);
+        // Neighbour lists are sorted, so rows below the diagonal come in order.
+        for &i in graph.neighbours(j).iter().filter(|&&i| i as usize > j) {
+            row_idx.push(i);
+            values.push(phi(i as usize, j));
+        }
+        col_ptr.push(row_idx.len() as u32);
+    }
+    LowerCsc {
+        n,
+        col_ptr,
+        row_idx,
+        values,
+    }
+}

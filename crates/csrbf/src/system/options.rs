@@ -1,0 +1,112 @@
+//! What to build: the options of a fit, and the figures a built system reports.
+
+use crate::kernel::{Kernel, Polynomial};
+use crate::ordering::Ordering;
+use crate::solver::SolverChoice;
+
+/// How to build a deformation. Plain data; `Default` is C2, R = 1, no polynomial,
+/// automatic ordering and solver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct FitOptions {
+    /// The Wendland kernel. Default C2.
+    pub kernel: Kernel,
+    /// Radius of support R, in the units of the points. Default 1.
+    pub radius: f64,
+    /// The polynomial term. Default none (local edits stay local).
+    pub polynomial: Polynomial,
+    /// Renumbering for the profile. Default automatic.
+    pub ordering: Ordering,
+    /// Factorisation. Default automatic (by estimated cost).
+    pub solver: SolverChoice,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            kernel: Kernel::C2,
+            radius: 1.0,
+            polynomial: Polynomial::None,
+            ordering: Ordering::Auto,
+            solver: SolverChoice::Auto,
+        }
+    }
+}
+
+impl FitOptions {
+    /// With this kernel.
+    pub fn with_kernel(mut self, kernel: Kernel) -> Self {
+        self.kernel = kernel;
+        self
+    }
+    /// With this radius of support.
+    pub fn with_radius(mut self, radius: f64) -> Self {
+        self.radius = radius;
+        self
+    }
+    /// With this polynomial term.
+    pub fn with_polynomial(mut self, polynomial: Polynomial) -> Self {
+        self.polynomial = polynomial;
+        self
+    }
+    /// With this ordering.
+    pub fn with_ordering(mut self, ordering: Ordering) -> Self {
+        self.ordering = ordering;
+        self
+    }
+    /// With this solver.
+    pub fn with_solver(mut self, solver: SolverChoice) -> Self {
+        self.solver = solver;
+        self
+    }
+}
+
+/// What the system looks like: the figures `csrbf info` reports.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct SystemStats {
+    /// Number of control vectors N.
+    pub controls: usize,
+    /// Fewest neighbours (other starts within R) of any start.
+    pub neighbours_min: usize,
+    /// Mean neighbours per start.
+    pub neighbours_mean: f64,
+    /// Most neighbours of any start.
+    pub neighbours_max: usize,
+    /// Non-zeros of A (both triangles and the diagonal).
+    pub nonzeros: usize,
+    /// Bandwidth in the caller's order.
+    pub bandwidth_before: usize,
+    /// Envelope entries in the caller's order.
+    pub envelope_before: usize,
+    /// Bandwidth after ordering.
+    pub bandwidth: usize,
+    /// Envelope entries after ordering.
+    pub envelope: usize,
+    /// The ordering used.
+    pub ordering: String,
+    /// Bandwidth and envelope of every ordering tried.
+    pub orderings: Vec<OrderingFigures>,
+    /// Profile bytes in the papers' accounting (4-byte values and row starts).
+    pub profile_bytes: usize,
+    /// Dense N^2 bytes with 4-byte values, as in the papers.
+    pub dense_bytes: usize,
+    /// The solver used.
+    pub solver: String,
+    /// Estimated multiply-adds of the profile factorisation.
+    pub skyline_flops: f64,
+    /// Bytes the factor's f64 values take.
+    pub factor_bytes: usize,
+}
+
+/// The band one ordering gives.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct OrderingFigures {
+    /// `identity`, `breadth-first` or `rcm`.
+    pub ordering: String,
+    /// Largest distance of a non-zero from the diagonal.
+    pub bandwidth: usize,
+    /// Entries below the diagonal inside the profile.
+    pub envelope: usize,
+}
