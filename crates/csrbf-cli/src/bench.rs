@@ -8,8 +8,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use csrbf::Combine;
 use csrbf::controls::{ControlFile, ControlSpec};
-use csrbf::synthetic::{fibonacci_sphere, radius_for_neighbours, smooth_displacements};
-use csrbf::{Binding, FitOptions, Kernel, Polynomial, SolverChoice, System, frame};
+use csrbf::synthetic::SyntheticScene;
+use csrbf::{Binding, SolverChoice, System, frame};
 use glam::{DVec3, Vec3};
 use serde_json::json;
 
@@ -50,45 +50,14 @@ pub struct BenchArgs {
     samples: u32,
 }
 
-/// A benchmark input: rest points, starts, destinations and options.
-struct Scene {
-    name: String,
-    points: Vec<Vec3>,
-    starts: Vec<DVec3>,
-    targets: Vec<DVec3>,
-    options: FitOptions,
-}
+type Scene = SyntheticScene;
 
 fn synthetic(name: &str) -> Result<Scene> {
-    let (v, n, radius) = match name {
-        "fish" => (975, 92, Some(0.3)),
-        "face" => (6158, 32, Some(0.2)),
-        "100k" => (100_000, 1_000, None),
-        "1m" => (1_000_000, 10_000, None),
-        other => bail!("unknown scene {other:?}: expected fish, face, 100k or 1m"),
-    };
-    let c = DVec3::splat(0.5);
-    let r = radius.unwrap_or_else(|| radius_for_neighbours(n, 0.4, 44.0));
-    let points = fibonacci_sphere(v, c, 0.4, 0.0, 0)
-        .into_iter()
-        .map(|p| p.as_vec3())
-        .collect();
-    let starts = fibonacci_sphere(n, c, 0.4, 0.3, 1);
-    let targets = starts
-        .iter()
-        .zip(smooth_displacements(&starts, 0.2 * r, 2))
-        .map(|(s, d)| *s + d)
-        .collect();
-    let options = FitOptions::default()
-        .with_kernel(Kernel::C2)
-        .with_polynomial(Polynomial::Linear)
-        .with_radius(r);
-    Ok(Scene {
-        name: name.to_owned(),
-        points,
-        starts,
-        targets,
-        options,
+    csrbf::synthetic::scene(name).with_context(|| {
+        format!(
+            "unknown scene {name:?}: expected {}",
+            csrbf::synthetic::SCENES.join(", ")
+        )
     })
 }
 

@@ -78,9 +78,15 @@ pub fn fit_all(
     specs: &[ControlSpec],
     path: &Path,
     mesh: Option<&Mesh>,
+    allow_large: bool,
     progress: &Progress,
 ) -> Result<Vec<(Deformation, Region, f64)>> {
-    let specs = resolve_all(specs, path, mesh, progress)?;
+    let mut specs = resolve_all(specs, path, mesh, progress)?;
+    if allow_large {
+        for s in &mut specs {
+            s.options = s.options.with_memory_limit(u64::MAX);
+        }
+    }
     let mut out = Vec::with_capacity(specs.len());
     for (i, s) in specs.iter().enumerate() {
         let at = stage_name(path, i, specs.len());
@@ -238,30 +244,15 @@ pub fn extension_in(out: &Path, allowed: &[&str], what: &str) -> Result<String> 
 }
 
 /// Warns before a long fit when R reaches most of the starts: the system is
-/// then nearly dense (N^2 memory, N^3 work). Estimated from a sample of starts.
+/// then nearly dense (N^2 memory, N^3 work). The estimate is the engine's.
 fn warn_if_dense(s: &ControlSpec, at: &str) {
-    let n = s.starts.len();
-    if n < 2000 {
-        return;
-    }
-    let r2 = s.options.radius * s.options.radius;
-    let step = (n / 64).max(1);
-    let sample: Vec<_> = s.starts.iter().step_by(step).collect();
-    let within: usize = sample
-        .iter()
-        .map(|p| {
-            s.starts
-                .iter()
-                .filter(|q| q.distance_squared(**p) < r2)
-                .count()
-        })
-        .sum();
-    let fraction = within as f64 / (sample.len() * n) as f64;
-    if fraction > 0.2 {
+    let e = csrbf::estimate(&s.starts, s.options.radius);
+    if e.nearly_dense() {
         eprintln!(
-            "warning: {at}: R = {} reaches about {:.0} % of the {n} starts, so the system is nearly dense and the fit will be slow and large; a smaller R keeps it sparse",
+            "warning: {at}: R = {} reaches about {:.0} % of the {} starts, so the system is nearly dense and the fit will be slow and large; a smaller R keeps it sparse",
             s.options.radius,
-            fraction * 100.0
+            e.fraction * 100.0,
+            e.starts
         );
     }
 }

@@ -1,6 +1,6 @@
-//! `deform`, `fit` and `apply`.
+//! `deform`: a mesh moved by a control file, with what moved and what to worry about.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -9,20 +9,46 @@ use csrbf_mesh::Mesh;
 
 use crate::common::{Progress, check_output, check_phase, fit_all, read_controls, read_mesh};
 
-pub fn deform(
-    mesh: &Path,
-    controls: &Path,
-    phase: f64,
-    out: &Path,
-    force: bool,
-    json: bool,
-    progress: &Progress,
-) -> Result<()> {
+/// Options of `deform`.
+#[derive(clap::Args, Debug)]
+pub struct DeformArgs {
+    /// Input mesh (.obj, .ply, .stl, .off, .gltf, .glb).
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// Control file (JSON).
+    #[arg(long)]
+    pub controls: PathBuf,
+    /// Phase in [0, 1]: 0 is the rest shape, 1 the full deformation.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub phase: f64,
+    /// Output mesh; the format comes from the extension.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Allow the output to replace an input file.
+    #[arg(long)]
+    pub force: bool,
+    /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// Fit even a system estimated past the memory limit (4 GB).
+    #[arg(long)]
+    pub allow_large: bool,
+}
+
+pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
+    let (mesh, controls, phase, out) = (&a.mesh, &a.controls, a.phase, &a.out);
+    let (force, json, allow_large) = (a.force, a.json, a.allow_large);
     check_phase(phase)?;
-    check_output(out, &[mesh, controls], force, true)?;
+    check_output(out, &[mesh.as_path(), controls.as_path()], force, true)?;
     let file = read_controls(controls, progress)?;
     let mut m = read_mesh(mesh, progress)?;
-    let stages = fit_all(&file.deformations, controls, Some(&m), progress)?;
+    let stages = fit_all(
+        &file.deformations,
+        controls,
+        Some(&m),
+        allow_large,
+        progress,
+    )?;
     move_and_write(
         &mut m,
         &stages,

@@ -12,6 +12,7 @@ pub fn fit(
     mesh: Option<&Path>,
     out: &Path,
     force: bool,
+    allow_large: bool,
     progress: &Progress,
 ) -> Result<()> {
     let inputs: Vec<&Path> = std::iter::once(controls).chain(mesh).collect();
@@ -19,7 +20,13 @@ pub fn fit(
     let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
     let file = read_controls(controls, progress)?;
     let m = mesh.map(|p| read_mesh(p, progress)).transpose()?;
-    let stages = fit_all(&file.deformations, controls, m.as_ref(), progress)?;
+    let stages = fit_all(
+        &file.deformations,
+        controls,
+        m.as_ref(),
+        allow_large,
+        progress,
+    )?;
     let bytes = if ext == "json" {
         serde_json::to_vec_pretty(&format::to_json(&stages, file.combine))?
     } else {

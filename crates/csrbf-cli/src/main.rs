@@ -34,26 +34,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Deform a mesh by a control file and write the result.
-    Deform {
-        /// Input mesh (.obj, .ply, .stl, .off, .gltf, .glb).
-        #[arg(long)]
-        mesh: PathBuf,
-        /// Control file (JSON).
-        #[arg(long)]
-        controls: PathBuf,
-        /// Phase in [0, 1]: 0 is the rest shape, 1 the full deformation.
-        #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-        phase: f64,
-        /// Output mesh; the format comes from the extension.
-        #[arg(long)]
-        out: PathBuf,
-        /// Allow the output to replace an input file.
-        #[arg(long)]
-        force: bool,
-        /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
-        #[arg(long)]
-        json: bool,
-    },
+    Deform(deform::DeformArgs),
     /// Fit the deformations of a control file and save them compactly (.csrbf, or .json for people).
     Fit {
         /// Control file (JSON).
@@ -62,6 +43,9 @@ enum Command {
         /// The mesh, for control files with a handle (sampled on it).
         #[arg(long)]
         mesh: Option<PathBuf>,
+        /// Fit even a system estimated past the memory limit (4 GB).
+        #[arg(long)]
+        allow_large: bool,
         /// Output: .csrbf (binary, bit-exact) or .json.
         #[arg(long)]
         out: PathBuf,
@@ -167,20 +151,21 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let progress = common::Progress::new(!cli.quiet);
     let result = match cli.command {
-        Command::Deform {
-            mesh,
-            controls,
-            phase,
-            out,
-            force,
-            json,
-        } => deform::deform(&mesh, &controls, phase, &out, force, json, &progress),
+        Command::Deform(args) => deform::deform(&args, &progress),
         Command::Fit {
             controls,
             mesh,
+            allow_large,
             out,
             force,
-        } => fit::fit(&controls, mesh.as_deref(), &out, force, &progress),
+        } => fit::fit(
+            &controls,
+            mesh.as_deref(),
+            &out,
+            force,
+            allow_large,
+            &progress,
+        ),
         Command::Apply {
             mesh,
             deformation,

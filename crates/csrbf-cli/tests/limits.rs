@@ -141,3 +141,50 @@ fn an_interrupted_movie_leaves_nothing_and_stale_temporaries_are_swept() {
     ]);
     assert!(!stale.exists(), "a stale temporary survived");
 }
+
+/// Issue 7: 20,000 controls all within R of each other are refused at once
+/// with the estimate, the limit and a radius that fits (it used to run for
+/// minutes at 6.4 GB).
+#[test]
+fn a_dense_control_file_is_refused_with_a_radius_that_fits() {
+    let dir = TempDir::new("dense");
+    let mut s = 1u64;
+    let mut r = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let controls: Vec<String> = (0..20_000)
+        .map(|_| {
+            let (x, y, z) = (r(), r(), r());
+            format!(r#"{{"from": [{x}, {y}, {z}], "to": [{x}, {y}, {z}]}}"#)
+        })
+        .collect();
+    let c = dir.write(
+        "dense.json",
+        format!(r#"{{"radius": 10, "controls": [{}]}}"#, controls.join(",")),
+    );
+    let head = model("cgal_head.off");
+    let out = dir.path("o.ply");
+    let t = std::time::Instant::now();
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&out),
+        ],
+        &[
+            "dense.json",
+            "the limit of 4.3 GB",
+            "smaller R",
+            "--allow-large",
+        ],
+    );
+    assert!(t.elapsed().as_secs() < 30, "refused from the estimate");
+    assert!(!out.exists());
+}

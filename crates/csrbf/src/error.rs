@@ -114,6 +114,25 @@ pub enum Error {
     /// A region that cannot be used (its message says why).
     #[error("region: {0}")]
     BadRegion(String),
+    /// The system would take more memory than the limit allows.
+    #[error(
+        "R = {radius} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {:.1} GB, {:.1}x the limit of {:.1} GB: use a smaller R (about {suggested_radius:.4} fits), or lift the limit knowingly (--allow-large)",
+        bytes / 1e9, bytes / *limit as f64, *limit as f64 / 1e9
+    )]
+    TooLarge {
+        /// Estimated bytes.
+        bytes: f64,
+        /// The limit.
+        limit: u64,
+        /// Mean starts within R of a start.
+        neighbours: f64,
+        /// Number of starts.
+        starts: usize,
+        /// The radius asked for.
+        radius: f64,
+        /// A radius that fits.
+        suggested_radius: f64,
+    },
     /// A pipeline stage that does not exist.
     #[error("stage {index} does not exist: the pipeline has {count} stage(s)")]
     StageIndex {

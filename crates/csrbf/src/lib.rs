@@ -105,4 +105,6 @@ pub use ordering::Ordering;
 pub use pipeline::{Combine, Pipeline, Stage, Work, compose};
 pub use region::Region;
 pub use solver::SolverChoice;
-pub use system::{FitOptions, OrderingFigures, System, SystemStats};
+pub use system::{
+    DEFAULT_MEMORY_LIMIT, Estimate, FitOptions, OrderingFigures, System, SystemStats, estimate,
+};

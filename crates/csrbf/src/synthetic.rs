@@ -101,3 +101,63 @@ pub fn radius_for_neighbours(n: usize, sphere_radius: f64, neighbours: f64) -> f
     let area = 4.0 * std::f64::consts::PI * sphere_radius * sphere_radius;
     (neighbours * area / (std::f64::consts::PI * n.max(1) as f64)).sqrt()
 }
+
+/// A benchmark scene: points to deform and control vectors on a sphere.
+#[derive(Clone, Debug)]
+pub struct SyntheticScene {
+    /// Its name (`fish`, `face`, `100k`, `1m`, or `V/N` for custom sizes).
+    pub name: String,
+    /// The points (a Fibonacci lattice on a sphere of radius 0.4 at (0.5, 0.5, 0.5)).
+    pub points: Vec<glam::Vec3>,
+    /// The starts (a jittered lattice on the same sphere).
+    pub starts: Vec<DVec3>,
+    /// Their destinations: smooth random moves of about 0.2 R.
+    pub targets: Vec<DVec3>,
+    /// C2, linear, and R as the recipe says.
+    pub options: crate::FitOptions,
+}
+
+/// The scene names [`scene`] knows.
+pub const SCENES: [&str; 4] = ["fish", "face", "100k", "1m"];
+
+/// A named benchmark scene: `fish` (975 points, 92 starts, R 0.3) and `face`
+/// (6158, 32, R 0.2) the sizes of the papers' examples, `100k` (100,000,
+/// 1,000) and `1m` (1,000,000, 10,000) with R giving each start about 44
+/// neighbours. The one recipe `csrbf bench`, the examples and the tests use.
+pub fn scene(name: &str) -> Option<SyntheticScene> {
+    let (v, n, radius) = match name {
+        "fish" => (975, 92, Some(0.3)),
+        "face" => (6158, 32, Some(0.2)),
+        "100k" => (100_000, 1_000, None),
+        "1m" => (1_000_000, 10_000, None),
+        _ => return None,
+    };
+    Some(scene_of(name, v, n, radius))
+}
+
+/// A benchmark scene of `points` points and `starts` starts; R about 44
+/// neighbours unless given.
+pub fn scene_of(name: &str, points: usize, starts: usize, radius: Option<f64>) -> SyntheticScene {
+    let c = DVec3::splat(0.5);
+    let r = radius.unwrap_or_else(|| radius_for_neighbours(starts, 0.4, 44.0));
+    let pts = fibonacci_sphere(points, c, 0.4, 0.0, 0)
+        .into_iter()
+        .map(|p| p.as_vec3())
+        .collect();
+    let s = fibonacci_sphere(starts, c, 0.4, 0.3, 1);
+    let targets = s
+        .iter()
+        .zip(smooth_displacements(&s, 0.2 * r, 2))
+        .map(|(s, d)| *s + d)
+        .collect();
+    SyntheticScene {
+        name: name.to_owned(),
+        points: pts,
+        starts: s,
+        targets,
+        options: crate::FitOptions::default()
+            .with_kernel(crate::Kernel::C2)
+            .with_polynomial(crate::Polynomial::Linear)
+            .with_radius(r),
+    }
+}

@@ -659,3 +659,38 @@ fn stage_indices_phases_and_bindings_are_named() {
         })
     ));
 }
+
+/// Issue 7: a nearly dense system is refused from an estimate, before its
+/// graph or factor take gigabytes; the limit can be lifted knowingly.
+#[test]
+fn dense_systems_are_refused_before_any_allocation() {
+    let mut rng = Rng::new(77);
+    let starts: Vec<DVec3> = (0..20_000).map(|_| rng.vec3()).collect();
+    let t = std::time::Instant::now();
+    let e = System::new(&starts, FitOptions::default().with_radius(10.0)).expect_err("refused");
+    assert!(
+        t.elapsed().as_secs() < 10,
+        "the refusal must come from the estimate"
+    );
+    let Error::TooLarge {
+        bytes,
+        limit,
+        suggested_radius,
+        ..
+    } = e.clone()
+    else {
+        panic!("{e}");
+    };
+    assert!(bytes > limit as f64 && suggested_radius < 10.0);
+    let msg = e.to_string();
+    assert!(
+        msg.contains("the limit of 4.3 GB") && msg.contains("smaller R"),
+        "{msg}"
+    );
+    let est = estimate(&starts, 10.0);
+    assert!(est.nearly_dense() && est.fraction > 0.99);
+    // A small limit refuses a sparse system too, and a large one lets it through.
+    let sparse = FitOptions::default().with_radius(0.05);
+    assert!(System::new(&starts, sparse.with_memory_limit(1000)).is_err());
+    assert!(System::new(&starts, sparse).is_ok());
+}

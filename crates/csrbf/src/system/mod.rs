@@ -7,6 +7,7 @@
 //! `poly` (the polynomial block).
 
 mod assemble;
+mod estimate;
 mod graph;
 mod options;
 mod poly;
@@ -22,7 +23,8 @@ use crate::ordering;
 use crate::skyline::Envelope;
 use crate::solver::Factor;
 
-pub use options::{FitOptions, OrderingFigures, SystemStats};
+pub use estimate::{Estimate, estimate};
+pub use options::{DEFAULT_MEMORY_LIMIT, FitOptions, OrderingFigures, SystemStats};
 pub(crate) use poly::prow;
 
 use assemble::factor;
@@ -50,6 +52,20 @@ impl System {
     pub fn new(starts: &[DVec3], options: FitOptions) -> Result<System> {
         validate(starts, &options)?;
         let radius = options.radius;
+        // A nearly dense system is refused before its graph is built.
+        if starts.len() >= 2000 {
+            let e = estimate(starts, radius);
+            if e.bytes > options.memory_limit as f64 {
+                return Err(Error::TooLarge {
+                    bytes: e.bytes,
+                    limit: options.memory_limit,
+                    neighbours: e.neighbours,
+                    starts: e.starts,
+                    radius,
+                    suggested_radius: e.radius_for(radius, options.memory_limit),
+                });
+            }
+        }
         let octree = Octree::new(starts);
         let (graph, close) = neighbour_graph(starts, &octree, radius, options.kernel);
         if let Some(c) = close {

@@ -19,7 +19,17 @@ pub struct FitOptions {
     pub ordering: Ordering,
     /// Factorisation. Default automatic (by estimated cost).
     pub solver: SolverChoice,
+    /// Most memory the neighbour graph and factor may take, estimated
+    /// before either is built: past it the fit is refused (see
+    /// [`crate::Error::TooLarge`]). Default [`DEFAULT_MEMORY_LIMIT`];
+    /// `u64::MAX` lifts it.
+    pub memory_limit: u64,
 }
+
+/// The default [`FitOptions::memory_limit`]: 4 GiB, a sixth of the 24 GiB
+/// machines csrbf is built on, so a nearly dense system is refused before it
+/// swaps or aborts.
+pub const DEFAULT_MEMORY_LIMIT: u64 = 4 << 30;
 
 impl Default for FitOptions {
     fn default() -> Self {
@@ -29,6 +39,7 @@ impl Default for FitOptions {
             polynomial: Polynomial::None,
             ordering: Ordering::Auto,
             solver: SolverChoice::Auto,
+            memory_limit: DEFAULT_MEMORY_LIMIT,
         }
     }
 }
@@ -37,6 +48,11 @@ impl FitOptions {
     /// With this kernel.
     pub fn with_kernel(mut self, kernel: Kernel) -> Self {
         self.kernel = kernel;
+        self
+    }
+    /// With this memory limit (`u64::MAX`: none).
+    pub fn with_memory_limit(mut self, bytes: u64) -> Self {
+        self.memory_limit = bytes;
         self
     }
     /// With this radius of support.
