@@ -21,6 +21,7 @@
 //! assert_eq!(t.position(1.0), DVec3::X);
 //! ```
 
+pub mod apply;
 pub mod camera;
 pub mod demos;
 mod export;

@@ -7,10 +7,15 @@ use rayon::prelude::*;
 
 use crate::deformation::Deformation;
 use crate::error::{Error, Result};
-use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, for_each_cell};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, for_each_cell};
 use crate::kernel::Kernel;
 
 /// Per-point kernel weights of one set of starts (one [`crate::System`]).
+///
+/// It pays when destinations change and the points do not (a drag loop, a
+/// Picker): each new solve costs one sparse product instead of a search of
+/// the starts. When only the phase changes (playback), compute the
+/// displacement once and call [`frame`] instead.
 ///
 /// Weights are kept in f32 to halve the memory (about 8 bytes per
 /// point-start pair); a displacement through a binding agrees with
@@ -42,6 +47,24 @@ impl Binding {
     /// weights. Only the starts, kernel and R matter: any deformation solved
     /// from the same [`crate::System`] can then be applied through it.
     pub fn new<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
+        match P::slice(points) {
+            Points::F32(p) => Binding::of_f32(deformation, p),
+            Points::F64(p) => Binding::of_f64(deformation, p),
+        }
+    }
+
+    // The hot loop, compiled here (not in the caller's crate) for each kind.
+    #[inline(never)]
+    fn of_f32(deformation: &Deformation, points: &[Vec3]) -> Binding {
+        Binding::build(deformation, points)
+    }
+
+    #[inline(never)]
+    fn of_f64(deformation: &Deformation, points: &[DVec3]) -> Binding {
+        Binding::build(deformation, points)
+    }
+
+    fn build<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
         let blocks = Blocks::for_starts(points, deformation.radius(), deformation.starts().len());
         let mut chunks = vec![Chunk::default(); blocks.cells.len()];
         let (kernel, radius) = (deformation.kernel(), deformation.radius());

@@ -94,6 +94,21 @@ pub struct ControlFile {
 }
 
 impl ControlSpec {
+    /// The pipeline stage of this deformation. A handle must be resolved on
+    /// the mesh first ([`ControlSpec::resolve`]).
+    pub fn to_stage(&self) -> crate::Result<crate::Stage> {
+        if self.handle.is_some() {
+            return Err(crate::Error::BadHandle(
+                "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
+            ));
+        }
+        Ok(
+            crate::Stage::new(self.starts.clone(), self.targets.clone(), self.options)
+                .with_region(self.region.clone())
+                .with_phase(self.phase),
+        )
+    }
+
     /// A deformation of these control vectors over the whole mesh at full phase.
     pub fn new(starts: Vec<DVec3>, targets: Vec<DVec3>, options: FitOptions) -> ControlSpec {
         ControlSpec {
@@ -182,6 +197,17 @@ pub fn region_json(r: &Region) -> Value {
             v["falloff"] = (*width).into();
             v
         }
+    }
+}
+
+impl From<&crate::Stage> for ControlSpec {
+    /// The control-file form of a pipeline stage (for saving what a
+    /// pipeline holds).
+    fn from(s: &crate::Stage) -> ControlSpec {
+        let mut spec = ControlSpec::new(s.starts.clone(), s.targets.clone(), s.options);
+        spec.region = s.region.clone();
+        spec.phase = s.phase;
+        spec
     }
 }
 
@@ -726,6 +752,21 @@ mod tests {
             let back = ControlFile::parse(&file.to_text()).expect("reparse");
             assert_eq!(back, file);
         }
+    }
+
+    #[test]
+    fn specs_and_stages_convert_both_ways() {
+        let mut spec = ControlSpec::new(
+            vec![DVec3::ZERO],
+            vec![DVec3::X],
+            FitOptions::default().with_radius(2.0),
+        );
+        spec.phase = 0.5;
+        spec.region = Region::Group("lips".into());
+        let stage = spec.to_stage().expect("stage");
+        assert_eq!(ControlSpec::from(&stage), spec);
+        spec.handle = Some(Handle::new(Region::All).with_scale(2.0));
+        assert!(spec.to_stage().is_err());
     }
 
     #[test]

@@ -3,7 +3,7 @@
 use glam::{DVec3, Vec3};
 
 use crate::error::{Error, Result};
-use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, for_each_cell};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
 use crate::system::{FitOptions, System, prow};
@@ -72,7 +72,7 @@ impl Deformation {
     /// assert_eq!(d.displacement_at(DVec3::splat(10.0)), DVec3::ZERO);
     /// # Ok::<(), csrbf::Error>(())
     /// ```
-    pub fn fit(starts: &[DVec3], targets: &[DVec3], options: FitOptions) -> Result<Deformation> {
+    pub fn fit<P: Point>(starts: &[P], targets: &[P], options: FitOptions) -> Result<Deformation> {
         if starts.len() != targets.len() {
             return Err(Error::LengthMismatch {
                 starts: starts.len(),
@@ -157,15 +157,48 @@ impl Deformation {
         x + self.displacement_at(x)
     }
 
-    /// D at every point, in parallel for large inputs.
+    /// D at every point, in parallel for large inputs. A non-finite point
+    /// gets a non-finite displacement (NaN in, NaN out); check inputs first
+    /// where that matters.
     pub fn displacements<P: Point>(&self, points: &[P]) -> Vec<DVec3> {
-        let mut sorted = vec![DVec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut sorted, |d, _| d, |_| {});
-        sorted
+        match P::slice(points) {
+            Points::F32(p) => self.displacements_of_f32(p),
+            Points::F64(p) => self.displacements_of_f64(p),
+        }
     }
 
     /// D at every point as f32 vectors, for vertex buffers.
     pub fn displacements_f32<P: Point>(&self, points: &[P]) -> Vec<Vec3> {
+        match P::slice(points) {
+            Points::F32(p) => self.displacements_f32_of_f32(p),
+            Points::F64(p) => self.displacements_f32_of_f64(p),
+        }
+    }
+
+    // The hot loops, compiled here (not in the caller's crate) for each kind.
+    #[inline(never)]
+    fn displacements_of_f32(&self, points: &[Vec3]) -> Vec<DVec3> {
+        let mut out = vec![DVec3::ZERO; points.len()];
+        self.displacements_sorted(points, &mut out, |d, _| d, |_| {});
+        out
+    }
+
+    #[inline(never)]
+    fn displacements_of_f64(&self, points: &[DVec3]) -> Vec<DVec3> {
+        let mut out = vec![DVec3::ZERO; points.len()];
+        self.displacements_sorted(points, &mut out, |d, _| d, |_| {});
+        out
+    }
+
+    #[inline(never)]
+    fn displacements_f32_of_f32(&self, points: &[Vec3]) -> Vec<Vec3> {
+        let mut out = vec![Vec3::ZERO; points.len()];
+        self.displacements_sorted(points, &mut out, |d, _| d.as_vec3(), |_| {});
+        out
+    }
+
+    #[inline(never)]
+    fn displacements_f32_of_f64(&self, points: &[DVec3]) -> Vec<Vec3> {
         let mut out = vec![Vec3::ZERO; points.len()];
         self.displacements_sorted(points, &mut out, |d, _| d.as_vec3(), |_| {});
         out

@@ -8,11 +8,24 @@ use rayon::prelude::*;
 use crate::kernel::Kernel;
 use crate::octree::Octree;
 
-/// A point type the engine evaluates at: f64 for numerics, f32 for vertex
-/// buffers.
+/// A point type the engine evaluates at: f64 ([`DVec3`]) for numerics, f32
+/// ([`Vec3`]) for vertex buffers. Public functions taking `&[P]` are thin
+/// shells: they hand the slice to code compiled once inside this crate
+/// ([`Point::slice`]), so its speed does not depend on the caller's build.
 pub trait Point: Copy + Send + Sync {
     /// The point in f64.
     fn to_dvec3(self) -> DVec3;
+    /// The slice as one of the two concrete kinds.
+    fn slice(points: &[Self]) -> Points<'_>;
+}
+
+/// A slice of points of one of the two kinds [`Point`] is implemented for.
+#[derive(Clone, Copy, Debug)]
+pub enum Points<'a> {
+    /// f32 points (vertex buffers).
+    F32(&'a [Vec3]),
+    /// f64 points.
+    F64(&'a [DVec3]),
 }
 
 impl Point for DVec3 {
@@ -20,12 +33,18 @@ impl Point for DVec3 {
     fn to_dvec3(self) -> DVec3 {
         self
     }
+    fn slice(points: &[Self]) -> Points<'_> {
+        Points::F64(points)
+    }
 }
 
 impl Point for Vec3 {
     #[inline]
     fn to_dvec3(self) -> DVec3 {
         self.as_dvec3()
+    }
+    fn slice(points: &[Self]) -> Points<'_> {
+        Points::F32(points)
     }
 }
 

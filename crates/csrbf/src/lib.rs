@@ -44,29 +44,97 @@
 //! The displacement D(v) of every vertex is computed once; the frame at phase
 //! t in [0, 1] is v + t D(v).
 //!
-//! # Example
+//! # Four ways in
+//!
+//! One-shot: fit, then evaluate anywhere (points may be `Vec3` or `DVec3`).
 //!
 //! ```
-//! use csrbf::{Binding, Deformation, FitOptions, Kernel, Polynomial, frame};
-//! use glam::{DVec3, Vec3};
+//! use csrbf::{Deformation, FitOptions};
+//! use csrbf::glam::{DVec3, Vec3};
 //!
-//! let starts = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z, DVec3::ONE];
-//! let targets: Vec<DVec3> = starts.iter().map(|s| *s + DVec3::new(0.0, 0.0, 0.1)).collect();
-//! let opts = FitOptions::default()
-//!     .with_kernel(Kernel::C2)
-//!     .with_radius(2.0)
-//!     .with_polynomial(Polynomial::Linear);
-//! let d = Deformation::fit(&starts, &targets, opts)?;
-//!
-//! let mesh = vec![Vec3::new(0.5, 0.5, 0.5), Vec3::new(3.0, 3.0, 3.0)];
-//! let binding = Binding::new(&d, &mesh);
-//! let disp = binding.displacements(&d)?;
-//! let mut half = vec![Vec3::ZERO; 2];
-//! frame(&mesh, &disp, 0.5, &mut half)?;
-//! // A pure translation is reproduced everywhere by the linear term.
-//! assert!((half[1].z - 3.05).abs() < 1e-5);
+//! let starts = [DVec3::ZERO, DVec3::X];
+//! let targets = [DVec3::new(0.0, 0.2, 0.0), DVec3::X];
+//! let d = Deformation::fit(&starts, &targets, FitOptions::default().with_radius(0.8))?;
+//! let moved = d.displacements_f32(&[Vec3::ZERO, Vec3::splat(5.0)]);
+//! assert!((moved[0].y - 0.2).abs() < 1e-6 && moved[1] == Vec3::ZERO); // local
 //! # Ok::<(), csrbf::Error>(())
 //! ```
+//!
+//! Factor once, solve many: a drag loop moves destinations without
+//! re-factoring ([`System`]), and a [`Binding`] updates every vertex with one
+//! sparse product.
+//!
+//! ```
+//! use csrbf::{Binding, FitOptions, System};
+//! use csrbf::glam::{DVec3, Vec3};
+//!
+//! let starts = [DVec3::ZERO, DVec3::X, DVec3::Y];
+//! let mesh: Vec<Vec3> = (0..100).map(|i| Vec3::new(i as f32 * 0.01, 0.0, 0.0)).collect();
+//! let sys = System::new(&starts, FitOptions::default().with_radius(0.7))?;
+//! let binding = Binding::new(&sys.solve(&starts)?, &mesh);
+//! let mut shown = vec![Vec3::ZERO; mesh.len()];
+//! for step in 1..=3 {
+//!     let mut targets = starts;
+//!     targets[0].z = 0.05 * step as f64; // the pointer moves
+//!     binding.displacements_into(&sys.solve(&targets)?, &mut shown)?;
+//! }
+//! assert!((shown[0].z - 0.15).abs() < 1e-6);
+//! # Ok::<(), csrbf::Error>(())
+//! ```
+//!
+//! Frames: when only the phase changes, compute the displacement once and
+//! blend with [`frame`] (v + t D(v): a multiply-add per vertex).
+//!
+//! ```
+//! use csrbf::{Deformation, FitOptions, frame};
+//! use csrbf::glam::{DVec3, Vec3};
+//!
+//! let d = Deformation::fit(&[DVec3::ZERO], &[DVec3::Z], FitOptions::default().with_radius(1.0))?;
+//! let rest = vec![Vec3::ZERO, Vec3::X * 0.5];
+//! let full = d.displacements_f32(&rest);
+//! let mut out = vec![Vec3::ZERO; 2];
+//! frame(&rest, &full, 0.5, &mut out)?;
+//! assert!((out[0].z - 0.5).abs() < 1e-6);
+//! # Ok::<(), csrbf::Error>(())
+//! ```
+//!
+//! Pipeline: several deformations, each on a [`Region`], recomputed lazily
+//! ([`Pipeline`]; the one-shot form is [`compose`]).
+//!
+//! ```
+//! use csrbf::{FitOptions, Pipeline, Region, Stage};
+//! use csrbf::glam::{DVec3, Vec3};
+//!
+//! let mut p = Pipeline::new(vec![Vec3::ZERO, Vec3::X * 3.0]);
+//! let opts = FitOptions::default().with_radius(1.0);
+//! p.push(Stage::new(vec![DVec3::ZERO], vec![DVec3::Y], opts));
+//! p.push(Stage::new(vec![DVec3::X * 3.0], vec![DVec3::new(3.0, 0.0, 1.0)], opts)
+//!     .with_region(Region::Vertices(vec![1]))
+//!     .with_phase(0.5));
+//! let out = p.evaluate()?;
+//! assert!((out[0].y - 1.0).abs() < 1e-6 && (out[1].z - 0.5).abs() < 1e-6);
+//! # Ok::<(), csrbf::Error>(())
+//! ```
+//!
+//! # Speed in a debug build
+//!
+//! The hot loops (evaluation, binding, assembly, factor) are compiled inside
+//! this crate, not in yours, but a plain `cargo build` compiles every
+//! dependency without optimisation. For interactive speed in debug builds
+//! add to your `Cargo.toml`:
+//!
+//! ```toml
+//! [profile.dev.package.csrbf]
+//! opt-level = 3
+//! ```
+//!
+//! # Non-finite input
+//!
+//! Starts, destinations and radii are checked (a named error for NaN or
+//! infinite values). Points you evaluate at are not: a non-finite point gets
+//! a non-finite displacement.
+
+pub use glam;
 
 mod binding;
 #[cfg(feature = "serde")]
@@ -97,7 +165,7 @@ pub use binding::{Binding, frame};
 pub use deformation::{Affine, Deformation};
 pub use diagnose::{Diagnostics, Warning, compose_diagnosed, diagnose, vertices_within};
 pub use error::{Error, Result};
-pub use evaluate::Point;
+pub use evaluate::{Point, Points};
 pub use handle::{Handle, HandleControls, Rotation};
 pub use kernel::{Kernel, Polynomial};
 pub use octree::Octree;

@@ -1,6 +1,12 @@
 //! The papers' lazy pipeline: deformations applied one after another, each on
 //! a region of the object, recomputing only what an input change invalidates.
 //!
+//! Each stage acts on the previous stage's output ([`Combine::Chain`], the
+//! default): its starts are in those deformed coordinates, as a user placing
+//! them on the deformed model sees it. With [`Combine::Add`] every stage acts
+//! on the rest points and the displacements add. Regions are always chosen
+//! on the rest points, so a stage's region does not drift with earlier stages.
+//!
 //! Each stage caches its system (depends on the starts and options), its
 //! solved deformation (also on the destinations), its binding (on the stage's
 //! input points and region) and its displacements. A change marks only what
@@ -164,6 +170,8 @@ pub struct Pipeline {
     groups: Vec<(String, Vec<u32>)>,
     combine: Combine,
     work: Work,
+    /// Whether the last evaluate's output is still what evaluate would give.
+    current: bool,
 }
 
 impl Pipeline {
@@ -177,6 +185,7 @@ impl Pipeline {
             groups: Vec::new(),
             combine: Combine::Chain,
             work: Work::default(),
+            current: false,
         }
     }
 
@@ -206,8 +215,38 @@ impl Pipeline {
     }
 
     fn bump(&mut self) -> u64 {
+        self.current = false;
         self.next_gen += 1;
         self.next_gen
+    }
+
+    /// The points the last [`Pipeline::evaluate`] gave, when nothing changed
+    /// since; None when something did (call `evaluate`). Reads, never computes.
+    pub fn output(&self) -> Option<&[Vec3]> {
+        self.current.then(|| self.last_points())
+    }
+
+    /// Stage `i`'s deformation as last fitted, when it is still current;
+    /// None when it was never fitted or its inputs changed. Reads, never computes.
+    pub fn fitted(&self, i: usize) -> Option<&Deformation> {
+        let s = self.stages.get(i)?;
+        match &s.deformation {
+            Some(((g_sys, g_targets), d))
+                if *g_sys == s.gen_system && *g_targets == s.gen_targets =>
+            {
+                Some(d)
+            }
+            _ => None,
+        }
+    }
+
+    fn last_points(&self) -> &[Vec3] {
+        match self.stages.last() {
+            Some(StageState {
+                output: Some(o), ..
+            }) => &o.points,
+            _ => &self.rest,
+        }
     }
 
     /// Adds a stage at the end; returns its index.
@@ -367,12 +406,8 @@ impl Pipeline {
             self.refresh_deformation(i)?;
             input_gen = self.refresh_output(i, input_gen)?;
         }
-        Ok(match self.stages.last() {
-            Some(StageState {
-                output: Some(o), ..
-            }) => &o.points,
-            _ => &self.rest,
-        })
+        self.current = true;
+        Ok(self.last_points())
     }
 
     /// Brings stage `i`'s output up to date for an input of generation

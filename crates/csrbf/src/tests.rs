@@ -264,7 +264,7 @@ fn bad_controls_are_named() {
         .with_radius(0.5)
         .with_polynomial(Polynomial::Linear);
     assert_eq!(
-        Deformation::fit(&[], &[], lin).err(),
+        Deformation::fit::<DVec3>(&[], &[], lin).err(),
         Some(Error::NoControls)
     );
     for r in [0.0, -1.0, f64::NAN, f64::INFINITY] {
@@ -693,4 +693,26 @@ fn dense_systems_are_refused_before_any_allocation() {
     let sparse = FitOptions::default().with_radius(0.05);
     assert!(System::new(&starts, sparse.with_memory_limit(1000)).is_err());
     assert!(System::new(&starts, sparse).is_ok());
+}
+
+/// Issue 10: reading a pipeline's results does not need `&mut`.
+#[test]
+fn pipeline_results_are_read_without_recomputing() {
+    let (s, t) = scene(10, 3);
+    let mut p = Pipeline::new(vec![Vec3::splat(0.5); 3]);
+    p.push(Stage::new(
+        s,
+        t.clone(),
+        FitOptions::default().with_radius(0.6),
+    ));
+    assert!(p.output().is_none() && p.fitted(0).is_none());
+    let out = p.evaluate().expect("evaluate").to_vec();
+    assert_eq!(p.output(), Some(&out[..]));
+    assert!(p.fitted(0).is_some());
+    p.set_targets(0, t).expect("targets");
+    assert!(
+        p.output().is_none() && p.fitted(0).is_none(),
+        "stale results are not shown"
+    );
+    assert!(p.fitted(7).is_none());
 }

@@ -17,6 +17,7 @@ use rayon::prelude::*;
 
 use crate::deformation::{Affine, Deformation};
 use crate::error::{Error, Result};
+use crate::evaluate::Point;
 use crate::kernel::Polynomial;
 use crate::octree::Octree;
 use crate::ordering;
@@ -49,7 +50,12 @@ impl System {
     /// Checks: at least one start, finite coordinates, a valid radius, no two
     /// starts at the same place, and for `linear` at least 4 starts not on one
     /// plane.
-    pub fn new(starts: &[DVec3], options: FitOptions) -> Result<System> {
+    pub fn new<P: Point>(starts: &[P], options: FitOptions) -> Result<System> {
+        let starts: Vec<DVec3> = starts.iter().map(|p| p.to_dvec3()).collect();
+        System::build(&starts, options)
+    }
+
+    fn build(starts: &[DVec3], options: FitOptions) -> Result<System> {
         validate(starts, &options)?;
         let radius = options.radius;
         // A nearly dense system is refused before its graph is built.
@@ -135,7 +141,12 @@ impl System {
 
     /// Solves for the coefficients that carry each start to its destination.
     /// Only the right-hand sides change: nothing is assembled or factored again.
-    pub fn solve(&self, targets: &[DVec3]) -> Result<Deformation> {
+    pub fn solve<P: Point>(&self, targets: &[P]) -> Result<Deformation> {
+        let targets: Vec<DVec3> = targets.iter().map(|p| p.to_dvec3()).collect();
+        self.solve_f64(&targets)
+    }
+
+    fn solve_f64(&self, targets: &[DVec3]) -> Result<Deformation> {
         if targets.len() != self.starts.len() {
             return Err(Error::TargetCount {
                 expected: self.starts.len(),

@@ -1,0 +1,135 @@
+//! The common cases in one call, for library users: deform a
+//! [`csrbf_mesh::Mesh`] in place by a control file (handles sampled on it,
+//! its deformations combined as the file says, normals recomputed), and save
+//! or load a fitted deformation by path.
+
+use std::path::Path;
+
+use csrbf::controls::ControlFile;
+use csrbf::format::{self, Replay};
+use csrbf::{Deformation, Diagnostics, Region, System, compose_diagnosed};
+use csrbf_mesh::Mesh;
+
+/// What can go wrong in these calls.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ApplyError {
+    /// The engine refused (the deformation's index names which one).
+    #[error("deformation {index}: {source}")]
+    Engine {
+        /// Which deformation of the file.
+        index: usize,
+        /// Why.
+        source: csrbf::Error,
+    },
+    /// Reading or writing a file.
+    #[error(transparent)]
+    Mesh(#[from] csrbf_mesh::MeshError),
+    /// A replay file that does not decode.
+    #[error("{}: {source}", path.display())]
+    Replay {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: csrbf::Error,
+    },
+}
+
+/// Fits every deformation of `file` on `mesh` (handles sampled on it).
+pub fn fit_file(
+    mesh: &Mesh,
+    file: &ControlFile,
+) -> Result<Vec<(Deformation, Region, f64)>, ApplyError> {
+    let lookup = |n: &str| mesh.part_vertices(n);
+    file.deformations
+        .iter()
+        .enumerate()
+        .map(|(index, spec)| {
+            let engine = |source| ApplyError::Engine { index, source };
+            let spec = spec.resolve(&mesh.positions, &lookup).map_err(engine)?;
+            let d = System::new(&spec.starts, spec.options)
+                .and_then(|s| s.solve(&spec.targets))
+                .map_err(engine)?;
+            Ok((d, spec.region.clone(), spec.phase))
+        })
+        .collect()
+}
+
+/// Deforms `mesh` in place by `file` at `phase` (each deformation at its own
+/// phase times this one), recomputes its normals, and says what moved and
+/// what may be wrong.
+pub fn deform_mesh(
+    mesh: &mut Mesh,
+    file: &ControlFile,
+    phase: f64,
+) -> Result<Diagnostics, ApplyError> {
+    let stages: Vec<_> = fit_file(mesh, file)?
+        .into_iter()
+        .map(|(d, r, p)| (d, r, p * phase))
+        .collect();
+    let triangles = mesh.faces.triangles();
+    let lookup = |n: &str| mesh.part_vertices(n);
+    let (moved, report) =
+        compose_diagnosed(&mesh.positions, &stages, file.combine, &triangles, &lookup)
+            .map_err(|source| ApplyError::Engine { index: 0, source })?;
+    mesh.positions = moved;
+    mesh.recompute_normals();
+    Ok(report)
+}
+
+/// Saves fitted deformations as a `.csrbf` file, whole or not at all.
+pub fn save_replay(
+    path: &Path,
+    stages: &[(Deformation, Region, f64)],
+    combine: csrbf::Combine,
+) -> Result<(), ApplyError> {
+    Ok(csrbf_mesh::write_atomic(
+        path,
+        &format::encode(stages, combine),
+    )?)
+}
+
+/// Loads a `.csrbf` file.
+pub fn load_replay(path: &Path) -> Result<Replay, ApplyError> {
+    let bytes = std::fs::read(path).map_err(|source| csrbf_mesh::MeshError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    format::decode(&bytes).map_err(|source| ApplyError::Replay {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mesh_deforms_in_one_call_and_a_replay_round_trips() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut head = csrbf_mesh::read(&root.join("assets/models/cgal_head.off")).expect("head");
+        let rest = head.positions.clone();
+        let text =
+            std::fs::read_to_string(root.join("assets/controls/head_smile.json")).expect("smile");
+        let file = ControlFile::parse(&text).expect("controls");
+        let report = deform_mesh(&mut head, &file, 1.0).expect("deform");
+        assert!(report.moved > 100 && report.flipped.is_empty());
+        assert!(head.normals.as_ref().is_some_and(|n| n.len() == rest.len()));
+        assert_ne!(head.positions, rest);
+        let dir = std::env::temp_dir().join(format!("csrbf-apply-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("smile.csrbf");
+        let stages = fit_file(
+            &csrbf_mesh::read(&root.join("assets/models/cgal_head.off")).expect("head"),
+            &file,
+        )
+        .expect("fit");
+        save_replay(&path, &stages, file.combine).expect("save");
+        let back = load_replay(&path).expect("load");
+        assert_eq!(back.stages, stages);
+        let e = load_replay(&dir.join("missing.csrbf")).expect_err("missing");
+        assert!(e.to_string().contains("missing.csrbf"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
