@@ -105,6 +105,20 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         })?;
         let mut tok = s.split_ascii_whitespace();
         let k: usize = number(tok.next(), path, l, "face corner count")?;
+        let rest: Vec<&str> = tok.collect();
+        // A count is checked against what the line holds before anything is
+        // allocated for it (a forged count must not ask for gigabytes).
+        if k > rest.len() {
+            return Err(MeshError::parse(
+                path,
+                Some(l),
+                format!(
+                    "face {f} declares {k} corners but its line holds {} numbers",
+                    rest.len()
+                ),
+            ));
+        }
+        let mut tok = rest.into_iter();
         let mut corners = Vec::with_capacity(k);
         for _ in 0..k {
             let v: u32 = number(tok.next(), path, l, "face vertex index")?;

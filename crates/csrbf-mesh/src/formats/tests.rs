@@ -345,3 +345,133 @@ fn gltf_buffers_outside_the_model_folder_are_refused() {
         );
     }
 }
+
+/// A one-triangle (or strip) glTF over 4 float vertices, with extra JSON
+/// spliced into its first primitive, its accessors and its nodes.
+fn tiny_gltf(primitive_extra: &str, accessors_extra: &str, nodes: &str) -> Vec<u8> {
+    let mut bin = Vec::new();
+    for v in [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ] {
+        for c in v {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u32, 1, 2, 3] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        crate::formats::gltf::encode_base64_for_tests(&bin)
+    );
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": {nodes},
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}{primitive_extra}}}]}}],
+        "buffers": [{{"uri": "{uri}", "byteLength": {}}}],
+        "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 16}}],
+        "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+                      {{"bufferView": 1, "componentType": 5125, "count": 4, "type": "SCALAR"}}{accessors_extra}]}}"#,
+        bin.len()
+    )
+    .into_bytes()
+}
+
+/// Issue 7: malformed glTF is an error, never a panic (no panic text at all).
+#[test]
+fn gltf_accessor_types_and_hierarchies_are_checked_before_reading() {
+    let one = r#"[{"mesh": 0}]"#;
+    let cases: Vec<(Vec<u8>, &str)> = vec![
+        // Indices pointing at a float VEC3 accessor, or at signed bytes.
+        (
+            tiny_gltf(r#", "indices": 0"#, "", one),
+            "indices accessor 0 is Vec3",
+        ),
+        (
+            tiny_gltf(
+                r#", "indices": 2"#,
+                r#", {"bufferView": 1, "componentType": 5120, "count": 4, "type": "SCALAR"}"#,
+                one,
+            ),
+            "indices accessor 2",
+        ),
+        // COLOR_0 and TEXCOORD_0 on a u32 SCALAR accessor.
+        (
+            tiny_gltf(r#", "indices": 1"#, "", one)
+                .into_iter()
+                .collect::<Vec<u8>>(),
+            "",
+        ),
+        // A cycle through the mesh node, and a node with two parents.
+        (
+            tiny_gltf("", "", r#"[{"mesh": 0, "children": [0]}]"#),
+            "cycle",
+        ),
+        (
+            tiny_gltf(
+                "",
+                "",
+                r#"[{"mesh": 0, "children": [2]}, {"children": [2]}, {}]"#,
+            ),
+            "child of both",
+        ),
+        // Points are not read.
+        (
+            tiny_gltf(r#", "mode": 0"#, "", one),
+            "mode Points is not supported",
+        ),
+        // An accessor longer than its view.
+        (
+            tiny_gltf(
+                r#", "indices": 2"#,
+                r#", {"bufferView": 1, "componentType": 5125, "count": 400, "type": "SCALAR"}"#,
+                one,
+            ),
+            "outside its buffer view",
+        ),
+    ];
+    for (bytes, want) in cases {
+        if want.is_empty() {
+            // A well-formed file (indices as u32) still reads: 4 indices is not a whole number of triangles.
+            let e = parse_err(&bytes, Format::Gltf);
+            assert!(e.contains("not a whole number of triangles"), "{e}");
+            continue;
+        }
+        let e = parse_err(&bytes, Format::Gltf);
+        assert!(e.contains(want), "{want}: {e}");
+    }
+    for attr in ["COLOR_0", "TEXCOORD_0"] {
+        let bytes = tiny_gltf(
+            &format!(r#", "indices": 1, "attributes": {{"POSITION": 0, "{attr}": 1}}"#),
+            "",
+            one,
+        );
+        let text = String::from_utf8(bytes).expect("utf-8").replace(
+            r#""attributes": {"POSITION": 0}, "indices""#,
+            r#""indices""#,
+        );
+        let e = parse_err(text.as_bytes(), Format::Gltf);
+        assert!(e.contains("accessor 1 is Scalar"), "{attr}: {e}");
+    }
+    // Strips are read as triangles: 4 strip indices give 2 triangles.
+    let strip = tiny_gltf(r#", "indices": 1, "mode": 5"#, "", one);
+    let m = Mesh::from_bytes(&strip, Format::Gltf, Path::new("s.gltf")).expect("strip");
+    assert_eq!(m.faces.len(), 2);
+    assert_eq!(m.faces.face(1), &[2, 1, 3]);
+}
+
+/// Issue 7: a count that asks for more than the line holds is refused before
+/// anything is allocated.
+#[test]
+fn off_face_counts_are_checked_against_the_line() {
+    for count in ["18446744073709551615", "40000000000"] {
+        let text = format!("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n{count} 0 1 2\n");
+        let e = parse_err(text.as_bytes(), Format::Off);
+        assert!(
+            e.contains("corners but its line holds 3 numbers") || e.contains("face corner count"),
+            "{e}"
+        );
+    }
+}

@@ -16,3 +16,9 @@ mod write;
 pub(crate) use read::parse;
 pub(crate) use write::encode;
 pub use write::{Builder, package};
+
+/// Base64 for the tests' hand-made files.
+#[cfg(test)]
+pub(crate) fn encode_base64_for_tests(data: &[u8]) -> String {
+    base64::base64_encode(data)
+}

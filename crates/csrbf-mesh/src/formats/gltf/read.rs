@@ -63,6 +63,8 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut meshes_seen = 0usize;
     let mut extras: Option<Value> = None;
 
+    check_accessors(doc, &buffers).map_err(err)?;
+    check_hierarchy(doc).map_err(err)?;
     // Nodes of the default scene (or of every scene), with world transforms.
     let mut stack: Vec<(gltf::Node, Mat4)> =
         match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -70,12 +72,7 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             None => doc.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
         };
     stack.reverse();
-    let mut guard = 0usize;
     while let Some((node, parent)) = stack.pop() {
-        guard += 1;
-        if guard > 1_000_000 {
-            return Err(err("the node hierarchy has a cycle".into()));
-        }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         for child in node.children().collect::<Vec<_>>().into_iter().rev() {
             stack.push((child, world));
@@ -90,8 +87,16 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 .and_then(|v| v.get("csrbf").cloned());
         }
         for prim in gmesh.primitives() {
-            if prim.mode() != gltf::mesh::Mode::Triangles {
-                continue;
+            use gltf::mesh::Mode;
+            if !matches!(
+                prim.mode(),
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                return Err(err(format!(
+                    "mesh {}: primitive mode {:?} is not supported: csrbf reads triangles, triangle strips and fans",
+                    gmesh.index(),
+                    prim.mode()
+                )));
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
             let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
@@ -116,7 +121,15 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             );
             if let Some(&(base, count)) = shared.get(&key) {
                 let first_face = mesh.faces.len() as u32;
-                push_triangles(&mut mesh, &reader, base, count, gmesh.index(), &err)?;
+                push_triangles(
+                    &mut mesh,
+                    &reader,
+                    base,
+                    count,
+                    prim.mode(),
+                    gmesh.index(),
+                    &err,
+                )?;
                 name_parts(
                     &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
                 );
@@ -157,7 +170,15 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             colors.resize(mesh.positions.len(), [1.0; 4]);
             shared.insert(key, (base, count));
             let first_face = mesh.faces.len() as u32;
-            push_triangles(&mut mesh, &reader, base, count, gmesh.index(), &err)?;
+            push_triangles(
+                &mut mesh,
+                &reader,
+                base,
+                count,
+                prim.mode(),
+                gmesh.index(),
+                &err,
+            )?;
             name_parts(
                 &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
             );
@@ -180,21 +201,144 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     Ok(mesh)
 }
 
+/// Checks what the gltf crate would otherwise assert on: every accessor a
+/// primitive uses has the type and component type its role allows, and lies
+/// inside its buffer view, which lies inside its buffer.
+fn check_accessors(doc: &gltf::Document, buffers: &[Vec<u8>]) -> std::result::Result<(), String> {
+    use gltf::accessor::{DataType as T, Dimensions as D};
+    for a in doc.accessors() {
+        let Some(view) = a.view() else {
+            return Err(format!(
+                "accessor {} has no buffer view (sparse accessors are not supported)",
+                a.index()
+            ));
+        };
+        let buffer = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+        let elem = a.size();
+        let stride = view.stride().unwrap_or(elem).max(elem);
+        let need = if a.count() == 0 {
+            0
+        } else {
+            (a.count() - 1)
+                .checked_mul(stride)
+                .and_then(|n| n.checked_add(elem))
+                .and_then(|n| n.checked_add(a.offset()))
+                .unwrap_or(usize::MAX)
+        };
+        if need > view.length() || view.offset().saturating_add(view.length()) > buffer {
+            return Err(format!(
+                "accessor {} ({} elements) lies outside its buffer view or buffer",
+                a.index(),
+                a.count()
+            ));
+        }
+    }
+    for m in doc.meshes() {
+        for p in m.primitives() {
+            let bad = |what: &str, a: &gltf::Accessor| {
+                Err(format!(
+                    "mesh {}: {what} accessor {} is {:?} of {:?}, which {what} cannot be",
+                    m.index(),
+                    a.index(),
+                    a.dimensions(),
+                    a.data_type()
+                ))
+            };
+            if let Some(a) = p.indices()
+                && (a.dimensions() != D::Scalar
+                    || !matches!(a.data_type(), T::U8 | T::U16 | T::U32))
+            {
+                return bad("indices", &a);
+            }
+            for (sem, a) in p.attributes() {
+                let ok = match sem {
+                    gltf::Semantic::Positions | gltf::Semantic::Normals => {
+                        a.dimensions() == D::Vec3 && a.data_type() == T::F32
+                    }
+                    gltf::Semantic::TexCoords(_) => {
+                        a.dimensions() == D::Vec2
+                            && matches!(a.data_type(), T::F32 | T::U8 | T::U16)
+                    }
+                    gltf::Semantic::Colors(_) => {
+                        matches!(a.dimensions(), D::Vec3 | D::Vec4)
+                            && matches!(a.data_type(), T::F32 | T::U8 | T::U16)
+                    }
+                    _ => true,
+                };
+                if !ok {
+                    return bad(&format!("{sem:?}"), &a);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// glTF's nodes form a forest: no node may be its own ancestor or have two
+/// parents (a cycle through a mesh node would add its vertices forever).
+fn check_hierarchy(doc: &gltf::Document) -> std::result::Result<(), String> {
+    let n = doc.nodes().count();
+    let mut parent: Vec<Option<usize>> = vec![None; n];
+    for node in doc.nodes() {
+        for child in node.children() {
+            let c = child.index();
+            if let Some(p) = parent[c] {
+                return Err(format!(
+                    "node {c} is a child of both node {p} and node {}: the node hierarchy must be a tree",
+                    node.index()
+                ));
+            }
+            parent[c] = Some(node.index());
+        }
+    }
+    for start in 0..n {
+        let (mut at, mut steps) = (start, 0);
+        while let Some(p) = parent[at] {
+            at = p;
+            steps += 1;
+            if steps > n {
+                return Err(format!(
+                    "the node hierarchy has a cycle through node {start}"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The triangles of a primitive over vertices `base..base + count`.
 fn push_triangles<'a, 's, F>(
     mesh: &mut Mesh,
     reader: &gltf::mesh::Reader<'a, 's, F>,
     base: u32,
     count: usize,
+    mode: gltf::mesh::Mode,
     mesh_index: usize,
     err: &dyn Fn(String) -> MeshError,
 ) -> Result<()>
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
-    let indices: Vec<u32> = match reader.read_indices() {
+    let listed: Vec<u32> = match reader.read_indices() {
         Some(i) => i.into_u32().collect(),
         None => (0..count as u32).collect(),
+    };
+    // Strips and fans become a triangle list (strips keep every triangle's
+    // winding by swapping every other one).
+    let indices: Vec<u32> = match mode {
+        gltf::mesh::Mode::TriangleStrip => (2..listed.len())
+            .flat_map(|k| {
+                if k % 2 == 0 {
+                    [listed[k - 2], listed[k - 1], listed[k]]
+                } else {
+                    [listed[k - 1], listed[k - 2], listed[k]]
+                }
+            })
+            .collect(),
+        gltf::mesh::Mode::TriangleFan => (2..listed.len())
+            .flat_map(|k| [listed[0], listed[k - 1], listed[k]])
+            .collect(),
+        _ => listed,
     };
     if !indices.len().is_multiple_of(3) {
         return Err(err(format!(
