@@ -234,6 +234,11 @@ fn default_reach() -> f64 {
 impl SceneFile {
     /// Parses a scene file; errors carry the JSON path of the problem.
     pub fn parse(text: &str) -> Result<SceneFile, ParseError> {
+        let text = csrbf::json::strip_bom(text);
+        csrbf::json::check_duplicate_keys(text).map_err(|e| ParseError {
+            at: format!("line {}", e.second_line),
+            message: e.to_string(),
+        })?;
         let de = &mut serde_json::Deserializer::from_str(text);
         serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();

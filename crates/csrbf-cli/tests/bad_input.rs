@@ -297,3 +297,56 @@ fn corrupt_and_wrong_version_deformation_files() {
     assert!(!out.exists());
     fails(&["info"], &["--mesh"]);
 }
+
+/// Issue 7: a key given twice is refused with both lines; a byte-order mark
+/// is accepted; a box with min > max is refused.
+#[test]
+fn duplicate_keys_boms_and_empty_boxes() {
+    let dir = TempDir::new("dupkeys");
+    let head = model("cgal_head.off");
+    let out = dir.path("o.ply");
+    let dup = dir.write("dup.json", "{\n  \"radius\": 3.5,\n  \"radius\": 0.1,\n  \"controls\": [{\"from\": [0, 0, 0], \"to\": [0, 0, 0]}]\n}\n");
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&dup),
+            "--out",
+            arg(&out),
+        ],
+        &["dup.json", "\"radius\" is given twice", "line 2", "line 3"],
+    );
+    let bom = dir.write("bom.json", "\u{feff}{\"radius\": 3.5, \"controls\": [{\"from\": [2.15, 10.18, 4.42], \"to\": [2.15, 10.5, 4.42]}]}");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&bom),
+        "--out",
+        arg(&out),
+    ]);
+    let empty = dir.write("box.json", r#"{"radius": 3.5, "region": {"box": {"min": [0, 5, 0], "max": [1, 1, 1]}}, "controls": [{"from": [0, 0, 0], "to": [0, 0, 0]}]}"#);
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&empty),
+            "--out",
+            arg(&dir.path("p.ply")),
+        ],
+        &["region.box.min[1]", "greater than max[1]"],
+    );
+    std::fs::copy(&head, dir.path("head.off")).expect("copy");
+    let scene = dir.write("s.scene.json", "{\"duration\": 1, \"duration\": 2, \"camera\": {\"eye\": [0, 0, 9], \"target\": [0, 0, 0]}, \"objects\": []}");
+    fails(
+        &["export", arg(&scene), "--out", arg(&dir.path("s.glb"))],
+        &["\"duration\" is given twice"],
+    );
+    assert!(!dir.path("p.ply").exists() && !dir.path("s.glb").exists());
+}

@@ -241,9 +241,14 @@ impl ControlFile {
 
     /// Parses and checks a control file.
     pub fn parse(text: &str) -> Result<ControlFile, ControlError> {
+        let text = crate::json::strip_bom(text);
         let root: Value = serde_json::from_str(text).map_err(|e| ControlError {
             location: format!("line {}, column {}", e.line(), e.column()),
             message: format!("invalid JSON: {e}"),
+        })?;
+        crate::json::check_duplicate_keys(text).map_err(|e| ControlError {
+            location: format!("line {}", e.second_line),
+            message: e.to_string(),
         })?;
         let mut warnings = Vec::new();
         let obj = root

@@ -145,6 +145,8 @@ mod error;
 mod evaluate;
 pub mod format;
 pub mod handle;
+#[cfg(feature = "serde")]
+pub mod json;
 mod kernel;
 mod octree;
 pub mod ordering;

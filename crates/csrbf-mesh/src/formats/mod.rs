@@ -100,6 +100,18 @@ impl Format {
 }
 
 pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
+    // A byte-order mark before a text header (an editor's habit) is skipped;
+    // a binary STL's 80-byte header is free text and is left alone unless it
+    // then reads as ASCII STL.
+    const BOM: &[u8] = b"\xEF\xBB\xBF";
+    let bytes = match bytes.strip_prefix(BOM) {
+        Some(rest)
+            if format != Format::Glb && (format != Format::Stl || rest.starts_with(b"solid")) =>
+        {
+            rest
+        }
+        _ => bytes,
+    };
     match format {
         Format::Obj => obj::parse(bytes, path),
         Format::Ply | Format::PlyAscii => ply::parse(bytes, path),

@@ -475,3 +475,36 @@ fn off_face_counts_are_checked_against_the_line() {
         );
     }
 }
+
+/// Issue 7: a byte-order mark before a text file is accepted.
+#[test]
+fn text_files_with_a_byte_order_mark_read() {
+    let bom = "\u{feff}";
+    let cases = [
+        (
+            Format::Obj,
+            format!("{bom}v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+        ),
+        (
+            Format::Off,
+            format!("{bom}OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+        ),
+        (
+            Format::Stl,
+            format!(
+                "{bom}solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n"
+            ),
+        ),
+        (
+            Format::Ply,
+            format!(
+                "{bom}ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+            ),
+        ),
+    ];
+    for (fmt, text) in cases {
+        let m = Mesh::from_bytes(text.as_bytes(), fmt, Path::new("bom"))
+            .unwrap_or_else(|e| panic!("{fmt:?}: {e}"));
+        assert_eq!((m.positions.len(), m.faces.len()), (3, 1), "{fmt:?}");
+    }
+}
