@@ -54,6 +54,24 @@ pub enum Error {
         /// The radius of support.
         radius: f64,
     },
+    /// Two starts nearly on top of each other whose moves differ by more
+    /// than their distance: no smooth map does that.
+    #[error(
+        "controls {first} and {second} start {distance:.3e} apart ({:.3} % of R) but their moves differ by {difference:.4}: no smooth map does that without overshooting far away; give them the same move, merge them or move one away",
+        distance / radius * 100.0
+    )]
+    ConflictingStarts {
+        /// The first control.
+        first: usize,
+        /// The second.
+        second: usize,
+        /// Their distance.
+        distance: f64,
+        /// How much their displacements differ.
+        difference: f64,
+        /// The radius of support.
+        radius: f64,
+    },
     /// `linear` needs at least 4 starts.
     #[error(
         "the linear polynomial needs at least 4 start points, got {0}; use polynomial \"none\" for fewer"

@@ -716,3 +716,41 @@ fn pipeline_results_are_read_without_recomputing() {
     );
     assert!(p.fitted(7).is_none());
 }
+
+/// Issue 7: near-duplicate starts (1e-4 apart at R 3.5) with moves 0.5
+/// apart used to give "largest move 722"; they are refused naming both. The
+/// same pair moving alike is fine.
+#[test]
+fn near_starts_with_conflicting_moves_are_named() {
+    let starts = [
+        DVec3::new(2.15, 10.18, 4.42),
+        DVec3::new(2.15, 10.18, 4.42 + 1e-4),
+        DVec3::new(0.0, 8.0, 4.0),
+    ];
+    let opts = FitOptions::default().with_radius(3.5);
+    let apart = [
+        starts[0] + DVec3::Y * 0.5,
+        starts[1] + DVec3::NEG_Y * 0.0,
+        starts[2],
+    ];
+    let e = Deformation::fit(&starts, &apart, opts).expect_err("conflict");
+    assert!(
+        matches!(
+            e,
+            Error::ConflictingStarts {
+                first: 0,
+                second: 1,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("controls 0 and 1 start 1.000e-4 apart"), "{e}");
+    let alike = [
+        starts[0] + DVec3::Y * 0.5,
+        starts[1] + DVec3::Y * 0.5,
+        starts[2],
+    ];
+    let d = Deformation::fit(&starts, &alike, opts).expect("same move");
+    assert!((d.map(starts[0]) - alike[0]).length() < 1e-6);
+}

@@ -60,22 +60,33 @@ pub(super) struct ClosePair {
     pub(super) d2: f64,
 }
 
-/// Neighbour lists within R (no self) and the first pair of starts too close
-/// to tell apart.
+/// Starts closer than this fraction of R are a "near pair": fine with the
+/// same move, refused when their moves differ by more than their distance
+/// (see [`crate::Error::ConflictingStarts`]).
+pub const NEAR_FRACTION: f64 = 0.01;
+
+/// Neighbour lists within R (no self), the first pair of starts too close
+/// to tell apart, and every near pair (closer than [`NEAR_FRACTION`] R).
 pub(super) fn neighbour_graph(
     starts: &[DVec3],
     octree: &Octree,
     radius: f64,
     kernel: Kernel,
-) -> (Graph, Option<ClosePair>) {
+) -> (Graph, Option<ClosePair>, Vec<(u32, u32)>) {
     let phi0 = kernel.eval(0.0);
-    let lists: Vec<(Vec<u32>, Option<ClosePair>)> = maybe_par_map(starts.len(), 256, |i| {
+    let near2 = (NEAR_FRACTION * radius).powi(2);
+    type Row = (Vec<u32>, Option<ClosePair>, Vec<(u32, u32)>);
+    let lists: Vec<Row> = maybe_par_map(starts.len(), 256, |i| {
         let mut l = Vec::new();
         let mut close: Option<ClosePair> = None;
+        let mut near = Vec::new();
         octree.for_each_within(starts[i], radius, |j, d2| {
             let j = j as usize;
             if j == i {
                 return;
+            }
+            if j < i && d2 < near2 {
+                near.push((j as u32, i as u32));
             }
             if j < i
                 && phi0 - kernel.eval(d2.sqrt() / radius) <= 1e-10 * phi0
@@ -90,17 +101,21 @@ pub(super) fn neighbour_graph(
             l.push(j as u32);
         });
         l.sort_unstable();
-        (l, close)
+        (l, close, near)
     });
-    let close = lists.iter().find_map(|(_, c)| *c);
+    let close = lists.iter().find_map(|(_, c, _)| *c);
+    let near: Vec<(u32, u32)> = lists
+        .iter()
+        .flat_map(|(_, _, n)| n.iter().copied())
+        .collect();
     let mut offsets = Vec::with_capacity(starts.len() + 1);
     offsets.push(0);
-    let mut flat = Vec::with_capacity(lists.iter().map(|(l, _)| l.len()).sum());
-    for (l, _) in &lists {
+    let mut flat = Vec::with_capacity(lists.iter().map(|(l, _, _)| l.len()).sum());
+    for (l, _, _) in &lists {
         flat.extend_from_slice(l);
         offsets.push(flat.len());
     }
-    (Graph::from_parts(offsets, flat), close)
+    (Graph::from_parts(offsets, flat), close, near)
 }
 
 pub(super) fn neighbour_counts(graph: &Graph, stats: &mut SystemStats) {

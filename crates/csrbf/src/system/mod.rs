@@ -42,6 +42,8 @@ pub struct System {
     factor: Factor,
     poly: Option<PolyBlock>,
     stats: SystemStats,
+    /// Pairs of starts closer than [`graph::NEAR_FRACTION`] R.
+    near: Vec<(u32, u32)>,
 }
 
 impl System {
@@ -73,7 +75,7 @@ impl System {
             }
         }
         let octree = Octree::new(starts);
-        let (graph, close) = neighbour_graph(starts, &octree, radius, options.kernel);
+        let (graph, close, near) = neighbour_graph(starts, &octree, radius, options.kernel);
         if let Some(c) = close {
             return Err(if c.d2 == 0.0 {
                 Error::DuplicateStart {
@@ -136,6 +138,7 @@ impl System {
             factor,
             poly,
             stats,
+            near,
         })
     }
 
@@ -147,6 +150,7 @@ impl System {
     }
 
     fn solve_f64(&self, targets: &[DVec3]) -> Result<Deformation> {
+        self.check_near_pairs(targets)?;
         if targets.len() != self.starts.len() {
             return Err(Error::TargetCount {
                 expected: self.starts.len(),
@@ -200,6 +204,31 @@ impl System {
             self.order.clone(),
             Some(self.octree.clone()),
         ))
+    }
+
+    /// Starts nearly on top of each other (closer than 1 % of R) must move
+    /// alike: moves that differ by more than their distance ask for a
+    /// gradient no smooth map has, and the interpolant overshoots far away.
+    fn check_near_pairs(&self, targets: &[DVec3]) -> Result<()> {
+        for &(a, b) in &self.near {
+            let (a, b) = (a as usize, b as usize);
+            if a >= targets.len() || b >= targets.len() {
+                continue;
+            }
+            let distance = self.starts[a].distance(self.starts[b]);
+            let difference =
+                ((targets[a] - self.starts[a]) - (targets[b] - self.starts[b])).length();
+            if difference > distance {
+                return Err(Error::ConflictingStarts {
+                    first: a,
+                    second: b,
+                    distance,
+                    difference,
+                    radius: self.options.radius,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The options it was built with.
