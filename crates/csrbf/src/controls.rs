@@ -582,6 +582,15 @@ fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
         if !p[k].is_finite() {
             return Err(err(&format!("{at}[{k}]"), "not a finite number"));
         }
+        if p[k].abs() > f32::MAX as f64 {
+            return Err(err(
+                &format!("{at}[{k}]"),
+                format!(
+                    "{} is beyond the range of 32-bit floats (about ±3.4e38) that meshes are kept in",
+                    p[k]
+                ),
+            ));
+        }
     }
     Ok(DVec3::from_array(p))
 }

@@ -72,6 +72,26 @@ pub enum Error {
         /// The radius of support.
         radius: f64,
     },
+    /// The starts span a subnormal extent, or lie beyond f32's range.
+    #[error(
+        "the starts span {extent:e} and reach {size:e} from the origin: outside the range csrbf fits in (32-bit meshes, extents above 1e-298); rescale the model"
+    )]
+    StartScale {
+        /// Largest side of the starts' box.
+        extent: f64,
+        /// Largest coordinate.
+        size: f64,
+    },
+    /// A deformation gave a non-finite position.
+    #[error(
+        "deformation {stage} moved point {point} to a non-finite position: its control vectors ask for moves beyond floating-point range"
+    )]
+    NonFiniteResult {
+        /// Which deformation.
+        stage: usize,
+        /// The first point.
+        point: usize,
+    },
     /// `linear` needs at least 4 starts.
     #[error(
         "the linear polynomial needs at least 4 start points, got {0}; use polynomial \"none\" for fewer"

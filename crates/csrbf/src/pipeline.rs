@@ -514,7 +514,7 @@ pub(crate) fn compose_traced(
     mut trace: Option<&mut Vec<StageReach>>,
 ) -> Result<Vec<Vec3>> {
     let mut points = rest.to_vec();
-    for (def, region, phase) in stages {
+    for (k, (def, region, phase)) in stages.iter().enumerate() {
         crate::error::check_phase(*phase)?;
         let (active, weights) = region.weights(rest, groups)?;
         let t = *phase as f32;
@@ -550,6 +550,14 @@ pub(crate) fn compose_traced(
             for ((&i, d), w) in active.iter().zip(d).zip(weights) {
                 points[i as usize] += d * (t * w);
             }
+        }
+        // A finite input that came out non-finite: the cause is this stage.
+        if let Some(i) = points
+            .iter()
+            .zip(rest)
+            .position(|(p, r)| !p.is_finite() && r.is_finite())
+        {
+            return Err(Error::NonFiniteResult { stage: k, point: i });
         }
     }
     Ok(points)

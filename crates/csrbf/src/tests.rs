@@ -745,7 +745,11 @@ fn near_starts_with_conflicting_moves_are_named() {
         ),
         "{e}"
     );
-    assert!(e.to_string().contains("controls 0 and 1 start 1.000e-4 apart"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("controls 0 and 1 start 1.000e-4 apart"),
+        "{e}"
+    );
     let alike = [
         starts[0] + DVec3::Y * 0.5,
         starts[1] + DVec3::Y * 0.5,
@@ -753,4 +757,40 @@ fn near_starts_with_conflicting_moves_are_named() {
     ];
     let d = Deformation::fit(&starts, &alike, opts).expect("same move");
     assert!((d.map(starts[0]) - alike[0]).length() < 1e-6);
+}
+
+/// Issue 7: starts out of range are named as such, not as "coplanar".
+#[test]
+fn starts_out_of_range_are_named_for_what_they_are() {
+    let far = [
+        DVec3::splat(1e300),
+        DVec3::new(1e300, 0.0, 0.0),
+        DVec3::Y,
+        DVec3::Z,
+        DVec3::X,
+    ];
+    let opts = FitOptions::default()
+        .with_radius(1.0)
+        .with_polynomial(Polynomial::Linear);
+    assert!(matches!(
+        Deformation::fit(&far, &far, opts),
+        Err(Error::StartScale { .. })
+    ));
+    let tiny: Vec<DVec3> = (0..5)
+        .map(|i| {
+            DVec3::new(
+                i as f64 * 1e-310,
+                (i % 2) as f64 * 1e-310,
+                (i / 3) as f64 * 1e-310,
+            )
+        })
+        .collect();
+    let e = Deformation::fit(&tiny, &tiny, opts).expect_err("subnormal");
+    assert!(e.to_string().contains("rescale the model"), "{e}");
+    let text = r#"{"radius": 1, "controls": [{"from": [0, 0, 0], "to": [1e300, 0, 0]}]}"#;
+    let e = controls::ControlFile::parse(text).expect_err("1e300");
+    assert!(
+        e.to_string().contains("controls[0].to[0]") && e.to_string().contains("beyond the range"),
+        "{e}"
+    );
 }

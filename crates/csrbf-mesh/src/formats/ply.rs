@@ -230,6 +230,14 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             src.end_record(&el.name, r)?;
             if is_vertex {
                 let get = |i: Option<usize>| i.map(|i| vals[i] as f32);
+                for i in [px, py, pz].into_iter().flatten() {
+                    if vals[i].is_finite() && !(vals[i] as f32).is_finite() {
+                        return Err(src.error(format!(
+                            "vertex {r}: coordinate {} is beyond the range of 32-bit floats (about ±3.4e38) that vertices are kept in",
+                            vals[i]
+                        )));
+                    }
+                }
                 mesh.positions.push(Vec3::new(
                     vals[px.unwrap_or(0)] as f32,
                     vals[py.unwrap_or(0)] as f32,

@@ -508,3 +508,30 @@ fn text_files_with_a_byte_order_mark_read() {
         assert_eq!((m.positions.len(), m.faces.len()), (3, 1), "{fmt:?}");
     }
 }
+
+/// Issue 7: coordinates beyond f32 are named with their line; CR-only files read.
+#[test]
+fn overflowing_coordinates_are_named_and_cr_only_files_read() {
+    let e = parse_err(b"v 0 0 1e39\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", Format::Obj);
+    assert!(
+        e.contains("bad.x:1:") && e.contains("1e39 is beyond the range of 32-bit floats"),
+        "{e}"
+    );
+    let e = parse_err(
+        b"OFF\n3 1 0\n0 0 0\n1e300 0 0\n0 1 0\n3 0 1 2\n",
+        Format::Off,
+    );
+    assert!(
+        e.contains("bad.x:4:") && e.contains("beyond the range"),
+        "{e}"
+    );
+    let e = parse_err(b"ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nend_header\n0 0 0\n1e300 0 0\n0 1 0\n", Format::Ply);
+    assert!(e.contains("beyond the range"), "{e}");
+    let m = Mesh::from_bytes(
+        b"v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r",
+        Format::Obj,
+        Path::new("mac.obj"),
+    )
+    .expect("CR only");
+    assert_eq!((m.positions.len(), m.faces.len()), (3, 1));
+}

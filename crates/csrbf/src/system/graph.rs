@@ -21,6 +21,19 @@ pub(super) fn validate(starts: &[DVec3], options: &FitOptions) -> Result<()> {
             what: "start",
         });
     }
+    // Starts spread over a subnormal extent (or beyond f32's range) cannot be
+    // told apart or fitted meaningfully: say so, rather than "coplanar".
+    let (lo, hi) = starts.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let extent = (hi - lo).max_element();
+    let size = lo.abs().max(hi.abs()).max_element();
+    if size > f32::MAX as f64
+        || (starts.len() > 1 && extent > 0.0 && extent < f64::MIN_POSITIVE * 1e10)
+    {
+        return Err(Error::StartScale { extent, size });
+    }
     if options.polynomial == Polynomial::Linear {
         if starts.len() < 4 {
             return Err(Error::TooFewForLinear(starts.len()));
