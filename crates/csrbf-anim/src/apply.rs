@@ -15,7 +15,7 @@ use csrbf_mesh::Mesh;
 #[non_exhaustive]
 pub enum ApplyError {
     /// The engine refused (the deformation's index names which one).
-    #[error("deformation {index}: {source}")]
+    #[error("deformation {index}")]
     Engine {
         /// Which deformation of the file.
         index: usize,
@@ -26,7 +26,7 @@ pub enum ApplyError {
     #[error(transparent)]
     Mesh(#[from] csrbf_mesh::MeshError),
     /// A replay file that does not decode.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Replay {
         /// The file.
         path: std::path::PathBuf,

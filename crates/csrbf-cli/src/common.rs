@@ -179,6 +179,13 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
         && !dir.is_dir()
     {
+        if dir.exists() {
+            bail!(
+                "{}: {} is a file, not a folder",
+                out.display(),
+                dir.display()
+            );
+        }
         bail!(
             "{}: the output directory {} does not exist",
             out.display(),
@@ -191,7 +198,7 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
     remove_stale_temps(out);
     if let Ok(o) = out.canonicalize() {
         for i in inputs {
-            if i.canonicalize().is_ok_and(|i| i == o) && !force {
+            if (i.canonicalize().is_ok_and(|i| i == o) || same_file(i, out)) && !force {
                 bail!(
                     "{}: the output is the same file as an input; refusing to overwrite it (pass --force to allow)",
                     out.display()
@@ -200,6 +207,23 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
         }
     }
     Ok(())
+}
+
+/// Whether two paths name one file (a hard link too): same device and inode.
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (std::fs::metadata(a), std::fs::metadata(b)) {
+            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (a, b);
+        false
+    }
 }
 
 /// Removes temporaries an earlier, killed run left beside `out`.

@@ -350,3 +350,63 @@ fn duplicate_keys_boms_and_empty_boxes() {
     );
     assert!(!dir.path("p.ply").exists() && !dir.path("s.glb").exists());
 }
+
+/// Issue 7: an output under a file, a hard link to the input, a mesh whose
+/// points coincide; OS errors printed once.
+#[test]
+fn odd_outputs_and_degenerate_meshes() {
+    let dir = TempDir::new("oddout");
+    let head = model("cgal_head.off");
+    let c = root().join("assets/controls/head_smile.json");
+    let file = dir.write("plain", "x");
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&file.join("o.ply")),
+        ],
+        &["is a file, not a folder"],
+    );
+    let copy = dir.path("head.off");
+    std::fs::copy(&head, &copy).expect("copy");
+    let link = dir.path("link.off");
+    std::fs::hard_link(&copy, &link).expect("hard link");
+    let before = std::fs::read(&copy).expect("read");
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&copy),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&link),
+        ],
+        &["same file as an input"],
+    );
+    assert_eq!(
+        std::fs::read(&copy).expect("read"),
+        before,
+        "the input is untouched"
+    );
+    // Every point at one place: a picture all the same, not a camera error.
+    let dot = dir.write("dot.obj", "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n");
+    ok(&[
+        "render",
+        "-q",
+        "--mesh",
+        arg(&dot),
+        "--out",
+        arg(&dir.path("dot.png")),
+        "--size",
+        "32x24",
+    ]);
+    // A missing input: the system's message once.
+    let r = csrbf(&["info", "--mesh", arg(&dir.path("missing.obj"))]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+}

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MeshError {
-    /// The file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    /// The file could not be read or written. The system's error is the
+    /// source (printed after this by error chains, not twice).
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -47,6 +48,15 @@ pub enum MeshError {
 }
 
 impl MeshError {
+    /// The message with its cause (the system's error for I/O), for callers
+    /// that keep errors as text.
+    pub fn full(&self) -> String {
+        match self {
+            MeshError::Io { path, source } => format!("{}: {source}", path.display()),
+            other => other.to_string(),
+        }
+    }
+
     pub(crate) fn parse(
         path: &std::path::Path,
         line: Option<usize>,

@@ -226,9 +226,7 @@ impl MovieWriter {
                     10,
                 );
                 frame.delay = (100.0 / self.fps).round().max(1.0) as u16;
-                encoder
-                    .write_frame(&frame)
-                    .map_err(|e| RenderError::Encode(e.to_string()))?;
+                encoder.write_frame(&frame).map_err(|e| io(&self.path, e))?;
             }
             Some(Sink::Frames { count }) => {
                 let p = self.tmp.join(format!("frame_{:05}.png", *count));
@@ -264,9 +262,7 @@ impl MovieWriter {
                 std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
             }
             Some(Sink::Gif { encoder }) => {
-                let file = encoder
-                    .into_inner()
-                    .map_err(|e| RenderError::Encode(e.to_string()))?;
+                let file = encoder.into_inner().map_err(|e| io(&self.path, e))?;
                 file.sync_all().map_err(|e| io(&self.path, e))?;
                 drop(file);
                 std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;

@@ -177,7 +177,7 @@ impl Assets {
     fn mesh(&self, path: &Path) -> std::result::Result<Mesh, String> {
         match self.meshes.get(path) {
             Some(m) => Ok(m.clone()),
-            None => csrbf_mesh::read(path).map_err(|e| e.to_string()),
+            None => csrbf_mesh::read(path).map_err(|e| e.full()),
         }
     }
 
