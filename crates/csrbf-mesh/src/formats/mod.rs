@@ -134,4 +134,6 @@ pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
 }
 
 #[cfg(test)]
+mod fuzz;
+#[cfg(test)]
 mod tests;

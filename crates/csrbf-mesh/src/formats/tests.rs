@@ -178,8 +178,8 @@ fn broken_files_are_errors_that_name_the_place() {
         (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n", Format::Stl, "truncated"),
         (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0\n", Format::Stl, "bad.x:5: missing vertex z"),
         (&[0u8; 90], Format::Stl, "truncated or not an STL file"),
-        (b"{\"asset\":{\"version\":\"2.0\"},\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":5}}]}]}", Format::Gltf, "glTF"),
-        (b"glTF\x02\0\0\0\xff\0\0\0", Format::Glb, "invalid glTF"),
+        (b"{\"asset\":{\"version\":\"2.0\"},\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":5}}]}]}", Format::Gltf, "names accessor 5, but there are 0"),
+        (b"glTF\x02\0\0\0\xff\0\0\0", Format::Glb, "the GLB header says 255 bytes"),
         (b"{not json", Format::Gltf, "invalid glTF"),
     ];
     for (bytes, fmt, want) in cases {

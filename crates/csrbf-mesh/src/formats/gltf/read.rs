@@ -28,7 +28,19 @@ type SharedKey = (usize, usize, Option<usize>, Option<usize>);
 
 fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let err = |m: String| MeshError::parse(path, None, m);
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("invalid glTF: {e}")))?;
+    // The crate's own validation indexes a primitive's POSITION accessor
+    // before checking it exists: check every primitive's accessor indices
+    // first, then let it validate the rest.
+    if bytes.starts_with(b"glTF") {
+        check_glb(bytes).map_err(err)?;
+    }
+    let raw = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| err(format!("invalid glTF: {e}")))?;
+    check_primitive_indices(raw.document.as_json()).map_err(err)?;
+    let blob = raw.blob;
+    let document = gltf::Document::from_json(raw.document.into_json())
+        .map_err(|e| err(format!("invalid glTF: {e}")))?;
+    let gltf = gltf::Gltf { document, blob };
     let doc = &gltf.document;
     let mut buffers: Vec<Vec<u8>> = Vec::new();
     for b in doc.buffers() {
@@ -215,7 +227,16 @@ fn check_accessors(doc: &gltf::Document, buffers: &[Vec<u8>]) -> std::result::Re
         };
         let buffer = buffers.get(view.buffer().index()).map_or(0, Vec::len);
         let elem = a.size();
-        let stride = view.stride().unwrap_or(elem).max(elem);
+        if a.count() == 0 {
+            return Err(format!("accessor {} has no elements", a.index()));
+        }
+        let stride = view.stride().unwrap_or(elem);
+        if stride < elem {
+            return Err(format!(
+                "accessor {}: its buffer view's stride {stride} is shorter than one element ({elem} bytes)",
+                a.index()
+            ));
+        }
         let need = if a.count() == 0 {
             0
         } else {
@@ -269,6 +290,72 @@ fn check_accessors(doc: &gltf::Document, buffers: &[Vec<u8>]) -> std::result::Re
                     return bad(&format!("{sem:?}"), &a);
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// A GLB's header and chunk lengths fit the file (the crate subtracts them
+/// unchecked).
+fn check_glb(bytes: &[u8]) -> std::result::Result<(), String> {
+    let u32_at = |at: usize| -> Option<usize> {
+        bytes
+            .get(at..at + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    let length = u32_at(8).ok_or("the GLB header is cut short")?;
+    if length < 12 || length > bytes.len() {
+        return Err(format!(
+            "the GLB header says {length} bytes, the file has {}",
+            bytes.len()
+        ));
+    }
+    let mut at = 12;
+    while at < length {
+        let chunk = u32_at(at).ok_or("a GLB chunk header is cut short")?;
+        if u32_at(at + 4).is_none() || at + 8 + chunk > length {
+            return Err(format!(
+                "a GLB chunk at byte {at} says {chunk} bytes, past the end"
+            ));
+        }
+        at += 8 + chunk;
+    }
+    Ok(())
+}
+
+/// Every accessor index a primitive (and its morph targets) names exists.
+fn check_primitive_indices(root: &gltf::json::Root) -> std::result::Result<(), String> {
+    let n = root.accessors.len();
+    for (mi, m) in root.meshes.iter().enumerate() {
+        for p in &m.primitives {
+            let indices = p.attributes.values().chain(p.indices.iter()).chain(
+                p.targets.iter().flatten().flat_map(|t| {
+                    t.positions
+                        .iter()
+                        .chain(t.normals.iter())
+                        .chain(t.tangents.iter())
+                }),
+            );
+            for idx in indices {
+                if idx.value() >= n {
+                    return Err(format!(
+                        "mesh {mi}: a primitive names accessor {}, but there are {n}",
+                        idx.value()
+                    ));
+                }
+            }
+        }
+    }
+    // Images: a buffer view (in range, with a MIME type) or a URI.
+    for (i, im) in root.images.iter().enumerate() {
+        match (&im.buffer_view, &im.uri) {
+            (Some(v), _) if v.value() >= root.buffer_views.len() || im.mime_type.is_none() => {
+                return Err(format!(
+                    "image {i}: its buffer view must exist and have a MIME type"
+                ));
+            }
+            (None, None) => return Err(format!("image {i} has neither a buffer view nor a URI")),
+            _ => {}
         }
     }
     Ok(())
