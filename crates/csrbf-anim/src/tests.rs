@@ -475,3 +475,27 @@ fn the_ball_stays_inside_the_bulging_box() {
         worst.0, worst.1
     );
 }
+
+/// Issue 7: seeded mutations of scene files give an error or a scene, never a panic.
+#[test]
+fn the_scene_reader_survives_thousands_of_mutations() {
+    use csrbf::synthetic::{Rng, mutate};
+    let seeds: Vec<Vec<u8>> = demos::DEMOS
+        .iter()
+        .map(|n| demos::demo(n).expect("demo").scene.to_json().into_bytes())
+        .chain(std::iter::once(GOOD.as_bytes().to_vec()))
+        .collect();
+    let all: Vec<&[u8]> = seeds.iter().map(Vec::as_slice).collect();
+    let mut rng = Rng::new(99);
+    let (mut read, mut refused) = (0, 0);
+    for case in 0..4000 {
+        let input = mutate(all[case % all.len()], &mut rng, &all);
+        let text = String::from_utf8_lossy(&input).into_owned();
+        match std::panic::catch_unwind(|| SceneFile::parse(&text).is_ok()) {
+            Ok(true) => read += 1,
+            Ok(false) => refused += 1,
+            Err(_) => panic!("case {case} panicked"),
+        }
+    }
+    assert!(read > 0 && refused > 0, "{read} read, {refused} refused");
+}

@@ -54,7 +54,7 @@ fn malformed_meshes_of_every_format() {
         ("i.stl", b"solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n", &["i.stl", "truncated"]),
         ("j.stl", &[7u8; 200], &["j.stl", "not an STL"]),
         ("k.gltf", b"{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [", &["k.gltf", "glTF"]),
-        ("l.glb", b"glTF\x02\x00\x00\x00\x10\x00", &["l.glb", "glTF"]),
+        ("l.glb", b"glTF\x02\x00\x00\x00\x10\x00", &["l.glb", "GLB header is cut short"]),
         ("m.off", b"", &["m.off", "empty"]),
     ];
     for (name, bytes, want) in cases {

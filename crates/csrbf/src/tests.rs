@@ -794,3 +794,56 @@ fn starts_out_of_range_are_named_for_what_they_are() {
         "{e}"
     );
 }
+
+/// Issue 7: seeded mutations of control files and `.csrbf` files give an
+/// error or a valid value, never a panic.
+#[test]
+fn control_and_replay_readers_survive_thousands_of_mutations() {
+    use crate::synthetic::mutate;
+    let controls = [
+        std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/controls/head_smile.json")).expect("smile"),
+        br#"{"combine": "add", "deformations": [
+            {"radius": 1, "kernel": "c4", "phase": 0.5, "region": {"box": {"min": [0,0,0], "max": [1,1,1]}, "falloff": 0.2},
+             "controls": [{"from": [0,0,0], "to": [0,0,1]}]},
+            {"radius": 2, "handle": {"select": {"group": "ear"}, "rotate": {"axis": [0,0,1], "angle_deg": 30, "pivot": [1,2,3]}, "scale": 1.1},
+             "anchor": {"vertices": [1, 2, 3]}}]}"#
+            .to_vec(),
+    ];
+    let (s, t) = scene(40, 3);
+    let lin = FitOptions::default()
+        .with_radius(0.4)
+        .with_polynomial(Polynomial::Linear);
+    let stages = vec![
+        (
+            Deformation::fit(&s, &t, lin).expect("fit"),
+            Region::Group("lips".into()),
+            0.5,
+        ),
+        (
+            Deformation::fit(&s, &t, FitOptions::default().with_radius(0.3)).expect("fit"),
+            Region::All,
+            1.0,
+        ),
+    ];
+    let replay = format::encode(&stages, Combine::Add);
+    let all: Vec<&[u8]> = vec![&controls[0], &controls[1], &replay];
+    let mut rng = Rng::new(4242);
+    let (mut read, mut refused) = (0, 0);
+    for case in 0..6000 {
+        let seed = all[case % all.len()];
+        let input = mutate(seed, &mut rng, &all);
+        let result = std::panic::catch_unwind(|| {
+            if case % all.len() == 2 {
+                format::decode(&input).is_ok()
+            } else {
+                controls::ControlFile::parse(&String::from_utf8_lossy(&input)).is_ok()
+            }
+        });
+        match result {
+            Ok(true) => read += 1,
+            Ok(false) => refused += 1,
+            Err(_) => panic!("case {case} panicked"),
+        }
+    }
+    assert!(read > 0 && refused > 0, "{read} read, {refused} refused");
+}
