@@ -131,56 +131,48 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 prim.get(&gltf::Semantic::TexCoords(0)).map(|a| a.index()),
                 prim.get(&gltf::Semantic::Colors(0)).map(|a| a.index()),
             );
-            if let Some(&(base, count)) = shared.get(&key) {
-                let first_face = mesh.faces.len() as u32;
-                push_triangles(
-                    &mut mesh,
-                    &reader,
-                    base,
-                    count,
-                    prim.mode(),
-                    gmesh.index(),
-                    &err,
-                )?;
-                name_parts(
-                    &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
-                );
-                continue;
-            }
-            let base = mesh.positions.len() as u32;
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| {
-                    err(format!(
-                        "mesh {}: positions lie outside their buffer",
-                        gmesh.index()
-                    ))
-                })?
-                .map(|p| world.transform_point3(Vec3::from_array(p)))
-                .collect();
-            let count = positions.len();
-            mesh.positions.extend(positions);
-            match reader.read_tex_coords(0) {
-                Some(t) => {
-                    any_uv = true;
-                    uvs.resize(base as usize, Vec2::ZERO);
-                    // glTF puts the texture origin at the top left; meshes here keep OBJ's
-                    // bottom-left origin.
-                    uvs.extend(t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).take(count));
+            let (base, count) = match shared.get(&key) {
+                Some(&shared_vertices) => shared_vertices,
+                None => {
+                    let base = mesh.positions.len() as u32;
+                    let positions: Vec<Vec3> = reader
+                        .read_positions()
+                        .ok_or_else(|| {
+                            err(format!(
+                                "mesh {}: positions lie outside their buffer",
+                                gmesh.index()
+                            ))
+                        })?
+                        .map(|p| world.transform_point3(Vec3::from_array(p)))
+                        .collect();
+                    let count = positions.len();
+                    mesh.positions.extend(positions);
+                    match reader.read_tex_coords(0) {
+                        Some(t) => {
+                            any_uv = true;
+                            uvs.resize(base as usize, Vec2::ZERO);
+                            // glTF puts the texture origin at the top left; meshes here keep OBJ's
+                            // bottom-left origin.
+                            uvs.extend(
+                                t.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).take(count),
+                            );
+                        }
+                        None => uvs.resize(base as usize, Vec2::ZERO),
+                    }
+                    uvs.resize(mesh.positions.len(), Vec2::ZERO);
+                    match reader.read_colors(0) {
+                        Some(c) => {
+                            any_color = true;
+                            colors.resize(base as usize, [1.0; 4]);
+                            colors.extend(c.into_rgba_f32().take(count));
+                        }
+                        None => colors.resize(base as usize, [1.0; 4]),
+                    }
+                    colors.resize(mesh.positions.len(), [1.0; 4]);
+                    shared.insert(key, (base, count));
+                    (base, count)
                 }
-                None => uvs.resize(base as usize, Vec2::ZERO),
-            }
-            uvs.resize(mesh.positions.len(), Vec2::ZERO);
-            match reader.read_colors(0) {
-                Some(c) => {
-                    any_color = true;
-                    colors.resize(base as usize, [1.0; 4]);
-                    colors.extend(c.into_rgba_f32().take(count));
-                }
-                None => colors.resize(base as usize, [1.0; 4]),
-            }
-            colors.resize(mesh.positions.len(), [1.0; 4]);
-            shared.insert(key, (base, count));
+            };
             let first_face = mesh.faces.len() as u32;
             push_triangles(
                 &mut mesh,
