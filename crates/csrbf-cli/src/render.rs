@@ -81,11 +81,14 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
         csrbf_anim::camera::axis_name(aimed.up.0),
         aimed.up.1
     ));
+    // Through the exact camera the flags made (orthographic too); `pick` uses it.
+    let mut look = a.look.options();
+    look.camera = Some(aimed.camera);
     let mut r = SceneRenderer::new(&scene, panel[0], panel[1])?;
     progress.say(format_args!("rendering on {}", r.renderer().adapter()));
     let t = Instant::now();
     let frame = scene.frame(0.0);
-    let mut img = r.render(&scene, &frame, a.look.options())?;
+    let mut img = r.render(&scene, &frame, look)?;
     if a.before_after {
         let mut rest = frame.clone();
         let obj = &mut rest.objects[0];
@@ -95,7 +98,7 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
             &aimed.mesh.faces.triangles(),
             &mut obj.normals,
         );
-        let before = r.render(&scene, &rest, a.look.options())?;
+        let before = r.render(&scene, &rest, look)?;
         img = side_by_side(&before, &img, size[0]);
     }
     img.save_png(&a.out)?;

@@ -33,6 +33,9 @@ pub struct CameraArgs {
     /// Closer (> 1) or farther (< 1) than the framing of the whole model.
     #[arg(long, default_value_t = 1.0)]
     pub zoom: f32,
+    /// Parallel projection (no perspective): sizes compare across the picture.
+    #[arg(long)]
+    pub ortho: bool,
 }
 
 /// Parses `X,Y,Z`.
@@ -66,6 +69,13 @@ impl CameraArgs {
         let aspect = size[0] as f32 / size[1] as f32;
         let dir = Camera::preset_direction(preset, up);
         let mut cam = Camera::framing(dir, up, lo, hi, self.fov, aspect, self.zoom);
+        if self.ortho {
+            // The bounding sphere fits the narrower side, as in perspective.
+            let diameter = (hi - lo).length().max(1e-6) * 1.02;
+            cam.projection = csrbf_anim::Projection::Orthographic {
+                height: diameter / self.zoom * (1.0 / aspect).max(1.0),
+            };
+        }
         if let Some(t) = &self.target {
             let target = parse_point("--target", t)?;
             let shift = target - cam.target;

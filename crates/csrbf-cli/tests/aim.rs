@@ -14,54 +14,65 @@ fn json(args: &[&str]) -> Value {
 fn pick_finds_what_render_draws_at_that_pixel() {
     let dir = TempDir::new("pick");
     let head = model("cgal_head.off");
-    let shot = dir.path("front.png");
-    let flags = ["--view", "front", "--size", "160x120", "--zoom", "1.2"];
-    let mut args = vec!["render", "-q", "--mesh", arg(&head), "--out", arg(&shot)];
-    args.extend(flags);
-    ok(&args);
-    let (w, h, px) = image_rgba(&shot);
-    assert_eq!((w, h), (160, 120));
-    let background = px[0];
-    let mut hits = 0;
-    for (x, y) in [
-        (80, 60),
-        (0, 0),
-        (159, 119),
-        (70, 30),
-        (95, 90),
-        (40, 60),
-        (120, 60),
-    ] {
-        let pixel = format!("{x},{y}");
-        let mut args = vec![
-            "pick",
-            "-q",
-            "--mesh",
-            arg(&head),
-            "--pixel",
-            &pixel,
-            "--json",
-        ];
-        args.extend(flags);
-        let v = json(&args);
-        let drawn = px[(y * w + x) as usize] != background;
-        assert_eq!(
-            v["hit"] == true,
-            drawn,
-            "pixel {pixel}: pick {v} vs picture"
-        );
-        if drawn {
-            hits += 1;
-            // The rest point lies on the mesh's triangle (no controls: equals the point).
-            let p = &v["point"];
-            let r = &v["rest_point"];
-            for k in 0..3 {
-                let (a, b) = (p[k].as_f64().expect("x"), r[k].as_f64().expect("x"));
-                assert!((a - b).abs() < 1e-4, "{p} vs {r}");
+    // Perspective and orthographic: both go through the one camera.
+    for (k, flags) in [
+        vec!["--view", "front", "--size", "160x120", "--zoom", "1.2"],
+        vec!["--view", "left", "--size", "160x120", "--ortho"],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let shot = dir.path(&format!("shot{k}.png"));
+        let mut args = vec!["render", "-q", "--mesh", arg(&head), "--out", arg(&shot)];
+        args.extend(flags.iter().copied());
+        ok(&args);
+        let (w, h, px) = image_rgba(&shot);
+        assert_eq!((w, h), (160, 120));
+        let background = px[0];
+        let mut hits = 0;
+        for (x, y) in [
+            (80, 60),
+            (0, 0),
+            (159, 119),
+            (70, 30),
+            (95, 90),
+            (40, 60),
+            (120, 60),
+        ] {
+            let pixel = format!("{x},{y}");
+            let mut args = vec![
+                "pick",
+                "-q",
+                "--mesh",
+                arg(&head),
+                "--pixel",
+                &pixel,
+                "--json",
+            ];
+            args.extend(flags.iter().copied());
+            let v = json(&args);
+            let drawn = px[(y * w + x) as usize] != background;
+            assert_eq!(
+                v["hit"] == true,
+                drawn,
+                "{flags:?} pixel {pixel}: pick {v} vs picture"
+            );
+            if drawn {
+                hits += 1;
+                // The rest point lies on the mesh's triangle (no controls: equals the point).
+                let p = &v["point"];
+                let r = &v["rest_point"];
+                for k in 0..3 {
+                    let (a, b) = (p[k].as_f64().expect("x"), r[k].as_f64().expect("x"));
+                    assert!((a - b).abs() < 1e-4, "{p} vs {r}");
+                }
             }
         }
+        assert!(
+            hits >= 3,
+            "{flags:?}: the head should cover the middle of the picture"
+        );
     }
-    assert!(hits >= 3, "the head should cover the middle of the picture");
 }
 
 #[test]
