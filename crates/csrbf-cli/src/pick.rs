@@ -86,16 +86,9 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
     let value = match hit {
         None => serde_json::json!({ "hit": false, "pixel": [x, y] }),
         Some(h) => {
-            let tri = triangles[h.triangle as usize];
-            let w = h.barycentric;
             let rest = &aimed.mesh.positions;
-            let rest_point = rest[tri[0] as usize] * w[0]
-                + rest[tri[1] as usize] * w[1]
-                + rest[tri[2] as usize] * w[2];
-            let nearest = (0..3)
-                .max_by(|&a, &b| w[a].total_cmp(&w[b]))
-                .map(|k| tri[k])
-                .unwrap_or(tri[0]);
+            let rest_point = h.point_in(&triangles, rest);
+            let nearest = h.nearest_vertex(&triangles);
             let face = aimed.mesh.faces.face_of_triangle(h.triangle as usize);
             let parts: Vec<String> = aimed
                 .mesh

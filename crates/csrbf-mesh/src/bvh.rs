@@ -53,6 +53,26 @@ pub struct Hit {
     pub point: Vec3,
 }
 
+impl Hit {
+    /// The same point of the surface in other positions of the mesh (its
+    /// rest pose, say, when the tree was cast on the deformed one): the
+    /// barycentric weights applied to the hit triangle's corners there.
+    pub fn point_in(&self, triangles: &[[u32; 3]], positions: &[Vec3]) -> Vec3 {
+        let tri = triangles[self.triangle as usize];
+        let w = self.barycentric;
+        (0..3).map(|k| positions[tri[k] as usize] * w[k]).sum()
+    }
+
+    /// The corner of the hit triangle nearest the hit (largest weight).
+    pub fn nearest_vertex(&self, triangles: &[[u32; 3]]) -> u32 {
+        let tri = triangles[self.triangle as usize];
+        let w = self.barycentric;
+        (0..3)
+            .max_by(|&a, &b| w[a].total_cmp(&w[b]))
+            .map_or(tri[0], |k| tri[k])
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Node {
     lo: Vec3,
@@ -403,6 +423,13 @@ mod tests {
         let h = bvh.cast(&p, &ray).expect("hit");
         assert!((h.point - Vec3::new(1.0, 1.0, 5.0)).length() < 1e-6);
         assert!((h.t - 5.0).abs() < 1e-6);
+        // The same surface point on a moved copy, and the nearest corner.
+        let moved: Vec<Vec3> = p.iter().map(|q| *q * 2.0 + Vec3::X).collect();
+        let on_moved = h.point_in(&[[0, 1, 2]], &moved);
+        assert!((on_moved - (h.point * 2.0 + Vec3::X)).length() < 1e-5);
+        assert_eq!(h.nearest_vertex(&[[0, 1, 2]]), 0);
+        let near_b = bvh.cast(&p, &Ray::new(Vec3::new(3.5, 0.2, 0.0), Vec3::Z));
+        assert_eq!(near_b.map(|h| h.nearest_vertex(&[[0, 1, 2]])), Some(1));
         // Behind the origin or beside the triangle: no hit.
         assert!(
             bvh.cast(&p, &Ray::new(Vec3::new(1.0, 1.0, 9.0), Vec3::Z))
