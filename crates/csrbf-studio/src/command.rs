@@ -1,0 +1,475 @@
+//! Every edit of a [`Document`] as a value: applying one returns its
+//! inverse, so undo is applying the inverse and redo applying the command
+//! again. [`History`] keeps the pairs and merges the many small moves of a
+//! drag into one step.
+
+use csrbf::Kernel;
+use csrbf::controls::ControlSpec;
+use glam::DVec3;
+
+use crate::EditError;
+use crate::state::Document;
+
+/// One edit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    /// Insert a control vector at `index` of a layer (`None`: at the end).
+    Insert {
+        /// The layer.
+        layer: usize,
+        /// Where (`None`: last).
+        index: Option<usize>,
+        /// Its start.
+        start: DVec3,
+        /// Its destination.
+        target: DVec3,
+    },
+    /// Remove a control vector.
+    Remove {
+        /// The layer.
+        layer: usize,
+        /// Which.
+        index: usize,
+    },
+    /// Move a destination (the drag; no refit).
+    SetTarget {
+        /// The layer.
+        layer: usize,
+        /// Which control.
+        index: usize,
+        /// The new destination.
+        target: DVec3,
+    },
+    /// Move a start (a refit).
+    SetStart {
+        /// The layer.
+        layer: usize,
+        /// Which control.
+        index: usize,
+        /// The new start.
+        start: DVec3,
+    },
+    /// Change a layer's radius of support.
+    SetRadius {
+        /// The layer.
+        layer: usize,
+        /// The new R (> 0).
+        radius: f64,
+    },
+    /// Change a layer's kernel.
+    SetKernel {
+        /// The layer.
+        layer: usize,
+        /// The kernel.
+        kernel: Kernel,
+    },
+    /// Insert a layer (a deformation) at `layer`.
+    InsertLayer {
+        /// Where.
+        layer: usize,
+        /// Its content.
+        spec: Box<ControlSpec>,
+    },
+    /// Remove a layer (a document keeps at least one).
+    RemoveLayer {
+        /// Which.
+        layer: usize,
+    },
+    /// Replace a layer's whole content (a preset, a pasted file).
+    ReplaceLayer {
+        /// Which.
+        layer: usize,
+        /// Its new content.
+        spec: Box<ControlSpec>,
+    },
+}
+
+impl Command {
+    /// A control vector added at the end of a layer.
+    pub fn add(layer: usize, start: DVec3, target: DVec3) -> Command {
+        Command::Insert {
+            layer,
+            index: None,
+            start,
+            target,
+        }
+    }
+
+    /// Applies the command and returns its inverse. On error the document is
+    /// unchanged.
+    pub fn apply(&self, doc: &mut Document) -> Result<Command, EditError> {
+        let layers = doc.controls.deformations.len();
+        let has_layer = |doc: &Document, layer: usize| {
+            if layer < doc.controls.deformations.len() {
+                Ok(())
+            } else {
+                Err(EditError::NoLayer(layer))
+            }
+        };
+        let finite = |p: DVec3, what: &str| {
+            if p.is_finite() {
+                Ok(())
+            } else {
+                Err(EditError::Invalid(format!("{what} {p} is not finite")))
+            }
+        };
+        let inverse = match self {
+            Command::Insert {
+                layer,
+                index,
+                start,
+                target,
+            } => {
+                has_layer(doc, *layer)?;
+                finite(*start, "start")?;
+                finite(*target, "destination")?;
+                let s = &mut doc.controls.deformations[*layer];
+                let at = index.unwrap_or(s.starts.len());
+                if at > s.starts.len() {
+                    return Err(EditError::NoControl {
+                        layer: *layer,
+                        index: at,
+                    });
+                }
+                s.starts.insert(at, *start);
+                s.targets.insert(at, *target);
+                Command::Remove {
+                    layer: *layer,
+                    index: at,
+                }
+            }
+            Command::Remove { layer, index } => {
+                has_layer(doc, *layer)?;
+                let s = &mut doc.controls.deformations[*layer];
+                if *index >= s.starts.len() {
+                    return Err(EditError::NoControl {
+                        layer: *layer,
+                        index: *index,
+                    });
+                }
+                let (start, target) = (s.starts.remove(*index), s.targets.remove(*index));
+                doc.selection
+                    .0
+                    .retain(|&(l, i)| !(l == *layer && i == *index));
+                for (l, i) in &mut doc.selection.0 {
+                    if *l == *layer && *i > *index {
+                        *i -= 1;
+                    }
+                }
+                Command::Insert {
+                    layer: *layer,
+                    index: Some(*index),
+                    start,
+                    target,
+                }
+            }
+            Command::SetTarget {
+                layer,
+                index,
+                target,
+            } => {
+                has_layer(doc, *layer)?;
+                finite(*target, "destination")?;
+                let s = &mut doc.controls.deformations[*layer];
+                let old = *s.targets.get(*index).ok_or(EditError::NoControl {
+                    layer: *layer,
+                    index: *index,
+                })?;
+                s.targets[*index] = *target;
+                Command::SetTarget {
+                    layer: *layer,
+                    index: *index,
+                    target: old,
+                }
+            }
+            Command::SetStart {
+                layer,
+                index,
+                start,
+            } => {
+                has_layer(doc, *layer)?;
+                finite(*start, "start")?;
+                let s = &mut doc.controls.deformations[*layer];
+                let old = *s.starts.get(*index).ok_or(EditError::NoControl {
+                    layer: *layer,
+                    index: *index,
+                })?;
+                s.starts[*index] = *start;
+                Command::SetStart {
+                    layer: *layer,
+                    index: *index,
+                    start: old,
+                }
+            }
+            Command::SetRadius { layer, radius } => {
+                has_layer(doc, *layer)?;
+                if !(*radius > 0.0 && radius.is_finite()) {
+                    return Err(EditError::Invalid(format!(
+                        "the radius must be a finite number > 0, got {radius}"
+                    )));
+                }
+                let o = &mut doc.controls.deformations[*layer].options;
+                let old = o.radius;
+                *o = o.with_radius(*radius);
+                Command::SetRadius {
+                    layer: *layer,
+                    radius: old,
+                }
+            }
+            Command::SetKernel { layer, kernel } => {
+                has_layer(doc, *layer)?;
+                let o = &mut doc.controls.deformations[*layer].options;
+                let old = o.kernel;
+                *o = o.with_kernel(*kernel);
+                Command::SetKernel {
+                    layer: *layer,
+                    kernel: old,
+                }
+            }
+            Command::InsertLayer { layer, spec } => {
+                if *layer > layers {
+                    return Err(EditError::NoLayer(*layer));
+                }
+                doc.controls.deformations.insert(*layer, (**spec).clone());
+                for (l, _) in &mut doc.selection.0 {
+                    if *l >= *layer {
+                        *l += 1;
+                    }
+                }
+                Command::RemoveLayer { layer: *layer }
+            }
+            Command::RemoveLayer { layer } => {
+                has_layer(doc, *layer)?;
+                if layers == 1 {
+                    return Err(EditError::Invalid(
+                        "a document keeps at least one layer".into(),
+                    ));
+                }
+                let old = doc.controls.deformations.remove(*layer);
+                doc.selection.0.retain(|&(l, _)| l != *layer);
+                for (l, _) in &mut doc.selection.0 {
+                    if *l > *layer {
+                        *l -= 1;
+                    }
+                }
+                doc.active_layer = doc.active_layer.min(layers - 2);
+                Command::InsertLayer {
+                    layer: *layer,
+                    spec: Box::new(old),
+                }
+            }
+            Command::ReplaceLayer { layer, spec } => {
+                has_layer(doc, *layer)?;
+                let old =
+                    std::mem::replace(&mut doc.controls.deformations[*layer], (**spec).clone());
+                Command::ReplaceLayer {
+                    layer: *layer,
+                    spec: Box::new(old),
+                }
+            }
+        };
+        doc.dirty = true;
+        Ok(inverse)
+    }
+
+    /// Whether this command only moves destinations (the live preview then
+    /// solves again without re-factoring).
+    pub fn moves_targets_only(&self) -> bool {
+        matches!(self, Command::SetTarget { .. })
+    }
+}
+
+/// Done and undone commands, each with its inverse.
+#[derive(Clone, Debug, Default)]
+pub struct History {
+    done: Vec<(Command, Command)>,
+    undone: Vec<(Command, Command)>,
+    /// While true, destination moves of the same control merge into the last step.
+    dragging: bool,
+}
+
+impl History {
+    /// Applies a command and records it; clears what could be redone.
+    pub fn apply(&mut self, doc: &mut Document, command: Command) -> Result<(), EditError> {
+        let inverse = command.apply(doc)?;
+        // A drag's moves of one destination are one step: keep the first
+        // inverse (where the drag began) and the last command.
+        if self.dragging
+            && let (
+                Command::SetTarget { layer, index, .. },
+                Some((
+                    Command::SetTarget {
+                        layer: l, index: i, ..
+                    },
+                    _,
+                )),
+            ) = (&command, self.done.last())
+            && (layer, index) == (l, i)
+        {
+            let first_inverse = self.done.pop().map(|(_, inv)| inv).unwrap_or(inverse);
+            self.done.push((command, first_inverse));
+        } else {
+            self.done.push((command, inverse));
+        }
+        self.undone.clear();
+        Ok(())
+    }
+
+    /// Starts merging destination moves (pointer pressed on a destination).
+    pub fn begin_drag(&mut self) {
+        self.dragging = true;
+    }
+
+    /// Stops merging (pointer released): the next move is a new step.
+    pub fn end_drag(&mut self) {
+        self.dragging = false;
+    }
+
+    /// Undoes the last step.
+    pub fn undo(&mut self, doc: &mut Document) -> Result<(), EditError> {
+        let (command, inverse) = self.done.pop().ok_or(EditError::Nothing("undo"))?;
+        inverse.apply(doc)?;
+        self.undone.push((command, inverse));
+        Ok(())
+    }
+
+    /// Redoes the last undone step.
+    pub fn redo(&mut self, doc: &mut Document) -> Result<(), EditError> {
+        let (command, _) = self.undone.pop().ok_or(EditError::Nothing("redo"))?;
+        let inverse = command.apply(doc)?;
+        self.done.push((command, inverse));
+        Ok(())
+    }
+
+    /// Steps that can be undone.
+    pub fn undo_steps(&self) -> usize {
+        self.done.len()
+    }
+
+    /// Steps that can be redone.
+    pub fn redo_steps(&self) -> usize {
+        self.undone.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn doc() -> Document {
+        Document::new(
+            csrbf_mesh::shapes::uv_sphere(1.0, 8, 16),
+            PathBuf::from("s.obj"),
+            0.5,
+        )
+    }
+
+    #[test]
+    fn every_command_undoes_exactly() {
+        let mut d = doc();
+        let mut h = History::default();
+        let before = d.controls.clone();
+        let layer = Box::new(ControlSpec::new(
+            vec![DVec3::X],
+            vec![DVec3::X * 1.1],
+            csrbf::FitOptions::default().with_radius(0.3),
+        ));
+        let steps = vec![
+            Command::add(0, DVec3::Y, DVec3::Y * 1.2),
+            Command::add(0, DVec3::Z, DVec3::Z),
+            Command::SetTarget {
+                layer: 0,
+                index: 1,
+                target: DVec3::Z * 1.3,
+            },
+            Command::SetStart {
+                layer: 0,
+                index: 0,
+                start: DVec3::NEG_Y,
+            },
+            Command::SetRadius {
+                layer: 0,
+                radius: 0.8,
+            },
+            Command::SetKernel {
+                layer: 0,
+                kernel: Kernel::C4,
+            },
+            Command::InsertLayer {
+                layer: 1,
+                spec: layer.clone(),
+            },
+            Command::ReplaceLayer {
+                layer: 1,
+                spec: layer,
+            },
+            Command::Remove { layer: 0, index: 0 },
+            Command::RemoveLayer { layer: 0 },
+        ];
+        let mut states = vec![d.controls.clone()];
+        for c in steps {
+            h.apply(&mut d, c).expect("apply");
+            states.push(d.controls.clone());
+        }
+        assert!(d.dirty);
+        // Undo walks back through every state exactly, redo forward again.
+        for want in states.iter().rev().skip(1) {
+            h.undo(&mut d).expect("undo");
+            assert_eq!(&d.controls, want);
+        }
+        assert_eq!(d.controls, before);
+        assert_eq!(h.undo(&mut d), Err(EditError::Nothing("undo")));
+        for want in states.iter().skip(1) {
+            h.redo(&mut d).expect("redo");
+            assert_eq!(&d.controls, want);
+        }
+    }
+
+    #[test]
+    fn a_drag_is_one_step_and_bad_edits_change_nothing() {
+        let mut d = doc();
+        let mut h = History::default();
+        h.apply(&mut d, Command::add(0, DVec3::Y, DVec3::Y))
+            .expect("add");
+        h.begin_drag();
+        for k in 1..=10 {
+            let target = DVec3::Y * (1.0 + 0.01 * k as f64);
+            h.apply(
+                &mut d,
+                Command::SetTarget {
+                    layer: 0,
+                    index: 0,
+                    target,
+                },
+            )
+            .expect("drag");
+        }
+        h.end_drag();
+        assert_eq!(h.undo_steps(), 2);
+        h.undo(&mut d).expect("undo");
+        assert_eq!(d.controls.deformations[0].targets[0], DVec3::Y);
+        let snapshot = d.controls.clone();
+        for bad in [
+            Command::SetRadius {
+                layer: 0,
+                radius: 0.0,
+            },
+            Command::SetRadius {
+                layer: 0,
+                radius: -1.0,
+            },
+            Command::SetTarget {
+                layer: 0,
+                index: 7,
+                target: DVec3::ONE,
+            },
+            Command::add(3, DVec3::ONE, DVec3::ONE),
+            Command::add(0, DVec3::NAN, DVec3::ONE),
+            Command::RemoveLayer { layer: 0 },
+        ] {
+            assert!(bad.apply(&mut d).is_err(), "{bad:?}");
+            assert_eq!(d.controls, snapshot, "{bad:?} changed the document");
+        }
+    }
+}

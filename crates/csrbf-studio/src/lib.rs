@@ -1,0 +1,63 @@
+//! The editor core of `csrbf-studio` (the papers' Picker): everything the app
+//! does, as plain types that tests drive without a window. The egui layer
+//! (to come) only reads a [`Document`] and sends [`Command`]s.
+//!
+//! - [`state`]: the [`Document`]: the mesh, its control file (one layer per
+//!   deformation), the selection, and whether it was saved;
+//! - [`command`]: every edit a value that applies itself and returns its
+//!   inverse; [`History`] keeps them for undo and redo, merging a drag into
+//!   one step;
+//! - [`tools`]: pointer events in, commands out: a click on the surface adds
+//!   a control vector there (ray against the mesh through the renderer's
+//!   [`csrbf_anim::Camera`]), a drag moves its destination on the plane
+//!   facing the camera, optionally along one axis;
+//! - [`live`]: the preview: each layer's system is factored once and solved
+//!   again when only destinations move; the deformed positions, their
+//!   diagnostics, and a picking tree refitted to them.
+//!
+//! ```
+//! use csrbf_studio::{Command, Document, History};
+//! use csrbf::glam::DVec3;
+//!
+//! let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 12, 24);
+//! let mut doc = Document::new(mesh, "sphere.obj".into(), 0.5);
+//! let mut history = History::default();
+//! history.apply(&mut doc, Command::add(0, DVec3::Y, DVec3::Y * 1.2))?;
+//! assert_eq!(doc.controls.deformations[0].starts.len(), 1);
+//! history.undo(&mut doc)?;
+//! assert!(doc.controls.deformations[0].starts.is_empty());
+//! # Ok::<(), csrbf_studio::EditError>(())
+//! ```
+
+pub mod command;
+pub mod live;
+pub mod state;
+pub mod tools;
+
+pub use command::{Command, History};
+pub use live::{Live, LiveError};
+pub use state::{Document, Selection};
+pub use tools::{DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface};
+
+/// An edit that cannot be made, and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum EditError {
+    /// No layer of that index.
+    #[error("layer {0} does not exist")]
+    NoLayer(usize),
+    /// No control of that index in the layer.
+    #[error("layer {layer} has no control {index}")]
+    NoControl {
+        /// The layer.
+        layer: usize,
+        /// The control asked for.
+        index: usize,
+    },
+    /// A value the engine would refuse (a radius <= 0, a non-finite point).
+    #[error("{0}")]
+    Invalid(String),
+    /// Nothing to undo or redo.
+    #[error("nothing to {0}")]
+    Nothing(&'static str),
+}

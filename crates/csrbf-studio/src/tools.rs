@@ -1,0 +1,276 @@
+//! Pointer events in, points out: where a click meets the deformed surface
+//! (and where that point is at rest, which is what a control's start must
+//! be), which control marker lies under the pointer, and where a dragged
+//! destination goes.
+//!
+//! Pixels are the renderer's: x right, y down, (0, 0) the top-left corner of
+//! a picture `size` pixels wide and high, as [`Camera::ray`] takes them.
+
+use csrbf::glam::{DVec3, Vec2, Vec3};
+use csrbf_anim::Camera;
+
+use crate::live::Live;
+use crate::state::Document;
+
+/// A point of the surface under the pointer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// Where it is as shown (deformed).
+    pub shown: Vec3,
+    /// The same surface point at rest: a control vector added here starts
+    /// at this point.
+    pub rest: DVec3,
+    /// The triangle hit.
+    pub triangle: u32,
+    /// The corner of that triangle nearest the hit.
+    pub vertex: u32,
+}
+
+/// The surface under `pixel`, cast against the preview's deformed positions
+/// and carried back to rest by the hit's barycentric weights.
+pub fn pick_surface(
+    camera: &Camera,
+    size: [u32; 2],
+    pixel: Vec2,
+    live: &Live,
+    rest: &[Vec3],
+) -> Option<SurfacePoint> {
+    let ray = camera.ray(pixel, size);
+    let hit = live.bvh().cast(live.positions(), &ray)?;
+    let triangles = live.triangles();
+    Some(SurfacePoint {
+        shown: hit.point,
+        rest: hit.point_in(triangles, rest).as_dvec3(),
+        triangle: hit.triangle,
+        vertex: hit.nearest_vertex(triangles),
+    })
+}
+
+/// Which end of a control vector a marker stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum End {
+    /// The start (at rest).
+    Start,
+    /// The destination.
+    Target,
+}
+
+/// A control marker under the pointer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MarkerHit {
+    /// The layer.
+    pub layer: usize,
+    /// The control in it.
+    pub index: usize,
+    /// Which end.
+    pub end: End,
+}
+
+/// The control marker nearest `pixel` within `tolerance` pixels, nearer
+/// markers to the eye winning ties; destinations are tried before starts, as
+/// they are what a user drags. Handles' generated controls are not markers.
+pub fn pick_marker(
+    camera: &Camera,
+    size: [u32; 2],
+    pixel: Vec2,
+    doc: &Document,
+    tolerance: f32,
+) -> Option<MarkerHit> {
+    let mut best: Option<(f32, f32, MarkerHit)> = None;
+    for (layer, spec) in doc.controls.deformations.iter().enumerate() {
+        for index in 0..spec.starts.len() {
+            for (end, p) in [
+                (End::Target, spec.targets[index]),
+                (End::Start, spec.starts[index]),
+            ] {
+                let Some((at, depth)) = camera.project(p.as_vec3(), size) else {
+                    continue;
+                };
+                let d = at.distance(pixel);
+                let better = best
+                    .is_none_or(|(bd, bdepth, _)| d < bd - 0.5 || (d < bd + 0.5 && depth < bdepth));
+                if d <= tolerance && better {
+                    best = Some((d, depth, MarkerHit { layer, index, end }));
+                }
+            }
+        }
+    }
+    best.map(|(_, _, hit)| hit)
+}
+
+/// Moving a point with the pointer: on the plane through it facing the
+/// camera, or along one axis through it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DragTool {
+    /// Where the point was when the drag began.
+    pub origin: DVec3,
+    /// The axis it is held to (unit), if any.
+    pub axis: Option<DVec3>,
+    /// What the pointer grabbed minus the point (so the point does not jump
+    /// to the pointer).
+    offset: DVec3,
+}
+
+impl DragTool {
+    /// A drag of the point `origin` grabbed at `pixel`; `axis` holds it to a
+    /// line (a zero axis is taken as none).
+    pub fn begin(
+        camera: &Camera,
+        size: [u32; 2],
+        pixel: Vec2,
+        origin: DVec3,
+        axis: Option<DVec3>,
+    ) -> DragTool {
+        let axis = axis.and_then(|a| a.try_normalize());
+        let mut tool = DragTool {
+            origin,
+            axis,
+            offset: DVec3::ZERO,
+        };
+        if let Some(grabbed) = tool.point_at(camera, size, pixel) {
+            tool.offset = grabbed - origin;
+        }
+        tool
+    }
+
+    /// Where the point goes with the pointer at `pixel`; None when the
+    /// pointer's ray does not meet the plane in front of the camera, or runs
+    /// along the axis.
+    pub fn moved_to(&self, camera: &Camera, size: [u32; 2], pixel: Vec2) -> Option<DVec3> {
+        self.point_at(camera, size, pixel).map(|p| p - self.offset)
+    }
+
+    /// The point of the plane or the axis under the pointer (no offset).
+    fn point_at(&self, camera: &Camera, size: [u32; 2], pixel: Vec2) -> Option<DVec3> {
+        let ray = camera.ray(pixel, size);
+        let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+        let forward = camera.basis().2.as_dvec3();
+        match self.axis {
+            None => {
+                // The plane through the origin with the view direction as normal.
+                let denom = d.dot(forward);
+                if denom.abs() < 1e-9 {
+                    return None;
+                }
+                let t = (self.origin - o).dot(forward) / denom;
+                (t >= 0.0).then(|| o + d * t)
+            }
+            Some(a) => {
+                // The point of the axis closest to the ray.
+                let w = self.origin - o;
+                let (ad, aw, dw) = (a.dot(d), a.dot(w), d.dot(w));
+                let denom = 1.0 - ad * ad;
+                if denom < 1e-6 {
+                    return None;
+                }
+                let s = (ad * dw - aw) / denom;
+                Some(self.origin + a * s)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    const SIZE: [u32; 2] = [400, 300];
+
+    fn camera() -> Camera {
+        Camera::perspective(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0)
+    }
+
+    fn pixel_of(camera: &Camera, p: DVec3) -> Vec2 {
+        camera.project(p.as_vec3(), SIZE).expect("in front").0
+    }
+
+    #[test]
+    fn a_click_on_the_deformed_surface_gives_its_rest_point() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 24, 48);
+        let mut doc = crate::Document::new(mesh, PathBuf::from("s.obj"), 1.2);
+        // Push the front of the sphere towards the camera.
+        crate::Command::add(0, DVec3::Z, DVec3::Z * 1.4)
+            .apply(&mut doc)
+            .expect("add");
+        crate::Command::add(0, DVec3::NEG_Z, DVec3::NEG_Z)
+            .apply(&mut doc)
+            .expect("add");
+        let mut live = Live::new(&doc);
+        live.update(&doc).expect("update");
+        let cam = camera();
+        let centre = Vec2::new(200.0, 150.0);
+        let hit = pick_surface(&cam, SIZE, centre, &live, &doc.mesh.positions).expect("hit");
+        // Shown where it was pushed to, and at rest on the unit sphere's front.
+        assert!((hit.shown.z - 1.4).abs() < 0.02, "{:?}", hit.shown);
+        assert!((hit.rest - DVec3::Z).length() < 0.02, "{:?}", hit.rest);
+        assert!(
+            pick_surface(&cam, SIZE, Vec2::new(2.0, 2.0), &live, &doc.mesh.positions).is_none()
+        );
+
+        // The destination's marker is found at its pixel, the start's at its.
+        let target = pick_marker(&cam, SIZE, pixel_of(&cam, DVec3::Z * 1.4), &doc, 6.0);
+        assert_eq!(
+            target,
+            Some(MarkerHit {
+                layer: 0,
+                index: 0,
+                end: End::Target
+            })
+        );
+        let side = DVec3::new(0.9, 0.0, 0.0);
+        crate::Command::add(0, side, side)
+            .apply(&mut doc)
+            .expect("add");
+        let start = pick_marker(
+            &cam,
+            SIZE,
+            pixel_of(&cam, side) + Vec2::new(3.0, 0.0),
+            &doc,
+            6.0,
+        );
+        assert_eq!(start.map(|m| m.index), Some(2));
+        assert!(pick_marker(&cam, SIZE, Vec2::new(5.0, 5.0), &doc, 6.0).is_none());
+    }
+
+    #[test]
+    fn a_drag_follows_the_pointer_on_the_plane_or_the_axis() {
+        let cam = camera();
+        let origin = DVec3::new(0.3, -0.2, 0.5);
+        let at = pixel_of(&cam, origin);
+        // Grabbed slightly off the point: the point does not jump.
+        let grab = at + Vec2::new(4.0, -3.0);
+        let free = DragTool::begin(&cam, SIZE, grab, origin, None);
+        let still = free.moved_to(&cam, SIZE, grab).expect("on the plane");
+        assert!((still - origin).length() < 1e-5, "{still}");
+        // Moved: stays on the plane facing the camera, under the pointer.
+        let moved = free
+            .moved_to(&cam, SIZE, grab + Vec2::new(50.0, 20.0))
+            .expect("on the plane");
+        assert!((moved.z - origin.z).abs() < 1e-6);
+        let back = pixel_of(&cam, moved) + Vec2::new(4.0, -3.0);
+        assert!(back.distance(grab + Vec2::new(50.0, 20.0)) < 0.05, "{back}");
+
+        // Held to X: only x changes, whatever the pointer does; with the
+        // pointer on the axis's image, the point lands under it.
+        let on_x = DragTool::begin(&cam, SIZE, at, origin, Some(DVec3::X));
+        let p = on_x
+            .moved_to(&cam, SIZE, at + Vec2::new(40.0, 25.0))
+            .expect("on the axis");
+        assert!(
+            (p.y - origin.y).abs() < 1e-9 && (p.z - origin.z).abs() < 1e-9,
+            "{p}"
+        );
+        assert!(p.x > origin.x);
+        let on_image = pixel_of(&cam, origin + DVec3::X * 0.4);
+        let q = on_x.moved_to(&cam, SIZE, on_image).expect("on the axis");
+        assert!((q - (origin + DVec3::X * 0.4)).length() < 1e-4, "{q}");
+        // An axis along the view is no drag.
+        let along = DragTool::begin(&cam, SIZE, at, DVec3::ZERO, Some(DVec3::Z));
+        assert!(
+            along
+                .moved_to(&cam, SIZE, Camera::centre_pixel(SIZE))
+                .is_none()
+        );
+    }
+}
