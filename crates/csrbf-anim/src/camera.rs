@@ -286,6 +286,19 @@ impl Camera {
         Camera::perspective(centre - dir * dist, centre, up, fov)
     }
 
+    /// The same view made orthographic, framing the box `lo`..`hi` as
+    /// [`Camera::framing`] does: its bounding sphere fits the narrower side
+    /// of a picture of this aspect; `zoom` > 1 shows less.
+    pub fn orthographic_framing(self, lo: Vec3, hi: Vec3, aspect: f32, zoom: f32) -> Camera {
+        let diameter = (hi - lo).length().max(1e-6) * 1.02;
+        Camera {
+            projection: Projection::Orthographic {
+                height: diameter / zoom.max(1e-3) * (1.0 / aspect).max(1.0),
+            },
+            ..self
+        }
+    }
+
     /// The direction of view for a preset, given the model's up axis.
     /// Forward (the model's front) is taken as +Z when up is Y, -Y when up is
     /// Z, and so on: the right-handed convention of the tools that wrote it.
@@ -391,9 +404,13 @@ mod tests {
                 for size in [[640u32, 480u32], [300, 900]] {
                     let dir = Camera::preset_direction(preset, up);
                     let aspect = size[0] as f32 / size[1] as f32;
-                    let cam = Camera::framing(dir, up, lo, hi, 35.0, aspect, 1.0);
-                    cam.check().expect("camera");
-                    for k in 0..8 {
+                    let persp = Camera::framing(dir, up, lo, hi, 35.0, aspect, 1.0);
+                    let ortho = persp.orthographic_framing(lo, hi, aspect, 1.0);
+                    for (cam, k) in [persp, ortho]
+                        .into_iter()
+                        .flat_map(|c| (0..8).map(move |k| (c, k)))
+                    {
+                        cam.check().expect("camera");
                         let c = Vec3::new(
                             if k & 1 == 0 { lo.x } else { hi.x },
                             if k & 2 == 0 { lo.y } else { hi.y },

@@ -70,11 +70,7 @@ impl CameraArgs {
         let dir = Camera::preset_direction(preset, up);
         let mut cam = Camera::framing(dir, up, lo, hi, self.fov, aspect, self.zoom);
         if self.ortho {
-            // The bounding sphere fits the narrower side, as in perspective.
-            let diameter = (hi - lo).length().max(1e-6) * 1.02;
-            cam.projection = csrbf_anim::Projection::Orthographic {
-                height: diameter / self.zoom * (1.0 / aspect).max(1.0),
-            };
+            cam = cam.orthographic_framing(lo, hi, aspect, self.zoom);
         }
         if let Some(t) = &self.target {
             let target = parse_point("--target", t)?;
