@@ -1,32 +1,29 @@
 //! The live preview of a [`Document`]: the deformed positions, what the
 //! diagnostics say about them, and a picking tree over them.
 //!
-//! Each layer's [`System`] (octree, ordering, factorisation) is kept between
-//! updates and built again only when that layer's starts or options change;
-//! moving destinations, the drag, costs one solve per layer and the
-//! evaluation. The tree is built once and refitted to the moved positions.
+//! The layers run through a [`Pipeline`], which keeps each one's factored
+//! system, solved deformation and binding: moving destinations, the drag,
+//! costs one solve per changed layer and a product through the bindings; a
+//! new start or radius rebuilds only that layer's system. The tree is built
+//! once and refitted to the moved positions.
 
-use csrbf::glam::{DVec3, Vec3};
-use csrbf::{Diagnostics, FitOptions, System, compose_diagnosed};
+use csrbf::glam::Vec3;
+use csrbf::{Diagnostics, Pipeline, Stage, diagnose};
 use csrbf_mesh::Bvh;
 
 use crate::state::Document;
 
-/// A layer's factored system and what it was built from.
-struct Factored {
-    starts: Vec<DVec3>,
-    options: FitOptions,
-    system: System,
-}
-
 /// The deformed document, kept up to date by [`Live::update`].
 pub struct Live {
-    factored: Vec<Option<Factored>>,
+    pipeline: Pipeline,
+    /// The layer of each pipeline stage (layers without controls have none).
+    layers: Vec<usize>,
+    /// Systems factored by pipelines replaced since.
+    earlier_systems: usize,
     triangles: Vec<[u32; 3]>,
     positions: Vec<Vec3>,
     diagnostics: Option<Diagnostics>,
     bvh: Bvh,
-    factorisations: usize,
 }
 
 impl Live {
@@ -35,12 +32,13 @@ impl Live {
         let triangles = doc.mesh.faces.triangles();
         let bvh = Bvh::new(&doc.mesh.positions, &triangles);
         Live {
-            factored: Vec::new(),
+            pipeline: Pipeline::new(Vec::new()),
+            layers: Vec::new(),
+            earlier_systems: 0,
             triangles,
             positions: doc.mesh.positions.clone(),
             diagnostics: None,
             bvh,
-            factorisations: 0,
         }
     }
 
@@ -49,46 +47,105 @@ impl Live {
     /// previous preview stays and the error says which layer.
     pub fn update(&mut self, doc: &Document) -> Result<(), LiveError> {
         let lookup = |n: &str| doc.mesh.part_vertices(n);
-        let layers = &doc.controls.deformations;
-        self.factored.resize_with(layers.len(), || None);
-        self.factored.truncate(layers.len());
-        let mut stages = Vec::with_capacity(layers.len());
-        for (layer, spec) in layers.iter().enumerate() {
-            let engine = |source| LiveError { layer, source };
-            let spec = spec.resolve(&doc.mesh.positions, &lookup).map_err(engine)?;
-            if spec.starts.is_empty() {
-                self.factored[layer] = None;
-                continue;
+        let mut stages = Vec::new();
+        let mut layers = Vec::new();
+        for (layer, spec) in doc.controls.deformations.iter().enumerate() {
+            let spec = spec
+                .resolve(&doc.mesh.positions, &lookup)
+                .map_err(|source| LiveError { layer, source })?;
+            if !spec.starts.is_empty() {
+                let stage = spec
+                    .to_stage()
+                    .map_err(|source| LiveError { layer, source })?;
+                stages.push(stage.with_phase(spec.phase * doc.phase));
+                layers.push(layer);
             }
-            let slot = &mut self.factored[layer];
-            let reusable = slot
-                .as_ref()
-                .is_some_and(|f| f.starts == spec.starts && f.options == spec.options);
-            if !reusable {
-                let system = System::new(&spec.starts, spec.options).map_err(engine)?;
-                self.factorisations += 1;
-                *slot = Some(Factored {
-                    starts: spec.starts.clone(),
-                    options: spec.options,
-                    system,
-                });
-            }
-            let Some(f) = slot.as_ref() else { continue };
-            let deformation = f.system.solve(&spec.targets).map_err(engine)?;
-            stages.push((deformation, spec.region.clone(), spec.phase * doc.phase));
         }
-        let (moved, report) = compose_diagnosed(
+        self.sync(doc, stages, layers);
+        for (k, &layer) in self.layers.iter().enumerate() {
+            self.pipeline
+                .deformation(k)
+                .map_err(|source| LiveError { layer, source })?;
+        }
+        let layer = self.layers.first().copied().unwrap_or(0);
+        let moved = self
+            .pipeline
+            .evaluate()
+            .map_err(|source| LiveError { layer, source })?
+            .to_vec();
+        let fitted: Vec<_> = (0..self.layers.len())
+            .filter_map(|k| {
+                let stage = self.pipeline.stage(k)?;
+                let d = self.pipeline.fitted(k)?.clone();
+                Some((d, stage.region.clone(), stage.phase))
+            })
+            .collect();
+        let report = diagnose(
             &doc.mesh.positions,
-            &stages,
-            doc.controls.combine,
+            &moved,
             &self.triangles,
+            &fitted,
             &lookup,
         )
-        .map_err(|source| LiveError { layer: 0, source })?;
+        .map_err(|source| LiveError { layer, source })?;
         self.positions = moved;
         self.bvh.refit(&self.positions);
         self.diagnostics = Some(report);
         Ok(())
+    }
+
+    /// Brings the pipeline to these stages, telling it only what changed (a
+    /// new set of layers or a new combine starts a new pipeline).
+    fn sync(&mut self, doc: &Document, stages: Vec<Stage>, layers: Vec<usize>) {
+        let same_shape = layers == self.layers
+            && self.pipeline.combine() == doc.controls.combine
+            && self.pipeline.rest().len() == doc.mesh.positions.len();
+        if !same_shape {
+            self.earlier_systems += self.pipeline.work().systems;
+            let groups = doc
+                .mesh
+                .parts
+                .iter()
+                .filter_map(|p| Some((p.name.clone(), doc.mesh.part_vertices(&p.name)?)))
+                .collect();
+            self.pipeline = Pipeline::new(doc.mesh.positions.clone())
+                .with_combine(doc.controls.combine)
+                .with_groups(groups);
+            for stage in stages {
+                self.pipeline.push(stage);
+            }
+            self.layers = layers;
+            return;
+        }
+        for (k, new) in stages.into_iter().enumerate() {
+            let Some(old) = self.pipeline.stage(k) else {
+                continue;
+            };
+            let (starts, targets, options, region, phase) = (
+                old.starts != new.starts,
+                old.targets != new.targets,
+                old.options != new.options,
+                old.region != new.region,
+                old.phase != new.phase,
+            );
+            // The index exists (checked above), so these calls cannot fail;
+            // a phase outside [0, 1] is refused by the evaluation instead.
+            let p = &mut self.pipeline;
+            if starts {
+                let _ = p.set_controls(k, new.starts, new.targets);
+            } else if targets {
+                let _ = p.set_targets(k, new.targets);
+            }
+            if options {
+                let _ = p.set_options(k, new.options);
+            }
+            if region {
+                let _ = p.set_region(k, new.region);
+            }
+            if phase {
+                let _ = p.set_phase(k, new.phase);
+            }
+        }
     }
 
     /// The deformed positions (the rest ones before the first update).
@@ -113,7 +170,7 @@ impl Live {
 
     /// How many systems were factored so far (a drag should not add any).
     pub fn factorisations(&self) -> usize {
-        self.factorisations
+        self.earlier_systems + self.pipeline.work().systems
     }
 }
 
@@ -132,6 +189,7 @@ pub struct LiveError {
 mod tests {
     use super::*;
     use crate::{Command, History};
+    use csrbf::glam::DVec3;
     use std::path::PathBuf;
 
     #[test]
