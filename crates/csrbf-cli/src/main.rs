@@ -139,6 +139,22 @@ fn runtime_dir() {
     }
 }
 
+/// Leaves at once with `code`, from the interruption handler: without the
+/// atexit handlers (`std::process::exit` runs them), which may tear down the
+/// software Vulkan driver while a render thread still uses it and turn the
+/// exit into a crash by signal.
+fn leave(code: i32) -> ! {
+    #[cfg(unix)]
+    // SAFETY: `_exit` only ends the process; the files being written were
+    // removed above and nothing else needs flushing (stderr is unbuffered).
+    #[allow(unsafe_code)]
+    unsafe {
+        libc::_exit(code)
+    }
+    #[cfg(not(unix))]
+    std::process::exit(code)
+}
+
 fn main() -> ExitCode {
     runtime_dir();
     // Ctrl-C or SIGTERM (Windows' console events too): stop ffmpeg, remove
@@ -146,7 +162,7 @@ fn main() -> ExitCode {
     let _ = ctrlc::set_handler(|| {
         csrbf_render::movie::interrupt();
         eprintln!("interrupted: partial files removed");
-        std::process::exit(130);
+        leave(130);
     });
     let cli = Cli::parse();
     let progress = common::Progress::new(!cli.quiet);
