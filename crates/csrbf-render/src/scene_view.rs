@@ -79,7 +79,12 @@ impl SceneRenderer {
         height: u32,
         samples: u32,
     ) -> Result<SceneRenderer> {
-        let mut renderer = Renderer::with_samples(width, height, samples)?;
+        SceneRenderer::on_renderer(scene, Renderer::with_samples(width, height, samples)?)
+    }
+
+    /// Prepares `scene` for a renderer the caller made (on its own device:
+    /// the studio's viewport, see [`Renderer::on_device`]).
+    pub fn on_renderer(scene: &Scene, mut renderer: Renderer) -> Result<SceneRenderer> {
         let mut prepared = Vec::new();
         for obj in &scene.objects {
             let n = obj.mesh.positions.len();
@@ -123,6 +128,63 @@ impl SceneRenderer {
     /// The renderer underneath, to change its size or draw with it.
     pub fn renderer_mut(&mut self) -> &mut Renderer {
         &mut self.renderer
+    }
+
+    /// Object `object` of the scene as the renderer draws it (its parts,
+    /// colours, UVs and textures), at `positions` with `normals`: for
+    /// callers that move the mesh themselves (the studio's live preview).
+    /// None when there is no such object.
+    pub fn draw_mesh<'a>(
+        &'a self,
+        object: usize,
+        positions: &'a [Vec3],
+        normals: &'a [Vec3],
+    ) -> Option<DrawMesh<'a>> {
+        let prep = self.prepared.get(object)?;
+        Some(DrawMesh {
+            key: self.key + object as u64,
+            positions,
+            normals,
+            uvs: &prep.uvs,
+            colors: &prep.colors,
+            parts: &prep.parts,
+        })
+    }
+
+    /// Draws `view` with object `object` of the scene at `positions` and
+    /// `normals` as its only mesh (whatever meshes `view` had are replaced)
+    /// into a texture view the caller owns: the studio's viewport.
+    pub fn draw_object_into(
+        &mut self,
+        view: &View,
+        object: usize,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        target: &wgpu::TextureView,
+    ) {
+        let meshes = self
+            .prepared
+            .get(object)
+            .map(|prep| DrawMesh {
+                key: self.key + object as u64,
+                positions,
+                normals,
+                uvs: &prep.uvs,
+                colors: &prep.colors,
+                parts: &prep.parts,
+            })
+            .into_iter()
+            .collect();
+        let view = View {
+            camera: view.camera,
+            lights: view.lights.clone(),
+            background: view.background,
+            meshes,
+            lines: view.lines.clone(),
+            overlay: view.overlay.clone(),
+            options: view.options,
+        };
+        self.renderer.draw_into(&view, target);
     }
 
     /// Draws one frame of the scene and reads it back.

@@ -82,6 +82,9 @@ pub enum Command {
         /// Its new content.
         spec: Box<ControlSpec>,
     },
+    /// Several edits as one step (delete a selection, mirror, reorder
+    /// layers): all of them or none.
+    Batch(Vec<Command>),
 }
 
 impl Command {
@@ -98,6 +101,26 @@ impl Command {
     /// Applies the command and returns its inverse. On error the document is
     /// unchanged.
     pub fn apply(&self, doc: &mut Document) -> Result<Command, EditError> {
+        if let Command::Batch(commands) = self {
+            let dirty = doc.dirty;
+            let mut inverses = Vec::with_capacity(commands.len());
+            for c in commands {
+                match c.apply(doc) {
+                    Ok(inv) => inverses.push(inv),
+                    Err(e) => {
+                        // Take back what was done: the document is as before.
+                        for inv in inverses.iter().rev() {
+                            let _ = inv.apply(doc);
+                        }
+                        doc.dirty = dirty;
+                        return Err(e);
+                    }
+                }
+            }
+            inverses.reverse();
+            doc.dirty = true;
+            return Ok(Command::Batch(inverses));
+        }
         let layers = doc.controls.deformations.len();
         let has_layer = |doc: &Document, layer: usize| {
             if layer < doc.controls.deformations.len() {
@@ -258,6 +281,7 @@ impl Command {
                     spec: Box::new(old),
                 }
             }
+            Command::Batch(_) => unreachable!("handled above"),
             Command::ReplaceLayer { layer, spec } => {
                 has_layer(doc, *layer)?;
                 let old =
@@ -275,7 +299,25 @@ impl Command {
     /// Whether this command only moves destinations (the live preview then
     /// solves again without re-factoring).
     pub fn moves_targets_only(&self) -> bool {
-        matches!(self, Command::SetTarget { .. })
+        match self {
+            Command::SetTarget { .. } => true,
+            Command::Batch(c) => c.iter().all(Command::moves_targets_only),
+            _ => false,
+        }
+    }
+
+    /// Moves layer `from` to position `to` (both existing indices), as one step.
+    pub fn move_layer(doc: &Document, from: usize, to: usize) -> Option<Command> {
+        let spec = doc.controls.deformations.get(from)?.clone();
+        (to < doc.controls.deformations.len() && from != to).then(|| {
+            Command::Batch(vec![
+                Command::RemoveLayer { layer: from },
+                Command::InsertLayer {
+                    layer: to,
+                    spec: Box::new(spec),
+                },
+            ])
+        })
     }
 }
 
@@ -294,17 +336,28 @@ impl History {
         let inverse = command.apply(doc)?;
         // A drag's moves of one destination are one step: keep the first
         // inverse (where the drag began) and the last command.
-        if self.dragging
-            && let (
+        let same_control = |a: &Command, b: &Command| match (a, b) {
+            (
                 Command::SetTarget { layer, index, .. },
-                Some((
-                    Command::SetTarget {
-                        layer: l, index: i, ..
-                    },
-                    _,
-                )),
-            ) = (&command, self.done.last())
-            && (layer, index) == (l, i)
+                Command::SetTarget {
+                    layer: l, index: i, ..
+                },
+            )
+            | (
+                Command::SetStart { layer, index, .. },
+                Command::SetStart {
+                    layer: l, index: i, ..
+                },
+            ) => (layer, index) == (l, i),
+            (Command::SetRadius { layer, .. }, Command::SetRadius { layer: l, .. })
+            | (Command::ReplaceLayer { layer, .. }, Command::ReplaceLayer { layer: l, .. }) => {
+                layer == l
+            }
+            _ => false,
+        };
+        if self.dragging
+            && let Some((last, _)) = self.done.last()
+            && same_control(&command, last)
         {
             let first_inverse = self.done.pop().map(|(_, inv)| inv).unwrap_or(inverse);
             self.done.push((command, first_inverse));
@@ -315,7 +368,8 @@ impl History {
         Ok(())
     }
 
-    /// Starts merging destination moves (pointer pressed on a destination).
+    /// Starts merging moves of one control's destination or start (pointer
+    /// pressed on a marker).
     pub fn begin_drag(&mut self) {
         self.dragging = true;
     }

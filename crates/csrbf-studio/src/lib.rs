@@ -29,15 +29,22 @@
 //! # Ok::<(), csrbf_studio::EditError>(())
 //! ```
 
+pub mod app;
 pub mod command;
 pub mod live;
+pub mod orbit;
+pub mod preview;
 pub mod state;
 pub mod tools;
 
 pub use command::{Command, History};
 pub use live::{Live, LiveError};
+pub use orbit::Orbit;
+pub use preview::{Preview, PreviewFrame};
 pub use state::{Document, Selection};
-pub use tools::{DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface};
+pub use tools::{
+    DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface, pick_surface_on,
+};
 
 /// An edit that cannot be made, and why.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -245,7 +245,7 @@ mod tests {
         assert_eq!(live.factorisations(), 1, "a drag must not refactor");
 
         // The cached result is the one a fresh fit of the same file gives.
-        let mut fresh = doc.mesh.clone();
+        let mut fresh = (*doc.mesh).clone();
         csrbf_anim::apply::deform_mesh(&mut fresh, &doc.controls, doc.phase).expect("fresh fit");
         for (a, b) in live.positions().iter().zip(&fresh.positions) {
             assert!((*a - *b).length() < 1e-5, "{a} vs {b}");

@@ -1,6 +1,7 @@
 //! The document the studio edits: a mesh and its control file.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use csrbf::controls::{ControlFile, ControlSpec};
 use csrbf::{Combine, FitOptions};
@@ -20,8 +21,8 @@ impl Selection {
 /// A mesh and the deformations the user is building on it.
 #[derive(Clone, Debug)]
 pub struct Document {
-    /// The mesh at rest.
-    pub mesh: Mesh,
+    /// The mesh at rest (shared: the preview's worker reads the same one).
+    pub mesh: Arc<Mesh>,
     /// Where it came from (control files name meshes by path).
     pub mesh_path: PathBuf,
     /// The control file: one layer per deformation, in the CLI's format.
@@ -45,7 +46,7 @@ impl Document {
             FitOptions::default().with_radius(radius),
         );
         Document {
-            mesh,
+            mesh: Arc::new(mesh),
             mesh_path,
             controls: ControlFile::new(vec![layer], Combine::Chain),
             selection: Selection::default(),

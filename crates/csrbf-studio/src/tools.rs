@@ -8,6 +8,7 @@
 
 use csrbf::glam::{DVec3, Vec2, Vec3};
 use csrbf_anim::Camera;
+use csrbf_mesh::Bvh;
 
 use crate::live::Live;
 use crate::state::Document;
@@ -35,9 +36,22 @@ pub fn pick_surface(
     live: &Live,
     rest: &[Vec3],
 ) -> Option<SurfacePoint> {
+    pick_surface_on(camera, size, pixel, live.bvh(), live.positions(), rest)
+}
+
+/// [`pick_surface`] against a tree the caller keeps fitted to `shown` (the
+/// app refits its own copy to each preview frame it draws).
+pub fn pick_surface_on(
+    camera: &Camera,
+    size: [u32; 2],
+    pixel: Vec2,
+    bvh: &Bvh,
+    shown: &[Vec3],
+    rest: &[Vec3],
+) -> Option<SurfacePoint> {
     let ray = camera.ray(pixel, size);
-    let hit = live.bvh().cast(live.positions(), &ray)?;
-    let triangles = live.triangles();
+    let hit = bvh.cast(shown, &ray)?;
+    let triangles = bvh.triangles();
     Some(SurfacePoint {
         shown: hit.point,
         rest: hit.point_in(triangles, rest).as_dvec3(),

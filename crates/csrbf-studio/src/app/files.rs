@@ -1,0 +1,343 @@
+//! Files around the app: a file dialog drawn in egui (no desktop portal is
+//! needed, so it works under Xvfb and over SSH), the recent files, and the
+//! recovery file written while a document has unsaved changes.
+
+use std::path::{Path, PathBuf};
+
+use eframe::egui;
+
+/// What a file dialog is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Purpose {
+    /// Open a mesh.
+    OpenMesh,
+    /// Open a control file on the current mesh.
+    OpenControls,
+    /// Save the control file.
+    SaveControls,
+    /// Export the deformed mesh.
+    ExportMesh,
+    /// Export the fitted deformations as `.csrbf`.
+    ExportFitted,
+}
+
+impl Purpose {
+    fn title(self) -> &'static str {
+        match self {
+            Purpose::OpenMesh => "Open a mesh",
+            Purpose::OpenControls => "Open a control file",
+            Purpose::SaveControls => "Save the control file",
+            Purpose::ExportMesh => "Export the deformed mesh",
+            Purpose::ExportFitted => "Export the fitted deformation (.csrbf)",
+        }
+    }
+
+    fn saves(self) -> bool {
+        !matches!(self, Purpose::OpenMesh | Purpose::OpenControls)
+    }
+
+    /// File name endings listed (others are hidden).
+    fn endings(self) -> &'static [&'static str] {
+        match self {
+            Purpose::OpenMesh | Purpose::ExportMesh => MESH_ENDINGS,
+            Purpose::OpenControls | Purpose::SaveControls => &["json"],
+            Purpose::ExportFitted => &["csrbf"],
+        }
+    }
+}
+
+/// The mesh formats read and written, by file name ending.
+pub const MESH_ENDINGS: &[&str] = &["obj", "ply", "stl", "off", "gltf", "glb"];
+
+/// An open file dialog.
+pub struct FileDialog {
+    /// What it is for.
+    pub purpose: Purpose,
+    dir: PathBuf,
+    name: String,
+    entries: Vec<(String, bool)>,
+    error: Option<String>,
+}
+
+/// What the person did in the dialog.
+pub enum Choice {
+    /// Chose this file.
+    File(PathBuf),
+    /// Closed it.
+    Cancel,
+}
+
+impl FileDialog {
+    /// A dialog in the folder of `near` (or the working folder), with its
+    /// file name filled in for saving.
+    pub fn new(purpose: Purpose, near: Option<&Path>) -> FileDialog {
+        let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+        let (dir, name) = match near {
+            Some(p) if p.is_dir() => (p.to_path_buf(), String::new()),
+            Some(p) => (
+                p.parent()
+                    .filter(|d| !d.as_os_str().is_empty())
+                    .map(Path::to_path_buf)
+                    .unwrap_or(cwd),
+                if purpose.saves() {
+                    p.file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default()
+                } else {
+                    String::new()
+                },
+            ),
+            None => (cwd, String::new()),
+        };
+        let mut d = FileDialog {
+            purpose,
+            dir,
+            name,
+            entries: Vec::new(),
+            error: None,
+        };
+        d.list();
+        d
+    }
+
+    fn list(&mut self) {
+        self.entries.clear();
+        match std::fs::read_dir(&self.dir) {
+            Ok(rd) => {
+                for e in rd.flatten() {
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    if name.starts_with('.') {
+                        continue;
+                    }
+                    let is_dir = e.path().is_dir();
+                    let shown = is_dir
+                        || name.rsplit_once('.').is_some_and(|(_, ext)| {
+                            self.purpose
+                                .endings()
+                                .contains(&ext.to_ascii_lowercase().as_str())
+                        });
+                    if shown {
+                        self.entries.push((name, is_dir));
+                    }
+                }
+                self.entries
+                    .sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+                self.error = None;
+            }
+            Err(e) => self.error = Some(format!("{}: {e}", self.dir.display())),
+        }
+    }
+
+    fn enter(&mut self, dir: PathBuf) {
+        self.dir = dir;
+        self.list();
+    }
+
+    /// Draws the dialog; Some when the person chose or closed it.
+    pub fn show(&mut self, ctx: &egui::Context) -> Option<Choice> {
+        let mut choice = None;
+        let mut open = true;
+        egui::Window::new(self.purpose.title())
+            .id(egui::Id::unique("file dialog"))
+            .collapsible(false)
+            .resizable(true)
+            .default_size([560.0, 420.0])
+            .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+            .open(&mut open)
+            .show(ctx, |ui| {
+                ui.horizontal(|ui| {
+                    if ui
+                        .button("⬆ Up")
+                        .on_hover_text("The folder above (Backspace)")
+                        .clicked()
+                        && let Some(p) = self.dir.parent()
+                    {
+                        let p = p.to_path_buf();
+                        self.enter(p);
+                    }
+                    let mut dir = self.dir.display().to_string();
+                    let r = ui.add(
+                        egui::TextEdit::singleline(&mut dir)
+                            .desired_width(f32::INFINITY)
+                            .id_salt("folder"),
+                    );
+                    if r.changed() {
+                        self.dir = PathBuf::from(&dir);
+                    }
+                    if r.lost_focus() {
+                        self.list();
+                    }
+                });
+                ui.label(format!(
+                    "Showing folders and {}",
+                    self.purpose.endings().join(", ")
+                ));
+                let height = (ui.available_height() - 70.0).max(120.0);
+                egui::ScrollArea::vertical()
+                    .max_height(height)
+                    .auto_shrink([false, false])
+                    .show(ui, |ui| {
+                        let mut go = None;
+                        for (name, is_dir) in &self.entries {
+                            let label = if *is_dir {
+                                format!("📁 {name}")
+                            } else {
+                                name.clone()
+                            };
+                            let r = ui.selectable_label(!*is_dir && *name == self.name, label);
+                            if r.double_clicked() {
+                                go = Some((name.clone(), *is_dir, true));
+                            } else if r.clicked() {
+                                go = Some((name.clone(), *is_dir, false));
+                            }
+                        }
+                        match go {
+                            Some((name, true, _)) => {
+                                let d = self.dir.join(name);
+                                self.enter(d);
+                            }
+                            Some((name, false, twice)) => {
+                                self.name = name;
+                                if twice {
+                                    choice = Some(Choice::File(self.dir.join(&self.name)));
+                                }
+                            }
+                            None => {}
+                        }
+                    });
+                if let Some(e) = &self.error {
+                    ui.colored_label(egui::Color32::LIGHT_RED, e);
+                }
+                ui.horizontal(|ui| {
+                    ui.label("File:");
+                    let r = ui.add(
+                        egui::TextEdit::singleline(&mut self.name)
+                            .desired_width(300.0)
+                            .id_salt("file name"),
+                    );
+                    let enter = r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+                    let verb = if self.purpose.saves() { "Save" } else { "Open" };
+                    if (ui.button(verb).clicked() || enter) && !self.name.trim().is_empty() {
+                        let p = Path::new(self.name.trim());
+                        choice = Some(Choice::File(if p.is_absolute() {
+                            p.to_path_buf()
+                        } else {
+                            self.dir.join(p)
+                        }));
+                    }
+                    if ui.button("Cancel").clicked() {
+                        choice = Some(Choice::Cancel);
+                    }
+                });
+            });
+        if !open {
+            choice = Some(Choice::Cancel);
+        }
+        choice
+    }
+}
+
+/// Where the app keeps its recent files and recovery file:
+/// `$CSRBF_STUDIO_STATE`, else `$XDG_STATE_HOME/csrbf-studio`, else
+/// `~/.local/state/csrbf-studio`.
+pub fn state_dir() -> Option<PathBuf> {
+    if let Some(d) = std::env::var_os("CSRBF_STUDIO_STATE") {
+        return Some(PathBuf::from(d));
+    }
+    if let Some(d) = std::env::var_os("XDG_STATE_HOME").filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(d).join("csrbf-studio"));
+    }
+    std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state/csrbf-studio"))
+}
+
+/// The recent files, newest first (at most 10).
+pub fn recent_files() -> Vec<PathBuf> {
+    let Some(dir) = state_dir() else {
+        return Vec::new();
+    };
+    std::fs::read_to_string(dir.join("recent.txt"))
+        .map(|t| {
+            t.lines()
+                .filter(|l| !l.trim().is_empty())
+                .map(PathBuf::from)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Puts `path` first among the recent files.
+pub fn remember(path: &Path) {
+    let Some(dir) = state_dir() else {
+        return;
+    };
+    let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut list = recent_files();
+    list.retain(|p| *p != path);
+    list.insert(0, path);
+    list.truncate(10);
+    let text: String = list.iter().map(|p| format!("{}\n", p.display())).collect();
+    let _ = std::fs::create_dir_all(&dir);
+    let _ = csrbf_mesh::write_atomic(&dir.join("recent.txt"), text.as_bytes());
+}
+
+/// The unsaved session kept in case the app dies: the mesh's path, the
+/// control file's path (if it has one), and the control file's text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Recovery {
+    /// The mesh.
+    pub mesh: PathBuf,
+    /// Where the control file was last saved, if ever.
+    pub controls_path: Option<PathBuf>,
+    /// The control file as it stood.
+    pub controls: String,
+}
+
+impl Recovery {
+    /// The recovery file's path.
+    pub fn path() -> Option<PathBuf> {
+        state_dir().map(|d| d.join("recovery.json"))
+    }
+
+    /// Reads the recovery file, if there is a readable one.
+    pub fn load() -> Option<Recovery> {
+        let text = std::fs::read_to_string(Recovery::path()?).ok()?;
+        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+        Some(Recovery {
+            mesh: PathBuf::from(v.get("mesh")?.as_str()?),
+            controls_path: v
+                .get("controls_path")
+                .and_then(|p| p.as_str())
+                .map(PathBuf::from),
+            controls: v.get("controls")?.as_str()?.to_string(),
+        })
+    }
+
+    /// Writes it, whole or not at all, on a thread of its own (the UI does
+    /// not wait for the disk).
+    pub fn store(&self) {
+        let Some(path) = Recovery::path() else {
+            return;
+        };
+        let v = serde_json::json!({
+            "mesh": self.mesh.display().to_string(),
+            "controls_path": self.controls_path.as_ref().map(|p| p.display().to_string()),
+            "controls": self.controls,
+        });
+        let bytes = serde_json::to_vec_pretty(&v).unwrap_or_default();
+        let _ = std::thread::Builder::new()
+            .name("csrbf-recovery".into())
+            .spawn(move || {
+                if let Some(dir) = path.parent() {
+                    let _ = std::fs::create_dir_all(dir);
+                }
+                let _ = csrbf_mesh::write_atomic(&path, &bytes);
+            });
+    }
+
+    /// Removes the recovery file (the session was saved or closed on purpose).
+    pub fn clear() {
+        if let Some(p) = Recovery::path() {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}

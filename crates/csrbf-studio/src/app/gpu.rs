@@ -1,0 +1,287 @@
+//! The viewport on the GPU: `csrbf-render` draws the model into a texture of
+//! the viewport's size (with its own depth buffer: egui's pass has none), and
+//! a full-screen triangle copies that texture into egui's pass.
+//!
+//! Everything the drawing needs travels in a [`ViewportPaint`] (shared
+//! arrays, no copies); the GPU objects live in egui's callback resources.
+
+use std::sync::{Arc, Mutex};
+
+use csrbf::glam::Vec3;
+use csrbf_anim::{Camera, Scene};
+use csrbf_render::{DrawOptions, Line, Renderer, SceneRenderer, View, default_lights};
+use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor};
+use eframe::wgpu;
+
+/// The colour format the model is drawn in (sRGB, as the CLI's pictures).
+const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// Above this many triangles the viewport draws one sample per pixel (on a
+/// software rasteriser 4x costs more than it shows).
+const MSAA_TRIANGLES: usize = 300_000;
+
+/// A mesh newly opened: the GPU side prepares its parts once.
+pub struct NewMesh {
+    /// Identifies the mesh (changes on each open).
+    pub id: u64,
+    /// The scene `csrbf render` would make of it (parts, colours, textures).
+    pub scene: Mutex<Option<Scene>>,
+    /// Its triangle count.
+    pub triangles: usize,
+}
+
+/// One picture of the viewport.
+pub struct ViewportPaint {
+    /// Size in physical pixels.
+    pub size: [u32; 2],
+    /// The mesh drawn (its parts prepared once from [`NewMesh::scene`]).
+    pub mesh: Arc<NewMesh>,
+    /// Positions drawn.
+    pub positions: Arc<Vec<Vec3>>,
+    /// Their normals.
+    pub normals: Arc<Vec<Vec3>>,
+    /// The camera.
+    pub camera: Camera,
+    /// Lines drawn with the depth test (flipped faces).
+    pub lines: Vec<Line>,
+    /// Lines drawn over everything (controls, the gizmo, the ghost).
+    pub overlay: Vec<Line>,
+    /// Shading.
+    pub options: DrawOptions,
+    /// Background, linear RGB.
+    pub background: [f32; 3],
+}
+
+/// The GPU objects of the viewport, kept between frames.
+struct ViewportGpu {
+    blit: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    scene: Option<(u64, SceneRenderer)>,
+    target: Option<([u32; 2], wgpu::TextureView, wgpu::BindGroup)>,
+    error: Option<String>,
+}
+
+/// Sets up the blit pipeline in egui's renderer (once, when the app starts).
+pub fn install(state: &egui_wgpu::RenderState) {
+    let device = &state.device;
+    let encode = !state.target_format.is_srgb();
+    let source = BLIT.replace("ENCODE", if encode { "true" } else { "false" });
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("viewport blit"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("viewport blit"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("viewport blit"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let blit = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("viewport blit"),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: state.target_format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        multiview_mask: None,
+        cache: None,
+    });
+    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("viewport"),
+        ..Default::default()
+    });
+    state
+        .renderer
+        .write()
+        .callback_resources
+        .insert(ViewportGpu {
+            blit,
+            layout,
+            sampler,
+            scene: None,
+            target: None,
+            error: None,
+        });
+}
+
+const BLIT: &str = r#"
+struct Out { @builtin(position) pos: vec4<f32>, @location(0) uv: vec2<f32> };
+@vertex fn vs(@builtin(vertex_index) i: u32) -> Out {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    var o: Out;
+    o.pos = vec4<f32>(uv * vec2<f32>(2.0, -2.0) + vec2<f32>(-1.0, 1.0), 0.0, 1.0);
+    o.uv = uv;
+    return o;
+}
+@group(0) @binding(0) var tex: texture_2d<f32>;
+@group(0) @binding(1) var samp: sampler;
+@fragment fn fs(o: Out) -> @location(0) vec4<f32> {
+    let c = textureSample(tex, samp, o.uv);
+    if (ENCODE) {
+        return vec4<f32>(pow(c.rgb, vec3<f32>(1.0 / 2.2)), 1.0);
+    }
+    return vec4<f32>(c.rgb, 1.0);
+}
+"#;
+
+impl CallbackTrait for ViewportPaint {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        resources: &mut CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let Some(gpu) = resources.get_mut::<ViewportGpu>() else {
+            return Vec::new();
+        };
+        if let Err(e) = self.draw(gpu, device, queue) {
+            gpu.error = Some(e.to_string());
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &CallbackResources,
+    ) {
+        let Some(gpu) = resources.get::<ViewportGpu>() else {
+            return;
+        };
+        if let Some((size, _, group)) = &gpu.target
+            && *size == self.size
+        {
+            pass.set_pipeline(&gpu.blit);
+            pass.set_bind_group(0, group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+    }
+}
+
+use eframe::egui;
+
+impl ViewportPaint {
+    fn draw(
+        &self,
+        gpu: &mut ViewportGpu,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> csrbf_render::Result<()> {
+        let [w, h] = self.size;
+        if gpu.scene.as_ref().map(|(id, _)| *id) != Some(self.mesh.id) {
+            let taken = self.mesh.scene.lock().ok().and_then(|mut s| s.take());
+            let Some(scene) = taken else {
+                return Ok(());
+            };
+            let samples = if self.mesh.triangles > MSAA_TRIANGLES {
+                1
+            } else {
+                4
+            };
+            let renderer =
+                Renderer::on_device(device.clone(), queue.clone(), FORMAT, w, h, samples)?;
+            gpu.scene = Some((self.mesh.id, SceneRenderer::on_renderer(&scene, renderer)?));
+        }
+        let Some((_, scene)) = gpu.scene.as_mut() else {
+            return Ok(());
+        };
+        scene.renderer_mut().resize(w, h)?;
+        if gpu.target.as_ref().map(|t| t.0) != Some(self.size) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("viewport"),
+                size: wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&Default::default());
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("viewport"),
+                layout: &gpu.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::Sampler(&gpu.sampler),
+                    },
+                ],
+            });
+            gpu.target = Some((self.size, view, group));
+        }
+        let Some((_, target, _)) = &gpu.target else {
+            return Ok(());
+        };
+        let view = View {
+            camera: self.camera,
+            lights: default_lights(self.camera),
+            background: self.background,
+            meshes: Vec::new(),
+            lines: self.lines.clone(),
+            overlay: self.overlay.clone(),
+            options: self.options,
+        };
+        scene.draw_object_into(&view, 0, &self.positions, &self.normals, target);
+        gpu.error = None;
+        Ok(())
+    }
+}
+
+/// The last error the GPU side met, if any (shown in the status bar).
+pub fn last_error(state: &egui_wgpu::RenderState) -> Option<String> {
+    state
+        .renderer
+        .read()
+        .callback_resources
+        .get::<ViewportGpu>()
+        .and_then(|g| g.error.clone())
+}

@@ -1,0 +1,1016 @@
+//! The egui app over the editor core: a menu, a side panel of parameters,
+//! the viewport and a status bar. It owns no algorithm: picking, fitting,
+//! diagnostics and handles are library calls; what it keeps is what a
+//! window needs (the camera, the gesture in progress, open dialogs).
+
+mod files;
+mod gpu;
+mod panel;
+mod viewport;
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use csrbf::controls::ControlFile;
+use csrbf::glam::Vec3;
+use csrbf_mesh::{Bvh, Mesh};
+use eframe::egui;
+
+use crate::{Command, Document, History, Orbit, Preview, PreviewFrame};
+use files::{Choice, FileDialog, Purpose};
+pub use files::{MESH_ENDINGS, Recovery, state_dir};
+use viewport::{Gesture, ViewSettings};
+
+/// What the command line asked to open.
+#[derive(Clone, Debug, Default)]
+pub struct Args {
+    /// A mesh.
+    pub mesh: Option<PathBuf>,
+    /// A control file on it.
+    pub controls: Option<PathBuf>,
+}
+
+/// What a pointer press in the viewport does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tool {
+    /// A press on the surface adds a control vector there; dragging sets
+    /// its destination (a click without a drag is a pin). Markers are
+    /// dragged in any tool.
+    Place,
+    /// Presses select markers; a drag on the background draws a box.
+    Select,
+    /// A box on the surface selects vertices for a handle, a region or an
+    /// anchor; a drag from the pivot rotates, scales or moves the handle.
+    Vertices,
+}
+
+/// The loaded model and everything derived from it.
+struct Model {
+    doc: Document,
+    history: History,
+    preview: Preview,
+    /// Where the control file was opened from or last saved to.
+    controls_path: Option<PathBuf>,
+    /// Positions and normals drawn (the newest preview frame, else rest).
+    shown: Arc<Vec<Vec3>>,
+    shown_normals: Arc<Vec<Vec3>>,
+    rest_normals: Arc<Vec<Vec3>>,
+    /// The picking tree and whether it fits `shown`.
+    bvh: Bvh,
+    bvh_fresh: bool,
+    gpu_mesh: Arc<gpu::NewMesh>,
+    orbit: Orbit,
+    /// The model's up axis and how it was found.
+    up: (Vec3, &'static str),
+    /// Layers hidden from the preview (their phase taken as 0).
+    hidden: Vec<bool>,
+    /// Vertices chosen with the vertex tool (for a handle, region or anchor).
+    picked_vertices: Vec<u32>,
+    /// What the last box of the vertex tool is for.
+    vertex_target: panel::VertexTarget,
+    /// The generation whose preview is shown.
+    shown_generation: u64,
+    /// When the recovery file was last written.
+    recovery_at: Option<Instant>,
+}
+
+/// Something waiting for the person's answer about unsaved changes.
+#[derive(Clone, Debug)]
+enum Pending {
+    Open(PathBuf),
+    Close,
+}
+
+/// `csrbf-studio`, the Picker.
+pub struct StudioApp {
+    model: Option<Model>,
+    tool: Tool,
+    axis: Option<usize>,
+    view: ViewSettings,
+    gesture: Gesture,
+    dialog: Option<FileDialog>,
+    message: Option<(String, String)>,
+    pending: Option<Pending>,
+    recovery_offer: Option<Recovery>,
+    status: String,
+    gpu: Option<eframe::egui_wgpu::RenderState>,
+    next_mesh_id: u64,
+    frame_time: Duration,
+    /// The viewport's size in physical pixels, and where it is on screen.
+    viewport: ([u32; 2], egui::Rect, f32),
+    allow_close: bool,
+    recent: Vec<PathBuf>,
+    handle_mode: panel::HandleMode,
+}
+
+impl StudioApp {
+    /// The app, opening what `args` names (errors are shown in a dialog).
+    pub fn new(cc: &eframe::CreationContext<'_>, args: Args) -> StudioApp {
+        let gpu = cc.wgpu_render_state.clone();
+        if let Some(state) = &gpu {
+            gpu::install(state);
+        }
+        let mut app = StudioApp {
+            model: None,
+            tool: Tool::Place,
+            axis: None,
+            view: ViewSettings::default(),
+            gesture: Gesture::None,
+            dialog: None,
+            message: None,
+            pending: None,
+            recovery_offer: None,
+            status: "Open a mesh: File > Open mesh (Ctrl+O), or drop a file here".into(),
+            gpu,
+            next_mesh_id: 1,
+            frame_time: Duration::ZERO,
+            viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
+            allow_close: false,
+            recent: files::recent_files(),
+            handle_mode: panel::HandleMode::default(),
+        };
+        let ctx = cc.egui_ctx.clone();
+        if let Some(mesh) = &args.mesh {
+            app.open_mesh(&ctx, mesh);
+            if let Some(c) = &args.controls
+                && app.model.is_some()
+            {
+                app.open_controls(c);
+            }
+        } else if let Some(r) = Recovery::load() {
+            app.recovery_offer = Some(r);
+        }
+        app
+    }
+
+    /// The document, if a mesh is open (for tests and tools).
+    pub fn document(&self) -> Option<&Document> {
+        self.model.as_ref().map(|m| &m.doc)
+    }
+
+    /// Steps that can be undone.
+    pub fn undo_steps(&self) -> usize {
+        self.model.as_ref().map_or(0, |m| m.history.undo_steps())
+    }
+
+    /// The positions shown in the viewport.
+    pub fn shown_positions(&self) -> Option<&[Vec3]> {
+        self.model.as_ref().map(|m| &m.shown[..])
+    }
+
+    /// The newest preview frame.
+    pub fn preview_frame(&self) -> Option<&PreviewFrame> {
+        self.model.as_ref().and_then(|m| m.preview.latest())
+    }
+
+    /// Waits until the preview shows the document as it stands (tests,
+    /// saving); false if it did not within `limit`.
+    pub fn settle(&mut self, limit: Duration) -> bool {
+        let Some(m) = self.model.as_mut() else {
+            return true;
+        };
+        let ok = m.preview.wait(limit);
+        take_frame(m);
+        ok
+    }
+
+    /// The camera of the viewport as last drawn, with its size in physical
+    /// pixels and where its top-left corner is in points, and the points per
+    /// pixel: what a test needs to aim at the model.
+    pub fn viewport_camera(&self) -> Option<(csrbf_anim::Camera, [u32; 2], egui::Pos2, f32)> {
+        let m = self.model.as_ref()?;
+        let (size, rect, ppp) = self.viewport;
+        Some((m.orbit.camera(), size, rect.min, ppp))
+    }
+
+    /// The dialog message shown, if any (title, text).
+    pub fn message(&self) -> Option<&(String, String)> {
+        self.message.as_ref()
+    }
+
+    /// The line in the status bar.
+    pub fn status(&self) -> &str {
+        &self.status
+    }
+
+    /// Where the control file was opened from or saved to.
+    pub fn controls_path(&self) -> Option<&Path> {
+        self.model.as_ref()?.controls_path.as_deref()
+    }
+
+    fn show_error(&mut self, title: &str, text: impl Into<String>) {
+        let text = text.into();
+        self.status = format!("{title}: {text}");
+        self.message = Some((title.into(), text));
+    }
+
+    /// Opens a mesh, replacing the document (after asking, if it has
+    /// unsaved changes). A file that cannot be read leaves everything as it
+    /// was and says why.
+    pub fn open_mesh(&mut self, ctx: &egui::Context, path: &Path) {
+        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            self.pending = Some(Pending::Open(path.to_path_buf()));
+            return;
+        }
+        self.open_mesh_now(ctx, path);
+    }
+
+    fn open_mesh_now(&mut self, ctx: &egui::Context, path: &Path) {
+        let started = Instant::now();
+        let loaded = match csrbf_mesh::load(path) {
+            Ok(l) => l,
+            Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
+        };
+        let mesh = loaded.mesh;
+        let Some((lo, hi)) = mesh.bounds() else {
+            return self.show_error(
+                "Cannot open the mesh",
+                format!("{}: the mesh has no vertices", path.display()),
+            );
+        };
+        if mesh.faces.is_empty() {
+            return self.show_error(
+                "Cannot open the mesh",
+                format!(
+                    "{}: the mesh has no faces: the studio places controls on a surface",
+                    path.display()
+                ),
+            );
+        }
+        let size = self.viewport.0;
+        let scene = match csrbf_anim::still::mesh_scene(
+            path,
+            mesh.clone(),
+            None,
+            1.0,
+            [size[0].max(16), size[1].max(16)],
+        ) {
+            Ok(s) => s,
+            Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
+        };
+        let up = csrbf_mesh::guess_up(&mesh, path);
+        let diagonal = mesh.diagonal() as f64;
+        let triangles = mesh.faces.triangles();
+        let bvh = Bvh::new(&mesh.positions, &triangles);
+        let rest_normals = Arc::new(csrbf_mesh::triangle_vertex_normals(
+            &mesh.positions,
+            &triangles,
+        ));
+        let shown = Arc::new(mesh.positions.clone());
+        let doc = Document::new(mesh, path.to_path_buf(), (diagonal * 0.15).max(1e-9));
+        let wake = ctx.clone();
+        let preview = Preview::new(&doc, move || wake.request_repaint());
+        let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
+        let id = self.next_mesh_id;
+        self.next_mesh_id += 1;
+        self.model = Some(Model {
+            hidden: vec![false; doc.controls.deformations.len()],
+            history: History::default(),
+            preview,
+            controls_path: None,
+            shown_normals: rest_normals.clone(),
+            rest_normals,
+            shown,
+            bvh,
+            bvh_fresh: true,
+            gpu_mesh: Arc::new(gpu::NewMesh {
+                id,
+                scene: Mutex::new(Some(scene)),
+                triangles: triangles.len(),
+            }),
+            orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
+            up,
+            picked_vertices: Vec::new(),
+            vertex_target: panel::VertexTarget::Handle,
+            shown_generation: 0,
+            recovery_at: None,
+            doc,
+        });
+        self.gesture = Gesture::None;
+        files::remember(path);
+        self.recent = files::recent_files();
+        let mut note = format!(
+            "Opened {} in {:.0} ms; up axis {} ({})",
+            path.display(),
+            started.elapsed().as_secs_f64() * 1e3,
+            csrbf_anim::camera::axis_name(up.0),
+            up.1
+        );
+        for w in &loaded.warnings {
+            note.push_str("; ");
+            note.push_str(w);
+        }
+        self.status = note;
+    }
+
+    /// Opens a control file on the current mesh, in the CLI's format. A file
+    /// the CLI would refuse leaves the document as it was and says why.
+    pub fn open_controls(&mut self, path: &Path) {
+        let Some(m) = self.model.as_mut() else {
+            return self.show_error("No mesh", "open a mesh before its control file");
+        };
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) => {
+                return self.show_error(
+                    "Cannot open the control file",
+                    format!("{}: {e}", path.display()),
+                );
+            }
+        };
+        let file = match ControlFile::parse(&text) {
+            Ok(f) => f,
+            Err(e) => {
+                return self.show_error(
+                    "Cannot open the control file",
+                    format!("{}: {e}", path.display()),
+                );
+            }
+        };
+        if file.deformations.is_empty() {
+            return self.show_error(
+                "Cannot open the control file",
+                format!("{}: it has no deformation", path.display()),
+            );
+        }
+        // Replacing the controls is one undoable step.
+        let mut batch = Vec::new();
+        let old = m.doc.controls.deformations.len();
+        for (k, spec) in file.deformations.iter().enumerate() {
+            batch.push(Command::InsertLayer {
+                layer: old + k,
+                spec: Box::new(spec.clone()),
+            });
+        }
+        for k in (0..old).rev() {
+            batch.push(Command::RemoveLayer { layer: k });
+        }
+        if let Err(e) = m.history.apply(&mut m.doc, Command::Batch(batch)) {
+            return self.show_error("Cannot open the control file", e.to_string());
+        }
+        m.doc.controls.combine = file.combine;
+        m.doc.selection.0.clear();
+        m.doc.active_layer = 0;
+        m.doc.dirty = false;
+        m.hidden = vec![false; m.doc.controls.deformations.len()];
+        m.controls_path = Some(path.to_path_buf());
+        let warnings = file.warnings.join("; ");
+        self.status = if warnings.is_empty() {
+            format!("Opened {}", path.display())
+        } else {
+            format!("Opened {} (ignored: {warnings})", path.display())
+        };
+        self.refresh(true);
+        files::remember(path);
+        self.recent = files::recent_files();
+    }
+
+    /// Saves the control file (to where it came from, else asks where).
+    pub fn save(&mut self) {
+        match self.model.as_ref().and_then(|m| m.controls_path.clone()) {
+            Some(p) => self.save_to(&p),
+            None => self.ask(Purpose::SaveControls),
+        }
+    }
+
+    /// Saves the control file to `path`, whole or not at all; a failure says
+    /// so and keeps the document unsaved.
+    pub fn save_to(&mut self, path: &Path) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let text = m.doc.to_text();
+        match csrbf_mesh::write_atomic(path, text.as_bytes()) {
+            Ok(()) => {
+                m.doc.dirty = false;
+                m.controls_path = Some(path.to_path_buf());
+                Recovery::clear();
+                self.status = format!("Saved {}", path.display());
+                files::remember(path);
+                self.recent = files::recent_files();
+            }
+            Err(e) => self.show_error("Cannot save", e.to_string()),
+        }
+    }
+
+    /// Writes the deformed mesh as shown (any format the CLI writes).
+    pub fn export_mesh(&mut self, path: &Path) {
+        self.settle(Duration::from_secs(600));
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
+        let mut mesh: Mesh = (*m.doc.mesh).clone();
+        mesh.positions = m.shown.to_vec();
+        mesh.recompute_normals();
+        match csrbf_mesh::write(path, &mesh) {
+            Ok(()) => self.status = format!("Exported {}", path.display()),
+            Err(e) => self.show_error("Cannot export the mesh", e.to_string()),
+        }
+    }
+
+    /// Writes the fitted deformations as `.csrbf` (what `csrbf apply` reads).
+    pub fn export_fitted(&mut self, path: &Path) {
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
+        let result = csrbf_anim::apply::fit_file(&m.doc.mesh, &m.doc.controls).and_then(|s| {
+            let s: Vec<_> = s
+                .into_iter()
+                .map(|(d, r, p)| (d, r, p * m.doc.phase))
+                .collect();
+            csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine)
+        });
+        match result {
+            Ok(()) => self.status = format!("Exported {}", path.display()),
+            Err(e) => self.show_error("Cannot export the fitted deformation", e.to_string()),
+        }
+    }
+
+    fn ask(&mut self, purpose: Purpose) {
+        let near = self.model.as_ref().map(|m| match purpose {
+            Purpose::SaveControls | Purpose::OpenControls => m
+                .controls_path
+                .clone()
+                .unwrap_or_else(|| m.doc.mesh_path.with_extension("controls.json")),
+            Purpose::ExportMesh => m.doc.mesh_path.with_extension("deformed.obj"),
+            Purpose::ExportFitted => m.doc.mesh_path.with_extension("csrbf"),
+            Purpose::OpenMesh => m.doc.mesh_path.clone(),
+        });
+        self.dialog = Some(FileDialog::new(purpose, near.as_deref()));
+    }
+
+    /// Applies an edit; `full`: refit and diagnose (else a drag step).
+    fn edit(&mut self, command: Command, full: bool) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        match m.history.apply(&mut m.doc, command) {
+            Ok(()) => {
+                m.hidden.resize(m.doc.controls.deformations.len(), false);
+                self.refresh(full);
+            }
+            Err(e) => self.status = format!("Not done: {e}"),
+        }
+    }
+
+    fn undo(&mut self) {
+        if let Some(m) = self.model.as_mut() {
+            match m.history.undo(&mut m.doc) {
+                Ok(()) => {
+                    m.hidden.resize(m.doc.controls.deformations.len(), false);
+                    self.status = "Undone".into();
+                    self.refresh(true);
+                }
+                Err(e) => self.status = e.to_string(),
+            }
+        }
+    }
+
+    fn redo(&mut self) {
+        if let Some(m) = self.model.as_mut() {
+            match m.history.redo(&mut m.doc) {
+                Ok(()) => {
+                    m.hidden.resize(m.doc.controls.deformations.len(), false);
+                    self.status = "Redone".into();
+                    self.refresh(true);
+                }
+                Err(e) => self.status = e.to_string(),
+            }
+        }
+    }
+
+    /// Sends the document, as the preview should show it, to the worker.
+    fn refresh(&mut self, full: bool) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        if m.hidden.iter().any(|&h| h) {
+            let mut shown = m.doc.clone();
+            for (spec, &h) in shown.controls.deformations.iter_mut().zip(&m.hidden) {
+                if h {
+                    spec.phase = 0.0;
+                }
+            }
+            m.preview.edit(&shown, full);
+        } else {
+            m.preview.edit(&m.doc, full);
+        }
+    }
+
+    fn handle_keys(&mut self, ctx: &egui::Context) {
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        let shortcut = |m: Modifiers, k: Key| {
+            ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
+        };
+        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z)
+            || shortcut(Modifiers::COMMAND, Key::Y)
+        {
+            self.redo();
+        }
+        if shortcut(Modifiers::COMMAND, Key::Z) {
+            self.undo();
+        }
+        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
+            self.ask(Purpose::SaveControls);
+        }
+        if shortcut(Modifiers::COMMAND, Key::S) {
+            self.save();
+        }
+        if shortcut(Modifiers::COMMAND, Key::O) {
+            self.ask(Purpose::OpenMesh);
+        }
+        if shortcut(Modifiers::COMMAND, Key::D) {
+            self.duplicate();
+        }
+        if shortcut(Modifiers::COMMAND, Key::A) {
+            self.select_all();
+        }
+        let plain = |k: Key| ctx.input_mut(|i| i.consume_key(Modifiers::NONE, k));
+        if plain(Key::Delete) || plain(Key::Backspace) {
+            self.delete_selected();
+        }
+        if plain(Key::F) {
+            self.frame_view(true);
+        }
+        if ctx.input_mut(|i| i.consume_key(Modifiers::SHIFT, Key::F)) {
+            self.frame_view(false);
+        }
+        for (k, axis) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
+            if plain(k) {
+                self.set_axis(if self.axis == Some(axis) {
+                    None
+                } else {
+                    Some(axis)
+                });
+            }
+        }
+        if plain(Key::M) {
+            self.mirror(0);
+        }
+        if plain(Key::P) {
+            self.tool = Tool::Place;
+        }
+        if plain(Key::S) {
+            self.tool = Tool::Select;
+        }
+        if plain(Key::V) {
+            self.tool = Tool::Vertices;
+        }
+        if plain(Key::Escape) {
+            if let Some(m) = self.model.as_mut() {
+                m.doc.selection.0.clear();
+            }
+            self.gesture = Gesture::None;
+        }
+    }
+
+    fn set_axis(&mut self, axis: Option<usize>) {
+        self.axis = axis;
+        self.status = match axis {
+            Some(a) => format!(
+                "Moves held to the {} axis (press it again to free)",
+                ["X", "Y", "Z"][a]
+            ),
+            None => "Moves free on the plane facing the camera".into(),
+        };
+    }
+
+    /// Frames the selection (`selection`) or the whole model.
+    fn frame_view(&mut self, selection: bool) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let mut pts: Vec<Vec3> = Vec::new();
+        if selection {
+            for &(l, i) in &m.doc.selection.0 {
+                if let Some(s) = m.doc.controls.deformations.get(l) {
+                    let r = s.options.radius as f32;
+                    for p in [s.starts.get(i), s.targets.get(i)].into_iter().flatten() {
+                        pts.push(p.as_vec3() - Vec3::splat(r * 0.5));
+                        pts.push(p.as_vec3() + Vec3::splat(r * 0.5));
+                    }
+                }
+            }
+        }
+        if pts.is_empty() {
+            pts = m.shown.to_vec();
+        }
+        let lo = pts.iter().copied().fold(Vec3::INFINITY, Vec3::min);
+        let hi = pts.iter().copied().fold(Vec3::NEG_INFINITY, Vec3::max);
+        let (size, _, _) = self.viewport;
+        m.orbit
+            .frame(lo, hi, size[0].max(1) as f32 / size[1].max(1) as f32);
+    }
+
+    fn select_all(&mut self) {
+        if let Some(m) = self.model.as_mut() {
+            let l = m.doc.active_layer;
+            let n = m
+                .doc
+                .controls
+                .deformations
+                .get(l)
+                .map_or(0, |s| s.starts.len());
+            m.doc.selection.0 = (0..n).map(|i| (l, i)).collect();
+        }
+    }
+
+    fn delete_selected(&mut self) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let mut sel = m.doc.selection.0.clone();
+        if sel.is_empty() {
+            return;
+        }
+        // Highest index first, so the others keep theirs.
+        sel.sort_unstable();
+        sel.dedup();
+        let batch = sel
+            .iter()
+            .rev()
+            .map(|&(layer, index)| Command::Remove { layer, index })
+            .collect();
+        m.doc.selection.0.clear();
+        let n = sel.len();
+        self.edit(Command::Batch(batch), true);
+        self.status = format!("Deleted {n} control vector(s)");
+    }
+
+    /// Copies the selected controls' displacements onto the next clicks
+    /// on the surface (a stamp): the way to repeat an edit elsewhere.
+    fn duplicate(&mut self) {
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
+        let Some(&(l, i)) = m.doc.selection.0.last() else {
+            self.status = "Select a control vector to duplicate".into();
+            return;
+        };
+        let s = &m.doc.controls.deformations[l];
+        let d = s.targets[i] - s.starts[i];
+        self.gesture = Gesture::None;
+        self.view.stamp = Some(d);
+        self.tool = Tool::Place;
+        self.status = "Click on the surface to place a copy (Esc to stop)".into();
+    }
+
+    /// Mirrors the selected controls (or all of the active layer) across the
+    /// plane through the model's centre normal to `axis` (0 X, 1 Y, 2 Z).
+    fn mirror(&mut self, axis: usize) {
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
+        let Some((lo, hi)) = m.doc.mesh.bounds() else {
+            return;
+        };
+        let centre = ((lo + hi) * 0.5).as_dvec3();
+        let l = m.doc.active_layer;
+        let sel: Vec<(usize, usize)> = if m.doc.selection.0.is_empty() {
+            let n = m.doc.controls.deformations[l].starts.len();
+            (0..n).map(|i| (l, i)).collect()
+        } else {
+            m.doc.selection.0.clone()
+        };
+        let flip = |p: csrbf::glam::DVec3| {
+            let mut q = p;
+            q[axis] = 2.0 * centre[axis] - p[axis];
+            q
+        };
+        let mut batch = Vec::new();
+        for &(layer, i) in &sel {
+            let s = &m.doc.controls.deformations[layer];
+            let (a, b) = (flip(s.starts[i]), flip(s.targets[i]));
+            // A start on the plane is its own mirror image; a start whose
+            // image is already there is not added twice.
+            let r = s.options.radius;
+            let taken = s.starts.iter().any(|p| p.distance(a) < 1e-6 * r.max(1e-12));
+            if !taken {
+                batch.push(Command::add(layer, a, b));
+            }
+        }
+        if batch.is_empty() {
+            self.status = "Nothing to mirror: every image is already there".into();
+            return;
+        }
+        let n = batch.len();
+        self.edit(Command::Batch(batch), true);
+        self.status = format!(
+            "Mirrored {n} control vector(s) across the {} plane through the model's centre",
+            ["YZ", "XZ", "XY"][axis]
+        );
+    }
+
+    fn dialogs(&mut self, ctx: &egui::Context) {
+        if let Some(d) = self.dialog.as_mut()
+            && let Some(choice) = d.show(ctx)
+        {
+            let purpose = d.purpose;
+            self.dialog = None;
+            if let Choice::File(p) = choice {
+                match purpose {
+                    Purpose::OpenMesh => self.open_mesh(ctx, &p),
+                    Purpose::OpenControls => self.open_controls(&p),
+                    Purpose::SaveControls => self.save_to(&p),
+                    Purpose::ExportMesh => self.export_mesh(&p),
+                    Purpose::ExportFitted => self.export_fitted(&p),
+                }
+            }
+        }
+        if let Some((title, text)) = self.message.clone() {
+            let mut close = false;
+            egui::Modal::new(egui::Id::unique("message")).show(ctx, |ui| {
+                ui.set_max_width(520.0);
+                ui.heading(&title);
+                ui.label(&text);
+                if ui.button("OK").clicked() || ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                    close = true;
+                }
+            });
+            if close {
+                self.message = None;
+            }
+        }
+        if let Some(pending) = self.pending.clone() {
+            let mut answer = None;
+            egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
+                ui.heading("Unsaved changes");
+                ui.label("The control file has changes that are not saved.");
+                ui.horizontal(|ui| {
+                    if ui.button("Save").clicked() {
+                        answer = Some(0);
+                    }
+                    if ui.button("Discard").clicked() {
+                        answer = Some(1);
+                    }
+                    if ui.button("Cancel").clicked() {
+                        answer = Some(2);
+                    }
+                });
+            });
+            match answer {
+                Some(0) => {
+                    self.pending = None;
+                    self.save();
+                    if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
+                        self.resume(ctx, pending);
+                    }
+                }
+                Some(1) => {
+                    self.pending = None;
+                    if let Some(m) = self.model.as_mut() {
+                        m.doc.dirty = false;
+                    }
+                    Recovery::clear();
+                    self.resume(ctx, pending);
+                }
+                Some(_) => self.pending = None,
+                None => {}
+            }
+        }
+        if let Some(r) = self.recovery_offer.clone() {
+            let mut answer = None;
+            egui::Modal::new(egui::Id::unique("recovery")).show(ctx, |ui| {
+                ui.heading("Restore the last session?");
+                ui.label(format!(
+                    "The studio closed with unsaved changes to the controls of {}.",
+                    r.mesh.display()
+                ));
+                ui.horizontal(|ui| {
+                    if ui.button("Restore").clicked() {
+                        answer = Some(true);
+                    }
+                    if ui.button("Discard").clicked() {
+                        answer = Some(false);
+                    }
+                });
+            });
+            match answer {
+                Some(true) => {
+                    self.recovery_offer = None;
+                    self.restore(ctx, &r);
+                }
+                Some(false) => {
+                    self.recovery_offer = None;
+                    Recovery::clear();
+                }
+                None => {}
+            }
+        }
+    }
+
+    /// Reopens a recovered session: its mesh and its unsaved controls.
+    pub fn restore(&mut self, ctx: &egui::Context, r: &Recovery) {
+        let file = match ControlFile::parse(&r.controls) {
+            Ok(f) => f,
+            Err(e) => return self.show_error("Cannot restore", e.to_string()),
+        };
+        self.open_mesh_now(ctx, &r.mesh);
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        m.doc.controls = file;
+        m.doc.dirty = true;
+        m.controls_path = r.controls_path.clone();
+        m.hidden = vec![false; m.doc.controls.deformations.len()];
+        self.status = format!("Restored the unsaved session on {}", r.mesh.display());
+        self.refresh(true);
+    }
+
+    fn resume(&mut self, ctx: &egui::Context, pending: Pending) {
+        match pending {
+            Pending::Open(p) => self.open_mesh_now(ctx, &p),
+            Pending::Close => {
+                self.allow_close = true;
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            }
+        }
+    }
+
+    fn menu(&mut self, ui: &mut egui::Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            ui.menu_button("File", |ui| {
+                if ui.button("Open mesh…  Ctrl+O").clicked() {
+                    self.ask(Purpose::OpenMesh);
+                }
+                let has = self.model.is_some();
+                if ui
+                    .add_enabled(has, egui::Button::new("Open control file…"))
+                    .clicked()
+                {
+                    self.ask(Purpose::OpenControls);
+                }
+                ui.menu_button("Recent", |ui| {
+                    for p in self.recent.clone() {
+                        if ui.button(p.display().to_string()).clicked() {
+                            let ctx = ui.ctx().clone();
+                            let is_mesh = p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                                MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str())
+                            });
+                            if is_mesh {
+                                self.open_mesh(&ctx, &p);
+                            } else {
+                                self.open_controls(&p);
+                            }
+                        }
+                    }
+                });
+                ui.separator();
+                if ui
+                    .add_enabled(has, egui::Button::new("Save controls  Ctrl+S"))
+                    .clicked()
+                {
+                    self.save();
+                }
+                if ui
+                    .add_enabled(has, egui::Button::new("Save controls as…  Ctrl+Shift+S"))
+                    .clicked()
+                {
+                    self.ask(Purpose::SaveControls);
+                }
+                if ui
+                    .add_enabled(has, egui::Button::new("Export deformed mesh…"))
+                    .clicked()
+                {
+                    self.ask(Purpose::ExportMesh);
+                }
+                if ui
+                    .add_enabled(has, egui::Button::new("Export fitted .csrbf…"))
+                    .clicked()
+                {
+                    self.ask(Purpose::ExportFitted);
+                }
+                ui.separator();
+                if ui.button("Quit").clicked() {
+                    ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+            });
+            ui.menu_button("Edit", |ui| {
+                if ui.button("Undo  Ctrl+Z").clicked() {
+                    self.undo();
+                }
+                if ui.button("Redo  Ctrl+Shift+Z").clicked() {
+                    self.redo();
+                }
+                ui.separator();
+                if ui.button("Delete selected  Del").clicked() {
+                    self.delete_selected();
+                }
+                if ui.button("Duplicate (stamp)  Ctrl+D").clicked() {
+                    self.duplicate();
+                }
+                if ui.button("Select all in layer  Ctrl+A").clicked() {
+                    self.select_all();
+                }
+                for (axis, name) in ["X  (M)", "Y", "Z"].into_iter().enumerate() {
+                    if ui.button(format!("Mirror across {name}")).clicked() {
+                        self.mirror(axis);
+                    }
+                }
+            });
+            ui.menu_button("View", |ui| self.view_menu(ui));
+        });
+    }
+}
+
+fn take_frame(m: &mut Model) {
+    m.preview.poll();
+    if let Some(f) = m.preview.latest()
+        && f.generation != m.shown_generation
+    {
+        m.shown_generation = f.generation;
+        m.shown = f.positions.clone();
+        m.shown_normals = f.normals.clone();
+        m.bvh_fresh = false;
+    }
+}
+
+impl eframe::App for StudioApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let started = Instant::now();
+        let ctx = ui.ctx().clone();
+        if let Some(m) = self.model.as_mut() {
+            take_frame(m);
+        }
+        // Files dropped on the window.
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_path_buf())
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        });
+        for p in dropped {
+            let ext = p
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase)
+                .unwrap_or_default();
+            if MESH_ENDINGS.contains(&ext.as_str()) {
+                self.open_mesh(&ctx, &p);
+            } else if ext == "json" {
+                self.open_controls(&p);
+            } else {
+                self.show_error(
+                    "Cannot open the dropped file",
+                    format!(
+                        "{}: the studio reads meshes ({}) and control files (.json)",
+                        p.display(),
+                        MESH_ENDINGS.join(", ")
+                    ),
+                );
+            }
+        }
+        if ctx.input(|i| i.viewport().close_requested())
+            && !self.allow_close
+            && self.model.as_ref().is_some_and(|m| m.doc.dirty)
+        {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.pending = Some(Pending::Close);
+        }
+        if self.dialog.is_none() && self.message.is_none() && self.pending.is_none() {
+            self.handle_keys(&ctx);
+        }
+        egui::Panel::top("menu").show(ui, |ui| self.menu(ui));
+        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::right("parameters")
+            .default_size(300.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+            });
+        egui::CentralPanel::default()
+            .frame(egui::Frame::NONE)
+            .show(ui, |ui| self.viewport_ui(ui));
+        self.dialogs(&ctx);
+        // The recovery file, while there are unsaved changes.
+        if let Some(m) = self.model.as_mut()
+            && m.doc.dirty
+            && m.recovery_at
+                .is_none_or(|t| t.elapsed() > Duration::from_secs(2))
+        {
+            m.recovery_at = Some(Instant::now());
+            Recovery {
+                mesh: std::fs::canonicalize(&m.doc.mesh_path)
+                    .unwrap_or_else(|_| m.doc.mesh_path.clone()),
+                controls_path: m.controls_path.clone(),
+                controls: m.doc.to_text(),
+            }
+            .store();
+        }
+        if self.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
+            ctx.request_repaint_after(Duration::from_millis(30));
+        }
+        self.frame_time = started.elapsed();
+    }
+
+    fn on_exit(&mut self) {
+        if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
+            Recovery::clear();
+        }
+    }
+}

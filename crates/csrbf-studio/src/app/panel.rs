@@ -1,0 +1,669 @@
+//! The side panel (tools, layers, parameters, the selected control, the
+//! handle, diagnostics) and the status bar.
+
+use csrbf::glam::DVec3;
+use csrbf::{Handle, Kernel, Polynomial, Region};
+use eframe::egui;
+
+use super::{StudioApp, Tool};
+use crate::Command;
+
+/// What the vertices chosen with the vertex tool become.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexTarget {
+    /// A handle's selection (a new handle layer).
+    Handle,
+    /// The active handle's anchor.
+    Anchor,
+    /// The active layer's region.
+    Region,
+}
+
+/// A button of the selection that is not one edit.
+enum Action {
+    Delete,
+    Stamp,
+    Mirror(usize),
+}
+
+/// What a drag from a handle's pivot does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum HandleMode {
+    /// Turn about the held axis (X, Y, Z) or the view axis.
+    #[default]
+    Rotate,
+    /// Scale about the pivot.
+    Scale,
+    /// Move on the plane facing the camera (or along the held axis).
+    Move,
+}
+
+impl StudioApp {
+    pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            if let Some(m) = self.model.as_ref() {
+                let controls: usize = m
+                    .doc
+                    .controls
+                    .deformations
+                    .iter()
+                    .map(|s| s.starts.len())
+                    .sum();
+                ui.label(format!(
+                    "{} vertices · {} triangles · {} controls",
+                    m.doc.mesh.positions.len(),
+                    m.bvh.triangles().len(),
+                    controls
+                ));
+                ui.separator();
+                let solver = m
+                    .doc
+                    .controls
+                    .deformations
+                    .get(m.doc.active_layer)
+                    .map(|s| format!("{:?}", s.options.solver).to_lowercase())
+                    .unwrap_or_default();
+                ui.label(format!("solver {solver}"));
+                if let Some(f) = m.preview.latest() {
+                    ui.separator();
+                    ui.label(format!(
+                        "fit {:.1} ms · {} factorisations",
+                        f.took.as_secs_f64() * 1e3,
+                        f.factorisations
+                    ));
+                }
+                if !m.preview.is_settled() {
+                    ui.spinner();
+                    ui.label("fitting…");
+                }
+                ui.separator();
+                ui.label(format!(
+                    "frame {:.1} ms",
+                    self.frame_time.as_secs_f64() * 1e3
+                ));
+                if m.doc.dirty {
+                    ui.separator();
+                    ui.label("unsaved");
+                }
+                ui.separator();
+            }
+            if let Some(e) = self.gpu.as_ref().and_then(super::gpu::last_error) {
+                ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
+            }
+            ui.label(&self.status);
+        });
+    }
+
+    pub(super) fn side_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Tool");
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut self.tool, Tool::Place, "Place")
+                .on_hover_text("P: a click on the surface adds a control vector (a pin); drag to set its destination");
+            ui.selectable_value(&mut self.tool, Tool::Select, "Select")
+                .on_hover_text("S: click markers to select (Shift adds), drag a box on the background");
+            ui.selectable_value(&mut self.tool, Tool::Vertices, "Vertices")
+                .on_hover_text("V: drag a box on the surface to choose vertices for a handle, an anchor or a region");
+        });
+        ui.horizontal(|ui| {
+            ui.label("Hold to axis:");
+            for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+                let on = self.axis == Some(a);
+                if ui
+                    .selectable_label(on, name)
+                    .on_hover_text(format!("{name}: moves go along the {name} axis only"))
+                    .clicked()
+                {
+                    self.set_axis(if on { None } else { Some(a) });
+                }
+            }
+        });
+        if self.view.stamp.is_some() && ui.button("Stop stamping (Esc)").clicked() {
+            self.view.stamp = None;
+        }
+        if self.model.is_none() {
+            return;
+        }
+        ui.separator();
+        self.layers_ui(ui);
+        ui.separator();
+        self.parameters_ui(ui);
+        ui.separator();
+        self.selection_ui(ui);
+        ui.separator();
+        self.vertices_ui(ui);
+        ui.separator();
+        self.diagnostics_ui(ui);
+    }
+
+    fn layers_ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Layers");
+        let m = self.model.as_mut().expect("checked");
+        let n = m.doc.controls.deformations.len();
+        let mut command = None;
+        for l in 0..n {
+            ui.horizontal(|ui| {
+                let count = m.doc.controls.deformations[l].starts.len();
+                let handle = if m.doc.controls.deformations[l].handle.is_some() {
+                    " + handle"
+                } else {
+                    ""
+                };
+                if ui
+                    .selectable_label(
+                        m.doc.active_layer == l,
+                        format!("Layer {} ({count}{handle})", l + 1),
+                    )
+                    .on_hover_text("New controls go to the active layer")
+                    .clicked()
+                {
+                    m.doc.active_layer = l;
+                }
+                let mut shown = !m.hidden[l];
+                if ui
+                    .checkbox(&mut shown, "")
+                    .on_hover_text("Show this layer's deformation")
+                    .changed()
+                {
+                    m.hidden[l] = !shown;
+                    command = Some(None);
+                }
+                if l > 0
+                    && ui
+                        .small_button("⏶")
+                        .on_hover_text("Earlier in the chain")
+                        .clicked()
+                {
+                    command = Some(Command::move_layer(&m.doc, l, l - 1));
+                }
+                if l + 1 < n
+                    && ui
+                        .small_button("⏷")
+                        .on_hover_text("Later in the chain")
+                        .clicked()
+                {
+                    command = Some(Command::move_layer(&m.doc, l, l + 1));
+                }
+                if n > 1
+                    && ui
+                        .small_button("🗑")
+                        .on_hover_text("Remove this layer")
+                        .clicked()
+                {
+                    command = Some(Some(Command::RemoveLayer { layer: l }));
+                }
+            });
+        }
+        if ui.button("Add layer").clicked() {
+            let mut spec = m.doc.controls.deformations[m.doc.active_layer].clone();
+            spec.starts.clear();
+            spec.targets.clear();
+            spec.handle = None;
+            spec.anchor = None;
+            spec.region = Region::All;
+            let layer = n;
+            command = Some(Some(Command::InsertLayer {
+                layer,
+                spec: Box::new(spec),
+            }));
+            m.doc.active_layer = layer;
+        }
+        match command {
+            Some(Some(c)) => {
+                self.edit(c, true);
+                let m = self.model.as_mut().expect("checked");
+                m.doc.active_layer = m
+                    .doc
+                    .active_layer
+                    .min(m.doc.controls.deformations.len() - 1);
+            }
+            Some(None) => self.refresh(true),
+            None => {}
+        }
+        let m = self.model.as_mut().expect("checked");
+        let mut combine = m.doc.controls.combine;
+        ui.horizontal(|ui| {
+            ui.label("Layers combine:");
+            ui.radio_value(&mut combine, csrbf::Combine::Chain, "chain")
+                .on_hover_text("Each layer moves the points the one before moved");
+            ui.radio_value(&mut combine, csrbf::Combine::Add, "add")
+                .on_hover_text("The layers' displacements add up, each on the rest shape");
+        });
+        if combine != m.doc.controls.combine {
+            m.doc.controls.combine = combine;
+            m.doc.dirty = true;
+            self.refresh(true);
+        }
+    }
+
+    fn parameters_ui(&mut self, ui: &mut egui::Ui) {
+        let m = self.model.as_mut().expect("checked");
+        let l = m.doc.active_layer;
+        let diag = m.doc.diagonal().max(1e-12);
+        let spec = m.doc.controls.deformations[l].clone();
+        ui.heading(format!("Layer {} parameters", l + 1));
+        let mut radius = spec.options.radius;
+        let r = ui
+            .add(
+                egui::Slider::new(&mut radius, diag * 0.002..=diag * 2.0)
+                    .logarithmic(true)
+                    .text("radius R")
+                    .custom_formatter(|v, _| format!("{v:.4}")),
+            )
+            .on_hover_text(
+                "Radius of support: each control moves the points within R of its start",
+            );
+        ui.label(format!(
+            "R = {:.4} = {:.1} % of the diagonal ({diag:.4})",
+            radius,
+            radius / diag * 100.0
+        ));
+        self.view.all_spheres = r.dragged() || r.has_focus();
+        if r.drag_started() {
+            m.history.begin_drag();
+        }
+        let drag_stopped = r.drag_stopped();
+        let mut commands: Vec<(Command, bool)> = Vec::new();
+        if r.changed() && radius > 0.0 && radius.is_finite() && radius != spec.options.radius {
+            commands.push((Command::SetRadius { layer: l, radius }, true));
+        }
+        let mut kernel = spec.options.kernel;
+        egui::ComboBox::from_label("kernel")
+            .selected_text(kernel.name())
+            .show_ui(ui, |ui| {
+                for k in Kernel::ALL {
+                    ui.selectable_value(&mut kernel, k, k.name());
+                }
+            })
+            .response
+            .on_hover_text("Wendland function: C0 is continuous only; C2, C4, C6 are smoother");
+        if kernel != spec.options.kernel {
+            commands.push((Command::SetKernel { layer: l, kernel }, true));
+        }
+        let mut poly = spec.options.polynomial;
+        egui::ComboBox::from_label("polynomial")
+            .selected_text(poly.name())
+            .show_ui(ui, |ui| {
+                for p in Polynomial::ALL {
+                    ui.selectable_value(&mut poly, p, p.name());
+                }
+            })
+            .response
+            .on_hover_text("none: edits stay local; linear: affine maps reproduced, but the whole model may move");
+        let mut phase = spec.phase;
+        ui.add(egui::Slider::new(&mut phase, 0.0..=1.0).text("layer phase"));
+        let mut region = spec.region.clone();
+        region_ui(ui, &mut region, m, diag);
+        if poly != spec.options.polynomial || phase != spec.phase || region != spec.region {
+            let mut new = spec.clone();
+            new.options.polynomial = poly;
+            new.phase = phase;
+            new.region = region;
+            commands.push((
+                Command::ReplaceLayer {
+                    layer: l,
+                    spec: Box::new(new),
+                },
+                true,
+            ));
+        }
+        let mut global = m.doc.phase;
+        ui.add(egui::Slider::new(&mut global, 0.0..=1.0).text("phase (all layers)"))
+            .on_hover_text("0 shows the rest shape, 1 the full deformation");
+        let phase_changed = global != m.doc.phase;
+        if phase_changed {
+            m.doc.phase = global;
+        }
+        for (c, full) in commands {
+            self.edit(c, full);
+        }
+        if phase_changed {
+            self.refresh(false);
+        }
+        if drag_stopped && let Some(m) = self.model.as_mut() {
+            m.history.end_drag();
+        }
+    }
+
+    fn selection_ui(&mut self, ui: &mut egui::Ui) {
+        let m = self.model.as_mut().expect("checked");
+        ui.heading("Selection");
+        let sel = m.doc.selection.0.clone();
+        if sel.is_empty() {
+            ui.label("Nothing selected: click a start (white cross) or a destination");
+            return;
+        }
+        ui.label(format!("{} control vector(s) selected", sel.len()));
+        let mut commands = Vec::new();
+        if let [(layer, index)] = sel[..]
+            && let Some(spec) = m.doc.controls.deformations.get(layer)
+            && index < spec.starts.len()
+        {
+            let (mut s, mut t) = (spec.starts[index], spec.targets[index]);
+            ui.label(format!("Layer {}, control {}", layer + 1, index + 1));
+            let speed = m.doc.diagonal() * 1e-3;
+            let changed_s = vec3_ui(ui, "start", &mut s, speed);
+            let changed_t = vec3_ui(ui, "destination", &mut t, speed);
+            let d = t - s;
+            ui.label(format!(
+                "move ({:.4}, {:.4}, {:.4}), length {:.4}",
+                d.x,
+                d.y,
+                d.z,
+                d.length()
+            ));
+            if changed_s {
+                commands.push((
+                    Command::SetStart {
+                        layer,
+                        index,
+                        start: s,
+                    },
+                    true,
+                ));
+            }
+            if changed_t {
+                commands.push((
+                    Command::SetTarget {
+                        layer,
+                        index,
+                        target: t,
+                    },
+                    true,
+                ));
+            }
+            if ui
+                .button("Make it a pin")
+                .on_hover_text("Destination = start: this point stays put")
+                .clicked()
+            {
+                commands.push((
+                    Command::SetTarget {
+                        layer,
+                        index,
+                        target: s,
+                    },
+                    true,
+                ));
+            }
+        }
+        let mut action = None;
+        ui.horizontal(|ui| {
+            if ui.button("Delete").on_hover_text("Del").clicked() {
+                action = Some(Action::Delete);
+            }
+            if ui
+                .button("Stamp copies")
+                .on_hover_text("Ctrl+D: the next clicks add this displacement elsewhere")
+                .clicked()
+            {
+                action = Some(Action::Stamp);
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("Mirror across:");
+            for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+                if ui
+                    .button(name)
+                    .on_hover_text("Adds the mirror images across the model's centre plane (M: X)")
+                    .clicked()
+                {
+                    action = Some(Action::Mirror(a));
+                }
+            }
+        });
+        for (c, full) in commands {
+            self.edit(c, full);
+        }
+        match action {
+            Some(Action::Delete) => self.delete_selected(),
+            Some(Action::Stamp) => self.duplicate(),
+            Some(Action::Mirror(a)) => self.mirror(a),
+            None => {}
+        }
+    }
+
+    fn vertices_ui(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Handle");
+        let axis = self.axis;
+        let m = self.model.as_mut().expect("checked");
+        ui.label("Vertices tool (V): drag a box on the surface, then:");
+        ui.horizontal(|ui| {
+            ui.radio_value(&mut m.vertex_target, VertexTarget::Handle, "handle");
+            ui.radio_value(&mut m.vertex_target, VertexTarget::Anchor, "anchor");
+            ui.radio_value(&mut m.vertex_target, VertexTarget::Region, "region");
+        });
+        ui.label(format!("{} vertices chosen", m.picked_vertices.len()));
+        let l = m.doc.active_layer;
+        let spec = m.doc.controls.deformations[l].clone();
+        let mut commands = Vec::new();
+        if !m.picked_vertices.is_empty() && ui.button("Apply the chosen vertices").clicked() {
+            let chosen = Region::Vertices(m.picked_vertices.clone());
+            match m.vertex_target {
+                VertexTarget::Handle => {
+                    // A new layer holding the handle, after the active one.
+                    let mut new = spec.clone();
+                    new.starts.clear();
+                    new.targets.clear();
+                    new.region = Region::All;
+                    new.anchor = None;
+                    new.handle = Some(Handle::new(chosen));
+                    commands.push(Command::InsertLayer {
+                        layer: m.doc.controls.deformations.len(),
+                        spec: Box::new(new),
+                    });
+                    m.doc.active_layer = m.doc.controls.deformations.len();
+                }
+                VertexTarget::Anchor => {
+                    let mut new = spec.clone();
+                    new.anchor = Some(chosen);
+                    commands.push(Command::ReplaceLayer {
+                        layer: l,
+                        spec: Box::new(new),
+                    });
+                }
+                VertexTarget::Region => {
+                    let mut new = spec.clone();
+                    new.region = chosen;
+                    commands.push(Command::ReplaceLayer {
+                        layer: l,
+                        spec: Box::new(new),
+                    });
+                }
+            }
+            m.picked_vertices.clear();
+        }
+        if let Some(h) = spec.handle.clone() {
+            ui.label(format!(
+                "Layer {} is a handle: drag from its pivot (yellow ring) with the Vertices tool",
+                l + 1
+            ));
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut self.handle_mode, HandleMode::Rotate, "rotate");
+                ui.radio_value(&mut self.handle_mode, HandleMode::Scale, "scale");
+                ui.radio_value(&mut self.handle_mode, HandleMode::Move, "move");
+            });
+            let mut new = h.clone();
+            let mut rot = h.rotate.unwrap_or_else(|| {
+                csrbf::Rotation::new(super::viewport::handle_axis(axis, &m.orbit.camera()), 0.0)
+            });
+            let mut angle = rot.angle_deg;
+            ui.add(
+                egui::DragValue::new(&mut angle)
+                    .speed(0.5)
+                    .suffix("°")
+                    .prefix("angle "),
+            );
+            let mut ax = rot.axis;
+            let axis_changed = vec3_ui(ui, "axis", &mut ax, 0.01);
+            let mut scale = h.scale.unwrap_or(1.0);
+            ui.add(
+                egui::DragValue::new(&mut scale)
+                    .speed(0.005)
+                    .range(0.01..=100.0)
+                    .prefix("scale "),
+            );
+            let mut t = h.translate.unwrap_or(DVec3::ZERO);
+            let t_changed = vec3_ui(ui, "move", &mut t, m.doc.diagonal() * 1e-3);
+            if angle != rot.angle_deg || axis_changed {
+                rot.angle_deg = angle;
+                if ax.length() > 0.0 && ax.is_finite() {
+                    rot.axis = ax;
+                }
+                new.rotate = Some(rot);
+            }
+            if scale != h.scale.unwrap_or(1.0) && scale > 0.0 {
+                new.scale = Some(scale);
+            }
+            if t_changed {
+                new.translate = Some(t);
+            }
+            ui.label(match &spec.anchor {
+                Some(a) => format!("anchor: {a}"),
+                None => "no anchor: pins only where the engine needs them".into(),
+            });
+            if new != h {
+                let mut s = spec.clone();
+                s.handle = Some(new);
+                commands.push(Command::ReplaceLayer {
+                    layer: l,
+                    spec: Box::new(s),
+                });
+            }
+        }
+        for c in commands {
+            self.edit(c, true);
+        }
+    }
+
+    fn diagnostics_ui(&mut self, ui: &mut egui::Ui) {
+        let m = self.model.as_ref().expect("checked");
+        ui.heading("Diagnostics");
+        let Some(f) = m.preview.latest() else {
+            ui.label("fitting…");
+            return;
+        };
+        if let Some(e) = &f.error {
+            ui.colored_label(egui::Color32::LIGHT_RED, format!("Refused: {e}"));
+            ui.label("(the last good result is shown)");
+        }
+        let Some(d) = &f.diagnostics else {
+            return;
+        };
+        ui.label(format!(
+            "{} vertices moved, the largest by {:.4}",
+            d.moved, d.largest_move
+        ));
+        if d.flipped.is_empty() {
+            ui.label("no face turned over");
+        } else {
+            ui.colored_label(
+                egui::Color32::from_rgb(255, 90, 90),
+                format!("{} faces turned over (outlined in red)", d.flipped.len()),
+            );
+        }
+        for w in &d.warnings {
+            ui.colored_label(egui::Color32::from_rgb(255, 200, 80), format!("! {w}"));
+        }
+        let dense = m.doc.controls.deformations.iter().any(|s| {
+            let n = s.starts.len() as f64;
+            n > 500.0 && s.options.radius > m.doc.diagonal() * 0.5
+        });
+        if dense {
+            ui.colored_label(
+                egui::Color32::from_rgb(255, 200, 80),
+                "! R is over half the diagonal with many controls: the system is nearly dense and slow to fit",
+            );
+        }
+    }
+}
+
+fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64) -> bool {
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        ui.label(label);
+        for k in 0..3 {
+            changed |= ui
+                .add(
+                    egui::DragValue::new(&mut v[k])
+                        .speed(speed)
+                        .max_decimals(5)
+                        .prefix(["x ", "y ", "z "][k]),
+                )
+                .changed();
+        }
+    });
+    changed && v.is_finite()
+}
+
+fn region_ui(ui: &mut egui::Ui, region: &mut Region, m: &super::Model, diag: f64) {
+    let kind = match region {
+        Region::All => "whole mesh",
+        Region::Sphere { .. } => "sphere",
+        Region::Box { .. } => "box",
+        Region::Vertices(_) => "chosen vertices",
+        Region::Group(_) => "part",
+        _ => "other",
+    };
+    let (lo, hi) = m
+        .doc
+        .mesh
+        .bounds()
+        .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
+        .unwrap_or((DVec3::ZERO, DVec3::ONE));
+    egui::ComboBox::from_label("region")
+        .selected_text(kind)
+        .show_ui(ui, |ui| {
+            if ui
+                .selectable_label(kind == "whole mesh", "whole mesh")
+                .clicked()
+            {
+                *region = Region::All;
+            }
+            if ui.selectable_label(kind == "sphere", "sphere").clicked() {
+                *region = Region::Sphere {
+                    center: (lo + hi) * 0.5,
+                    radius: diag * 0.25,
+                };
+            }
+            if ui.selectable_label(kind == "box", "box").clicked() {
+                *region = Region::Box { min: lo, max: hi };
+            }
+            for p in &m.doc.mesh.parts {
+                if ui
+                    .selectable_label(
+                        matches!(region, Region::Group(g) if *g == p.name),
+                        format!("part {}", p.name),
+                    )
+                    .clicked()
+                {
+                    *region = Region::Group(p.name.clone());
+                }
+            }
+        })
+        .response
+        .on_hover_text("Where this layer acts; chosen vertices come from the Vertices tool");
+    match region {
+        Region::Sphere { center, radius } => {
+            vec3_ui(ui, "centre", center, diag * 1e-3);
+            ui.add(
+                egui::DragValue::new(radius)
+                    .speed(diag * 1e-3)
+                    .range(diag * 1e-4..=diag * 10.0)
+                    .prefix("radius "),
+            );
+        }
+        Region::Box { min, max } => {
+            let (mut a, mut b) = (*min, *max);
+            vec3_ui(ui, "min", &mut a, diag * 1e-3);
+            vec3_ui(ui, "max", &mut b, diag * 1e-3);
+            if a.cmple(b).all() {
+                *min = a;
+                *max = b;
+            }
+        }
+        Region::Vertices(v) => {
+            ui.label(format!("{} vertices", v.len()));
+        }
+        _ => {}
+    }
+}

@@ -1,0 +1,761 @@
+//! The viewport: what the pointer does (place, select, drag, box, orbit,
+//! pan, zoom) and what is drawn (the model through `csrbf-render`, the
+//! control vectors, the flipped faces, the gizmo).
+
+use csrbf::glam::{DVec3, Vec2, Vec3};
+use csrbf_anim::ViewPreset;
+use csrbf_render::{DrawOptions, Line, axis_gizmo, control_lines};
+use eframe::egui;
+
+use super::{Model, StudioApp, Tool, gpu, panel::VertexTarget};
+use crate::{Command, DragTool, End, pick_marker, pick_surface_on};
+
+/// What is shown of the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Display {
+    /// Deformed.
+    Deformed,
+    /// At rest.
+    Rest,
+    /// Deformed, with the rest shape's edges as a ghost.
+    Both,
+}
+
+/// The viewport's display settings.
+#[derive(Clone, Debug)]
+pub struct ViewSettings {
+    pub display: Display,
+    pub wireframe: bool,
+    pub flat: bool,
+    pub starts: bool,
+    pub arrows: bool,
+    /// Support spheres of the selection.
+    pub spheres: bool,
+    pub gizmo: bool,
+    /// Show every support sphere of the active layer (while the radius slider moves).
+    pub all_spheres: bool,
+    /// A displacement to stamp on the next clicks (Duplicate).
+    pub stamp: Option<DVec3>,
+}
+
+impl Default for ViewSettings {
+    fn default() -> Self {
+        ViewSettings {
+            display: Display::Deformed,
+            wireframe: false,
+            flat: false,
+            starts: true,
+            arrows: true,
+            spheres: true,
+            gizmo: true,
+            all_spheres: false,
+            stamp: None,
+        }
+    }
+}
+
+/// A pointer gesture in progress.
+#[derive(Clone, Debug)]
+pub enum Gesture {
+    None,
+    /// Moving one end of a control vector.
+    Marker {
+        layer: usize,
+        index: usize,
+        end: End,
+        tool: DragTool,
+        moved: bool,
+    },
+    /// A selection box from this point (in points).
+    Box {
+        from: egui::Pos2,
+        add: bool,
+    },
+    /// Turning, scaling or moving a handle about its pivot.
+    Handle {
+        layer: usize,
+        from: egui::Pos2,
+        pivot_px: Vec2,
+        start: csrbf::Handle,
+        tool: DragTool,
+    },
+    Orbit,
+    Pan,
+}
+
+const TOLERANCE_POINTS: f32 = 9.0;
+
+impl StudioApp {
+    pub(super) fn view_menu(&mut self, ui: &mut egui::Ui) {
+        let v = &mut self.view;
+        ui.radio_value(&mut v.display, Display::Deformed, "Deformed");
+        ui.radio_value(&mut v.display, Display::Rest, "Rest");
+        ui.radio_value(&mut v.display, Display::Both, "Both (rest as ghost)");
+        ui.separator();
+        ui.checkbox(&mut v.wireframe, "Wireframe");
+        ui.checkbox(&mut v.flat, "Flat shading");
+        ui.checkbox(&mut v.starts, "Starts");
+        ui.checkbox(&mut v.arrows, "Arrows");
+        ui.checkbox(&mut v.spheres, "Support spheres of the selection");
+        ui.checkbox(&mut v.gizmo, "Axis gizmo");
+        ui.separator();
+        if ui.button("Frame all  Shift+F").clicked() {
+            self.frame_view(false);
+        }
+        if ui.button("Frame selection  F").clicked() {
+            self.frame_view(true);
+        }
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        for (name, p) in [
+            ("Front", ViewPreset::Front),
+            ("Back", ViewPreset::Back),
+            ("Left", ViewPreset::Left),
+            ("Right", ViewPreset::Right),
+            ("Top", ViewPreset::Top),
+            ("Bottom", ViewPreset::Bottom),
+            ("Three-quarter", ViewPreset::Iso),
+        ] {
+            if ui.button(name).clicked() {
+                m.orbit.preset(p);
+            }
+        }
+        ui.checkbox(&mut m.orbit.orthographic, "Orthographic");
+        ui.separator();
+        ui.label(format!(
+            "Model up axis: {} ({})",
+            csrbf_anim::camera::axis_name(m.orbit.up),
+            m.up.1
+        ));
+        ui.horizontal(|ui| {
+            for (name, up) in [
+                ("+Y", Vec3::Y),
+                ("+Z", Vec3::Z),
+                ("-Y", Vec3::NEG_Y),
+                ("+X", Vec3::X),
+            ] {
+                if ui.selectable_label(m.orbit.up == up, name).clicked() {
+                    m.orbit.up = up;
+                    m.up.1 = "chosen";
+                    m.orbit.preset(ViewPreset::Front);
+                }
+            }
+        });
+    }
+
+    pub(super) fn viewport_ui(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        let ppp = ui.ctx().pixels_per_point();
+        let size = [
+            ((rect.width() * ppp).round() as u32).max(1),
+            ((rect.height() * ppp).round() as u32).max(1),
+        ];
+        self.viewport = (size, rect, ppp);
+        if self.model.is_none() {
+            ui.painter()
+                .rect_filled(rect, 0.0, egui::Color32::from_gray(40));
+            ui.painter().text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                "Open a mesh (Ctrl+O) or drop one here",
+                egui::FontId::proportional(18.0),
+                egui::Color32::LIGHT_GRAY,
+            );
+            return;
+        }
+        self.pointer(ui, &response, rect, ppp, size);
+        self.paint(ui, rect, ppp, size);
+    }
+
+    /// The pixel (physical, from the viewport's corner) of a screen position.
+    fn pixel(pos: egui::Pos2, rect: egui::Rect, ppp: f32) -> Vec2 {
+        Vec2::new((pos.x - rect.min.x) * ppp, (pos.y - rect.min.y) * ppp)
+    }
+
+    fn axis_vector(&self) -> Option<DVec3> {
+        self.axis.map(|a| {
+            let mut v = DVec3::ZERO;
+            v[a] = 1.0;
+            v
+        })
+    }
+
+    fn pointer(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        rect: egui::Rect,
+        ppp: f32,
+        size: [u32; 2],
+    ) {
+        let (pressed, down, released, pos, modifiers, scroll, secondary, middle) = ui.input(|i| {
+            (
+                i.pointer.primary_pressed(),
+                i.pointer.primary_down(),
+                i.pointer.primary_released(),
+                i.pointer.interact_pos(),
+                i.modifiers,
+                i.smooth_scroll_delta.y,
+                i.pointer.secondary_down(),
+                i.pointer.middle_down(),
+            )
+        });
+        let delta = ui.input(|i| i.pointer.delta());
+        let hovered = response.hovered() || response.dragged();
+        // Zoom towards the point under the pointer.
+        if hovered
+            && scroll != 0.0
+            && let Some(pos) = pos
+        {
+            let m = self.model.as_mut().expect("checked by the caller");
+            let px = Self::pixel(pos, rect, ppp);
+            let cam = m.orbit.camera();
+            let point = fresh_bvh(m)
+                .and_then(|_| m.bvh.cast(&m.shown, &cam.ray(px, size)))
+                .map(|h| h.point)
+                .unwrap_or_else(|| m.orbit.point_on_target_plane(px, size));
+            m.orbit.zoom_about((-scroll * 0.002).exp(), point);
+        }
+        // Orbit and pan: right or middle button, Shift to pan; Alt+left orbits.
+        if hovered && (secondary || middle) && delta != egui::Vec2::ZERO {
+            let m = self.model.as_mut().expect("checked by the caller");
+            if modifiers.shift || (middle && modifiers.ctrl) {
+                m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32);
+            } else {
+                m.orbit.orbit(delta.x, delta.y);
+            }
+            return;
+        }
+        let Some(pos) = pos else {
+            return;
+        };
+        let px = Self::pixel(pos, rect, ppp);
+        if pressed && rect.contains(pos) && response.hovered() {
+            if modifiers.alt && modifiers.shift {
+                self.gesture = Gesture::Pan;
+            } else if modifiers.alt {
+                self.gesture = Gesture::Orbit;
+            } else {
+                self.press(px, pos, modifiers, size, ppp);
+            }
+        }
+        if down && delta != egui::Vec2::ZERO {
+            self.moved(px, pos, delta, size, ppp);
+        }
+        if released {
+            self.release(pos, rect, ppp, size);
+        }
+    }
+
+    fn press(
+        &mut self,
+        px: Vec2,
+        pos: egui::Pos2,
+        modifiers: egui::Modifiers,
+        size: [u32; 2],
+        ppp: f32,
+    ) {
+        let axis = self.axis_vector();
+        let tool = self.tool;
+        let stamp = self.view.stamp;
+        let m = self.model.as_mut().expect("checked by the caller");
+        let cam = m.orbit.camera();
+        // A handle's pivot, grabbed in the vertex tool.
+        if tool == Tool::Vertices
+            && let Some((layer, handle, pivot)) = active_handle(m)
+            && let Some((pivot_px, _)) = cam.project(pivot.as_vec3(), size)
+            && pivot_px.distance(px) < 40.0 * ppp
+        {
+            m.history.begin_drag();
+            self.gesture = Gesture::Handle {
+                layer,
+                from: pos,
+                pivot_px,
+                start: handle,
+                tool: DragTool::begin(&cam, size, px, pivot, axis),
+            };
+            return;
+        }
+        if tool != Tool::Vertices
+            && let Some(hit) = pick_marker(&cam, size, px, &m.doc, TOLERANCE_POINTS * ppp)
+        {
+            let key = (hit.layer, hit.index);
+            if modifiers.shift {
+                if let Some(k) = m.doc.selection.0.iter().position(|&s| s == key) {
+                    m.doc.selection.0.remove(k);
+                } else {
+                    m.doc.selection.0.push(key);
+                }
+            } else if !m.doc.selection.contains(hit.layer, hit.index) {
+                m.doc.selection.0 = vec![key];
+            }
+            m.doc.active_layer = hit.layer;
+            let spec = &m.doc.controls.deformations[hit.layer];
+            let origin = match hit.end {
+                End::Start => spec.starts[hit.index],
+                End::Target => spec.targets[hit.index],
+            };
+            m.history.begin_drag();
+            self.gesture = Gesture::Marker {
+                layer: hit.layer,
+                index: hit.index,
+                end: hit.end,
+                tool: DragTool::begin(&cam, size, px, origin, axis),
+                moved: false,
+            };
+            return;
+        }
+        if tool == Tool::Place {
+            fresh_bvh(m);
+            if let Some(hit) =
+                pick_surface_on(&cam, size, px, &m.bvh, &m.shown, &m.doc.mesh.positions)
+            {
+                let layer = m.doc.active_layer;
+                let target = hit.rest + stamp.unwrap_or(DVec3::ZERO);
+                let index = m.doc.controls.deformations[layer].starts.len();
+                self.edit(Command::add(layer, hit.rest, target), true);
+                let m = self.model.as_mut().expect("still open");
+                if m.doc.controls.deformations[layer].starts.len() > index {
+                    m.doc.selection.0 = vec![(layer, index)];
+                    if stamp.is_none() {
+                        m.history.begin_drag();
+                        self.gesture = Gesture::Marker {
+                            layer,
+                            index,
+                            end: End::Target,
+                            tool: DragTool::begin(&cam, size, px, hit.rest, axis),
+                            moved: false,
+                        };
+                    }
+                    self.status = format!(
+                        "Control {} of layer {} at ({:.4}, {:.4}, {:.4}), triangle {}: drag to set its destination",
+                        index + 1,
+                        layer + 1,
+                        hit.rest.x,
+                        hit.rest.y,
+                        hit.rest.z,
+                        hit.triangle
+                    );
+                }
+                return;
+            }
+        }
+        if !modifiers.shift && tool != Tool::Vertices {
+            m.doc.selection.0.clear();
+        }
+        self.gesture = Gesture::Box {
+            from: pos,
+            add: modifiers.shift,
+        };
+    }
+
+    fn moved(&mut self, px: Vec2, pos: egui::Pos2, delta: egui::Vec2, size: [u32; 2], ppp: f32) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let cam = m.orbit.camera();
+        match self.gesture.clone() {
+            Gesture::Marker {
+                layer,
+                index,
+                end,
+                tool,
+                ..
+            } => {
+                let Some(p) = tool.moved_to(&cam, size, px) else {
+                    return;
+                };
+                let command = match end {
+                    End::Target => Command::SetTarget {
+                        layer,
+                        index,
+                        target: p,
+                    },
+                    End::Start => {
+                        // A start stays on the surface when the pointer is on it.
+                        fresh_bvh(m);
+                        let start = if tool.axis.is_none() {
+                            pick_surface_on(&cam, size, px, &m.bvh, &m.shown, &m.doc.mesh.positions)
+                                .map_or(p, |h| h.rest)
+                        } else {
+                            p
+                        };
+                        Command::SetStart {
+                            layer,
+                            index,
+                            start,
+                        }
+                    }
+                };
+                if let Gesture::Marker { moved, .. } = &mut self.gesture {
+                    *moved = true;
+                }
+                // A destination moving is a drag step; a start needs a refit.
+                self.edit(command, end == End::Start);
+            }
+            Gesture::Handle {
+                layer,
+                from,
+                pivot_px,
+                start,
+                tool,
+            } => {
+                let mut h = start.clone();
+                match self.handle_mode {
+                    super::panel::HandleMode::Rotate => {
+                        let a0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
+                        let a1 = (px - pivot_px).to_angle();
+                        let turn = (a1 - a0).to_degrees() as f64;
+                        let mut r = h.rotate.unwrap_or_else(|| {
+                            csrbf::Rotation::new(handle_axis(self.axis, &cam), 0.0)
+                        });
+                        // Screen angles grow clockwise; about the view axis
+                        // towards the eye that is a negative turn.
+                        let towards_eye = -cam.basis().2.as_dvec3();
+                        let sign = if r.axis.dot(towards_eye) >= 0.0 {
+                            -1.0
+                        } else {
+                            1.0
+                        };
+                        r.angle_deg = start.rotate.map_or(0.0, |r| r.angle_deg) + sign * turn;
+                        h.rotate = Some(r);
+                    }
+                    super::panel::HandleMode::Scale => {
+                        let d0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).length();
+                        let d1 = (px - pivot_px).length();
+                        if d0 > 1.0 {
+                            h.scale = Some(start.scale.unwrap_or(1.0) * (d1 / d0) as f64);
+                        }
+                    }
+                    super::panel::HandleMode::Move => {
+                        if let Some(p) = tool.moved_to(&cam, size, px) {
+                            h.translate =
+                                Some(start.translate.unwrap_or(DVec3::ZERO) + (p - tool.origin));
+                        }
+                    }
+                }
+                let mut spec = m.doc.controls.deformations[layer].clone();
+                spec.handle = Some(h);
+                self.edit(
+                    Command::ReplaceLayer {
+                        layer,
+                        spec: Box::new(spec),
+                    },
+                    false,
+                );
+            }
+            Gesture::Orbit => m.orbit.orbit(delta.x, delta.y),
+            Gesture::Pan => m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32),
+            Gesture::Box { .. } | Gesture::None => {
+                let _ = pos;
+            }
+        }
+    }
+
+    fn pixel_of(pos: egui::Pos2, ppp: f32, rect: egui::Rect) -> Vec2 {
+        Self::pixel(pos, rect, ppp)
+    }
+
+    fn release(&mut self, pos: egui::Pos2, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
+        let gesture = std::mem::replace(&mut self.gesture, Gesture::None);
+        let tool = self.tool;
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        match gesture {
+            Gesture::Marker { .. } | Gesture::Handle { .. } => {
+                m.history.end_drag();
+                // The release diagnoses what the drag made.
+                self.refresh(true);
+            }
+            Gesture::Box { from, add } => {
+                let a = Self::pixel(from, rect, ppp);
+                let b = Self::pixel(pos, rect, ppp);
+                let (lo, hi) = (a.min(b), a.max(b));
+                if (hi - lo).length() < 3.0 * ppp {
+                    return;
+                }
+                let cam = m.orbit.camera();
+                if tool == Tool::Vertices {
+                    // Vertices in the box facing the camera.
+                    let forward = cam.basis().2;
+                    let mut chosen: Vec<u32> = if add {
+                        m.picked_vertices.clone()
+                    } else {
+                        Vec::new()
+                    };
+                    for (i, (p, n)) in m.shown.iter().zip(m.shown_normals.iter()).enumerate() {
+                        let facing = match cam.projection {
+                            csrbf_anim::Projection::Perspective { .. } => n.dot(*p - cam.eye) < 0.0,
+                            _ => n.dot(forward) < 0.0,
+                        };
+                        if facing
+                            && let Some((q, _)) = cam.project(*p, size)
+                            && q.cmpge(lo).all()
+                            && q.cmple(hi).all()
+                        {
+                            chosen.push(i as u32);
+                        }
+                    }
+                    chosen.sort_unstable();
+                    chosen.dedup();
+                    let n = chosen.len();
+                    m.picked_vertices = chosen;
+                    self.status = format!(
+                        "{n} vertices chosen; apply them as a {} in the side panel",
+                        match m.vertex_target {
+                            VertexTarget::Handle => "handle",
+                            VertexTarget::Anchor => "handle's anchor",
+                            VertexTarget::Region => "layer's region",
+                        }
+                    );
+                    return;
+                }
+                for (layer, spec) in m.doc.controls.deformations.iter().enumerate() {
+                    for (index, s) in spec.starts.iter().enumerate() {
+                        if let Some((q, _)) = cam.project(s.as_vec3(), size)
+                            && q.cmpge(lo).all()
+                            && q.cmple(hi).all()
+                            && !m.doc.selection.contains(layer, index)
+                        {
+                            m.doc.selection.0.push((layer, index));
+                        }
+                    }
+                }
+                self.status = format!("{} selected", m.doc.selection.0.len());
+            }
+            Gesture::Orbit | Gesture::Pan | Gesture::None => {}
+        }
+    }
+
+    fn paint(&mut self, ui: &egui::Ui, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
+        let v = self.view.clone();
+        let m = self.model.as_ref().expect("checked by the caller");
+        let cam = m.orbit.camera();
+        let (positions, normals) = match v.display {
+            Display::Rest => (
+                std::sync::Arc::new(m.doc.mesh.positions.clone()),
+                m.rest_normals.clone(),
+            ),
+            _ => (m.shown.clone(), m.shown_normals.clone()),
+        };
+        let mut overlay = Vec::new();
+        let mut lines = Vec::new();
+        // Control vectors: start, arrow to the destination, support spheres
+        // of the selection (all of the active layer's while R changes).
+        for (layer, spec) in m.doc.controls.deformations.iter().enumerate() {
+            if m.hidden.get(layer).copied().unwrap_or(false) {
+                continue;
+            }
+            let r = spec.options.radius as f32;
+            let mut plain = Vec::new();
+            let mut selected = Vec::new();
+            for (i, (s, t)) in spec.starts.iter().zip(&spec.targets).enumerate() {
+                let now = *s + (*t - *s) * (spec.phase * m.doc.phase);
+                let c = (s.as_vec3(), now.as_vec3(), t.as_vec3(), r);
+                let show_sphere = (v.spheres && m.doc.selection.contains(layer, i))
+                    || (v.all_spheres && layer == m.doc.active_layer);
+                if show_sphere {
+                    selected.push(c);
+                } else {
+                    plain.push(c);
+                }
+            }
+            let mut drawn = Vec::new();
+            if v.arrows || v.starts {
+                control_lines(&plain, false, &mut drawn);
+            }
+            // Spheres are drawn for moving vectors only by the renderer's
+            // helper; a pin's sphere is shown too here, so draw them as if
+            // moving (the arrow of a pin has no length anyway).
+            let nudged: Vec<_> = selected
+                .iter()
+                .map(|&(s, now, t, r)| {
+                    let t = if t.distance(s) < 1e-6 * r {
+                        s + Vec3::splat(1e-5 * r)
+                    } else {
+                        t
+                    };
+                    (s, now, t, r)
+                })
+                .collect();
+            control_lines(&nudged, true, &mut drawn);
+            if !v.arrows {
+                drawn.retain(|l| l.color[0] == 1.0 && l.color[1] == 1.0);
+            }
+            overlay.extend(drawn);
+        }
+        // Flipped faces, in red over the surface.
+        if let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref())
+            && v.display != Display::Rest
+        {
+            let tris = m.bvh.triangles();
+            for &t in d.flipped.iter().take(50_000) {
+                let Some(t) = tris.get(t as usize) else {
+                    continue;
+                };
+                let p = |k: usize| positions.get(t[k] as usize).copied().unwrap_or_default();
+                for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+                    lines.push(Line {
+                        a: p(a),
+                        b: p(b),
+                        color: [1.0, 0.1, 0.1, 1.0],
+                    });
+                }
+            }
+        }
+        if v.display == Display::Both {
+            // The rest shape's edges, faint (up to 300k edges).
+            let rest = &m.doc.mesh.positions;
+            for t in m.bvh.triangles().iter().take(100_000) {
+                for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+                    overlay.push(Line {
+                        a: rest[t[a] as usize],
+                        b: rest[t[b] as usize],
+                        color: [0.6, 0.8, 1.0, 0.25],
+                    });
+                }
+            }
+        }
+        // The handle's pivot and the vertices chosen.
+        if let Some((_, _, pivot)) = active_handle(m) {
+            ring(
+                pivot.as_vec3(),
+                &cam,
+                size,
+                40.0 * ppp,
+                [1.0, 0.8, 0.2, 1.0],
+                &mut overlay,
+            );
+        }
+        if v.gizmo {
+            axis_gizmo(&cam, size, &mut overlay);
+        }
+        let mut options = DrawOptions::default();
+        options.flat = v.flat;
+        options.wireframe = v.wireframe;
+        if self.gpu.is_some() {
+            let paint = gpu::ViewportPaint {
+                size,
+                mesh: m.gpu_mesh.clone(),
+                positions,
+                normals,
+                camera: cam,
+                lines,
+                overlay,
+                options,
+                background: [0.13, 0.14, 0.16],
+            };
+            ui.painter()
+                .add(eframe::egui_wgpu::Callback::new_paint_callback(rect, paint));
+        } else {
+            ui.painter()
+                .rect_filled(rect, 0.0, egui::Color32::from_gray(40));
+        }
+        // Chosen vertices and the selection box, drawn by egui on top.
+        let painter = ui.painter_at(rect);
+        let to_screen = |q: Vec2| egui::pos2(rect.min.x + q.x / ppp, rect.min.y + q.y / ppp);
+        for &i in m.picked_vertices.iter().take(20_000) {
+            if let Some(p) = m.shown.get(i as usize)
+                && let Some((q, _)) = cam.project(*p, size)
+            {
+                painter.circle_filled(to_screen(q), 1.5, egui::Color32::from_rgb(255, 200, 40));
+            }
+        }
+        if let Gesture::Box { from, .. } = &self.gesture
+            && let Some(pos) = ui.input(|i| i.pointer.interact_pos())
+        {
+            painter.rect_stroke(
+                egui::Rect::from_two_pos(*from, pos),
+                0.0,
+                egui::Stroke::new(1.0, egui::Color32::WHITE),
+                egui::StrokeKind::Inside,
+            );
+        }
+        if let Some(a) = self.axis {
+            painter.text(
+                rect.left_top() + egui::vec2(8.0, 8.0),
+                egui::Align2::LEFT_TOP,
+                format!("held to {}", ["X", "Y", "Z"][a]),
+                egui::FontId::proportional(14.0),
+                egui::Color32::YELLOW,
+            );
+        }
+    }
+}
+
+/// Refits the picking tree to the shown positions if they changed since.
+fn fresh_bvh(m: &mut Model) -> Option<()> {
+    if !m.bvh_fresh {
+        m.bvh.refit(&m.shown);
+        m.bvh_fresh = true;
+    }
+    Some(())
+}
+
+/// The active layer's handle and its pivot (the centroid of its selection
+/// at rest, or the rotation's own pivot).
+pub(super) fn active_handle(m: &Model) -> Option<(usize, csrbf::Handle, DVec3)> {
+    let layer = m.doc.active_layer;
+    let h = m.doc.controls.deformations.get(layer)?.handle.clone()?;
+    if let Some(p) = h.rotate.and_then(|r| r.pivot) {
+        return Some((layer, h, p));
+    }
+    let lookup = |n: &str| m.doc.mesh.part_vertices(n);
+    let sel = h.select.select(&m.doc.mesh.positions, &lookup).ok()?;
+    if sel.is_empty() {
+        return None;
+    }
+    let sum: DVec3 = sel
+        .iter()
+        .map(|&i| m.doc.mesh.positions[i as usize].as_dvec3())
+        .sum();
+    Some((layer, h, sum / sel.len() as f64))
+}
+
+/// The rotation axis of a new handle turn: the held axis, else the view's.
+pub(super) fn handle_axis(axis: Option<usize>, cam: &csrbf_anim::Camera) -> DVec3 {
+    match axis {
+        Some(a) => {
+            let mut v = DVec3::ZERO;
+            v[a] = 1.0;
+            v
+        }
+        None => -cam.basis().2.as_dvec3(),
+    }
+}
+
+/// A circle of `radius` pixels about `centre` facing the camera.
+fn ring(
+    centre: Vec3,
+    cam: &csrbf_anim::Camera,
+    size: [u32; 2],
+    radius: f32,
+    color: [f32; 4],
+    out: &mut Vec<Line>,
+) {
+    let Some((c, _)) = cam.project(centre, size) else {
+        return;
+    };
+    let (right, up, _) = cam.basis();
+    let Some((q, _)) = cam.project(centre + right * 0.01, size) else {
+        return;
+    };
+    let per_unit = (q - c).length() / 0.01;
+    if !(per_unit > 0.0) {
+        return;
+    }
+    let r = radius / per_unit;
+    const SEG: usize = 48;
+    for j in 0..SEG {
+        let a0 = j as f32 / SEG as f32 * std::f32::consts::TAU;
+        let a1 = (j + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
+        out.push(Line {
+            a: centre + (right * a0.cos() + up * a0.sin()) * r,
+            b: centre + (right * a1.cos() + up * a1.sin()) * r,
+            color,
+        });
+    }
+}

@@ -1,0 +1,301 @@
+//! The live preview on a worker thread: the UI sends the document as it now
+//! stands after each edit and keeps drawing; the worker takes only the
+//! newest request (no queue of stale fits), runs [`Live`] on it and sends
+//! back the deformed positions, their normals and what the diagnostics say.
+//!
+//! A drag step asks for positions only ([`Live::update_positions`]: one
+//! solve per layer, no refactoring); an edit that changes a system (a start,
+//! the radius, the kernel) or the end of a drag asks for the full update
+//! with diagnostics.
+
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use csrbf::Diagnostics;
+use csrbf::glam::Vec3;
+
+use crate::live::Live;
+use crate::state::Document;
+
+/// One result of the worker: the document of `generation`, deformed.
+#[derive(Clone, Debug)]
+pub struct PreviewFrame {
+    /// The generation of the request this answers.
+    pub generation: u64,
+    /// Deformed positions.
+    pub positions: Arc<Vec<Vec3>>,
+    /// Their vertex normals.
+    pub normals: Arc<Vec<Vec3>>,
+    /// What the diagnostics found (None for a drag step).
+    pub diagnostics: Option<Arc<Diagnostics>>,
+    /// Why the engine refused the document (the positions are then the last
+    /// good ones).
+    pub error: Option<String>,
+    /// Time the worker spent on this request.
+    pub took: Duration,
+    /// Systems factored so far.
+    pub factorisations: usize,
+}
+
+enum Request {
+    /// A new document (a mesh opened): a new [`Live`].
+    Open(Box<Document>, u64),
+    /// The same document with edits; `full`: diagnose too.
+    Edit(Box<Document>, u64, bool),
+}
+
+/// The handle the UI keeps on the worker.
+pub struct Preview {
+    requests: Option<Sender<Request>>,
+    frames: Receiver<PreviewFrame>,
+    worker: Option<JoinHandle<()>>,
+    generation: u64,
+    latest: Option<PreviewFrame>,
+}
+
+impl Preview {
+    /// Starts a worker on `doc`; `wake` is called after each frame it sends
+    /// (the app asks for a repaint there).
+    pub fn new(doc: &Document, wake: impl Fn() + Send + 'static) -> Preview {
+        let (requests, inbox) = channel::<Request>();
+        let (outbox, frames) = channel::<PreviewFrame>();
+        let worker = std::thread::Builder::new()
+            .name("csrbf-preview".into())
+            .spawn(move || work(inbox, outbox, wake))
+            .ok();
+        let mut p = Preview {
+            requests: Some(requests),
+            frames,
+            worker,
+            generation: 0,
+            latest: None,
+        };
+        p.open(doc);
+        p
+    }
+
+    /// A new document, replacing the old one.
+    pub fn open(&mut self, doc: &Document) -> u64 {
+        self.generation += 1;
+        self.send(Request::Open(Box::new(doc.clone()), self.generation));
+        self.generation
+    }
+
+    /// The document changed: refit what must be (`full`: and diagnose),
+    /// superseding any request not yet started.
+    pub fn edit(&mut self, doc: &Document, full: bool) -> u64 {
+        self.generation += 1;
+        self.send(Request::Edit(Box::new(doc.clone()), self.generation, full));
+        self.generation
+    }
+
+    fn send(&mut self, r: Request) {
+        if let Some(tx) = &self.requests
+            && tx.send(r).is_err()
+        {
+            self.requests = None;
+        }
+    }
+
+    /// Takes what the worker has sent since the last call; true if a newer
+    /// frame arrived.
+    pub fn poll(&mut self) -> bool {
+        let mut got = false;
+        while let Ok(f) = self.frames.try_recv() {
+            self.take(f);
+            got = true;
+        }
+        got
+    }
+
+    /// Keeps `f` as the latest frame; a drag step has no diagnostics of its
+    /// own, so the last ones stay shown until the release brings new ones.
+    fn take(&mut self, mut f: PreviewFrame) {
+        if f.diagnostics.is_none()
+            && let Some(old) = &self.latest
+        {
+            f.diagnostics = old.diagnostics.clone();
+        }
+        self.latest = Some(f);
+    }
+
+    /// The newest frame received.
+    pub fn latest(&self) -> Option<&PreviewFrame> {
+        self.latest.as_ref()
+    }
+
+    /// The generation of the newest request sent.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// Whether the newest frame answers the newest request.
+    pub fn is_settled(&self) -> bool {
+        self.latest
+            .as_ref()
+            .is_some_and(|f| f.generation == self.generation)
+    }
+
+    /// Waits (up to `limit`) until the newest request is answered; for tests
+    /// and for saving what is shown.
+    pub fn wait(&mut self, limit: Duration) -> bool {
+        let end = Instant::now() + limit;
+        loop {
+            self.poll();
+            if self.is_settled() {
+                return true;
+            }
+            let left = end.saturating_duration_since(Instant::now());
+            if left.is_zero() || self.requests.is_none() {
+                return false;
+            }
+            match self
+                .frames
+                .recv_timeout(left.min(Duration::from_millis(50)))
+            {
+                Ok(f) => self.take(f),
+                Err(_) => continue,
+            }
+        }
+    }
+}
+
+impl Drop for Preview {
+    fn drop(&mut self) {
+        self.requests = None;
+        if let Some(w) = self.worker.take() {
+            let _ = w.join();
+        }
+    }
+}
+
+fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn()) {
+    let mut live: Option<(Live, Vec<[u32; 3]>)> = None;
+    let mut normals = Vec::new();
+    while let Ok(first) = inbox.recv() {
+        // The newest request wins; an open among the skipped ones still
+        // counts (the edits after it are on the new mesh), and so does a
+        // request for diagnostics.
+        let mut open = None;
+        let mut edit = None;
+        let mut full = false;
+        let mut next = Some(first);
+        while let Some(r) = next {
+            match r {
+                Request::Open(doc, generation) => {
+                    open = Some((doc, generation));
+                    edit = None;
+                    full = true;
+                }
+                Request::Edit(doc, generation, f) => {
+                    full |= f;
+                    edit = Some((doc, generation));
+                }
+            }
+            next = match inbox.try_recv() {
+                Ok(r) => Some(r),
+                Err(TryRecvError::Empty) => None,
+                Err(TryRecvError::Disconnected) => return,
+            };
+        }
+        let started = Instant::now();
+        if let Some((doc, _)) = &open {
+            let l = Live::new(doc);
+            let triangles = l.triangles().to_vec();
+            live = Some((l, triangles));
+        }
+        let Some((doc, generation)) = edit.or(open) else {
+            continue;
+        };
+        let Some((l, triangles)) = live.as_mut() else {
+            continue;
+        };
+        let result = if full {
+            l.update(&doc)
+        } else {
+            l.update_positions(&doc)
+        };
+        let error = result.err().map(|e| {
+            use std::error::Error as _;
+            match e.source() {
+                Some(s) => format!("layer {}: {s}", e.layer + 1),
+                None => e.to_string(),
+            }
+        });
+        csrbf_mesh::triangle_vertex_normals_into(l.positions(), triangles, &mut normals);
+        let frame = PreviewFrame {
+            generation,
+            positions: Arc::new(l.positions().to_vec()),
+            normals: Arc::new(normals.clone()),
+            diagnostics: l.diagnostics().cloned().map(Arc::new),
+            error,
+            took: started.elapsed(),
+            factorisations: l.factorisations(),
+        };
+        if outbox.send(frame).is_err() {
+            return;
+        }
+        wake();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Command, History};
+    use csrbf::glam::DVec3;
+    use std::path::PathBuf;
+
+    #[test]
+    fn the_newest_edit_wins_and_matches_a_fresh_update() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 24, 48);
+        let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.7);
+        let mut preview = Preview::new(&doc, || {});
+        let mut history = History::default();
+        history
+            .apply(&mut doc, Command::add(0, DVec3::Y, DVec3::Y))
+            .expect("add");
+        preview.edit(&doc, true);
+        history.begin_drag();
+        for k in 1..=40 {
+            history
+                .apply(
+                    &mut doc,
+                    Command::SetTarget {
+                        layer: 0,
+                        index: 0,
+                        target: DVec3::Y * (1.0 + 0.01 * k as f64),
+                    },
+                )
+                .expect("drag");
+            preview.edit(&doc, false);
+        }
+        history.end_drag();
+        let last = preview.edit(&doc, true);
+        assert!(preview.wait(Duration::from_secs(20)), "the worker answers");
+        let frame = preview.latest().expect("a frame");
+        assert_eq!(frame.generation, last);
+        assert!(frame.error.is_none(), "{:?}", frame.error);
+        assert!(frame.diagnostics.is_some(), "the last request was full");
+        assert_eq!(frame.factorisations, 1, "one system for one start");
+
+        let mut live = Live::new(&doc);
+        live.update(&doc).expect("update");
+        assert_eq!(&frame.positions[..], live.positions());
+        let want = csrbf_mesh::triangle_vertex_normals(live.positions(), live.triangles());
+        assert_eq!(&frame.normals[..], &want[..]);
+
+        // A refused edit keeps the last good positions and says which layer.
+        history
+            .apply(&mut doc, Command::add(0, DVec3::Y, DVec3::Y * 2.0))
+            .expect("a coincident start");
+        preview.edit(&doc, true);
+        assert!(preview.wait(Duration::from_secs(20)));
+        let frame = preview.latest().expect("a frame");
+        let error = frame.error.as_deref().expect("refused");
+        assert!(error.starts_with("layer 1"), "{error}");
+        assert_eq!(&frame.positions[..], live.positions());
+    }
+}
