@@ -147,7 +147,7 @@ impl FileDialog {
             .show(ctx, |ui| {
                 ui.horizontal(|ui| {
                     if ui
-                        .button("⬆ Up")
+                        .button("Up")
                         .on_hover_text("The folder above (Backspace)")
                         .clicked()
                         && let Some(p) = self.dir.parent()
@@ -180,7 +180,7 @@ impl FileDialog {
                         let mut go = None;
                         for (name, is_dir) in &self.entries {
                             let label = if *is_dir {
-                                format!("📁 {name}")
+                                format!("[{name}]")
                             } else {
                                 name.clone()
                             };
@@ -237,7 +237,7 @@ impl FileDialog {
     }
 }
 
-/// Where the app keeps its recent files and recovery file:
+/// Where the app keeps its recent files and recovery file by default:
 /// `$CSRBF_STUDIO_STATE`, else `$XDG_STATE_HOME/csrbf-studio`, else
 /// `~/.local/state/csrbf-studio`.
 pub fn state_dir() -> Option<PathBuf> {
@@ -251,8 +251,8 @@ pub fn state_dir() -> Option<PathBuf> {
 }
 
 /// The recent files, newest first (at most 10).
-pub fn recent_files() -> Vec<PathBuf> {
-    let Some(dir) = state_dir() else {
+pub fn recent_files(dir: Option<&Path>) -> Vec<PathBuf> {
+    let Some(dir) = dir else {
         return Vec::new();
     };
     std::fs::read_to_string(dir.join("recent.txt"))
@@ -266,17 +266,17 @@ pub fn recent_files() -> Vec<PathBuf> {
 }
 
 /// Puts `path` first among the recent files.
-pub fn remember(path: &Path) {
-    let Some(dir) = state_dir() else {
+pub fn remember(dir: Option<&Path>, path: &Path) {
+    let Some(dir) = dir else {
         return;
     };
     let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    let mut list = recent_files();
+    let mut list = recent_files(Some(dir));
     list.retain(|p| *p != path);
     list.insert(0, path);
     list.truncate(10);
     let text: String = list.iter().map(|p| format!("{}\n", p.display())).collect();
-    let _ = std::fs::create_dir_all(&dir);
+    let _ = std::fs::create_dir_all(dir);
     let _ = csrbf_mesh::write_atomic(&dir.join("recent.txt"), text.as_bytes());
 }
 
@@ -293,14 +293,14 @@ pub struct Recovery {
 }
 
 impl Recovery {
-    /// The recovery file's path.
-    pub fn path() -> Option<PathBuf> {
-        state_dir().map(|d| d.join("recovery.json"))
+    /// The recovery file's path in the state folder `dir`.
+    pub fn path(dir: Option<&Path>) -> Option<PathBuf> {
+        dir.map(|d| d.join("recovery.json"))
     }
 
     /// Reads the recovery file, if there is a readable one.
-    pub fn load() -> Option<Recovery> {
-        let text = std::fs::read_to_string(Recovery::path()?).ok()?;
+    pub fn load(dir: Option<&Path>) -> Option<Recovery> {
+        let text = std::fs::read_to_string(Recovery::path(dir)?).ok()?;
         let v: serde_json::Value = serde_json::from_str(&text).ok()?;
         Some(Recovery {
             mesh: PathBuf::from(v.get("mesh")?.as_str()?),
@@ -314,8 +314,8 @@ impl Recovery {
 
     /// Writes it, whole or not at all, on a thread of its own (the UI does
     /// not wait for the disk).
-    pub fn store(&self) {
-        let Some(path) = Recovery::path() else {
+    pub fn store(&self, dir: Option<&Path>) {
+        let Some(path) = Recovery::path(dir) else {
             return;
         };
         let v = serde_json::json!({
@@ -335,8 +335,8 @@ impl Recovery {
     }
 
     /// Removes the recovery file (the session was saved or closed on purpose).
-    pub fn clear() {
-        if let Some(p) = Recovery::path() {
+    pub fn clear(dir: Option<&Path>) {
+        if let Some(p) = Recovery::path(dir) {
             let _ = std::fs::remove_file(p);
         }
     }

@@ -73,6 +73,10 @@ struct Model {
     shown_generation: u64,
     /// When the recovery file was last written.
     recovery_at: Option<Instant>,
+    /// Whether the view was framed for the viewport's real size.
+    framed: bool,
+    /// The control file as last written to the recovery file.
+    recovered_text: String,
 }
 
 /// Something waiting for the person's answer about unsaved changes.
@@ -101,12 +105,24 @@ pub struct StudioApp {
     viewport: ([u32; 2], egui::Rect, f32),
     allow_close: bool,
     recent: Vec<PathBuf>,
+    /// Where recent files and the recovery file are kept.
+    state: Option<PathBuf>,
     handle_mode: panel::HandleMode,
 }
 
 impl StudioApp {
-    /// The app, opening what `args` names (errors are shown in a dialog).
+    /// The app, opening what `args` names (errors are shown in a dialog),
+    /// keeping its recent files and recovery file in [`state_dir`].
     pub fn new(cc: &eframe::CreationContext<'_>, args: Args) -> StudioApp {
+        StudioApp::with_state_dir(cc, args, state_dir())
+    }
+
+    /// [`StudioApp::new`] with its own state folder (None: keep nothing).
+    pub fn with_state_dir(
+        cc: &eframe::CreationContext<'_>,
+        args: Args,
+        state: Option<PathBuf>,
+    ) -> StudioApp {
         let gpu = cc.wgpu_render_state.clone();
         if let Some(state) = &gpu {
             gpu::install(state);
@@ -127,7 +143,8 @@ impl StudioApp {
             frame_time: Duration::ZERO,
             viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
             allow_close: false,
-            recent: files::recent_files(),
+            recent: files::recent_files(state.as_deref()),
+            state,
             handle_mode: panel::HandleMode::default(),
         };
         let ctx = cc.egui_ctx.clone();
@@ -138,7 +155,7 @@ impl StudioApp {
             {
                 app.open_controls(c);
             }
-        } else if let Some(r) = Recovery::load() {
+        } else if let Some(r) = Recovery::load(app.state.as_deref()) {
             app.recovery_offer = Some(r);
         }
         app
@@ -285,11 +302,13 @@ impl StudioApp {
             vertex_target: panel::VertexTarget::Handle,
             shown_generation: 0,
             recovery_at: None,
+            framed: false,
+            recovered_text: String::new(),
             doc,
         });
         self.gesture = Gesture::None;
-        files::remember(path);
-        self.recent = files::recent_files();
+        files::remember(self.state.as_deref(), path);
+        self.recent = files::recent_files(self.state.as_deref());
         let mut note = format!(
             "Opened {} in {:.0} ms; up axis {} ({})",
             path.display(),
@@ -362,8 +381,8 @@ impl StudioApp {
             format!("Opened {} (ignored: {warnings})", path.display())
         };
         self.refresh(true);
-        files::remember(path);
-        self.recent = files::recent_files();
+        files::remember(self.state.as_deref(), path);
+        self.recent = files::recent_files(self.state.as_deref());
     }
 
     /// Saves the control file (to where it came from, else asks where).
@@ -385,10 +404,10 @@ impl StudioApp {
             Ok(()) => {
                 m.doc.dirty = false;
                 m.controls_path = Some(path.to_path_buf());
-                Recovery::clear();
+                Recovery::clear(self.state.as_deref());
                 self.status = format!("Saved {}", path.display());
-                files::remember(path);
-                self.recent = files::recent_files();
+                files::remember(self.state.as_deref(), path);
+                self.recent = files::recent_files(self.state.as_deref());
             }
             Err(e) => self.show_error("Cannot save", e.to_string()),
         }
@@ -765,7 +784,7 @@ impl StudioApp {
                     if let Some(m) = self.model.as_mut() {
                         m.doc.dirty = false;
                     }
-                    Recovery::clear();
+                    Recovery::clear(self.state.as_deref());
                     self.resume(ctx, pending);
                 }
                 Some(_) => self.pending = None,
@@ -796,7 +815,7 @@ impl StudioApp {
                 }
                 Some(false) => {
                     self.recovery_offer = None;
-                    Recovery::clear();
+                    Recovery::clear(self.state.as_deref());
                 }
                 None => {}
             }
@@ -979,7 +998,9 @@ impl eframe::App for StudioApp {
         egui::Panel::top("menu").show(ui, |ui| self.menu(ui));
         egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
         egui::Panel::right("parameters")
-            .default_size(300.0)
+            .resizable(true)
+            .default_size(360.0)
+            .size_range(280.0..=560.0)
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
             });
@@ -991,16 +1012,25 @@ impl eframe::App for StudioApp {
         if let Some(m) = self.model.as_mut()
             && m.doc.dirty
             && m.recovery_at
-                .is_none_or(|t| t.elapsed() > Duration::from_secs(2))
+                .is_none_or(|t| t.elapsed() > Duration::from_secs(1))
         {
+            // At most once a second, and only when something changed.
             m.recovery_at = Some(Instant::now());
-            Recovery {
-                mesh: std::fs::canonicalize(&m.doc.mesh_path)
-                    .unwrap_or_else(|_| m.doc.mesh_path.clone()),
-                controls_path: m.controls_path.clone(),
-                controls: m.doc.to_text(),
+            let text = m.doc.to_text();
+            if m.recovered_text != text {
+                Recovery {
+                    mesh: std::fs::canonicalize(&m.doc.mesh_path)
+                        .unwrap_or_else(|_| m.doc.mesh_path.clone()),
+                    controls_path: m.controls_path.clone(),
+                    controls: text.clone(),
+                }
+                .store(self.state.as_deref());
+                m.recovered_text = text;
             }
-            .store();
+        }
+        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            // Come back to write the recovery file even if nothing moves.
+            ctx.request_repaint_after(Duration::from_secs(1));
         }
         if self.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
             ctx.request_repaint_after(Duration::from_millis(30));
@@ -1010,7 +1040,7 @@ impl eframe::App for StudioApp {
 
     fn on_exit(&mut self) {
         if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
-            Recovery::clear();
+            Recovery::clear(self.state.as_deref());
         }
     }
 }

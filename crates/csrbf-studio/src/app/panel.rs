@@ -169,7 +169,7 @@ impl StudioApp {
                 }
                 if l > 0
                     && ui
-                        .small_button("⏶")
+                        .small_button("up")
                         .on_hover_text("Earlier in the chain")
                         .clicked()
                 {
@@ -177,7 +177,7 @@ impl StudioApp {
                 }
                 if l + 1 < n
                     && ui
-                        .small_button("⏷")
+                        .small_button("down")
                         .on_hover_text("Later in the chain")
                         .clicked()
                 {
@@ -185,7 +185,7 @@ impl StudioApp {
                 }
                 if n > 1
                     && ui
-                        .small_button("🗑")
+                        .small_button("remove")
                         .on_hover_text("Remove this layer")
                         .clicked()
                 {
@@ -488,11 +488,11 @@ impl StudioApp {
             });
             let mut angle = rot.angle_deg;
             ui.add(
-                egui::DragValue::new(&mut angle)
-                    .speed(0.5)
-                    .suffix("°")
-                    .prefix("angle "),
-            );
+                egui::Slider::new(&mut angle, -180.0..=180.0)
+                    .text("angle")
+                    .suffix("°"),
+            )
+            .on_hover_text("Turn about the axis through the pivot, degrees");
             let mut ax = rot.axis;
             let axis_changed = vec3_ui(ui, "axis", &mut ax, 0.01);
             let mut scale = h.scale.unwrap_or(1.0);

@@ -165,6 +165,13 @@ impl StudioApp {
             );
             return;
         }
+        // The first picture of a mesh frames it for the viewport's real shape.
+        if self.model.as_ref().is_some_and(|m| !m.framed) && size[0] > 1 && size[1] > 1 {
+            self.frame_view(false);
+            if let Some(m) = self.model.as_mut() {
+                m.framed = true;
+            }
+        }
         self.pointer(ui, &response, rect, ppp, size);
         self.paint(ui, rect, ppp, size);
     }

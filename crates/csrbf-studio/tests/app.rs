@@ -1,0 +1,491 @@
+//! The app driven as a person would, headless (egui_kittest): clicks and
+//! drags in the viewport, the side panel's widgets, keyboard shortcuts,
+//! files. No display and no GPU are needed (the viewport's picture is
+//! tested in `snapshots.rs`).
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use csrbf::controls::ControlFile;
+use csrbf::glam::{Vec2, Vec3};
+use csrbf_studio::Live;
+use csrbf_studio::app::{Args, StudioApp};
+use eframe::egui;
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn model(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/models")
+        .join(name)
+}
+
+/// A private state folder, so tests neither see nor leave recovery files.
+fn state_dir(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("csrbf-studio-test-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp folder");
+    d
+}
+
+fn open(args: Args, test: &str) -> Harness<'static, StudioApp> {
+    open_sized(args, test, [1280.0, 800.0])
+}
+
+fn open_sized(args: Args, test: &str, size: [f32; 2]) -> Harness<'static, StudioApp> {
+    // SAFETY of set_var: each test process sets the same value before any
+    // thread reads it... the tests run in threads, so the folder is per test
+    // through the app's own override instead.
+    let dir = state_dir(test);
+    let mut h = Harness::builder()
+        .with_size(size)
+        .with_max_steps(64)
+        .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(dir)));
+    settle(&mut h);
+    h
+}
+
+fn settle(h: &mut Harness<'_, StudioApp>) {
+    h.run_steps(2);
+    assert!(
+        h.state_mut().settle(Duration::from_secs(60)),
+        "the preview answers"
+    );
+    h.run_steps(2);
+}
+
+fn head(test: &str) -> Harness<'static, StudioApp> {
+    open(
+        Args {
+            mesh: Some(model("cgal_head.off")),
+            controls: None,
+        },
+        test,
+    )
+}
+
+/// Screen position (points) of a viewport pixel.
+fn screen(h: &Harness<'_, StudioApp>, pixel: Vec2) -> egui::Pos2 {
+    let (_, _, corner, ppp) = h.state().viewport_camera().expect("a mesh is open");
+    egui::pos2(corner.x + pixel.x / ppp, corner.y + pixel.y / ppp)
+}
+
+fn press(h: &mut Harness<'_, StudioApp>, pixel: Vec2, pressed: bool) {
+    let at = screen(h, pixel);
+    h.event(egui::Event::PointerMoved(at));
+    h.event(egui::Event::PointerButton {
+        pos: at,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.step();
+}
+
+fn move_to(h: &mut Harness<'_, StudioApp>, pixel: Vec2) {
+    let at = screen(h, pixel);
+    h.event(egui::Event::PointerMoved(at));
+    h.step();
+}
+
+/// The nose of the bundled head: the vertex farthest along -X (the head
+/// looks along -X), nudged one pixel into the face so the ray meets skin.
+fn nose_pixel(h: &Harness<'_, StudioApp>) -> (Vec2, Vec3) {
+    let doc = h.state().document().expect("open");
+    let tip = doc
+        .mesh
+        .positions
+        .iter()
+        .copied()
+        .min_by(|a, b| a.x.total_cmp(&b.x))
+        .expect("vertices");
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let (px, _) = cam.project(tip, size).expect("in view");
+    // Round to a pixel a pointer can reach exactly.
+    (Vec2::new(px.x.round() + 2.0, px.y.round()), tip)
+}
+
+#[test]
+fn a_click_on_the_nose_puts_a_start_exactly_on_the_surface_under_the_pointer() {
+    let mut h = head("click");
+    let (px, _) = nose_pixel(&h);
+    // The camera and viewport the click is aimed through (the side panel
+    // may change the viewport's shape after the click).
+    let (cam, size, corner, ppp) = h.state().viewport_camera().expect("open");
+    let at = screen(&h, px);
+    press(&mut h, px, true);
+    press(&mut h, px, false);
+    settle(&mut h);
+
+    let app = h.state();
+    let doc = app.document().expect("open");
+    let spec = &doc.controls.deformations[0];
+    assert_eq!(
+        spec.starts.len(),
+        1,
+        "one click, one control: {}",
+        app.status()
+    );
+    assert_eq!(
+        spec.starts[0], spec.targets[0],
+        "a click without a drag is a pin"
+    );
+
+    // The ray through the pixel the event landed on, cast by brute force.
+    let landed = Vec2::new((at.x - corner.x) * ppp, (at.y - corner.y) * ppp);
+    let triangles = doc.mesh.faces.triangles();
+    let hit =
+        csrbf_mesh::bvh::cast_brute_force(&doc.mesh.positions, &triangles, &cam.ray(landed, size))
+            .expect("the ray meets the head");
+    let diag = doc.diagonal();
+    let err = (spec.starts[0] - hit.point.as_dvec3()).length();
+    assert!(
+        err <= 1e-4 * diag,
+        "start {} vs hit {}: {err}",
+        spec.starts[0],
+        hit.point
+    );
+    assert!(app.undo_steps() == 1);
+}
+
+#[test]
+fn dragging_from_the_nose_pulls_it_then_undo_restores_the_exact_state() {
+    let mut h = head("drag");
+    let rest = h.state().shown_positions().expect("open").to_vec();
+    let before = h.state().document().expect("open").controls.clone();
+    let (px, tip) = nose_pixel(&h);
+    press(&mut h, px, true);
+    for k in 1..=8 {
+        move_to(&mut h, px - Vec2::new(10.0 * k as f32, 0.0));
+    }
+    press(&mut h, px - Vec2::new(80.0, 0.0), false);
+    settle(&mut h);
+
+    let app = h.state();
+    let doc = app.document().expect("open");
+    let spec = &doc.controls.deformations[0];
+    assert_eq!(spec.starts.len(), 1);
+    let pull = spec.targets[0] - spec.starts[0];
+    assert!(
+        pull.x < -0.05 * doc.diagonal(),
+        "the destination went left (-X): {pull}"
+    );
+    let shown = app.shown_positions().expect("open");
+    let k = rest.iter().position(|p| *p == tip).expect("tip");
+    assert!(
+        shown[k].x < rest[k].x - 0.05 * doc.diagonal() as f32,
+        "the nose moved: {} -> {}",
+        rest[k],
+        shown[k]
+    );
+    // The preview is the engine's result for the document as it stands.
+    let mut live = Live::new(doc);
+    live.update(doc).expect("update");
+    assert_eq!(shown, live.positions());
+    let frame = app.preview_frame().expect("a frame");
+    assert_eq!(
+        frame.factorisations, 1,
+        "the drag solved again without refactoring"
+    );
+    assert_eq!(app.undo_steps(), 2, "the add, and the drag as one step");
+
+    // Ctrl+Z twice: the document and the picture are as before, exactly.
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    settle(&mut h);
+    let app = h.state();
+    assert_eq!(app.document().expect("open").controls, before);
+    assert_eq!(app.shown_positions().expect("open"), &rest[..]);
+    // And redo brings the edit back.
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::Z,
+    );
+    settle(&mut h);
+    assert_eq!(
+        h.state().document().expect("open").controls.deformations[0]
+            .starts
+            .len(),
+        1
+    );
+}
+
+/// Places a control at the nose and drags it 60 pixels left.
+fn pull_nose(h: &mut Harness<'_, StudioApp>) {
+    let (px, _) = nose_pixel(h);
+    press(h, px, true);
+    for k in 1..=6 {
+        move_to(h, px - Vec2::new(10.0 * k as f32, 0.0));
+    }
+    press(h, px - Vec2::new(60.0, 0.0), false);
+    settle(h);
+}
+
+#[test]
+fn the_radius_slider_refits_and_shows_its_share_of_the_diagonal() {
+    let mut h = head("radius");
+    pull_nose(&mut h);
+    let before = h.state().shown_positions().expect("open").to_vec();
+    let fits = h.state().preview_frame().expect("frame").factorisations;
+    let diag = h.state().document().expect("open").diagonal();
+    let want = (diag * 0.3 * 1e4).round() / 1e4;
+    h.get_by_role_and_label(Role::SpinButton, "radius R")
+        .set_value_accesskit(want);
+    settle(&mut h);
+    let app = h.state();
+    let r = app.document().expect("open").controls.deformations[0]
+        .options
+        .radius;
+    assert!((r - want).abs() < 1e-9, "R {r} vs {want}");
+    assert!(
+        app.preview_frame().expect("frame").factorisations > fits,
+        "a refit"
+    );
+    assert_ne!(app.shown_positions().expect("open"), &before[..]);
+    h.get_by_label_contains("% of the diagonal");
+    // A radius of zero or less cannot be entered: the slider stops above 0.
+    h.get_by_role_and_label(Role::SpinButton, "radius R")
+        .set_value_accesskit(-1.0);
+    settle(&mut h);
+    let r = h.state().document().expect("open").controls.deformations[0]
+        .options
+        .radius;
+    assert!(r > 0.0, "{r}");
+}
+
+#[test]
+fn what_the_studio_saves_the_cli_reads_back_to_the_same_document() {
+    let mut h = head("save");
+    pull_nose(&mut h);
+    let dir = state_dir("save-out");
+    let path = dir.join("nose.json");
+    h.state_mut().save_to(&path);
+    h.run_steps(2);
+    let app = h.state();
+    assert_eq!(app.controls_path(), Some(path.as_path()));
+    let doc = app.document().expect("open");
+    assert!(!doc.dirty);
+    let text = std::fs::read_to_string(&path).expect("saved");
+    let file = ControlFile::parse(&text).expect("the CLI's parser reads it");
+    assert_eq!(file.deformations, doc.controls.deformations);
+    // What `csrbf deform` computes from it (its library path) is what the
+    // studio shows (the CLI binary itself is checked in csrbf-cli's tests).
+    let mut mesh = (*doc.mesh).clone();
+    csrbf_anim::apply::deform_mesh(&mut mesh, &file, 1.0).expect("deform");
+    let diag = doc.diagonal() as f32;
+    for (a, b) in mesh
+        .positions
+        .iter()
+        .zip(app.shown_positions().expect("open"))
+    {
+        assert!((*a - *b).length() <= 1e-6 * diag, "{a} vs {b}");
+    }
+
+    // A save into a folder that does not exist fails, says so, and the
+    // document stays unsaved; nothing is left behind.
+    let mut h = head("save-fail");
+    pull_nose(&mut h);
+    let bad = dir.join("no such folder").join("x.json");
+    h.state_mut().save_to(&bad);
+    h.run_steps(2);
+    let app = h.state();
+    assert!(app.document().expect("open").dirty);
+    let (title, text) = app.message().expect("a dialog says why");
+    assert!(
+        title.contains("Cannot save") && text.contains("no such folder"),
+        "{title}: {text}"
+    );
+    assert!(!bad.exists());
+}
+
+#[test]
+fn a_broken_file_is_refused_with_the_cli_message_and_the_document_kept() {
+    let mut h = head("broken");
+    pull_nose(&mut h);
+    let kept = h.state().document().expect("open").controls.clone();
+    let dir = state_dir("broken-files");
+    let broken = dir.join("broken.json");
+    std::fs::write(
+        &broken,
+        "{\"radius\": 0.5,\n \"controls\": [{\"from\": [0, 0], \"to\": [0, 0, 1]}]}\n",
+    )
+    .expect("write");
+    h.state_mut().open_controls(&broken);
+    h.run_steps(2);
+    let (title, text) = h.state().message().expect("a dialog").clone();
+    assert!(title.contains("control file"), "{title}");
+    assert!(
+        text.contains("broken.json") && text.contains("controls[0].from"),
+        "{text}"
+    );
+    assert_eq!(h.state().document().expect("open").controls, kept);
+
+    let mesh = dir.join("broken.off");
+    std::fs::write(&mesh, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2 3\n").expect("write");
+    let ctx = h.ctx.clone();
+    h.state_mut().open_mesh(&ctx, &mesh);
+    h.run_steps(2);
+    // The document has unsaved changes: the studio asks first.
+    h.get_by_label("Discard").click();
+    h.run_steps(3);
+    let (title, text) = h.state().message().expect("a dialog").clone();
+    assert!(title.contains("mesh"), "{title}");
+    assert!(text.contains("broken.off"), "{text}");
+    let doc = h.state().document().expect("still open");
+    assert!(doc.mesh_path.ends_with("cgal_head.off"));
+}
+
+#[test]
+fn the_recovery_file_brings_back_an_unsaved_session() {
+    let dir = state_dir("recovery-shared");
+    let mut h = Harness::builder()
+        .with_size([1280.0, 800.0])
+        .with_max_steps(64)
+        .build_eframe({
+            let dir = dir.clone();
+            move |cc| {
+                StudioApp::with_state_dir(
+                    cc,
+                    Args {
+                        mesh: Some(model("cgal_head.off")),
+                        controls: None,
+                    },
+                    Some(dir),
+                )
+            }
+        });
+    settle(&mut h);
+    pull_nose(&mut h);
+    let lost = h.state().document().expect("open").controls.clone();
+    // The file is written in the background within a frame of the edit.
+    // Written in the background, at most once a second.
+    let file = dir.join("recovery.json");
+    let stored = |lost: &ControlFile| {
+        let text = std::fs::read_to_string(&file).ok()?;
+        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+        let f = ControlFile::parse(v.get("controls")?.as_str()?).ok()?;
+        (f == *lost).then_some(())
+    };
+    for _ in 0..200 {
+        h.step();
+        if stored(&lost).is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(
+        stored(&lost).is_some(),
+        "the recovery file holds the last edit"
+    );
+    // The app "crashes": it is dropped without saving.
+    drop(h);
+    let mut h = Harness::builder()
+        .with_size([1280.0, 800.0])
+        .with_max_steps(64)
+        .build_eframe(move |cc| StudioApp::with_state_dir(cc, Args::default(), Some(dir)));
+    h.run_steps(2);
+    h.get_by_label("Restore").click();
+    h.run_steps(2);
+    settle(&mut h);
+    let doc = h.state().document().expect("restored");
+    assert_eq!(doc.controls, lost);
+    assert!(doc.dirty, "a restored session is still unsaved");
+}
+
+#[test]
+fn a_handle_turns_a_chosen_part_as_a_rotation() {
+    // The wing of the bundled airplane... a long thin part; the head's
+    // nose is too short. Use Suzanne's left ear.
+    // Tall enough for the side panel's handle section without scrolling.
+    let mut h = open_sized(
+        Args {
+            mesh: Some(model("assimp_Suzanne_248.obj")),
+            controls: None,
+        },
+        "handle",
+        [1280.0, 1400.0],
+    );
+    let doc = h.state().document().expect("open").clone();
+    let (lo, hi) = doc.mesh.bounds().expect("bounds");
+    // The ear: vertices beyond 75 % of the half-width on +X.
+    let centre = (lo + hi) * 0.5;
+    let reach = (hi.x - centre.x) * 0.75;
+    let ear: Vec<u32> = doc
+        .mesh
+        .positions
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.x - centre.x > reach)
+        .map(|(i, _)| i as u32)
+        .collect();
+    assert!(ear.len() > 5, "Suzanne has an ear on +X");
+    // Box-select the ear with the Vertices tool, from the front view.
+    h.get_by_label("Vertices").click();
+    h.run_steps(1);
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let corners: Vec<Vec2> = ear
+        .iter()
+        .filter_map(|&i| {
+            cam.project(doc.mesh.positions[i as usize], size)
+                .map(|p| p.0)
+        })
+        .collect();
+    let a = corners.iter().copied().fold(Vec2::INFINITY, Vec2::min) - Vec2::splat(3.0);
+    let b = corners.iter().copied().fold(Vec2::NEG_INFINITY, Vec2::max) + Vec2::splat(3.0);
+    press(&mut h, a, true);
+    move_to(&mut h, (a + b) * 0.5);
+    press(&mut h, b, false);
+    h.run_steps(1);
+    h.get_by_label("Apply the chosen vertices").click();
+    h.run_steps(2);
+    settle(&mut h);
+    // Turn it by typing an angle, as a person would for an exact value.
+    h.get_by_role_and_label(Role::SpinButton, "angle")
+        .set_value_accesskit(30.0);
+    settle(&mut h);
+
+    let app = h.state();
+    let doc = app.document().expect("open");
+    let layer = doc.controls.deformations.last().expect("a handle layer");
+    let handle = layer.handle.as_ref().expect("handle");
+    let rot = handle.rotate.expect("a rotation");
+    assert!((rot.angle_deg - 30.0).abs() < 1e-9, "{}", rot.angle_deg);
+    let frame = app.preview_frame().expect("frame");
+    assert!(frame.error.is_none(), "{:?}", frame.error);
+    // The tip turned by 30 degrees about the axis through the pivot.
+    let lookup = |n: &str| doc.mesh.part_vertices(n);
+    let sel = handle
+        .select
+        .select(&doc.mesh.positions, &lookup)
+        .expect("selection");
+    let pivot = sel
+        .iter()
+        .map(|&i| doc.mesh.positions[i as usize].as_dvec3())
+        .sum::<csrbf::glam::DVec3>()
+        / sel.len() as f64;
+    let axis = rot.axis.normalize();
+    let flat = |p: csrbf::glam::DVec3| {
+        let d = p - pivot;
+        d - axis * d.dot(axis)
+    };
+    // The tip: the chosen vertex farthest from the axis.
+    let tip = *sel
+        .iter()
+        .max_by(|&&a, &&b| {
+            let d = |i: u32| flat(doc.mesh.positions[i as usize].as_dvec3()).length();
+            d(a).total_cmp(&d(b))
+        })
+        .expect("a selection");
+    let before = flat(doc.mesh.positions[tip as usize].as_dvec3());
+    let after = flat(app.shown_positions().expect("open")[tip as usize].as_dvec3());
+    let turned = before.angle_between(after).to_degrees();
+    assert!(
+        (turned - 30.0).abs() < 2.0,
+        "the tip turned {turned} degrees"
+    );
+    assert!(
+        (after.length() / before.length() - 1.0).abs() < 0.05,
+        "a rotation keeps the tip's distance to the axis"
+    );
+}
