@@ -166,11 +166,15 @@ impl StudioApp {
             return;
         }
         // The first picture of a mesh frames it for the viewport's real shape.
-        if self.model.as_ref().is_some_and(|m| !m.framed) && size[0] > 1 && size[1] > 1 {
-            self.frame_view(false);
-            if let Some(m) = self.model.as_mut() {
-                m.framed = true;
-            }
+        // (the rest shape: the same picture whenever the preview arrives).
+        if let Some(m) = self.model.as_mut()
+            && !m.framed
+            && size[0] > 1
+            && size[1] > 1
+            && let Some((lo, hi)) = m.doc.mesh.bounds()
+        {
+            m.orbit.frame(lo, hi, size[0] as f32 / size[1] as f32);
+            m.framed = true;
         }
         self.pointer(ui, &response, rect, ppp, size);
         self.paint(ui, rect, ppp, size);
