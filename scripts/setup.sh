@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Installs what csrbf needs beyond a Rust toolchain, only where it is missing:
-# Mesa's software Vulkan driver (pictures without a GPU), ffmpeg (MP4 movies)
-# and, with --tests, the Khronos glTF validator (npm) for the export tests.
+# Mesa's software Vulkan driver (pictures without a GPU), ffmpeg (MP4 movies),
+# the X11 libraries the studio's window opens with, and, with --tests, the
+# Khronos glTF validator (npm) for the export tests and Xvfb, xdotool and
+# ImageMagick for the studio's real-window test (also what scripts/studio.sh
+# uses on a machine without a display).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -9,6 +12,14 @@ need=()
 [ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] || [ -e /usr/share/vulkan/icd.d/lvp_icd.aarch64.json ] || need+=(mesa-vulkan-drivers)
 ldconfig -p 2>/dev/null | grep -q libvulkan.so.1 || need+=(libvulkan1)
 command -v ffmpeg >/dev/null 2>&1 || need+=(ffmpeg)
+for lib in libxkbcommon-x11.so.0:libxkbcommon-x11-0 libX11-xcb.so.1:libx11-xcb1 libXcursor.so.1:libxcursor1 libXrandr.so.2:libxrandr2 libXi.so.6:libxi6; do
+  ldconfig -p 2>/dev/null | grep -q "${lib%%:*}" || need+=("${lib##*:}")
+done
+if [ "${1:-}" = "--tests" ] || [ "${1:-}" = "--studio" ]; then
+  command -v Xvfb >/dev/null 2>&1 || need+=(xvfb xauth)
+  command -v xdotool >/dev/null 2>&1 || need+=(xdotool)
+  command -v import >/dev/null 2>&1 || need+=(imagemagick)
+fi
 if [ "${1:-}" = "--tests" ] && ! command -v node >/dev/null 2>&1; then need+=(nodejs npm); fi
 if [ ${#need[@]} -gt 0 ]; then
   if command -v apt-get >/dev/null 2>&1; then

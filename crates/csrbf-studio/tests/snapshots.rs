@@ -110,13 +110,19 @@ fn the_deformed_head_is_drawn_with_its_control_vectors() {
     assert!(frame.error.is_none(), "{:?}", frame.error);
     // The pulled nose covers background pixels the rest head did not.
     let skin = |p: [u8; 4]| p[0] > 150 && p[1] > 110 && p[2] > 80 && p[0] as i32 > p[2] as i32 + 20;
-    assert!(count(&view, skin) > count(&rest, skin) + 50, "the nose grew");
+    assert!(
+        count(&view, skin) > count(&rest, skin) + 50,
+        "the nose grew"
+    );
     // The arrow (orange: linear (1, 0.55, 0.1), sRGB about (255, 196, 89))
     // is drawn over the surface.
     let orange = |p: [u8; 4]| {
         p[0] > 220 && (150..215).contains(&p[1]) && p[2] < 130 && p[0] as i32 - p[2] as i32 > 120
     };
-    assert!(count(&view, orange) > 5, "the control vector's arrow is drawn");
+    assert!(
+        count(&view, orange) > 5,
+        "the control vector's arrow is drawn"
+    );
     egui_kittest::image_snapshot(&view, "head_deformed");
 }
 

@@ -57,6 +57,8 @@ pub struct FileDialog {
     name: String,
     entries: Vec<(String, bool)>,
     error: Option<String>,
+    /// The file name field takes the keyboard when the dialog opens.
+    focus: bool,
 }
 
 /// What the person did in the dialog.
@@ -95,6 +97,7 @@ impl FileDialog {
             name,
             entries: Vec::new(),
             error: None,
+            focus: true,
         };
         d.list();
         d
@@ -210,11 +213,23 @@ impl FileDialog {
                 }
                 ui.horizontal(|ui| {
                     ui.label("File:");
-                    let r = ui.add(
-                        egui::TextEdit::singleline(&mut self.name)
-                            .desired_width(300.0)
-                            .id_salt("file name"),
-                    );
+                    let out = egui::TextEdit::singleline(&mut self.name)
+                        .desired_width(300.0)
+                        .id_salt("file name")
+                        .show(ui);
+                    let r = out.response;
+                    if std::mem::take(&mut self.focus) {
+                        // Focused with the name selected: typing replaces it.
+                        r.request_focus();
+                        let mut state = out.state;
+                        state
+                            .cursor
+                            .set_char_range(Some(egui::text::CCursorRange::two(
+                                egui::text::CCursor::new(0),
+                                egui::text::CCursor::new(self.name.chars().count()),
+                            )));
+                        state.store(ui.ctx(), r.id);
+                    }
                     let enter = r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
                     let verb = if self.purpose.saves() { "Save" } else { "Open" };
                     if (ui.button(verb).clicked() || enter) && !self.name.trim().is_empty() {

@@ -746,7 +746,9 @@ impl StudioApp {
                 ui.set_max_width(520.0);
                 ui.heading(&title);
                 ui.label(&text);
-                if ui.button("OK").clicked() || ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                // A button only: the Enter that confirmed a file dialog is
+                // still in this frame's input.
+                if ui.button("OK").clicked() {
                     close = true;
                 }
             });

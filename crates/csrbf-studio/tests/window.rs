@@ -1,0 +1,183 @@
+//! The real app in a real window: the `csrbf-studio` binary under Xvfb (an
+//! X server in memory), driven with `xdotool` as a person would: a press on
+//! the head and a drag place a control vector and set its destination,
+//! Ctrl+S and a typed name save the control file, and a screenshot is kept
+//! in `target/studio-window.png`.
+//!
+//! Needs Xvfb, xdotool and ImageMagick's `import` (`scripts/setup.sh
+//! --tests` installs them); without them this test fails and says so.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use csrbf::controls::ControlFile;
+
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn need(tool: &str) {
+    let found = Command::new("sh")
+        .args(["-c", &format!("command -v {tool}")])
+        .stdout(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(
+        found,
+        "{tool} is missing: the real-window test needs Xvfb, xdotool and ImageMagick \
+         (run scripts/setup.sh --tests, or apt-get install xvfb xdotool imagemagick)"
+    );
+}
+
+fn xdotool(display: &str, args: &[&str]) {
+    let ok = Command::new("xdotool")
+        .args(args)
+        .env("DISPLAY", display)
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "xdotool {args:?} failed");
+    std::thread::sleep(Duration::from_millis(150));
+}
+
+fn wait_for(what: &str, limit: Duration, mut f: impl FnMut() -> bool) {
+    let end = Instant::now() + limit;
+    while Instant::now() < end {
+        if f() {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    panic!("timed out waiting for {what}");
+}
+
+#[test]
+fn the_app_in_a_real_window_places_drags_and_saves() {
+    for tool in ["Xvfb", "xdotool", "import"] {
+        need(tool);
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let work = std::env::temp_dir().join(format!("csrbf-studio-window-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    std::fs::create_dir_all(&work).expect("temp folder");
+
+    // An X server on a free display; it prints the number it took.
+    let mut xvfb = Command::new("Xvfb")
+        .args([
+            "-displayfd",
+            "1",
+            "-screen",
+            "0",
+            "1280x860x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("Xvfb starts");
+    let mut line = String::new();
+    BufReader::new(xvfb.stdout.take().expect("stdout"))
+        .read_line(&mut line)
+        .expect("Xvfb tells its display");
+    let _xvfb = Killed(xvfb);
+    let display = format!(":{}", line.trim());
+
+    let xdg = work.join("xdg");
+    std::fs::create_dir_all(&xdg).expect("runtime folder");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(&xdg, std::fs::Permissions::from_mode(0o700));
+    }
+    let app = Command::new(env!("CARGO_BIN_EXE_csrbf-studio"))
+        .arg(root.join("assets/models/cgal_head.off"))
+        .args(["--size", "1280x800"])
+        .current_dir(&work)
+        .env("DISPLAY", &display)
+        .env("XDG_RUNTIME_DIR", &xdg)
+        .env("CSRBF_STUDIO_STATE", work.join("state"))
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(work.join("app.log")).expect("log"))
+        .spawn()
+        .expect("the app starts");
+    let _app = Killed(app);
+
+    // The window appears (lavapipe compiles its shaders on the first frames).
+    let search = || {
+        Command::new("xdotool")
+            .args(["search", "--name", "csrbf studio"])
+            .env("DISPLAY", &display)
+            .output()
+            .is_ok_and(|o| o.status.success() && !o.stdout.is_empty())
+    };
+    wait_for("the window", Duration::from_secs(60), search);
+    std::thread::sleep(Duration::from_secs(3));
+    // With no window manager, the keyboard goes to a window only when told.
+    xdotool(
+        &display,
+        &["search", "--name", "csrbf studio", "windowfocus", "--sync"],
+    );
+
+    // The window fills the top left of the screen: 1280 x 800, the side
+    // panel 360 wide on the right, menu and status bars about 24 high. The
+    // head is framed in the middle of the viewport.
+    let (x, y) = (460, 400);
+    xdotool(&display, &["mousemove", &x.to_string(), &y.to_string()]);
+    xdotool(&display, &["mousedown", "1"]);
+    for k in 1..=8 {
+        xdotool(
+            &display,
+            &["mousemove", &(x - 10 * k).to_string(), &y.to_string()],
+        );
+    }
+    xdotool(&display, &["mouseup", "1"]);
+    std::thread::sleep(Duration::from_secs(1));
+
+    // Save: Ctrl+S opens the dialog with the name field focused.
+    let saved = work.join("edit.json");
+    xdotool(&display, &["key", "ctrl+s"]);
+    std::thread::sleep(Duration::from_millis(500));
+    xdotool(
+        &display,
+        &["type", "--delay", "20", &saved.display().to_string()],
+    );
+    xdotool(&display, &["key", "Return"]);
+    wait_for("the saved control file", Duration::from_secs(20), || {
+        saved.exists()
+    });
+
+    let shot: PathBuf = root.join("target/studio-window.png");
+    let ok = Command::new("import")
+        .args(["-window", "root"])
+        .arg(&shot)
+        .env("DISPLAY", &display)
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "import takes a screenshot");
+    eprintln!("screenshot: {}", shot.display());
+
+    let log = std::fs::read_to_string(work.join("app.log")).unwrap_or_default();
+    let text = std::fs::read_to_string(&saved).expect("saved");
+    let file = ControlFile::parse(&text).expect("the CLI's format");
+    let spec = &file.deformations[0];
+    assert_eq!(spec.starts.len(), 1, "one control placed\n{log}");
+    let pull = spec.targets[0] - spec.starts[0];
+    assert!(pull.x < -0.5, "dragged 80 pixels left: {pull}\n{log}");
+
+    // The screenshot shows the lit head at the viewport's centre.
+    let img = image::open(&shot).expect("a PNG").to_rgba8();
+    let p = img.get_pixel(x as u32 + 40, y as u32).0;
+    assert!(
+        p[0] > 120 && p[0] > p[2],
+        "skin at the viewport's centre: {p:?}"
+    );
+    let _ = std::fs::remove_dir_all(&work);
+}
