@@ -185,3 +185,97 @@ pub fn guess_up(mesh: &crate::Mesh, path: &Path) -> (Vec3, &'static str) {
         (Vec3::Y, "the usual convention")
     }
 }
+
+/// A lighter stand-in for drawing a big mesh while it moves: vertex
+/// clustering on a grid of `cells` cells along the longest side of the
+/// bounds of `positions`. Each cell keeps one of its vertices (the first);
+/// a triangle survives, re-indexed to the kept vertices, when its corners
+/// fall in three different cells, once per set of cells. The indices point
+/// into the same vertex array, so the stand-in follows any deformation of
+/// the full mesh at no cost. Out-of-range triangles are skipped.
+pub fn cluster_triangles(positions: &[Vec3], triangles: &[[u32; 3]], cells: u32) -> Vec<[u32; 3]> {
+    let n = positions.len();
+    let (lo, hi) = positions
+        .iter()
+        .filter(|p| p.is_finite())
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    if !(lo.cmple(hi).all()) || cells == 0 {
+        return triangles.to_vec();
+    }
+    let side = (hi - lo).max_element().max(f32::MIN_POSITIVE);
+    let cells = cells.clamp(1, 1 << 20) as f32;
+    let cell_of = |p: Vec3| -> u64 {
+        let c = ((p - lo) / side * cells)
+            .floor()
+            .clamp(Vec3::ZERO, Vec3::splat(cells));
+        (c.x as u64) | ((c.y as u64) << 21) | ((c.z as u64) << 42)
+    };
+    let mut representative: std::collections::HashMap<u64, u32> =
+        std::collections::HashMap::with_capacity(n / 4);
+    let mut kept = vec![0u32; n];
+    for (i, p) in positions.iter().enumerate() {
+        kept[i] = *representative.entry(cell_of(*p)).or_insert(i as u32);
+    }
+    let mut seen = std::collections::HashSet::with_capacity(triangles.len() / 4);
+    let mut out = Vec::new();
+    for t in triangles {
+        if t.iter().any(|&i| i as usize >= n) {
+            continue;
+        }
+        let k = t.map(|i| kept[i as usize]);
+        if k[0] == k[1] || k[1] == k[2] || k[0] == k[2] {
+            continue;
+        }
+        let mut key = k;
+        key.sort_unstable();
+        if seen.insert(key) {
+            out.push(k);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod cluster_tests {
+    use super::*;
+
+    #[test]
+    fn the_stand_in_is_lighter_uses_kept_vertices_and_keeps_the_shape() {
+        let m = crate::shapes::uv_sphere(1.0, 200, 400);
+        let tris = m.faces.triangles();
+        let light = cluster_triangles(&m.positions, &tris, 40);
+        assert!(
+            light.len() * 8 < tris.len(),
+            "{} of {}",
+            light.len(),
+            tris.len()
+        );
+        assert!(light.len() > 2000, "{}", light.len());
+        // Every triangle is proper and on the sphere's surface.
+        for t in &light {
+            assert!(t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
+            for &i in t {
+                assert!((m.positions[i as usize].length() - 1.0).abs() < 1e-4);
+            }
+        }
+        // It still covers the sphere: its area is within 5 % of the full one.
+        let area = |ts: &[[u32; 3]]| -> f32 {
+            ts.iter()
+                .map(|t| {
+                    let p = |k: usize| m.positions[t[k] as usize];
+                    (p(1) - p(0)).cross(p(2) - p(0)).length() * 0.5
+                })
+                .sum()
+        };
+        let (a, b) = (area(&light), area(&tris));
+        assert!((a / b - 1.0).abs() < 0.05, "{a} vs {b}");
+        // Degenerate inputs do not panic.
+        assert!(cluster_triangles(&[], &[], 10).is_empty());
+        assert_eq!(
+            cluster_triangles(&m.positions, &[[0, 1, 99_999_999]], 10).len(),
+            0
+        );
+    }
+}

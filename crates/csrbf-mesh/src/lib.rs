@@ -34,7 +34,8 @@ pub use bvh::{Bvh, Hit, Ray};
 pub use error::{MeshError, Result};
 pub use formats::Format;
 pub use geometry::{
-    guess_up, triangle_vertex_normals, triangle_vertex_normals_into, vertex_normals,
+    cluster_triangles, guess_up, triangle_vertex_normals, triangle_vertex_normals_into,
+    vertex_normals,
 };
 pub use io::{
     Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, temp_beside,

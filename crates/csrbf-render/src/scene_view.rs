@@ -187,6 +187,53 @@ impl SceneRenderer {
         self.renderer.draw_into(&view, target);
     }
 
+    /// [`SceneRenderer::draw_object_into`] with a lighter stand-in of the
+    /// object: the triangles `indices` over `positions` and `normals` (a
+    /// subset of its vertices, e.g. from `csrbf_mesh::cluster_triangles`),
+    /// in the colour of its first part, for the frames of a drag on a big
+    /// mesh. The indices are uploaded once and kept while the same number
+    /// of them is given.
+    pub fn draw_stand_in_into(
+        &mut self,
+        view: &View,
+        object: usize,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        indices: &[u32],
+        target: &wgpu::TextureView,
+    ) {
+        let Some(prep) = self.prepared.get(object) else {
+            return;
+        };
+        let color = prep.parts.first().map_or([0.8; 4], |p| p.color);
+        let parts = [DrawPart {
+            indices: indices.to_vec(),
+            color,
+            texture: None,
+            wireframe: false,
+        }];
+        let mesh = DrawMesh {
+            // Its own key: switching between it and the full mesh uploads
+            // the other's indices once.
+            key: (self.key + object as u64) ^ (1 << 62) ^ indices.len() as u64,
+            positions,
+            normals,
+            uvs: &[],
+            colors: &[],
+            parts: &parts,
+        };
+        let view = View {
+            camera: view.camera,
+            lights: view.lights.clone(),
+            background: view.background,
+            meshes: vec![mesh],
+            lines: view.lines.clone(),
+            overlay: view.overlay.clone(),
+            options: view.options,
+        };
+        self.renderer.draw_into(&view, target);
+    }
+
     /// Draws one frame of the scene and reads it back.
     pub fn render(&mut self, scene: &Scene, frame: &Frame, options: SceneOptions) -> Result<Image> {
         let view = view_of(

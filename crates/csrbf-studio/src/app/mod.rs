@@ -20,6 +20,7 @@ use eframe::egui;
 use crate::{Command, Document, History, Orbit, Preview, PreviewFrame};
 use files::{Choice, FileDialog, Purpose};
 pub use files::{MESH_ENDINGS, Recovery, state_dir};
+pub use gpu::BIG_MESH_TRIANGLES;
 use viewport::{Gesture, ViewSettings};
 
 /// What the command line asked to open.
@@ -60,6 +61,8 @@ struct Model {
     bvh: Bvh,
     bvh_fresh: bool,
     gpu_mesh: Arc<gpu::NewMesh>,
+    /// For a big mesh: what is drawn while it moves (vertex clustering).
+    stand_in: Option<Arc<StandIn>>,
     orbit: Orbit,
     /// The model's up axis and how it was found.
     up: (Vec3, &'static str),
@@ -108,6 +111,8 @@ pub struct StudioApp {
     /// Where recent files and the recovery file are kept.
     state: Option<PathBuf>,
     handle_mode: panel::HandleMode,
+    /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
+    software: bool,
 }
 
 impl StudioApp {
@@ -127,6 +132,9 @@ impl StudioApp {
         if let Some(state) = &gpu {
             gpu::install(state);
         }
+        let software = gpu
+            .as_ref()
+            .is_none_or(|g| g.adapter.get_info().device_type == eframe::wgpu::DeviceType::Cpu);
         let mut app = StudioApp {
             model: None,
             tool: Tool::Place,
@@ -146,6 +154,7 @@ impl StudioApp {
             recent: files::recent_files(state.as_deref()),
             state,
             handle_mode: panel::HandleMode::default(),
+            software,
         };
         let ctx = cc.egui_ctx.clone();
         if let Some(mesh) = &args.mesh {
@@ -275,6 +284,8 @@ impl StudioApp {
             &triangles,
         ));
         let shown = Arc::new(mesh.positions.clone());
+        let stand_in = (triangles.len() > gpu::BIG_MESH_TRIANGLES)
+            .then(|| Arc::new(StandIn::new(&mesh.positions, &triangles)));
         let doc = Document::new(mesh, path.to_path_buf(), (diagonal * 0.15).max(1e-9));
         let wake = ctx.clone();
         let preview = Preview::new(&doc, move || wake.request_repaint());
@@ -294,8 +305,13 @@ impl StudioApp {
             gpu_mesh: Arc::new(gpu::NewMesh {
                 id,
                 scene: Mutex::new(Some(scene)),
-                triangles: triangles.len(),
+                samples: if self.software || triangles.len() > gpu::BIG_MESH_TRIANGLES {
+                    1
+                } else {
+                    4
+                },
             }),
+            stand_in,
             orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
             up,
             picked_vertices: Vec::new(),
@@ -938,6 +954,45 @@ impl StudioApp {
     }
 }
 
+/// A light copy of a big mesh, drawn while it moves: the triangles of a
+/// vertex clustering (`csrbf_mesh::cluster_triangles`, about 50k whatever
+/// the size) over the few vertices they use, which are gathered from the
+/// deformed positions each frame (so it moves by the same map).
+pub struct StandIn {
+    /// The full mesh's vertices it uses.
+    pub vertices: Vec<u32>,
+    /// Its triangles, indexing `vertices`.
+    pub indices: Vec<u32>,
+}
+
+impl StandIn {
+    /// The stand-in of a mesh (80 cells along its longest side).
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> StandIn {
+        let light = csrbf_mesh::cluster_triangles(positions, triangles, 80);
+        let mut local = std::collections::HashMap::new();
+        let mut vertices = Vec::new();
+        let mut indices = Vec::with_capacity(light.len() * 3);
+        for t in light {
+            for i in t {
+                let k = *local.entry(i).or_insert_with(|| {
+                    vertices.push(i);
+                    vertices.len() as u32 - 1
+                });
+                indices.push(k);
+            }
+        }
+        StandIn { vertices, indices }
+    }
+
+    /// `values` of the full mesh at the stand-in's vertices.
+    pub fn gather(&self, values: &[Vec3]) -> Vec<Vec3> {
+        self.vertices
+            .iter()
+            .map(|&i| values.get(i as usize).copied().unwrap_or_default())
+            .collect()
+    }
+}
+
 fn take_frame(m: &mut Model) {
     m.preview.poll();
     if let Some(f) = m.preview.latest()
@@ -1043,6 +1098,31 @@ impl eframe::App for StudioApp {
     fn on_exit(&mut self) {
         if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
             Recovery::clear(self.state.as_deref());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StandIn;
+
+    #[test]
+    fn the_stand_in_follows_the_full_mesh_with_few_vertices() {
+        let m = csrbf_mesh::shapes::uv_sphere(1.0, 300, 600);
+        let tris = m.faces.triangles();
+        let light = StandIn::new(&m.positions, &tris);
+        assert!(light.vertices.len() * 10 < m.positions.len());
+        assert!(light.indices.len() * 10 < tris.len() * 3);
+        assert!(
+            light
+                .indices
+                .iter()
+                .all(|&i| (i as usize) < light.vertices.len())
+        );
+        // Gathered from moved positions, its vertices are the moved ones.
+        let moved: Vec<_> = m.positions.iter().map(|p| *p * 2.0).collect();
+        for (k, p) in light.gather(&moved).iter().enumerate() {
+            assert_eq!(*p, moved[light.vertices[k] as usize]);
         }
     }
 }

@@ -648,9 +648,27 @@ impl StudioApp {
         options.flat = v.flat;
         options.wireframe = v.wireframe;
         if self.gpu.is_some() {
+            // A big mesh moving (a gesture, a fit under way) is drawn light.
+            let moving = !matches!(self.gesture, Gesture::None | Gesture::Box { .. })
+                || !m.preview.is_settled()
+                || ui.input(|i| {
+                    i.pointer.secondary_down()
+                        || i.pointer.middle_down()
+                        || i.smooth_scroll_delta != egui::Vec2::ZERO
+                });
+            let (mut positions, mut normals, mut stand_in) = (positions, normals, None);
+            if let Some(light) = m.stand_in.as_ref().filter(|_| moving) {
+                positions = std::sync::Arc::new(light.gather(&positions));
+                normals = std::sync::Arc::new(light.gather(&normals));
+                stand_in = Some(light.clone());
+                // Come back for the full mesh once the pointer rests.
+                ui.ctx()
+                    .request_repaint_after(std::time::Duration::from_millis(150));
+            }
             let paint = gpu::ViewportPaint {
                 size,
                 mesh: m.gpu_mesh.clone(),
+                stand_in,
                 positions,
                 normals,
                 camera: cam,
