@@ -1108,7 +1108,7 @@ mod tests {
 
     #[test]
     fn the_stand_in_follows_the_full_mesh_with_few_vertices() {
-        let m = csrbf_mesh::shapes::uv_sphere(1.0, 300, 600);
+        let m = csrbf_mesh::shapes::uv_sphere(1.0, 400, 800);
         let tris = m.faces.triangles();
         let light = StandIn::new(&m.positions, &tris);
         assert!(light.vertices.len() * 10 < m.positions.len());
