@@ -49,6 +49,8 @@ pub struct ControlSpec {
     pub handle: Option<Handle>,
     /// Where the handle's pins go.
     pub anchor: Option<Region>,
+    /// A name for people (`"name"`; the studio's layer list shows it).
+    pub name: Option<String>,
 }
 
 impl ControlSpec {
@@ -119,6 +121,7 @@ impl ControlSpec {
             phase: 1.0,
             handle: None,
             anchor: None,
+            name: None,
         }
     }
 
@@ -127,11 +130,18 @@ impl ControlSpec {
     /// written too, so a file says what it means.
     pub fn to_json(&self) -> Value {
         let o = &self.options;
-        let mut v = serde_json::json!({
+        let mut v = serde_json::json!({});
+        if let Some(n) = &self.name {
+            v["name"] = n.as_str().into();
+        }
+        let fields = serde_json::json!({
             "kernel": o.kernel.name(),
             "radius": o.radius,
             "polynomial": o.polynomial.name(),
         });
+        if let (Value::Object(v), Value::Object(f)) = (&mut v, fields) {
+            v.extend(f);
+        }
         if o.solver != SolverChoice::Auto {
             v["solver"] = o.solver.name().into();
         }
@@ -437,6 +447,16 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         .with_polynomial(polynomial)
         .with_solver(solver)
         .with_ordering(ordering);
+    let name = match obj.get("name") {
+        None | Some(Value::Null) => None,
+        Some(Value::String(n)) => Some(n.clone()),
+        Some(other) => {
+            return Err(err(
+                &at("name"),
+                format!("expected a string, found {other}"),
+            ));
+        }
+    };
     Ok(ControlSpec {
         starts,
         targets,
@@ -445,6 +465,7 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         phase,
         handle,
         anchor,
+        name,
     })
 }
 
@@ -759,6 +780,7 @@ mod tests {
                 .with_samples(40),
         );
         b.anchor = Some(Region::Vertices(vec![1, 2, 3]));
+        b.name = Some("left ear \"up\"".into());
         for file in [
             ControlFile::new(vec![a.clone()], Combine::Chain),
             ControlFile::new(vec![a, b], Combine::Add),
@@ -766,6 +788,11 @@ mod tests {
             let back = ControlFile::parse(&file.to_text()).expect("reparse");
             assert_eq!(back, file);
         }
+        let bad = ControlFile::parse(
+            r#"{"name": 3, "radius": 1, "controls": [{"from": [0, 0, 0], "to": [0, 0, 1]}]}"#,
+        );
+        let e = bad.expect_err("a name must be a string");
+        assert!(e.location.ends_with("name"), "{e}");
     }
 
     #[test]

@@ -148,11 +148,12 @@ impl StudioApp {
                 } else {
                     ""
                 };
+                let name = m.doc.controls.deformations[l]
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("Layer {}", l + 1));
                 if ui
-                    .selectable_label(
-                        m.doc.active_layer == l,
-                        format!("Layer {} ({count}{handle})", l + 1),
-                    )
+                    .selectable_label(m.doc.active_layer == l, format!("{name} ({count}{handle})"))
                     .on_hover_text("New controls go to the active layer")
                     .clicked()
                 {
@@ -193,6 +194,32 @@ impl StudioApp {
                 }
             });
         }
+        // Rename the active layer (saved as the deformation's "name").
+        let active = m.doc.active_layer;
+        let mut name = m.doc.controls.deformations[active]
+            .name
+            .clone()
+            .unwrap_or_default();
+        ui.horizontal(|ui| {
+            ui.label("name");
+            let r = ui.add(
+                egui::TextEdit::singleline(&mut name)
+                    .hint_text(format!("Layer {}", active + 1))
+                    .desired_width(160.0),
+            );
+            let old = m.doc.controls.deformations[active]
+                .name
+                .clone()
+                .unwrap_or_default();
+            if r.lost_focus() && name != old {
+                let mut spec = m.doc.controls.deformations[active].clone();
+                spec.name = (!name.trim().is_empty()).then(|| name.trim().to_string());
+                command = Some(Some(Command::ReplaceLayer {
+                    layer: active,
+                    spec: Box::new(spec),
+                }));
+            }
+        });
         if ui.button("Add layer").clicked() {
             let mut spec = m.doc.controls.deformations[m.doc.active_layer].clone();
             spec.starts.clear();
@@ -200,6 +227,7 @@ impl StudioApp {
             spec.handle = None;
             spec.anchor = None;
             spec.region = Region::All;
+            spec.name = None;
             let layer = n;
             command = Some(Some(Command::InsertLayer {
                 layer,
@@ -240,7 +268,12 @@ impl StudioApp {
         let l = m.doc.active_layer;
         let diag = m.doc.diagonal().max(1e-12);
         let spec = m.doc.controls.deformations[l].clone();
-        ui.heading(format!("Layer {} parameters", l + 1));
+        ui.heading(format!(
+            "{} parameters",
+            spec.name
+                .clone()
+                .unwrap_or_else(|| format!("Layer {}", l + 1))
+        ));
         let mut radius = spec.options.radius;
         let r = ui
             .add(

@@ -598,6 +598,10 @@ impl StudioApp {
             }
             overlay.extend(drawn);
         }
+        // The active layer's region, if it is a sphere or a box.
+        if let Some(spec) = m.doc.controls.deformations.get(m.doc.active_layer) {
+            region_lines(&spec.region, &mut overlay);
+        }
         // Flipped faces, in red over the surface.
         if let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref())
             && v.display != Display::Rest
@@ -712,6 +716,51 @@ impl StudioApp {
                 egui::Color32::YELLOW,
             );
         }
+    }
+}
+
+/// Green outlines of a sphere or box region (its inner shape for a falloff).
+fn region_lines(region: &csrbf::Region, out: &mut Vec<Line>) {
+    const GREEN: [f32; 4] = [0.35, 0.95, 0.45, 0.8];
+    match region {
+        csrbf::Region::Sphere { center, radius } => {
+            let (c, r) = (center.as_vec3(), *radius as f32);
+            const SEG: usize = 48;
+            for (u, v) in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
+                for j in 0..SEG {
+                    let a0 = j as f32 / SEG as f32 * std::f32::consts::TAU;
+                    let a1 = (j + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
+                    out.push(Line {
+                        a: c + (u * a0.cos() + v * a0.sin()) * r,
+                        b: c + (u * a1.cos() + v * a1.sin()) * r,
+                        color: GREEN,
+                    });
+                }
+            }
+        }
+        csrbf::Region::Box { min, max } => {
+            let (lo, hi) = (min.as_vec3(), max.as_vec3());
+            let corner = |k: usize| {
+                Vec3::new(
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                )
+            };
+            for a in 0..8usize {
+                for bit in [1, 2, 4] {
+                    if a & bit == 0 {
+                        out.push(Line {
+                            a: corner(a),
+                            b: corner(a | bit),
+                            color: GREEN,
+                        });
+                    }
+                }
+            }
+        }
+        csrbf::Region::Falloff { inner, .. } => region_lines(inner, out),
+        _ => {}
     }
 }
 
