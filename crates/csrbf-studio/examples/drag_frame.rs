@@ -9,6 +9,7 @@
 //! ```sh
 //! cargo run --release -p csrbf-studio --example drag_frame -- assets/models/cgal_head.off
 //! cargo run --release -p csrbf-studio --example drag_frame -- sphere:1000000
+//! WRITE=sphere1m.ply cargo run --release -p csrbf-studio --example drag_frame -- sphere:1000000 1
 //! ```
 
 use std::path::PathBuf;
@@ -53,6 +54,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => (csrbf_mesh::read(arg.as_ref())?, PathBuf::from(&arg)),
     };
     let read = opened.elapsed();
+    // WRITE=FILE keeps the mesh (to open the same one in the studio).
+    if let Ok(out) = std::env::var("WRITE") {
+        csrbf_mesh::write(out.as_ref(), &mesh)?;
+    }
     let triangles = mesh.faces.triangle_count();
     println!(
         "{}: {} vertices, {triangles} triangles (read {:.0} ms)",

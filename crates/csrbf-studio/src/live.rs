@@ -23,14 +23,24 @@ pub struct Live {
     triangles: Vec<[u32; 3]>,
     positions: Vec<Vec3>,
     diagnostics: Option<Diagnostics>,
-    bvh: Bvh,
+    bvh: Option<Bvh>,
 }
 
 impl Live {
-    /// The preview of `doc` at rest (call [`Live::update`] to deform it).
+    /// The preview of `doc` at rest (call [`Live::update`] to deform it),
+    /// with a picking tree.
     pub fn new(doc: &Document) -> Live {
+        let mut live = Live::without_picking(doc);
+        live.bvh = Some(Bvh::new(&doc.mesh.positions, &live.triangles));
+        live
+    }
+
+    /// [`Live::new`] without the picking tree (for a caller that keeps its
+    /// own, as the app's worker does: on a 2M-triangle mesh the tree is the
+    /// largest thing the preview would hold).
+    pub fn without_picking(doc: &Document) -> Live {
         let triangles = doc.mesh.faces.triangles();
-        let bvh = Bvh::new(&doc.mesh.positions, &triangles);
+        let bvh = None;
         Live {
             pipeline: Pipeline::new(Vec::new()),
             layers: Vec::new(),
@@ -66,7 +76,9 @@ impl Live {
         )
         .map_err(|source| LiveError { layer, source })?;
         self.diagnostics = Some(report);
-        self.bvh.refit(&self.positions);
+        if let Some(b) = self.bvh.as_mut() {
+            b.refit(&self.positions);
+        }
         Ok(())
     }
 
@@ -172,9 +184,10 @@ impl Live {
     }
 
     /// The picking tree, fitted to [`Live::positions`] as of the last
-    /// [`Live::update`] (a drag's steps do not refit it).
-    pub fn bvh(&self) -> &Bvh {
-        &self.bvh
+    /// [`Live::update`] (a drag's steps do not refit it); None for a
+    /// [`Live::without_picking`].
+    pub fn bvh(&self) -> Option<&Bvh> {
+        self.bvh.as_ref()
     }
 
     /// What the last update found (folds, starts out of reach), if any.

@@ -172,7 +172,7 @@ impl Drop for Preview {
 }
 
 fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn()) {
-    let mut live: Option<(Live, Vec<[u32; 3]>)> = None;
+    let mut live: Option<Live> = None;
     let mut normals = Vec::new();
     while let Ok(first) = inbox.recv() {
         // The newest request wins; an open among the skipped ones still
@@ -202,14 +202,12 @@ fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn())
         }
         let started = Instant::now();
         if let Some((doc, _)) = &open {
-            let l = Live::new(doc);
-            let triangles = l.triangles().to_vec();
-            live = Some((l, triangles));
+            live = Some(Live::without_picking(doc));
         }
         let Some((doc, generation)) = edit.or(open) else {
             continue;
         };
-        let Some((l, triangles)) = live.as_mut() else {
+        let Some(l) = live.as_mut() else {
             continue;
         };
         let result = if full {
@@ -224,7 +222,7 @@ fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn())
                 None => e.to_string(),
             }
         });
-        csrbf_mesh::triangle_vertex_normals_into(l.positions(), triangles, &mut normals);
+        csrbf_mesh::triangle_vertex_normals_into(l.positions(), l.triangles(), &mut normals);
         let frame = PreviewFrame {
             generation,
             positions: Arc::new(l.positions().to_vec()),

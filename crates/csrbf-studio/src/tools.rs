@@ -28,7 +28,8 @@ pub struct SurfacePoint {
 }
 
 /// The surface under `pixel`, cast against the preview's deformed positions
-/// and carried back to rest by the hit's barycentric weights.
+/// and carried back to rest by the hit's barycentric weights (None also for
+/// a preview without a picking tree).
 pub fn pick_surface(
     camera: &Camera,
     size: [u32; 2],
@@ -36,7 +37,7 @@ pub fn pick_surface(
     live: &Live,
     rest: &[Vec3],
 ) -> Option<SurfacePoint> {
-    pick_surface_on(camera, size, pixel, live.bvh(), live.positions(), rest)
+    pick_surface_on(camera, size, pixel, live.bvh()?, live.positions(), rest)
 }
 
 /// [`pick_surface`] against a tree the caller keeps fitted to `shown` (the

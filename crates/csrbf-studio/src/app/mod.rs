@@ -57,6 +57,7 @@ struct Model {
     shown: Arc<Vec<Vec3>>,
     shown_normals: Arc<Vec<Vec3>>,
     rest_normals: Arc<Vec<Vec3>>,
+    rest_positions: Arc<Vec<Vec3>>,
     /// The picking tree and whether it fits `shown`.
     bvh: Bvh,
     bvh_fresh: bool,
@@ -298,6 +299,7 @@ impl StudioApp {
             preview,
             controls_path: None,
             shown_normals: rest_normals.clone(),
+            rest_positions: shown.clone(),
             rest_normals,
             shown,
             bvh,

@@ -546,10 +546,7 @@ impl StudioApp {
         let m = self.model.as_ref().expect("checked by the caller");
         let cam = m.orbit.camera();
         let (positions, normals) = match v.display {
-            Display::Rest => (
-                std::sync::Arc::new(m.doc.mesh.positions.clone()),
-                m.rest_normals.clone(),
-            ),
+            Display::Rest => (m.rest_positions.clone(), m.rest_normals.clone()),
             _ => (m.shown.clone(), m.shown_normals.clone()),
         };
         let mut overlay = Vec::new();
