@@ -748,6 +748,8 @@ impl StudioApp {
         {
             let purpose = d.purpose;
             self.dialog = None;
+            // This frame was drawn with the dialog open: draw the result.
+            ctx.request_repaint();
             if let Choice::File(p) = choice {
                 match purpose {
                     Purpose::OpenMesh => self.open_mesh(ctx, &p),
