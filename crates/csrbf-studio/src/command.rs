@@ -328,6 +328,8 @@ pub struct History {
     undone: Vec<(Command, Command)>,
     /// While true, destination moves of the same control merge into the last step.
     dragging: bool,
+    /// Steps done before the drag began: a drag never merges into those.
+    drag_base: usize,
 }
 
 impl History {
@@ -356,6 +358,7 @@ impl History {
             _ => false,
         };
         if self.dragging
+            && self.done.len() > self.drag_base
             && let Some((last, _)) = self.done.last()
             && same_control(&command, last)
         {
@@ -372,6 +375,7 @@ impl History {
     /// pressed on a marker).
     pub fn begin_drag(&mut self) {
         self.dragging = true;
+        self.drag_base = self.done.len();
     }
 
     /// Stops merging (pointer released): the next move is a new step.
@@ -501,8 +505,43 @@ mod tests {
         }
         h.end_drag();
         assert_eq!(h.undo_steps(), 2);
+        // A second drag of the same destination is a step of its own.
+        h.begin_drag();
+        let moved = d.controls.deformations[0].targets[0];
+        h.apply(
+            &mut d,
+            Command::SetTarget {
+                layer: 0,
+                index: 0,
+                target: DVec3::X,
+            },
+        )
+        .expect("drag");
+        h.end_drag();
+        assert_eq!(h.undo_steps(), 3);
+        h.undo(&mut d).expect("undo");
+        assert_eq!(d.controls.deformations[0].targets[0], moved);
         h.undo(&mut d).expect("undo");
         assert_eq!(d.controls.deformations[0].targets[0], DVec3::Y);
+        // Several edits as one step, all or none.
+        let before = d.controls.clone();
+        h.apply(
+            &mut d,
+            Command::Batch(vec![
+                Command::add(0, DVec3::X, DVec3::X),
+                Command::add(0, DVec3::Z, DVec3::Z * 1.1),
+            ]),
+        )
+        .expect("batch");
+        assert_eq!(d.controls.deformations[0].starts.len(), 3);
+        h.undo(&mut d).expect("undo");
+        assert_eq!(d.controls, before);
+        let bad = Command::Batch(vec![
+            Command::add(0, DVec3::X, DVec3::X),
+            Command::RemoveLayer { layer: 5 },
+        ]);
+        assert!(h.apply(&mut d, bad).is_err());
+        assert_eq!(d.controls, before, "a failed batch leaves nothing behind");
         let snapshot = d.controls.clone();
         for bad in [
             Command::SetRadius {

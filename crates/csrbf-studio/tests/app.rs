@@ -488,4 +488,80 @@ fn a_handle_turns_a_chosen_part_as_a_rotation() {
         (after.length() / before.length() - 1.0).abs() < 0.05,
         "a rotation keeps the tip's distance to the axis"
     );
+
+    // The gizmo: a drag from beside the pivot a quarter turn around it
+    // turns the handle by about 90 degrees more (or less: the sign follows
+    // the axis against the view).
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let (p, _) = cam.project(pivot.as_vec3(), size).expect("pivot in view");
+    press(&mut h, p + Vec2::new(30.0, 0.0), true);
+    for k in 1..=9 {
+        let a = (k as f32 * 10.0).to_radians();
+        move_to(&mut h, p + Vec2::new(30.0 * a.cos(), -30.0 * a.sin()));
+    }
+    press(&mut h, p + Vec2::new(0.0, -30.0), false);
+    settle(&mut h);
+    let doc = h.state().document().expect("open");
+    let rot = doc
+        .controls
+        .deformations
+        .last()
+        .expect("layer")
+        .handle
+        .as_ref()
+        .expect("handle")
+        .rotate
+        .expect("rotation");
+    let turned = (rot.angle_deg - 30.0).abs();
+    assert!(
+        (turned - 90.0).abs() < 1.0,
+        "the gizmo turned it by {turned} degrees"
+    );
+    assert_eq!(
+        h.state().undo_steps(),
+        3,
+        "apply, angle, and the gizmo drag as one step"
+    );
+}
+
+#[test]
+fn the_vertex_brush_paints_vertices_near_the_pointer() {
+    let mut h = head("brush");
+    h.get_by_label("Vertices").click();
+    h.run_steps(1);
+    let (px, tip) = nose_pixel(&h);
+    let at = |h: &Harness<'_, StudioApp>, pixel: Vec2| screen(h, pixel);
+    let pos = at(&h, px);
+    // Ctrl held through the stroke.
+    h.event(egui::Event::ModifiersChanged(egui::Modifiers::COMMAND));
+    h.event(egui::Event::PointerMoved(pos));
+    h.event(egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::COMMAND,
+    });
+    h.step();
+    move_to(&mut h, px + Vec2::new(5.0, 5.0));
+    press(&mut h, px + Vec2::new(5.0, 5.0), false);
+    h.event(egui::Event::ModifiersChanged(egui::Modifiers::NONE));
+    h.step();
+    let app = h.state();
+    let chosen = app.chosen_vertices();
+    assert!(!chosen.is_empty(), "{}", app.status());
+    let doc = app.document().expect("open");
+    let k = doc
+        .mesh
+        .positions
+        .iter()
+        .position(|p| *p == tip)
+        .expect("tip") as u32;
+    assert!(chosen.contains(&k), "the nose tip is under the brush");
+    // Only vertices near the pointer: within the brush (3 % of the diagonal)
+    // of the stroke, so a small share of the head.
+    assert!(
+        chosen.len() < doc.mesh.positions.len() / 10,
+        "{}",
+        chosen.len()
+    );
 }

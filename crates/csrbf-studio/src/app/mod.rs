@@ -211,6 +211,11 @@ impl StudioApp {
         Some((m.orbit.camera(), size, rect.min, ppp))
     }
 
+    /// The vertices chosen with the Vertices tool (box or brush).
+    pub fn chosen_vertices(&self) -> &[u32] {
+        self.model.as_ref().map_or(&[], |m| &m.picked_vertices)
+    }
+
     /// The dialog message shown, if any (title, text).
     pub fn message(&self) -> Option<&(String, String)> {
         self.message.as_ref()

@@ -459,13 +459,20 @@ impl StudioApp {
         ui.heading("Handle");
         let axis = self.axis;
         let m = self.model.as_mut().expect("checked");
-        ui.label("Vertices tool (V): drag a box on the surface, then:");
+        ui.label("Vertices tool (V): drag a box, or Ctrl+drag a brush, on the surface; then:");
         ui.horizontal(|ui| {
             ui.radio_value(&mut m.vertex_target, VertexTarget::Handle, "handle");
             ui.radio_value(&mut m.vertex_target, VertexTarget::Anchor, "anchor");
             ui.radio_value(&mut m.vertex_target, VertexTarget::Region, "region");
         });
         ui.label(format!("{} vertices chosen", m.picked_vertices.len()));
+        ui.add(
+            egui::Slider::new(&mut self.view.brush, 0.002..=0.3)
+                .logarithmic(true)
+                .text("brush")
+                .custom_formatter(|v, _| format!("{:.1} %", v * 100.0)),
+        )
+        .on_hover_text("Ctrl+drag on the surface paints vertices within this share of the diagonal (Shift adds)");
         let l = m.doc.active_layer;
         let spec = m.doc.controls.deformations[l].clone();
         let mut commands = Vec::new();

@@ -36,6 +36,8 @@ pub struct ViewSettings {
     pub all_spheres: bool,
     /// A displacement to stamp on the next clicks (Duplicate).
     pub stamp: Option<DVec3>,
+    /// The vertex brush's radius, as a share of the model's diagonal.
+    pub brush: f32,
 }
 
 impl Default for ViewSettings {
@@ -50,6 +52,7 @@ impl Default for ViewSettings {
             gizmo: true,
             all_spheres: false,
             stamp: None,
+            brush: 0.03,
         }
     }
 }
@@ -81,6 +84,8 @@ pub enum Gesture {
     },
     Orbit,
     Pan,
+    /// Painting vertices under a brush (Vertices tool with Ctrl).
+    Brush,
 }
 
 const TOLERANCE_POINTS: f32 = 9.0;
@@ -289,6 +294,15 @@ impl StudioApp {
             };
             return;
         }
+        // A brush of vertices on the surface: Ctrl in the vertex tool.
+        if tool == Tool::Vertices && modifiers.command {
+            if !modifiers.shift {
+                m.picked_vertices.clear();
+            }
+            self.gesture = Gesture::Brush;
+            self.brush(px, size);
+            return;
+        }
         if tool != Tool::Vertices
             && let Some(hit) = pick_marker(&cam, size, px, &m.doc, TOLERANCE_POINTS * ppp)
         {
@@ -459,10 +473,43 @@ impl StudioApp {
             }
             Gesture::Orbit => m.orbit.orbit(delta.x, delta.y),
             Gesture::Pan => m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32),
+            Gesture::Brush => self.brush(px, size),
             Gesture::Box { .. } | Gesture::None => {
                 let _ = pos;
             }
         }
+    }
+
+    /// Adds the vertices within the brush's radius of the surface point
+    /// under `px` (as shown) to the chosen vertices.
+    fn brush(&mut self, px: Vec2, size: [u32; 2]) {
+        let radius = self.view.brush * self.model.as_ref().map_or(0.0, |m| m.doc.diagonal()) as f32;
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let cam = m.orbit.camera();
+        fresh_bvh(m);
+        let Some(hit) = m.bvh.cast(&m.shown, &cam.ray(px, size)) else {
+            return;
+        };
+        let r2 = radius * radius;
+        let before = m.picked_vertices.len();
+        m.picked_vertices.extend(
+            m.shown
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.distance_squared(hit.point) <= r2)
+                .map(|(i, _)| i as u32),
+        );
+        if m.picked_vertices.len() != before {
+            m.picked_vertices.sort_unstable();
+            m.picked_vertices.dedup();
+        }
+        self.status = format!(
+            "{} vertices chosen (brush {:.1} % of the diagonal)",
+            m.picked_vertices.len(),
+            self.view.brush * 100.0
+        );
     }
 
     fn pixel_of(pos: egui::Pos2, ppp: f32, rect: egui::Rect) -> Vec2 {
@@ -537,7 +584,7 @@ impl StudioApp {
                 }
                 self.status = format!("{} selected", m.doc.selection.0.len());
             }
-            Gesture::Orbit | Gesture::Pan | Gesture::None => {}
+            Gesture::Orbit | Gesture::Pan | Gesture::Brush | Gesture::None => {}
         }
     }
 
