@@ -38,7 +38,8 @@ pub struct BenchArgs {
     /// Print one JSON object (a list with --all).
     #[arg(long)]
     json: bool,
-    /// Write the synthetic scene's points (PLY) and controls (JSON) into this directory.
+    /// Write the synthetic scene as a mesh (PLY: its points on a sphere with their
+    /// Delaunay triangles) and its controls (JSON) into this directory.
     #[arg(long)]
     export: Option<PathBuf>,
     /// The papers' table: Face, Fish, Ball, with frames per second for
@@ -229,9 +230,11 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
 }
 
 fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
+    // The points lie on a sphere about (0.5, 0.5, 0.5): their faces are its
+    // Delaunay triangulation, so the export is a mesh a viewer can show.
     let mesh = csrbf_mesh::Mesh {
+        faces: csrbf_mesh::shapes::sphere_faces(&s.points, glam::Vec3::splat(0.5)),
         positions: s.points.clone(),
-        faces: csrbf_mesh::Faces::new(),
         ..Default::default()
     };
     let base = dir.join(&s.name);

@@ -248,6 +248,37 @@ fn bench_prints_every_phase() {
 }
 
 #[test]
+fn bench_exports_its_scene_as_a_closed_mesh_the_cli_deforms() {
+    let dir = TempDir::new("bench-export");
+    ok(&[
+        "bench",
+        "-q",
+        "--scene",
+        "fish",
+        "--runs",
+        "1",
+        "--export",
+        arg(dir.path("").as_path()),
+    ]);
+    let mesh = csrbf_mesh::read(&dir.path("fish.ply")).expect("the exported mesh");
+    // 975 points on a sphere: a closed triangulation has 2V - 4 faces.
+    assert_eq!(mesh.positions.len(), 975);
+    assert_eq!(mesh.faces.len(), 2 * 975 - 4);
+    let out = dir.path("deformed.ply");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&dir.path("fish.ply")),
+        "--controls",
+        arg(&dir.path("fish.json")),
+        "--out",
+        arg(&out),
+    ]);
+    assert!(out.exists());
+}
+
+#[test]
 fn help_on_every_command() {
     for cmd in ["deform", "fit", "apply", "info", "bench"] {
         let out = ok(&[cmd, "--help"]);

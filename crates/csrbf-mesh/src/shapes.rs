@@ -145,3 +145,104 @@ mod tests {
         assert!(vol > 3.9 && vol < 4.2, "{vol}");
     }
 }
+
+/// Faces for points lying on a sphere about `centre` (a Fibonacci lattice, a
+/// scan of a ball): their spherical Delaunay triangulation, which is their
+/// convex hull, found as the planar Delaunay triangulation of their
+/// stereographic projection from the pole above the centre, with the hole
+/// around that pole closed by a fan. Triangles face outwards. Points not on
+/// the sphere give a triangulation of their directions from `centre`.
+pub fn sphere_faces(points: &[Vec3], centre: Vec3) -> Faces {
+    let mut faces = Faces::new();
+    if points.len() < 4 {
+        return faces;
+    }
+    let dirs: Vec<glam::DVec3> = points
+        .iter()
+        .map(|p| (*p - centre).as_dvec3().normalize_or_zero())
+        .collect();
+    // Project from the pole: no point sits exactly on it for a lattice; one
+    // that does is left out of the planar step and joins through the fan.
+    let planar: Vec<delaunator::Point> = dirs
+        .iter()
+        .map(|d| {
+            let k = 1.0 - d.z;
+            if k > 1e-12 {
+                delaunator::Point {
+                    x: d.x / k,
+                    y: d.y / k,
+                }
+            } else {
+                delaunator::Point { x: 1e12, y: 1e12 }
+            }
+        })
+        .collect();
+    let t = delaunator::triangulate(&planar);
+    let mut push = |a: usize, b: usize, c: usize| {
+        let (pa, pb, pc) = (dirs[a], dirs[b], dirs[c]);
+        let outward = (pb - pa).cross(pc - pa).dot(pa + pb + pc) > 0.0;
+        if outward {
+            faces.push(&[a as u32, b as u32, c as u32]);
+        } else {
+            faces.push(&[a as u32, c as u32, b as u32]);
+        }
+    };
+    for tri in t.triangles.chunks_exact(3) {
+        push(tri[0], tri[1], tri[2]);
+    }
+    // The cap around the pole: the planar hull, closed by a fan.
+    for k in 1..t.hull.len().saturating_sub(1) {
+        push(t.hull[0], t.hull[k], t.hull[k + 1]);
+    }
+    faces
+}
+
+#[cfg(test)]
+mod sphere_tests {
+    use super::*;
+
+    #[test]
+    fn a_lattice_on_a_sphere_gets_a_closed_outward_surface() {
+        // A Fibonacci lattice of 5,000 points.
+        let n = 5000;
+        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        let centre = Vec3::splat(0.5);
+        let pts: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let z = 1.0 - (i as f32 + 0.5) * 2.0 / n as f32;
+                let r = (1.0 - z * z).sqrt();
+                let a = golden * i as f32;
+                centre + Vec3::new(r * a.cos(), r * a.sin(), z) * 0.4
+            })
+            .collect();
+        let faces = sphere_faces(&pts, centre);
+        // A closed triangulated sphere: 2V - 4 faces, every edge twice.
+        assert_eq!(faces.len(), 2 * n - 4);
+        let mut edges = std::collections::HashMap::new();
+        for f in faces.iter() {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                // Outward: the face's normal points away from the centre.
+                let p = |i: u32| pts[i as usize] - centre;
+                let nrm = (p(f[1]) - p(f[0])).cross(p(f[2]) - p(f[0]));
+                assert!(nrm.dot(p(f[0]) + p(f[1]) + p(f[2])) > 0.0);
+            }
+        }
+        assert!(
+            edges.values().all(|&c| c == 2),
+            "every edge shared by two faces"
+        );
+        // The area is the sphere's, near enough.
+        let area: f32 = faces
+            .iter()
+            .map(|f| {
+                let p = |i: u32| pts[i as usize];
+                (p(f[1]) - p(f[0])).cross(p(f[2]) - p(f[0])).length() * 0.5
+            })
+            .sum();
+        let want = 4.0 * std::f32::consts::PI * 0.16;
+        assert!((area / want - 1.0).abs() < 0.01, "{area} vs {want}");
+        assert!(sphere_faces(&pts[..3], centre).is_empty());
+    }
+}
