@@ -26,7 +26,8 @@ pub struct PreviewFrame {
     pub generation: u64,
     /// Deformed positions.
     pub positions: Arc<Vec<Vec3>>,
-    /// Their vertex normals.
+    /// Their vertex normals (for a mesh over [`NORMALS_EVERY_STEP`]
+    /// triangles, those of the last full update during a drag).
     pub normals: Arc<Vec<Vec3>>,
     /// What the diagnostics found (None for a drag step).
     pub diagnostics: Option<Arc<Diagnostics>>,
@@ -171,9 +172,14 @@ impl Drop for Preview {
     }
 }
 
+/// Above this many triangles, a drag step's frame keeps the last normals
+/// (the app draws a stand-in then; see `app::BIG_MESH_TRIANGLES`).
+pub const NORMALS_EVERY_STEP: usize = 200_000;
+
 fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn()) {
     let mut live: Option<Live> = None;
     let mut normals = Vec::new();
+    let mut last_normals: Option<Arc<Vec<Vec3>>> = None;
     while let Ok(first) = inbox.recv() {
         // The newest request wins; an open among the skipped ones still
         // counts (the edits after it are on the new mesh), and so does a
@@ -222,11 +228,17 @@ fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn())
                 None => e.to_string(),
             }
         });
-        csrbf_mesh::triangle_vertex_normals_into(l.positions(), l.triangles(), &mut normals);
+        // A drag step on a big mesh is drawn by a stand-in with normals of
+        // its own: the full normals (40 ms at 2M triangles) wait for the
+        // release.
+        if full || l.triangles().len() <= NORMALS_EVERY_STEP || last_normals.is_none() {
+            csrbf_mesh::triangle_vertex_normals_into(l.positions(), l.triangles(), &mut normals);
+            last_normals = Some(Arc::new(normals.clone()));
+        }
         let frame = PreviewFrame {
             generation,
             positions: Arc::new(l.positions().to_vec()),
-            normals: Arc::new(normals.clone()),
+            normals: last_normals.clone().unwrap_or_default(),
             diagnostics: l.diagnostics().cloned().map(Arc::new),
             error,
             took: started.elapsed(),

@@ -179,13 +179,14 @@ fn the_app_in_a_real_window_places_drags_and_saves() {
         Some(img.get_pixel(x as u32 + 40, y as u32).0)
     };
     let skin = |p: Option<[u8; 4]>| p.is_some_and(|p| p[0] > 120 && p[0] > p[2]);
-    let mut centre = None;
+    std::thread::sleep(Duration::from_millis(250));
+    let mut centre = centre_pixel();
     for _ in 0..40 {
-        std::thread::sleep(Duration::from_millis(250));
-        centre = centre_pixel();
         if skin(centre) {
             break;
         }
+        std::thread::sleep(Duration::from_millis(250));
+        centre = centre_pixel();
     }
     eprintln!("screenshot: {}", shot.display());
 

@@ -19,7 +19,7 @@ const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 /// Above this many triangles the viewport draws one sample per pixel (on a
 /// software rasteriser 4x costs more than it shows) and, while the model
 /// moves, a lighter stand-in.
-pub const BIG_MESH_TRIANGLES: usize = 200_000;
+pub const BIG_MESH_TRIANGLES: usize = crate::preview::NORMALS_EVERY_STEP;
 
 /// A mesh newly opened: the GPU side prepares its parts once.
 pub struct NewMesh {

@@ -993,6 +993,19 @@ impl StandIn {
         StandIn { vertices, indices }
     }
 
+    /// The stand-in's positions and normals (its own, from its triangles:
+    /// the full mesh's may lag a drag) given the full mesh's positions.
+    pub fn shape(&self, positions: &[Vec3]) -> (Vec<Vec3>, Vec<Vec3>) {
+        let p = self.gather(positions);
+        let tris: Vec<[u32; 3]> = self
+            .indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect();
+        let n = csrbf_mesh::triangle_vertex_normals(&p, &tris);
+        (p, n)
+    }
+
     /// `values` of the full mesh at the stand-in's vertices.
     pub fn gather(&self, values: &[Vec3]) -> Vec<Vec3> {
         self.vertices

@@ -706,8 +706,9 @@ impl StudioApp {
                 });
             let (mut positions, mut normals, mut stand_in) = (positions, normals, None);
             if let Some(light) = m.stand_in.as_ref().filter(|_| moving) {
-                positions = std::sync::Arc::new(light.gather(&positions));
-                normals = std::sync::Arc::new(light.gather(&normals));
+                let (p, n) = light.shape(&positions);
+                positions = std::sync::Arc::new(p);
+                normals = std::sync::Arc::new(n);
                 stand_in = Some(light.clone());
                 // Come back for the full mesh once the pointer rests.
                 ui.ctx()
