@@ -177,6 +177,23 @@ impl Drop for Preview {
 pub const NORMALS_EVERY_STEP: usize = 200_000;
 
 fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn()) {
+    // Fits run on all but one core: the window (and a software rasteriser
+    // drawing it) keeps one, so a long refit does not stall the frames.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(cores.saturating_sub(1).max(1))
+        .thread_name(|k| format!("csrbf-fit-{k}"))
+        .build()
+        .ok();
+    serve(inbox, outbox, wake, pool.as_ref());
+}
+
+fn serve(
+    inbox: Receiver<Request>,
+    outbox: Sender<PreviewFrame>,
+    wake: impl Fn(),
+    pool: Option<&rayon::ThreadPool>,
+) {
     let mut live: Option<Live> = None;
     let mut normals = Vec::new();
     let mut last_normals: Option<Arc<Vec<Vec3>>> = None;
@@ -216,10 +233,16 @@ fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn())
         let Some(l) = live.as_mut() else {
             continue;
         };
-        let result = if full {
-            l.update(&doc)
-        } else {
-            l.update_positions(&doc)
+        let mut fit = || {
+            if full {
+                l.update(&doc)
+            } else {
+                l.update_positions(&doc)
+            }
+        };
+        let result = match pool {
+            Some(p) => p.install(fit),
+            None => fit(),
         };
         let error = result.err().map(|e| {
             use std::error::Error as _;
