@@ -565,3 +565,118 @@ fn the_vertex_brush_paints_vertices_near_the_pointer() {
         chosen.len()
     );
 }
+
+/// The bundled models, and those of `../shared/models` when it is there.
+fn all_models() -> Vec<PathBuf> {
+    let list = |dir: &Path| -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+            .unwrap_or_default();
+        v.retain(|p| csrbf_mesh::Format::from_path(p).is_ok());
+        v.sort();
+        v
+    };
+    let bundled = model("");
+    let mut models = list(&bundled);
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
+    if shared.is_dir() {
+        let extra: Vec<PathBuf> = list(&shared)
+            .into_iter()
+            .filter(|p| !models.iter().any(|m| m.file_name() == p.file_name()))
+            .collect();
+        eprintln!(
+            "also using {} models from {}",
+            extra.len(),
+            shared.display()
+        );
+        models.extend(extra);
+    } else {
+        eprintln!("{} not found: the bundled models only", shared.display());
+    }
+    models
+}
+
+#[test]
+fn every_model_opens_and_takes_a_drag_at_the_centre_of_the_view() {
+    let models = all_models();
+    assert!(models.len() >= 7, "{models:?}");
+    for path in models {
+        let mut h = open(
+            Args {
+                mesh: Some(path.clone()),
+                controls: None,
+            },
+            "every",
+        );
+        let app = h.state();
+        assert!(
+            app.message().is_none(),
+            "{}: {:?}",
+            path.display(),
+            app.message()
+        );
+        let doc = app.document().expect("open");
+        let diag = doc.diagonal();
+        let (_, size, _, _) = app.viewport_camera().expect("open");
+        // The view is framed on the model: its centre is on it for these
+        // (closed or nearly closed) models, else try a little off centre.
+        let centre = Vec2::new(size[0] as f32 * 0.5, size[1] as f32 * 0.5);
+        let mut placed = false;
+        for off in [
+            Vec2::ZERO,
+            Vec2::new(20.0, 0.0),
+            Vec2::new(0.0, 20.0),
+            Vec2::new(-20.0, -10.0),
+        ] {
+            press(&mut h, centre + off, true);
+            for k in 1..=5 {
+                move_to(
+                    &mut h,
+                    centre + off + Vec2::new(-6.0 * k as f32, -3.0 * k as f32),
+                );
+            }
+            press(&mut h, centre + off + Vec2::new(-30.0, -15.0), false);
+            settle(&mut h);
+            let n = h.state().document().expect("open").controls.deformations[0]
+                .starts
+                .len();
+            if n > 0 {
+                placed = true;
+                break;
+            }
+        }
+        assert!(
+            placed,
+            "{}: no surface near the view's centre",
+            path.display()
+        );
+        eprintln!("{}: placed and dragged", path.display());
+        let app = h.state();
+        let frame = app.preview_frame().expect("a frame");
+        assert!(
+            frame.error.is_none(),
+            "{}: {:?}",
+            path.display(),
+            frame.error
+        );
+        let doc = app.document().expect("open");
+        let moved = doc
+            .mesh
+            .positions
+            .iter()
+            .zip(app.shown_positions().expect("open"))
+            .any(|(a, b)| (*a - *b).length() > 1e-4 * diag as f32);
+        // A start farther than R from every vertex (a face's middle on a
+        // coarse box) moves nothing, and the diagnostics say so.
+        let said = frame.diagnostics.as_ref().is_some_and(|d| {
+            d.warnings
+                .iter()
+                .any(|w| matches!(w, csrbf::Warning::StartsFarFromMesh { .. }))
+        });
+        assert!(
+            moved || said,
+            "{}: the drag moved nothing, unexplained",
+            path.display()
+        );
+    }
+}
