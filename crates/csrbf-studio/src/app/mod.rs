@@ -607,6 +607,7 @@ impl StudioApp {
                 m.doc.selection.0.clear();
             }
             self.gesture = Gesture::None;
+            self.view.stamp = None;
         }
     }
 
