@@ -11,6 +11,8 @@
 //!   a control vector there (ray against the mesh through the renderer's
 //!   [`csrbf_anim::Camera`]), a drag moves its destination on the plane
 //!   facing the camera, optionally along one axis;
+//! - [`compose`]: the Composer's scene document, its edits (keys at the
+//!   playhead kept in time order, TCB, timing, objects) and their undo;
 //! - [`live`]: the preview: each layer's system is factored once and solved
 //!   again when only destinations move; the deformed positions, their
 //!   diagnostics, and a picking tree refitted to them.
@@ -31,6 +33,7 @@
 
 pub mod app;
 pub mod command;
+pub mod compose;
 pub mod live;
 pub mod orbit;
 pub mod preview;
