@@ -12,7 +12,8 @@
 //!   [`csrbf_anim::Camera`]), a drag moves its destination on the plane
 //!   facing the camera, optionally along one axis;
 //! - [`compose`]: the Composer's scene document, its edits (keys at the
-//!   playhead kept in time order, TCB, timing, objects) and their undo;
+//!   playhead kept in time order, TCB, timing, objects), their undo, and
+//!   real-time playback (`Playback`: the fps kept, dropped frames counted);
 //! - [`live`]: the preview: each layer's system is factored once and solved
 //!   again when only destinations move; the deformed positions, their
 //!   diagnostics, and a picking tree refitted to them.
