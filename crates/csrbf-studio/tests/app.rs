@@ -334,6 +334,21 @@ fn a_broken_file_is_refused_with_the_cli_message_and_the_document_kept() {
     assert!(text.contains("broken.off"), "{text}");
     let doc = h.state().document().expect("still open");
     assert!(doc.mesh_path.ends_with("cgal_head.off"));
+
+    // A scene file is not a mesh or a control file: the studio says what it is.
+    let scene = dir.join("face.scene.json");
+    std::fs::write(&scene, "{}").expect("write");
+    h.state_mut().open_controls(&scene);
+    h.run_steps(2);
+    let (_, text) = h.state().message().expect("a dialog").clone();
+    assert!(text.contains("scene file"), "{text}");
+    assert!(
+        h.state()
+            .document()
+            .expect("open")
+            .mesh_path
+            .ends_with("cgal_head.off")
+    );
 }
 
 #[test]

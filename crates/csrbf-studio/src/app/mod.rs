@@ -250,6 +250,16 @@ impl StudioApp {
 
     fn open_mesh_now(&mut self, ctx: &egui::Context, path: &Path) {
         let started = Instant::now();
+        if is_scene(path) {
+            return self.show_error(
+                "Cannot open a scene here yet",
+                format!(
+                    "{}: scene files open in the Composer, which is not built yet; `csrbf animate {} --out movie.mp4` renders it",
+                    path.display(),
+                    path.display()
+                ),
+            );
+        }
         let loaded = match csrbf_mesh::load(path) {
             Ok(l) => l,
             Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
@@ -349,6 +359,15 @@ impl StudioApp {
     /// Opens a control file on the current mesh, in the CLI's format. A file
     /// the CLI would refuse leaves the document as it was and says why.
     pub fn open_controls(&mut self, path: &Path) {
+        if is_scene(path) {
+            return self.show_error(
+                "Cannot open a scene here yet",
+                format!(
+                    "{}: this is a scene file, not a control file; scenes open in the Composer, which is not built yet",
+                    path.display()
+                ),
+            );
+        }
         let Some(m) = self.model.as_mut() else {
             return self.show_error("No mesh", "open a mesh before its control file");
         };
@@ -1014,6 +1033,13 @@ impl StandIn {
             .map(|&i| values.get(i as usize).copied().unwrap_or_default())
             .collect()
     }
+}
+
+/// Whether a path names a scene file (`*.scene.json`).
+fn is_scene(path: &Path) -> bool {
+    path.file_name()
+        .and_then(|n| n.to_str())
+        .is_some_and(|n| n.to_ascii_lowercase().ends_with(".scene.json"))
 }
 
 fn take_frame(m: &mut Model) {
