@@ -509,12 +509,17 @@ fn a_handle_turns_a_chosen_part_as_a_rotation() {
     // the axis against the view).
     let (cam, size, _, _) = h.state().viewport_camera().expect("open");
     let (p, _) = cam.project(pivot.as_vec3(), size).expect("pivot in view");
-    press(&mut h, p + Vec2::new(30.0, 0.0), true);
+    // Off the axis rings (40 px; X and Y are edge-on lines in this view):
+    // on a diagonal, 30 px out, from 45 to 135 degrees.
+    let at = |deg: f32| {
+        let a = deg.to_radians();
+        p + Vec2::new(30.0 * a.cos(), -30.0 * a.sin())
+    };
+    press(&mut h, at(45.0), true);
     for k in 1..=9 {
-        let a = (k as f32 * 10.0).to_radians();
-        move_to(&mut h, p + Vec2::new(30.0 * a.cos(), -30.0 * a.sin()));
+        move_to(&mut h, at(45.0 + 10.0 * k as f32));
     }
-    press(&mut h, p + Vec2::new(0.0, -30.0), false);
+    press(&mut h, at(135.0), false);
     settle(&mut h);
     let doc = h.state().document().expect("open");
     let rot = doc

@@ -514,7 +514,7 @@ impl StudioApp {
         }
         if let Some(h) = spec.handle.clone() {
             ui.label(format!(
-                "Layer {} is a handle: drag from its pivot (yellow ring) with the Vertices tool",
+                "Layer {} is a handle: with the Vertices tool, drag an axis ring to turn it, or inside the yellow ring to rotate, scale or move it",
                 l + 1
             ));
             ui.horizontal(|ui| {

@@ -81,6 +81,8 @@ pub enum Gesture {
         pivot_px: Vec2,
         start: csrbf::Handle,
         tool: DragTool,
+        /// The axis ring grabbed (a turn about that axis), if any.
+        ring: Option<DVec3>,
     },
     Orbit,
     Pan,
@@ -282,17 +284,29 @@ impl StudioApp {
         if tool == Tool::Vertices
             && let Some((layer, handle, pivot)) = active_handle(m)
             && let Some((pivot_px, _)) = cam.project(pivot.as_vec3(), size)
-            && pivot_px.distance(px) < 40.0 * ppp
         {
-            m.history.begin_drag();
-            self.gesture = Gesture::Handle {
-                layer,
-                from: pos,
-                pivot_px,
-                start: handle,
-                tool: DragTool::begin(&cam, size, px, pivot, axis),
-            };
-            return;
+            // An axis ring under the pointer turns about that axis; inside
+            // the outer ring, the panel's mode (rotate, scale, move) applies.
+            let ring = axis_rings(pivot.as_vec3(), &cam, size, RING_PIXELS * ppp)
+                .into_iter()
+                .filter_map(|(a, pts, _)| {
+                    let d = polyline_distance(&cam, size, &pts, px)?;
+                    (d < 7.0 * ppp).then_some((d, a))
+                })
+                .min_by(|x, y| x.0.total_cmp(&y.0))
+                .map(|(_, a)| a.as_dvec3());
+            if ring.is_some() || pivot_px.distance(px) < (RING_PIXELS + 8.0) * ppp {
+                m.history.begin_drag();
+                self.gesture = Gesture::Handle {
+                    layer,
+                    from: pos,
+                    pivot_px,
+                    start: handle,
+                    tool: DragTool::begin(&cam, size, px, pivot, axis),
+                    ring,
+                };
+                return;
+            }
         }
         // A brush of vertices on the surface: Ctrl in the vertex tool.
         if tool == Tool::Vertices && modifiers.command {
@@ -426,38 +440,56 @@ impl StudioApp {
                 pivot_px,
                 start,
                 tool,
+                ring,
             } => {
                 let mut h = start.clone();
-                match self.handle_mode {
-                    super::panel::HandleMode::Rotate => {
-                        let a0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
-                        let a1 = (px - pivot_px).to_angle();
-                        let turn = (a1 - a0).to_degrees() as f64;
-                        let mut r = h.rotate.unwrap_or_else(|| {
-                            csrbf::Rotation::new(handle_axis(self.axis, &cam), 0.0)
-                        });
-                        // Screen angles grow clockwise; about the view axis
-                        // towards the eye that is a negative turn.
-                        let towards_eye = -cam.basis().2.as_dvec3();
-                        let sign = if r.axis.dot(towards_eye) >= 0.0 {
-                            -1.0
-                        } else {
-                            1.0
-                        };
-                        r.angle_deg = start.rotate.map_or(0.0, |r| r.angle_deg) + sign * turn;
-                        h.rotate = Some(r);
-                    }
-                    super::panel::HandleMode::Scale => {
-                        let d0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).length();
-                        let d1 = (px - pivot_px).length();
-                        if d0 > 1.0 {
-                            h.scale = Some(start.scale.unwrap_or(1.0) * (d1 / d0) as f64);
+                if let Some(axis) = ring {
+                    // A turn about the ring's axis, composed with the turn so far.
+                    let a0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
+                    let a1 = (px - pivot_px).to_angle();
+                    let towards_eye = -cam.basis().2.as_dvec3();
+                    let sign = if axis.dot(towards_eye) >= 0.0 {
+                        -1.0
+                    } else {
+                        1.0
+                    };
+                    let turn = sign * (a1 - a0).to_degrees() as f64;
+                    h.rotate = Some(compose_turn(start.rotate, axis, turn));
+                } else {
+                    match self.handle_mode {
+                        super::panel::HandleMode::Rotate => {
+                            let a0 =
+                                (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
+                            let a1 = (px - pivot_px).to_angle();
+                            let turn = (a1 - a0).to_degrees() as f64;
+                            let mut r = h.rotate.unwrap_or_else(|| {
+                                csrbf::Rotation::new(handle_axis(self.axis, &cam), 0.0)
+                            });
+                            // Screen angles grow clockwise; about the view axis
+                            // towards the eye that is a negative turn.
+                            let towards_eye = -cam.basis().2.as_dvec3();
+                            let sign = if r.axis.dot(towards_eye) >= 0.0 {
+                                -1.0
+                            } else {
+                                1.0
+                            };
+                            r.angle_deg = start.rotate.map_or(0.0, |r| r.angle_deg) + sign * turn;
+                            h.rotate = Some(r);
                         }
-                    }
-                    super::panel::HandleMode::Move => {
-                        if let Some(p) = tool.moved_to(&cam, size, px) {
-                            h.translate =
-                                Some(start.translate.unwrap_or(DVec3::ZERO) + (p - tool.origin));
+                        super::panel::HandleMode::Scale => {
+                            let d0 =
+                                (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).length();
+                            let d1 = (px - pivot_px).length();
+                            if d0 > 1.0 {
+                                h.scale = Some(start.scale.unwrap_or(1.0) * (d1 / d0) as f64);
+                            }
+                        }
+                        super::panel::HandleMode::Move => {
+                            if let Some(p) = tool.moved_to(&cam, size, px) {
+                                h.translate = Some(
+                                    start.translate.unwrap_or(DVec3::ZERO) + (p - tool.origin),
+                                );
+                            }
                         }
                     }
                 }
@@ -680,14 +712,24 @@ impl StudioApp {
         }
         // The handle's pivot and the vertices chosen.
         if let Some((_, _, pivot)) = active_handle(m) {
+            // The gizmo: the outer ring (the panel's mode) and a ring per axis.
             ring(
                 pivot.as_vec3(),
                 &cam,
                 size,
-                40.0 * ppp,
+                (RING_PIXELS + 8.0) * ppp,
                 [1.0, 0.8, 0.2, 1.0],
                 &mut overlay,
             );
+            for (_, pts, color) in axis_rings(pivot.as_vec3(), &cam, size, RING_PIXELS * ppp) {
+                for w in pts.windows(2) {
+                    overlay.push(Line {
+                        a: w[0],
+                        b: w[1],
+                        color,
+                    });
+                }
+            }
         }
         if v.gizmo {
             axis_gizmo(&cam, size, &mut overlay);
@@ -850,6 +892,98 @@ pub(super) fn handle_axis(axis: Option<usize>, cam: &csrbf_anim::Camera) -> DVec
     }
 }
 
+/// The handle gizmo's axis rings' radius, in points.
+const RING_PIXELS: f32 = 40.0;
+
+/// World length of one pixel at `centre`.
+fn world_per_pixel(centre: Vec3, cam: &csrbf_anim::Camera, size: [u32; 2]) -> Option<f32> {
+    let (c, _) = cam.project(centre, size)?;
+    let (right, _, _) = cam.basis();
+    let (q, _) = cam.project(centre + right * 0.01, size)?;
+    let per_unit = (q - c).length() / 0.01;
+    (per_unit > 0.0 && per_unit.is_finite()).then(|| 1.0 / per_unit)
+}
+
+/// The gizmo's three rings about `centre`, `radius` pixels wide: for X, Y
+/// and Z, the axis, the ring's points (closed) and its colour.
+fn axis_rings(
+    centre: Vec3,
+    cam: &csrbf_anim::Camera,
+    size: [u32; 2],
+    radius: f32,
+) -> Vec<(Vec3, Vec<Vec3>, [f32; 4])> {
+    let Some(w) = world_per_pixel(centre, cam, size) else {
+        return Vec::new();
+    };
+    let r = radius * w;
+    [
+        (Vec3::X, [0.95, 0.3, 0.25, 1.0]),
+        (Vec3::Y, [0.35, 0.9, 0.35, 1.0]),
+        (Vec3::Z, [0.35, 0.55, 1.0, 1.0]),
+    ]
+    .into_iter()
+    .map(|(axis, color)| {
+        let u = axis.any_orthonormal_vector();
+        let v = axis.cross(u);
+        let pts = (0..=64)
+            .map(|j| {
+                let a = j as f32 / 64.0 * std::f32::consts::TAU;
+                centre + (u * a.cos() + v * a.sin()) * r
+            })
+            .collect();
+        (axis, pts, color)
+    })
+    .collect()
+}
+
+/// The pointer's distance in pixels to a polyline as drawn (None when it
+/// is behind the camera).
+fn polyline_distance(
+    cam: &csrbf_anim::Camera,
+    size: [u32; 2],
+    pts: &[Vec3],
+    px: Vec2,
+) -> Option<f32> {
+    let screen: Vec<Vec2> = pts
+        .iter()
+        .map(|p| cam.project(*p, size).map(|q| q.0))
+        .collect::<Option<_>>()?;
+    screen
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let ab = b - a;
+            let t = ((px - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
+            px.distance(a + ab * t)
+        })
+        .min_by(f32::total_cmp)
+}
+
+/// `turn` degrees about `axis` after the rotation `before`: added to its
+/// angle when the axes agree, else composed (as quaternions).
+pub(super) fn compose_turn(
+    before: Option<csrbf::Rotation>,
+    axis: DVec3,
+    turn: f64,
+) -> csrbf::Rotation {
+    let axis = axis.normalize();
+    let Some(r) = before else {
+        return csrbf::Rotation::new(axis, turn);
+    };
+    let old = r.axis.normalize_or_zero();
+    let along = old.dot(axis);
+    let mut out = if along.abs() > 1.0 - 1e-9 {
+        csrbf::Rotation::new(r.axis, r.angle_deg + turn * along.signum())
+    } else {
+        let q = csrbf::glam::DQuat::from_axis_angle(axis, turn.to_radians())
+            * csrbf::glam::DQuat::from_axis_angle(old, r.angle_deg.to_radians());
+        let (a, angle) = q.to_axis_angle();
+        csrbf::Rotation::new(a, angle.to_degrees())
+    };
+    out.pivot = r.pivot;
+    out
+}
+
 /// A circle of `radius` pixels about `centre` facing the camera.
 fn ring(
     centre: Vec3,
@@ -880,5 +1014,52 @@ fn ring(
             b: centre + (right * a1.cos() + up * a1.sin()) * r,
             color,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn turns_about_the_same_axis_add_and_about_another_compose() {
+        let r = compose_turn(None, DVec3::Z * 2.0, 30.0);
+        assert_eq!((r.axis, r.angle_deg), (DVec3::Z, 30.0));
+        let r = compose_turn(Some(r), DVec3::NEG_Z, 10.0);
+        assert!(
+            (r.angle_deg - 20.0).abs() < 1e-12,
+            "opposite axis subtracts"
+        );
+        // 90 about Z then 90 about X: the composite maps X to Z.
+        let r = compose_turn(Some(csrbf::Rotation::new(DVec3::Z, 90.0)), DVec3::X, 90.0);
+        let q = csrbf::glam::DQuat::from_axis_angle(r.axis, r.angle_deg.to_radians());
+        assert!(
+            (q * DVec3::X - DVec3::Z).length() < 1e-9,
+            "{:?}",
+            q * DVec3::X
+        );
+        // The pivot is kept.
+        let with_pivot = csrbf::Rotation::new(DVec3::Y, 5.0).with_pivot(DVec3::ONE);
+        assert_eq!(
+            compose_turn(Some(with_pivot), DVec3::X, 5.0).pivot,
+            Some(DVec3::ONE)
+        );
+    }
+
+    #[test]
+    fn the_ring_facing_the_camera_is_under_the_pointer_at_its_radius() {
+        let cam =
+            csrbf_anim::Camera::perspective(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        let size = [400, 300];
+        let rings = axis_rings(Vec3::ZERO, &cam, size, 40.0);
+        assert_eq!(rings.len(), 3);
+        let c = csrbf_anim::Camera::centre_pixel(size);
+        let on_z = c + Vec2::new(40.0, 0.0).rotate(Vec2::from_angle(0.7));
+        let d: Vec<f32> = rings
+            .iter()
+            .map(|(_, pts, _)| polyline_distance(&cam, size, pts, on_z).expect("in front"))
+            .collect();
+        assert!(d[2] < 1.0, "{d:?}");
+        assert!(d[0] > 7.0 && d[1] > 7.0, "{d:?}");
     }
 }
