@@ -79,7 +79,7 @@ pub enum Gesture {
         layer: usize,
         from: egui::Pos2,
         pivot_px: Vec2,
-        start: csrbf::Handle,
+        start: Box<csrbf::Handle>,
         tool: DragTool,
         /// The axis ring grabbed (a turn about that axis), if any.
         ring: Option<DVec3>,
@@ -301,7 +301,7 @@ impl StudioApp {
                     layer,
                     from: pos,
                     pivot_px,
-                    start: handle,
+                    start: Box::new(handle),
                     tool: DragTool::begin(&cam, size, px, pivot, axis),
                     ring,
                 };
@@ -442,7 +442,7 @@ impl StudioApp {
                 tool,
                 ring,
             } => {
-                let mut h = start.clone();
+                let mut h = (*start).clone();
                 if let Some(axis) = ring {
                     // A turn about the ring's axis, composed with the turn so far.
                     let a0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
