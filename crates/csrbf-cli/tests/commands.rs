@@ -320,3 +320,85 @@ fn writing_stl_warns_what_it_loses() {
     ]);
     assert!(!String::from_utf8_lossy(&r.stderr).contains("STL stores"));
 }
+
+#[test]
+fn what_the_studio_saves_csrbf_deform_turns_into_the_mesh_the_studio_shows() {
+    use csrbf::glam::DVec3;
+    use csrbf_studio::{Command, Document, History, Live};
+    let path = root().join("assets/models/cgal_head.off");
+    let mesh = csrbf_mesh::read(&path).expect("the bundled head");
+    let diag = mesh.diagonal() as f64;
+    let tip = mesh
+        .positions
+        .iter()
+        .copied()
+        .min_by(|a, b| a.x.total_cmp(&b.x))
+        .expect("vertices")
+        .as_dvec3();
+    // Edits as the studio makes them: a pull at the nose, a pin on the
+    // chin side, a second layer with another kernel and a region.
+    let mut doc = Document::new(mesh, path.clone(), diag * 0.15);
+    let mut h = History::default();
+    h.apply(
+        &mut doc,
+        Command::add(0, tip, tip + DVec3::new(-2.0, 0.5, 0.0)),
+    )
+    .expect("pull");
+    h.apply(
+        &mut doc,
+        Command::add(
+            0,
+            tip + DVec3::new(0.5, -3.0, 0.0),
+            tip + DVec3::new(0.5, -3.0, 0.0),
+        ),
+    )
+    .expect("pin");
+    let mut second = doc.controls.deformations[0].clone();
+    second.starts = vec![tip + DVec3::new(1.0, 2.0, 0.0)];
+    second.targets = vec![tip + DVec3::new(1.0, 2.6, 0.3)];
+    second.options.kernel = csrbf::Kernel::C4;
+    second.name = Some("brow".into());
+    h.apply(
+        &mut doc,
+        Command::InsertLayer {
+            layer: 1,
+            spec: Box::new(second),
+        },
+    )
+    .expect("layer");
+    let mut live = Live::new(&doc);
+    live.update(&doc).expect("the studio's preview");
+
+    let dir = TempDir::new("studio-saves");
+    let controls = dir.write("edit.json", doc.to_text());
+    let out = dir.path("out.ply");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&path),
+        "--controls",
+        arg(&controls),
+        "--out",
+        arg(&out),
+    ]);
+    let deformed = csrbf_mesh::read(&out).expect("the CLI's output");
+    assert_eq!(deformed.positions.len(), live.positions().len());
+    let worst = deformed
+        .positions
+        .iter()
+        .zip(live.positions())
+        .map(|(a, b)| (*a - *b).length() as f64)
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-6 * diag,
+        "largest difference {worst} (diagonal {diag})"
+    );
+    assert!(
+        live.positions()
+            .iter()
+            .zip(&doc.mesh.positions)
+            .any(|(a, b)| (*a - *b).length() > 0.1),
+        "the edit moved the head"
+    );
+}
