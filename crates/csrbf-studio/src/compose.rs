@@ -400,6 +400,9 @@ impl SceneEdit {
                 file.duration = *duration;
             }
         }
+        // What the CLI would refuse is refused here (frame limits, sizes).
+        file.check()
+            .map_err(|e| EditError::Invalid(format!("{}: {}", e.at, e.message)))?;
         doc.file = file;
         doc.playhead = doc.playhead.clamp(0.0, doc.file.duration);
         doc.dirty = true;
@@ -552,6 +555,11 @@ mod tests {
                 duration: 1.0,
             },
             SceneEdit::RenameObject(0, String::new()),
+            // More frames than movies and exports take (the CLI's limit).
+            SceneEdit::SetTiming {
+                fps: 1000.0,
+                duration: 1.0e6,
+            },
             SceneEdit::DeleteKey {
                 object: 3,
                 track: Track::Position,

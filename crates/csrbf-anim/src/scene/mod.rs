@@ -247,6 +247,15 @@ pub struct Frame {
     pub objects: Vec<FrameObject>,
 }
 
+impl SceneFile {
+    /// The checks of the scene as a whole that need no file (timing, size,
+    /// camera, lights...), as `csrbf animate` makes them before reading
+    /// meshes: for editors that must not produce a scene the CLI refuses.
+    pub fn check(&self) -> std::result::Result<(), crate::file::ParseError> {
+        check_scene(self).map_err(|(at, message)| crate::file::ParseError { at, message })
+    }
+}
+
 impl Scene {
     /// Reads, checks and prepares a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
