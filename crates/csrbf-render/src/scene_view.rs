@@ -130,27 +130,6 @@ impl SceneRenderer {
         &mut self.renderer
     }
 
-    /// Object `object` of the scene as the renderer draws it (its parts,
-    /// colours, UVs and textures), at `positions` with `normals`: for
-    /// callers that move the mesh themselves (the studio's live preview).
-    /// None when there is no such object.
-    pub fn draw_mesh<'a>(
-        &'a self,
-        object: usize,
-        positions: &'a [Vec3],
-        normals: &'a [Vec3],
-    ) -> Option<DrawMesh<'a>> {
-        let prep = self.prepared.get(object)?;
-        Some(DrawMesh {
-            key: self.key + object as u64,
-            positions,
-            normals,
-            uvs: &prep.uvs,
-            colors: &prep.colors,
-            parts: &prep.parts,
-        })
-    }
-
     /// Draws `view` with object `object` of the scene at `positions` and
     /// `normals` as its only mesh (whatever meshes `view` had are replaced)
     /// into a texture view the caller owns: the studio's viewport.
@@ -175,16 +154,7 @@ impl SceneRenderer {
             })
             .into_iter()
             .collect();
-        let view = View {
-            camera: view.camera,
-            lights: view.lights.clone(),
-            background: view.background,
-            meshes,
-            lines: view.lines.clone(),
-            overlay: view.overlay.clone(),
-            options: view.options,
-        };
-        self.renderer.draw_into(&view, target);
+        self.renderer.draw_into(&view.with_meshes(meshes), target);
     }
 
     /// [`SceneRenderer::draw_object_into`] with a lighter stand-in of the
@@ -222,16 +192,8 @@ impl SceneRenderer {
             colors: &[],
             parts: &parts,
         };
-        let view = View {
-            camera: view.camera,
-            lights: view.lights.clone(),
-            background: view.background,
-            meshes: vec![mesh],
-            lines: view.lines.clone(),
-            overlay: view.overlay.clone(),
-            options: view.options,
-        };
-        self.renderer.draw_into(&view, target);
+        self.renderer
+            .draw_into(&view.with_meshes(vec![mesh]), target);
     }
 
     /// Draws one frame of the scene and reads it back.
@@ -430,18 +392,37 @@ pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], spheres: bool, out: &
         // Support spheres of moving controls only (anchors would hide the model).
         if spheres_on && drawn < 16 && goal.distance(s) > 1e-6 * r {
             drawn += 1;
-            const SEG: usize = 32;
-            for (u, v) in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
-                for j in 0..SEG {
-                    let a0 = j as f32 / SEG as f32 * std::f32::consts::TAU;
-                    let a1 = (j + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
-                    out.push(Line {
-                        a: s + (u * a0.cos() + v * a0.sin()) * r,
-                        b: s + (u * a1.cos() + v * a1.sin()) * r,
-                        color: SUPPORT,
-                    });
-                }
-            }
+            sphere_lines(s, r, SUPPORT, out);
         }
+    }
+}
+
+/// A circle of `radius` about `centre` in the plane of the unit vectors `u`
+/// and `v`, as `segments` lines.
+pub fn circle_lines(
+    centre: Vec3,
+    (u, v): (Vec3, Vec3),
+    radius: f32,
+    segments: usize,
+    color: [f32; 4],
+    out: &mut Vec<Line>,
+) {
+    let at = |j: usize| {
+        let a = j as f32 / segments as f32 * std::f32::consts::TAU;
+        centre + (u * a.cos() + v * a.sin()) * radius
+    };
+    for j in 0..segments {
+        out.push(Line {
+            a: at(j),
+            b: at(j + 1),
+            color,
+        });
+    }
+}
+
+/// A sphere drawn as its three great circles in the axis planes.
+pub fn sphere_lines(centre: Vec3, radius: f32, color: [f32; 4], out: &mut Vec<Line>) {
+    for plane in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
+        circle_lines(centre, plane, radius, 32, color, out);
     }
 }

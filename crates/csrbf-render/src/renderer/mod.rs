@@ -122,6 +122,21 @@ pub struct View<'a> {
     pub options: DrawOptions,
 }
 
+impl View<'_> {
+    /// The same view (camera, lights, lines, options) over other meshes.
+    pub fn with_meshes<'b>(&self, meshes: Vec<DrawMesh<'b>>) -> View<'b> {
+        View {
+            camera: self.camera,
+            lights: self.lights.clone(),
+            background: self.background,
+            meshes,
+            lines: self.lines.clone(),
+            overlay: self.overlay.clone(),
+            options: self.options,
+        }
+    }
+}
+
 /// A texture uploaded to the renderer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct TextureId(pub(crate) usize);

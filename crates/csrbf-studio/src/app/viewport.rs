@@ -4,7 +4,7 @@
 
 use csrbf::glam::{DVec3, Vec2, Vec3};
 use csrbf_anim::ViewPreset;
-use csrbf_render::{DrawOptions, Line, axis_gizmo, control_lines};
+use csrbf_render::{DrawOptions, Line, axis_gizmo, circle_lines, control_lines};
 use eframe::egui;
 
 use super::{Model, StudioApp, Tool, gpu, panel::VertexTarget};
@@ -811,19 +811,7 @@ fn region_lines(region: &csrbf::Region, out: &mut Vec<Line>) {
     const GREEN: [f32; 4] = [0.35, 0.95, 0.45, 0.8];
     match region {
         csrbf::Region::Sphere { center, radius } => {
-            let (c, r) = (center.as_vec3(), *radius as f32);
-            const SEG: usize = 48;
-            for (u, v) in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
-                for j in 0..SEG {
-                    let a0 = j as f32 / SEG as f32 * std::f32::consts::TAU;
-                    let a1 = (j + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
-                    out.push(Line {
-                        a: c + (u * a0.cos() + v * a0.sin()) * r,
-                        b: c + (u * a1.cos() + v * a1.sin()) * r,
-                        color: GREEN,
-                    });
-                }
-            }
+            csrbf_render::sphere_lines(center.as_vec3(), *radius as f32, GREEN, out);
         }
         csrbf::Region::Box { min, max } => {
             let (lo, hi) = (min.as_vec3(), max.as_vec3());
@@ -993,28 +981,11 @@ fn ring(
     color: [f32; 4],
     out: &mut Vec<Line>,
 ) {
-    let Some((c, _)) = cam.project(centre, size) else {
+    let Some(w) = world_per_pixel(centre, cam, size) else {
         return;
     };
     let (right, up, _) = cam.basis();
-    let Some((q, _)) = cam.project(centre + right * 0.01, size) else {
-        return;
-    };
-    let per_unit = (q - c).length() / 0.01;
-    if !(per_unit > 0.0) {
-        return;
-    }
-    let r = radius / per_unit;
-    const SEG: usize = 48;
-    for j in 0..SEG {
-        let a0 = j as f32 / SEG as f32 * std::f32::consts::TAU;
-        let a1 = (j + 1) as f32 / SEG as f32 * std::f32::consts::TAU;
-        out.push(Line {
-            a: centre + (right * a0.cos() + up * a0.sin()) * r,
-            b: centre + (right * a1.cos() + up * a1.sin()) * r,
-            color,
-        });
-    }
+    circle_lines(centre, (right, up), radius * w, 48, color, out);
 }
 
 #[cfg(test)]
