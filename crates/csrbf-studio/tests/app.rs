@@ -700,3 +700,59 @@ fn every_model_opens_and_takes_a_drag_at_the_centre_of_the_view() {
         );
     }
 }
+
+/// A file dropped on the window, as the integration hands it over.
+#[derive(Debug)]
+struct Dropped(PathBuf);
+
+impl egui::DroppedFile for Dropped {
+    fn path(&self) -> &Path {
+        &self.0
+    }
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
+}
+
+#[test]
+fn a_dropped_file_of_another_kind_is_named_with_the_formats_read() {
+    let mut h = head("drop");
+    pull_nose(&mut h);
+    let kept = h.state().document().expect("open").controls.clone();
+    let dir = state_dir("drop-files");
+    let odd = dir.join("notes.txt");
+    std::fs::write(&odd, "not a mesh").expect("write");
+    h.input_mut()
+        .dropped_files
+        .push(std::sync::Arc::new(Dropped(odd)));
+    h.run_steps(2);
+    let (title, text) = h.state().message().expect("a dialog").clone();
+    assert!(title.contains("dropped"), "{title}");
+    assert!(
+        text.contains("notes.txt") && text.contains("obj") && text.contains("glb"),
+        "{text}"
+    );
+    assert_eq!(h.state().document().expect("open").controls, kept);
+    assert!(std::fs::read_to_string(dir.join("notes.txt")).is_ok_and(|t| t == "not a mesh"));
+}
+
+#[test]
+fn closing_with_unsaved_changes_asks_first() {
+    let mut h = head("close");
+    pull_nose(&mut h);
+    let id = egui::ViewportId::ROOT;
+    h.input_mut()
+        .viewports
+        .entry(id)
+        .or_default()
+        .events
+        .push(egui::ViewportEvent::Close);
+    h.run_steps(2);
+    // The question is asked and the document is still there, unsaved.
+    h.get_by_label("Unsaved changes");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    let doc = h.state().document().expect("still open");
+    assert!(doc.dirty);
+    assert_eq!(doc.controls.deformations[0].starts.len(), 1);
+}
