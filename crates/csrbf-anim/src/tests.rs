@@ -386,6 +386,49 @@ fn scenes_take_meshes_and_controls_as_values_and_update_one_object() {
     );
 }
 
+/// The Composer's cheap path: new keys on a loaded scene give the frames a
+/// fresh load of the same file gives; a change of anything else is left to a
+/// load, and a bad key leaves the scene as it was.
+#[test]
+fn retiming_a_scene_equals_loading_it_again() {
+    let d = Dir::new("retime");
+    let path = d.scene(GOOD);
+    let mut scene = Scene::load(&path).expect("load");
+    let mut file = scene.file.clone();
+    let o = &mut file.objects[0];
+    o.trajectory[1].position = [3.0, -1.0, 2.0];
+    o.trajectory.push(PositionKeyFile {
+        time: 1.5,
+        position: [0.0, 2.0, 0.0],
+        tension: -0.3,
+        continuity: 0.2,
+        bias: 0.4,
+    });
+    o.trajectory.swap(1, 2);
+    o.orientation[1].euler = Some([10.0, 70.0, -5.0]);
+    o.interpolation = Interpolation::Slerp;
+    o.parts[0].deformations[0].phase[1].phase = 0.4;
+    o.parts[0].deformations[0].easing = Easing::Linear;
+    file.fps = 24.0;
+    assert!(scene.retime(file.clone()).expect("retime"));
+    let fresh = Scene::from_file(file.clone(), &d.0, &path).expect("fresh");
+    for t in [0.0, 0.3, 0.9, 1.5, 1.77, 2.0] {
+        let (a, b) = (scene.frame(t), fresh.frame(t));
+        assert_eq!(a.objects[0].positions, b.objects[0].positions, "t = {t}");
+    }
+    // Keys out of order: refused with their path, the scene kept.
+    let mut bad = file.clone();
+    bad.objects[0].trajectory.swap(0, 1);
+    let e = scene.retime(bad).expect_err("out of order").to_string();
+    assert!(e.contains("objects[0].trajectory[1].time"), "{e}");
+    assert_eq!(scene.file, file);
+    // Another mesh scale is not a retime.
+    let mut other = file.clone();
+    other.objects[0].scale = 2.0;
+    assert!(!scene.retime(other).expect("no error"));
+    assert_eq!(scene.file, file);
+}
+
 /// Issue 7: a scene asking for more frames than any movie or export may
 /// have is refused before anything is sampled.
 #[test]

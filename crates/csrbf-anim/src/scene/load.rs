@@ -196,6 +196,27 @@ pub(super) fn load_object(
             )?);
         }
     }
+    let (trajectory, orientation) = object_tracks(of, at, warnings)?;
+    Ok(Object {
+        name: of.name.clone(),
+        center,
+        radius,
+        parts,
+        trajectory,
+        orientation,
+        deformations,
+        contact: None,
+        triangles: mesh.faces.triangles(),
+        mesh,
+    })
+}
+
+/// An object's trajectory and orientation from its keys, checked.
+pub(super) fn object_tracks(
+    of: &ObjectFile,
+    at: &dyn Fn(&str) -> String,
+    warnings: &mut Vec<String>,
+) -> Result<(Trajectory, Orientation)> {
     check_times(of.trajectory.iter().map(|k| k.time), &|i| {
         at(&format!("trajectory[{i}].time"))
     })?;
@@ -273,19 +294,7 @@ pub(super) fn load_object(
         };
         keys.push(key);
     }
-    let interpolation = of.interpolation;
-    Ok(Object {
-        name: of.name.clone(),
-        center,
-        radius,
-        parts,
-        trajectory,
-        orientation: Orientation::new(keys, interpolation),
-        deformations,
-        contact: None,
-        triangles: mesh.faces.triangles(),
-        mesh,
-    })
+    Ok((trajectory, Orientation::new(keys, of.interpolation)))
 }
 
 /// Area-weighted centroid of the surface (vertex mean when there is no
@@ -397,6 +406,34 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
     })
 }
 
+/// A deformation's phase track from its keys, checked.
+pub(super) fn phase_track(
+    df: &crate::file::DeformationFile,
+    at: &dyn Fn(&str) -> String,
+) -> Result<PhaseTrack> {
+    check_times(df.phase.iter().map(|k| k.time), &|i| {
+        at(&format!("phase[{i}].time"))
+    })?;
+    if let Some((i, k)) = df
+        .phase
+        .iter()
+        .enumerate()
+        .find(|(_, k)| !(0.0..=1.0).contains(&k.phase))
+    {
+        return Err(scene_err(
+            at(&format!("phase[{i}].phase")),
+            format!("must be within [0, 1], got {}", k.phase),
+        ));
+    }
+    let easing = df.easing;
+    let track = if df.phase.is_empty() {
+        PhaseTrack::constant(1.0)
+    } else {
+        PhaseTrack::new(df.phase.iter().map(|k| (k.time, k.phase)).collect(), easing)
+    };
+    Ok(track)
+}
+
 fn load_deformation(
     mesh: &Mesh,
     part: &Part,
@@ -471,26 +508,7 @@ fn load_deformation(
             weights,
         });
     }
-    check_times(df.phase.iter().map(|k| k.time), &|i| {
-        at(&format!("phase[{i}].time"))
-    })?;
-    if let Some((i, k)) = df
-        .phase
-        .iter()
-        .enumerate()
-        .find(|(_, k)| !(0.0..=1.0).contains(&k.phase))
-    {
-        return Err(scene_err(
-            at(&format!("phase[{i}].phase")),
-            format!("must be within [0, 1], got {}", k.phase),
-        ));
-    }
-    let easing = df.easing;
-    let track = if df.phase.is_empty() {
-        PhaseTrack::constant(1.0)
-    } else {
-        PhaseTrack::new(df.phase.iter().map(|k| (k.time, k.phase)).collect(), easing)
-    };
+    let track = phase_track(df, at)?;
     Ok(Animated {
         part: pi,
         controls: df.controls.clone(),

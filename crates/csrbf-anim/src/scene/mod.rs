@@ -328,6 +328,75 @@ impl Scene {
         frame_count(self.file.duration, self.file.fps)
     }
 
+    /// Takes `file` as the scene's description when it differs from the one
+    /// loaded only in what needs no mesh, fit or texture: key tracks
+    /// (trajectory, orientation, interpolation, phase keys and easing),
+    /// timing, size, background, camera and lights. Tracks are rebuilt and
+    /// checked as [`Scene::load`] checks them, in microseconds: what the
+    /// Composer does on every key edit and every step of a key drag.
+    /// Returns `Ok(false)`, changing nothing, when `file` differs in
+    /// anything else (objects, meshes, parts, control files, contact): the
+    /// caller loads it instead. On error the scene is left as it was.
+    pub fn retime(&mut self, file: SceneFile) -> Result<bool> {
+        fn shape(o: &ObjectFile) -> ObjectFile {
+            let mut o = o.clone();
+            o.trajectory.clear();
+            o.orientation.clear();
+            o.interpolation = Default::default();
+            for d in o.parts.iter_mut().flat_map(|p| &mut p.deformations) {
+                d.phase.clear();
+                d.easing = Default::default();
+            }
+            o
+        }
+        if file.objects.len() != self.file.objects.len()
+            || file
+                .objects
+                .iter()
+                .zip(&self.file.objects)
+                .any(|(a, b)| shape(a) != shape(b))
+        {
+            return Ok(false);
+        }
+        let name = PathBuf::from("(scene)");
+        let err = |at: String, message: String| AnimError::Scene {
+            path: name.clone(),
+            at,
+            message,
+        };
+        check_scene(&file).map_err(|(a, m)| err(a, m))?;
+        let mut warnings = Vec::new();
+        let mut tracks = Vec::with_capacity(file.objects.len());
+        for (oi, of) in file.objects.iter().enumerate() {
+            let at = |k: &str| format!("objects[{oi}].{k}");
+            let (trajectory, orientation) = load::object_tracks(of, &at, &mut warnings)
+                .map_err(|e| match e {
+                    AnimError::Scene { at, message, .. } => err(at, message),
+                    other => other,
+                })?;
+            let mut phases = Vec::new();
+            for (pi, pf) in of.parts.iter().enumerate() {
+                for (di, df) in pf.deformations.iter().enumerate() {
+                    let here = |k: &str| at(&format!("parts[{pi}].deformations[{di}].{k}"));
+                    phases.push(load::phase_track(df, &here).map_err(|e| match e {
+                        AnimError::Scene { at, message, .. } => err(at, message),
+                        other => other,
+                    })?);
+                }
+            }
+            tracks.push((trajectory, orientation, phases));
+        }
+        for (obj, (trajectory, orientation, phases)) in self.objects.iter_mut().zip(tracks) {
+            obj.trajectory = trajectory;
+            obj.orientation = orientation;
+            for (anim, track) in obj.deformations.iter_mut().zip(phases) {
+                anim.track = track;
+            }
+        }
+        self.file = file;
+        Ok(true)
+    }
+
     /// Replaces object `index` by `object` and prepares only it again (its
     /// mesh, parts, deformations), taking meshes and control files from
     /// `assets` where it has them: what the Composer does when one object is
