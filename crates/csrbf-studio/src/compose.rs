@@ -10,7 +10,9 @@
 
 use std::path::{Path, PathBuf};
 
-use csrbf_anim::{ObjectFile, OrientationKeyFile, PhaseKeyFile, PositionKeyFile, SceneFile};
+use csrbf_anim::{
+    CameraFile, ObjectFile, OrientationKeyFile, PhaseKeyFile, PositionKeyFile, SceneFile,
+};
 
 use crate::EditError;
 
@@ -102,6 +104,39 @@ pub enum SceneEdit {
         /// Tension, continuity, bias.
         tcb: [f64; 3],
     },
+    /// Sets the value of an existing key (its time and TCB kept): a key
+    /// dragged in the viewport or typed in the panel.
+    SetKey {
+        /// The object.
+        object: usize,
+        /// The track.
+        track: Track,
+        /// The key's index.
+        index: usize,
+        /// Its new value.
+        value: KeyValue,
+    },
+    /// Copies a key (value and TCB) to the playhead.
+    CopyKey {
+        /// The object.
+        object: usize,
+        /// The track.
+        track: Track,
+        /// The key copied.
+        index: usize,
+    },
+    /// Replaces an object's description (its scale, parts, colours,
+    /// textures, deformations, contact): what the panel edits.
+    ReplaceObject(usize, Box<ObjectFile>),
+    /// Sets the scene's camera.
+    SetCamera(CameraFile),
+    /// Sets the picture size and background colour.
+    SetLook {
+        /// Width and height in pixels.
+        size: [u32; 2],
+        /// Background, linear RGB.
+        background: [f32; 3],
+    },
     /// Sets the scene's frame rate and duration.
     SetTiming {
         /// Frames per second (> 0).
@@ -131,9 +166,98 @@ impl SceneDoc {
         Ok(SceneDoc::new(file, Some(path.to_path_buf())))
     }
 
+    /// A new, empty scene: 4 s at 30 fps, 1280 x 720, a camera on +Z.
+    pub fn empty() -> SceneDoc {
+        SceneDoc::new(
+            SceneFile {
+                duration: 4.0,
+                fps: 30.0,
+                size: [1280, 720],
+                background: [0.035, 0.04, 0.05],
+                camera: CameraFile {
+                    eye: [0.0, 0.0, 10.0],
+                    target: [0.0, 0.0, 0.0],
+                    up: [0.0, 1.0, 0.0],
+                    fov: 35.0,
+                },
+                lights: Vec::new(),
+                objects: Vec::new(),
+            },
+            None,
+        )
+    }
+
     /// The scene file's text, as saved.
     pub fn to_text(&self) -> String {
         self.file.to_json()
+    }
+
+    /// The folder the file's relative paths start from: the scene file's,
+    /// or the working folder for a scene never saved (whose paths the
+    /// studio writes absolute until it is).
+    pub fn dir(&self) -> PathBuf {
+        match self.path.as_deref().and_then(Path::parent) {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => std::env::current_dir().unwrap_or_default(),
+        }
+    }
+
+    /// A path the scene names (mesh, texture, control file), resolved.
+    pub fn resolve(&self, named: &str) -> PathBuf {
+        self.dir().join(named)
+    }
+
+    /// How the scene names `path`: relative to its folder once it has one,
+    /// with `/` between parts (as the CLI writes them on every system).
+    pub fn name_of(&self, path: &Path) -> String {
+        match &self.path {
+            Some(_) => relative_path(&self.dir(), path),
+            None => std::path::absolute(path)
+                .unwrap_or_else(|_| path.to_path_buf())
+                .to_string_lossy()
+                .into_owned(),
+        }
+    }
+
+    /// Why the scene cannot be saved as it stands (the CLI refuses a scene
+    /// with no object), if it cannot.
+    pub fn saveable(&self) -> Result<(), String> {
+        self.file
+            .check()
+            .map_err(|e| format!("{}: {}", e.at, e.message))
+    }
+
+    /// The text to write at `path`: every path the scene names made
+    /// relative to `path`'s folder, so the scene still finds its meshes,
+    /// textures and control files from there (`csrbf animate` reads them
+    /// relative to the scene file).
+    pub fn text_for(&self, path: &Path) -> String {
+        self.rebased(path).to_json()
+    }
+
+    /// The scene with its paths made relative to `path`'s folder.
+    pub fn rebased(&self, path: &Path) -> SceneFile {
+        let to = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let mut file = self.file.clone();
+        let moved = |named: &mut String| {
+            let resolved = self.resolve(named);
+            *named = relative_path(&to, &resolved);
+        };
+        for o in &mut file.objects {
+            moved(&mut o.mesh);
+            for p in &mut o.parts {
+                if let Some(t) = &mut p.texture {
+                    moved(t);
+                }
+                for d in &mut p.deformations {
+                    moved(&mut d.controls);
+                }
+            }
+        }
+        file
     }
 
     /// The key times of a track, in order (empty for a track that does not
@@ -153,6 +277,42 @@ impl SceneDoc {
                 .unwrap_or_default(),
         }
     }
+}
+
+/// `path` relative to the folder `from`, with `/` between parts: `..` up to
+/// the parts they share, then down. Paths on different drives or roots stay
+/// absolute.
+pub fn relative_path(from: &Path, path: &Path) -> String {
+    use std::path::Component;
+    let abs = |p: &Path| {
+        let p = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        // Lexically drop `.` and fold `..` (no symlinks are followed).
+        let mut out: Vec<Component> = Vec::new();
+        for c in p.components() {
+            match c {
+                Component::CurDir => {}
+                Component::ParentDir if matches!(out.last(), Some(Component::Normal(_))) => {
+                    out.pop();
+                }
+                c => out.push(c),
+            }
+        }
+        out.into_iter()
+            .map(|c| c.as_os_str().to_os_string())
+            .collect::<Vec<_>>()
+    };
+    let (a, b) = (abs(from), abs(path));
+    if a.first() != b.first() {
+        return b
+            .iter()
+            .collect::<PathBuf>()
+            .to_string_lossy()
+            .into_owned();
+    }
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut parts: Vec<String> = vec!["..".to_string(); a.len() - common];
+    parts.extend(b[common..].iter().map(|c| c.to_string_lossy().into_owned()));
+    parts.join("/")
 }
 
 /// A track's keys, whatever their kind: time is all the ordering needs.
@@ -275,55 +435,63 @@ impl SceneEdit {
             } => {
                 let t = doc.playhead;
                 in_time(t)?;
+                put_key(object_mut(&mut file, *object)?, *track, t, *value, None)?;
+            }
+            SceneEdit::SetKey {
+                object,
+                track,
+                index,
+                value,
+            } => {
                 let o = object_mut(&mut file, *object)?;
-                match (track, value) {
-                    (Track::Position, KeyValue::Position(p)) if p.iter().all(|x| x.is_finite()) => {
-                        let old = o.trajectory.iter().find(|k| k.time == t).copied();
-                        let key = PositionKeyFile {
-                            time: t,
-                            position: *p,
-                            tension: old.map_or(0.0, |k| k.tension),
-                            continuity: old.map_or(0.0, |k| k.continuity),
-                            bias: old.map_or(0.0, |k| k.bias),
-                        };
-                        insert_sorted(&mut o.trajectory, key, true)?;
-                    }
-                    (Track::Orientation, KeyValue::Orientation(q)) => {
-                        let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-                        if !(n > 0.0 && n.is_finite()) {
-                            return Err(EditError::Invalid(format!(
-                                "quaternion {q:?} is not a rotation"
-                            )));
-                        }
-                        let key = OrientationKeyFile {
-                            time: t,
-                            quaternion: Some(q.map(|x| x / n)),
-                            axis: None,
-                            angle: None,
-                            euler: None,
-                        };
-                        insert_sorted(&mut o.orientation, key, true)?;
-                    }
-                    (Track::Phase { part, deformation }, KeyValue::Phase(p))
-                        if (0.0..=1.0).contains(p) =>
-                    {
-                        let d = o
-                            .parts
-                            .get_mut(*part)
-                            .and_then(|pt| pt.deformations.get_mut(*deformation))
-                            .ok_or_else(|| {
-                                EditError::Invalid(format!(
-                                    "no deformation {deformation} in part {part}"
-                                ))
-                            })?;
-                        insert_sorted(&mut d.phase, PhaseKeyFile { time: t, phase: *p }, true)?;
-                    }
-                    _ => {
-                        return Err(EditError::Invalid(format!(
-                            "{value:?} is not a valid key for the {track:?} track"
-                        )));
-                    }
+                let t = key_time(o, *track, *index)?;
+                put_key(o, *track, t, *value, None)?;
+            }
+            SceneEdit::CopyKey {
+                object,
+                track,
+                index,
+            } => {
+                let t = doc.playhead;
+                in_time(t)?;
+                let o = object_mut(&mut file, *object)?;
+                let value = key_value(o, *track, *index)
+                    .ok_or_else(|| EditError::Invalid(format!("no key {index} in this track")))?;
+                let tcb = match track {
+                    Track::Position => o
+                        .trajectory
+                        .get(*index)
+                        .map(|k| [k.tension, k.continuity, k.bias]),
+                    _ => None,
+                };
+                put_key(o, *track, t, value, tcb)?;
+            }
+            SceneEdit::ReplaceObject(i, object) => {
+                if object.name.trim().is_empty() {
+                    return Err(EditError::Invalid("a name cannot be empty".into()));
                 }
+                if file
+                    .objects
+                    .iter()
+                    .enumerate()
+                    .any(|(k, x)| k != *i && x.name == object.name)
+                {
+                    return Err(EditError::Invalid(format!(
+                        "an object is already named {:?}",
+                        object.name
+                    )));
+                }
+                *object_mut(&mut file, *i)? = (**object).clone();
+            }
+            SceneEdit::SetCamera(camera) => file.camera = camera.clone(),
+            SceneEdit::SetLook { size, background } => {
+                if background.iter().any(|c| !(0.0..=1.0).contains(c)) {
+                    return Err(EditError::Invalid(format!(
+                        "background colour must be within [0, 1], got {background:?}"
+                    )));
+                }
+                file.size = *size;
+                file.background = *background;
             }
             SceneEdit::MoveKey {
                 object,
@@ -401,13 +569,126 @@ impl SceneEdit {
             }
         }
         // What the CLI would refuse is refused here (frame limits, sizes).
-        file.check()
-            .map_err(|e| EditError::Invalid(format!("{}: {}", e.at, e.message)))?;
+        check(&file)?;
         doc.file = file;
         doc.playhead = doc.playhead.clamp(0.0, doc.file.duration);
         doc.dirty = true;
         Ok(())
     }
+}
+
+/// The CLI's whole-scene checks, but for "no object": a scene being built
+/// may have none yet (saving one is refused, see [`SceneDoc::saveable`]).
+fn check(file: &SceneFile) -> Result<(), EditError> {
+    match file.check() {
+        Ok(()) => Ok(()),
+        // The object count is checked last: everything else passed.
+        Err(e) if e.at == "objects" && file.objects.is_empty() => Ok(()),
+        Err(e) => Err(EditError::Invalid(format!("{}: {}", e.at, e.message))),
+    }
+}
+
+/// Puts a key of `value` at time `t` (replacing the value of a key already
+/// there, keeping its TCB unless `tcb` is given).
+fn put_key(
+    o: &mut ObjectFile,
+    track: Track,
+    t: f64,
+    value: KeyValue,
+    tcb: Option<[f64; 3]>,
+) -> Result<usize, EditError> {
+    match (track, value) {
+        (Track::Position, KeyValue::Position(p)) if p.iter().all(|x| x.is_finite()) => {
+            let old = o.trajectory.iter().find(|k| k.time == t).copied();
+            let [tension, continuity, bias] =
+                tcb.unwrap_or(old.map_or([0.0; 3], |k| [k.tension, k.continuity, k.bias]));
+            let key = PositionKeyFile {
+                time: t,
+                position: p,
+                tension,
+                continuity,
+                bias,
+            };
+            insert_sorted(&mut o.trajectory, key, true)
+        }
+        (Track::Orientation, KeyValue::Orientation(q)) => {
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(n > 0.0 && n.is_finite()) {
+                return Err(EditError::Invalid(format!(
+                    "quaternion {q:?} is not a rotation"
+                )));
+            }
+            let key = OrientationKeyFile {
+                time: t,
+                quaternion: Some(q.map(|x| x / n)),
+                axis: None,
+                angle: None,
+                euler: None,
+            };
+            insert_sorted(&mut o.orientation, key, true)
+        }
+        (Track::Phase { part, deformation }, KeyValue::Phase(p)) if (0.0..=1.0).contains(&p) => {
+            let d = phase_track(o, part, deformation)?;
+            insert_sorted(d, PhaseKeyFile { time: t, phase: p }, true)
+        }
+        _ => Err(EditError::Invalid(format!(
+            "{value:?} is not a valid key for the {track:?} track"
+        ))),
+    }
+}
+
+/// The time of key `index` of a track.
+fn key_time(o: &mut ObjectFile, track: Track, index: usize) -> Result<f64, EditError> {
+    let t = match track {
+        Track::Position => o.trajectory.get(index).map(|k| k.time),
+        Track::Orientation => o.orientation.get(index).map(|k| k.time),
+        Track::Phase { part, deformation } => {
+            phase_track(o, part, deformation)?.get(index).map(|k| k.time)
+        }
+    };
+    t.ok_or_else(|| EditError::Invalid(format!("no key {index} in this track")))
+}
+
+/// The value of key `index` of a track (an orientation written as an axis
+/// and angle or Euler angles is given as its quaternion).
+pub fn key_value(o: &ObjectFile, track: Track, index: usize) -> Option<KeyValue> {
+    match track {
+        Track::Position => o.trajectory.get(index).map(|k| KeyValue::Position(k.position)),
+        Track::Orientation => o
+            .orientation
+            .get(index)
+            .and_then(|k| orientation_quaternion(k))
+            .map(KeyValue::Orientation),
+        Track::Phase { part, deformation } => o
+            .parts
+            .get(part)?
+            .deformations
+            .get(deformation)?
+            .phase
+            .get(index)
+            .map(|k| KeyValue::Phase(k.phase)),
+    }
+}
+
+/// An orientation key's rotation as a unit quaternion `[x, y, z, w]`,
+/// however the file wrote it (None for a key the CLI would refuse).
+pub fn orientation_quaternion(k: &OrientationKeyFile) -> Option<[f64; 4]> {
+    use csrbf::glam::{DQuat, DVec3};
+    let q = match (k.quaternion, k.axis, k.angle, k.euler) {
+        (Some(q), None, None, None) => DQuat::from_array(q),
+        (None, Some(a), Some(angle), None) => csrbf_anim::OrientationKey::from_axis_angle(
+            0.0,
+            DVec3::from_array(a),
+            angle,
+        )
+        .rotation,
+        (None, None, None, Some(e)) => {
+            csrbf_anim::OrientationKey::from_euler_degrees(0.0, DVec3::from_array(e)).rotation
+        }
+        _ => return None,
+    };
+    let n = q.length();
+    (n > 1e-9 && n.is_finite()).then(|| (q / n).to_array())
 }
 
 fn object_mut(file: &mut SceneFile, i: usize) -> Result<&mut ObjectFile, EditError> {
@@ -600,6 +881,80 @@ mod tests {
     }
 
     #[test]
+    fn keys_are_set_copied_and_objects_replaced_in_one_step_each() {
+        let mut d = doc();
+        let mut h = SceneHistory::default();
+        for t in [0.0, 2.0] {
+            d.playhead = t;
+            h.apply(
+                &mut d,
+                &SceneEdit::AddKey {
+                    object: 0,
+                    track: Track::Position,
+                    value: KeyValue::Position([t, 0.0, 0.0]),
+                },
+            )
+            .expect("add");
+        }
+        h.apply(
+            &mut d,
+            &SceneEdit::SetTcb {
+                object: 0,
+                index: 1,
+                tcb: [0.3, 0.0, -0.4],
+            },
+        )
+        .expect("tcb");
+        // Setting a key's value keeps its time and TCB.
+        h.apply(
+            &mut d,
+            &SceneEdit::SetKey {
+                object: 0,
+                track: Track::Position,
+                index: 1,
+                value: KeyValue::Position([5.0, 1.0, 0.0]),
+            },
+        )
+        .expect("set");
+        let k = d.file.objects[0].trajectory[1];
+        assert_eq!((k.time, k.position, k.tension), (2.0, [5.0, 1.0, 0.0], 0.3));
+        // A copy lands at the playhead with value and TCB.
+        d.playhead = 3.0;
+        h.apply(
+            &mut d,
+            &SceneEdit::CopyKey {
+                object: 0,
+                track: Track::Position,
+                index: 1,
+            },
+        )
+        .expect("copy");
+        let c = d.file.objects[0].trajectory[2];
+        assert_eq!((c.time, c.position, c.bias), (3.0, [5.0, 1.0, 0.0], -0.4));
+        // An orientation written as axis and angle reads as its quaternion.
+        let q = orientation_quaternion(&OrientationKeyFile {
+            time: 0.0,
+            quaternion: None,
+            axis: Some([0.0, 0.0, 1.0]),
+            angle: Some(90.0),
+            euler: None,
+        })
+        .expect("rotation");
+        assert!((q[2] - 0.5f64.sqrt()).abs() < 1e-12 && (q[3] - 0.5f64.sqrt()).abs() < 1e-12);
+        // The panel's edits replace the object whole; names stay unique.
+        let mut o = d.file.objects[0].clone();
+        o.scale = 2.0;
+        h.apply(&mut d, &SceneEdit::ReplaceObject(0, Box::new(o)))
+            .expect("replace");
+        assert_eq!(d.file.objects[0].scale, 2.0);
+        // The last object can go (a scene being built), but is not saveable.
+        h.apply(&mut d, &SceneEdit::RemoveObject(0)).expect("remove");
+        assert!(d.saveable().is_err());
+        h.undo(&mut d).expect("undo");
+        assert!(d.saveable().is_ok());
+    }
+
+    #[test]
     fn a_saved_scene_reads_back_equal_and_the_cli_accepts_its_text() {
         let mut d = doc();
         let mut h = SceneHistory::default();
@@ -719,6 +1074,41 @@ impl Playback {
         }
         doc.playhead = t.clamp(a, b);
         frames
+    }
+}
+
+#[cfg(test)]
+mod path_tests {
+    use super::*;
+
+    #[test]
+    fn paths_are_rebased_relative_to_where_the_scene_is_saved() {
+        assert_eq!(
+            relative_path(Path::new("/a/b/scenes"), Path::new("/a/b/models/head.off")),
+            "../models/head.off"
+        );
+        assert_eq!(
+            relative_path(Path::new("/a/b"), Path::new("/a/b/./x/../head.off")),
+            "head.off"
+        );
+        let file = SceneFile::parse(
+            r#"{"duration": 1, "camera": {"eye": [0, 0, 5], "target": [0, 0, 0]},
+                "objects": [{"name": "head", "mesh": "models/head.off",
+                  "parts": [{"name": "skin", "texture": "tex/skin.png",
+                    "deformations": [{"controls": "smile.json"}]}]}]}"#,
+        )
+        .expect("scene");
+        let doc = SceneDoc::new(file, Some(PathBuf::from("/w/s.scene.json")));
+        let moved = doc.rebased(Path::new("/w/out/deep/s.scene.json"));
+        let o = &moved.objects[0];
+        assert_eq!(o.mesh, "../../models/head.off");
+        assert_eq!(o.parts[0].texture.as_deref(), Some("../../tex/skin.png"));
+        assert_eq!(o.parts[0].deformations[0].controls, "../../smile.json");
+        // A scene never saved names files by absolute paths until it is.
+        let fresh = SceneDoc::empty();
+        let named = fresh.name_of(Path::new("rel/head.off"));
+        assert!(Path::new(&named).is_absolute(), "{named}");
+        assert!(fresh.saveable().is_err(), "no object yet");
     }
 }
 
