@@ -37,8 +37,9 @@ pub use export::{export_gltf, export_notes};
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{
-    Animated, Assets, BoundStage, Contact, Frame, FrameObject, MAX_FPS, MAX_FRAMES, MAX_SIDE,
-    Object, Part, Scene, Texture, TextureError, decode_texture, frame_count, load_texture,
+    Animated, Assets, BoundStage, Contact, DEFAULT_PART_COLOR, Frame, FrameObject, MAX_FPS,
+    MAX_FRAMES, MAX_SIDE, Object, Part, Scene, Texture, TextureError, decode_texture, frame_count,
+    load_texture,
 };
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};

@@ -230,6 +230,39 @@ impl SceneRenderer {
         self.renderer.draw_into(&view, target);
     }
 
+    /// [`SceneRenderer::draw_into`] with lines of the caller's: `lines`
+    /// depth-tested among the meshes (trajectories), `overlay` over
+    /// everything (keys, gizmos), and object `k` left out where `hidden[k]`:
+    /// the Composer's viewport.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_frame_into(
+        &mut self,
+        scene: &Scene,
+        frame: &Frame,
+        options: SceneOptions,
+        lines: &[Line],
+        overlay: &[Line],
+        hidden: &[bool],
+        target: &wgpu::TextureView,
+    ) {
+        let mut view = view_of(
+            &self.prepared,
+            self.key,
+            self.renderer.size(),
+            scene,
+            frame,
+            options,
+        );
+        if hidden.iter().any(|&h| h) {
+            let key = self.key;
+            view.meshes
+                .retain(|m| !hidden.get((m.key - key) as usize).copied().unwrap_or(false));
+        }
+        view.lines.extend_from_slice(lines);
+        view.overlay.extend_from_slice(overlay);
+        self.renderer.draw_into(&view, target);
+    }
+
     /// The view of one frame: camera, lights, meshes (borrowed from the frame
     /// and from what was prepared) and overlay.
     pub fn view<'a>(&'a self, scene: &Scene, frame: &'a Frame, options: SceneOptions) -> View<'a> {

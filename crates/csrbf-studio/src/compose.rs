@@ -303,11 +303,7 @@ pub fn relative_path(from: &Path, path: &Path) -> String {
     };
     let (a, b) = (abs(from), abs(path));
     if a.first() != b.first() {
-        return b
-            .iter()
-            .collect::<PathBuf>()
-            .to_string_lossy()
-            .into_owned();
+        return b.iter().collect::<PathBuf>().to_string_lossy().into_owned();
     }
     let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
     let mut parts: Vec<String> = vec!["..".to_string(); a.len() - common];
@@ -642,9 +638,9 @@ fn key_time(o: &mut ObjectFile, track: Track, index: usize) -> Result<f64, EditE
     let t = match track {
         Track::Position => o.trajectory.get(index).map(|k| k.time),
         Track::Orientation => o.orientation.get(index).map(|k| k.time),
-        Track::Phase { part, deformation } => {
-            phase_track(o, part, deformation)?.get(index).map(|k| k.time)
-        }
+        Track::Phase { part, deformation } => phase_track(o, part, deformation)?
+            .get(index)
+            .map(|k| k.time),
     };
     t.ok_or_else(|| EditError::Invalid(format!("no key {index} in this track")))
 }
@@ -653,11 +649,14 @@ fn key_time(o: &mut ObjectFile, track: Track, index: usize) -> Result<f64, EditE
 /// and angle or Euler angles is given as its quaternion).
 pub fn key_value(o: &ObjectFile, track: Track, index: usize) -> Option<KeyValue> {
     match track {
-        Track::Position => o.trajectory.get(index).map(|k| KeyValue::Position(k.position)),
+        Track::Position => o
+            .trajectory
+            .get(index)
+            .map(|k| KeyValue::Position(k.position)),
         Track::Orientation => o
             .orientation
             .get(index)
-            .and_then(|k| orientation_quaternion(k))
+            .and_then(orientation_quaternion)
             .map(KeyValue::Orientation),
         Track::Phase { part, deformation } => o
             .parts
@@ -676,12 +675,9 @@ pub fn orientation_quaternion(k: &OrientationKeyFile) -> Option<[f64; 4]> {
     use csrbf::glam::{DQuat, DVec3};
     let q = match (k.quaternion, k.axis, k.angle, k.euler) {
         (Some(q), None, None, None) => DQuat::from_array(q),
-        (None, Some(a), Some(angle), None) => csrbf_anim::OrientationKey::from_axis_angle(
-            0.0,
-            DVec3::from_array(a),
-            angle,
-        )
-        .rotation,
+        (None, Some(a), Some(angle), None) => {
+            csrbf_anim::OrientationKey::from_axis_angle(0.0, DVec3::from_array(a), angle).rotation
+        }
         (None, None, None, Some(e)) => {
             csrbf_anim::OrientationKey::from_euler_degrees(0.0, DVec3::from_array(e)).rotation
         }
@@ -715,6 +711,8 @@ fn phase_track(
 pub struct SceneHistory {
     done: Vec<SceneFile>,
     undone: Vec<SceneFile>,
+    /// The tag of the last edit, when it may take the next one in.
+    merging: Option<&'static str>,
 }
 
 impl SceneHistory {
@@ -724,12 +722,43 @@ impl SceneHistory {
         edit.apply(doc)?;
         self.done.push(before);
         self.undone.clear();
+        self.merging = None;
         Ok(())
+    }
+
+    /// [`SceneHistory::apply`], but one undo step with the edits before it
+    /// of the same `tag` (the steps of a slider drag or of typing a value),
+    /// until [`SceneHistory::end_merge`].
+    pub fn apply_merging(
+        &mut self,
+        doc: &mut SceneDoc,
+        edit: &SceneEdit,
+        tag: &'static str,
+    ) -> Result<(), EditError> {
+        if self.merging == Some(tag) && !self.done.is_empty() {
+            edit.apply(doc)?;
+            self.undone.clear();
+            return Ok(());
+        }
+        self.apply(doc, edit)?;
+        self.merging = Some(tag);
+        Ok(())
+    }
+
+    /// Ends a merged run: the next edit is a step of its own.
+    pub fn end_merge(&mut self) {
+        self.merging = None;
+    }
+
+    /// Steps that can be undone.
+    pub fn undo_steps(&self) -> usize {
+        self.done.len()
     }
 
     /// Undoes the last edit.
     pub fn undo(&mut self, doc: &mut SceneDoc) -> Result<(), EditError> {
         let before = self.done.pop().ok_or(EditError::Nothing("undo"))?;
+        self.merging = None;
         self.undone.push(std::mem::replace(&mut doc.file, before));
         doc.dirty = true;
         Ok(())
@@ -948,7 +977,8 @@ mod tests {
             .expect("replace");
         assert_eq!(d.file.objects[0].scale, 2.0);
         // The last object can go (a scene being built), but is not saveable.
-        h.apply(&mut d, &SceneEdit::RemoveObject(0)).expect("remove");
+        h.apply(&mut d, &SceneEdit::RemoveObject(0))
+            .expect("remove");
         assert!(d.saveable().is_err());
         h.undo(&mut d).expect("undo");
         assert!(d.saveable().is_ok());

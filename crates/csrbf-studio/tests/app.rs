@@ -335,13 +335,17 @@ fn a_broken_file_is_refused_with_the_cli_message_and_the_document_kept() {
     let doc = h.state().document().expect("still open");
     assert!(doc.mesh_path.ends_with("cgal_head.off"));
 
-    // A scene file is not a mesh or a control file: the studio says what it is.
+    // A scene file goes to the Composer, which says what is wrong with it
+    // (the CLI's message); the Picker's document is kept.
     let scene = dir.join("face.scene.json");
     std::fs::write(&scene, "{}").expect("write");
     h.state_mut().open_controls(&scene);
     h.run_steps(2);
-    let (_, text) = h.state().message().expect("a dialog").clone();
-    assert!(text.contains("scene file"), "{text}");
+    let (title, text) = h.state().message().expect("a dialog").clone();
+    assert!(
+        title.contains("scene") && text.contains("face.scene.json") && text.contains("duration"),
+        "{title}: {text}"
+    );
     assert!(
         h.state()
             .document()

@@ -369,8 +369,8 @@ impl Scene {
         let mut tracks = Vec::with_capacity(file.objects.len());
         for (oi, of) in file.objects.iter().enumerate() {
             let at = |k: &str| format!("objects[{oi}].{k}");
-            let (trajectory, orientation) = load::object_tracks(of, &at, &mut warnings)
-                .map_err(|e| match e {
+            let (trajectory, orientation) =
+                load::object_tracks(of, &at, &mut warnings).map_err(|e| match e {
                     AnimError::Scene { at, message, .. } => err(at, message),
                     other => other,
                 })?;

@@ -19,6 +19,20 @@ pub enum Purpose {
     ExportMesh,
     /// Export the fitted deformations as `.csrbf`.
     ExportFitted,
+    /// Open a scene in the Composer.
+    OpenScene,
+    /// Save the scene.
+    SaveScene,
+    /// Add a mesh to the scene as an object.
+    AddObject,
+    /// Choose a texture for the selected part.
+    Texture,
+    /// Add a control file to the selected part as a deformation.
+    AddControls,
+    /// Export the scene as a movie.
+    ExportMovie,
+    /// Export the scene as glTF.
+    ExportGltf,
 }
 
 impl Purpose {
@@ -29,19 +43,41 @@ impl Purpose {
             Purpose::SaveControls => "Save the control file",
             Purpose::ExportMesh => "Export the deformed mesh",
             Purpose::ExportFitted => "Export the fitted deformation (.csrbf)",
+            Purpose::OpenScene => "Open a scene",
+            Purpose::SaveScene => "Save the scene",
+            Purpose::AddObject => "Add a mesh to the scene",
+            Purpose::Texture => "Choose a texture (PNG or JPEG)",
+            Purpose::AddControls => "Add a deformation (control file)",
+            Purpose::ExportMovie => "Export a movie (.mp4, .gif, or a folder for PNG frames)",
+            Purpose::ExportGltf => "Export glTF (.glb)",
         }
     }
 
     fn saves(self) -> bool {
-        !matches!(self, Purpose::OpenMesh | Purpose::OpenControls)
+        matches!(
+            self,
+            Purpose::SaveControls
+                | Purpose::ExportMesh
+                | Purpose::ExportFitted
+                | Purpose::SaveScene
+                | Purpose::ExportMovie
+                | Purpose::ExportGltf
+        )
     }
 
     /// File name endings listed (others are hidden).
     fn endings(self) -> &'static [&'static str] {
         match self {
-            Purpose::OpenMesh | Purpose::ExportMesh => MESH_ENDINGS,
-            Purpose::OpenControls | Purpose::SaveControls => &["json"],
+            Purpose::OpenMesh | Purpose::ExportMesh | Purpose::AddObject => MESH_ENDINGS,
+            Purpose::OpenControls
+            | Purpose::SaveControls
+            | Purpose::OpenScene
+            | Purpose::SaveScene
+            | Purpose::AddControls => &["json"],
             Purpose::ExportFitted => &["csrbf"],
+            Purpose::Texture => &["png", "jpg", "jpeg"],
+            Purpose::ExportMovie => &["mp4", "gif"],
+            Purpose::ExportGltf => &["glb", "gltf"],
         }
     }
 }
@@ -338,15 +374,7 @@ impl Recovery {
             "controls_path": self.controls_path.as_ref().map(|p| p.display().to_string()),
             "controls": self.controls,
         });
-        let bytes = serde_json::to_vec_pretty(&v).unwrap_or_default();
-        let _ = std::thread::Builder::new()
-            .name("csrbf-recovery".into())
-            .spawn(move || {
-                if let Some(dir) = path.parent() {
-                    let _ = std::fs::create_dir_all(dir);
-                }
-                let _ = csrbf_mesh::write_atomic(&path, &bytes);
-            });
+        write_in_background(path, serde_json::to_vec_pretty(&v).unwrap_or_default());
     }
 
     /// Removes the recovery file (the session was saved or closed on purpose).
@@ -355,4 +383,64 @@ impl Recovery {
             let _ = std::fs::remove_file(p);
         }
     }
+}
+
+/// The Composer's unsaved scene, kept in case the app dies: where it was
+/// saved (if ever) and its text (paths as the document names them:
+/// absolute for a scene never saved, relative to `path` otherwise).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneRecovery {
+    /// Where the scene was opened from or last saved to.
+    pub path: Option<PathBuf>,
+    /// The scene file's text.
+    pub scene: String,
+}
+
+impl SceneRecovery {
+    /// The file's path in the state folder `dir`.
+    pub fn path(dir: Option<&Path>) -> Option<PathBuf> {
+        dir.map(|d| d.join("recovery.scene.json"))
+    }
+
+    /// Reads it, if there is a readable one.
+    pub fn load(dir: Option<&Path>) -> Option<SceneRecovery> {
+        let text = std::fs::read_to_string(SceneRecovery::path(dir)?).ok()?;
+        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+        Some(SceneRecovery {
+            path: v.get("path").and_then(|p| p.as_str()).map(PathBuf::from),
+            scene: v.get("scene")?.as_str()?.to_string(),
+        })
+    }
+
+    /// Writes it on a thread, whole or not at all.
+    pub fn store(&self, dir: Option<&Path>) {
+        let Some(path) = SceneRecovery::path(dir) else {
+            return;
+        };
+        let v = serde_json::json!({
+            "path": self.path.as_ref().map(|p| p.display().to_string()),
+            "scene": self.scene,
+        });
+        write_in_background(path, serde_json::to_vec_pretty(&v).unwrap_or_default());
+    }
+
+    /// Removes it.
+    pub fn clear(dir: Option<&Path>) {
+        if let Some(p) = SceneRecovery::path(dir) {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` (whole or not at all) on a thread of its own:
+/// the UI does not wait for the disk.
+fn write_in_background(path: PathBuf, bytes: Vec<u8>) {
+    let _ = std::thread::Builder::new()
+        .name("csrbf-recovery".into())
+        .spawn(move || {
+            if let Some(dir) = path.parent() {
+                let _ = std::fs::create_dir_all(dir);
+            }
+            let _ = csrbf_mesh::write_atomic(&path, &bytes);
+        });
 }

@@ -8,8 +8,10 @@
 use std::sync::{Arc, Mutex};
 
 use csrbf::glam::Vec3;
-use csrbf_anim::{Camera, Scene};
-use csrbf_render::{DrawOptions, Line, Renderer, SceneRenderer, View, default_lights};
+use csrbf_anim::{Camera, Frame, Scene};
+use csrbf_render::{
+    DrawOptions, Line, Renderer, SceneOptions, SceneRenderer, View, default_lights,
+};
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor};
 use eframe::wgpu;
 
@@ -190,20 +192,93 @@ impl CallbackTrait for ViewportPaint {
         pass: &mut wgpu::RenderPass<'static>,
         resources: &CallbackResources,
     ) {
-        let Some(gpu) = resources.get::<ViewportGpu>() else {
-            return;
-        };
-        if let Some((size, _, group)) = &gpu.target
-            && *size == self.size
-        {
-            pass.set_pipeline(&gpu.blit);
-            pass.set_bind_group(0, group, &[]);
-            pass.draw(0..3, 0..1);
+        if let Some(gpu) = resources.get::<ViewportGpu>() {
+            gpu.blit(self.size, pass);
         }
     }
 }
 
 use eframe::egui;
+
+impl ViewportGpu {
+    /// The scene renderer of `id`, made by `make` on a renderer of this
+    /// device when `id` is new (None: nothing to draw yet), sized to `size`.
+    fn scene_renderer(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        id: u64,
+        samples: u32,
+        size: [u32; 2],
+        make: impl FnOnce(Renderer) -> Option<csrbf_render::Result<SceneRenderer>>,
+    ) -> csrbf_render::Result<Option<&mut SceneRenderer>> {
+        let [w, h] = size;
+        if self.scene.as_ref().map(|(k, _)| *k) != Some(id) {
+            let renderer =
+                Renderer::on_device(device.clone(), queue.clone(), FORMAT, w, h, samples)?;
+            match make(renderer) {
+                Some(r) => self.scene = Some((id, r?)),
+                None => return Ok(None),
+            }
+        }
+        let Some((_, scene)) = self.scene.as_mut() else {
+            return Ok(None);
+        };
+        scene.renderer_mut().resize(w, h)?;
+        Ok(Some(scene))
+    }
+
+    /// The texture the viewport is drawn into, of `size`.
+    fn target(&mut self, device: &wgpu::Device, size: [u32; 2]) -> wgpu::TextureView {
+        if let Some((s, view, _)) = &self.target
+            && *s == size
+        {
+            return view.clone();
+        }
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("viewport"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("viewport"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+            ],
+        });
+        self.target = Some((size, view.clone(), group));
+        view
+    }
+
+    /// Copies the drawn texture into egui's pass.
+    fn blit(&self, size: [u32; 2], pass: &mut wgpu::RenderPass<'static>) {
+        if let Some((s, _, group)) = &self.target
+            && *s == size
+        {
+            pass.set_pipeline(&self.blit);
+            pass.set_bind_group(0, group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+    }
+}
 
 impl ViewportPaint {
     fn draw(
@@ -212,55 +287,19 @@ impl ViewportPaint {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> csrbf_render::Result<()> {
-        let [w, h] = self.size;
-        if gpu.scene.as_ref().map(|(id, _)| *id) != Some(self.mesh.id) {
-            let taken = self.mesh.scene.lock().ok().and_then(|mut s| s.take());
-            let Some(scene) = taken else {
-                return Ok(());
-            };
-            let samples = self.mesh.samples;
-            let renderer =
-                Renderer::on_device(device.clone(), queue.clone(), FORMAT, w, h, samples)?;
-            gpu.scene = Some((self.mesh.id, SceneRenderer::on_renderer(&scene, renderer)?));
-        }
-        let Some((_, scene)) = gpu.scene.as_mut() else {
-            return Ok(());
-        };
-        scene.renderer_mut().resize(w, h)?;
-        if gpu.target.as_ref().map(|t| t.0) != Some(self.size) {
-            let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("viewport"),
-                size: wgpu::Extent3d {
-                    width: w,
-                    height: h,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: FORMAT,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            });
-            let view = texture.create_view(&Default::default());
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("viewport"),
-                layout: &gpu.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(&view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::Sampler(&gpu.sampler),
-                    },
-                ],
-            });
-            gpu.target = Some((self.size, view, group));
-        }
-        let Some((_, target, _)) = &gpu.target else {
+        let target = gpu.target(device, self.size);
+        let made = gpu.scene_renderer(
+            device,
+            queue,
+            self.mesh.id,
+            self.mesh.samples,
+            self.size,
+            |renderer| {
+                let taken = self.mesh.scene.lock().ok().and_then(|mut s| s.take())?;
+                Some(SceneRenderer::on_renderer(&taken, renderer))
+            },
+        )?;
+        let Some(scene) = made else {
             return Ok(());
         };
         let view = View {
@@ -279,12 +318,84 @@ impl ViewportPaint {
                 &self.positions,
                 &self.normals,
                 &light.indices,
-                target,
+                &target,
             ),
-            None => scene.draw_object_into(&view, 0, &self.positions, &self.normals, target),
+            None => scene.draw_object_into(&view, 0, &self.positions, &self.normals, &target),
         }
         gpu.error = None;
         Ok(())
+    }
+}
+
+/// One picture of the Composer's viewport: a frame of the scene.
+pub struct ScenePaint {
+    /// Size in physical pixels.
+    pub size: [u32; 2],
+    /// Identifies the GPU preparation of `scene`: parts and textures are
+    /// prepared once per id (a new id when objects, parts or looks change;
+    /// the same while only keys do).
+    pub id: u64,
+    /// Samples per pixel (see [`NewMesh::samples`]).
+    pub samples: u32,
+    /// The scene (its camera, lights and background are drawn).
+    pub scene: Arc<Scene>,
+    /// The frame drawn.
+    pub frame: Arc<Frame>,
+    /// Camera and shading (the scene's own lights and background).
+    pub options: SceneOptions,
+    /// Lines among the meshes (trajectories).
+    pub lines: Vec<Line>,
+    /// Lines over everything (keys, the camera, gizmos).
+    pub overlay: Vec<Line>,
+    /// Objects left out.
+    pub hidden: Vec<bool>,
+}
+
+impl CallbackTrait for ScenePaint {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &ScreenDescriptor,
+        _encoder: &mut wgpu::CommandEncoder,
+        resources: &mut CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let Some(gpu) = resources.get_mut::<ViewportGpu>() else {
+            return Vec::new();
+        };
+        let target = gpu.target(device, self.size);
+        let s = &self.scene;
+        let made = gpu.scene_renderer(device, queue, self.id, self.samples, self.size, |r| {
+            Some(SceneRenderer::on_renderer(s, r))
+        });
+        match made {
+            Ok(Some(r)) => {
+                r.draw_frame_into(
+                    s,
+                    &self.frame,
+                    self.options,
+                    &self.lines,
+                    &self.overlay,
+                    &self.hidden,
+                    &target,
+                );
+                gpu.error = None;
+            }
+            Ok(None) => {}
+            Err(e) => gpu.error = Some(e.to_string()),
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &CallbackResources,
+    ) {
+        if let Some(gpu) = resources.get::<ViewportGpu>() {
+            gpu.blit(self.size, pass);
+        }
     }
 }
 

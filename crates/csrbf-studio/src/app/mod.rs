@@ -3,9 +3,12 @@
 //! diagnostics and handles are library calls; what it keeps is what a
 //! window needs (the camera, the gesture in progress, open dialogs).
 
+mod composer;
 mod files;
 mod gpu;
 mod panel;
+mod scene_panel;
+mod timeline;
 mod viewport;
 
 use std::path::{Path, PathBuf};
@@ -18,6 +21,8 @@ use csrbf_mesh::{Bvh, Mesh};
 use eframe::egui;
 
 use crate::{Command, Document, History, Orbit, Preview, PreviewFrame};
+pub use composer::{KeyRef, Mode};
+use files::SceneRecovery;
 use files::{Choice, FileDialog, Purpose};
 pub use files::{MESH_ENDINGS, Recovery, state_dir};
 pub use gpu::BIG_MESH_TRIANGLES;
@@ -88,6 +93,9 @@ struct Model {
 enum Pending {
     Open(PathBuf),
     Close,
+    NewScene,
+    OpenScene(PathBuf),
+    BackToComposer,
 }
 
 /// `csrbf-studio`, the Picker.
@@ -114,6 +122,13 @@ pub struct StudioApp {
     handle_mode: panel::HandleMode,
     /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
     software: bool,
+    /// Picker or Composer.
+    mode: Mode,
+    /// The Composer's scene, when one is open.
+    composer: Option<composer::Composer>,
+    scene_recovery_offer: Option<SceneRecovery>,
+    /// To wake the window from other threads.
+    ctx: egui::Context,
 }
 
 impl StudioApp {
@@ -156,15 +171,23 @@ impl StudioApp {
             state,
             handle_mode: panel::HandleMode::default(),
             software,
+            mode: Mode::Pick,
+            composer: None,
+            scene_recovery_offer: None,
+            ctx: cc.egui_ctx.clone(),
         };
         let ctx = cc.egui_ctx.clone();
-        if let Some(mesh) = &args.mesh {
+        if let Some(scene) = args.mesh.as_ref().filter(|p| is_scene(p)) {
+            app.open_scene_now(scene);
+        } else if let Some(mesh) = &args.mesh {
             app.open_mesh(&ctx, mesh);
             if let Some(c) = &args.controls
                 && app.model.is_some()
             {
                 app.open_controls(c);
             }
+        } else if let Some(r) = SceneRecovery::load(app.state.as_deref()) {
+            app.scene_recovery_offer = Some(r);
         } else if let Some(r) = Recovery::load(app.state.as_deref()) {
             app.recovery_offer = Some(r);
         }
@@ -251,14 +274,7 @@ impl StudioApp {
     fn open_mesh_now(&mut self, ctx: &egui::Context, path: &Path) {
         let started = Instant::now();
         if is_scene(path) {
-            return self.show_error(
-                "Cannot open a scene here yet",
-                format!(
-                    "{}: scene files open in the Composer, which is not built yet; `csrbf animate {} --out movie.mp4` renders it",
-                    path.display(),
-                    path.display()
-                ),
-            );
+            return self.open_scene(path);
         }
         let loaded = match csrbf_mesh::load(path) {
             Ok(l) => l,
@@ -360,13 +376,7 @@ impl StudioApp {
     /// the CLI would refuse leaves the document as it was and says why.
     pub fn open_controls(&mut self, path: &Path) {
         if is_scene(path) {
-            return self.show_error(
-                "Cannot open a scene here yet",
-                format!(
-                    "{}: this is a scene file, not a control file; scenes open in the Composer, which is not built yet",
-                    path.display()
-                ),
-            );
+            return self.open_scene(path);
         }
         let Some(m) = self.model.as_mut() else {
             return self.show_error("No mesh", "open a mesh before its control file");
@@ -496,8 +506,28 @@ impl StudioApp {
                 .unwrap_or_else(|| m.doc.mesh_path.with_extension("controls.json")),
             Purpose::ExportMesh => m.doc.mesh_path.with_extension("deformed.obj"),
             Purpose::ExportFitted => m.doc.mesh_path.with_extension("csrbf"),
-            Purpose::OpenMesh => m.doc.mesh_path.clone(),
+            _ => m.doc.mesh_path.clone(),
         });
+        let scene_path = self.composer.as_ref().and_then(|c| c.doc.path.clone());
+        let near = match purpose {
+            Purpose::SaveScene => {
+                Some(scene_path.unwrap_or_else(|| PathBuf::from("untitled.scene.json")))
+            }
+            Purpose::ExportMovie => Some(
+                scene_path
+                    .map(|p| movie_name(&p, "mp4"))
+                    .unwrap_or_else(|| PathBuf::from("movie.mp4")),
+            ),
+            Purpose::ExportGltf => Some(
+                scene_path
+                    .map(|p| movie_name(&p, "glb"))
+                    .unwrap_or_else(|| PathBuf::from("scene.glb")),
+            ),
+            Purpose::OpenScene | Purpose::AddObject | Purpose::Texture | Purpose::AddControls => {
+                scene_path.or(near)
+            }
+            _ => near,
+        };
         self.dialog = Some(FileDialog::new(purpose, near.as_deref()));
     }
 
@@ -782,6 +812,13 @@ impl StudioApp {
                     Purpose::SaveControls => self.save_to(&p),
                     Purpose::ExportMesh => self.export_mesh(&p),
                     Purpose::ExportFitted => self.export_fitted(&p),
+                    Purpose::OpenScene => self.open_scene(&p),
+                    Purpose::SaveScene => self.save_scene_to(&p),
+                    Purpose::AddObject => self.add_object(&p),
+                    Purpose::Texture => self.set_texture(&p),
+                    Purpose::AddControls => self.add_deformation(&p),
+                    Purpose::ExportMovie => self.export_movie(&p),
+                    Purpose::ExportGltf => self.export_gltf(&p),
                 }
             }
         }
@@ -803,9 +840,16 @@ impl StudioApp {
         }
         if let Some(pending) = self.pending.clone() {
             let mut answer = None;
+            let scene = matches!(pending, Pending::NewScene | Pending::OpenScene(_))
+                || (matches!(pending, Pending::Close)
+                    && self.composer.as_ref().is_some_and(|c| c.doc.dirty));
             egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
                 ui.heading("Unsaved changes");
-                ui.label("The control file has changes that are not saved.");
+                ui.label(if scene {
+                    "The scene has changes that are not saved."
+                } else {
+                    "The control file has changes that are not saved."
+                });
                 ui.horizontal(|ui| {
                     if ui.button("Save").clicked() {
                         answer = Some(0);
@@ -821,20 +865,67 @@ impl StudioApp {
             match answer {
                 Some(0) => {
                     self.pending = None;
-                    self.save();
-                    if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
+                    if scene {
+                        self.save_scene();
+                    } else {
+                        self.save();
+                    }
+                    let saved = if scene {
+                        self.composer.as_ref().is_some_and(|c| !c.doc.dirty)
+                    } else {
+                        self.model.as_ref().is_some_and(|m| !m.doc.dirty)
+                    };
+                    if saved {
                         self.resume(ctx, pending);
                     }
                 }
                 Some(1) => {
                     self.pending = None;
-                    if let Some(m) = self.model.as_mut() {
-                        m.doc.dirty = false;
+                    if scene {
+                        if let Some(c) = self.composer.as_mut() {
+                            c.doc.dirty = false;
+                        }
+                        SceneRecovery::clear(self.state.as_deref());
+                    } else {
+                        if let Some(m) = self.model.as_mut() {
+                            m.doc.dirty = false;
+                        }
+                        Recovery::clear(self.state.as_deref());
                     }
-                    Recovery::clear(self.state.as_deref());
                     self.resume(ctx, pending);
                 }
                 Some(_) => self.pending = None,
+                None => {}
+            }
+        }
+        if let Some(r) = self.scene_recovery_offer.clone() {
+            let mut answer = None;
+            egui::Modal::new(egui::Id::unique("scene recovery")).show(ctx, |ui| {
+                ui.heading("Restore the last scene?");
+                ui.label(format!(
+                    "The studio closed with unsaved changes to the scene {}.",
+                    r.path
+                        .as_ref()
+                        .map_or("(never saved)".into(), |p| p.display().to_string())
+                ));
+                ui.horizontal(|ui| {
+                    if ui.button("Restore").clicked() {
+                        answer = Some(true);
+                    }
+                    if ui.button("Discard").clicked() {
+                        answer = Some(false);
+                    }
+                });
+            });
+            match answer {
+                Some(true) => {
+                    self.scene_recovery_offer = None;
+                    self.restore_scene(&r);
+                }
+                Some(false) => {
+                    self.scene_recovery_offer = None;
+                    SceneRecovery::clear(self.state.as_deref());
+                }
                 None => {}
             }
         }
@@ -891,15 +982,47 @@ impl StudioApp {
         match pending {
             Pending::Open(p) => self.open_mesh_now(ctx, &p),
             Pending::Close => {
-                self.allow_close = true;
-                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                // Both documents are asked about, one after the other.
+                let other = if self.composer.as_ref().is_some_and(|c| c.doc.dirty) {
+                    true
+                } else {
+                    self.model.as_ref().is_some_and(|m| m.doc.dirty)
+                };
+                if other {
+                    self.pending = Some(Pending::Close);
+                } else {
+                    self.allow_close = true;
+                    ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                }
             }
+            Pending::NewScene => {
+                if let Some(c) = self.composer.as_mut() {
+                    c.doc.dirty = false;
+                }
+                self.new_scene();
+            }
+            Pending::OpenScene(p) => self.open_scene_now(&p),
+            Pending::BackToComposer => self.back_to_composer(),
         }
     }
 
     fn menu(&mut self, ui: &mut egui::Ui) {
+        if self.mode == Mode::Compose {
+            return self.compose_menu(ui);
+        }
         egui::MenuBar::new().ui(ui, |ui| {
+            self.mode_switch(ui);
             ui.menu_button("File", |ui| {
+                if self.composer.is_some() && ui.button("Back to the Composer").clicked() {
+                    self.back_to_composer();
+                }
+                if ui.button("New scene (Composer)").clicked() {
+                    self.new_scene();
+                }
+                if ui.button("Open scene…").clicked() {
+                    self.ask(Purpose::OpenScene);
+                }
+                ui.separator();
                 if ui.button("Open mesh…  Ctrl+O").clicked() {
                     self.ask(Purpose::OpenMesh);
                 }
@@ -917,7 +1040,9 @@ impl StudioApp {
                             let is_mesh = p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
                                 MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str())
                             });
-                            if is_mesh {
+                            if is_scene(&p) {
+                                self.open_scene(&p);
+                            } else if is_mesh {
                                 self.open_mesh(&ctx, &p);
                             } else {
                                 self.open_controls(&p);
@@ -1035,6 +1160,19 @@ impl StandIn {
     }
 }
 
+/// `movie.EXT` beside a scene file: `face.scene.json` gives `face.EXT`.
+fn movie_name(scene: &Path, ext: &str) -> PathBuf {
+    let name = scene
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let stem = name
+        .strip_suffix(".scene.json")
+        .or_else(|| name.strip_suffix(".json"))
+        .unwrap_or("scene");
+    scene.with_file_name(format!("{stem}.{ext}"))
+}
+
 /// Whether a path names a scene file (`*.scene.json`).
 fn is_scene(path: &Path) -> bool {
     path.file_name()
@@ -1076,15 +1214,21 @@ impl eframe::App for StudioApp {
                 .and_then(|e| e.to_str())
                 .map(str::to_ascii_lowercase)
                 .unwrap_or_default();
-            if MESH_ENDINGS.contains(&ext.as_str()) {
+            if is_scene(&p) {
+                self.open_scene(&p);
+            } else if MESH_ENDINGS.contains(&ext.as_str()) && self.mode == Mode::Compose {
+                self.add_object(&p);
+            } else if MESH_ENDINGS.contains(&ext.as_str()) {
                 self.open_mesh(&ctx, &p);
+            } else if ext == "json" && self.mode == Mode::Compose {
+                self.add_deformation(&p);
             } else if ext == "json" {
                 self.open_controls(&p);
             } else {
                 self.show_error(
                     "Cannot open the dropped file",
                     format!(
-                        "{}: the studio reads meshes ({}) and control files (.json)",
+                        "{}: the studio reads meshes ({}), control files (.json) and scenes (.scene.json)",
                         p.display(),
                         MESH_ENDINGS.join(", ")
                     ),
@@ -1093,13 +1237,49 @@ impl eframe::App for StudioApp {
         }
         if ctx.input(|i| i.viewport().close_requested())
             && !self.allow_close
-            && self.model.as_ref().is_some_and(|m| m.doc.dirty)
+            && (self.model.as_ref().is_some_and(|m| m.doc.dirty)
+                || self.composer.as_ref().is_some_and(|c| c.doc.dirty))
         {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
             self.pending = Some(Pending::Close);
         }
-        if self.dialog.is_none() && self.message.is_none() && self.pending.is_none() {
-            self.handle_keys(&ctx);
+        let exporting = self.exporting();
+        if self.dialog.is_none() && self.message.is_none() && self.pending.is_none() && !exporting {
+            if self.mode == Mode::Compose {
+                self.compose_keys(&ctx);
+            } else {
+                self.handle_keys(&ctx);
+            }
+        }
+        if self.mode == Mode::Compose {
+            self.tick(&ctx);
+            if !ctx.input(|i| i.pointer.any_down())
+                && let Some(c) = self.composer.as_mut()
+            {
+                c.history.end_merge();
+            }
+            egui::Panel::top("menu").show(ui, |ui| self.menu(ui));
+            egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+            egui::Panel::bottom("timeline")
+                .resizable(true)
+                .default_size(230.0)
+                .size_range(120.0..=600.0)
+                .show(ui, |ui| self.timeline_ui(ui));
+            egui::Panel::right("scene")
+                .resizable(true)
+                .default_size(360.0)
+                .size_range(280.0..=560.0)
+                .show(ui, |ui| {
+                    egui::ScrollArea::vertical().show(ui, |ui| self.scene_panel(ui));
+                });
+            egui::CentralPanel::default()
+                .frame(egui::Frame::NONE)
+                .show(ui, |ui| self.compose_viewport(ui));
+            self.dialogs(&ctx);
+            self.export_ui(&ctx);
+            self.scene_recovery(&ctx);
+            self.frame_time = started.elapsed();
+            return;
         }
         egui::Panel::top("menu").show(ui, |ui| self.menu(ui));
         egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
@@ -1147,6 +1327,9 @@ impl eframe::App for StudioApp {
     fn on_exit(&mut self) {
         if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
             Recovery::clear(self.state.as_deref());
+        }
+        if self.composer.as_ref().is_some_and(|c| !c.doc.dirty) {
+            SceneRecovery::clear(self.state.as_deref());
         }
     }
 }

@@ -41,7 +41,49 @@ pub enum HandleMode {
 impl StudioApp {
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal(|ui| {
-            if let Some(m) = self.model.as_ref() {
+            if self.mode == super::Mode::Compose
+                && let Some(c) = self.composer.as_ref()
+            {
+                let vertices: usize = c.scene.as_ref().map_or(0, |s| {
+                    s.objects.iter().map(|o| o.mesh.positions.len()).sum()
+                });
+                ui.label(format!(
+                    "{} objects · {} vertices · {} fps · {:.2} s",
+                    c.doc.file.objects.len(),
+                    vertices,
+                    c.doc.file.fps,
+                    c.doc.file.duration
+                ));
+                ui.separator();
+                if c.playback.playing {
+                    let rate = self.playback_rate();
+                    ui.label(format!("playing at {rate:.1} fps"));
+                    if c.every_frame {
+                        ui.label("(every frame: slower than real time when it must)");
+                    } else if c.playback.dropped > 0 {
+                        ui.colored_label(
+                            egui::Color32::from_rgb(240, 190, 90),
+                            format!(
+                                "{} frames dropped: this machine draws slower than {} fps",
+                                c.playback.dropped, c.doc.file.fps
+                            ),
+                        );
+                    }
+                    ui.separator();
+                } else if c.playback.dropped > 0 {
+                    ui.label(format!("last play dropped {} frames", c.playback.dropped));
+                    ui.separator();
+                }
+                ui.label(format!(
+                    "frame {:.1} ms",
+                    self.frame_time.as_secs_f64() * 1e3
+                ));
+                if c.doc.dirty {
+                    ui.separator();
+                    ui.label("unsaved");
+                }
+                ui.separator();
+            } else if let Some(m) = self.model.as_ref() {
                 let controls: usize = m
                     .doc
                     .controls
@@ -617,7 +659,7 @@ impl StudioApp {
     }
 }
 
-fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64) -> bool {
+pub(super) fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64) -> bool {
     let mut changed = false;
     ui.horizontal(|ui| {
         ui.label(label);

@@ -884,7 +884,11 @@ pub(super) fn handle_axis(axis: Option<usize>, cam: &csrbf_anim::Camera) -> DVec
 const RING_PIXELS: f32 = 40.0;
 
 /// World length of one pixel at `centre`.
-fn world_per_pixel(centre: Vec3, cam: &csrbf_anim::Camera, size: [u32; 2]) -> Option<f32> {
+pub(super) fn world_per_pixel(
+    centre: Vec3,
+    cam: &csrbf_anim::Camera,
+    size: [u32; 2],
+) -> Option<f32> {
     let (c, _) = cam.project(centre, size)?;
     let (right, _, _) = cam.basis();
     let (q, _) = cam.project(centre + right * 0.01, size)?;
@@ -894,7 +898,7 @@ fn world_per_pixel(centre: Vec3, cam: &csrbf_anim::Camera, size: [u32; 2]) -> Op
 
 /// The gizmo's three rings about `centre`, `radius` pixels wide: for X, Y
 /// and Z, the axis, the ring's points (closed) and its colour.
-fn axis_rings(
+pub(super) fn axis_rings(
     centre: Vec3,
     cam: &csrbf_anim::Camera,
     size: [u32; 2],
@@ -926,7 +930,7 @@ fn axis_rings(
 
 /// The pointer's distance in pixels to a polyline as drawn (None when it
 /// is behind the camera).
-fn polyline_distance(
+pub(super) fn polyline_distance(
     cam: &csrbf_anim::Camera,
     size: [u32; 2],
     pts: &[Vec3],

@@ -1,0 +1,1704 @@
+//! The Composer: the scene around the Picker's deformations. One scene
+//! document ([`SceneDoc`], edited only through [`SceneEdit`]s with undo),
+//! the loaded [`Scene`] it describes (key edits retime it in microseconds;
+//! other edits load it again from cached meshes), the frame at the
+//! playhead, playback in real time, and export through the same library
+//! calls as `csrbf animate` and `csrbf export`.
+//!
+//! The timeline and the side panel are in `timeline.rs` and `scene_panel.rs`;
+//! this file keeps the state, the viewport and the files.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use csrbf::glam::{DQuat, DVec3, Vec2, Vec3};
+use csrbf_anim::{Assets, Camera, Frame, ObjectFile, PartFile, Scene, SceneFile};
+use csrbf_render::{Line, SceneOptions};
+use eframe::egui;
+
+use super::files::{Purpose, SceneRecovery};
+use super::viewport::{axis_rings, polyline_distance};
+use super::{Pending, StudioApp, gpu};
+use crate::Orbit;
+use crate::compose::{KeyValue, Playback, SceneDoc, SceneEdit, SceneHistory, Track, key_value};
+
+/// Which program the window is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// The Picker: control vectors on one mesh.
+    #[default]
+    Pick,
+    /// The Composer: a scene of objects, keys and timing.
+    Compose,
+}
+
+/// A key of the timeline: object, track, index.
+pub type KeyRef = (usize, Track, usize);
+
+/// A key being dragged in the viewport (a position key in 3-D, or an
+/// orientation key by a ring of its gizmo).
+#[derive(Clone, Debug)]
+pub(super) enum KeyDrag {
+    Position {
+        object: usize,
+        index: usize,
+        /// World point of the key's marker when the drag began.
+        from: Vec3,
+        /// The key's position when the drag began.
+        start: [f64; 3],
+        /// The pointer's pixel at the press.
+        pressed: Vec2,
+    },
+    Turn {
+        object: usize,
+        index: usize,
+        axis: Vec3,
+        centre: Vec3,
+        start: DQuat,
+        pressed: Vec2,
+    },
+    Orbit,
+    Pan,
+}
+
+/// An export running on a thread.
+pub(super) struct ExportJob {
+    pub what: String,
+    pub path: PathBuf,
+    pub done: Arc<AtomicUsize>,
+    pub total: Arc<AtomicUsize>,
+    pub cancel: Arc<AtomicBool>,
+    pub result: Arc<Mutex<Option<Result<String, String>>>>,
+    pub started: Instant,
+}
+
+/// The Composer's state.
+pub(super) struct Composer {
+    pub doc: SceneDoc,
+    pub history: SceneHistory,
+    /// The loaded scene (None while it has no object or cannot load).
+    pub scene: Option<Arc<Scene>>,
+    /// Why the scene cannot load as it stands, if it cannot.
+    pub problem: Option<String>,
+    /// Meshes read once, by resolved path.
+    assets: Assets,
+    read: HashSet<PathBuf>,
+    /// Identifies the GPU preparation of `scene` (changes when objects,
+    /// parts or looks do).
+    pub gpu_id: u64,
+    pub samples: u32,
+    /// The frame at `frame_at`.
+    pub frame: Arc<Frame>,
+    frame_at: Option<(u64, f64)>,
+    /// Bumped whenever `scene` changes.
+    generation: u64,
+    pub orbit: Orbit,
+    pub framed: bool,
+    /// Look through the scene's camera (its gate: the scene's aspect).
+    pub through_camera: bool,
+    pub playback: Playback,
+    /// Draw every frame instead of keeping real time (slower, by choice).
+    pub every_frame: bool,
+    last_tick: Option<Instant>,
+    /// Frames drawn while playing, over the last second: the rate shown.
+    pub drawn: Vec<Instant>,
+    pub selected: Option<usize>,
+    pub key: Option<KeyRef>,
+    pub hidden: Vec<bool>,
+    pub drag: Option<KeyDrag>,
+    /// A key being dragged along the timeline, and the time it is at.
+    pub time_drag: Option<(KeyRef, f64)>,
+    pub export: Option<ExportJob>,
+    pub recovery_at: Option<Instant>,
+    pub recovered_text: String,
+    /// A rename being typed: the object and its text.
+    pub renaming: Option<(usize, String)>,
+    /// The last time the scene was loaded whole, in ms.
+    pub load_ms: f64,
+    /// The part a texture or control file being chosen is for.
+    pub part_target: Option<(usize, usize)>,
+    /// Where the timeline's ruler was drawn (time 0 at its left edge,
+    /// the duration at its right).
+    pub ruler: egui::Rect,
+}
+
+/// Where an object's frame is at `time`: its centre of gravity in the world.
+fn world_centre(scene: &Scene, object: usize, time: f64) -> Option<Vec3> {
+    let o = scene.objects.get(object)?;
+    let (rot, shift) = o.transform(time);
+    Some((rot * o.center + shift).as_vec3())
+}
+
+impl Composer {
+    fn new(doc: SceneDoc, samples: u32) -> Composer {
+        Composer {
+            doc,
+            history: SceneHistory::default(),
+            scene: None,
+            problem: None,
+            assets: Assets::new(),
+            read: HashSet::new(),
+            gpu_id: 0,
+            samples,
+            frame: Arc::new(Frame::default()),
+            frame_at: None,
+            generation: 0,
+            orbit: Orbit::new(Vec3::Y, Vec3::splat(-1.0), Vec3::splat(1.0), 1.6),
+            framed: false,
+            through_camera: false,
+            playback: Playback::default(),
+            every_frame: false,
+            last_tick: None,
+            drawn: Vec::new(),
+            selected: None,
+            key: None,
+            hidden: Vec::new(),
+            drag: None,
+            time_drag: None,
+            export: None,
+            recovery_at: None,
+            recovered_text: String::new(),
+            renaming: None,
+            load_ms: 0.0,
+            part_target: None,
+            ruler: egui::Rect::NOTHING,
+        }
+    }
+
+    /// The scene `file` describes: the loaded one retimed when only keys,
+    /// timing or the camera differ, else loaded again (meshes from the
+    /// cache). The current scene is not changed.
+    fn prepare(&mut self, file: &SceneFile, force: bool) -> Result<Option<Scene>, String> {
+        if file.objects.is_empty() {
+            return Ok(None);
+        }
+        if !force && let Some(s) = &self.scene {
+            let mut s = (**s).clone();
+            if s.retime(file.clone()).map_err(|e| e.to_string())? {
+                return Ok(Some(s));
+            }
+        }
+        let dir = self.doc.dir();
+        for o in &file.objects {
+            let p = dir.join(&o.mesh);
+            if !self.read.contains(&p)
+                && let Ok(m) = csrbf_mesh::read(&p)
+            {
+                self.assets.set_mesh(p.clone(), m);
+                self.read.insert(p);
+            }
+        }
+        let name = self
+            .doc
+            .path
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("(new scene)"));
+        let started = Instant::now();
+        let scene = Scene::from_file_with(file.clone(), &dir, &name, &self.assets)
+            .map_err(|e| e.to_string())?;
+        self.load_ms = started.elapsed().as_secs_f64() * 1e3;
+        Ok(Some(scene))
+    }
+
+    /// Installs a prepared scene; `structural`: the GPU prepares it again.
+    fn install(&mut self, scene: Option<Scene>, structural: bool, next_id: &mut u64) {
+        let same_shape =
+            match (&self.scene, &scene) {
+                (Some(a), Some(b)) => {
+                    !structural
+                        && a.objects.len() == b.objects.len()
+                        && a.file.objects.iter().zip(&b.file.objects).all(|(x, y)| {
+                            x.mesh == y.mesh && x.parts == y.parts && x.scale == y.scale
+                        })
+                }
+                _ => false,
+            };
+        if !same_shape {
+            self.gpu_id = *next_id;
+            *next_id += 1;
+        }
+        self.scene = scene.map(Arc::new);
+        self.generation += 1;
+        self.problem = None;
+        self.hidden.resize(self.doc.file.objects.len(), false);
+        if self
+            .selected
+            .is_some_and(|s| s >= self.doc.file.objects.len())
+        {
+            self.selected = None;
+        }
+        if let Some((o, t, i)) = self.key
+            && self.doc.key_times(o, t).len() <= i
+        {
+            self.key = None;
+        }
+    }
+
+    /// The frame at the playhead (computed when the scene or time changed).
+    pub fn frame_now(&mut self) {
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        let at = (self.generation, self.doc.playhead);
+        if self.frame_at != Some(at) {
+            scene.frame_into(self.doc.playhead, Arc::make_mut(&mut self.frame));
+            self.frame_at = Some(at);
+        }
+    }
+
+    /// Retimes the loaded scene in place to `file` (a drag step: no undo
+    /// step, the document unchanged until the drag ends).
+    fn preview_file(&mut self, file: SceneFile) {
+        if let Some(s) = self.scene.as_mut()
+            && Arc::make_mut(s).retime(file).unwrap_or(false)
+        {
+            self.generation += 1;
+        }
+    }
+
+    /// The scene's camera.
+    pub fn scene_camera(&self) -> Camera {
+        let c = &self.doc.file.camera;
+        let v = |a: [f64; 3]| DVec3::from_array(a).as_vec3();
+        Camera::perspective(v(c.eye), v(c.target), v(c.up), c.fov as f32)
+    }
+
+    /// The world box of every object over the whole scene (sampled).
+    fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let s = self.scene.as_ref()?;
+        let mut lo = Vec3::INFINITY;
+        let mut hi = Vec3::NEG_INFINITY;
+        let d = self.doc.file.duration;
+        for (k, o) in s.objects.iter().enumerate() {
+            for j in 0..=16 {
+                let c = world_centre(s, k, d * j as f64 / 16.0).unwrap_or_default();
+                let r = o.radius as f32;
+                lo = lo.min(c - Vec3::splat(r));
+                hi = hi.max(c + Vec3::splat(r));
+            }
+        }
+        lo.is_finite().then_some((lo, hi))
+    }
+
+    /// The value a new key of `track` gets at the playhead: what the scene
+    /// shows there now.
+    pub fn value_now(&self, object: usize, track: Track) -> Option<KeyValue> {
+        let t = self.doc.playhead;
+        let o = self.scene.as_ref()?.objects.get(object)?;
+        Some(match track {
+            Track::Position => KeyValue::Position(o.trajectory.position(t).to_array()),
+            Track::Orientation => KeyValue::Orientation(o.orientation.rotation(t).to_array()),
+            Track::Phase { part, deformation } => {
+                // Deformations are listed part by part, in file order.
+                let of = self.doc.file.objects.get(object)?;
+                let flat = of.parts[..part]
+                    .iter()
+                    .map(|p| p.deformations.len())
+                    .sum::<usize>()
+                    + deformation;
+                KeyValue::Phase(o.deformations.get(flat)?.track.phase(t).clamp(0.0, 1.0))
+            }
+        })
+    }
+}
+
+impl StudioApp {
+    /// The Composer's scene document, if one is open (for tests and tools).
+    pub fn scene_doc(&self) -> Option<&SceneDoc> {
+        self.composer.as_ref().map(|c| &c.doc)
+    }
+
+    /// The loaded scene the Composer shows.
+    pub fn loaded_scene(&self) -> Option<&Scene> {
+        self.composer.as_ref()?.scene.as_deref()
+    }
+
+    /// The frame shown (the scene at the playhead).
+    pub fn shown_frame(&self) -> Option<&Frame> {
+        self.composer.as_ref().map(|c| &*c.frame)
+    }
+
+    /// Which program the window is.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// The playback state.
+    pub fn playback(&self) -> Option<&Playback> {
+        self.composer.as_ref().map(|c| &c.playback)
+    }
+
+    /// The selected key.
+    pub fn selected_key(&self) -> Option<KeyRef> {
+        self.composer.as_ref()?.key
+    }
+
+    /// Where the timeline's ruler is on screen (time 0 at its left edge,
+    /// the scene's duration at its right): what a test clicks to scrub.
+    pub fn timeline_ruler(&self) -> Option<egui::Rect> {
+        self.composer
+            .as_ref()
+            .map(|c| c.ruler)
+            .filter(|r| r.is_positive())
+    }
+
+    /// Scene edits that can be undone.
+    pub fn scene_undo_steps(&self) -> usize {
+        self.composer.as_ref().map_or(0, |c| c.history.undo_steps())
+    }
+
+    /// Whether an export is running.
+    pub fn exporting(&self) -> bool {
+        self.composer.as_ref().is_some_and(|c| c.export.is_some())
+    }
+
+    fn composer_samples(&self) -> u32 {
+        if self.software { 1 } else { 4 }
+    }
+
+    /// Switches to the Composer with a new, empty scene (after asking about
+    /// unsaved changes to the scene open).
+    pub fn new_scene(&mut self) {
+        if self.composer.as_ref().is_some_and(|c| c.doc.dirty) {
+            self.pending = Some(Pending::NewScene);
+            return;
+        }
+        self.composer = Some(Composer::new(SceneDoc::empty(), self.composer_samples()));
+        self.mode = Mode::Compose;
+        self.status = "New scene: add a mesh (Scene > Add object, or drop one here)".into();
+    }
+
+    /// Opens a scene file in the Composer. A file the CLI would refuse (or
+    /// whose meshes, control files or textures cannot be read) leaves the
+    /// open scene as it was and says why, in the CLI's words.
+    pub fn open_scene(&mut self, path: &Path) {
+        if self.composer.as_ref().is_some_and(|c| c.doc.dirty) {
+            self.pending = Some(Pending::OpenScene(path.to_path_buf()));
+            return;
+        }
+        self.open_scene_now(path);
+    }
+
+    pub(super) fn open_scene_now(&mut self, path: &Path) {
+        let started = Instant::now();
+        let doc = match SceneDoc::open(path) {
+            Ok(d) => d,
+            Err(e) => return self.show_error("Cannot open the scene", e),
+        };
+        self.adopt_scene(doc, started, &format!("Opened {}", path.display()));
+        if self.composer.as_ref().is_some_and(|c| c.doc.path.is_some()) {
+            super::files::remember(self.state.as_deref(), path);
+            self.recent = super::files::recent_files(self.state.as_deref());
+        }
+    }
+
+    /// Makes `doc` the Composer's document if its scene loads.
+    fn adopt_scene(&mut self, doc: SceneDoc, started: Instant, note: &str) {
+        let mut c = Composer::new(doc, self.composer_samples());
+        let file = c.doc.file.clone();
+        let scene = match c.prepare(&file, true) {
+            Ok(s) => s,
+            Err(e) => return self.show_error("Cannot open the scene", e),
+        };
+        c.install(scene, true, &mut self.next_mesh_id);
+        let warnings = c
+            .scene
+            .as_ref()
+            .map(|s| s.warnings.join("; "))
+            .unwrap_or_default();
+        self.composer = Some(c);
+        self.mode = Mode::Compose;
+        self.gesture = super::viewport::Gesture::None;
+        self.status = format!(
+            "{note} in {:.0} ms{}",
+            started.elapsed().as_secs_f64() * 1e3,
+            if warnings.is_empty() {
+                String::new()
+            } else {
+                format!(" ({warnings})")
+            }
+        );
+    }
+
+    /// Reopens the scene kept in the recovery file.
+    pub fn restore_scene(&mut self, r: &SceneRecovery) {
+        let file = match SceneFile::parse(&r.scene) {
+            Ok(f) => f,
+            Err(e) => return self.show_error("Cannot restore the scene", e.to_string()),
+        };
+        let mut doc = SceneDoc::new(file, r.path.clone());
+        doc.dirty = true;
+        self.adopt_scene(doc, Instant::now(), "Restored the unsaved scene");
+        if let Some(c) = self.composer.as_mut() {
+            c.doc.dirty = true;
+        }
+    }
+
+    /// Applies a scene edit: the scene it makes must load (a mesh that
+    /// cannot be read, a texture missing...), else nothing changes and the
+    /// reason is shown. One undo step.
+    pub fn scene_edit(&mut self, edit: SceneEdit) -> bool {
+        self.scene_edit_merging(edit, None)
+    }
+
+    /// [`StudioApp::scene_edit`], merged into the last step when it has the
+    /// same `tag` (the steps of one slider drag).
+    pub(super) fn scene_edit_merging(
+        &mut self,
+        edit: SceneEdit,
+        tag: Option<&'static str>,
+    ) -> bool {
+        let Some(c) = self.composer.as_mut() else {
+            return false;
+        };
+        let mut trial = c.doc.clone();
+        if let Err(e) = edit.apply(&mut trial) {
+            self.status = format!("Not done: {e}");
+            return false;
+        }
+        let structural = matches!(
+            edit,
+            SceneEdit::AddObject(_) | SceneEdit::RemoveObject(_) | SceneEdit::ReplaceObject(..)
+        );
+        match c.prepare(&trial.file, structural) {
+            Ok(scene) => {
+                let applied = match tag {
+                    Some(tag) => c.history.apply_merging(&mut c.doc, &edit, tag),
+                    None => c.history.apply(&mut c.doc, &edit),
+                };
+                if let Err(e) = applied {
+                    self.status = format!("Not done: {e}");
+                    return false;
+                }
+                c.install(scene, structural, &mut self.next_mesh_id);
+                true
+            }
+            Err(e) => {
+                self.show_error("Not done", e);
+                false
+            }
+        }
+    }
+
+    pub(super) fn scene_undo(&mut self, redo: bool) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let before = c.doc.clone();
+        let r = if redo {
+            c.history.redo(&mut c.doc)
+        } else {
+            c.history.undo(&mut c.doc)
+        };
+        if let Err(e) = r {
+            self.status = e.to_string();
+            return;
+        }
+        let file = c.doc.file.clone();
+        match c.prepare(&file, false) {
+            Ok(scene) => {
+                c.install(scene, false, &mut self.next_mesh_id);
+                self.status = if redo { "Redone" } else { "Undone" }.into();
+            }
+            Err(e) => {
+                // A file changed on disk since: keep the document as it was.
+                c.doc = before;
+                self.show_error("Cannot undo", e);
+            }
+        }
+    }
+
+    /// Loads the scene again from the disk (after the Picker saved one of
+    /// its control files).
+    pub(super) fn reload_scene(&mut self) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        c.read.clear();
+        c.assets = Assets::new();
+        let file = c.doc.file.clone();
+        match c.prepare(&file, true) {
+            Ok(scene) => c.install(scene, true, &mut self.next_mesh_id),
+            Err(e) => {
+                c.problem = Some(e.clone());
+                self.show_error("The scene no longer loads", e);
+            }
+        }
+    }
+
+    /// Saves the scene where it came from, else asks where.
+    pub fn save_scene(&mut self) {
+        match self.composer.as_ref().and_then(|c| c.doc.path.clone()) {
+            Some(p) => self.save_scene_to(&p),
+            None => self.ask(Purpose::SaveScene),
+        }
+    }
+
+    /// Saves the scene at `path` in the CLI's format, its paths relative to
+    /// that folder; whole or not at all. A scene the CLI would refuse is
+    /// not written.
+    pub fn save_scene_to(&mut self, path: &Path) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        if let Err(e) = c.doc.saveable() {
+            return self.show_error("Cannot save the scene", e);
+        }
+        let rebased = c.doc.rebased(path);
+        match csrbf_mesh::write_atomic(path, rebased.to_json().as_bytes()) {
+            Ok(()) => {
+                c.doc.file = rebased;
+                c.doc.path = Some(path.to_path_buf());
+                c.doc.dirty = false;
+                // Paths changed form, not meaning: the cache keys stay valid.
+                if let Some(s) = c.scene.as_mut() {
+                    let s = Arc::make_mut(s);
+                    s.file = c.doc.file.clone();
+                    s.dir = c.doc.dir();
+                }
+                SceneRecovery::clear(self.state.as_deref());
+                self.status = format!("Saved {}", path.display());
+                super::files::remember(self.state.as_deref(), path);
+                self.recent = super::files::recent_files(self.state.as_deref());
+            }
+            Err(e) => self.show_error("Cannot save the scene", e.to_string()),
+        }
+    }
+
+    /// Adds a mesh as a new object (one part, light grey), at the origin.
+    pub fn add_object(&mut self, path: &Path) {
+        if self.composer.is_none() {
+            self.new_scene();
+        }
+        let Some(c) = self.composer.as_ref() else {
+            return;
+        };
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "object".into());
+        let mut name = stem.clone();
+        let mut k = 2;
+        while c.doc.file.objects.iter().any(|o| o.name == name) {
+            name = format!("{stem} {k}");
+            k += 1;
+        }
+        let object = ObjectFile {
+            name: name.clone(),
+            mesh: c.doc.name_of(path),
+            scale: 1.0,
+            parts: vec![PartFile {
+                name: "all".into(),
+                select: "all".into(),
+                color: None,
+                texture: None,
+                wireframe: false,
+                deformations: Vec::new(),
+            }],
+            trajectory: Vec::new(),
+            orientation: Vec::new(),
+            interpolation: Default::default(),
+            contact: None,
+        };
+        let first = c.doc.file.objects.is_empty();
+        if self.scene_edit(SceneEdit::AddObject(Box::new(object))) {
+            let c = self.composer.as_mut().expect("checked");
+            c.selected = Some(c.doc.file.objects.len() - 1);
+            if first {
+                // The scene's camera starts framing its first object.
+                if let Some((lo, hi)) = c.bounds() {
+                    let [w, h] = c.doc.file.size;
+                    let cam = Camera::framing(
+                        -Camera::preset_direction(csrbf_anim::ViewPreset::Front, Vec3::Y),
+                        Vec3::Y,
+                        lo,
+                        hi,
+                        35.0,
+                        w as f32 / h as f32,
+                        1.0,
+                    );
+                    let f = |v: Vec3| v.as_dvec3().to_array();
+                    let mut camera = c.doc.file.camera.clone();
+                    camera.eye = f(cam.eye);
+                    camera.target = f(cam.target);
+                    camera.up = [0.0, 1.0, 0.0];
+                    camera.fov = 35.0;
+                    self.scene_edit_merging(SceneEdit::SetCamera(camera), Some("add object"));
+                }
+                if let Some(c) = self.composer.as_mut() {
+                    c.framed = false;
+                }
+            }
+            self.status = format!("Added {} as {name:?}", path.display());
+        }
+    }
+
+    /// Opens deformation `deformation` of part `part` of `object` in the
+    /// Picker: its mesh and its control file. File > Back to the Composer
+    /// returns (reloading the scene when the control file was saved).
+    pub fn edit_in_picker(&mut self, object: usize, part: usize, deformation: usize) {
+        let Some(c) = self.composer.as_ref() else {
+            return;
+        };
+        let Some(o) = c.doc.file.objects.get(object) else {
+            return;
+        };
+        let Some(d) = o
+            .parts
+            .get(part)
+            .and_then(|p| p.deformations.get(deformation))
+        else {
+            return;
+        };
+        let mesh = c.doc.resolve(&o.mesh);
+        let controls = c.doc.resolve(&d.controls);
+        if o.scale != 1.0 {
+            self.status = format!(
+                "The Picker shows {} at its own size (the scene scales it by {}); control files are in the mesh's units",
+                o.name, o.scale
+            );
+        }
+        let ctx = self.ctx.clone();
+        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            self.pending = Some(Pending::Open(mesh));
+            return;
+        }
+        self.open_mesh_now(&ctx, &mesh);
+        if self.model.is_some() {
+            self.open_controls(&controls);
+            self.mode = Mode::Pick;
+        }
+    }
+
+    /// Back from the Picker to the Composer: the scene is loaded again so a
+    /// saved control file shows. Unsaved Picker changes are asked about.
+    pub fn back_to_composer(&mut self) {
+        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            self.pending = Some(Pending::BackToComposer);
+            return;
+        }
+        if self.composer.is_some() {
+            self.mode = Mode::Compose;
+            self.reload_scene();
+        }
+    }
+
+    /// Starts writing a movie of the scene (MP4, GIF, or a folder of PNG
+    /// frames) on a thread through `csrbf_render::render_movie`, the loop
+    /// of `csrbf animate`; a progress bar with Cancel shows meanwhile.
+    pub fn export_movie(&mut self, path: &Path) {
+        let Some(scene) = self.export_scene("movie") else {
+            return;
+        };
+        let format = match csrbf_render::movie::MovieFormat::of(path) {
+            Ok(f) => f,
+            Err(e) => return self.show_error("Cannot export the movie", e.to_string()),
+        };
+        let path = path.to_path_buf();
+        self.spawn_export("Movie", path.clone(), move |progress| {
+            let options = csrbf_render::movie::MovieOptions::of(&scene);
+            let written = csrbf_render::movie::render_movie(&scene, &path, options, progress)
+                .map_err(|e| e.to_string())?;
+            Ok(format!(
+                "Wrote {} ({} frames{})",
+                written.path.display(),
+                written.frames,
+                if format == csrbf_render::movie::MovieFormat::Frames {
+                    ", PNG"
+                } else {
+                    ""
+                }
+            ))
+        });
+    }
+
+    /// Writes the scene as glTF (`.glb`, or `.gltf` with the buffer
+    /// embedded) through `csrbf_anim::export_gltf`, as `csrbf export`.
+    pub fn export_gltf(&mut self, path: &Path) {
+        let Some(scene) = self.export_scene("glTF") else {
+            return;
+        };
+        let glb = !path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+        let path = path.to_path_buf();
+        self.spawn_export("glTF", path.clone(), move |progress| {
+            progress(0, 1);
+            let bytes = csrbf_anim::export_gltf(&scene, glb);
+            if !progress(1, 1) {
+                return Err("cancelled".into());
+            }
+            csrbf_mesh::write_atomic(&path, &bytes).map_err(|e| e.to_string())?;
+            let notes = csrbf_anim::export_notes(&scene);
+            Ok(format!(
+                "Wrote {} ({} KB){}",
+                path.display(),
+                bytes.len() / 1024,
+                if notes.is_empty() {
+                    String::new()
+                } else {
+                    format!("; {}", notes.join("; "))
+                }
+            ))
+        });
+    }
+
+    fn export_scene(&mut self, what: &str) -> Option<Arc<Scene>> {
+        let c = self.composer.as_ref()?;
+        if c.export.is_some() {
+            self.status = "An export is running".into();
+            return None;
+        }
+        match (&c.scene, c.doc.saveable()) {
+            (Some(s), Ok(())) => Some(s.clone()),
+            (_, Err(e)) => {
+                self.show_error(&format!("Cannot export the {what}"), e);
+                None
+            }
+            (None, Ok(())) => {
+                let p = c
+                    .problem
+                    .clone()
+                    .unwrap_or_else(|| "the scene is empty".into());
+                self.show_error(&format!("Cannot export the {what}"), p);
+                None
+            }
+        }
+    }
+
+    fn spawn_export(
+        &mut self,
+        what: &str,
+        path: PathBuf,
+        work: impl FnOnce(&mut dyn FnMut(usize, usize) -> bool) -> Result<String, String>
+        + Send
+        + 'static,
+    ) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let done = Arc::new(AtomicUsize::new(0));
+        let total = Arc::new(AtomicUsize::new(1));
+        let cancel = Arc::new(AtomicBool::new(false));
+        let result = Arc::new(Mutex::new(None));
+        let (d, t, k, r) = (done.clone(), total.clone(), cancel.clone(), result.clone());
+        let wake = self.ctx.clone();
+        let spawned = std::thread::Builder::new()
+            .name("csrbf-export".into())
+            .spawn(move || {
+                let mut progress = |a: usize, b: usize| {
+                    d.store(a, Ordering::Relaxed);
+                    t.store(b.max(1), Ordering::Relaxed);
+                    wake.request_repaint();
+                    !k.load(Ordering::Relaxed)
+                };
+                let out = work(&mut progress);
+                if let Ok(mut slot) = r.lock() {
+                    *slot = Some(out);
+                }
+                wake.request_repaint();
+            });
+        if let Err(e) = spawned {
+            return self.show_error("Cannot export", e.to_string());
+        }
+        c.export = Some(ExportJob {
+            what: what.into(),
+            path,
+            done,
+            total,
+            cancel,
+            result,
+            started: Instant::now(),
+        });
+    }
+
+    /// Waits for the running export to end (tests); false if it did not
+    /// within `limit`.
+    pub fn finish_export(&mut self, limit: Duration) -> bool {
+        let until = Instant::now() + limit;
+        while self.exporting() {
+            self.poll_export();
+            if Instant::now() > until {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        true
+    }
+
+    fn poll_export(&mut self) {
+        let Some(job) = self.composer.as_ref().and_then(|c| c.export.as_ref()) else {
+            return;
+        };
+        let out = job.result.lock().ok().and_then(|mut r| r.take());
+        let Some(out) = out else {
+            return;
+        };
+        let what = job.what.clone();
+        let secs = job.started.elapsed().as_secs_f64();
+        let cancelled = job.cancel.load(Ordering::Relaxed);
+        let path = job.path.clone();
+        if let Some(c) = self.composer.as_mut() {
+            c.export = None;
+        }
+        match out {
+            Ok(note) => self.status = format!("{note} in {secs:.1} s"),
+            Err(_) if cancelled => {
+                self.status = format!(
+                    "{what} export cancelled; nothing was left at {}",
+                    path.display()
+                )
+            }
+            Err(e) => self.show_error(&format!("Cannot export the {what}"), e),
+        }
+    }
+
+    /// The export's progress bar and Cancel button.
+    pub(super) fn export_ui(&mut self, ctx: &egui::Context) {
+        self.poll_export();
+        let Some(job) = self.composer.as_ref().and_then(|c| c.export.as_ref()) else {
+            return;
+        };
+        let done = job.done.load(Ordering::Relaxed);
+        let total = job.total.load(Ordering::Relaxed).max(1);
+        let mut cancel = false;
+        egui::Modal::new(egui::Id::unique("export progress")).show(ctx, |ui| {
+            ui.set_min_width(360.0);
+            ui.heading(format!("Exporting the {}", job.what));
+            ui.label(job.path.display().to_string());
+            ui.add(
+                egui::ProgressBar::new(done as f32 / total as f32)
+                    .text(format!("frame {done} of {total}")),
+            );
+            if job.cancel.load(Ordering::Relaxed) {
+                ui.label("Cancelling…");
+            } else if ui.button("Cancel").clicked() {
+                cancel = true;
+            }
+        });
+        if cancel {
+            job.cancel.store(true, Ordering::Relaxed);
+        }
+        ctx.request_repaint_after(Duration::from_millis(100));
+    }
+
+    /// Plays: advances the playhead by the wall clock (or one frame a draw,
+    /// when every frame is asked for).
+    pub(super) fn tick(&mut self, ctx: &egui::Context) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let now = Instant::now();
+        if !c.playback.playing {
+            c.last_tick = None;
+            c.drawn.clear();
+            return;
+        }
+        let elapsed = c.last_tick.map_or(0.0, |t| (now - t).as_secs_f64());
+        c.last_tick = Some(now);
+        if c.every_frame {
+            let before = c.doc.playhead;
+            let frame = 1.0 / c.doc.file.fps;
+            c.playback.advance(&mut c.doc, frame);
+            if c.doc.playhead == before && !c.playback.playing {
+                c.last_tick = None;
+            }
+        } else {
+            c.playback.advance(&mut c.doc, elapsed);
+        }
+        c.drawn.push(now);
+        c.drawn.retain(|t| now - *t < Duration::from_secs(1));
+        ctx.request_repaint();
+    }
+
+    /// The rate frames were drawn at while playing, over the last second.
+    pub fn playback_rate(&self) -> f64 {
+        let Some(c) = self.composer.as_ref() else {
+            return 0.0;
+        };
+        match (c.drawn.first(), c.drawn.last()) {
+            (Some(a), Some(b)) if c.drawn.len() > 1 && b > a => {
+                (c.drawn.len() - 1) as f64 / (*b - *a).as_secs_f64()
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Starts or stops playing.
+    pub fn toggle_play(&mut self) {
+        if let Some(c) = self.composer.as_mut() {
+            if c.playback.playing {
+                c.playback.pause();
+            } else {
+                c.playback.dropped = 0;
+                c.playback.play(&mut c.doc);
+            }
+        }
+    }
+
+    /// Plays (tests: `advance` then moves by the wall clock from now).
+    pub fn play(&mut self) {
+        if let Some(c) = self.composer.as_mut()
+            && !c.playback.playing
+        {
+            c.playback.dropped = 0;
+            c.playback.play(&mut c.doc);
+        }
+    }
+
+    /// Moves the playhead (snapped to the scene's frames) and stops playing.
+    pub fn set_playhead(&mut self, time: f64) {
+        if let Some(c) = self.composer.as_mut() {
+            let fps = c.doc.file.fps;
+            c.doc.playhead = ((time * fps).round() / fps).clamp(0.0, c.doc.file.duration);
+            c.playback.pause();
+        }
+    }
+
+    /// Adds a key on `track` of `object` at the playhead with the value the
+    /// scene has there now (then edited in the panel or the viewport).
+    pub fn add_key(&mut self, object: usize, track: Track) {
+        let Some(c) = self.composer.as_ref() else {
+            return;
+        };
+        let value = match c.value_now(object, track) {
+            Some(v) => v,
+            None => match track {
+                Track::Position => KeyValue::Position([0.0; 3]),
+                Track::Orientation => KeyValue::Orientation([0.0, 0.0, 0.0, 1.0]),
+                Track::Phase { .. } => KeyValue::Phase(1.0),
+            },
+        };
+        let t = c.doc.playhead;
+        if self.scene_edit(SceneEdit::AddKey {
+            object,
+            track,
+            value,
+        }) {
+            let c = self.composer.as_mut().expect("checked");
+            let index = c.doc.key_times(object, track).iter().position(|&k| k == t);
+            c.key = index.map(|i| (object, track, i));
+            c.selected = Some(object);
+            self.status = format!("Key at {t:.3} s");
+        }
+    }
+
+    /// Deletes the selected key.
+    pub fn delete_key(&mut self) {
+        let Some((object, track, index)) = self.composer.as_ref().and_then(|c| c.key) else {
+            return;
+        };
+        if self.scene_edit(SceneEdit::DeleteKey {
+            object,
+            track,
+            index,
+        }) && let Some(c) = self.composer.as_mut()
+        {
+            c.key = None;
+        }
+    }
+
+    /// Copies the selected key to the playhead.
+    pub fn copy_key(&mut self) {
+        let Some((object, track, index)) = self.composer.as_ref().and_then(|c| c.key) else {
+            return;
+        };
+        self.scene_edit(SceneEdit::CopyKey {
+            object,
+            track,
+            index,
+        });
+    }
+
+    /// The Composer's keys.
+    pub(super) fn compose_keys(&mut self, ctx: &egui::Context) {
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        let shortcut = |m: Modifiers, k: Key| {
+            ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
+        };
+        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z)
+            || shortcut(Modifiers::COMMAND, Key::Y)
+        {
+            self.scene_undo(true);
+        }
+        if shortcut(Modifiers::COMMAND, Key::Z) {
+            self.scene_undo(false);
+        }
+        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
+            self.ask(Purpose::SaveScene);
+        }
+        if shortcut(Modifiers::COMMAND, Key::S) {
+            self.save_scene();
+        }
+        if shortcut(Modifiers::COMMAND, Key::O) {
+            self.ask(Purpose::OpenScene);
+        }
+        if shortcut(Modifiers::COMMAND, Key::D) {
+            self.copy_key();
+        }
+        let plain = |k: Key| ctx.input_mut(|i| i.consume_key(Modifiers::NONE, k));
+        if plain(Key::Space) {
+            self.toggle_play();
+        }
+        let step = |app: &mut StudioApp, n: i64| {
+            if let Some(c) = app.composer.as_mut() {
+                c.playback.pause();
+                c.playback.step(&mut c.doc, n);
+            }
+        };
+        if plain(Key::ArrowRight) {
+            step(self, 1);
+        }
+        if plain(Key::ArrowLeft) {
+            step(self, -1);
+        }
+        if plain(Key::Home) {
+            self.set_playhead(0.0);
+        }
+        if plain(Key::End) {
+            let d = self.scene_doc().map_or(0.0, |d| d.file.duration);
+            self.set_playhead(d);
+        }
+        if plain(Key::Delete) || plain(Key::Backspace) {
+            self.delete_key();
+        }
+        if plain(Key::K)
+            && let Some(o) = self.composer.as_ref().and_then(|c| c.selected)
+        {
+            self.add_key(o, Track::Position);
+        }
+        if plain(Key::C)
+            && let Some(c) = self.composer.as_mut()
+        {
+            c.through_camera = !c.through_camera;
+        }
+        for (k, axis) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
+            if plain(k) {
+                self.axis = if self.axis == Some(axis) {
+                    None
+                } else {
+                    Some(axis)
+                };
+            }
+        }
+        if plain(Key::F)
+            && let Some(c) = self.composer.as_mut()
+        {
+            c.framed = false;
+        }
+    }
+
+    /// Writes the recovery file while the scene has unsaved changes.
+    pub(super) fn scene_recovery(&mut self, ctx: &egui::Context) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        if !c.doc.dirty {
+            return;
+        }
+        if c.recovery_at
+            .is_none_or(|t| t.elapsed() > Duration::from_secs(1))
+        {
+            c.recovery_at = Some(Instant::now());
+            let text = c.doc.to_text();
+            if c.recovered_text != text {
+                SceneRecovery {
+                    path: c.doc.path.clone(),
+                    scene: text.clone(),
+                }
+                .store(self.state.as_deref());
+                c.recovered_text = text;
+            }
+        }
+        ctx.request_repaint_after(Duration::from_secs(1));
+    }
+
+    /// The rectangle the scene's camera sees inside `rect` (its aspect), or
+    /// `rect` when not looking through it.
+    pub fn scene_gate(&self, rect: egui::Rect) -> egui::Rect {
+        let Some(c) = self.composer.as_ref() else {
+            return rect;
+        };
+        if !c.through_camera {
+            return rect;
+        }
+        let [w, h] = c.doc.file.size;
+        let aspect = w as f32 / h.max(1) as f32;
+        let (rw, rh) = (rect.width(), rect.height());
+        let size = if rw / rh.max(1.0) > aspect {
+            egui::vec2(rh * aspect, rh)
+        } else {
+            egui::vec2(rw, rw / aspect)
+        };
+        egui::Rect::from_center_size(rect.center(), size)
+    }
+
+    /// The camera the Composer's viewport draws with, its size in physical
+    /// pixels and its rectangle on screen.
+    pub fn compose_camera(&self) -> Option<(Camera, [u32; 2], egui::Rect)> {
+        let c = self.composer.as_ref()?;
+        let (_, rect, ppp) = self.viewport;
+        let gate = self.scene_gate(rect);
+        let size = [
+            ((gate.width() * ppp).round() as u32).max(1),
+            ((gate.height() * ppp).round() as u32).max(1),
+        ];
+        let cam = if c.through_camera {
+            c.scene_camera()
+        } else {
+            c.orbit.camera()
+        };
+        Some((cam, size, gate))
+    }
+
+    /// The Composer's viewport: the frame at the playhead, trajectories with
+    /// their keys, the scene camera, and the orientation gizmo.
+    pub(super) fn compose_viewport(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        let ppp = ui.ctx().pixels_per_point();
+        self.viewport = (
+            [
+                ((rect.width() * ppp).round() as u32).max(1),
+                ((rect.height() * ppp).round() as u32).max(1),
+            ],
+            rect,
+            ppp,
+        );
+        ui.painter()
+            .rect_filled(rect, 0.0, egui::Color32::from_gray(28));
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        if c.scene.is_none() {
+            let text = match &c.problem {
+                Some(p) => p.clone(),
+                None => "Add a mesh: Scene > Add object, or drop one here".into(),
+            };
+            ui.painter().text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                text,
+                egui::FontId::proportional(18.0),
+                egui::Color32::LIGHT_GRAY,
+            );
+            return;
+        }
+        if !c.framed && rect.width() > 1.0 {
+            if let Some((lo, hi)) = c.bounds() {
+                c.orbit = Orbit::new(Vec3::Y, lo, hi, rect.width() / rect.height().max(1.0));
+            }
+            c.framed = true;
+        }
+        c.frame_now();
+        self.compose_pointer(ui, &response);
+        self.compose_paint(ui);
+    }
+
+    fn compose_pointer(&mut self, ui: &egui::Ui, response: &egui::Response) {
+        let Some((cam, size, gate)) = self.compose_camera() else {
+            return;
+        };
+        let ppp = self.viewport.2;
+        let axis = self.axis;
+        let (pressed, down, released, pos, modifiers, scroll, secondary, middle) = ui.input(|i| {
+            (
+                i.pointer.primary_pressed(),
+                i.pointer.primary_down(),
+                i.pointer.primary_released(),
+                i.pointer.interact_pos(),
+                i.modifiers,
+                i.smooth_scroll_delta.y,
+                i.pointer.secondary_down(),
+                i.pointer.middle_down(),
+            )
+        });
+        let delta = ui.input(|i| i.pointer.delta());
+        let hovered = response.hovered() || response.dragged();
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let px_of = |p: egui::Pos2| Vec2::new((p.x - gate.min.x) * ppp, (p.y - gate.min.y) * ppp);
+        // Orbit, pan and zoom leave the scene camera's view for the free one.
+        let leave = |c: &mut Composer| {
+            if c.through_camera {
+                c.through_camera = false;
+                let cam = c.scene_camera();
+                let d = cam.target - cam.eye;
+                c.orbit.target = cam.target;
+                c.orbit.distance = d.length();
+                if let csrbf_anim::Projection::Perspective { fov } = cam.projection {
+                    c.orbit.fov = fov;
+                }
+                let dir = -d.normalize();
+                c.orbit.pitch = dir.dot(c.orbit.up).clamp(-0.999, 0.999).asin();
+                let flat = (dir - c.orbit.up * dir.dot(c.orbit.up)).normalize_or_zero();
+                c.orbit.yaw = flat.x.atan2(flat.z);
+            }
+        };
+        if hovered && scroll != 0.0 {
+            leave(c);
+            let point = pos.map_or(c.orbit.target, |p| {
+                c.orbit.point_on_target_plane(px_of(p), size)
+            });
+            c.orbit.zoom_about((-scroll * 0.002).exp(), point);
+        }
+        if hovered && (secondary || middle) && delta != egui::Vec2::ZERO {
+            leave(c);
+            if modifiers.shift {
+                c.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32);
+            } else {
+                c.orbit.orbit(delta.x, delta.y);
+            }
+            return;
+        }
+        let Some(pos) = pos else {
+            return;
+        };
+        let px = px_of(pos);
+        let Some(scene) = c.scene.clone() else {
+            return;
+        };
+        if pressed && response.hovered() {
+            c.drag = None;
+            if modifiers.alt {
+                leave(c);
+                c.drag = Some(if modifiers.shift {
+                    KeyDrag::Pan
+                } else {
+                    KeyDrag::Orbit
+                });
+                return;
+            }
+            // The orientation gizmo of the selected orientation key.
+            if let Some((o, Track::Orientation, i)) = c.key
+                && let Some(t) = c.doc.key_times(o, Track::Orientation).get(i).copied()
+                && let Some(centre) = world_centre(&scene, o, t)
+            {
+                let ring = axis_rings(centre, &cam, size, RING_PIXELS)
+                    .into_iter()
+                    .filter_map(|(a, pts, _)| {
+                        polyline_distance(&cam, size, &pts, px).map(|d| (a, d))
+                    })
+                    .filter(|(_, d)| *d < 6.0)
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                if let Some((a, _)) = ring
+                    && let Some(KeyValue::Orientation(q)) =
+                        key_value(&c.doc.file.objects[o], Track::Orientation, i)
+                {
+                    c.drag = Some(KeyDrag::Turn {
+                        object: o,
+                        index: i,
+                        axis: a,
+                        centre,
+                        start: DQuat::from_array(q),
+                        pressed: px,
+                    });
+                    return;
+                }
+            }
+            // A position key's marker under the pointer.
+            let mut best: Option<(f32, usize, usize, Vec3)> = None;
+            for (o, of) in c.doc.file.objects.iter().enumerate() {
+                if c.hidden.get(o).copied().unwrap_or(false) {
+                    continue;
+                }
+                let centre = scene.objects.get(o).map_or(DVec3::ZERO, |x| x.center);
+                for (i, k) in of.trajectory.iter().enumerate() {
+                    let w = (DVec3::from_array(k.position) + centre).as_vec3();
+                    if let Some((p, _)) = cam.project(w, size) {
+                        let d = p.distance(px);
+                        // The selected key wins where markers overlap.
+                        let d = if c.key == Some((o, Track::Position, i)) {
+                            d - 2.0
+                        } else {
+                            d
+                        };
+                        if d < 9.0 * ppp && best.is_none_or(|b| d < b.0) {
+                            best = Some((d, o, i, w));
+                        }
+                    }
+                }
+            }
+            if let Some((_, o, i, w)) = best {
+                c.selected = Some(o);
+                c.key = Some((o, Track::Position, i));
+                c.doc.playhead = c.doc.file.objects[o].trajectory[i].time;
+                c.drag = Some(KeyDrag::Position {
+                    object: o,
+                    index: i,
+                    from: w,
+                    start: c.doc.file.objects[o].trajectory[i].position,
+                    pressed: px,
+                });
+                return;
+            }
+            // Else select the object under the pointer (its bounding sphere).
+            let ray = cam.ray(px, size);
+            let hit = scene
+                .objects
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !c.hidden.get(*k).copied().unwrap_or(false))
+                .filter_map(|(k, o)| {
+                    let centre = world_centre(&scene, k, c.doc.playhead)?;
+                    let oc = ray.origin - centre;
+                    let b = oc.dot(ray.dir);
+                    let disc = b * b - (oc.length_squared() - (o.radius as f32).powi(2));
+                    (disc >= 0.0).then(|| (k, -b - disc.sqrt()))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            c.selected = hit.map(|h| h.0);
+            if c.key.is_some_and(|k| Some(k.0) != c.selected) {
+                c.key = None;
+            }
+        }
+        if down && delta != egui::Vec2::ZERO {
+            match c.drag.clone() {
+                Some(KeyDrag::Orbit) => c.orbit.orbit(delta.x, delta.y),
+                Some(KeyDrag::Pan) => c.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32),
+                Some(KeyDrag::Position {
+                    object,
+                    index,
+                    from,
+                    start,
+                    ..
+                }) => {
+                    let to = drag_point(&cam, size, px, from, axis);
+                    let mut file = c.doc.file.clone();
+                    let moved = DVec3::from_array(start) + (to - from).as_dvec3();
+                    file.objects[object].trajectory[index].position = moved.to_array();
+                    c.preview_file(file);
+                }
+                Some(KeyDrag::Turn {
+                    object,
+                    index,
+                    axis,
+                    centre,
+                    start,
+                    pressed,
+                }) => {
+                    let q = turned(&cam, size, centre, axis, start, pressed, px);
+                    let mut file = c.doc.file.clone();
+                    let k = &mut file.objects[object].orientation[index];
+                    *k = csrbf_anim::OrientationKeyFile {
+                        time: k.time,
+                        quaternion: Some(q.to_array()),
+                        axis: None,
+                        angle: None,
+                        euler: None,
+                    };
+                    c.preview_file(file);
+                }
+                None => {}
+            }
+        }
+        if released {
+            let drag = c.drag.take();
+            match drag {
+                Some(KeyDrag::Position {
+                    object,
+                    index,
+                    from,
+                    start,
+                    pressed,
+                }) if px.distance(pressed) > 1.0 => {
+                    let to = drag_point(&cam, size, px, from, axis);
+                    let moved = DVec3::from_array(start) + (to - from).as_dvec3();
+                    self.scene_edit(SceneEdit::SetKey {
+                        object,
+                        track: Track::Position,
+                        index,
+                        value: KeyValue::Position(moved.to_array()),
+                    });
+                }
+                Some(KeyDrag::Turn {
+                    object,
+                    index,
+                    axis,
+                    centre,
+                    start,
+                    pressed,
+                }) if px.distance(pressed) > 1.0 => {
+                    let q = turned(&cam, size, centre, axis, start, pressed, px);
+                    self.scene_edit(SceneEdit::SetKey {
+                        object,
+                        track: Track::Orientation,
+                        index,
+                        value: KeyValue::Orientation(q.to_array()),
+                    });
+                }
+                Some(KeyDrag::Position { .. } | KeyDrag::Turn { .. }) => {
+                    // A click without a move: the drag's preview is undone.
+                    if let Some(c) = self.composer.as_mut() {
+                        let file = c.doc.file.clone();
+                        c.preview_file(file);
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn compose_paint(&mut self, ui: &egui::Ui) {
+        let Some((cam, size, gate)) = self.compose_camera() else {
+            return;
+        };
+        let ppp = self.viewport.2;
+        let Some(c) = self.composer.as_ref() else {
+            return;
+        };
+        let Some(scene) = c.scene.clone() else {
+            return;
+        };
+        let mut lines = Vec::new();
+        let mut overlay = Vec::new();
+        let duration = c.doc.file.duration;
+        // Trajectories: the centre of gravity over the whole scene.
+        for (o, obj) in scene.objects.iter().enumerate() {
+            if c.hidden.get(o).copied().unwrap_or(false) || obj.trajectory.keys().len() < 2 {
+                continue;
+            }
+            let selected = c.selected == Some(o);
+            let color = if selected {
+                [1.0, 0.85, 0.3, 1.0]
+            } else {
+                [0.7, 0.65, 0.45, 1.0]
+            };
+            let n = ((duration * c.doc.file.fps * 2.0) as usize).clamp(32, 600);
+            let pts: Vec<Vec3> = (0..=n)
+                .filter_map(|j| world_centre(&scene, o, duration * j as f64 / n as f64))
+                .collect();
+            for w in pts.windows(2) {
+                overlay.push(Line {
+                    a: w[0],
+                    b: w[1],
+                    color,
+                });
+            }
+        }
+        // The orientation gizmo.
+        if let Some((o, Track::Orientation, i)) = c.key
+            && let Some(t) = c.doc.key_times(o, Track::Orientation).get(i).copied()
+            && let Some(centre) = world_centre(&scene, o, t)
+        {
+            let held = match &c.drag {
+                Some(KeyDrag::Turn { axis, .. }) => Some(*axis),
+                _ => None,
+            };
+            for (a, pts, color) in axis_rings(centre, &cam, size, RING_PIXELS) {
+                let color = if held == Some(a) {
+                    [1.0, 1.0, 0.4, 1.0]
+                } else {
+                    color
+                };
+                for w in pts.windows(2) {
+                    overlay.push(Line {
+                        a: w[0],
+                        b: w[1],
+                        color,
+                    });
+                }
+            }
+        }
+        // The scene's camera, when looking from elsewhere.
+        if !c.through_camera {
+            camera_lines(&c.scene_camera(), c.doc.file.size, &mut lines);
+        }
+        let mut options = SceneOptions::default();
+        options.camera = Some(cam);
+        options.draw.flat = self.view.flat;
+        options.draw.wireframe = self.view.wireframe;
+        let paint = gpu::ScenePaint {
+            size,
+            id: c.gpu_id,
+            samples: c.samples,
+            scene,
+            frame: c.frame.clone(),
+            options,
+            lines,
+            overlay,
+            hidden: c.hidden.clone(),
+        };
+        ui.painter()
+            .add(eframe::egui_wgpu::Callback::new_paint_callback(gate, paint));
+        // Key markers and the playhead's position, drawn by egui on top.
+        let painter = ui.painter_at(gate);
+        let to_screen = |p: Vec3| {
+            cam.project(p, size)
+                .map(|(q, _)| egui::pos2(gate.min.x + q.x / ppp, gate.min.y + q.y / ppp))
+        };
+        let scene = c.scene.as_ref().expect("checked");
+        for (o, of) in c.doc.file.objects.iter().enumerate() {
+            if c.hidden.get(o).copied().unwrap_or(false) {
+                continue;
+            }
+            let centre = scene.objects.get(o).map_or(DVec3::ZERO, |x| x.center);
+            // While a key is dragged, the loaded scene has its new place.
+            let keys = scene
+                .objects
+                .get(o)
+                .map(|x| x.trajectory.keys().to_vec())
+                .unwrap_or_default();
+            for (i, k) in keys.iter().enumerate() {
+                let Some(p) = to_screen((k.position + centre).as_vec3()) else {
+                    continue;
+                };
+                let chosen = c.key == Some((o, Track::Position, i));
+                let fill = if chosen {
+                    egui::Color32::from_rgb(255, 220, 80)
+                } else {
+                    egui::Color32::from_rgb(200, 170, 90)
+                };
+                painter.circle(
+                    p,
+                    if chosen { 6.0 } else { 4.5 },
+                    fill,
+                    egui::Stroke::new(1.0, egui::Color32::BLACK),
+                );
+                if of.trajectory.len() == keys.len() && chosen {
+                    painter.text(
+                        p + egui::vec2(8.0, -8.0),
+                        egui::Align2::LEFT_BOTTOM,
+                        format!("{:.2} s", k.time),
+                        egui::FontId::proportional(12.0),
+                        egui::Color32::WHITE,
+                    );
+                }
+            }
+            if c.selected == Some(o)
+                && let Some(p) = world_centre(scene, o, c.doc.playhead).and_then(to_screen)
+            {
+                painter.circle_stroke(p, 7.0, egui::Stroke::new(1.5, egui::Color32::WHITE));
+            }
+        }
+        // The time and, while playing, the rate.
+        let mut label = format!(
+            "{:.2} s  frame {}",
+            c.doc.playhead,
+            Playback::frame_of(&c.doc, c.doc.playhead)
+        );
+        if c.through_camera {
+            label.push_str("  (scene camera)");
+        }
+        painter.text(
+            gate.min + egui::vec2(8.0, 6.0),
+            egui::Align2::LEFT_TOP,
+            label,
+            egui::FontId::monospace(13.0),
+            egui::Color32::from_gray(220),
+        );
+        if let Some(e) = self.gpu.as_ref().and_then(gpu::last_error) {
+            painter.text(
+                gate.left_bottom() + egui::vec2(8.0, -8.0),
+                egui::Align2::LEFT_BOTTOM,
+                e,
+                egui::FontId::proportional(13.0),
+                egui::Color32::LIGHT_RED,
+            );
+        }
+    }
+}
+
+/// The gizmo rings' radius, in points.
+const RING_PIXELS: f32 = 48.0;
+
+/// Where a point dragged from `from` is with the pointer at `px`: on the
+/// line through `from` along the held axis (the closest point to the
+/// pointer's ray), else on the plane through `from` facing the camera.
+fn drag_point(cam: &Camera, size: [u32; 2], px: Vec2, from: Vec3, axis: Option<usize>) -> Vec3 {
+    let ray = cam.ray(px, size);
+    match axis {
+        Some(a) => {
+            let mut d = Vec3::ZERO;
+            d[a] = 1.0;
+            // Closest point on the axis line to the ray.
+            let w = from - ray.origin;
+            let (b, dd, e) = (d.dot(ray.dir), d.dot(w), ray.dir.dot(w));
+            let denom = 1.0 - b * b;
+            if denom.abs() < 1e-6 {
+                return from;
+            }
+            from + d * ((b * e - dd) / denom)
+        }
+        None => {
+            let (_, _, forward) = cam.basis();
+            let denom = ray.dir.dot(forward);
+            if denom.abs() < 1e-9 {
+                return from;
+            }
+            let t = (from - ray.origin).dot(forward) / denom;
+            ray.origin + ray.dir * t
+        }
+    }
+}
+
+/// The orientation `start` turned about `axis` through `centre` by the
+/// angle the pointer swept about the centre's pixel from `pressed` to `px`.
+fn turned(
+    cam: &Camera,
+    size: [u32; 2],
+    centre: Vec3,
+    axis: Vec3,
+    start: DQuat,
+    pressed: Vec2,
+    px: Vec2,
+) -> DQuat {
+    let Some((c, _)) = cam.project(centre, size) else {
+        return start;
+    };
+    let (a, b) = (pressed - c, px - c);
+    let mut angle = b.y.atan2(b.x) - a.y.atan2(a.x);
+    // Screen y points down; an axis towards the camera turns the other way.
+    let (_, _, forward) = cam.basis();
+    if axis.dot(forward) > 0.0 {
+        angle = -angle;
+    }
+    (DQuat::from_axis_angle(axis.as_dvec3(), -angle as f64) * start).normalize()
+}
+
+/// The scene camera as lines: its frustum to a quarter of the distance to
+/// its target, the picture's frame and an up mark.
+fn camera_lines(cam: &Camera, size: [u32; 2], out: &mut Vec<Line>) {
+    let (right, up, forward) = cam.basis();
+    let d = (cam.target - cam.eye).length() * 0.25;
+    let fov = match cam.projection {
+        csrbf_anim::Projection::Perspective { fov } => fov,
+        csrbf_anim::Projection::Orthographic { .. } => 35.0,
+    };
+    let h = d * (fov.to_radians() * 0.5).tan();
+    let w = h * size[0] as f32 / size[1].max(1) as f32;
+    let centre = cam.eye + forward * d;
+    let corners = [
+        centre + right * w + up * h,
+        centre - right * w + up * h,
+        centre - right * w - up * h,
+        centre + right * w - up * h,
+    ];
+    let color = [0.55, 0.75, 1.0, 1.0];
+    for k in 0..4 {
+        out.push(Line {
+            a: cam.eye,
+            b: corners[k],
+            color,
+        });
+        out.push(Line {
+            a: corners[k],
+            b: corners[(k + 1) % 4],
+            color,
+        });
+    }
+    out.push(Line {
+        a: centre + up * h,
+        b: centre + up * h * 1.4,
+        color,
+    });
+    out.push(Line {
+        a: cam.eye,
+        b: cam.target,
+        color: [0.55, 0.75, 1.0, 0.35],
+    });
+}

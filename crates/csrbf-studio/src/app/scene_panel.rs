@@ -1,0 +1,677 @@
+//! The Composer's menu and side panel: the scene (size, background,
+//! camera), its objects (add, remove, rename, hide, scale, parts with their
+//! colour and texture, deformations, contact) and the selected key's value,
+//! time and TCB. Every change is a [`SceneEdit`]; a value dragged is one
+//! undo step.
+
+use std::path::Path;
+
+use csrbf::glam::{DQuat, DVec3, EulerRot};
+use csrbf_anim::{ContactFile, DeformationFile, Easing, Interpolation};
+use eframe::egui;
+
+use super::StudioApp;
+use super::composer::Mode;
+use super::files::Purpose;
+use super::panel::vec3_ui;
+use crate::compose::{KeyValue, SceneEdit, Track, key_value};
+
+impl StudioApp {
+    /// Picker | Composer.
+    pub(super) fn mode_switch(&mut self, ui: &mut egui::Ui) {
+        let has_scene = self.composer.is_some();
+        if ui
+            .selectable_label(self.mode == Mode::Pick, "Picker")
+            .on_hover_text("Control vectors on one mesh")
+            .clicked()
+            && self.mode != Mode::Pick
+        {
+            self.mode = Mode::Pick;
+        }
+        if ui
+            .selectable_label(self.mode == Mode::Compose, "Composer")
+            .on_hover_text("Scenes: objects, keys, timing, playback, export")
+            .clicked()
+            && self.mode != Mode::Compose
+        {
+            if has_scene {
+                self.back_to_composer();
+            } else {
+                self.new_scene();
+            }
+        }
+        ui.separator();
+    }
+
+    pub(super) fn compose_menu(&mut self, ui: &mut egui::Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            self.mode_switch(ui);
+            ui.menu_button("File", |ui| {
+                if ui.button("New scene").clicked() {
+                    self.new_scene();
+                }
+                if ui.button("Open scene…  Ctrl+O").clicked() {
+                    self.ask(Purpose::OpenScene);
+                }
+                ui.menu_button("Recent", |ui| {
+                    for p in self.recent.clone() {
+                        if ui.button(p.display().to_string()).clicked() {
+                            if super::is_scene(&p) {
+                                self.open_scene(&p);
+                            } else {
+                                self.add_object(&p);
+                            }
+                        }
+                    }
+                });
+                ui.separator();
+                if ui.button("Save scene  Ctrl+S").clicked() {
+                    self.save_scene();
+                }
+                if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
+                    self.ask(Purpose::SaveScene);
+                }
+                ui.separator();
+                if ui.button("Export movie…").clicked() {
+                    self.ask(Purpose::ExportMovie);
+                }
+                if ui.button("Export glTF…").clicked() {
+                    self.ask(Purpose::ExportGltf);
+                }
+                ui.separator();
+                if ui.button("Quit").clicked() {
+                    ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+            });
+            ui.menu_button("Edit", |ui| {
+                if ui.button("Undo  Ctrl+Z").clicked() {
+                    self.scene_undo(false);
+                }
+                if ui.button("Redo  Ctrl+Shift+Z").clicked() {
+                    self.scene_undo(true);
+                }
+                ui.separator();
+                if ui.button("Delete key  Del").clicked() {
+                    self.delete_key();
+                }
+                if ui.button("Copy key to the playhead  Ctrl+D").clicked() {
+                    self.copy_key();
+                }
+            });
+            ui.menu_button("Scene", |ui| {
+                if ui.button("Add object…").clicked() {
+                    self.ask(Purpose::AddObject);
+                }
+                if ui.button("Play / pause  Space").clicked() {
+                    self.toggle_play();
+                }
+            });
+            ui.menu_button("View", |ui| {
+                if let Some(c) = self.composer.as_mut() {
+                    ui.checkbox(&mut c.through_camera, "Look through the scene camera  C");
+                    if ui.button("Frame everything  F").clicked() {
+                        c.framed = false;
+                    }
+                }
+                ui.checkbox(&mut self.view.flat, "Flat shading");
+                ui.checkbox(&mut self.view.wireframe, "Wireframe");
+            });
+        });
+    }
+
+    /// Sets the texture of the part chosen in the panel.
+    pub(super) fn set_texture(&mut self, path: &Path) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let Some((o, p)) = c.part_target.take() else {
+            return;
+        };
+        let Some(mut object) = c.doc.file.objects.get(o).cloned() else {
+            return;
+        };
+        let Some(part) = object.parts.get_mut(p) else {
+            return;
+        };
+        part.texture = Some(c.doc.name_of(path));
+        if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
+            self.status = format!("Texture {}", path.display());
+        }
+    }
+
+    /// Adds a control file as a deformation of the part chosen in the panel
+    /// (or the selected object's first part), phased in over the scene.
+    pub(super) fn add_deformation(&mut self, path: &Path) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let target = c.part_target.take().or(c.selected.map(|o| (o, 0)));
+        let Some((o, p)) = target else {
+            return self.show_error(
+                "No object chosen",
+                format!(
+                    "{}: select the object whose deformation this is first",
+                    path.display()
+                ),
+            );
+        };
+        let Some(mut object) = c.doc.file.objects.get(o).cloned() else {
+            return;
+        };
+        if object.parts.is_empty() {
+            object.parts.push(csrbf_anim::PartFile {
+                name: "all".into(),
+                select: "all".into(),
+                color: None,
+                texture: None,
+                wireframe: false,
+                deformations: Vec::new(),
+            });
+        }
+        let Some(part) = object.parts.get_mut(p) else {
+            return;
+        };
+        part.deformations.push(DeformationFile {
+            controls: c.doc.name_of(path),
+            phase: Vec::new(),
+            easing: Easing::default(),
+        });
+        if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
+            self.status = format!(
+                "Added {} (phase 1 throughout until it has phase keys)",
+                path.display()
+            );
+        }
+    }
+
+    /// The Composer's side panel.
+    pub(super) fn scene_panel(&mut self, ui: &mut egui::Ui) {
+        let Some(c) = self.composer.as_mut() else {
+            ui.label("No scene: File > New scene or Open scene");
+            return;
+        };
+        ui.heading("Scene");
+        ui.label(
+            c.doc
+                .path
+                .as_ref()
+                .map_or("(not saved yet)".into(), |p| p.display().to_string()),
+        );
+        if let Some(p) = &c.problem {
+            ui.colored_label(egui::Color32::LIGHT_RED, p);
+        }
+        let mut size = c.doc.file.size;
+        let mut background = c.doc.file.background;
+        let mut look = false;
+        ui.horizontal(|ui| {
+            ui.label("Picture");
+            look |= ui
+                .add(
+                    egui::DragValue::new(&mut size[0])
+                        .range(16..=8192)
+                        .suffix(" px"),
+                )
+                .changed();
+            ui.label("x");
+            look |= ui
+                .add(
+                    egui::DragValue::new(&mut size[1])
+                        .range(16..=8192)
+                        .suffix(" px"),
+                )
+                .changed();
+            look |= ui.color_edit_button_rgb(&mut background).changed();
+            ui.label("background");
+        });
+        ui.separator();
+        ui.heading("Camera");
+        let mut camera = c.doc.file.camera.clone();
+        let mut eye = DVec3::from_array(camera.eye);
+        let mut target = DVec3::from_array(camera.target);
+        let speed = c
+            .scene
+            .as_ref()
+            .and_then(|s| s.objects.iter().map(|o| o.radius).reduce(f64::max))
+            .unwrap_or(1.0)
+            * 0.01;
+        let mut cam_changed = vec3_ui(ui, "Eye", &mut eye, speed);
+        cam_changed |= vec3_ui(ui, "Target", &mut target, speed);
+        ui.horizontal(|ui| {
+            ui.label("Field of view");
+            cam_changed |= ui
+                .add(
+                    egui::DragValue::new(&mut camera.fov)
+                        .range(2.0..=178.0)
+                        .suffix("°"),
+                )
+                .changed();
+        });
+        let mut from_view = false;
+        ui.horizontal(|ui| {
+            from_view = ui
+                .button("Set from the view")
+                .on_hover_text(
+                    "The scene camera takes the viewport's eye, target and field of view",
+                )
+                .clicked();
+            ui.checkbox(&mut c.through_camera, "Look through it (C)");
+        });
+        if from_view {
+            let cam = c.orbit.camera();
+            eye = cam.eye.as_dvec3();
+            target = cam.target.as_dvec3();
+            camera.up = c.orbit.up.as_dvec3().to_array();
+            camera.fov = c.orbit.fov as f64;
+            cam_changed = true;
+        }
+        camera.eye = eye.to_array();
+        camera.target = target.to_array();
+        ui.separator();
+        ui.heading("Objects");
+        let mut select = None;
+        let names: Vec<String> = c.doc.file.objects.iter().map(|o| o.name.clone()).collect();
+        for (k, name) in names.iter().enumerate() {
+            ui.horizontal(|ui| {
+                let mut shown = !c.hidden.get(k).copied().unwrap_or(false);
+                if ui
+                    .checkbox(&mut shown, "")
+                    .on_hover_text(
+                        "Shown in the viewport (a view setting: movies show every object)",
+                    )
+                    .changed()
+                    && let Some(h) = c.hidden.get_mut(k)
+                {
+                    *h = !shown;
+                }
+                if ui.selectable_label(c.selected == Some(k), name).clicked() {
+                    select = Some(k);
+                }
+            });
+        }
+        if let Some(k) = select {
+            c.selected = Some(k);
+            c.renaming = None;
+        }
+        let mut add = false;
+        let mut remove = None;
+        ui.horizontal(|ui| {
+            add = ui.button("Add object…").clicked();
+            if let Some(k) = c.selected
+                && ui.button("Remove").clicked()
+            {
+                remove = Some(k);
+            }
+        });
+        let selected = c.selected;
+        // Apply what was asked, one edit each.
+        if look {
+            self.scene_edit_merging(SceneEdit::SetLook { size, background }, Some("look"));
+        }
+        if cam_changed {
+            self.scene_edit_merging(SceneEdit::SetCamera(camera), Some("camera"));
+        }
+        if add {
+            self.ask(Purpose::AddObject);
+        }
+        if let Some(k) = remove
+            && self.scene_edit(SceneEdit::RemoveObject(k))
+            && let Some(c) = self.composer.as_mut()
+        {
+            c.selected = None;
+            c.key = None;
+        }
+        if let Some(o) = selected {
+            ui.separator();
+            self.object_ui(ui, o);
+        }
+        ui.separator();
+        self.key_ui(ui);
+    }
+
+    fn object_ui(&mut self, ui: &mut egui::Ui, o: usize) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let Some(original) = c.doc.file.objects.get(o).cloned() else {
+            return;
+        };
+        let mut object = original.clone();
+        ui.heading(format!("Object {:?}", object.name));
+        let mut rename = None;
+        ui.horizontal(|ui| {
+            ui.label("Name");
+            let text = match &mut c.renaming {
+                Some((k, t)) if *k == o => t,
+                _ => {
+                    c.renaming = Some((o, object.name.clone()));
+                    &mut c.renaming.as_mut().expect("just set").1
+                }
+            };
+            let r = ui.add(egui::TextEdit::singleline(text).desired_width(180.0));
+            if r.lost_focus() && *text != object.name {
+                rename = Some(text.clone());
+            }
+        });
+        ui.label(format!("Mesh {}", object.mesh));
+        let mut tag = None;
+        ui.horizontal(|ui| {
+            ui.label("Scale");
+            if ui
+                .add(
+                    egui::DragValue::new(&mut object.scale)
+                        .speed(0.01)
+                        .range(1e-6..=1e6),
+                )
+                .changed()
+            {
+                tag = Some("scale");
+            }
+            ui.label("Turning");
+            egui::ComboBox::from_id_salt("interpolation")
+                .selected_text(format!("{:?}", object.interpolation).to_lowercase())
+                .show_ui(ui, |ui| {
+                    for i in [Interpolation::Squad, Interpolation::Slerp] {
+                        if ui
+                            .selectable_value(
+                                &mut object.interpolation,
+                                i,
+                                format!("{i:?}").to_lowercase(),
+                            )
+                            .changed()
+                        {
+                            tag = Some("interpolation");
+                        }
+                    }
+                });
+        });
+        // Contact: pushed by another object's bounding sphere.
+        let others: Vec<String> = c
+            .doc
+            .file
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k != o)
+            .map(|(_, x)| x.name.clone())
+            .collect();
+        ui.horizontal(|ui| {
+            ui.label("Pushed by");
+            let current = object
+                .contact
+                .as_ref()
+                .map_or("nothing".to_string(), |x| x.with.clone());
+            egui::ComboBox::from_id_salt("contact")
+                .selected_text(current)
+                .show_ui(ui, |ui| {
+                    if ui
+                        .selectable_label(object.contact.is_none(), "nothing")
+                        .clicked()
+                    {
+                        object.contact = None;
+                        tag = Some("contact");
+                    }
+                    for n in &others {
+                        let on = object.contact.as_ref().is_some_and(|x| &x.with == n);
+                        if ui.selectable_label(on, n).clicked() {
+                            object.contact = Some(ContactFile {
+                                with: n.clone(),
+                                kernel: Default::default(),
+                                reach: 1.5,
+                            });
+                            tag = Some("contact");
+                        }
+                    }
+                });
+            if let Some(x) = object.contact.as_mut()
+                && ui
+                    .add(
+                        egui::DragValue::new(&mut x.reach)
+                            .speed(0.01)
+                            .range(0.1..=10.0)
+                            .prefix("reach "),
+                    )
+                    .on_hover_text(
+                        "Radius of support: this many times the depth plus the pusher's radius",
+                    )
+                    .changed()
+            {
+                tag = Some("reach");
+            }
+        });
+        let mut picker = None;
+        let mut choose = None;
+        for (pi, part) in object.parts.iter_mut().enumerate() {
+            ui.label(egui::RichText::new(format!("Part {:?}", part.name)).strong());
+            ui.horizontal(|ui| {
+                let mut rgba = part.color.map_or(csrbf_anim::DEFAULT_PART_COLOR, |c| c.0);
+                if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
+                    part.color = Some(csrbf_anim::Color(rgba));
+                    tag = Some("colour");
+                }
+                ui.label("colour");
+                if ui.checkbox(&mut part.wireframe, "edges").changed() {
+                    tag = Some("edges");
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.label(format!(
+                    "Texture {}",
+                    part.texture.as_deref().unwrap_or("none")
+                ));
+                if ui.button("Texture…").clicked() {
+                    choose = Some((pi, Purpose::Texture));
+                }
+                if part.texture.is_some() && ui.button("None").clicked() {
+                    part.texture = None;
+                    tag = Some("texture");
+                }
+            });
+            let mut drop = None;
+            for (di, d) in part.deformations.iter_mut().enumerate() {
+                ui.horizontal(|ui| {
+                    ui.label(format!("Deformation {}", d.controls));
+                });
+                ui.horizontal(|ui| {
+                    egui::ComboBox::from_id_salt(("easing", pi, di))
+                        .selected_text(format!("{:?}", d.easing).to_lowercase())
+                        .show_ui(ui, |ui| {
+                            for e in [Easing::Smooth, Easing::Linear] {
+                                if ui
+                                    .selectable_value(&mut d.easing, e, format!("{e:?}").to_lowercase())
+                                    .changed()
+                                {
+                                    tag = Some("easing");
+                                }
+                            }
+                        });
+                    if ui
+                        .button("Edit in Picker")
+                        .on_hover_text("Open this control file on the mesh in the Picker; File > Back to the Composer returns")
+                        .clicked()
+                    {
+                        picker = Some((pi, di));
+                    }
+                    if ui.button("Remove").clicked() {
+                        drop = Some(di);
+                    }
+                });
+            }
+            if let Some(di) = drop {
+                part.deformations.remove(di);
+                tag = Some("deformations");
+            }
+            if ui.button("Add deformation…").clicked() {
+                choose = Some((pi, Purpose::AddControls));
+            }
+        }
+        if let Some((pi, purpose)) = choose {
+            c.part_target = Some((o, pi));
+            self.ask(purpose);
+        }
+        // A refused name goes back to the object's.
+        if let Some(name) = rename
+            && !self.scene_edit(SceneEdit::RenameObject(o, name))
+            && let Some(c) = self.composer.as_mut()
+        {
+            c.renaming = None;
+        }
+        if let Some(tag) = tag
+            && object != original
+        {
+            // A removed deformation shifts the phase tracks: a step of its own.
+            let merge = (!matches!(tag, "deformations" | "contact")).then_some(tag);
+            self.scene_edit_merging(SceneEdit::ReplaceObject(o, Box::new(object)), merge);
+        }
+        if let Some((pi, di)) = picker {
+            self.edit_in_picker(o, pi, di);
+        }
+    }
+
+    fn key_ui(&mut self, ui: &mut egui::Ui) {
+        let Some(c) = self.composer.as_ref() else {
+            return;
+        };
+        let Some((o, track, i)) = c.key else {
+            ui.label("Select a key on the timeline or in the viewport to edit it.");
+            return;
+        };
+        let Some(of) = c.doc.file.objects.get(o) else {
+            return;
+        };
+        let Some(time) = c.doc.key_times(o, track).get(i).copied() else {
+            return;
+        };
+        let name = match track {
+            Track::Position => "Position key".to_string(),
+            Track::Orientation => "Orientation key".to_string(),
+            Track::Phase { part, deformation } => format!(
+                "Phase key of {}",
+                of.parts
+                    .get(part)
+                    .and_then(|p| p.deformations.get(deformation))
+                    .map_or("?", |d| d.controls.as_str())
+            ),
+        };
+        ui.heading(format!("{name} of {:?}", of.name));
+        let mut edits = Vec::new();
+        let mut t = time;
+        ui.horizontal(|ui| {
+            ui.label("Time");
+            if ui
+                .add(
+                    egui::DragValue::new(&mut t)
+                        .speed(1.0 / c.doc.file.fps)
+                        .range(0.0..=c.doc.file.duration)
+                        .suffix(" s")
+                        .max_decimals(4),
+                )
+                .changed()
+            {
+                edits.push((
+                    SceneEdit::MoveKey {
+                        object: o,
+                        track,
+                        index: i,
+                        time: t,
+                    },
+                    "key time",
+                ));
+            }
+        });
+        match key_value(of, track, i) {
+            Some(KeyValue::Position(p)) => {
+                let mut v = DVec3::from_array(p);
+                if vec3_ui(ui, "Position", &mut v, 0.01) {
+                    edits.push((
+                        SceneEdit::SetKey {
+                            object: o,
+                            track,
+                            index: i,
+                            value: KeyValue::Position(v.to_array()),
+                        },
+                        "key value",
+                    ));
+                }
+                let k = of.trajectory[i];
+                let mut tcb = [k.tension, k.continuity, k.bias];
+                let mut changed = false;
+                for (j, label) in ["Tension", "Continuity", "Bias"].into_iter().enumerate() {
+                    changed |= ui
+                        .add(egui::Slider::new(&mut tcb[j], -1.0..=1.0).text(label))
+                        .changed();
+                }
+                if changed {
+                    edits.push((
+                        SceneEdit::SetTcb {
+                            object: o,
+                            index: i,
+                            tcb,
+                        },
+                        "tcb",
+                    ));
+                }
+            }
+            Some(KeyValue::Orientation(q)) => {
+                let (x, y, z) = DQuat::from_array(q).to_euler(EulerRot::XYZ);
+                let mut e = DVec3::new(x, y, z) * (180.0 / std::f64::consts::PI);
+                if vec3_ui(ui, "Turn (°, XYZ)", &mut e, 0.5) {
+                    let r = e * (std::f64::consts::PI / 180.0);
+                    let q = DQuat::from_euler(EulerRot::XYZ, r.x, r.y, r.z);
+                    edits.push((
+                        SceneEdit::SetKey {
+                            object: o,
+                            track,
+                            index: i,
+                            value: KeyValue::Orientation(q.to_array()),
+                        },
+                        "key value",
+                    ));
+                }
+                ui.label("Drag a ring of the gizmo in the viewport to turn it about X, Y or Z.");
+            }
+            Some(KeyValue::Phase(p)) => {
+                let mut p = p;
+                if ui
+                    .add(egui::Slider::new(&mut p, 0.0..=1.0).text("Phase"))
+                    .changed()
+                {
+                    edits.push((
+                        SceneEdit::SetKey {
+                            object: o,
+                            track,
+                            index: i,
+                            value: KeyValue::Phase(p),
+                        },
+                        "key value",
+                    ));
+                }
+            }
+            None => {}
+        }
+        let (mut delete, mut copy) = (false, false);
+        ui.horizontal(|ui| {
+            delete = ui.button("Delete key").clicked();
+            copy = ui.button("Copy to the playhead").clicked();
+        });
+        for (edit, tag) in edits {
+            let moved = match &edit {
+                SceneEdit::MoveKey { time, .. } => Some(*time),
+                _ => None,
+            };
+            if self.scene_edit_merging(edit, Some(tag))
+                && let Some(t) = moved
+                && let Some(c) = self.composer.as_mut()
+            {
+                // Passing another key reorders: follow the key.
+                let index = c.doc.key_times(o, track).iter().position(|&k| k == t);
+                c.key = index.map(|k| (o, track, k));
+            }
+        }
+        if delete {
+            self.delete_key();
+        }
+        if copy {
+            self.copy_key();
+        }
+    }
+}

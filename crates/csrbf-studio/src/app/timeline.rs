@@ -1,0 +1,410 @@
+//! The Composer's timeline: the transport (play, pause, frame steps, loop,
+//! range, every frame), the scene's fps and duration, a ruler to scrub, and
+//! a row per track of every object (position, orientation, each
+//! deformation's phase) with its keys: click to select, drag in time (one
+//! undo step, snapped to frames; passing another key reorders, landing on
+//! one is refused), Key to add one at the playhead.
+
+use eframe::egui;
+
+use super::StudioApp;
+use crate::compose::{SceneEdit, Track};
+
+/// Height of a track row, in points.
+const ROW: f32 = 18.0;
+/// Width of the track names.
+const NAMES: f32 = 190.0;
+
+impl StudioApp {
+    pub(super) fn timeline_ui(&mut self, ui: &mut egui::Ui) {
+        if self.composer.is_none() {
+            ui.label("No scene");
+            return;
+        }
+        self.transport_ui(ui);
+        ui.separator();
+        egui::ScrollArea::vertical()
+            .auto_shrink([false, false])
+            .show(ui, |ui| self.tracks_ui(ui));
+    }
+
+    fn transport_ui(&mut self, ui: &mut egui::Ui) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let mut action = None;
+        let mut timing = None;
+        ui.horizontal_wrapped(|ui| {
+            if ui
+                .button("Start")
+                .on_hover_text("To the start (Home)")
+                .clicked()
+            {
+                action = Some(0);
+            }
+            if ui
+                .button("Back")
+                .on_hover_text("One frame back (Left)")
+                .clicked()
+            {
+                action = Some(1);
+            }
+            let play = if c.playback.playing { "Pause" } else { "Play" };
+            if ui.button(play).on_hover_text("Space").clicked() {
+                action = Some(2);
+            }
+            if ui
+                .button("Next")
+                .on_hover_text("One frame on (Right)")
+                .clicked()
+            {
+                action = Some(3);
+            }
+            if ui.button("End").on_hover_text("To the end (End)").clicked() {
+                action = Some(4);
+            }
+            ui.checkbox(&mut c.playback.looping, "Loop");
+            ui.checkbox(&mut c.every_frame, "Every frame")
+                .on_hover_text(
+                    "Draw every frame even when slower than real time, instead of dropping frames",
+                );
+            let d = c.doc.file.duration;
+            let mut ranged = c.playback.range.is_some();
+            if ui
+                .checkbox(&mut ranged, "Range")
+                .on_hover_text("Play only between two times")
+                .changed()
+            {
+                c.playback.range = ranged.then_some((0.0, d));
+            }
+            if let Some((a, b)) = c.playback.range.as_mut() {
+                ui.add(
+                    egui::DragValue::new(a)
+                        .range(0.0..=d)
+                        .speed(0.02)
+                        .suffix(" s"),
+                );
+                ui.label("to");
+                ui.add(
+                    egui::DragValue::new(b)
+                        .range(0.0..=d)
+                        .speed(0.02)
+                        .suffix(" s"),
+                );
+            }
+            ui.separator();
+            let mut t = c.doc.playhead;
+            if ui
+                .add(
+                    egui::DragValue::new(&mut t)
+                        .range(0.0..=d)
+                        .speed(1.0 / c.doc.file.fps)
+                        .suffix(" s")
+                        .max_decimals(3),
+                )
+                .on_hover_text("The playhead")
+                .changed()
+            {
+                action = Some(10);
+                c.doc.playhead = t;
+            }
+            ui.separator();
+            let (mut fps, mut duration) = (c.doc.file.fps, c.doc.file.duration);
+            let a = ui
+                .add(
+                    egui::DragValue::new(&mut fps)
+                        .range(1.0..=240.0)
+                        .speed(0.2)
+                        .suffix(" fps"),
+                )
+                .changed();
+            let b = ui
+                .add(
+                    egui::DragValue::new(&mut duration)
+                        .range(0.04..=3600.0)
+                        .speed(0.02)
+                        .suffix(" s long"),
+                )
+                .changed();
+            if a || b {
+                timing = Some((fps, duration));
+            }
+        });
+        match action {
+            Some(0) => self.set_playhead(0.0),
+            Some(1) | Some(3) => {
+                if let Some(c) = self.composer.as_mut() {
+                    c.playback.pause();
+                    c.playback
+                        .step(&mut c.doc, if action == Some(1) { -1 } else { 1 });
+                }
+            }
+            Some(2) => self.toggle_play(),
+            Some(4) => {
+                let d = self.scene_doc().map_or(0.0, |d| d.file.duration);
+                self.set_playhead(d);
+            }
+            Some(10) => {
+                let t = self.scene_doc().map_or(0.0, |d| d.playhead);
+                self.set_playhead(t);
+            }
+            _ => {}
+        }
+        if let Some((fps, duration)) = timing {
+            self.scene_edit_merging(SceneEdit::SetTiming { fps, duration }, Some("timing"));
+        }
+    }
+
+    fn tracks_ui(&mut self, ui: &mut egui::Ui) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let width = (ui.available_width() - NAMES - 80.0).max(80.0);
+        let duration = c.doc.file.duration;
+        let fps = c.doc.file.fps;
+        // The ruler: click or drag to scrub.
+        let mut scrub = None;
+        ui.horizontal(|ui| {
+            ui.add_sized([NAMES, ROW], egui::Label::new("Time"));
+            ui.add_space(56.0);
+            let (rect, r) =
+                ui.allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
+            c.ruler = rect;
+            let p = ui.painter_at(rect.expand(2.0));
+            p.rect_filled(rect, 2.0, egui::Color32::from_gray(45));
+            let step = nice_step(duration, width);
+            let mut s = 0.0;
+            while s <= duration + 1e-9 {
+                let x = rect.left() + (s / duration) as f32 * rect.width();
+                p.line_segment(
+                    [
+                        egui::pos2(x, rect.bottom() - 6.0),
+                        egui::pos2(x, rect.bottom()),
+                    ],
+                    egui::Stroke::new(1.0, egui::Color32::GRAY),
+                );
+                p.text(
+                    egui::pos2(x + 2.0, rect.top()),
+                    egui::Align2::LEFT_TOP,
+                    format!("{s:.2}")
+                        .trim_end_matches('0')
+                        .trim_end_matches('.'),
+                    egui::FontId::proportional(10.0),
+                    egui::Color32::LIGHT_GRAY,
+                );
+                s += step;
+            }
+            if (r.clicked() || r.dragged())
+                && let Some(pos) = r.interact_pointer_pos()
+            {
+                scrub = Some(((pos.x - rect.left()) / rect.width()) as f64 * duration);
+            }
+        });
+        let playhead = c.doc.playhead;
+        let mut select_key = None;
+        let mut select_object = None;
+        let mut add = None;
+        let mut moved = None;
+        let objects = c.doc.file.objects.clone();
+        for (o, of) in objects.iter().enumerate() {
+            let header = ui.horizontal(|ui| {
+                let r = ui.selectable_label(
+                    c.selected == Some(o),
+                    egui::RichText::new(&of.name).strong(),
+                );
+                if r.clicked() {
+                    select_object = Some(o);
+                }
+            });
+            let _ = header;
+            let mut tracks = vec![
+                (Track::Position, "position".to_string()),
+                (Track::Orientation, "orientation".to_string()),
+            ];
+            for (pi, p) in of.parts.iter().enumerate() {
+                for (di, d) in p.deformations.iter().enumerate() {
+                    let stem = std::path::Path::new(&d.controls)
+                        .file_stem()
+                        .map_or(d.controls.clone(), |s| s.to_string_lossy().into_owned());
+                    tracks.push((
+                        Track::Phase {
+                            part: pi,
+                            deformation: di,
+                        },
+                        format!("phase {stem}"),
+                    ));
+                }
+            }
+            for (track, name) in tracks {
+                let times = c.doc.key_times(o, track);
+                ui.horizontal(|ui| {
+                    ui.allocate_ui_with_layout(
+                        egui::vec2(NAMES, ROW),
+                        egui::Layout::left_to_right(egui::Align::Center),
+                        |ui| {
+                            ui.set_min_width(NAMES);
+                            ui.add(egui::Label::new(format!("    {name}")).truncate());
+                        },
+                    );
+                    if ui
+                        .add_sized([50.0, ROW], egui::Button::new("Key"))
+                        .on_hover_text("A key at the playhead, with the value shown there now")
+                        .clicked()
+                    {
+                        add = Some((o, track));
+                    }
+                    let (rect, r) = ui
+                        .allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
+                    let x_of = |t: f64| rect.left() + (t / duration) as f32 * rect.width();
+                    let t_of = |x: f32| {
+                        let t = ((x - rect.left()) / rect.width()) as f64 * duration;
+                        ((t * fps).round() / fps).clamp(0.0, duration)
+                    };
+                    let p = ui.painter_at(rect.expand(6.0));
+                    let row_selected = c.selected == Some(o);
+                    p.rect_filled(
+                        rect,
+                        2.0,
+                        egui::Color32::from_gray(if row_selected { 38 } else { 32 }),
+                    );
+                    // Curves between keys.
+                    if times.len() > 1 {
+                        p.line_segment(
+                            [
+                                egui::pos2(x_of(times[0]), rect.center().y),
+                                egui::pos2(x_of(*times.last().expect("keys")), rect.center().y),
+                            ],
+                            egui::Stroke::new(1.0, egui::Color32::from_gray(90)),
+                        );
+                    }
+                    let nearest = |x: f32| {
+                        times
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &t)| (i, (x_of(t) - x).abs()))
+                            .filter(|(_, d)| *d <= 6.0)
+                            .min_by(|a, b| a.1.total_cmp(&b.1))
+                            .map(|(i, _)| i)
+                    };
+                    let dragging = c
+                        .time_drag
+                        .filter(|((ko, kt, _), _)| *ko == o && *kt == track);
+                    for (i, &t) in times.iter().enumerate() {
+                        let chosen = c.key == Some((o, track, i));
+                        let t = match dragging {
+                            Some(((_, _, ki), to)) if ki == i => to,
+                            _ => t,
+                        };
+                        diamond(
+                            &p,
+                            egui::pos2(x_of(t), rect.center().y),
+                            if chosen { 6.0 } else { 4.5 },
+                            if chosen {
+                                egui::Color32::from_rgb(255, 220, 80)
+                            } else {
+                                egui::Color32::from_rgb(190, 190, 200)
+                            },
+                        );
+                    }
+                    // The playhead.
+                    let x = x_of(playhead);
+                    p.line_segment(
+                        [egui::pos2(x, rect.top()), egui::pos2(x, rect.bottom())],
+                        egui::Stroke::new(1.5, egui::Color32::from_rgb(240, 90, 70)),
+                    );
+                    let at = r.interact_pointer_pos();
+                    if r.drag_started()
+                        && let Some(pos) = at
+                        && let Some(i) = nearest(pos.x)
+                    {
+                        select_key = Some((o, track, i));
+                        c.time_drag = Some(((o, track, i), times[i]));
+                    }
+                    if r.dragged()
+                        && let Some(pos) = at
+                    {
+                        if let Some((k, _)) = c
+                            .time_drag
+                            .filter(|((ko, kt, _), _)| *ko == o && *kt == track)
+                        {
+                            c.time_drag = Some((k, t_of(pos.x)));
+                        } else {
+                            scrub = Some(t_of(pos.x));
+                        }
+                    }
+                    if r.drag_stopped()
+                        && let Some((k, to)) = c.time_drag.take()
+                        && k.0 == o
+                        && k.1 == track
+                        && times.get(k.2).is_some_and(|&t| t != to)
+                    {
+                        moved = Some((k, to));
+                    }
+                    if r.clicked()
+                        && let Some(pos) = at
+                    {
+                        match nearest(pos.x) {
+                            Some(i) => select_key = Some((o, track, i)),
+                            None => {
+                                scrub = Some(t_of(pos.x));
+                                select_object = Some(o);
+                            }
+                        }
+                    }
+                });
+            }
+            ui.add_space(4.0);
+        }
+        if let Some(o) = select_object {
+            c.selected = Some(o);
+        }
+        if let Some(k) = select_key {
+            c.key = Some(k);
+            c.selected = Some(k.0);
+        }
+        if let Some(t) = scrub {
+            self.set_playhead(t);
+        }
+        if let Some((o, track)) = add {
+            self.add_key(o, track);
+        }
+        if let Some(((o, track, index), time)) = moved
+            && self.scene_edit(SceneEdit::MoveKey {
+                object: o,
+                track,
+                index,
+                time,
+            })
+            && let Some(c) = self.composer.as_mut()
+        {
+            let i = c.doc.key_times(o, track).iter().position(|&k| k == time);
+            c.key = i.map(|i| (o, track, i));
+        }
+    }
+}
+
+/// A key's diamond.
+fn diamond(p: &egui::Painter, c: egui::Pos2, r: f32, fill: egui::Color32) {
+    p.add(egui::Shape::convex_polygon(
+        vec![
+            egui::pos2(c.x, c.y - r),
+            egui::pos2(c.x + r, c.y),
+            egui::pos2(c.x, c.y + r),
+            egui::pos2(c.x - r, c.y),
+        ],
+        fill,
+        egui::Stroke::new(1.0, egui::Color32::BLACK),
+    ));
+}
+
+/// Seconds between ruler labels: 1, 2 or 5 times a power of ten, about
+/// 70 points apart.
+fn nice_step(duration: f64, width: f32) -> f64 {
+    let raw = duration * 70.0 / width.max(1.0) as f64;
+    let p = 10f64.powf(raw.max(1e-6).log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * p)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * p)
+}

@@ -1,0 +1,481 @@
+//! The Composer driven as a person would, headless (egui_kittest): a scene
+//! built by clicks, saved and read back by the CLI's loader, playback at
+//! the scene's rate, export (glTF through the Khronos validator, a movie
+//! cancelled), recovery, and every bad scene file of issue 9.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use csrbf::glam::Vec2;
+use csrbf_anim::{Scene, SceneFile};
+use csrbf_studio::app::{Args, Mode, StudioApp};
+use csrbf_studio::compose::Track;
+use eframe::egui;
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn assets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
+}
+
+/// A private folder per test.
+fn temp(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("csrbf-compose-test-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp folder");
+    d
+}
+
+fn app(args: Args, state: PathBuf) -> Harness<'static, StudioApp> {
+    let mut h = Harness::builder()
+        .with_size([1280.0, 900.0])
+        .with_max_steps(64)
+        .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(state)));
+    h.run_steps(3);
+    h
+}
+
+fn face(test: &str) -> Harness<'static, StudioApp> {
+    app(
+        Args {
+            mesh: Some(assets().join("scenes/face.scene.json")),
+            controls: None,
+        },
+        temp(test),
+    )
+}
+
+/// Answers the open file dialog with `path` (typed into its focused name
+/// field, then its Open or Save button).
+fn choose(h: &mut Harness<'_, StudioApp>, path: &Path, verb: &str) {
+    h.run_steps(2);
+    h.event(egui::Event::Text(path.display().to_string()));
+    h.run_steps(1);
+    h.get_by_label(verb).click();
+    h.run_steps(3);
+}
+
+/// Clicks the timeline's ruler at `time`.
+fn scrub(h: &mut Harness<'_, StudioApp>, time: f64) {
+    let r = h.state().timeline_ruler().expect("the timeline is drawn");
+    let d = h.state().scene_doc().expect("a scene").file.duration;
+    let at = egui::pos2(r.left() + (time / d) as f32 * r.width(), r.center().y);
+    click_at(h, at);
+    let t = h.state().scene_doc().expect("a scene").playhead;
+    assert!(
+        (t - time).abs() < 0.02,
+        "the playhead went to {t}, not {time}"
+    );
+}
+
+fn click_at(h: &mut Harness<'_, StudioApp>, at: egui::Pos2) {
+    h.event(egui::Event::PointerMoved(at));
+    for pressed in [true, false] {
+        h.event(egui::Event::PointerButton {
+            pos: at,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        });
+        h.step();
+    }
+    h.run_steps(2);
+}
+
+/// The `k`-th Key button of the timeline (tracks in order: each object's
+/// position, orientation, then its deformations' phases).
+fn key_button(h: &mut Harness<'_, StudioApp>, k: usize) {
+    let nodes: Vec<_> = h.get_all_by_label("Key").collect();
+    assert!(nodes.len() > k, "only {} Key buttons", nodes.len());
+    nodes[k].click();
+    h.run_steps(3);
+}
+
+/// The screen position of a viewport point, and the viewport's pixels per
+/// point.
+fn on_screen(h: &Harness<'_, StudioApp>, p: csrbf::glam::Vec3) -> egui::Pos2 {
+    let (cam, size, gate) = h.state().compose_camera().expect("a scene");
+    let (px, _) = cam.project(p, size).expect("in view");
+    let ppp = size[0] as f32 / gate.width();
+    egui::pos2(gate.min.x + px.x / ppp, gate.min.y + px.y / ppp)
+}
+
+#[test]
+fn a_two_object_scene_built_by_clicks_saves_what_the_cli_loads_frame_for_frame() {
+    let dir = temp("build");
+    let mut h = app(Args::default(), dir.join("state"));
+    // The Composer, a new scene, two meshes added through the dialog.
+    h.get_by_label("Composer").click();
+    h.run_steps(2);
+    assert_eq!(h.state().mode(), Mode::Compose);
+    for mesh in ["models/cgal_head.off", "models/pybullet_duck.obj"] {
+        h.get_by_label("Add object…").click();
+        choose(&mut h, &assets().join(mesh), "Open");
+    }
+    let doc = h.state().scene_doc().expect("a scene");
+    assert_eq!(doc.file.objects.len(), 2, "{:?}", h.state().message());
+    assert_eq!(doc.file.objects[0].name, "cgal_head");
+    // The head: a deformation, then keys at 0 and 2 s; the key at 2 s is
+    // dragged in the viewport; a key at 1 s; a phase key.
+    h.get_all_by_label("cgal_head")
+        .next()
+        .expect("listed")
+        .click();
+    h.run_steps(2);
+    h.get_by_label("Add deformation…").click();
+    choose(&mut h, &assets().join("controls/head_smile.json"), "Open");
+    scrub(&mut h, 0.0);
+    key_button(&mut h, 0);
+    scrub(&mut h, 2.0);
+    key_button(&mut h, 0);
+    assert_eq!(
+        h.state()
+            .scene_doc()
+            .expect("scene")
+            .key_times(0, Track::Position),
+        vec![0.0, 2.0]
+    );
+    let scene = h.state().loaded_scene().expect("loaded");
+    let centre = scene.objects[0].center.as_vec3();
+    let key = csrbf::glam::DVec3::from_array(
+        h.state().scene_doc().expect("scene").file.objects[0].trajectory[1].position,
+    )
+    .as_vec3();
+    let from = on_screen(&h, key + centre);
+    h.event(egui::Event::PointerMoved(from));
+    h.event(egui::Event::PointerButton {
+        pos: from,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.step();
+    for k in 1..=8 {
+        h.event(egui::Event::PointerMoved(
+            from + egui::vec2(12.0 * k as f32, -4.0 * k as f32),
+        ));
+        h.step();
+    }
+    let to = from + egui::vec2(96.0, -32.0);
+    h.event(egui::Event::PointerButton {
+        pos: to,
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.run_steps(3);
+    let moved = h.state().scene_doc().expect("scene").file.objects[0].trajectory[1].position;
+    let dragged = csrbf::glam::DVec3::from_array(moved).as_vec3();
+    assert!(
+        (dragged - key).length() > 0.1 * scene_radius(&h),
+        "the key moved: {key} -> {dragged}"
+    );
+    // The marker is where the pointer let go (on the plane facing the camera).
+    let landed = on_screen(&h, dragged + centre);
+    assert!(landed.distance(to) < 1.5, "{landed:?} vs {to:?}");
+    let steps = h.state().scene_undo_steps();
+    scrub(&mut h, 1.0);
+    key_button(&mut h, 0);
+    assert_eq!(
+        h.state()
+            .scene_doc()
+            .expect("scene")
+            .key_times(0, Track::Position),
+        vec![0.0, 1.0, 2.0]
+    );
+    // Phase: a key at 0 s set to 0 (the deformation then phases in).
+    scrub(&mut h, 0.0);
+    key_button(&mut h, 2);
+    h.get_by_role(Role::Slider).set_value_accesskit(0.0);
+    h.run_steps(3);
+    let phase = Track::Phase {
+        part: 0,
+        deformation: 0,
+    };
+    let doc = h.state().scene_doc().expect("scene").clone();
+    assert_eq!(doc.key_times(0, phase), vec![0.0]);
+    assert_eq!(
+        doc.file.objects[0].parts[0].deformations[0].phase[0].phase,
+        0.0
+    );
+    assert_eq!(h.state().scene_undo_steps(), steps + 3);
+    // Save with Ctrl+S: the dialog, a path, Save.
+    let saved = dir.join("out").join("built.scene.json");
+    std::fs::create_dir_all(saved.parent().expect("folder")).expect("folder");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::S);
+    h.run_steps(2);
+    choose(&mut h, &saved, "Save");
+    assert!(
+        !h.state().scene_doc().expect("scene").dirty,
+        "{:?}",
+        h.state().message()
+    );
+    let text = std::fs::read_to_string(&saved).expect("saved");
+    let file = SceneFile::parse(&text).expect("the CLI's parser reads it");
+    // Paths are relative to where the scene was saved.
+    let mesh = Path::new(&file.objects[0].mesh);
+    assert!(mesh.is_relative(), "{}", mesh.display());
+    assert_eq!(
+        std::fs::canonicalize(saved.parent().expect("folder").join(mesh)).expect("found"),
+        std::fs::canonicalize(assets().join("models/cgal_head.off")).expect("head")
+    );
+    // What `csrbf animate` loads from the file moves every vertex where
+    // the studio shows it, at every frame time tried.
+    let cli = Scene::load(&saved).expect("the CLI's loader takes it");
+    let studio = h.state().loaded_scene().expect("loaded").clone();
+    for t in [0.0, 0.5, 1.0, 1.3, 2.0, 3.5] {
+        let (a, b) = (cli.frame(t), studio.frame(t));
+        for (oa, ob) in a.objects.iter().zip(&b.objects) {
+            assert_eq!(oa.positions, ob.positions, "t = {t}");
+        }
+    }
+    // The head moves between its keys and deforms as the phase rises.
+    let f0 = cli.frame(0.0);
+    let f1 = cli.frame(1.0);
+    assert_ne!(f0.objects[0].positions, f1.objects[0].positions);
+}
+
+fn scene_radius(h: &Harness<'_, StudioApp>) -> f32 {
+    h.state()
+        .loaded_scene()
+        .expect("loaded")
+        .objects
+        .iter()
+        .map(|o| o.radius as f32)
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn play_moves_the_playhead_by_the_scenes_frame_rate() {
+    let mut h = face("play");
+    h.get_by_label("Play").click();
+    let started = Instant::now();
+    let mut frames = 0;
+    while started.elapsed() < Duration::from_millis(700) {
+        h.step();
+        frames += 1;
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    let app = h.state();
+    let t = app.scene_doc().expect("scene").playhead;
+    let fps = app.scene_doc().expect("scene").file.fps;
+    // Whole frames of 1/30 s, as many as the wall clock allows: at most one
+    // frame behind (the first tick starts the clock) and never ahead.
+    let frame = (t * fps).round();
+    assert!((t * fps - frame).abs() < 1e-6, "on a frame: {t}");
+    assert!(
+        t <= elapsed + 1e-9 && t >= elapsed - 0.25,
+        "played {t} s in {elapsed} s ({frames} draws)"
+    );
+    assert!(app.playback().expect("scene").playing);
+    // Space pauses; the playhead stays.
+    h.key_press(egui::Key::Space);
+    h.run_steps(2);
+    let paused = h.state().scene_doc().expect("scene").playhead;
+    std::thread::sleep(Duration::from_millis(100));
+    h.run_steps(2);
+    assert_eq!(h.state().scene_doc().expect("scene").playhead, paused);
+    // Every frame: one frame a draw, none dropped, whatever the clock.
+    h.get_by_label("Every frame").click();
+    h.get_by_label("Start").click();
+    h.run_steps(1);
+    h.key_press(egui::Key::Space);
+    for _ in 0..10 {
+        h.step();
+    }
+    let app = h.state();
+    let t = app.scene_doc().expect("scene").playhead;
+    let n = (t * fps).round() as i64;
+    assert!((9..=11).contains(&n), "{n} frames in 10 draws");
+    assert_eq!(app.playback().expect("scene").dropped, 0);
+    // Next and Back step one frame.
+    h.key_press(egui::Key::Space);
+    h.run_steps(1);
+    let at = h.state().scene_doc().expect("scene").playhead;
+    h.get_by_label("Next").click();
+    h.run_steps(1);
+    let next = h.state().scene_doc().expect("scene").playhead;
+    assert!((next - at - 1.0 / fps).abs() < 1e-9, "{at} -> {next}");
+}
+
+/// Runs the Khronos glTF validator on a file; its report must have no error.
+fn validate(file: &Path) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/validate_gltf.mjs");
+    let out = std::process::Command::new("node")
+        .arg(&script)
+        .arg(file)
+        .output()
+        .expect("node is needed for the glTF validator: run scripts/test.sh, which installs it");
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && report.contains(": 0 errors"),
+        "glTF validator: {report}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn the_export_menu_writes_a_glb_the_khronos_validator_passes_and_a_cancelled_movie_leaves_nothing()
+{
+    let mut h = face("export");
+    let dir = temp("export-out");
+    let glb = dir.join("face.glb");
+    h.get_by_label("File").click();
+    h.run_steps(3);
+    h.get_by_label("Export glTF…").click();
+    choose(&mut h, &glb, "Save");
+    assert!(h.state_mut().finish_export(Duration::from_secs(120)));
+    h.run_steps(2);
+    assert!(
+        glb.exists(),
+        "{} / {:?}",
+        h.state().status(),
+        h.state().message()
+    );
+    validate(&glb);
+    assert!(
+        h.state().status().contains("face.glb"),
+        "{}",
+        h.state().status()
+    );
+    // The same bytes as `csrbf export` makes (one library call).
+    let cli = csrbf_anim::export_gltf(
+        &Scene::load(&assets().join("scenes/face.scene.json")).expect("face"),
+        true,
+    );
+    assert_eq!(std::fs::read(&glb).expect("glb"), cli);
+    // A movie cancelled at once: nothing is left where it was going.
+    let gif = dir.join("face.gif");
+    h.state_mut().export_movie(&gif);
+    h.run_steps(1);
+    assert!(
+        h.state().exporting(),
+        "{} / {:?}",
+        h.state().status(),
+        h.state().message()
+    );
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(h.state_mut().finish_export(Duration::from_secs(120)));
+    h.run_steps(2);
+    assert!(!gif.exists(), "{}", h.state().status());
+    assert!(
+        h.state().status().contains("cancelled"),
+        "{}",
+        h.state().status()
+    );
+}
+
+#[test]
+fn bad_scene_files_are_refused_with_the_cli_message_and_the_open_scene_kept() {
+    let mut h = face("bad");
+    let kept = h.state().scene_doc().expect("face").file.clone();
+    let dir = temp("bad-files");
+    std::fs::copy(assets().join("models/cgal_head.off"), dir.join("head.off")).expect("copy");
+    let good = r#"{"duration": 2, "camera": {"eye": [0, 0, 50], "target": [0, 0, 0]},
+      "objects": [{"name": "head", "mesh": "head.off",
+        "trajectory": [{"time": 0, "position": [0, 0, 0]}, {"time": 1, "position": [1, 0, 0]}]}]}"#;
+    let cases = [
+        ("unknown", good.replace("\"duration\"", "\"speed\": 1, \"duration\""), "speed"),
+        ("missing-mesh", good.replace("head.off", "gone.off"), "objects[0].mesh"),
+        (
+            "missing-texture",
+            good.replace(
+                "\"mesh\": \"head.off\",",
+                "\"mesh\": \"head.off\", \"parts\": [{\"name\": \"a\", \"texture\": \"gone.png\"}],",
+            ),
+            "gone.png",
+        ),
+        (
+            "order",
+            good.replace("\"time\": 1,", "\"time\": 0,"),
+            "objects[0].trajectory[1].time",
+        ),
+        ("zero", good.replace("\"duration\": 2", "\"duration\": 0"), "duration"),
+    ];
+    for (name, text, names) in cases {
+        let path = dir.join(format!("{name}.scene.json"));
+        std::fs::write(&path, text).expect("write");
+        h.state_mut().open_scene(&path);
+        h.run_steps(2);
+        let (title, message) = h.state().message().cloned().expect("a dialog");
+        assert!(
+            title.contains("scene")
+                && message.contains(&format!("{name}.scene.json"))
+                && message.contains(names),
+            "{name}: {title}: {message}"
+        );
+        // The CLI says the same.
+        let cli = Scene::load(&path)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(message.contains(&cli), "{name}: {message} vs {cli}");
+        assert_eq!(h.state().scene_doc().expect("kept").file, kept, "{name}");
+        h.get_by_label("OK").click();
+        h.run_steps(1);
+    }
+    // The good one opens.
+    let path = dir.join("good.scene.json");
+    std::fs::write(&path, good).expect("write");
+    h.state_mut().open_scene(&path);
+    h.run_steps(2);
+    assert!(h.state().message().is_none(), "{:?}", h.state().message());
+    assert_eq!(
+        h.state().scene_doc().expect("open").file.objects[0].name,
+        "head"
+    );
+    // Dragging a key past another reorders; onto another is refused.
+    h.state_mut()
+        .scene_edit(csrbf_studio::compose::SceneEdit::MoveKey {
+            object: 0,
+            track: Track::Position,
+            index: 0,
+            time: 1.5,
+        });
+    let doc = h.state().scene_doc().expect("open").clone();
+    assert_eq!(doc.key_times(0, Track::Position), vec![1.0, 1.5]);
+    assert!(
+        !h.state_mut()
+            .scene_edit(csrbf_studio::compose::SceneEdit::MoveKey {
+                object: 0,
+                track: Track::Position,
+                index: 0,
+                time: 1.5,
+            })
+    );
+    assert_eq!(h.state().scene_doc().expect("open").file, doc.file);
+    assert!(SceneFile::parse(&doc.to_text()).is_ok());
+}
+
+#[test]
+fn an_unsaved_scene_comes_back_from_the_recovery_file() {
+    let state = temp("recovery-state");
+    let mut h = app(
+        Args {
+            mesh: Some(assets().join("scenes/face.scene.json")),
+            controls: None,
+        },
+        state.clone(),
+    );
+    scrub(&mut h, 1.0);
+    key_button(&mut h, 0);
+    let edited = h.state().scene_doc().expect("scene").file.clone();
+    assert!(h.state().scene_doc().expect("scene").dirty);
+    // The recovery file is written within a second of the change.
+    let until = Instant::now() + Duration::from_secs(5);
+    while Instant::now() < until && !state.join("recovery.scene.json").exists() {
+        h.step();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    drop(h);
+    let mut h = app(Args::default(), state);
+    h.get_by_label("Restore").click();
+    h.run_steps(3);
+    let doc = h.state().scene_doc().expect("restored");
+    assert_eq!(doc.file, edited);
+    assert!(doc.dirty);
+    assert_eq!(h.state().mode(), Mode::Compose);
+}
