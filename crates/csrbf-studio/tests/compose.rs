@@ -6,7 +6,6 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use csrbf::glam::Vec2;
 use csrbf_anim::{Scene, SceneFile};
 use csrbf_studio::app::{Args, Mode, StudioApp};
 use csrbf_studio::compose::Track;
