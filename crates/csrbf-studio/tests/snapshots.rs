@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use csrbf_studio::app::{Args, StudioApp};
+use eframe::egui;
 use egui_kittest::Harness;
 
 fn head() -> PathBuf {
@@ -139,4 +140,107 @@ fn turned_over_faces_are_outlined_in_red() {
     let red = |p: [u8; 4]| p[0] > 200 && p[1] < 120 && p[2] < 120;
     assert!(count(&view, red) > 10, "the flipped faces are outlined");
     egui_kittest::image_snapshot(&view, "head_folded");
+}
+
+/// Mean absolute difference of two pictures' RGB (0..255), and the share of
+/// pixels that differ by more than 60 in some channel; the top `skip` rows
+/// (the viewport's time label) are left out.
+fn difference(a: &image::RgbaImage, b: &image::RgbaImage, skip: u32) -> (f64, f64) {
+    assert_eq!(a.dimensions(), b.dimensions());
+    let (mut sum, mut far, mut n) = (0u64, 0usize, 0usize);
+    for (x, y, p) in a.enumerate_pixels() {
+        if y < skip {
+            continue;
+        }
+        let q = b.get_pixel(x, y);
+        let d: Vec<u32> = (0..3).map(|k| p.0[k].abs_diff(q.0[k]) as u32).collect();
+        sum += d.iter().map(|&v| v as u64).sum::<u64>();
+        far += usize::from(d.iter().any(|&v| v > 60));
+        n += 1;
+    }
+    (sum as f64 / (3 * n) as f64, far as f64 / n as f64)
+}
+
+/// Issue 9: what the Composer shows through the scene camera is what
+/// `csrbf animate` renders (`csrbf_render::movie::render_movie`, its frame
+/// loop) at the same times, within a tolerance for edges (the viewport draws
+/// one sample per pixel on a software rasteriser, the movie four).
+#[test]
+fn the_composer_shows_through_the_scene_camera_what_csrbf_animate_renders() {
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets");
+    let scene_path = assets.join("scenes/face.scene.json");
+    let dir =
+        std::env::temp_dir().join(format!("csrbf-studio-snap-{}-compose", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp folder");
+    let args = Args {
+        mesh: Some(scene_path.clone()),
+        controls: None,
+    };
+    let state = dir.join("state");
+    let mut h = Harness::builder()
+        .with_size([1000.0, 800.0])
+        .wgpu()
+        .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(state)));
+    h.run_steps(2);
+    h.key_press(egui::Key::C);
+    h.run_steps(2);
+    let times = [0.0, 1.2, 2.4];
+    let mut shown = Vec::new();
+    let mut size = [0, 0];
+    for &t in &times {
+        h.state_mut().set_playhead(t);
+        h.run_steps(3);
+        let image = h.render().expect("the wgpu test renderer draws");
+        let (_, s, gate) = h.state().compose_camera().expect("a scene");
+        let ppp = s[0] as f32 / gate.width();
+        let (x, y) = (
+            (gate.min.x * ppp).round() as u32,
+            (gate.min.y * ppp).round() as u32,
+        );
+        size = s;
+        shown.push(image::imageops::crop_imm(&image, x, y, s[0], s[1]).to_image());
+    }
+    // The movie at those times and the viewport's size, as PNG frames.
+    let scene = csrbf_anim::Scene::load(&scene_path).expect("face");
+    let mut options = csrbf_render::movie::MovieOptions::of(&scene);
+    options.size = size;
+    options.from = times[0];
+    options.to = times[2];
+    options.fps = 1.0 / (times[1] - times[0]);
+    let frames = dir.join("frames");
+    csrbf_render::movie::render_movie(&scene, &frames, options, &mut |_, _| true)
+        .expect("the movie");
+    for (k, view) in shown.iter().enumerate() {
+        let png = frames.join(format!("frame_{k:05}.png"));
+        let movie = png_image(&png);
+        let (mean, far) = difference(view, &movie, 24);
+        assert!(
+            mean < 3.5 && far < 0.01,
+            "t = {}: mean {mean:.2}, {:.2} % far",
+            times[k],
+            far * 100.0
+        );
+        // And the test can tell frames apart: another time differs more.
+        let other = png_image(&frames.join(format!("frame_{:05}.png", usize::from(k == 0))));
+        let (mean_other, far_other) = difference(view, &other, 24);
+        eprintln!(
+            "t = {}: mean {mean:.2}, {:.2} % far; against another time {mean_other:.2}, {:.2} %",
+            times[k],
+            far * 100.0,
+            far_other * 100.0
+        );
+        assert!(
+            far_other > 3.0 * far.max(0.002) && mean_other > mean,
+            "t = {}: another time's frame differs by only {mean_other:.2} ({:.2} %)",
+            times[k],
+            far_other * 100.0
+        );
+    }
+}
+
+/// A PNG read by the scene's own texture reader.
+fn png_image(path: &Path) -> image::RgbaImage {
+    let t = csrbf_anim::load_texture(path).expect("a frame");
+    image::RgbaImage::from_raw(t.width, t.height, t.rgba).expect("RGBA")
 }
