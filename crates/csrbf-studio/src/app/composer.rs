@@ -105,6 +105,8 @@ pub(super) struct Composer {
     last_tick: Option<Instant>,
     /// Frames drawn while playing, over the last second: the rate shown.
     pub drawn: Vec<Instant>,
+    /// Since play began: when, and frames drawn.
+    played: Option<(Instant, u64)>,
     pub selected: Option<usize>,
     pub key: Option<KeyRef>,
     pub hidden: Vec<bool>,
@@ -153,6 +155,7 @@ impl Composer {
             every_frame: false,
             last_tick: None,
             drawn: Vec::new(),
+            played: None,
             selected: None,
             key: None,
             hidden: Vec::new(),
@@ -895,8 +898,21 @@ impl StudioApp {
         if !c.playback.playing {
             c.last_tick = None;
             c.drawn.clear();
+            // A play ended (paused, or at the end): say how it went, for
+            // whoever reads the log (the figures of issue 9 come from it).
+            if let Some((from, frames)) = c.played.take() {
+                let secs = (now - from).as_secs_f64();
+                eprintln!(
+                    "csrbf-studio: played {frames} frames in {secs:.2} s = {:.1} fps ({} frames dropped; the scene runs at {} fps)",
+                    frames as f64 / secs.max(1e-9),
+                    c.playback.dropped,
+                    c.doc.file.fps
+                );
+            }
             return;
         }
+        let played = c.played.get_or_insert((now, 0));
+        played.1 += 1;
         let elapsed = c.last_tick.map_or(0.0, |t| (now - t).as_secs_f64());
         c.last_tick = Some(now);
         if c.every_frame {
