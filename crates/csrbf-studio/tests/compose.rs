@@ -323,7 +323,7 @@ fn the_export_menu_writes_a_glb_the_khronos_validator_passes_and_a_cancelled_mov
     let glb = dir.join("face.glb");
     h.get_by_label("File").click();
     h.run_steps(3);
-    h.get_by_label("Export glTF…").click();
+    h.get_by_label("Export glTF…  Ctrl+Shift+E").click();
     choose(&mut h, &glb, "Save");
     assert!(h.state_mut().finish_export(Duration::from_secs(120)));
     h.run_steps(2);

@@ -68,6 +68,9 @@ struct ViewportGpu {
     scene: Option<(u64, SceneRenderer)>,
     target: Option<([u32; 2], wgpu::TextureView, wgpu::BindGroup)>,
     error: Option<String>,
+    /// What the Composer's picture in `target` shows (see
+    /// [`ScenePaint::stamp`]): the same stamp is not drawn again.
+    drawn: Option<u64>,
 }
 
 /// Sets up the blit pipeline in egui's renderer (once, when the app starts).
@@ -145,6 +148,7 @@ pub fn install(state: &egui_wgpu::RenderState) {
             scene: None,
             target: None,
             error: None,
+            drawn: None,
         });
 }
 
@@ -288,6 +292,8 @@ impl ViewportPaint {
         queue: &wgpu::Queue,
     ) -> csrbf_render::Result<()> {
         let target = gpu.target(device, self.size);
+        // The Picker draws over the Composer's last picture.
+        gpu.drawn = None;
         let made = gpu.scene_renderer(
             device,
             queue,
@@ -349,6 +355,10 @@ pub struct ScenePaint {
     pub overlay: Vec<Line>,
     /// Objects left out.
     pub hidden: Vec<bool>,
+    /// Identifies what this picture shows (scene, frame, camera, lines):
+    /// when it equals the last one drawn, the texture is shown again
+    /// without drawing (a window repainted for its panels, a progress bar).
+    pub stamp: u64,
 }
 
 impl CallbackTrait for ScenePaint {
@@ -364,6 +374,10 @@ impl CallbackTrait for ScenePaint {
             return Vec::new();
         };
         let target = gpu.target(device, self.size);
+        let key = self.stamp ^ self.id.rotate_left(17) ^ ((self.size[0] as u64) << 32 | self.size[1] as u64);
+        if gpu.drawn == Some(key) && gpu.scene.as_ref().is_some_and(|(id, _)| *id == self.id) {
+            return Vec::new();
+        }
         let s = &self.scene;
         let made = gpu.scene_renderer(device, queue, self.id, self.samples, self.size, |r| {
             Some(SceneRenderer::on_renderer(s, r))
@@ -380,6 +394,7 @@ impl CallbackTrait for ScenePaint {
                     &target,
                 );
                 gpu.error = None;
+                gpu.drawn = Some(key);
             }
             Ok(None) => {}
             Err(e) => gpu.error = Some(e.to_string()),

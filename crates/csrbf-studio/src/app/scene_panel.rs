@@ -72,10 +72,10 @@ impl StudioApp {
                     self.ask(Purpose::SaveScene);
                 }
                 ui.separator();
-                if ui.button("Export movie…").clicked() {
+                if ui.button("Export movie…  Ctrl+E").clicked() {
                     self.ask(Purpose::ExportMovie);
                 }
-                if ui.button("Export glTF…").clicked() {
+                if ui.button("Export glTF…  Ctrl+Shift+E").clicked() {
                     self.ask(Purpose::ExportGltf);
                 }
                 ui.separator();
