@@ -58,6 +58,19 @@ struct Prepared {
     parts: Vec<DrawPart>,
 }
 
+/// A lighter copy of an object to draw instead of it: triangles over a
+/// subset of its vertices (e.g. from `csrbf_mesh::cluster_triangles`), with
+/// their positions and normals at this frame.
+#[derive(Clone, Copy, Debug)]
+pub struct StandInDraw<'a> {
+    /// Positions of the stand-in's vertices, world space.
+    pub positions: &'a [Vec3],
+    /// Their normals.
+    pub normals: &'a [Vec3],
+    /// Triangles, three indices into `positions` each.
+    pub indices: &'a [u32],
+}
+
 /// A renderer bound to one scene: textures uploaded and parts triangulated once.
 pub struct SceneRenderer {
     renderer: Renderer,
@@ -232,8 +245,9 @@ impl SceneRenderer {
 
     /// [`SceneRenderer::draw_into`] with lines of the caller's: `lines`
     /// depth-tested among the meshes (trajectories), `overlay` over
-    /// everything (keys, gizmos), and object `k` left out where `hidden[k]`:
-    /// the Composer's viewport.
+    /// everything (keys, gizmos), object `k` left out where `hidden[k]`, and
+    /// drawn by `stand_ins[k]` instead where it has one (a big mesh while
+    /// the scene plays): the Composer's viewport.
     #[allow(clippy::too_many_arguments)]
     pub fn draw_frame_into(
         &mut self,
@@ -243,8 +257,28 @@ impl SceneRenderer {
         lines: &[Line],
         overlay: &[Line],
         hidden: &[bool],
+        stand_ins: &[Option<StandInDraw>],
         target: &wgpu::TextureView,
     ) {
+        // The stand-ins' parts, in the colour of each object's first part.
+        let parts: Vec<Option<[DrawPart; 1]>> = stand_ins
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let s = s.as_ref()?;
+                let color = self
+                    .prepared
+                    .get(k)
+                    .and_then(|p| p.parts.first())
+                    .map_or([0.8; 4], |p| p.color);
+                Some([DrawPart {
+                    indices: s.indices.to_vec(),
+                    color,
+                    texture: None,
+                    wireframe: false,
+                }])
+            })
+            .collect();
         let mut view = view_of(
             &self.prepared,
             self.key,
@@ -253,10 +287,26 @@ impl SceneRenderer {
             frame,
             options,
         );
+        for (k, (s, p)) in stand_ins.iter().zip(&parts).enumerate() {
+            if let (Some(s), Some(p), Some(m)) = (s, p, view.meshes.get_mut(k)) {
+                *m = DrawMesh {
+                    // Its own key: switching between it and the full mesh
+                    // uploads the other's indices once.
+                    key: (self.key + k as u64) ^ (1 << 62) ^ s.indices.len() as u64,
+                    positions: s.positions,
+                    normals: s.normals,
+                    uvs: &[],
+                    colors: &[],
+                    parts: p,
+                };
+            }
+        }
         if hidden.iter().any(|&h| h) {
-            let key = self.key;
-            view.meshes
-                .retain(|m| !hidden.get((m.key - key) as usize).copied().unwrap_or(false));
+            let mut k = 0;
+            view.meshes.retain(|_| {
+                k += 1;
+                !hidden.get(k - 1).copied().unwrap_or(false)
+            });
         }
         view.lines.extend_from_slice(lines);
         view.overlay.extend_from_slice(overlay);

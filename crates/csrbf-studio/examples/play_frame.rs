@@ -66,7 +66,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let t = Instant::now();
             scene.frame_into(k as f64 / fps, &mut frame);
             let computed = t.elapsed();
-            r.draw_frame_into(&scene, &frame, SceneOptions::default(), &[], &[], &[], &target);
+            r.draw_frame_into(
+                &scene,
+                &frame,
+                SceneOptions::default(),
+                &[],
+                &[],
+                &[],
+                &[],
+                &target,
+            );
             let _ = r
                 .renderer()
                 .device()
@@ -96,7 +105,13 @@ fn suzanne_scene(mesh: &Path, out: &Path) -> Result<PathBuf, Box<dyn std::error:
     let (lo, hi) = m.bounds().ok_or("empty")?;
     let diag = (hi - lo).length() as f64;
     let mut controls = Vec::new();
-    for (k, p) in m.positions.iter().step_by(m.positions.len() / 40).take(40).enumerate() {
+    for (k, p) in m
+        .positions
+        .iter()
+        .step_by(m.positions.len() / 40)
+        .take(40)
+        .enumerate()
+    {
         let d = if k % 4 == 0 { 0.05 * diag } else { 0.0 };
         controls.push(format!(
             r#"{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}"#,

@@ -122,6 +122,9 @@ pub(super) struct Composer {
     pub load_ms: f64,
     /// The part a texture or control file being chosen is for.
     pub part_target: Option<(usize, usize)>,
+    /// Lighter copies of the objects over `BIG_MESH_TRIANGLES`, drawn while
+    /// the scene plays or a key is dragged (as the Picker does on a drag).
+    pub stand_ins: Vec<Option<Arc<super::StandIn>>>,
     /// Where the timeline's ruler was drawn (time 0 at its left edge,
     /// the duration at its right).
     pub ruler: egui::Rect,
@@ -167,6 +170,7 @@ impl Composer {
             renaming: None,
             load_ms: 0.0,
             part_target: None,
+            stand_ins: Vec::new(),
             ruler: egui::Rect::NOTHING,
         }
     }
@@ -222,6 +226,14 @@ impl Composer {
         if !same_shape {
             self.gpu_id = *next_id;
             *next_id += 1;
+            self.stand_ins = scene
+                .iter()
+                .flat_map(|s| &s.objects)
+                .map(|o| {
+                    (o.triangles.len() > gpu::BIG_MESH_TRIANGLES)
+                        .then(|| Arc::new(super::StandIn::new(&o.mesh.positions, &o.triangles)))
+                })
+                .collect();
         }
         self.scene = scene.map(Arc::new);
         self.generation += 1;
@@ -1203,8 +1215,39 @@ impl StudioApp {
             rect,
             ppp,
         );
-        ui.painter()
-            .rect_filled(rect, 0.0, egui::Color32::from_gray(28));
+        // The picture covers the viewport but for the scene camera's
+        // letterbox: only that is filled (a fill costs on a software
+        // rasteriser).
+        let gate = self.scene_gate(rect);
+        let grey = egui::Color32::from_gray(28);
+        let empty = self.composer.as_ref().is_none_or(|c| c.scene.is_none());
+        if empty || gate == rect {
+            if empty {
+                ui.painter().rect_filled(rect, 0.0, grey);
+            }
+        } else {
+            let p = ui.painter();
+            p.rect_filled(
+                egui::Rect::from_x_y_ranges(rect.x_range(), rect.top()..=gate.top()),
+                0.0,
+                grey,
+            );
+            p.rect_filled(
+                egui::Rect::from_x_y_ranges(rect.x_range(), gate.bottom()..=rect.bottom()),
+                0.0,
+                grey,
+            );
+            p.rect_filled(
+                egui::Rect::from_x_y_ranges(rect.left()..=gate.left(), gate.y_range()),
+                0.0,
+                grey,
+            );
+            p.rect_filled(
+                egui::Rect::from_x_y_ranges(gate.right()..=rect.right(), gate.y_range()),
+                0.0,
+                grey,
+            );
+        }
         let Some(c) = self.composer.as_mut() else {
             return;
         };
@@ -1543,6 +1586,18 @@ impl StudioApp {
         if !c.through_camera {
             camera_lines(&c.scene_camera(), c.doc.file.size, &mut lines);
         }
+        // Big meshes are drawn by their stand-ins while the scene moves.
+        let moving = c.playback.playing || c.drag.is_some();
+        let stand_ins: Vec<_> = c
+            .stand_ins
+            .iter()
+            .zip(&c.frame.objects)
+            .map(|(s, f)| {
+                let s = s.as_ref().filter(|_| moving)?;
+                let (p, n) = s.shape(&f.positions);
+                Some((s.clone(), p, n))
+            })
+            .collect();
         let mut options = SceneOptions::default();
         options.camera = Some(cam);
         options.draw.flat = self.view.flat;
@@ -1552,6 +1607,7 @@ impl StudioApp {
             use std::hash::{Hash, Hasher};
             let mut h = std::collections::hash_map::DefaultHasher::new();
             c.generation.hash(&mut h);
+            moving.hash(&mut h);
             c.doc.playhead.to_bits().hash(&mut h);
             format!("{cam:?}{:?}{:?}", options.draw, c.hidden).hash(&mut h);
             for l in lines.iter().chain(&overlay) {
@@ -1572,6 +1628,7 @@ impl StudioApp {
             lines,
             overlay,
             hidden: c.hidden.clone(),
+            stand_ins,
             stamp,
         };
         ui.painter()

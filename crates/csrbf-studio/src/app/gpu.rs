@@ -164,7 +164,11 @@ struct Out { @builtin(position) pos: vec4<f32>, @location(0) uv: vec2<f32> };
 @group(0) @binding(0) var tex: texture_2d<f32>;
 @group(0) @binding(1) var samp: sampler;
 @fragment fn fs(o: Out) -> @location(0) vec4<f32> {
-    let c = textureSample(tex, samp, o.uv);
+    // The texture has the viewport's size: a load per pixel, no filtering
+    // (cheaper on a software rasteriser).
+    let size = vec2<f32>(textureDimensions(tex));
+    let texel = min(vec2<i32>(o.uv * size), vec2<i32>(size) - vec2<i32>(1, 1));
+    let c = textureLoad(tex, texel, 0);
     if (ENCODE) {
         return vec4<f32>(pow(c.rgb, vec3<f32>(1.0 / 2.2)), 1.0);
     }
@@ -355,6 +359,9 @@ pub struct ScenePaint {
     pub overlay: Vec<Line>,
     /// Objects left out.
     pub hidden: Vec<bool>,
+    /// Objects drawn by a lighter stand-in (big meshes while the scene
+    /// plays): its triangles, and its vertices' positions and normals.
+    pub stand_ins: Vec<Option<(Arc<super::StandIn>, Vec<Vec3>, Vec<Vec3>)>>,
     /// Identifies what this picture shows (scene, frame, camera, lines):
     /// when it equals the last one drawn, the texture is shown again
     /// without drawing (a window repainted for its panels, a progress bar).
@@ -374,7 +381,9 @@ impl CallbackTrait for ScenePaint {
             return Vec::new();
         };
         let target = gpu.target(device, self.size);
-        let key = self.stamp ^ self.id.rotate_left(17) ^ ((self.size[0] as u64) << 32 | self.size[1] as u64);
+        let key = self.stamp
+            ^ self.id.rotate_left(17)
+            ^ ((self.size[0] as u64) << 32 | self.size[1] as u64);
         if gpu.drawn == Some(key) && gpu.scene.as_ref().is_some_and(|(id, _)| *id == self.id) {
             return Vec::new();
         }
@@ -384,6 +393,17 @@ impl CallbackTrait for ScenePaint {
         });
         match made {
             Ok(Some(r)) => {
+                let stand_ins: Vec<_> = self
+                    .stand_ins
+                    .iter()
+                    .map(|s| {
+                        s.as_ref().map(|(light, p, n)| csrbf_render::StandInDraw {
+                            positions: p,
+                            normals: n,
+                            indices: &light.indices,
+                        })
+                    })
+                    .collect();
                 r.draw_frame_into(
                     s,
                     &self.frame,
@@ -391,6 +411,7 @@ impl CallbackTrait for ScenePaint {
                     &self.lines,
                     &self.overlay,
                     &self.hidden,
+                    &stand_ins,
                     &target,
                 );
                 gpu.error = None;
