@@ -337,6 +337,10 @@ impl ViewportPaint {
     }
 }
 
+/// A stand-in at one frame: its triangles, its vertices' positions and
+/// normals.
+pub type StandInFrame = (Arc<super::StandIn>, Vec<Vec3>, Vec<Vec3>);
+
 /// One picture of the Composer's viewport: a frame of the scene.
 pub struct ScenePaint {
     /// Size in physical pixels.
@@ -361,7 +365,7 @@ pub struct ScenePaint {
     pub hidden: Vec<bool>,
     /// Objects drawn by a lighter stand-in (big meshes while the scene
     /// plays): its triangles, and its vertices' positions and normals.
-    pub stand_ins: Vec<Option<(Arc<super::StandIn>, Vec<Vec3>, Vec<Vec3>)>>,
+    pub stand_ins: Vec<Option<StandInFrame>>,
     /// Identifies what this picture shows (scene, frame, camera, lines):
     /// when it equals the last one drawn, the texture is shown again
     /// without drawing (a window repainted for its panels, a progress bar).
