@@ -91,6 +91,31 @@ fn key_button(h: &mut Harness<'_, StudioApp>, k: usize) {
     h.run_steps(3);
 }
 
+/// A left-button drag from `from` to `to` in eight steps.
+fn drag(h: &mut Harness<'_, StudioApp>, from: egui::Pos2, to: egui::Pos2) {
+    h.event(egui::Event::PointerMoved(from));
+    h.event(egui::Event::PointerButton {
+        pos: from,
+        button: egui::PointerButton::Primary,
+        pressed: true,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.step();
+    for k in 1..=8 {
+        h.event(egui::Event::PointerMoved(
+            from + (to - from) * (k as f32 / 8.0),
+        ));
+        h.step();
+    }
+    h.event(egui::Event::PointerButton {
+        pos: to,
+        button: egui::PointerButton::Primary,
+        pressed: false,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.run_steps(3);
+}
+
 /// The screen position of a viewport point, and the viewport's pixels per
 /// point.
 fn on_screen(h: &Harness<'_, StudioApp>, p: csrbf::glam::Vec3) -> egui::Pos2 {
@@ -173,6 +198,20 @@ fn a_two_object_scene_built_by_clicks_saves_what_the_cli_loads_frame_for_frame()
     // The marker is where the pointer let go (on the plane facing the camera).
     let landed = on_screen(&h, dragged + centre);
     assert!(landed.distance(to) < 1.5, "{landed:?} vs {to:?}");
+    // With X held, a drag moves the key along X only.
+    h.key_press(egui::Key::X);
+    h.run_steps(1);
+    let before = h.state().scene_doc().expect("scene").file.objects[0].trajectory[1].position;
+    let from = on_screen(&h, dragged + centre);
+    drag(&mut h, from, from + egui::vec2(60.0, 50.0));
+    h.key_press(egui::Key::X);
+    h.run_steps(1);
+    let after = h.state().scene_doc().expect("scene").file.objects[0].trajectory[1].position;
+    assert!(
+        (after[0] - before[0]).abs() > 1e-3,
+        "moved along X: {before:?} -> {after:?}"
+    );
+    assert_eq!((after[1], after[2]), (before[1], before[2]));
     let steps = h.state().scene_undo_steps();
     scrub(&mut h, 1.0);
     key_button(&mut h, 0);
@@ -477,4 +516,36 @@ fn an_unsaved_scene_comes_back_from_the_recovery_file() {
     assert_eq!(doc.file, edited);
     assert!(doc.dirty);
     assert_eq!(h.state().mode(), Mode::Compose);
+}
+
+#[test]
+fn a_deformation_opens_in_the_picker_and_the_composer_comes_back() {
+    let mut h = face("picker");
+    h.get_all_by_label("head").next().expect("listed").click();
+    h.run_steps(2);
+    h.get_by_label("Edit in Picker").click();
+    h.run_steps(3);
+    assert_eq!(h.state().mode(), Mode::Pick);
+    let doc = h.state().document().expect("the head in the Picker");
+    assert!(
+        doc.mesh_path.ends_with("cgal_head.off"),
+        "{}",
+        doc.mesh_path.display()
+    );
+    assert!(!doc.controls.deformations.is_empty());
+    assert!(
+        h.state()
+            .controls_path()
+            .is_some_and(|p| p.ends_with("head_smile.json")),
+        "{:?}",
+        h.state().controls_path()
+    );
+    // Back: the scene is as it was, loaded again from its files.
+    h.get_by_label("File").click();
+    h.run_steps(3);
+    h.get_by_label("Back to the Composer").click();
+    h.run_steps(3);
+    assert_eq!(h.state().mode(), Mode::Compose);
+    assert!(h.state().loaded_scene().is_some());
+    assert!(!h.state().scene_doc().expect("scene").dirty);
 }
