@@ -418,3 +418,126 @@ pub fn image_rgba(path: &std::path::Path) -> (u32, u32, Vec<[u8; 4]>) {
         .collect();
     (info.width, info.height, px)
 }
+
+/// Issue 9: a scene made with the Composer's edits and saved as the studio
+/// saves it (paths relative to where it is written) is rendered by `csrbf
+/// animate` frame for frame as the studio's scene renders.
+#[test]
+fn what_the_composer_saves_csrbf_animate_renders_as_the_studio_does() {
+    use csrbf_studio::compose::{KeyValue, SceneDoc, SceneEdit, SceneHistory, Track};
+    let dir = TempDir::new("composer");
+    let mut doc = SceneDoc::empty();
+    let mut h = SceneHistory::default();
+    let object = |name: &str, mesh: &std::path::Path, doc: &SceneDoc| {
+        let mut o = csrbf_anim::SceneFile::parse(&format!(
+            r#"{{"duration": 1, "camera": {{"eye": [0, 0, 1], "target": [0, 0, 0]}},
+                "objects": [{{"name": {name:?}, "mesh": "m", "parts": [{{"name": "all"}}]}}]}}"#
+        ))
+        .expect("object")
+        .objects
+        .remove(0);
+        o.mesh = doc.name_of(mesh);
+        o
+    };
+    let mut head_object = object("head", &head(), &doc);
+    head_object.parts[0]
+        .deformations
+        .push(csrbf_anim::DeformationFile {
+            controls: doc.name_of(&smile()),
+            phase: Vec::new(),
+            easing: Default::default(),
+        });
+    let duck = object(
+        "duck",
+        &root().join("assets/models/pybullet_duck.obj"),
+        &doc,
+    );
+    for edit in [
+        SceneEdit::AddObject(Box::new(head_object)),
+        SceneEdit::AddObject(Box::new(duck)),
+        SceneEdit::SetCamera(csrbf_anim::CameraFile {
+            eye: [-40.0, 12.0, 20.0],
+            target: [0.0, 9.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov: 40.0,
+        }),
+    ] {
+        h.apply(&mut doc, &edit).expect("edit");
+    }
+    for (t, x, phase) in [(0.0, 0.0, 0.0), (1.5, 4.0, 1.0), (3.0, -2.0, 0.3)] {
+        doc.playhead = t;
+        for (object, track, value) in [
+            (0, Track::Position, KeyValue::Position([x, 0.0, 0.0])),
+            (1, Track::Position, KeyValue::Position([0.0, x, 5.0])),
+            (
+                0,
+                Track::Phase {
+                    part: 0,
+                    deformation: 0,
+                },
+                KeyValue::Phase(phase),
+            ),
+        ] {
+            h.apply(
+                &mut doc,
+                &SceneEdit::AddKey {
+                    object,
+                    track,
+                    value,
+                },
+            )
+            .expect("key");
+        }
+    }
+    let saved = dir.path("studio.scene.json");
+    std::fs::write(&saved, doc.text_for(&saved)).expect("save");
+    let frames = dir.path("frames");
+    ok(&[
+        "animate",
+        "-q",
+        arg(&saved),
+        "--out",
+        arg(&frames),
+        "--size",
+        "120x90",
+        "--fps",
+        "2",
+    ]);
+    // The studio's scene (its document, its paths) through the same loop.
+    let scene =
+        csrbf_anim::Scene::from_file(doc.file.clone(), &doc.dir(), std::path::Path::new("studio"))
+            .expect("the studio loads it");
+    let mine = dir.path("mine");
+    let mut options = csrbf_render::movie::MovieOptions::of(&scene);
+    options.size = [120, 90];
+    options.fps = 2.0;
+    let written = csrbf_render::movie::render_movie(&scene, &mine, options, &mut |_, _| true)
+        .expect("render");
+    assert_eq!(written.frames, 9);
+    for k in 0..written.frames {
+        let name = format!("frame_{k:05}.png");
+        let a = csrbf_anim::load_texture(&frames.join(&name)).expect("cli frame");
+        let b = csrbf_anim::load_texture(&mine.join(&name)).expect("studio frame");
+        assert_eq!((a.width, a.height), (b.width, b.height));
+        let differ = a
+            .rgba
+            .iter()
+            .zip(&b.rgba)
+            .filter(|(x, y)| x.abs_diff(**y) > 2)
+            .count();
+        assert!(differ == 0, "frame {k}: {differ} channel values differ");
+    }
+    // And the scene moves: the first and fourth frames differ.
+    let f0 = csrbf_anim::load_texture(&frames.join("frame_00000.png")).expect("frame");
+    let f3 = csrbf_anim::load_texture(&frames.join("frame_00003.png")).expect("frame");
+    let moved = f0
+        .rgba
+        .iter()
+        .zip(&f3.rgba)
+        .filter(|(x, y)| x.abs_diff(**y) > 30)
+        .count();
+    assert!(
+        moved > 200,
+        "only {moved} values changed between 0 s and 1.5 s"
+    );
+}
