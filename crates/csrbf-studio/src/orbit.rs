@@ -75,6 +75,19 @@ impl Orbit {
         }
     }
 
+    /// Looks from `direction` (from the target towards the eye), keeping the
+    /// target and distance; the pitch stays within its limits.
+    pub fn look_from(&mut self, direction: Vec3) {
+        let d = direction.normalize_or(self.eye_direction());
+        let (front, right) = self.axes();
+        self.pitch = d
+            .dot(self.up)
+            .clamp(-1.0, 1.0)
+            .asin()
+            .clamp(-PITCH_LIMIT, PITCH_LIMIT);
+        self.yaw = d.dot(right).atan2(d.dot(front));
+    }
+
     /// Turns the view by a pointer drag of `dx`, `dy` pixels (a 100-pixel
     /// drag is one radian).
     pub fn orbit(&mut self, dx: f32, dy: f32) {
@@ -148,6 +161,20 @@ impl Orbit {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn looking_from_a_direction_puts_the_eye_there() {
+        for up in [Vec3::Y, Vec3::Z, Vec3::NEG_Y] {
+            let mut o = Orbit::new(up, Vec3::splat(-1.0), Vec3::ONE, 1.5);
+            for d in [Vec3::new(1.0, 2.0, 3.0), Vec3::new(-2.0, 0.5, -1.0)] {
+                o.look_from(d);
+                assert!(
+                    (o.eye_direction() - d.normalize()).length() < 1e-5,
+                    "{up} {d}"
+                );
+            }
+        }
+    }
     use csrbf::glam::Vec2;
 
     const SIZE: [u32; 2] = [640, 400];

@@ -1267,7 +1267,20 @@ impl StudioApp {
         }
         if !c.framed && rect.width() > 1.0 {
             if let Some((lo, hi)) = c.bounds() {
-                c.orbit = Orbit::new(Vec3::Y, lo, hi, rect.width() / rect.height().max(1.0));
+                // From the scene camera's side, a little above the objects'
+                // ground (paths in it show as paths, not lines).
+                let aspect = rect.width() / rect.height().max(1.0);
+                let cam = c.scene_camera();
+                let up = c.orbit.up;
+                let mut d = (cam.eye - cam.target).normalize_or(Vec3::Z);
+                if d.dot(up) < 0.35 {
+                    d = ((d - up * d.dot(up)).normalize_or(Vec3::Z) + up * 0.4).normalize();
+                }
+                c.orbit = Orbit::new(up, lo, hi, aspect);
+                c.orbit.look_from(d);
+                // Turned a little, so the scene camera shows from its side.
+                c.orbit.yaw += 0.6;
+                c.orbit.frame(lo, hi, aspect);
             }
             c.framed = true;
         }
@@ -1311,10 +1324,7 @@ impl StudioApp {
                 if let csrbf_anim::Projection::Perspective { fov } = cam.projection {
                     c.orbit.fov = fov;
                 }
-                let dir = -d.normalize();
-                c.orbit.pitch = dir.dot(c.orbit.up).clamp(-0.999, 0.999).asin();
-                let flat = (dir - c.orbit.up * dir.dot(c.orbit.up)).normalize_or_zero();
-                c.orbit.yaw = flat.x.atan2(flat.z);
+                c.orbit.look_from(-d);
             }
         };
         if hovered && scroll != 0.0 {
