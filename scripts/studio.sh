@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds and starts the studio (the Picker) on a mesh, the bundled head by
-# default: scripts/studio.sh [MESH] [CONTROLS]. On a machine without a
+# Builds and starts the studio on a mesh (the Picker), the bundled head by
+# default, or on a scene file (the Composer): scripts/studio.sh [MESH
+# [CONTROLS] | SCENE.scene.json]. On a machine without a
 # display it starts the studio under Xvfb, keeps a screenshot in
 # target/studio.png after a few seconds and says so.
 set -euo pipefail

@@ -1,6 +1,6 @@
-//! The Composer's editor core (the first part of issue 9): a scene file as a
+//! The Composer's editor core: a scene file as a
 //! document, every edit a value checked before it lands, undo and redo.
-//! The window over it is still to come; `csrbf animate` reads what
+//! The window over it is `app` (Compose mode); `csrbf animate` reads what
 //! [`SceneDoc::to_text`] writes.
 //!
 //! Keys stay in time order: a key added at the playhead goes where its time

@@ -1,6 +1,8 @@
-//! The editor core of `csrbf-studio` (the papers' Picker): everything the app
+//! The editor cores of `csrbf-studio` (the papers' Picker and Animation
+//! Composer): everything the app
 //! does, as plain types that tests drive without a window. The egui layer
-//! (to come) only reads a [`Document`] and sends [`Command`]s.
+//! ([`app`]) only reads a [`Document`] or a [`compose::SceneDoc`] and sends
+//! [`Command`]s or [`compose::SceneEdit`]s.
 //!
 //! - [`state`]: the [`Document`]: the mesh, its control file (one layer per
 //!   deformation), the selection, and whether it was saved;

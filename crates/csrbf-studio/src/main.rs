@@ -1,6 +1,7 @@
 //! `csrbf-studio [MESH] [CONTROLS]`: the Picker. Opens a mesh (and a control
 //! file on it) and lets a person place, drag and tune control vectors with a
-//! live preview. See the README's section "The studio".
+//! live preview; `csrbf-studio SCENE.scene.json` opens a scene in the
+//! Composer. See the README's sections "The studio" and "The Composer".
 
 use std::path::PathBuf;
 
@@ -16,10 +17,11 @@ fn main() -> std::process::ExitCode {
         match s.as_ref() {
             "-h" | "--help" => {
                 println!(
-                    "csrbf-studio [MESH] [CONTROLS] [--size WxH]\n\n\
+                    "csrbf-studio [MESH [CONTROLS] | SCENE.scene.json] [--size WxH]\n\n\
                      The Picker: place, drag and tune control vectors on a mesh with a live preview.\n\
                      MESH: .obj .ply .stl .off .gltf .glb; CONTROLS: a control file as `csrbf deform` reads it.\n\
-                     Keys: see the README, section \"The studio\"."
+                     The Composer: a scene file as `csrbf animate` reads it opens in it (objects, keys, playback, export).\n\
+                     Keys: see the README, sections \"The studio\" and \"The Composer\"."
                 );
                 return std::process::ExitCode::SUCCESS;
             }

@@ -549,3 +549,50 @@ fn a_deformation_opens_in_the_picker_and_the_composer_comes_back() {
     assert!(h.state().loaded_scene().is_some());
     assert!(!h.state().scene_doc().expect("scene").dirty);
 }
+
+#[test]
+fn a_key_dragged_along_its_row_moves_in_time_and_reorders_past_another() {
+    let mut h = face("timeline");
+    let phase = Track::Phase {
+        part: 0,
+        deformation: 0,
+    };
+    let before = h.state().scene_doc().expect("face").key_times(0, phase);
+    assert_eq!(before, vec![0.0, 1.2, 2.6, 3.8]);
+    let row = h.state().timeline_row(0, phase).expect("the phase row");
+    let d = h.state().scene_doc().expect("face").file.duration;
+    let x = |t: f64| row.left() + (t / d) as f32 * row.width();
+    // The key at 1.2 s dragged to 3.0 s: past the one at 2.6 s.
+    drag(
+        &mut h,
+        egui::pos2(x(1.2), row.center().y),
+        egui::pos2(x(3.0), row.center().y),
+    );
+    let after = h.state().scene_doc().expect("face").key_times(0, phase);
+    assert_eq!(after, vec![0.0, 2.6, 3.0, 3.8], "{}", h.state().status());
+    // The dragged key stays selected at its new place; one undo step.
+    assert_eq!(h.state().selected_key(), Some((0, phase, 2)));
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(
+        h.state().scene_doc().expect("face").key_times(0, phase),
+        before
+    );
+    // Onto another key: refused, the track as it was.
+    let row = h.state().timeline_row(0, phase).expect("the phase row");
+    let x = |t: f64| row.left() + (t / d) as f32 * row.width();
+    drag(
+        &mut h,
+        egui::pos2(x(1.2), row.center().y),
+        egui::pos2(x(2.6), row.center().y),
+    );
+    assert_eq!(
+        h.state().scene_doc().expect("face").key_times(0, phase),
+        before
+    );
+    assert!(
+        h.state().status().contains("Not done"),
+        "{}",
+        h.state().status()
+    );
+}

@@ -128,6 +128,8 @@ pub(super) struct Composer {
     /// Where the timeline's ruler was drawn (time 0 at its left edge,
     /// the duration at its right).
     pub ruler: egui::Rect,
+    /// Where each track's row was drawn (same time scale as the ruler).
+    pub rows: Vec<((usize, Track), egui::Rect)>,
 }
 
 /// Where an object's frame is at `time`: its centre of gravity in the world.
@@ -172,6 +174,7 @@ impl Composer {
             part_target: None,
             stand_ins: Vec::new(),
             ruler: egui::Rect::NOTHING,
+            rows: Vec::new(),
         }
     }
 
@@ -360,6 +363,16 @@ impl StudioApp {
             .filter(|r| r.is_positive())
     }
 
+    /// Where the timeline row of `track` of `object` is on screen.
+    pub fn timeline_row(&self, object: usize, track: Track) -> Option<egui::Rect> {
+        self.composer
+            .as_ref()?
+            .rows
+            .iter()
+            .find(|(k, _)| *k == (object, track))
+            .map(|(_, r)| *r)
+    }
+
     /// Scene edits that can be undone.
     pub fn scene_undo_steps(&self) -> usize {
         self.composer.as_ref().map_or(0, |c| c.history.undo_steps())
@@ -436,6 +449,7 @@ impl StudioApp {
                 format!(" ({warnings})")
             }
         );
+        eprintln!("csrbf-studio: {}", self.status);
     }
 
     /// Reopens the scene kept in the recovery file.
@@ -678,7 +692,7 @@ impl StudioApp {
         }
         let ctx = self.ctx.clone();
         if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
-            self.pending = Some(Pending::Open(mesh));
+            self.pending = Some(Pending::EditInPicker(object, part, deformation));
             return;
         }
         self.open_mesh_now(&ctx, &mesh);
@@ -1056,6 +1070,10 @@ impl StudioApp {
 
     /// The Composer's keys.
     pub(super) fn compose_keys(&mut self, ctx: &egui::Context) {
+        // Keys typed into a field (a name, a number) are the field's.
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
         use egui::{Key, KeyboardShortcut, Modifiers};
         let shortcut = |m: Modifiers, k: Key| {
             ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))

@@ -96,6 +96,8 @@ enum Pending {
     NewScene,
     OpenScene(PathBuf),
     BackToComposer,
+    /// Object, part, deformation.
+    EditInPicker(usize, usize, usize),
 }
 
 /// `csrbf-studio`, the Picker.
@@ -1003,6 +1005,7 @@ impl StudioApp {
             }
             Pending::OpenScene(p) => self.open_scene_now(&p),
             Pending::BackToComposer => self.back_to_composer(),
+            Pending::EditInPicker(o, p, d) => self.edit_in_picker(o, p, d),
         }
     }
 

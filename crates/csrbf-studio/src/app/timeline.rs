@@ -201,6 +201,7 @@ impl StudioApp {
             }
         });
         let playhead = c.doc.playhead;
+        c.rows.clear();
         let mut select_key = None;
         let mut select_object = None;
         let mut add = None;
@@ -255,6 +256,7 @@ impl StudioApp {
                     }
                     let (rect, r) = ui
                         .allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
+                    c.rows.push(((o, track), rect));
                     let x_of = |t: f64| rect.left() + (t / duration) as f32 * rect.width();
                     let t_of = |x: f32| {
                         let t = ((x - rect.left()) / rect.width()) as f64 * duration;
@@ -313,8 +315,11 @@ impl StudioApp {
                         egui::Stroke::new(1.5, egui::Color32::from_rgb(240, 90, 70)),
                     );
                     let at = r.interact_pointer_pos();
+                    // A drag starts a few points from where it was pressed:
+                    // the key is the one under the press.
+                    let origin = ui.input(|i| i.pointer.press_origin()).or(at);
                     if r.drag_started()
-                        && let Some(pos) = at
+                        && let Some(pos) = origin
                         && let Some(i) = nearest(pos.x)
                     {
                         select_key = Some((o, track, i));
