@@ -185,28 +185,34 @@ impl SceneRenderer {
         indices: &[u32],
         target: &wgpu::TextureView,
     ) {
-        let Some(prep) = self.prepared.get(object) else {
+        if self.prepared.get(object).is_none() {
             return;
+        }
+        let parts = self.stand_in_part(object, indices);
+        let s = StandInDraw {
+            positions,
+            normals,
+            indices,
         };
-        let color = prep.parts.first().map_or([0.8; 4], |p| p.color);
-        let parts = [DrawPart {
+        let mesh = stand_in_mesh(self.key, object, &s, &parts);
+        self.renderer
+            .draw_into(&view.with_meshes(vec![mesh]), target);
+    }
+
+    /// A stand-in's one part: its triangles in the colour of the object's
+    /// first part.
+    fn stand_in_part(&self, object: usize, indices: &[u32]) -> [DrawPart; 1] {
+        let color = self
+            .prepared
+            .get(object)
+            .and_then(|p| p.parts.first())
+            .map_or([0.8; 4], |p| p.color);
+        [DrawPart {
             indices: indices.to_vec(),
             color,
             texture: None,
             wireframe: false,
-        }];
-        let mesh = DrawMesh {
-            // Its own key: switching between it and the full mesh uploads
-            // the other's indices once.
-            key: (self.key + object as u64) ^ (1 << 62) ^ indices.len() as u64,
-            positions,
-            normals,
-            uvs: &[],
-            colors: &[],
-            parts: &parts,
-        };
-        self.renderer
-            .draw_into(&view.with_meshes(vec![mesh]), target);
+        }]
     }
 
     /// Draws one frame of the scene and reads it back.
@@ -260,24 +266,10 @@ impl SceneRenderer {
         stand_ins: &[Option<StandInDraw>],
         target: &wgpu::TextureView,
     ) {
-        // The stand-ins' parts, in the colour of each object's first part.
         let parts: Vec<Option<[DrawPart; 1]>> = stand_ins
             .iter()
             .enumerate()
-            .map(|(k, s)| {
-                let s = s.as_ref()?;
-                let color = self
-                    .prepared
-                    .get(k)
-                    .and_then(|p| p.parts.first())
-                    .map_or([0.8; 4], |p| p.color);
-                Some([DrawPart {
-                    indices: s.indices.to_vec(),
-                    color,
-                    texture: None,
-                    wireframe: false,
-                }])
-            })
+            .map(|(k, s)| Some(self.stand_in_part(k, s.as_ref()?.indices)))
             .collect();
         let mut view = view_of(
             &self.prepared,
@@ -289,16 +281,7 @@ impl SceneRenderer {
         );
         for (k, (s, p)) in stand_ins.iter().zip(&parts).enumerate() {
             if let (Some(s), Some(p), Some(m)) = (s, p, view.meshes.get_mut(k)) {
-                *m = DrawMesh {
-                    // Its own key: switching between it and the full mesh
-                    // uploads the other's indices once.
-                    key: (self.key + k as u64) ^ (1 << 62) ^ s.indices.len() as u64,
-                    positions: s.positions,
-                    normals: s.normals,
-                    uvs: &[],
-                    colors: &[],
-                    parts: p,
-                };
+                *m = stand_in_mesh(self.key, k, s, p);
             }
         }
         if hidden.iter().any(|&h| h) {
@@ -324,6 +307,25 @@ impl SceneRenderer {
             frame,
             options,
         )
+    }
+}
+
+/// The mesh of object `object`'s stand-in `s`, drawn with `parts`.
+fn stand_in_mesh<'a>(
+    key: u64,
+    object: usize,
+    s: &StandInDraw<'a>,
+    parts: &'a [DrawPart],
+) -> DrawMesh<'a> {
+    DrawMesh {
+        // Its own key: switching between it and the full mesh uploads the
+        // other's indices once.
+        key: (key + object as u64) ^ (1 << 62) ^ s.indices.len() as u64,
+        positions: s.positions,
+        normals: s.normals,
+        uvs: &[],
+        colors: &[],
+        parts,
     }
 }
 

@@ -12,6 +12,9 @@
 //! WRITE=sphere1m.ply cargo run --release -p csrbf-studio --example drag_frame -- sphere:1000000 1
 //! ```
 
+mod common;
+use common::{median, ms, target};
+
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -22,15 +25,6 @@ use csrbf_studio::app::StandIn;
 use csrbf_studio::{Command, Document, History, Live, Orbit, Preview, pick_surface};
 
 const SIZE: [u32; 2] = [1280, 800];
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-fn ms(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let arg = std::env::args()
@@ -227,29 +221,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         longest
     );
     Ok(())
-}
-
-/// A texture of the picture's size to draw into (kept by the renderer's
-/// readback in the app; here a fresh one each time is cheap).
-fn target(sr: &SceneRenderer) -> wgpu::TextureView {
-    let r = sr.renderer();
-    let (w, h) = r.size();
-    r.device()
-        .create_texture(&wgpu::TextureDescriptor {
-            label: Some("bench target"),
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: r.format(),
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        })
-        .create_view(&Default::default())
 }
 
 /// Waits until the GPU has finished what was submitted.

@@ -12,8 +12,11 @@
 //! cargo run --release -p csrbf-studio --example play_frame
 //! ```
 
+mod common;
+use common::{median, ms, target};
+
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use csrbf_anim::{Frame, Scene};
 use csrbf_render::{SceneOptions, SceneRenderer};
@@ -21,15 +24,6 @@ use csrbf_render::{SceneOptions, SceneRenderer};
 /// The studio's viewport in a 1280x800 window (the side panel and the
 /// timeline take the rest).
 const SIZE: [u32; 2] = [920, 520];
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-fn ms(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::var("OUT").map(PathBuf::from).unwrap_or_else(|_| {
@@ -152,26 +146,4 @@ fn suzanne_scene(mesh: &Path, out: &Path) -> Result<PathBuf, Box<dyn std::error:
     let path = out.join("suzanne126k.scene.json");
     std::fs::write(&path, scene)?;
     Ok(path)
-}
-
-/// A texture of the picture's size to draw into.
-fn target(sr: &SceneRenderer) -> wgpu::TextureView {
-    let r = sr.renderer();
-    let (w, h) = r.size();
-    r.device()
-        .create_texture(&wgpu::TextureDescriptor {
-            label: Some("bench target"),
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: r.format(),
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        })
-        .create_view(&Default::default())
 }

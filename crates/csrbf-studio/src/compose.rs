@@ -279,6 +279,19 @@ impl SceneDoc {
     }
 }
 
+/// A part of the whole mesh, light grey, with no deformation: what a new
+/// object starts with.
+pub fn whole_part() -> csrbf_anim::PartFile {
+    csrbf_anim::PartFile {
+        name: "all".into(),
+        select: "all".into(),
+        color: None,
+        texture: None,
+        wireframe: false,
+        deformations: Vec::new(),
+    }
+}
+
 /// `path` relative to the folder `from`, with `/` between parts: `..` up to
 /// the parts they share, then down. Paths on different drives or roots stay
 /// absolute.

@@ -15,12 +15,12 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use csrbf::glam::{DQuat, DVec3, Vec2, Vec3};
-use csrbf_anim::{Assets, Camera, Frame, ObjectFile, PartFile, Scene, SceneFile};
+use csrbf_anim::{Assets, Camera, Frame, ObjectFile, Scene, SceneFile};
 use csrbf_render::{Line, SceneOptions};
 use eframe::egui;
 
 use super::files::{Purpose, SceneRecovery};
-use super::viewport::{axis_rings, polyline_distance};
+use super::viewport::{PointerInput, axis_rings, polyline_distance};
 use super::{Pending, StudioApp, gpu};
 use crate::Orbit;
 use crate::compose::{KeyValue, Playback, SceneDoc, SceneEdit, SceneHistory, Track, key_value};
@@ -619,14 +619,7 @@ impl StudioApp {
             name: name.clone(),
             mesh: c.doc.name_of(path),
             scale: 1.0,
-            parts: vec![PartFile {
-                name: "all".into(),
-                select: "all".into(),
-                color: None,
-                texture: None,
-                wireframe: false,
-                deformations: Vec::new(),
-            }],
+            parts: vec![crate::compose::whole_part()],
             trajectory: Vec::new(),
             orientation: Vec::new(),
             interpolation: Default::default(),
@@ -1313,19 +1306,17 @@ impl StudioApp {
         };
         let ppp = self.viewport.2;
         let axis = self.axis;
-        let (pressed, down, released, pos, modifiers, scroll, secondary, middle) = ui.input(|i| {
-            (
-                i.pointer.primary_pressed(),
-                i.pointer.primary_down(),
-                i.pointer.primary_released(),
-                i.pointer.interact_pos(),
-                i.modifiers,
-                i.smooth_scroll_delta.y,
-                i.pointer.secondary_down(),
-                i.pointer.middle_down(),
-            )
-        });
-        let delta = ui.input(|i| i.pointer.delta());
+        let PointerInput {
+            pressed,
+            down,
+            released,
+            pos,
+            modifiers,
+            scroll,
+            secondary,
+            middle,
+            delta,
+        } = PointerInput::read(ui);
         let hovered = response.hovered() || response.dragged();
         let Some(c) = self.composer.as_mut() else {
             return;

@@ -901,24 +901,16 @@ impl StudioApp {
             }
         }
         if let Some(r) = self.scene_recovery_offer.clone() {
-            let mut answer = None;
-            egui::Modal::new(egui::Id::unique("scene recovery")).show(ctx, |ui| {
-                ui.heading("Restore the last scene?");
-                ui.label(format!(
+            let answer = restore_question(
+                ctx,
+                "Restore the last scene?",
+                &format!(
                     "The studio closed with unsaved changes to the scene {}.",
                     r.path
                         .as_ref()
                         .map_or("(never saved)".into(), |p| p.display().to_string())
-                ));
-                ui.horizontal(|ui| {
-                    if ui.button("Restore").clicked() {
-                        answer = Some(true);
-                    }
-                    if ui.button("Discard").clicked() {
-                        answer = Some(false);
-                    }
-                });
-            });
+                ),
+            );
             match answer {
                 Some(true) => {
                     self.scene_recovery_offer = None;
@@ -932,22 +924,14 @@ impl StudioApp {
             }
         }
         if let Some(r) = self.recovery_offer.clone() {
-            let mut answer = None;
-            egui::Modal::new(egui::Id::unique("recovery")).show(ctx, |ui| {
-                ui.heading("Restore the last session?");
-                ui.label(format!(
+            let answer = restore_question(
+                ctx,
+                "Restore the last session?",
+                &format!(
                     "The studio closed with unsaved changes to the controls of {}.",
                     r.mesh.display()
-                ));
-                ui.horizontal(|ui| {
-                    if ui.button("Restore").clicked() {
-                        answer = Some(true);
-                    }
-                    if ui.button("Discard").clicked() {
-                        answer = Some(false);
-                    }
-                });
-            });
+                ),
+            );
             match answer {
                 Some(true) => {
                     self.recovery_offer = None;
@@ -1161,6 +1145,25 @@ impl StandIn {
             .map(|&i| values.get(i as usize).copied().unwrap_or_default())
             .collect()
     }
+}
+
+/// Asks whether to restore what a recovery file kept: Some(true) to
+/// restore, Some(false) to discard, None while unanswered.
+fn restore_question(ctx: &egui::Context, heading: &str, text: &str) -> Option<bool> {
+    let mut answer = None;
+    egui::Modal::new(egui::Id::unique(heading)).show(ctx, |ui| {
+        ui.heading(heading);
+        ui.label(text);
+        ui.horizontal(|ui| {
+            if ui.button("Restore").clicked() {
+                answer = Some(true);
+            }
+            if ui.button("Discard").clicked() {
+                answer = Some(false);
+            }
+        });
+    });
+    answer
 }
 
 /// `movie.EXT` beside a scene file: `face.scene.json` gives `face.EXT`.

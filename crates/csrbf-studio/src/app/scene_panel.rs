@@ -159,14 +159,7 @@ impl StudioApp {
             return;
         };
         if object.parts.is_empty() {
-            object.parts.push(csrbf_anim::PartFile {
-                name: "all".into(),
-                select: "all".into(),
-                color: None,
-                texture: None,
-                wireframe: false,
-                deformations: Vec::new(),
-            });
+            object.parts.push(crate::compose::whole_part());
         }
         let Some(part) = object.parts.get_mut(p) else {
             return;

@@ -57,6 +57,36 @@ impl Default for ViewSettings {
     }
 }
 
+/// The pointer's state this frame, as the viewports read it.
+pub(super) struct PointerInput {
+    pub pressed: bool,
+    pub down: bool,
+    pub released: bool,
+    pub pos: Option<egui::Pos2>,
+    pub modifiers: egui::Modifiers,
+    /// Vertical wheel, points.
+    pub scroll: f32,
+    pub secondary: bool,
+    pub middle: bool,
+    pub delta: egui::Vec2,
+}
+
+impl PointerInput {
+    pub(super) fn read(ui: &egui::Ui) -> PointerInput {
+        ui.input(|i| PointerInput {
+            pressed: i.pointer.primary_pressed(),
+            down: i.pointer.primary_down(),
+            released: i.pointer.primary_released(),
+            pos: i.pointer.interact_pos(),
+            modifiers: i.modifiers,
+            scroll: i.smooth_scroll_delta.y,
+            secondary: i.pointer.secondary_down(),
+            middle: i.pointer.middle_down(),
+            delta: i.pointer.delta(),
+        })
+    }
+}
+
 /// A pointer gesture in progress.
 #[derive(Clone, Debug)]
 pub enum Gesture {
@@ -208,19 +238,17 @@ impl StudioApp {
         ppp: f32,
         size: [u32; 2],
     ) {
-        let (pressed, down, released, pos, modifiers, scroll, secondary, middle) = ui.input(|i| {
-            (
-                i.pointer.primary_pressed(),
-                i.pointer.primary_down(),
-                i.pointer.primary_released(),
-                i.pointer.interact_pos(),
-                i.modifiers,
-                i.smooth_scroll_delta.y,
-                i.pointer.secondary_down(),
-                i.pointer.middle_down(),
-            )
-        });
-        let delta = ui.input(|i| i.pointer.delta());
+        let PointerInput {
+            pressed,
+            down,
+            released,
+            pos,
+            modifiers,
+            scroll,
+            secondary,
+            middle,
+            delta,
+        } = PointerInput::read(ui);
         let hovered = response.hovered() || response.dragged();
         // Zoom towards the point under the pointer.
         if hovered
