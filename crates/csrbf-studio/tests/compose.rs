@@ -596,3 +596,52 @@ fn a_key_dragged_along_its_row_moves_in_time_and_reorders_past_another() {
         h.state().status()
     );
 }
+
+#[test]
+fn an_orientation_key_turns_by_a_ring_of_its_gizmo() {
+    use csrbf::glam::{DQuat, DVec3};
+    let mut h = face("gizmo");
+    // The key at 2 s: 12 degrees about Y.
+    h.state_mut().select_key((0, Track::Orientation, 1));
+    h.run_steps(2);
+    let q = |h: &Harness<'_, StudioApp>| {
+        let k = h.state().scene_doc().expect("face").file.objects[0].orientation[1];
+        DQuat::from_array(csrbf_studio::compose::orientation_quaternion(&k).expect("a rotation"))
+    };
+    let before = q(&h);
+    let rings = h.state().gizmo_rings();
+    assert_eq!(rings.len(), 3);
+    // A drag along the Y ring, an eighth of the way round (its points go
+    // round in 64 steps).
+    let (axis, pts) = rings
+        .iter()
+        .find(|(a, _)| *a == csrbf::glam::Vec3::Y)
+        .expect("the Y ring");
+    assert_eq!(*axis, csrbf::glam::Vec3::Y);
+    // Where the ring is seen most face-on: where points 8 apart are farthest apart.
+    let start = (0..56)
+        .max_by(|&a, &b| {
+            pts[a]
+                .distance(pts[a + 8])
+                .total_cmp(&pts[b].distance(pts[b + 8]))
+        })
+        .expect("points");
+    drag(&mut h, pts[start], pts[start + 8]);
+    let after = q(&h);
+    let turn = after * before.inverse();
+    let (turn_axis, angle) = turn.to_axis_angle();
+    // The turn follows the ring under the pointer: an eighth of a turn.
+    assert!(
+        (angle.to_degrees() - 45.0).abs() < 2.0,
+        "turned {} degrees",
+        angle.to_degrees()
+    );
+    assert!(
+        turn_axis.dot(DVec3::Y).abs() > 0.999,
+        "about Y: {turn_axis}"
+    );
+    // One undo step brings the key back.
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert!(q(&h).angle_between(before) < 1e-9);
+}

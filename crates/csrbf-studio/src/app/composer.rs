@@ -363,6 +363,51 @@ impl StudioApp {
             .filter(|r| r.is_positive())
     }
 
+    /// Selects a key (as a click on it in the timeline does).
+    pub fn select_key(&mut self, key: KeyRef) {
+        if let Some(c) = self.composer.as_mut()
+            && c.doc.key_times(key.0, key.1).len() > key.2
+        {
+            c.key = Some(key);
+            c.selected = Some(key.0);
+        }
+    }
+
+    /// The selected orientation key's gizmo as drawn: for X, Y and Z, the
+    /// axis and its ring's points on screen (what a test or a tool aims at).
+    pub fn gizmo_rings(&self) -> Vec<(Vec3, Vec<egui::Pos2>)> {
+        let Some(c) = self.composer.as_ref() else {
+            return Vec::new();
+        };
+        let (Some((cam, size, gate)), Some(scene)) = (self.compose_camera(), c.scene.as_ref())
+        else {
+            return Vec::new();
+        };
+        let Some((o, Track::Orientation, i)) = c.key else {
+            return Vec::new();
+        };
+        let Some(centre) = c
+            .doc
+            .key_times(o, Track::Orientation)
+            .get(i)
+            .and_then(|&t| world_centre(scene, o, t))
+        else {
+            return Vec::new();
+        };
+        let ppp = size[0] as f32 / gate.width();
+        axis_rings(centre, &cam, size, RING_PIXELS)
+            .into_iter()
+            .map(|(axis, pts, _)| {
+                let screen = pts
+                    .iter()
+                    .filter_map(|p| cam.project(*p, size))
+                    .map(|(q, _)| egui::pos2(gate.min.x + q.x / ppp, gate.min.y + q.y / ppp))
+                    .collect();
+                (axis, screen)
+            })
+            .collect()
+    }
+
     /// Where the timeline row of `track` of `object` is on screen.
     pub fn timeline_row(&self, object: usize, track: Track) -> Option<egui::Rect> {
         self.composer
@@ -1774,6 +1819,22 @@ fn turned(
     pressed: Vec2,
     px: Vec2,
 ) -> DQuat {
+    // Where the pointer's rays meet the ring's plane: the turn follows the
+    // ring under the pointer.
+    let on_plane = |p: Vec2| {
+        let ray = cam.ray(p, size);
+        let denom = ray.dir.dot(axis);
+        (denom.abs() > 0.15)
+            .then(|| ray.origin + ray.dir * ((centre - ray.origin).dot(axis) / denom))
+    };
+    if let (Some(a), Some(b)) = (on_plane(pressed), on_plane(px)) {
+        let (a, b) = (a - centre, b - centre);
+        if a.length() > 1e-9 && b.length() > 1e-9 {
+            let angle = a.cross(b).dot(axis).atan2(a.dot(b));
+            return (DQuat::from_axis_angle(axis.as_dvec3(), angle as f64) * start).normalize();
+        }
+    }
+    // A ring seen edge-on: by the angle swept about its centre on screen.
     let Some((c, _)) = cam.project(centre, size) else {
         return start;
     };
