@@ -312,7 +312,9 @@ impl Composer {
             Track::Phase { part, deformation } => {
                 // Deformations are listed part by part, in file order.
                 let of = self.doc.file.objects.get(object)?;
-                let flat = of.parts[..part]
+                let flat = of
+                    .parts
+                    .get(..part)?
                     .iter()
                     .map(|p| p.deformations.len())
                     .sum::<usize>()
@@ -1512,8 +1514,15 @@ impl StudioApp {
                     let to = drag_point(&cam, size, px, from, axis);
                     let mut file = c.doc.file.clone();
                     let moved = DVec3::from_array(start) + (to - from).as_dvec3();
-                    file.objects[object].trajectory[index].position = moved.to_array();
-                    c.preview_file(file);
+                    // (The key may be gone: an undo by key during the drag.)
+                    if let Some(k) = file
+                        .objects
+                        .get_mut(object)
+                        .and_then(|o| o.trajectory.get_mut(index))
+                    {
+                        k.position = moved.to_array();
+                        c.preview_file(file);
+                    }
                 }
                 Some(KeyDrag::Turn {
                     object,
@@ -1525,15 +1534,20 @@ impl StudioApp {
                 }) => {
                     let q = turned(&cam, size, centre, axis, start, pressed, px);
                     let mut file = c.doc.file.clone();
-                    let k = &mut file.objects[object].orientation[index];
-                    *k = csrbf_anim::OrientationKeyFile {
-                        time: k.time,
-                        quaternion: Some(q.to_array()),
-                        axis: None,
-                        angle: None,
-                        euler: None,
-                    };
-                    c.preview_file(file);
+                    if let Some(k) = file
+                        .objects
+                        .get_mut(object)
+                        .and_then(|o| o.orientation.get_mut(index))
+                    {
+                        *k = csrbf_anim::OrientationKeyFile {
+                            time: k.time,
+                            quaternion: Some(q.to_array()),
+                            axis: None,
+                            angle: None,
+                            euler: None,
+                        };
+                        c.preview_file(file);
+                    }
                 }
                 None => {}
             }
