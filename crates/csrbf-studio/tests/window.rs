@@ -72,16 +72,24 @@ struct Session {
     display: String,
     work: PathBuf,
     root: PathBuf,
-    // Dropped in this order: the app, then its X server.
+    // Dropped in this order: the app, then its X server, then the turn.
     _app: Killed,
     _xvfb: Killed,
+    _turn: std::sync::MutexGuard<'static, ()>,
 }
+
+/// One real window at a time: two X servers started at once have been seen
+/// to leave one app unable to connect (on a loaded 2-core machine).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 impl Session {
     fn start(name: &str, args: &[&Path]) -> Session {
         for tool in ["Xvfb", "xdotool", "import"] {
             need(tool);
         }
+        let turn = ONE_AT_A_TIME
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
         let work = std::env::temp_dir().join(format!("csrbf-studio-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&work);
@@ -108,6 +116,17 @@ impl Session {
             .expect("Xvfb tells its display");
         let xvfb = Killed(xvfb);
         let display = format!(":{}", line.trim());
+        // The server takes connections (a display number just freed by
+        // another test's server has been seen to refuse the first ones).
+        wait_for("the X server", Duration::from_secs(20), || {
+            Command::new("xdotool")
+                .arg("getmouselocation")
+                .env("DISPLAY", &display)
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok_and(|s| s.success())
+        });
 
         let xdg = work.join("xdg");
         std::fs::create_dir_all(&xdg).expect("runtime folder");
@@ -151,6 +170,7 @@ impl Session {
             root,
             _app: app,
             _xvfb: xvfb,
+            _turn: turn,
         }
     }
 

@@ -131,6 +131,8 @@ pub struct StudioApp {
     scene_recovery_offer: Option<SceneRecovery>,
     /// To wake the window from other threads.
     ctx: egui::Context,
+    /// The window's title as last set.
+    title: String,
 }
 
 impl StudioApp {
@@ -177,6 +179,7 @@ impl StudioApp {
             composer: None,
             scene_recovery_offer: None,
             ctx: cc.egui_ctx.clone(),
+            title: String::new(),
         };
         let ctx = cc.egui_ctx.clone();
         if let Some(scene) = args.mesh.as_ref().filter(|p| is_scene(p)) {
@@ -1147,6 +1150,45 @@ impl StandIn {
     }
 }
 
+impl StudioApp {
+    /// "csrbf studio: NAME" with a * while it has unsaved changes (the open
+    /// scene in the Composer, the control file or mesh in the Picker).
+    fn set_title(&mut self, ctx: &egui::Context) {
+        let name = |p: &Path| {
+            p.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        let (what, dirty) = match self.mode {
+            Mode::Compose => match self.composer.as_ref() {
+                Some(c) => (
+                    c.doc.path.as_deref().map_or("new scene".into(), name),
+                    c.doc.dirty,
+                ),
+                None => (String::new(), false),
+            },
+            Mode::Pick => match self.model.as_ref() {
+                Some(m) => (
+                    m.controls_path
+                        .as_deref()
+                        .map_or_else(|| name(&m.doc.mesh_path), name),
+                    m.doc.dirty,
+                ),
+                None => (String::new(), false),
+            },
+        };
+        let title = if what.is_empty() {
+            "csrbf studio".to_string()
+        } else {
+            format!("csrbf studio: {what}{}", if dirty { " *" } else { "" })
+        };
+        if title != self.title {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
+            self.title = title;
+        }
+    }
+}
+
 /// Asks whether to restore what a recovery file kept: Some(true) to
 /// restore, Some(false) to discard, None while unanswered.
 fn restore_question(ctx: &egui::Context, heading: &str, text: &str) -> Option<bool> {
@@ -1202,6 +1244,7 @@ impl eframe::App for StudioApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let started = Instant::now();
         let ctx = ui.ctx().clone();
+        self.set_title(&ctx);
         if let Some(m) = self.model.as_mut() {
             take_frame(m);
         }
