@@ -645,3 +645,77 @@ fn an_orientation_key_turns_by_a_ring_of_its_gizmo() {
     h.run_steps(2);
     assert!(q(&h).angle_between(before) < 1e-9);
 }
+
+#[test]
+fn contact_is_set_up_from_the_panel_and_plays() {
+    let dir = temp("contact");
+    let scene = csrbf_anim::demos::demo("ball")
+        .expect("the ball demo")
+        .write(&dir, "ball")
+        .expect("written");
+    let mut h = app(
+        Args {
+            mesh: Some(scene),
+            controls: None,
+        },
+        dir.join("state"),
+    );
+    // The box is pushed by the ball: the walls bulge somewhere in the scene.
+    let moved = |h: &Harness<'_, StudioApp>| {
+        let s = h.state().loaded_scene().expect("loaded");
+        let rest = &s.objects[1].mesh.positions;
+        (0..=48)
+            .map(|k| {
+                let f = s.frame(k as f64 * 0.1);
+                let (rot, shift) = s.objects[1].transform(k as f64 * 0.1);
+                f.objects[1]
+                    .positions
+                    .iter()
+                    .zip(rest)
+                    .map(|(p, r)| {
+                        let world = rot.as_quat() * *r + shift.as_vec3();
+                        p.distance(world)
+                    })
+                    .fold(0.0f32, f32::max)
+            })
+            .fold(0.0f32, f32::max)
+    };
+    assert!(moved(&h) > 1e-3, "the walls bulge");
+    // "Pushed by: nothing" on the box: no contact, the walls stay.
+    h.get_all_by_label("box").next().expect("listed").click();
+    h.run_steps(2);
+    contact_box(&h).click();
+    h.run_steps(2);
+    h.get_by_label("nothing").click();
+    h.run_steps(3);
+    assert!(
+        h.state().scene_doc().expect("scene").file.objects[1]
+            .contact
+            .is_none()
+    );
+    assert_eq!(moved(&h), 0.0);
+    // And back: pushed by the ball again.
+    contact_box(&h).click();
+    h.run_steps(2);
+    h.get_all_by_label("ball")
+        .last()
+        .expect("the menu's ball")
+        .click();
+    h.run_steps(3);
+    let c = h.state().scene_doc().expect("scene").file.objects[1]
+        .contact
+        .clone();
+    assert_eq!(c.map(|c| c.with), Some("ball".to_string()));
+    assert!(moved(&h) > 1e-3);
+}
+
+/// The "Pushed by" combo box of the selected object (the other is its
+/// turning's).
+fn contact_box<'a>(h: &'a Harness<'_, StudioApp>) -> egui_kittest::Node<'a> {
+    let boxes: Vec<_> = h.get_all_by_role(Role::ComboBox).collect();
+    let values: Vec<_> = boxes.iter().map(|b| b.value()).collect();
+    boxes
+        .into_iter()
+        .find(|b| b.value().is_some_and(|v| v != "squad" && v != "slerp"))
+        .unwrap_or_else(|| panic!("no contact combo box among {values:?}"))
+}
