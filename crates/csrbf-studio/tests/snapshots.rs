@@ -216,7 +216,7 @@ fn the_composer_shows_through_the_scene_camera_what_csrbf_animate_renders() {
         let movie = png_image(&png);
         let (mean, far) = difference(view, &movie, 24);
         assert!(
-            mean < 3.5 && far < 0.01,
+            mean < 1.0 && far < 0.005,
             "t = {}: mean {mean:.2}, {:.2} % far",
             times[k],
             far * 100.0

@@ -64,44 +64,40 @@ pub struct ViewportPaint {
 struct ViewportGpu {
     blit: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
-    sampler: wgpu::Sampler,
     scene: Option<(u64, SceneRenderer)>,
     target: Option<([u32; 2], wgpu::TextureView, wgpu::BindGroup)>,
     error: Option<String>,
     /// What the Composer's picture in `target` shows (see
     /// [`ScenePaint::stamp`]): the same stamp is not drawn again.
     drawn: Option<u64>,
+    /// The blit copies the picture's sRGB bytes as they are (egui's target
+    /// is not sRGB).
+    raw: bool,
 }
 
 /// Sets up the blit pipeline in egui's renderer (once, when the app starts).
 pub fn install(state: &egui_wgpu::RenderState) {
     let device = &state.device;
-    let encode = !state.target_format.is_srgb();
-    let source = BLIT.replace("ENCODE", if encode { "true" } else { "false" });
+    // egui's own target is usually not sRGB (it blends in gamma space):
+    // then the blit reads the picture's sRGB bytes as they are, through a
+    // plain view of the texture, with no decode and encode per pixel.
+    let raw = !state.target_format.is_srgb();
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("viewport blit"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
+        source: wgpu::ShaderSource::Wgsl(BLIT.into()),
     });
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("viewport blit"),
-        entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
             },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ],
+            count: None,
+        }],
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("viewport blit"),
@@ -133,10 +129,6 @@ pub fn install(state: &egui_wgpu::RenderState) {
         multiview_mask: None,
         cache: None,
     });
-    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some("viewport"),
-        ..Default::default()
-    });
     state
         .renderer
         .write()
@@ -144,11 +136,11 @@ pub fn install(state: &egui_wgpu::RenderState) {
         .insert(ViewportGpu {
             blit,
             layout,
-            sampler,
             scene: None,
             target: None,
             error: None,
             drawn: None,
+            raw,
         });
 }
 
@@ -162,16 +154,14 @@ struct Out { @builtin(position) pos: vec4<f32>, @location(0) uv: vec2<f32> };
     return o;
 }
 @group(0) @binding(0) var tex: texture_2d<f32>;
-@group(0) @binding(1) var samp: sampler;
 @fragment fn fs(o: Out) -> @location(0) vec4<f32> {
     // The texture has the viewport's size: a load per pixel, no filtering
     // (cheaper on a software rasteriser).
     let size = vec2<f32>(textureDimensions(tex));
     let texel = min(vec2<i32>(o.uv * size), vec2<i32>(size) - vec2<i32>(1, 1));
+    // Bytes as they are: sRGB-encoded for a target that is not sRGB, else
+    // decoded to linear by the sRGB view (and encoded again by the target).
     let c = textureLoad(tex, texel, 0);
-    if (ENCODE) {
-        return vec4<f32>(pow(c.rgb, vec3<f32>(1.0 / 2.2)), 1.0);
-    }
     return vec4<f32>(c.rgb, 1.0);
 }
 "#;
@@ -255,22 +245,24 @@ impl ViewportGpu {
             dimension: wgpu::TextureDimension::D2,
             format: FORMAT,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
+            view_formats: &[wgpu::TextureFormat::Rgba8Unorm],
         });
         let view = texture.create_view(&Default::default());
+        let read = if self.raw {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                format: Some(wgpu::TextureFormat::Rgba8Unorm),
+                ..Default::default()
+            })
+        } else {
+            view.clone()
+        };
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewport"),
             layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Sampler(&self.sampler),
-                },
-            ],
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&read),
+            }],
         });
         self.target = Some((size, view.clone(), group));
         view
