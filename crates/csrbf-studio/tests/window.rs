@@ -105,6 +105,9 @@ impl Session {
                 "1280x860x24",
                 "-nolisten",
                 "tcp",
+                // No reset when the last client leaves (the readiness probe
+                // below): an app connecting during a reset is refused.
+                "-noreset",
             ])
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
