@@ -719,3 +719,32 @@ fn contact_box<'a>(h: &'a Harness<'_, StudioApp>) -> egui_kittest::Node<'a> {
         .find(|b| b.value().is_some_and(|v| v != "squad" && v != "slerp"))
         .unwrap_or_else(|| panic!("no contact combo box among {values:?}"))
 }
+
+#[test]
+fn saving_over_a_file_that_exists_asks_first() {
+    let mut h = face("replace");
+    let dir = temp("replace-out");
+    let path = dir.join("taken.scene.json");
+    std::fs::write(&path, "kept").expect("write");
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::S,
+    );
+    choose(&mut h, &path, "Save");
+    // Not yet: the dialog asks.
+    assert_eq!(std::fs::read_to_string(&path).expect("read"), "kept");
+    h.get_by_label_contains("exists. Replace it?");
+    h.get_by_label("Keep it").click();
+    // The dialog's window takes a few frames to settle to its new size.
+    h.run_steps(4);
+    assert_eq!(std::fs::read_to_string(&path).expect("read"), "kept");
+    // Asked again, and replaced.
+    h.get_by_label("Save").click();
+    h.run_steps(4);
+    h.get_by_label_contains("exists. Replace it?");
+    h.get_by_label("Replace").click();
+    h.run_steps(3);
+    let text = std::fs::read_to_string(&path).expect("read");
+    assert!(SceneFile::parse(&text).is_ok(), "{text}");
+    assert!(!h.state().scene_doc().expect("scene").dirty);
+}

@@ -95,6 +95,8 @@ pub struct FileDialog {
     error: Option<String>,
     /// The file name field takes the keyboard when the dialog opens.
     focus: bool,
+    /// A file chosen for saving that exists: asked about before replacing.
+    replace: Option<PathBuf>,
 }
 
 /// What the person did in the dialog.
@@ -134,6 +136,7 @@ impl FileDialog {
             entries: Vec::new(),
             error: None,
             focus: true,
+            replace: None,
         };
         d.list();
         d
@@ -280,9 +283,32 @@ impl FileDialog {
                         choice = Some(Choice::Cancel);
                     }
                 });
+                if let Some(p) = self.replace.clone() {
+                    ui.horizontal(|ui| {
+                        ui.colored_label(
+                            egui::Color32::from_rgb(240, 190, 90),
+                            format!("{} exists. Replace it?", p.display()),
+                        );
+                        if ui.button("Replace").clicked() {
+                            choice = Some(Choice::File(p.clone()));
+                        }
+                        if ui.button("Keep it").clicked() {
+                            self.replace = None;
+                        }
+                    });
+                }
             });
         if !open {
             choice = Some(Choice::Cancel);
+        }
+        // Saving over a file that exists asks first (once for that file).
+        if let Some(Choice::File(p)) = &choice
+            && self.purpose.saves()
+            && p.exists()
+            && self.replace.as_ref() != Some(p)
+        {
+            self.replace = Some(p.clone());
+            choice = None;
         }
         choice
     }
