@@ -17,8 +17,8 @@ pub use renderer::{
     Camera, DrawMesh, DrawOptions, DrawPart, Light, Line, Renderer, TextureId, View,
 };
 pub use scene_view::{
-    Overlay, SceneOptions, SceneRenderer, StandInDraw, axis_gizmo, circle_lines, control_lines,
-    default_lights, sphere_lines,
+    Overlay, SceneOptions, SceneRenderer, StandInDraw, axis_gizmo, camera_lines, circle_lines,
+    control_lines, default_lights, sphere_lines,
 };
 
 /// What can go wrong while rendering or writing pictures.

@@ -482,6 +482,52 @@ pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], spheres: bool, out: &
     }
 }
 
+/// A camera as lines, for a view from elsewhere (the Composer's scene
+/// camera): its frustum out to a quarter of the way to its target, the
+/// frame of a picture of `aspect` (width / height) there, a tick above it
+/// for up, and a faint line to the target.
+pub fn camera_lines(camera: &Camera, aspect: f32, color: [f32; 4], out: &mut Vec<Line>) {
+    let (right, up, forward) = camera.basis();
+    let d = (camera.target - camera.eye).length() * 0.25;
+    // Half the frame's height there, and where its edges start: the eye of
+    // a pinhole, a rectangle as large as the frame for parallel rays.
+    let (h, spread) = match camera.projection {
+        csrbf_anim::Projection::Perspective { fov } => (d * (fov.to_radians() * 0.5).tan(), 0.0),
+        csrbf_anim::Projection::Orthographic { height } => (height * 0.5, 1.0),
+    };
+    let w = h * aspect;
+    let centre = camera.eye + forward * d;
+    let offsets = [
+        right * w + up * h,
+        -right * w + up * h,
+        -right * w - up * h,
+        right * w - up * h,
+    ];
+    for k in 0..4 {
+        let corner = centre + offsets[k];
+        out.push(Line {
+            a: camera.eye + offsets[k] * spread,
+            b: corner,
+            color,
+        });
+        out.push(Line {
+            a: corner,
+            b: centre + offsets[(k + 1) % 4],
+            color,
+        });
+    }
+    out.push(Line {
+        a: centre + up * h,
+        b: centre + up * h * 1.4,
+        color,
+    });
+    out.push(Line {
+        a: camera.eye,
+        b: camera.target,
+        color: [color[0], color[1], color[2], color[3] * 0.35],
+    });
+}
+
 /// A circle of `radius` about `centre` in the plane of the unit vectors `u`
 /// and `v`, as `segments` lines.
 pub fn circle_lines(

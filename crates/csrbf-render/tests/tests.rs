@@ -250,3 +250,41 @@ fn movies_render_cancel_cleanly_and_refuse_endless_ranges() {
     assert!(e.to_string().contains("more than the limit"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The Composer's scene camera as lines: seen through the camera itself,
+/// its frame's corners are the picture's corners, for either projection.
+#[test]
+fn a_camera_drawn_as_lines_frames_its_own_picture() {
+    let size = [400u32, 300];
+    let aspect = size[0] as f32 / size[1] as f32;
+    let pinhole = Camera::perspective(
+        Vec3::new(1.0, 2.0, 8.0),
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::Y,
+        40.0,
+    );
+    let parallel = Camera {
+        projection: csrbf_anim::Projection::Orthographic { height: 3.0 },
+        ..pinhole
+    };
+    for cam in [pinhole, parallel] {
+        let mut lines = Vec::new();
+        csrbf_render::camera_lines(&cam, aspect, [1.0; 4], &mut lines);
+        // Four edges from the eye, four around the frame, the up tick, the target line.
+        assert_eq!(lines.len(), 10);
+        let mut corners: Vec<Vec2> = (0..4)
+            .map(|k| cam.project(lines[2 * k].b, size).expect("in front").0)
+            .collect();
+        corners.sort_by(|a, b| (a.x + 10.0 * a.y).total_cmp(&(b.x + 10.0 * b.y)));
+        let want = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(400.0, 0.0),
+            Vec2::new(0.0, 300.0),
+            Vec2::new(400.0, 300.0),
+        ];
+        for (c, w) in corners.iter().zip(want) {
+            assert!(c.distance(w) < 0.5, "{c} vs {w} ({:?})", cam.projection);
+        }
+        assert_eq!(lines[9].b, cam.target);
+    }
+}

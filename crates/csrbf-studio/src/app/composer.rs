@@ -22,8 +22,8 @@ use eframe::egui;
 use super::files::{Purpose, SceneRecovery};
 use super::viewport::{PointerInput, axis_rings, polyline_distance};
 use super::{Pending, StudioApp, gpu};
-use crate::Orbit;
 use crate::compose::{KeyValue, Playback, SceneDoc, SceneEdit, SceneHistory, Track, key_value};
+use crate::{DragTool, Orbit};
 
 /// Which program the window is.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -45,8 +45,9 @@ pub(super) enum KeyDrag {
     Position {
         object: usize,
         index: usize,
-        /// World point of the key's marker when the drag began.
-        from: Vec3,
+        /// The key's marker moved on the plane facing the camera, or along
+        /// the held axis (the Picker's tool).
+        tool: DragTool,
         /// The key's position when the drag began.
         start: [f64; 3],
         /// The pointer's pixel at the press.
@@ -1118,13 +1119,8 @@ impl StudioApp {
         let shortcut = |m: Modifiers, k: Key| {
             ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
         };
-        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z)
-            || shortcut(Modifiers::COMMAND, Key::Y)
-        {
-            self.scene_undo(true);
-        }
-        if shortcut(Modifiers::COMMAND, Key::Z) {
-            self.scene_undo(false);
+        if let Some(redo) = super::undo_keys(ctx) {
+            self.scene_undo(redo);
         }
         if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
             self.ask(Purpose::SaveScene);
@@ -1352,7 +1348,7 @@ impl StudioApp {
             return;
         };
         let ppp = self.viewport.2;
-        let axis = self.axis;
+        let axis = self.axis_vector();
         let PointerInput {
             pressed,
             down,
@@ -1474,7 +1470,7 @@ impl StudioApp {
                 c.drag = Some(KeyDrag::Position {
                     object: o,
                     index: i,
-                    from: w,
+                    tool: DragTool::begin(&cam, size, px, w.as_dvec3(), axis),
                     start: c.doc.file.objects[o].trajectory[i].position,
                     pressed: px,
                 });
@@ -1507,20 +1503,19 @@ impl StudioApp {
                 Some(KeyDrag::Position {
                     object,
                     index,
-                    from,
+                    tool,
                     start,
                     ..
                 }) => {
-                    let to = drag_point(&cam, size, px, from, axis);
                     let mut file = c.doc.file.clone();
-                    let moved = DVec3::from_array(start) + (to - from).as_dvec3();
                     // (The key may be gone: an undo by key during the drag.)
-                    if let Some(k) = file
-                        .objects
-                        .get_mut(object)
-                        .and_then(|o| o.trajectory.get_mut(index))
+                    if let Some(to) = tool.moved_to(&cam, size, px)
+                        && let Some(k) = file
+                            .objects
+                            .get_mut(object)
+                            .and_then(|o| o.trajectory.get_mut(index))
                     {
-                        k.position = moved.to_array();
+                        k.position = (DVec3::from_array(start) + to - tool.origin).to_array();
                         c.preview_file(file);
                     }
                 }
@@ -1558,12 +1553,13 @@ impl StudioApp {
                 Some(KeyDrag::Position {
                     object,
                     index,
-                    from,
+                    tool,
                     start,
                     pressed,
-                }) if px.distance(pressed) > 1.0 => {
-                    let to = drag_point(&cam, size, px, from, axis);
-                    let moved = DVec3::from_array(start) + (to - from).as_dvec3();
+                }) if px.distance(pressed) > 1.0
+                    && let Some(to) = tool.moved_to(&cam, size, px) =>
+                {
+                    let moved = DVec3::from_array(start) + to - tool.origin;
                     self.scene_edit(SceneEdit::SetKey {
                         object,
                         track: Track::Position,
@@ -1662,7 +1658,13 @@ impl StudioApp {
         }
         // The scene's camera, when looking from elsewhere.
         if !c.through_camera {
-            camera_lines(&c.scene_camera(), c.doc.file.size, &mut lines);
+            let [w, h] = c.doc.file.size;
+            csrbf_render::camera_lines(
+                &c.scene_camera(),
+                w as f32 / h.max(1) as f32,
+                [0.55, 0.75, 1.0, 1.0],
+                &mut lines,
+            );
         }
         // Big meshes are drawn by their stand-ins while the scene moves.
         let moving = c.playback.playing || c.drag.is_some();
@@ -1792,36 +1794,6 @@ impl StudioApp {
 /// The gizmo rings' radius, in points.
 const RING_PIXELS: f32 = 48.0;
 
-/// Where a point dragged from `from` is with the pointer at `px`: on the
-/// line through `from` along the held axis (the closest point to the
-/// pointer's ray), else on the plane through `from` facing the camera.
-fn drag_point(cam: &Camera, size: [u32; 2], px: Vec2, from: Vec3, axis: Option<usize>) -> Vec3 {
-    let ray = cam.ray(px, size);
-    match axis {
-        Some(a) => {
-            let mut d = Vec3::ZERO;
-            d[a] = 1.0;
-            // Closest point on the axis line to the ray.
-            let w = from - ray.origin;
-            let (b, dd, e) = (d.dot(ray.dir), d.dot(w), ray.dir.dot(w));
-            let denom = 1.0 - b * b;
-            if denom.abs() < 1e-6 {
-                return from;
-            }
-            from + d * ((b * e - dd) / denom)
-        }
-        None => {
-            let (_, _, forward) = cam.basis();
-            let denom = ray.dir.dot(forward);
-            if denom.abs() < 1e-9 {
-                return from;
-            }
-            let t = (from - ray.origin).dot(forward) / denom;
-            ray.origin + ray.dir * t
-        }
-    }
-}
-
 /// The orientation `start` turned about `axis` through `centre` by the
 /// angle the pointer swept about the centre's pixel from `pressed` to `px`.
 fn turned(
@@ -1860,47 +1832,4 @@ fn turned(
         angle = -angle;
     }
     (DQuat::from_axis_angle(axis.as_dvec3(), -angle as f64) * start).normalize()
-}
-
-/// The scene camera as lines: its frustum to a quarter of the distance to
-/// its target, the picture's frame and an up mark.
-fn camera_lines(cam: &Camera, size: [u32; 2], out: &mut Vec<Line>) {
-    let (right, up, forward) = cam.basis();
-    let d = (cam.target - cam.eye).length() * 0.25;
-    let fov = match cam.projection {
-        csrbf_anim::Projection::Perspective { fov } => fov,
-        csrbf_anim::Projection::Orthographic { .. } => 35.0,
-    };
-    let h = d * (fov.to_radians() * 0.5).tan();
-    let w = h * size[0] as f32 / size[1].max(1) as f32;
-    let centre = cam.eye + forward * d;
-    let corners = [
-        centre + right * w + up * h,
-        centre - right * w + up * h,
-        centre - right * w - up * h,
-        centre + right * w - up * h,
-    ];
-    let color = [0.55, 0.75, 1.0, 1.0];
-    for k in 0..4 {
-        out.push(Line {
-            a: cam.eye,
-            b: corners[k],
-            color,
-        });
-        out.push(Line {
-            a: corners[k],
-            b: corners[(k + 1) % 4],
-            color,
-        });
-    }
-    out.push(Line {
-        a: centre + up * h,
-        b: centre + up * h * 1.4,
-        color,
-    });
-    out.push(Line {
-        a: cam.eye,
-        b: cam.target,
-        color: [0.55, 0.75, 1.0, 0.35],
-    });
 }

@@ -602,13 +602,10 @@ impl StudioApp {
         let shortcut = |m: Modifiers, k: Key| {
             ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
         };
-        if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z)
-            || shortcut(Modifiers::COMMAND, Key::Y)
-        {
-            self.redo();
-        }
-        if shortcut(Modifiers::COMMAND, Key::Z) {
-            self.undo();
+        match undo_keys(ctx) {
+            Some(true) => self.redo(),
+            Some(false) => self.undo(),
+            None => {}
         }
         if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
             self.ask(Purpose::SaveControls);
@@ -1186,6 +1183,23 @@ impl StudioApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
             self.title = title;
         }
+    }
+}
+
+/// Ctrl+Z (Some(false): undo) or Ctrl+Shift+Z / Ctrl+Y (Some(true): redo),
+/// consumed; the same keys in the Picker and the Composer.
+fn undo_keys(ctx: &egui::Context) -> Option<bool> {
+    use egui::{Key, KeyboardShortcut, Modifiers};
+    let shortcut =
+        |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)));
+    if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z)
+        || shortcut(Modifiers::COMMAND, Key::Y)
+    {
+        Some(true)
+    } else if shortcut(Modifiers::COMMAND, Key::Z) {
+        Some(false)
+    } else {
+        None
     }
 }
 

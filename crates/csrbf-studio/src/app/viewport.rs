@@ -222,7 +222,7 @@ impl StudioApp {
         Vec2::new((pos.x - rect.min.x) * ppp, (pos.y - rect.min.y) * ppp)
     }
 
-    fn axis_vector(&self) -> Option<DVec3> {
+    pub(super) fn axis_vector(&self) -> Option<DVec3> {
         self.axis.map(|a| {
             let mut v = DVec3::ZERO;
             v[a] = 1.0;
