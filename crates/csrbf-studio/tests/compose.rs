@@ -748,3 +748,34 @@ fn saving_over_a_file_that_exists_asks_first() {
     assert!(SceneFile::parse(&text).is_ok(), "{text}");
     assert!(!h.state().scene_doc().expect("scene").dirty);
 }
+
+#[test]
+fn a_scene_save_that_fails_says_why_and_writes_nothing() {
+    let mut h = face("save-fails");
+    scrub(&mut h, 1.0);
+    key_button(&mut h, 0);
+    let before = h.state().scene_doc().expect("scene").file.clone();
+    let bad = temp("save-fails-out")
+        .join("no such folder")
+        .join("s.scene.json");
+    h.state_mut().save_scene_to(&bad);
+    h.run_steps(2);
+    let (title, text) = h.state().message().cloned().expect("a dialog says why");
+    assert!(
+        title.contains("Cannot save") && text.contains("no such folder"),
+        "{title}: {text}"
+    );
+    assert!(!bad.exists());
+    let doc = h.state().scene_doc().expect("kept");
+    assert!(doc.dirty, "still unsaved");
+    assert_eq!(doc.file, before);
+    // An empty scene is not written either: the CLI would refuse it.
+    let mut h = app(Args::default(), temp("save-empty-state"));
+    h.state_mut().new_scene();
+    let empty = temp("save-empty").join("empty.scene.json");
+    h.state_mut().save_scene_to(&empty);
+    h.run_steps(2);
+    let (_, text) = h.state().message().cloned().expect("a dialog says why");
+    assert!(text.contains("objects"), "{text}");
+    assert!(!empty.exists());
+}
