@@ -23,7 +23,7 @@ fn model(name: &str) -> PathBuf {
 
 /// A private state folder, so tests neither see nor leave recovery files.
 fn state_dir(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("csrbf-studio-test-{}-{test}", std::process::id()));
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-app-{test}"));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("temp folder");
     d

@@ -20,7 +20,7 @@ fn assets() -> PathBuf {
 
 /// A private folder per test.
 fn temp(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("csrbf-compose-test-{}-{test}", std::process::id()));
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-compose-{test}"));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("temp folder");
     d

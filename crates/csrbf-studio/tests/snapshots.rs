@@ -20,7 +20,8 @@ fn head() -> PathBuf {
 /// viewport drawn; the viewport's pixels only (the status bar's timings
 /// change from run to run).
 fn viewport(name: &str, controls: Option<&str>) -> (image::RgbaImage, Harness<'static, StudioApp>) {
-    let dir = std::env::temp_dir().join(format!("csrbf-studio-snap-{}-{name}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-snap-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp folder");
     let controls = controls.map(|text| {
         let p = dir.join("controls.json");
@@ -169,8 +170,7 @@ fn difference(a: &image::RgbaImage, b: &image::RgbaImage, skip: u32) -> (f64, f6
 fn the_composer_shows_through_the_scene_camera_what_csrbf_animate_renders() {
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets");
     let scene_path = assets.join("scenes/face.scene.json");
-    let dir =
-        std::env::temp_dir().join(format!("csrbf-studio-snap-{}-compose", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("studio-snap-compose");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp folder");
     let args = Args {

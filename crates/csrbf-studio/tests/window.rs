@@ -91,7 +91,7 @@ impl Session {
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let work = std::env::temp_dir().join(format!("csrbf-studio-{name}-{}", std::process::id()));
+        let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-window-{name}"));
         let _ = std::fs::remove_dir_all(&work);
         std::fs::create_dir_all(&work).expect("temp folder");
 
