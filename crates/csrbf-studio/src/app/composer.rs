@@ -106,8 +106,10 @@ pub(super) struct Composer {
     last_tick: Option<Instant>,
     /// Frames drawn while playing, over the last second: the rate shown.
     pub drawn: Vec<Instant>,
-    /// Since play began: when, and frames drawn.
-    played: Option<(Instant, u64)>,
+    /// The play under way: when it began, frames drawn, and the seconds of
+    /// CPU eframe reported for them (update, tessellation and submission;
+    /// the rest of a frame is the rasteriser and the display).
+    played: Option<(Instant, u64, f64)>,
     pub selected: Option<usize>,
     pub key: Option<KeyRef>,
     pub hidden: Vec<bool>,
@@ -970,7 +972,7 @@ impl StudioApp {
 
     /// Plays: advances the playhead by the wall clock (or one frame a draw,
     /// when every frame is asked for).
-    pub(super) fn tick(&mut self, ctx: &egui::Context) {
+    pub(super) fn tick(&mut self, ctx: &egui::Context, cpu: Option<f32>) {
         let Some(c) = self.composer.as_mut() else {
             return;
         };
@@ -980,19 +982,21 @@ impl StudioApp {
             c.drawn.clear();
             // A play ended (paused, or at the end): say how it went, for
             // whoever reads the log (the figures of issue 9 come from it).
-            if let Some((from, frames)) = c.played.take() {
+            if let Some((from, frames, cpu)) = c.played.take() {
                 let secs = (now - from).as_secs_f64();
                 eprintln!(
-                    "csrbf-studio: played {frames} frames in {secs:.2} s = {:.1} fps ({} frames dropped; the scene runs at {} fps)",
+                    "csrbf-studio: played {frames} frames in {secs:.2} s = {:.1} fps ({} frames dropped; the scene runs at {} fps; {:.1} ms of CPU a frame in the app)",
                     frames as f64 / secs.max(1e-9),
                     c.playback.dropped,
-                    c.doc.file.fps
+                    c.doc.file.fps,
+                    1e3 * cpu / frames.max(1) as f64
                 );
             }
             return;
         }
-        let played = c.played.get_or_insert((now, 0));
+        let played = c.played.get_or_insert((now, 0, 0.0));
         played.1 += 1;
+        played.2 += f64::from(cpu.unwrap_or(0.0));
         let elapsed = c.last_tick.map_or(0.0, |t| (now - t).as_secs_f64());
         c.last_tick = Some(now);
         if c.every_frame {

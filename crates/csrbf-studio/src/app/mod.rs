@@ -1255,7 +1255,7 @@ fn take_frame(m: &mut Model) {
 }
 
 impl eframe::App for StudioApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let started = Instant::now();
         let ctx = ui.ctx().clone();
         self.set_title(&ctx);
@@ -1315,7 +1315,7 @@ impl eframe::App for StudioApp {
             }
         }
         if self.mode == Mode::Compose {
-            self.tick(&ctx);
+            self.tick(&ctx, frame.info().cpu_usage);
             if !ctx.input(|i| i.pointer.any_down())
                 && let Some(c) = self.composer.as_mut()
             {
