@@ -961,10 +961,11 @@ impl StudioApp {
             job.cancel.store(true, Ordering::Relaxed);
         }
         // A repaint of the whole window on a software rasteriser costs
-        // about 45 ms of both cores at 1280x800: every 2 s keeps the export
-        // within a few % of `csrbf animate` (every 1 s cost 9-11 %).
+        // about 18 ms of both cores at 1280x800: once a second keeps the
+        // export within a few % of `csrbf animate`. (It cost 45 ms while
+        // egui filled the panels, and every second then cost 9-11 %.)
         ctx.request_repaint_after(if self.software {
-            Duration::from_secs(2)
+            Duration::from_secs(1)
         } else {
             Duration::from_millis(250)
         });
