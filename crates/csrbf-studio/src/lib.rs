@@ -49,7 +49,7 @@ pub use orbit::Orbit;
 pub use preview::{Preview, PreviewFrame};
 pub use state::{Document, Selection};
 pub use tools::{
-    DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface, pick_surface_on,
+    DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface, pick_surface_on, swept_angle,
 };
 
 /// An edit that cannot be made, and why.

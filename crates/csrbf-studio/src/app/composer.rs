@@ -961,11 +961,11 @@ impl StudioApp {
             job.cancel.store(true, Ordering::Relaxed);
         }
         // A repaint of the whole window on a software rasteriser costs
-        // about 18 ms of both cores at 1280x800: once a second keeps the
-        // export within a few % of `csrbf animate`. (It cost 45 ms while
-        // egui filled the panels, and every second then cost 9-11 %.)
+        // about 18 ms of both cores at 1280x800 (45 ms while egui filled
+        // the panels): every 2 s keeps the export within a few % of
+        // `csrbf animate`; every second cost 3-8 %.
         ctx.request_repaint_after(if self.software {
-            Duration::from_secs(1)
+            Duration::from_secs(2)
         } else {
             Duration::from_millis(250)
         });
@@ -1800,7 +1800,7 @@ impl StudioApp {
 const RING_PIXELS: f32 = 48.0;
 
 /// The orientation `start` turned about `axis` through `centre` by the
-/// angle the pointer swept about the centre's pixel from `pressed` to `px`.
+/// angle the pointer swept on the ring's plane from `pressed` to `px`.
 fn turned(
     cam: &Camera,
     size: [u32; 2],
@@ -1810,31 +1810,6 @@ fn turned(
     pressed: Vec2,
     px: Vec2,
 ) -> DQuat {
-    // Where the pointer's rays meet the ring's plane: the turn follows the
-    // ring under the pointer.
-    let on_plane = |p: Vec2| {
-        let ray = cam.ray(p, size);
-        let denom = ray.dir.dot(axis);
-        (denom.abs() > 0.15)
-            .then(|| ray.origin + ray.dir * ((centre - ray.origin).dot(axis) / denom))
-    };
-    if let (Some(a), Some(b)) = (on_plane(pressed), on_plane(px)) {
-        let (a, b) = (a - centre, b - centre);
-        if a.length() > 1e-9 && b.length() > 1e-9 {
-            let angle = a.cross(b).dot(axis).atan2(a.dot(b));
-            return (DQuat::from_axis_angle(axis.as_dvec3(), angle as f64) * start).normalize();
-        }
-    }
-    // A ring seen edge-on: by the angle swept about its centre on screen.
-    let Some((c, _)) = cam.project(centre, size) else {
-        return start;
-    };
-    let (a, b) = (pressed - c, px - c);
-    let mut angle = b.y.atan2(b.x) - a.y.atan2(a.x);
-    // Screen y points down; an axis towards the camera turns the other way.
-    let (_, _, forward) = cam.basis();
-    if axis.dot(forward) > 0.0 {
-        angle = -angle;
-    }
-    (DQuat::from_axis_angle(axis.as_dvec3(), -angle as f64) * start).normalize()
+    let angle = crate::swept_angle(cam, size, centre.as_dvec3(), axis.as_dvec3(), pressed, px);
+    (DQuat::from_axis_angle(axis.as_dvec3().normalize(), angle) * start).normalize()
 }

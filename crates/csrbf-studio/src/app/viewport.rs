@@ -8,7 +8,7 @@ use csrbf_render::{DrawOptions, Line, axis_gizmo, circle_lines, control_lines};
 use eframe::egui;
 
 use super::{Model, StudioApp, Tool, gpu, panel::VertexTarget};
-use crate::{Command, DragTool, End, pick_marker, pick_surface_on};
+use crate::{Command, DragTool, End, pick_marker, pick_surface_on, swept_angle};
 
 /// What is shown of the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -471,42 +471,26 @@ impl StudioApp {
                 ring,
             } => {
                 let mut h = (*start).clone();
+                let pressed = Self::pixel_of(from, ppp, self.viewport.1);
                 if let Some(axis) = ring {
-                    // A turn about the ring's axis, composed with the turn so far.
-                    let a0 = (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
-                    let a1 = (px - pivot_px).to_angle();
-                    let towards_eye = -cam.basis().2.as_dvec3();
-                    let sign = if axis.dot(towards_eye) >= 0.0 {
-                        -1.0
-                    } else {
-                        1.0
-                    };
-                    let turn = sign * (a1 - a0).to_degrees() as f64;
-                    h.rotate = Some(compose_turn(start.rotate, axis, turn));
+                    // A turn about the ring's axis (the angle the pointer swept
+                    // on the ring's plane, as the Composer's rings), composed
+                    // with the turn so far.
+                    let turn = swept_angle(&cam, size, tool.origin, axis, pressed, px);
+                    h.rotate = Some(compose_turn(start.rotate, axis, turn.to_degrees()));
                 } else {
                     match self.handle_mode {
                         super::panel::HandleMode::Rotate => {
-                            let a0 =
-                                (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).to_angle();
-                            let a1 = (px - pivot_px).to_angle();
-                            let turn = (a1 - a0).to_degrees() as f64;
                             let mut r = h.rotate.unwrap_or_else(|| {
                                 csrbf::Rotation::new(handle_axis(self.axis, &cam), 0.0)
                             });
-                            // Screen angles grow clockwise; about the view axis
-                            // towards the eye that is a negative turn.
-                            let towards_eye = -cam.basis().2.as_dvec3();
-                            let sign = if r.axis.dot(towards_eye) >= 0.0 {
-                                -1.0
-                            } else {
-                                1.0
-                            };
-                            r.angle_deg = start.rotate.map_or(0.0, |r| r.angle_deg) + sign * turn;
+                            let turn = swept_angle(&cam, size, tool.origin, r.axis, pressed, px);
+                            r.angle_deg =
+                                start.rotate.map_or(0.0, |r| r.angle_deg) + turn.to_degrees();
                             h.rotate = Some(r);
                         }
                         super::panel::HandleMode::Scale => {
-                            let d0 =
-                                (Self::pixel_of(from, ppp, self.viewport.1) - pivot_px).length();
+                            let d0 = (pressed - pivot_px).length();
                             let d1 = (px - pivot_px).length();
                             if d0 > 1.0 {
                                 h.scale = Some(start.scale.unwrap_or(1.0) * (d1 / d0) as f64);
