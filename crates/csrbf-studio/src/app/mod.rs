@@ -1265,7 +1265,8 @@ fn bare_panel(ui: &egui::Ui) -> egui::Frame {
 }
 
 impl eframe::App for StudioApp {
-    /// The panels' colour: see [`bare_panel`].
+    /// The panels' colour: they are drawn without a fill of their own, which a
+    /// software rasteriser would shade pixel by pixel.
     fn clear_color(&self, visuals: &egui::Visuals) -> [f32; 4] {
         visuals.panel_fill.to_normalized_gamma_f32()
     }
