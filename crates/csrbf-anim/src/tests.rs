@@ -235,6 +235,24 @@ fn bad_scenes_are_named_by_path() {
             ),
             &["select.group", "lips"],
         ),
+        (
+            GOOD.replace("\"camera\"", "\"lights\": [{\"direction\": [0, 0, 0]}], \"camera\""),
+            &["lights[0].direction", "non-zero"],
+        ),
+        (
+            GOOD.replace(
+                "\"camera\"",
+                "\"lights\": [{\"direction\": [0, -1, 0]}, {\"direction\": [1, 0, 0], \"color\": [1, -0.5, 0]}], \"camera\"",
+            ),
+            &["lights[1].color", ">= 0"],
+        ),
+        (
+            GOOD.replace(
+                "\"camera\"",
+                "\"lights\": [{\"direction\": [0, -1, 0], \"intensity\": -2}], \"camera\"",
+            ),
+            &["lights[0].intensity", ">= 0"],
+        ),
         ("{\"duration\": ".to_string(), &["line 1"]),
     ];
     for (text, want) in cases {

@@ -66,6 +66,30 @@ pub(super) fn check_scene(f: &SceneFile) -> std::result::Result<(), (String, Str
             format!("must be within (1, 179) degrees, got {}", f.camera.fov),
         );
     }
+    for (i, l) in f.lights.iter().enumerate() {
+        let d = DVec3::from_array(l.direction);
+        if !d.is_finite() || d.length() == 0.0 {
+            return bad(
+                &format!("lights[{i}].direction"),
+                format!(
+                    "must be a finite, non-zero direction, got {:?}",
+                    l.direction
+                ),
+            );
+        }
+        if l.color.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            return bad(
+                &format!("lights[{i}].color"),
+                format!("must be finite and >= 0, got {:?}", l.color),
+            );
+        }
+        if !l.intensity.is_finite() || l.intensity < 0.0 {
+            return bad(
+                &format!("lights[{i}].intensity"),
+                format!("must be finite and >= 0, got {}", l.intensity),
+            );
+        }
+    }
     if f.objects.is_empty() {
         return bad("objects", "the scene has no object".into());
     }
