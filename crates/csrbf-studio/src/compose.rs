@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use csrbf_anim::{
-    CameraFile, ObjectFile, OrientationKeyFile, PhaseKeyFile, PositionKeyFile, SceneFile,
+    CameraFile, LightFile, ObjectFile, OrientationKeyFile, PhaseKeyFile, PositionKeyFile, SceneFile,
 };
 
 use crate::EditError;
@@ -130,6 +130,9 @@ pub enum SceneEdit {
     ReplaceObject(usize, Box<ObjectFile>),
     /// Sets the scene's camera.
     SetCamera(CameraFile),
+    /// Sets the scene's directional lights (none: the renderer's default
+    /// key and fill lights, placed from the camera).
+    SetLights(Vec<LightFile>),
     /// Sets the picture size and background colour.
     SetLook {
         /// Width and height in pixels.
@@ -493,6 +496,26 @@ impl SceneEdit {
                 *object_mut(&mut file, *i)? = (**object).clone();
             }
             SceneEdit::SetCamera(camera) => file.camera = camera.clone(),
+            SceneEdit::SetLights(lights) => {
+                for (i, l) in lights.iter().enumerate() {
+                    let d = l.direction;
+                    if d.iter().any(|c| !c.is_finite()) || d.iter().all(|c| *c == 0.0) {
+                        return Err(EditError::Invalid(format!(
+                            "light {i}: its direction must be finite and not zero, got {d:?}"
+                        )));
+                    }
+                    if l.color.iter().any(|c| !c.is_finite() || *c < 0.0)
+                        || !l.intensity.is_finite()
+                        || l.intensity < 0.0
+                    {
+                        return Err(EditError::Invalid(format!(
+                            "light {i}: colour and intensity must be finite and >= 0, got {:?} and {}",
+                            l.color, l.intensity
+                        )));
+                    }
+                }
+                file.lights = lights.clone();
+            }
             SceneEdit::SetLook { size, background } => {
                 if background.iter().any(|c| !(0.0..=1.0).contains(c)) {
                     return Err(EditError::Invalid(format!(
@@ -1028,6 +1051,33 @@ mod tests {
             },
         )
         .expect("timing");
+        let light = LightFile {
+            direction: [0.0, -1.0, -0.5],
+            color: [1.0, 0.9, 0.8],
+            intensity: 0.7,
+        };
+        h.apply(&mut d, &SceneEdit::SetLights(vec![light.clone()]))
+            .expect("lights");
+        for bad in [
+            LightFile {
+                direction: [0.0; 3],
+                ..light.clone()
+            },
+            LightFile {
+                color: [1.0, -0.1, 0.0],
+                ..light.clone()
+            },
+            LightFile {
+                intensity: f32::NAN,
+                ..light.clone()
+            },
+        ] {
+            let e = h
+                .apply(&mut d, &SceneEdit::SetLights(vec![light.clone(), bad]))
+                .expect_err("refused");
+            assert!(e.to_string().contains("light 1"), "{e}");
+        }
+        assert_eq!(d.file.lights, vec![light], "a refused edit changes nothing");
         let back = SceneFile::parse(&d.to_text()).expect("the CLI's parser reads it");
         assert_eq!(back, d.file);
         let q = back.objects[0].orientation[0]

@@ -779,3 +779,65 @@ fn a_scene_save_that_fails_says_why_and_writes_nothing() {
     assert!(text.contains("objects"), "{text}");
     assert!(!empty.exists());
 }
+
+/// The scene's lights from the side panel. Add writes out the renderer's
+/// default two as placed from the scene camera (what a movie of the scene
+/// without lights shows), Remove takes one away, undo brings it back, the
+/// scene shown has what the document has, and a save writes them in the
+/// CLI's format.
+#[test]
+fn lights_are_added_removed_undone_and_saved() {
+    let dir = temp("lights-out");
+    let mut h = face("lights");
+    let doc_lights =
+        |h: &Harness<'_, StudioApp>| h.state().scene_doc().expect("face").file.lights.clone();
+    assert!(doc_lights(&h).is_empty());
+    h.get_by_label("Add light").click();
+    h.run_steps(3);
+    let lights = doc_lights(&h);
+    assert_eq!(lights.len(), 2, "{}", h.state().status());
+    let f = &h.state().scene_doc().expect("face").file.camera;
+    let v = |a: [f64; 3]| csrbf::glam::DVec3::from_array(a).as_vec3();
+    let cam = csrbf_anim::Camera::perspective(v(f.eye), v(f.target), v(f.up), f.fov as f32);
+    for (l, d) in lights.iter().zip(csrbf_render::default_lights(cam)) {
+        let dir = csrbf::glam::DVec3::from_array(l.direction).as_vec3();
+        assert!(
+            (dir - d.direction).length() < 1e-6,
+            "{dir} vs {}",
+            d.direction
+        );
+        let color = csrbf::glam::Vec3::from_array(l.color) * l.intensity;
+        assert!((color - d.color).length() < 1e-6, "{color} vs {}", d.color);
+    }
+    assert_eq!(
+        h.state().loaded_scene().expect("loaded").file.lights,
+        lights,
+        "the scene shown is lit as the document says"
+    );
+    // Lights come before the objects in the panel: the first Remove is the
+    // first light's.
+    h.get_all_by_label("Remove")
+        .next()
+        .expect("a light's Remove")
+        .click();
+    h.run_steps(3);
+    assert_eq!(doc_lights(&h), lights[1..].to_vec());
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(doc_lights(&h), lights);
+    assert_eq!(
+        h.state().loaded_scene().expect("loaded").file.lights,
+        lights
+    );
+
+    let saved = dir.join("lit.scene.json");
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::S,
+    );
+    h.run_steps(2);
+    choose(&mut h, &saved, "Save");
+    let file = SceneFile::parse(&std::fs::read_to_string(&saved).expect("saved"))
+        .expect("the CLI's parser reads it");
+    assert_eq!(file.lights, lights);
+}

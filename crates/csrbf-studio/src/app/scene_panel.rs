@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use csrbf::glam::{DQuat, DVec3, EulerRot};
-use csrbf_anim::{ContactFile, DeformationFile, Easing, Interpolation};
+use csrbf_anim::{ContactFile, DeformationFile, Easing, Interpolation, LightFile};
 use eframe::egui;
 
 use super::StudioApp;
@@ -260,6 +260,8 @@ impl StudioApp {
         camera.eye = eye.to_array();
         camera.target = target.to_array();
         ui.separator();
+        let lights_edit = lights_ui(ui, &c.doc.file.lights, c.scene_camera());
+        ui.separator();
         ui.heading("Objects");
         let mut select = None;
         let names: Vec<String> = c.doc.file.objects.iter().map(|o| o.name.clone()).collect();
@@ -302,6 +304,9 @@ impl StudioApp {
         }
         if cam_changed {
             self.scene_edit_merging(SceneEdit::SetCamera(camera), Some("camera"));
+        }
+        if let Some(lights) = lights_edit {
+            self.scene_edit_merging(SceneEdit::SetLights(lights), Some("lights"));
         }
         if add {
             self.ask(Purpose::AddObject);
@@ -667,4 +672,77 @@ impl StudioApp {
             self.copy_key();
         }
     }
+}
+
+/// The scene's lights: each one's direction, colour and intensity, a
+/// remove button, and Add. A scene without lights is drawn with the
+/// renderer's default key and fill lights placed from the scene camera;
+/// the first Add writes those two out, so the picture does not change
+/// until they are edited. Returns the new list when something changed.
+fn lights_ui(
+    ui: &mut egui::Ui,
+    lights: &[LightFile],
+    camera: csrbf_anim::Camera,
+) -> Option<Vec<LightFile>> {
+    ui.heading("Lights");
+    let mut out = lights.to_vec();
+    let mut changed = false;
+    let mut remove = None;
+    if out.is_empty() {
+        ui.label(
+            "The default: a key light from the camera's upper left and a fill from its right.",
+        );
+    }
+    for (i, l) in out.iter_mut().enumerate() {
+        ui.push_id(("light", i), |ui| {
+            let mut d = DVec3::from_array(l.direction);
+            ui.horizontal(|ui| {
+                ui.label(format!("{}", i + 1));
+                changed |= ui.color_edit_button_rgb(&mut l.color).changed();
+                changed |= ui
+                    .add(
+                        egui::DragValue::new(&mut l.intensity)
+                            .range(0.0..=10.0)
+                            .speed(0.01)
+                            .prefix("intensity "),
+                    )
+                    .changed();
+                if ui.button("Remove").clicked() {
+                    remove = Some(i);
+                }
+            });
+            if vec3_ui(ui, "   direction", &mut d, 0.01) && d.length() > 0.0 {
+                l.direction = d.to_array();
+                changed = true;
+            }
+        });
+    }
+    if let Some(i) = remove {
+        out.remove(i);
+        changed = true;
+    }
+    if ui
+        .button("Add light")
+        .on_hover_text("A directional light (the first one writes out the default two)")
+        .clicked()
+    {
+        if out.is_empty() {
+            out = csrbf_render::default_lights(camera)
+                .into_iter()
+                .map(|l| LightFile {
+                    direction: l.direction.as_dvec3().to_array(),
+                    color: [1.0; 3],
+                    intensity: l.color.max_element(),
+                })
+                .collect();
+        } else {
+            out.push(LightFile {
+                direction: [0.0, -1.0, 0.0],
+                color: [1.0; 3],
+                intensity: 0.5,
+            });
+        }
+        changed = true;
+    }
+    changed.then_some(out)
 }
