@@ -269,8 +269,31 @@ impl StudioApp {
                         2.0,
                         egui::Color32::from_gray(if row_selected { 38 } else { 32 }),
                     );
-                    // Curves between keys.
-                    if times.len() > 1 {
+                    // A phase track shows its phase over time (0 at the row's
+                    // bottom, 1 at its top), with a key being dragged where
+                    // the drag has it; the other tracks a line between keys.
+                    let phased = match track {
+                        Track::Phase { part, deformation } => of
+                            .parts
+                            .get(part)
+                            .and_then(|p| p.deformations.get(deformation)),
+                        _ => None,
+                    };
+                    if let Some(d) = phased {
+                        let mut keys: Vec<(f64, f64)> =
+                            d.phase.iter().map(|k| (k.time, k.phase)).collect();
+                        if let Some(((_, _, ki), to)) = c
+                            .time_drag
+                            .filter(|((ko, kt, _), _)| *ko == o && *kt == track)
+                            && let Some(k) = keys.get_mut(ki)
+                        {
+                            k.0 = to;
+                        }
+                        p.add(egui::Shape::line(
+                            phase_curve(keys, d.easing, rect, duration),
+                            egui::Stroke::new(1.0, egui::Color32::from_rgb(110, 150, 200)),
+                        ));
+                    } else if times.len() > 1 {
                         p.line_segment(
                             [
                                 egui::pos2(x_of(times[0]), rect.center().y),
@@ -297,9 +320,13 @@ impl StudioApp {
                             Some(((_, _, ki), to)) if ki == i => to,
                             _ => t,
                         };
+                        // A phase key sits on its curve, at its phase.
+                        let y = phased
+                            .and_then(|d| d.phase.get(i))
+                            .map_or(rect.center().y, |k| phase_y(rect, k.phase));
                         diamond(
                             &p,
-                            egui::pos2(x_of(t), rect.center().y),
+                            egui::pos2(x_of(t), y),
                             if chosen { 6.0 } else { 4.5 },
                             if chosen {
                                 egui::Color32::from_rgb(255, 220, 80)
@@ -388,6 +415,42 @@ impl StudioApp {
     }
 }
 
+/// A phase track's curve across `rect` (the row of a scene `duration`
+/// seconds long): a point every 3 points of width, phase 0 at the bottom
+/// (inset 3) and 1 at the top. `keys` are (time, phase), in any order (a key
+/// being dragged may have passed another); none is a constant phase of 1,
+/// as the scene loader has it.
+fn phase_curve(
+    mut keys: Vec<(f64, f64)>,
+    easing: csrbf_anim::Easing,
+    rect: egui::Rect,
+    duration: f64,
+) -> Vec<egui::Pos2> {
+    keys.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let track = if keys.is_empty() {
+        csrbf_anim::PhaseTrack::constant(1.0)
+    } else {
+        csrbf_anim::PhaseTrack::new(keys, easing)
+    };
+    let steps = ((rect.width() / 3.0).ceil() as usize).max(1);
+    (0..=steps)
+        .map(|i| {
+            let f = i as f32 / steps as f32;
+            let t = f as f64 * duration;
+            egui::pos2(
+                rect.left() + f * rect.width(),
+                phase_y(rect, track.phase(t)),
+            )
+        })
+        .collect()
+}
+
+/// Where a phase lies in a timeline row: 0 at the bottom (inset 3), 1 at
+/// the top.
+fn phase_y(rect: egui::Rect, phase: f64) -> f32 {
+    rect.bottom() - 3.0 - phase as f32 * (rect.height() - 6.0).max(0.0)
+}
+
 /// A key's diamond.
 fn diamond(p: &egui::Painter, c: egui::Pos2, r: f32, fill: egui::Color32) {
     p.add(egui::Shape::convex_polygon(
@@ -412,4 +475,56 @@ fn nice_step(duration: f64, width: f32) -> f64 {
         .map(|m| m * p)
         .find(|s| *s >= raw)
         .unwrap_or(10.0 * p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use csrbf_anim::Easing;
+
+    /// The curve passes through each key at its time and phase, holds
+    /// before the first and after the last, eases between them, and does
+    /// not care in which order the keys come.
+    #[test]
+    fn a_phase_curve_passes_through_its_keys() {
+        let rect = egui::Rect::from_min_size(egui::pos2(100.0, 50.0), egui::vec2(300.0, 18.0));
+        let keys = vec![(1.0, 0.0), (3.0, 1.0), (2.0, 0.25)];
+        let y_of = |phase: f32| rect.bottom() - 3.0 - phase * (rect.height() - 6.0);
+        let curve = phase_curve(keys.clone(), Easing::Linear, rect, 4.0);
+        assert_eq!(curve.len(), 101);
+        assert_eq!(curve[0].x, rect.left());
+        assert_eq!(curve[100].x, rect.right());
+        let at = |t: f32| {
+            curve
+                .iter()
+                .min_by(|a, b| {
+                    let x = rect.left() + t / 4.0 * rect.width();
+                    (a.x - x).abs().total_cmp(&(b.x - x).abs())
+                })
+                .expect("points")
+                .y
+        };
+        for (t, phase) in [(1.0, 0.0), (2.0, 0.25), (3.0, 1.0), (0.0, 0.0), (4.0, 1.0)] {
+            assert!(
+                (at(t) - y_of(phase)).abs() < 1e-3,
+                "t {t}: {} vs {}",
+                at(t),
+                y_of(phase)
+            );
+        }
+        // Linear between 2 s (0.25) and 3 s (1): at 2.4 s (point 60), 0.55;
+        // smooth is flatter near the keys.
+        assert!((curve[60].y - y_of(0.55)).abs() < 1e-3, "{}", curve[60].y);
+        let smooth = phase_curve(keys, Easing::Smooth, rect, 4.0);
+        let near = |c: &[egui::Pos2]| c[52].y; // 2.08 s, just after the key at 2 s
+        assert!(
+            (near(&smooth) - y_of(0.25)).abs() < (near(&curve) - y_of(0.25)).abs(),
+            "smooth {} linear {}",
+            near(&smooth),
+            near(&curve)
+        );
+        // No keys: the loader's constant phase of 1.
+        let none = phase_curve(Vec::new(), Easing::Smooth, rect, 4.0);
+        assert!(none.iter().all(|p| (p.y - y_of(1.0)).abs() < 1e-6));
+    }
 }
