@@ -1264,6 +1264,16 @@ fn bare_panel(ui: &egui::Ui) -> egui::Frame {
     egui::Frame::side_top_panel(ui.style()).fill(egui::Color32::TRANSPARENT)
 }
 
+/// The side panel on the right (the Picker's parameters, the Composer's
+/// scene), resizable.
+fn side_panel(id: &'static str, ui: &egui::Ui) -> egui::Panel {
+    egui::Panel::right(id)
+        .frame(bare_panel(ui))
+        .resizable(true)
+        .default_size(360.0)
+        .size_range(280.0..=560.0)
+}
+
 impl eframe::App for StudioApp {
     /// The panels' colour: they are drawn without a fill of their own, which a
     /// software rasteriser would shade pixel by pixel.
@@ -1337,26 +1347,23 @@ impl eframe::App for StudioApp {
             {
                 c.history.end_merge();
             }
-            egui::Panel::top("menu")
-                .frame(bare_panel(ui))
-                .show(ui, |ui| self.menu(ui));
-            egui::Panel::bottom("status")
-                .frame(bare_panel(ui))
-                .show(ui, |ui| self.status_bar(ui));
+        }
+        egui::Panel::top("menu")
+            .frame(bare_panel(ui))
+            .show(ui, |ui| self.menu(ui));
+        egui::Panel::bottom("status")
+            .frame(bare_panel(ui))
+            .show(ui, |ui| self.status_bar(ui));
+        if self.mode == Mode::Compose {
             egui::Panel::bottom("timeline")
                 .frame(bare_panel(ui))
                 .resizable(true)
                 .default_size(230.0)
                 .size_range(120.0..=600.0)
                 .show(ui, |ui| self.timeline_ui(ui));
-            egui::Panel::right("scene")
-                .frame(bare_panel(ui))
-                .resizable(true)
-                .default_size(360.0)
-                .size_range(280.0..=560.0)
-                .show(ui, |ui| {
-                    egui::ScrollArea::vertical().show(ui, |ui| self.scene_panel(ui));
-                });
+            side_panel("scene", ui).show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.scene_panel(ui));
+            });
             egui::CentralPanel::default()
                 .frame(egui::Frame::NONE)
                 .show(ui, |ui| self.compose_viewport(ui));
@@ -1366,20 +1373,9 @@ impl eframe::App for StudioApp {
             self.frame_time = started.elapsed();
             return;
         }
-        egui::Panel::top("menu")
-            .frame(bare_panel(ui))
-            .show(ui, |ui| self.menu(ui));
-        egui::Panel::bottom("status")
-            .frame(bare_panel(ui))
-            .show(ui, |ui| self.status_bar(ui));
-        egui::Panel::right("parameters")
-            .frame(bare_panel(ui))
-            .resizable(true)
-            .default_size(360.0)
-            .size_range(280.0..=560.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
-            });
+        side_panel("parameters", ui).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+        });
         egui::CentralPanel::default()
             .frame(egui::Frame::NONE)
             .show(ui, |ui| self.viewport_ui(ui));
