@@ -841,3 +841,71 @@ fn lights_are_added_removed_undone_and_saved() {
         .expect("the CLI's parser reads it");
     assert_eq!(file.lights, lights);
 }
+
+/// The scene camera aimed in the viewport: its eye dragged lands under the
+/// pointer (on the plane facing the view) with the target kept, one undo
+/// brings it back, and a drag of the target moves the target alone. What
+/// the camera sees follows: `csrbf animate` renders through the file's
+/// camera, and the document holds the moved one.
+#[test]
+fn the_scene_camera_is_aimed_by_dragging_its_eye_and_target() {
+    let mut h = face("camera-drag");
+    let v = |a: [f64; 3]| csrbf::glam::DVec3::from_array(a).as_vec3();
+    let camera =
+        |h: &Harness<'_, StudioApp>| h.state().scene_doc().expect("face").file.camera.clone();
+    let before = camera(&h);
+    // The view frames the objects; the wheel backs off until the camera's
+    // eye is in the viewport too.
+    let gate = h.state().compose_camera().expect("a scene").2;
+    for _ in 0..20 {
+        if gate.shrink(60.0).contains(on_screen(&h, v(before.eye))) {
+            break;
+        }
+        h.event(egui::Event::PointerMoved(gate.center()));
+        h.event(egui::Event::MouseWheel {
+            unit: egui::MouseWheelUnit::Point,
+            delta: egui::vec2(0.0, -100.0),
+            phase: egui::TouchPhase::Move,
+            source: egui::MouseWheelSource::Wheel,
+            modifiers: egui::Modifiers::NONE,
+        });
+        h.run_steps(4);
+    }
+    let from = on_screen(&h, v(before.eye));
+    assert!(
+        gate.shrink(60.0).contains(from),
+        "the eye is at {from:?}, out of {gate:?}"
+    );
+    let to = from + egui::vec2(40.0, -25.0);
+    drag(&mut h, from, to);
+    let moved = camera(&h);
+    assert_eq!(moved.target, before.target, "{}", h.state().status());
+    assert_ne!(moved.eye, before.eye, "{}", h.state().status());
+    let landed = on_screen(&h, v(moved.eye));
+    assert!(
+        landed.distance(to) < 1.5,
+        "the eye went to {landed:?}, not {to:?}"
+    );
+    assert!(h.state().scene_doc().expect("face").dirty);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(camera(&h), before);
+
+    let from = on_screen(&h, v(before.target));
+    let to = from + egui::vec2(-30.0, 20.0);
+    drag(&mut h, from, to);
+    let aimed = camera(&h);
+    assert_eq!(aimed.eye, before.eye);
+    let landed = on_screen(&h, v(aimed.target));
+    assert!(
+        landed.distance(to) < 1.5,
+        "the target went to {landed:?}, not {to:?}"
+    );
+    // Looking through it, the new target is the picture's centre.
+    h.key_press(egui::Key::C);
+    h.run_steps(2);
+    let (cam, size, _) = h.state().compose_camera().expect("a scene");
+    let (centre, _) = cam.project(v(aimed.target), size).expect("in front");
+    let mid = csrbf::glam::Vec2::new(size[0] as f32, size[1] as f32) / 2.0;
+    assert!(centre.distance(mid) < 1.0, "{centre} vs {mid}");
+}

@@ -61,6 +61,14 @@ pub(super) enum KeyDrag {
         start: DQuat,
         pressed: Vec2,
     },
+    /// The scene camera's eye (or its target) moved on the plane facing
+    /// the view, or along the held axis.
+    Camera {
+        target: bool,
+        tool: DragTool,
+        start: csrbf_anim::CameraFile,
+        pressed: Vec2,
+    },
     Orbit,
     Pan,
 }
@@ -100,6 +108,9 @@ pub(super) struct Composer {
     pub framed: bool,
     /// Look through the scene's camera (its gate: the scene's aspect).
     pub through_camera: bool,
+    /// The scene camera as a drag of its eye or target has it (drawn; the
+    /// document takes it when the drag ends).
+    camera_preview: Option<csrbf_anim::CameraFile>,
     pub playback: Playback,
     /// Draw every frame instead of keeping real time (slower, by choice).
     pub every_frame: bool,
@@ -159,6 +170,7 @@ impl Composer {
             orbit: Orbit::new(Vec3::Y, Vec3::splat(-1.0), Vec3::splat(1.0), 1.6),
             framed: false,
             through_camera: false,
+            camera_preview: None,
             playback: Playback::default(),
             every_frame: false,
             last_tick: None,
@@ -282,7 +294,10 @@ impl Composer {
 
     /// The scene's camera.
     pub fn scene_camera(&self) -> Camera {
-        let c = &self.doc.file.camera;
+        let c = self
+            .camera_preview
+            .as_ref()
+            .unwrap_or(&self.doc.file.camera);
         let v = |a: [f64; 3]| DVec3::from_array(a).as_vec3();
         Camera::perspective(v(c.eye), v(c.target), v(c.up), c.fov as f32)
     }
@@ -1481,6 +1496,29 @@ impl StudioApp {
                 });
                 return;
             }
+            // The scene camera's eye or target (when looking from elsewhere).
+            if !c.through_camera {
+                let f = c.doc.file.camera.clone();
+                let ends = [(false, f.eye), (true, f.target)];
+                let near = ends
+                    .iter()
+                    .filter_map(|&(is_target, p)| {
+                        let w = DVec3::from_array(p);
+                        let (q, _) = cam.project(w.as_vec3(), size)?;
+                        let d = q.distance(px);
+                        (d < 9.0 * ppp).then_some((d, is_target, w))
+                    })
+                    .min_by(|a, b| a.0.total_cmp(&b.0));
+                if let Some((_, target, w)) = near {
+                    c.drag = Some(KeyDrag::Camera {
+                        target,
+                        tool: DragTool::begin(&cam, size, px, w, axis),
+                        start: f,
+                        pressed: px,
+                    });
+                    return;
+                }
+            }
             // Else select the object under the pointer (its bounding sphere).
             let ray = cam.ray(px, size);
             let hit = scene
@@ -1524,6 +1562,16 @@ impl StudioApp {
                         c.preview_file(file);
                     }
                 }
+                Some(KeyDrag::Camera {
+                    target,
+                    tool,
+                    start,
+                    ..
+                }) => {
+                    if let Some(to) = tool.moved_to(&cam, size, px) {
+                        c.camera_preview = Some(camera_moved(&start, target, to - tool.origin));
+                    }
+                }
                 Some(KeyDrag::Turn {
                     object,
                     index,
@@ -1554,7 +1602,23 @@ impl StudioApp {
         }
         if released {
             let drag = c.drag.take();
+            c.camera_preview = None;
             match drag {
+                Some(KeyDrag::Camera {
+                    target,
+                    tool,
+                    start,
+                    pressed,
+                }) if px.distance(pressed) > 1.0
+                    && let Some(to) = tool.moved_to(&cam, size, px) =>
+                {
+                    let moved = camera_moved(&start, target, to - tool.origin);
+                    if DVec3::from_array(moved.eye) == DVec3::from_array(moved.target) {
+                        self.status = "Not done: the camera's eye and target would meet".into();
+                    } else {
+                        self.scene_edit(SceneEdit::SetCamera(moved));
+                    }
+                }
                 Some(KeyDrag::Position {
                     object,
                     index,
@@ -1724,6 +1788,23 @@ impl StudioApp {
             cam.project(p, size)
                 .map(|(q, _)| egui::pos2(gate.min.x + q.x / ppp, gate.min.y + q.y / ppp))
         };
+        // The scene camera's eye (a square) and target (a ring): drag them.
+        if !c.through_camera {
+            let f = c.camera_preview.as_ref().unwrap_or(&c.doc.file.camera);
+            let blue = egui::Color32::from_rgb(140, 190, 255);
+            if let Some(q) = to_screen(DVec3::from_array(f.eye).as_vec3()) {
+                painter.rect(
+                    egui::Rect::from_center_size(q, egui::vec2(9.0, 9.0)),
+                    0.0,
+                    blue,
+                    egui::Stroke::new(1.0, egui::Color32::BLACK),
+                    egui::StrokeKind::Outside,
+                );
+            }
+            if let Some(q) = to_screen(DVec3::from_array(f.target).as_vec3()) {
+                painter.circle_stroke(q, 5.0, egui::Stroke::new(2.0, blue));
+            }
+        }
         let scene = c.scene.as_ref().expect("checked");
         for (o, of) in c.doc.file.objects.iter().enumerate() {
             if c.hidden.get(o).copied().unwrap_or(false) {
@@ -1794,6 +1875,22 @@ impl StudioApp {
             );
         }
     }
+}
+
+/// `camera` with its eye (or its target) moved by `by`.
+fn camera_moved(
+    camera: &csrbf_anim::CameraFile,
+    target: bool,
+    by: DVec3,
+) -> csrbf_anim::CameraFile {
+    let mut out = camera.clone();
+    let end = if target {
+        &mut out.target
+    } else {
+        &mut out.eye
+    };
+    *end = (DVec3::from_array(*end) + by).to_array();
+    out
 }
 
 /// The gizmo rings' radius, in points.
