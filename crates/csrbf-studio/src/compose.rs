@@ -125,6 +125,19 @@ pub enum SceneEdit {
         /// The key copied.
         index: usize,
     },
+    /// Puts a key at the playhead with `value` and, for a position key,
+    /// `tcb` (tension, continuity, bias): a key pasted from a copy, onto
+    /// any object's track of the same kind. A key already there takes them.
+    PasteKey {
+        /// The object.
+        object: usize,
+        /// The track (of the value's kind).
+        track: Track,
+        /// The value.
+        value: KeyValue,
+        /// Tension, continuity and bias of a position key.
+        tcb: Option<[f64; 3]>,
+    },
     /// Replaces an object's description (its scale, parts, colours,
     /// textures, deformations, contact): what the panel edits.
     ReplaceObject(usize, Box<ObjectFile>),
@@ -477,6 +490,16 @@ impl SceneEdit {
                     _ => None,
                 };
                 put_key(o, *track, t, value, tcb)?;
+            }
+            SceneEdit::PasteKey {
+                object,
+                track,
+                value,
+                tcb,
+            } => {
+                let t = doc.playhead;
+                in_time(t)?;
+                put_key(object_mut(&mut file, *object)?, *track, t, *value, *tcb)?;
             }
             SceneEdit::ReplaceObject(i, object) => {
                 if object.name.trim().is_empty() {

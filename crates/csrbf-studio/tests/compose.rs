@@ -909,3 +909,69 @@ fn the_scene_camera_is_aimed_by_dragging_its_eye_and_target() {
     let mid = csrbf::glam::Vec2::new(size[0] as f32, size[1] as f32) / 2.0;
     assert!(centre.distance(mid) < 1.0, "{centre} vs {mid}");
 }
+
+/// A key copied from one object and pasted onto another at the playhead,
+/// as a window sends Ctrl+C and Ctrl+V (Copy and Paste events): the other
+/// object's track gets the value and the tension, continuity and bias, the
+/// source keeps its key, and one undo removes the pasted one.
+#[test]
+fn a_key_is_copied_from_one_object_and_pasted_onto_another() {
+    let dir = temp("paste");
+    let scene = csrbf_anim::demos::demo("ball")
+        .expect("the ball demo")
+        .write(&dir, "ball")
+        .expect("written");
+    let mut h = app(
+        Args {
+            mesh: Some(scene),
+            controls: None,
+        },
+        dir.join("state"),
+    );
+    let file = |h: &Harness<'_, StudioApp>| h.state().scene_doc().expect("ball").file.clone();
+    let names: Vec<String> = file(&h).objects.iter().map(|o| o.name.clone()).collect();
+    let from = file(&h).objects[0].trajectory.len() - 1;
+    let source = file(&h).objects[0].trajectory[from];
+    h.state_mut().select_key((0, Track::Position, from));
+    h.run_steps(2);
+    h.event(egui::Event::Copy);
+    h.run_steps(2);
+    assert!(
+        h.state().status().contains("Copied"),
+        "{}",
+        h.state().status()
+    );
+    // The other object, at a time where it has no key.
+    // (Named in the objects list and on the timeline; either selects it.)
+    h.get_all_by_label(names[1].as_str())
+        .next()
+        .expect("the other object")
+        .click();
+    h.run_steps(2);
+    let before = file(&h).objects[1].trajectory.clone();
+    let time = 1.7;
+    scrub(&mut h, time);
+    let time = h.state().scene_doc().expect("ball").playhead;
+    assert!(before.iter().all(|k| k.time != time));
+    h.event(egui::Event::Paste("anything".into()));
+    h.run_steps(2);
+    let after = file(&h).objects[1].trajectory.clone();
+    assert_eq!(after.len(), before.len() + 1, "{}", h.state().status());
+    let k = after
+        .iter()
+        .find(|k| k.time == time)
+        .expect("pasted at the playhead");
+    assert_eq!(k.position, source.position);
+    assert_eq!(
+        [k.tension, k.continuity, k.bias],
+        [source.tension, source.continuity, source.bias]
+    );
+    assert_eq!(
+        file(&h).objects[0].trajectory.len(),
+        from + 1,
+        "the source is kept"
+    );
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(file(&h).objects[1].trajectory, before);
+}

@@ -73,6 +73,17 @@ pub(super) enum KeyDrag {
     Pan,
 }
 
+/// A key copied (Ctrl+C), to paste at the playhead (Ctrl+V).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CopiedKey {
+    /// Where it came from.
+    pub object: usize,
+    pub track: Track,
+    pub value: KeyValue,
+    /// Tension, continuity and bias of a position key.
+    pub tcb: Option<[f64; 3]>,
+}
+
 /// An export running on a thread.
 pub(super) struct ExportJob {
     pub what: String,
@@ -111,6 +122,8 @@ pub(super) struct Composer {
     /// The scene camera as a drag of its eye or target has it (drawn; the
     /// document takes it when the drag ends).
     camera_preview: Option<csrbf_anim::CameraFile>,
+    /// The key Ctrl+C copied.
+    pub copied: Option<CopiedKey>,
     pub playback: Playback,
     /// Draw every frame instead of keeping real time (slower, by choice).
     pub every_frame: bool,
@@ -171,6 +184,7 @@ impl Composer {
             framed: false,
             through_camera: false,
             camera_preview: None,
+            copied: None,
             playback: Playback::default(),
             every_frame: false,
             last_tick: None,
@@ -1129,6 +1143,134 @@ impl StudioApp {
         });
     }
 
+    /// Copies the selected key (Ctrl+C): its value and, for a position key,
+    /// its tension, continuity and bias. The key is also put on the system
+    /// clipboard as JSON (as the scene file writes it), which is also what
+    /// lets a window's Ctrl+V reach the app.
+    pub fn copy_key_to_clipboard(&mut self, ctx: &egui::Context) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        let Some((object, track, index)) = c.key else {
+            self.status =
+                "Nothing copied: select a key first (on the timeline or in the viewport)".into();
+            return;
+        };
+        let Some(of) = c.doc.file.objects.get(object) else {
+            return;
+        };
+        let Some(value) = key_value(of, track, index) else {
+            return;
+        };
+        let (tcb, json, kind) = match track {
+            Track::Position => {
+                let k = of.trajectory.get(index);
+                (
+                    k.map(|k| [k.tension, k.continuity, k.bias]),
+                    k.and_then(|k| serde_json::to_string(k).ok()),
+                    "position",
+                )
+            }
+            Track::Orientation => (
+                None,
+                of.orientation
+                    .get(index)
+                    .and_then(|k| serde_json::to_string(k).ok()),
+                "orientation",
+            ),
+            Track::Phase { part, deformation } => (
+                None,
+                of.parts
+                    .get(part)
+                    .and_then(|p| p.deformations.get(deformation))
+                    .and_then(|d| d.phase.get(index))
+                    .and_then(|k| serde_json::to_string(k).ok()),
+                "phase",
+            ),
+        };
+        if let Some(json) = json {
+            ctx.copy_text(json);
+        }
+        c.copied = Some(CopiedKey {
+            object,
+            track,
+            value,
+            tcb,
+        });
+        let time = c.doc.key_times(object, track)[index];
+        self.status = format!(
+            "Copied the {kind} key at {time:.2} s of {:?}: Ctrl+V puts it at the playhead of the selected object",
+            of.name
+        );
+    }
+
+    /// Pastes the copied key at the playhead (Ctrl+V): onto the selected
+    /// object (else the one it came from), on its track of the same kind.
+    /// A phase key goes to the selected phase track of that object, else
+    /// the same part and deformation, else its first deformation.
+    pub fn paste_key(&mut self) {
+        let Some(c) = self.composer.as_ref() else {
+            return;
+        };
+        let Some(copied) = c.copied else {
+            self.status = "Nothing to paste: select a key and copy it with Ctrl+C".into();
+            return;
+        };
+        let object = c.selected.unwrap_or(copied.object);
+        let Some(of) = c.doc.file.objects.get(object) else {
+            self.status = "Nothing pasted: the object the key came from is gone".into();
+            return;
+        };
+        let track = match copied.track {
+            Track::Phase { .. } => {
+                let phases: Vec<Track> = of
+                    .parts
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(part, p)| {
+                        (0..p.deformations.len())
+                            .map(move |deformation| Track::Phase { part, deformation })
+                    })
+                    .collect();
+                let chosen = c
+                    .key
+                    .filter(|k| k.0 == object && matches!(k.1, Track::Phase { .. }))
+                    .map(|k| k.1);
+                match chosen
+                    .or_else(|| phases.contains(&copied.track).then_some(copied.track))
+                    .or_else(|| phases.first().copied())
+                {
+                    Some(t) => t,
+                    None => {
+                        self.status = format!(
+                            "Nothing pasted: {:?} has no deformation to take a phase key",
+                            of.name
+                        );
+                        return;
+                    }
+                }
+            }
+            other => other,
+        };
+        let (time, name) = (c.doc.playhead, of.name.clone());
+        if self.scene_edit(SceneEdit::PasteKey {
+            object,
+            track,
+            value: copied.value,
+            tcb: copied.tcb,
+        }) && let Some(c) = self.composer.as_mut()
+        {
+            let index = c
+                .doc
+                .key_times(object, track)
+                .iter()
+                .position(|&t| t == time);
+            c.selected = Some(object);
+            c.key = index.map(|i| (object, track, i));
+            self.status = format!("Pasted the key at {time:.2} s of {name:?}");
+        }
+    }
+
     /// The Composer's keys.
     pub(super) fn compose_keys(&mut self, ctx: &egui::Context) {
         // Keys typed into a field (a name, a number) are the field's.
@@ -1159,6 +1301,20 @@ impl StudioApp {
         }
         if shortcut(Modifiers::COMMAND, Key::D) {
             self.copy_key();
+        }
+        // A window sends Ctrl+C and Ctrl+V as Copy and Paste events (Paste
+        // only when the clipboard holds text: copying puts the key there).
+        let (copy, paste) = ctx.input(|i| {
+            (
+                i.events.iter().any(|e| matches!(e, egui::Event::Copy)),
+                i.events.iter().any(|e| matches!(e, egui::Event::Paste(_))),
+            )
+        });
+        if copy || shortcut(Modifiers::COMMAND, Key::C) {
+            self.copy_key_to_clipboard(ctx);
+        }
+        if paste || shortcut(Modifiers::COMMAND, Key::V) {
+            self.paste_key();
         }
         let plain = |k: Key| ctx.input_mut(|i| i.consume_key(Modifiers::NONE, k));
         if plain(Key::Space) {

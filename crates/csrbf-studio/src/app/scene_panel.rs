@@ -97,6 +97,17 @@ impl StudioApp {
                 if ui.button("Copy key to the playhead  Ctrl+D").clicked() {
                     self.copy_key();
                 }
+                if ui.button("Copy key  Ctrl+C").clicked() {
+                    let ctx = ui.ctx().clone();
+                    self.copy_key_to_clipboard(&ctx);
+                }
+                if ui
+                    .button("Paste key  Ctrl+V")
+                    .on_hover_text("At the playhead, onto the selected object")
+                    .clicked()
+                {
+                    self.paste_key();
+                }
             });
             ui.menu_button("Scene", |ui| {
                 if ui.button("Add object…").clicked() {
