@@ -124,6 +124,8 @@ pub(super) struct Composer {
     camera_preview: Option<csrbf_anim::CameraFile>,
     /// The key Ctrl+C copied.
     pub copied: Option<CopiedKey>,
+    /// The next framing takes in the scene camera too (F).
+    frame_camera: bool,
     pub playback: Playback,
     /// Draw every frame instead of keeping real time (slower, by choice).
     pub every_frame: bool,
@@ -185,6 +187,7 @@ impl Composer {
             through_camera: false,
             camera_preview: None,
             copied: None,
+            frame_camera: false,
             playback: Playback::default(),
             every_frame: false,
             last_tick: None,
@@ -316,7 +319,16 @@ impl Composer {
         Camera::perspective(v(c.eye), v(c.target), v(c.up), c.fov as f32)
     }
 
-    /// The world box of every object over the whole scene (sampled).
+    /// Frames the objects over the whole scene and the scene camera's eye
+    /// and target at the next draw (F). Opening a scene frames the objects
+    /// alone.
+    pub fn frame_everything(&mut self) {
+        self.framed = false;
+        self.frame_camera = true;
+    }
+
+    /// The world box of every object over the whole scene (sampled), and of
+    /// the scene camera's eye and target when `frame_camera` says so.
     fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let s = self.scene.as_ref()?;
         let mut lo = Vec3::INFINITY;
@@ -328,6 +340,14 @@ impl Composer {
                 let r = o.radius as f32;
                 lo = lo.min(c - Vec3::splat(r));
                 hi = hi.max(c + Vec3::splat(r));
+            }
+        }
+        if self.frame_camera && lo.is_finite() {
+            let f = &self.doc.file.camera;
+            for p in [f.eye, f.target] {
+                let p = DVec3::from_array(p).as_vec3();
+                lo = lo.min(p);
+                hi = hi.max(p);
             }
         }
         lo.is_finite().then_some((lo, hi))
@@ -1364,7 +1384,7 @@ impl StudioApp {
         if plain(Key::F)
             && let Some(c) = self.composer.as_mut()
         {
-            c.framed = false;
+            c.frame_everything();
         }
     }
 
@@ -1513,6 +1533,7 @@ impl StudioApp {
                 c.orbit.frame(lo, hi, aspect);
             }
             c.framed = true;
+            c.frame_camera = false;
         }
         c.frame_now();
         self.compose_pointer(ui, &response);

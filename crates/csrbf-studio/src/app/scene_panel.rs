@@ -120,8 +120,12 @@ impl StudioApp {
             ui.menu_button("View", |ui| {
                 if let Some(c) = self.composer.as_mut() {
                     ui.checkbox(&mut c.through_camera, "Look through the scene camera  C");
-                    if ui.button("Frame everything  F").clicked() {
-                        c.framed = false;
+                    if ui
+                        .button("Frame everything  F")
+                        .on_hover_text("The objects over the whole scene, and the scene camera")
+                        .clicked()
+                    {
+                        c.frame_everything();
                     }
                 }
                 ui.checkbox(&mut self.view.flat, "Flat shading");
