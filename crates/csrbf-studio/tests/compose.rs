@@ -45,6 +45,23 @@ fn face(test: &str) -> Harness<'static, StudioApp> {
     )
 }
 
+/// The app on the papers' ball-in-a-box demo scene (written from
+/// `csrbf_anim::demos`): two objects, the box pushed by the ball.
+fn ball(test: &str) -> Harness<'static, StudioApp> {
+    let dir = temp(test);
+    let scene = csrbf_anim::demos::demo("ball")
+        .expect("the ball demo")
+        .write(&dir, "ball")
+        .expect("written");
+    app(
+        Args {
+            mesh: Some(scene),
+            controls: None,
+        },
+        dir.join("state"),
+    )
+}
+
 /// Answers the open file dialog with `path` (typed into its focused name
 /// field, then its Open or Save button).
 fn choose(h: &mut Harness<'_, StudioApp>, path: &Path, verb: &str) {
@@ -648,18 +665,7 @@ fn an_orientation_key_turns_by_a_ring_of_its_gizmo() {
 
 #[test]
 fn contact_is_set_up_from_the_panel_and_plays() {
-    let dir = temp("contact");
-    let scene = csrbf_anim::demos::demo("ball")
-        .expect("the ball demo")
-        .write(&dir, "ball")
-        .expect("written");
-    let mut h = app(
-        Args {
-            mesh: Some(scene),
-            controls: None,
-        },
-        dir.join("state"),
-    );
+    let mut h = ball("contact");
     // The box is pushed by the ball: the walls bulge somewhere in the scene.
     let moved = |h: &Harness<'_, StudioApp>| {
         let s = h.state().loaded_scene().expect("loaded");
@@ -905,18 +911,7 @@ fn the_scene_camera_is_aimed_by_dragging_its_eye_and_target() {
 /// source keeps its key, and one undo removes the pasted one.
 #[test]
 fn a_key_is_copied_from_one_object_and_pasted_onto_another() {
-    let dir = temp("paste");
-    let scene = csrbf_anim::demos::demo("ball")
-        .expect("the ball demo")
-        .write(&dir, "ball")
-        .expect("written");
-    let mut h = app(
-        Args {
-            mesh: Some(scene),
-            controls: None,
-        },
-        dir.join("state"),
-    );
+    let mut h = ball("paste");
     let file = |h: &Harness<'_, StudioApp>| h.state().scene_doc().expect("ball").file.clone();
     let names: Vec<String> = file(&h).objects.iter().map(|o| o.name.clone()).collect();
     let from = file(&h).objects[0].trajectory.len() - 1;
