@@ -560,3 +560,46 @@ fn the_scene_reader_survives_thousands_of_mutations() {
     }
     assert!(read > 0 && refused > 0, "{read} read, {refused} refused");
 }
+
+/// A face belongs to the last part that selects it: a sphere carved out of
+/// a whole-mesh part takes its faces, the whole part keeps the rest, every
+/// face is in exactly one part, and each part's vertices are its faces'.
+#[test]
+fn a_later_part_takes_its_faces_from_an_earlier_one() {
+    let d = Dir::new("own");
+    let one = Scene::load(&d.scene(GOOD)).expect("load");
+    let (centre, radius) = (one.objects[0].center, one.objects[0].radius);
+    let nose = format!(
+        r#""parts": [{{"name": "skin", "color": [0.8, 0.5, 0.4],
+      "deformations": [{{"controls": "smile.json", "phase": [{{"time": 0, "phase": 0}}, {{"time": 1, "phase": 1}}]}}]}},
+      {{"name": "piece", "select": {{"sphere": {{"center": [{}, {}, {}], "radius": {}}}}}, "color": [0.2, 0.2, 0.9]}}],"#,
+        centre.x,
+        centre.y,
+        centre.z,
+        radius * 0.6
+    );
+    let start = GOOD.find("\"parts\"").expect("parts");
+    let end = GOOD.find("\"trajectory\"").expect("trajectory");
+    let text = format!("{}{}\n    {}", &GOOD[..start], nose, &GOOD[end..]);
+    let s = Scene::load(&d.scene(&text)).expect("load");
+    let o = &s.objects[0];
+    let nf = o.mesh.faces.len();
+    let (skin, piece) = (&o.parts[0], &o.parts[1]);
+    assert!(!piece.faces.is_empty() && piece.faces.len() < nf);
+    assert_eq!(skin.faces.len() + piece.faces.len(), nf, "every face once");
+    let mut all: Vec<u32> = skin.faces.iter().chain(&piece.faces).copied().collect();
+    all.sort_unstable();
+    assert_eq!(all, (0..nf as u32).collect::<Vec<_>>());
+    for p in [skin, piece] {
+        let mut v: Vec<u32> = p
+            .faces
+            .iter()
+            .flat_map(|&f| o.mesh.faces.face(f as usize).to_vec())
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        assert_eq!(p.vertices, v, "{}", p.name);
+    }
+    // What the skin alone would have had: every face.
+    assert_eq!(one.objects[0].parts[0].faces.len(), nf);
+}

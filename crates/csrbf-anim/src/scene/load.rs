@@ -211,6 +211,7 @@ pub(super) fn load_object(
             .map(|(pi, pf)| make_part(&mesh, pf, dir, &|k| at(&format!("parts[{pi}].{k}"))))
             .collect::<Result<Vec<_>>>()?
     };
+    let parts = own_faces(&mesh, parts);
     let mut deformations = Vec::new();
     for (pi, pf) in of.parts.iter().enumerate() {
         for (di, df) in pf.deformations.iter().enumerate() {
@@ -349,6 +350,40 @@ fn center_of_gravity(mesh: &Mesh) -> (DVec3, f64) {
     (c, r)
 }
 
+/// Each face belongs to the last part that selects it: a whole-mesh part
+/// first, then the pieces carved out of it (each drawn once, in its own
+/// colour, and moved by its own deformations). A part's vertices are those
+/// of the faces it keeps.
+fn own_faces(mesh: &Mesh, mut parts: Vec<Part>) -> Vec<Part> {
+    if parts.len() < 2 {
+        return parts;
+    }
+    let mut owner = vec![usize::MAX; mesh.faces.len()];
+    for (pi, p) in parts.iter().enumerate() {
+        for &f in &p.faces {
+            owner[f as usize] = pi;
+        }
+    }
+    for (pi, p) in parts.iter_mut().enumerate() {
+        p.faces.retain(|&f| owner[f as usize] == pi);
+        p.vertices = face_vertices(mesh, &p.faces);
+    }
+    parts
+}
+
+/// The vertices of `faces`, ascending.
+fn face_vertices(mesh: &Mesh, faces: &[u32]) -> Vec<u32> {
+    let mut mark = vec![false; mesh.positions.len()];
+    for &f in faces {
+        for &v in mesh.faces.face(f as usize) {
+            mark[v as usize] = true;
+        }
+    }
+    (0..mark.len() as u32)
+        .filter(|&v| mark[v as usize])
+        .collect()
+}
+
 fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String) -> Result<Part> {
     let nf = mesh.faces.len() as u32;
     let faces: Vec<u32> = match &pf.select {
@@ -402,15 +437,7 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
                 .collect()
         }
     };
-    let mut mark = vec![false; mesh.positions.len()];
-    for &f in &faces {
-        for &v in mesh.faces.face(f as usize) {
-            mark[v as usize] = true;
-        }
-    }
-    let vertices = (0..mark.len() as u32)
-        .filter(|&v| mark[v as usize])
-        .collect();
+    let vertices = face_vertices(mesh, &faces);
     let color = pf.color.map_or(DEFAULT_PART_COLOR, |c| c.0);
     let texture = match &pf.texture {
         // A part selected by a material of the mesh takes that material's
