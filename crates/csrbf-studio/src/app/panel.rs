@@ -367,7 +367,22 @@ impl StudioApp {
         let mut phase = spec.phase;
         ui.add(egui::Slider::new(&mut phase, 0.0..=1.0).text("layer phase"));
         let mut region = spec.region.clone();
-        region_ui(ui, &mut region, m, diag);
+        let bounds = m
+            .doc
+            .mesh
+            .bounds()
+            .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
+            .unwrap_or((DVec3::ZERO, DVec3::ONE));
+        let groups: Vec<&str> = m.doc.mesh.parts.iter().map(|p| p.name.as_str()).collect();
+        region_ui(
+            ui,
+            "region",
+            &mut region,
+            bounds,
+            &groups,
+            diag,
+            "Where this layer acts; chosen vertices come from the Vertices tool",
+        );
         if poly != spec.options.polynomial || phase != spec.phase || region != spec.region {
             let mut new = spec.clone();
             new.options.polynomial = poly;
@@ -677,7 +692,19 @@ pub(super) fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64)
     changed && v.is_finite()
 }
 
-fn region_ui(ui: &mut egui::Ui, region: &mut Region, m: &super::Model, diag: f64) {
+/// A region chooser: the whole mesh, a sphere or a box (with their
+/// numbers), or one of the mesh's `groups`; `bounds` and `diag` (the mesh's
+/// box and diagonal) size a new sphere or box and the drag speeds. `label`
+/// names the combo box (and is its id within `ui`).
+pub(super) fn region_ui(
+    ui: &mut egui::Ui,
+    label: &str,
+    region: &mut Region,
+    (lo, hi): (DVec3, DVec3),
+    groups: &[&str],
+    diag: f64,
+    hover: &str,
+) {
     let kind = match region {
         Region::All => "whole mesh",
         Region::Sphere { .. } => "sphere",
@@ -686,13 +713,7 @@ fn region_ui(ui: &mut egui::Ui, region: &mut Region, m: &super::Model, diag: f64
         Region::Group(_) => "part",
         _ => "other",
     };
-    let (lo, hi) = m
-        .doc
-        .mesh
-        .bounds()
-        .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
-        .unwrap_or((DVec3::ZERO, DVec3::ONE));
-    egui::ComboBox::from_label("region")
+    egui::ComboBox::from_label(label)
         .selected_text(kind)
         .show_ui(ui, |ui| {
             if ui
@@ -710,20 +731,20 @@ fn region_ui(ui: &mut egui::Ui, region: &mut Region, m: &super::Model, diag: f64
             if ui.selectable_label(kind == "box", "box").clicked() {
                 *region = Region::Box { min: lo, max: hi };
             }
-            for p in &m.doc.mesh.parts {
+            for &name in groups {
                 if ui
                     .selectable_label(
-                        matches!(region, Region::Group(g) if *g == p.name),
-                        format!("part {}", p.name),
+                        matches!(region, Region::Group(g) if g == name),
+                        format!("part {name}"),
                     )
                     .clicked()
                 {
-                    *region = Region::Group(p.name.clone());
+                    *region = Region::Group(name.to_string());
                 }
             }
         })
         .response
-        .on_hover_text("Where this layer acts; chosen vertices come from the Vertices tool");
+        .on_hover_text(hover);
     match region {
         Region::Sphere { center, radius } => {
             vec3_ui(ui, "centre", center, diag * 1e-3);
