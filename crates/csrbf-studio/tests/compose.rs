@@ -27,8 +27,16 @@ fn temp(test: &str) -> PathBuf {
 }
 
 fn app(args: Args, state: PathBuf) -> Harness<'static, StudioApp> {
+    // Tall enough for an object's whole panel (what is scrolled out of
+    // view cannot be clicked).
+    app_sized(args, state, [1280.0, 1200.0])
+}
+
+/// The app in a window of `size` (a tall one shows the whole side panel:
+/// what is scrolled out of view cannot be clicked).
+fn app_sized(args: Args, state: PathBuf, size: [f32; 2]) -> Harness<'static, StudioApp> {
     let mut h = Harness::builder()
-        .with_size([1280.0, 900.0])
+        .with_size(size)
         .with_max_steps(64)
         .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(state)));
     h.run_steps(3);
@@ -958,4 +966,66 @@ fn a_key_is_copied_from_one_object_and_pasted_onto_another() {
     h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
     h.run_steps(2);
     assert_eq!(file(&h).objects[1].trajectory, before);
+}
+
+/// A part added from the panel is carved out of the whole-mesh part (a
+/// sphere about the surface point nearest the mesh's middle to start): the
+/// loaded scene has every
+/// face in exactly one part, the sphere's in the new one. Removing it gives
+/// the faces back, undo brings it again, and what is saved `Scene::load`
+/// (the loader `csrbf animate` uses) parts the same way.
+#[test]
+fn a_part_is_added_carved_out_removed_and_saved() {
+    let dir = temp("parts-out");
+    let mut h = app_sized(
+        Args {
+            mesh: Some(assets().join("scenes/face.scene.json")),
+            controls: None,
+        },
+        temp("parts"),
+        [1280.0, 1500.0],
+    );
+    h.get_all_by_label("head")
+        .next()
+        .expect("the head in the objects list")
+        .click();
+    h.run_steps(3);
+    h.get_by_label("Add part").click();
+    h.run_steps(3);
+    let faces = |h: &Harness<'_, StudioApp>| -> Vec<usize> {
+        let s = h.state().loaded_scene().expect("loaded");
+        s.objects[0].parts.iter().map(|p| p.faces.len()).collect()
+    };
+    let total = h.state().loaded_scene().expect("loaded").objects[0]
+        .mesh
+        .faces
+        .len();
+    let split = faces(&h);
+    assert_eq!(split.len(), 2, "{}", h.state().status());
+    assert!(split[1] > 0 && split[1] < total, "{split:?} of {total}");
+    assert_eq!(split[0] + split[1], total);
+    let file = h.state().scene_doc().expect("face").file.clone();
+    assert!(file.objects[0].parts[1].select.get("sphere").is_some());
+
+    // The second part's Remove (both parts have one now).
+    h.get_all_by_label("Remove part")
+        .last()
+        .expect("the new part's Remove")
+        .click();
+    h.run_steps(3);
+    assert_eq!(faces(&h), vec![total]);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(faces(&h), split);
+
+    let saved = dir.join("parts.scene.json");
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::S,
+    );
+    h.run_steps(2);
+    choose(&mut h, &saved, "Save");
+    let cli = Scene::load(&saved).expect("the CLI's loader reads it");
+    let parts: Vec<usize> = cli.objects[0].parts.iter().map(|p| p.faces.len()).collect();
+    assert_eq!(parts, split);
 }

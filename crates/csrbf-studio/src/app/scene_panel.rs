@@ -453,8 +453,66 @@ impl StudioApp {
         });
         let mut picker = None;
         let mut choose = None;
+        // The object's mesh as loaded (scaled): its box and groups, for the
+        // parts' face selections.
+        let shape = c.scene.as_ref().and_then(|s| s.objects.get(o)).map(|x| {
+            let (lo, hi) = x
+                .mesh
+                .bounds()
+                .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
+                .unwrap_or((DVec3::ZERO, DVec3::ONE));
+            let groups: Vec<String> = x.mesh.parts.iter().map(|p| p.name.clone()).collect();
+            // Where a new part starts: the surface point nearest the box's
+            // middle (the middle itself is inside a closed mesh, no face
+            // there).
+            let mid = (lo + hi) * 0.5;
+            let seed = x
+                .mesh
+                .positions
+                .iter()
+                .map(|p| p.as_dvec3())
+                .min_by(|a, b| a.distance(mid).total_cmp(&b.distance(mid)))
+                .unwrap_or(mid);
+            ((lo, hi), groups, (hi - lo).length().max(1e-9), seed)
+        });
+        let parts = object.parts.len();
+        let mut remove_part = None;
         for (pi, part) in object.parts.iter_mut().enumerate() {
-            ui.label(egui::RichText::new(format!("Part {:?}", part.name)).strong());
+            ui.horizontal(|ui| {
+                ui.label(egui::RichText::new(format!("Part {:?}", part.name)).strong());
+                if parts > 1 && ui.small_button("Remove part").clicked() {
+                    remove_part = Some(pi);
+                }
+            });
+            if let Some((bounds, groups, diag, _)) = &shape {
+                match select_region(&part.select) {
+                    Some(mut region) => {
+                        let before = region.clone();
+                        let names: Vec<&str> = groups.iter().map(String::as_str).collect();
+                        ui.push_id(("faces", pi), |ui| {
+                            super::panel::region_ui(
+                                ui,
+                                "faces",
+                                &mut region,
+                                *bounds,
+                                &names,
+                                *diag,
+                                "Which faces this part has: the whole mesh, a group of it, or \
+                                 the faces whose corners all lie in a sphere or box (in the \
+                                 mesh's coordinates, scaled). A face belongs to the last part \
+                                 that selects it.",
+                            );
+                        });
+                        if region != before {
+                            part.select = select_json(&region);
+                            tag = Some("faces");
+                        }
+                    }
+                    None => {
+                        ui.label(format!("faces: {}", part.select));
+                    }
+                }
+            }
             ui.horizontal(|ui| {
                 let mut rgba = part.color.map_or(csrbf_anim::DEFAULT_PART_COLOR, |c| c.0);
                 if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
@@ -517,6 +575,35 @@ impl StudioApp {
                 choose = Some((pi, Purpose::AddControls));
             }
         }
+        if let Some(pi) = remove_part {
+            object.parts.remove(pi);
+            tag = Some("parts");
+        }
+        if ui
+            .button("Add part")
+            .on_hover_text("A part carved out of the others (to start, a sphere about the surface point nearest the mesh's middle), with its own colour, texture and deformations")
+            .clicked()
+        {
+            let name = (1..)
+                .map(|k| format!("part {k}"))
+                .find(|n| !object.parts.iter().any(|p| &p.name == n))
+                .expect("a free name");
+            let select = shape.as_ref().map_or("all".into(), |(_, _, diag, seed)| {
+                select_json(&csrbf::Region::Sphere {
+                    center: *seed,
+                    radius: diag * 0.15,
+                })
+            });
+            object.parts.push(csrbf_anim::PartFile {
+                name,
+                select,
+                color: Some(csrbf_anim::Color([0.85, 0.35, 0.3, 1.0])),
+                texture: None,
+                wireframe: false,
+                deformations: Vec::new(),
+            });
+            tag = Some("parts");
+        }
         if let Some((pi, purpose)) = choose {
             c.part_target = Some((o, pi));
             self.ask(purpose);
@@ -532,7 +619,7 @@ impl StudioApp {
             && object != original
         {
             // A removed deformation shifts the phase tracks: a step of its own.
-            let merge = (!matches!(tag, "deformations" | "contact")).then_some(tag);
+            let merge = (!matches!(tag, "deformations" | "contact" | "parts")).then_some(tag);
             self.scene_edit_merging(SceneEdit::ReplaceObject(o, Box::new(object)), merge);
         }
         if let Some((pi, di)) = picker {
@@ -760,4 +847,21 @@ fn lights_ui(
         changed = true;
     }
     changed.then_some(out)
+}
+
+/// A part's `select` as a region (`"all"` is the whole mesh); None for one
+/// the chooser cannot show.
+fn select_region(select: &serde_json::Value) -> Option<csrbf::Region> {
+    if select.as_str() == Some("all") {
+        return Some(csrbf::Region::All);
+    }
+    csrbf::controls::parse_region(select, "select").ok()
+}
+
+/// A region as a part's `select` writes it.
+fn select_json(region: &csrbf::Region) -> serde_json::Value {
+    match region {
+        csrbf::Region::All => "all".into(),
+        r => csrbf::controls::region_json(r),
+    }
 }
