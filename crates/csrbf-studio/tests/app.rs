@@ -15,6 +15,8 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
+mod support;
+
 fn model(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../assets/models")
@@ -73,13 +75,7 @@ fn screen(h: &Harness<'_, StudioApp>, pixel: Vec2) -> egui::Pos2 {
 
 fn press(h: &mut Harness<'_, StudioApp>, pixel: Vec2, pressed: bool) {
     let at = screen(h, pixel);
-    h.event(egui::Event::PointerMoved(at));
-    h.event(egui::Event::PointerButton {
-        pos: at,
-        button: egui::PointerButton::Primary,
-        pressed,
-        modifiers: egui::Modifiers::NONE,
-    });
+    support::button(h, at, pressed);
     h.step();
 }
 

@@ -14,6 +14,8 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
+mod support;
+
 fn assets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
 }
@@ -94,14 +96,8 @@ fn scrub(h: &mut Harness<'_, StudioApp>, time: f64) {
 }
 
 fn click_at(h: &mut Harness<'_, StudioApp>, at: egui::Pos2) {
-    h.event(egui::Event::PointerMoved(at));
     for pressed in [true, false] {
-        h.event(egui::Event::PointerButton {
-            pos: at,
-            button: egui::PointerButton::Primary,
-            pressed,
-            modifiers: egui::Modifiers::NONE,
-        });
+        support::button(h, at, pressed);
         h.step();
     }
     h.run_steps(2);
@@ -118,13 +114,7 @@ fn key_button(h: &mut Harness<'_, StudioApp>, k: usize) {
 
 /// A left-button drag from `from` to `to` in eight steps.
 fn drag(h: &mut Harness<'_, StudioApp>, from: egui::Pos2, to: egui::Pos2) {
-    h.event(egui::Event::PointerMoved(from));
-    h.event(egui::Event::PointerButton {
-        pos: from,
-        button: egui::PointerButton::Primary,
-        pressed: true,
-        modifiers: egui::Modifiers::NONE,
-    });
+    support::button(h, from, true);
     h.step();
     for k in 1..=8 {
         h.event(egui::Event::PointerMoved(
@@ -132,12 +122,7 @@ fn drag(h: &mut Harness<'_, StudioApp>, from: egui::Pos2, to: egui::Pos2) {
         ));
         h.step();
     }
-    h.event(egui::Event::PointerButton {
-        pos: to,
-        button: egui::PointerButton::Primary,
-        pressed: false,
-        modifiers: egui::Modifiers::NONE,
-    });
+    support::button(h, to, false);
     h.run_steps(3);
 }
 
@@ -192,28 +177,8 @@ fn a_two_object_scene_built_by_clicks_saves_what_the_cli_loads_frame_for_frame()
     )
     .as_vec3();
     let from = on_screen(&h, key + centre);
-    h.event(egui::Event::PointerMoved(from));
-    h.event(egui::Event::PointerButton {
-        pos: from,
-        button: egui::PointerButton::Primary,
-        pressed: true,
-        modifiers: egui::Modifiers::NONE,
-    });
-    h.step();
-    for k in 1..=8 {
-        h.event(egui::Event::PointerMoved(
-            from + egui::vec2(12.0 * k as f32, -4.0 * k as f32),
-        ));
-        h.step();
-    }
     let to = from + egui::vec2(96.0, -32.0);
-    h.event(egui::Event::PointerButton {
-        pos: to,
-        button: egui::PointerButton::Primary,
-        pressed: false,
-        modifiers: egui::Modifiers::NONE,
-    });
-    h.run_steps(3);
+    drag(&mut h, from, to);
     let moved = h.state().scene_doc().expect("scene").file.objects[0].trajectory[1].position;
     let dragged = csrbf::glam::DVec3::from_array(moved).as_vec3();
     assert!(
