@@ -22,13 +22,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for spec in &file.deformations {
         let spec = spec.resolve(&mesh.positions, &lookup)?;
         let d = csrbf::Deformation::fit(&spec.starts, &spec.targets, spec.options)?;
-        stages.push((d, spec.region.clone(), spec.phase));
+        stages.push(
+            csrbf::FittedStage::new(d)
+                .with_region(spec.region.clone())
+                .with_phase(spec.phase),
+        );
     }
     let triangles = mesh.faces.triangles();
     let (mut plain, mut checked) = (Vec::new(), Vec::new());
     for _ in 0..runs {
         let t = Instant::now();
-        std::hint::black_box(csrbf::compose(
+        std::hint::black_box(csrbf::compose_with_groups(
             &mesh.positions,
             &stages,
             file.combine,

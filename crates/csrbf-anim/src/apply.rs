@@ -7,7 +7,7 @@ use std::path::Path;
 
 use csrbf::controls::ControlFile;
 use csrbf::format::{self, Replay};
-use csrbf::{Deformation, Diagnostics, Region, System, compose_diagnosed};
+use csrbf::{Diagnostics, FittedStage, System, compose_diagnosed};
 use csrbf_mesh::Mesh;
 
 /// What can go wrong in these calls.
@@ -36,10 +36,7 @@ pub enum ApplyError {
 }
 
 /// Fits every deformation of `file` on `mesh` (handles sampled on it).
-pub fn fit_file(
-    mesh: &Mesh,
-    file: &ControlFile,
-) -> Result<Vec<(Deformation, Region, f64)>, ApplyError> {
+pub fn fit_file(mesh: &Mesh, file: &ControlFile) -> Result<Vec<FittedStage>, ApplyError> {
     let lookup = |n: &str| mesh.part_vertices(n);
     file.deformations
         .iter()
@@ -49,8 +46,12 @@ pub fn fit_file(
             let spec = spec.resolve(&mesh.positions, &lookup).map_err(engine)?;
             let d = System::new(&spec.starts, spec.options)
                 .and_then(|s| s.solve(&spec.targets))
-                .map_err(engine)?;
-            Ok((d, spec.region.clone(), spec.phase))
+                .map_err(|e| engine(e.into()))?;
+            Ok(FittedStage {
+                deformation: d,
+                region: spec.region.clone(),
+                phase: spec.phase,
+            })
         })
         .collect()
 }
@@ -65,7 +66,10 @@ pub fn deform_mesh(
 ) -> Result<Diagnostics, ApplyError> {
     let stages: Vec<_> = fit_file(mesh, file)?
         .into_iter()
-        .map(|(d, r, p)| (d, r, p * phase))
+        .map(|s| FittedStage {
+            phase: s.phase * phase,
+            ..s
+        })
         .collect();
     let triangles = mesh.faces.triangles();
     let lookup = |n: &str| mesh.part_vertices(n);
@@ -80,7 +84,7 @@ pub fn deform_mesh(
 /// Saves fitted deformations as a `.csrbf` file, whole or not at all.
 pub fn save_replay(
     path: &Path,
-    stages: &[(Deformation, Region, f64)],
+    stages: &[FittedStage],
     combine: csrbf::Combine,
 ) -> Result<(), ApplyError> {
     Ok(csrbf_mesh::write_atomic(

@@ -135,9 +135,8 @@ fn controls(kernel: Kernel, radius: f64, pairs: &[(DVec3, DVec3)]) -> Vec<u8> {
     let spec = ControlSpec::new(
         pairs.iter().map(|p| p.0).collect(),
         pairs.iter().map(|p| p.1).collect(),
-        FitOptions::default()
+        FitOptions::new(radius)
             .with_kernel(kernel)
-            .with_radius(radius)
             .with_polynomial(Polynomial::None),
     );
     ControlFile::new(vec![spec], Combine::Chain)

@@ -324,10 +324,12 @@ fn scenes_combine_deformations_as_compose_does() {
                 .map(|s| {
                     let def =
                         csrbf::Deformation::fit(&s.starts, &s.targets, s.options).expect("fit");
-                    (def, s.region.clone(), s.phase * track)
+                    csrbf::FittedStage::new(def)
+                        .with_region(s.region.clone())
+                        .with_phase(s.phase * track)
                 })
                 .collect();
-            let want = csrbf::compose(&mesh.positions, &stages, file.combine, &|n| {
+            let want = csrbf::compose_with_groups(&mesh.positions, &stages, file.combine, &|n| {
                 mesh.part_vertices(n)
             })
             .expect("compose");
@@ -540,7 +542,8 @@ fn the_ball_stays_inside_the_bulging_box() {
 /// Issue 7: seeded mutations of scene files give an error or a scene, never a panic.
 #[test]
 fn the_scene_reader_survives_thousands_of_mutations() {
-    use csrbf::synthetic::{Rng, mutate};
+    use csrbf::fuzz::mutate;
+    use csrbf::synthetic::Rng;
     let seeds: Vec<Vec<u8>> = demos::DEMOS
         .iter()
         .map(|n| demos::demo(n).expect("demo").scene.to_json().into_bytes())

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use csrbf::controls::{ControlFile, ControlSpec};
-use csrbf::{Deformation, Region, System};
+use csrbf::{FittedStage, System};
 use csrbf_mesh::{Format, Mesh};
 
 /// Progress lines on standard error, unless quiet.
@@ -80,7 +80,7 @@ pub fn fit_all(
     mesh: Option<&Mesh>,
     allow_large: bool,
     progress: &Progress,
-) -> Result<Vec<(Deformation, Region, f64)>> {
+) -> Result<Vec<FittedStage>> {
     let mut specs = resolve_all(specs, path, mesh, progress)?;
     if allow_large {
         for s in &mut specs {
@@ -92,7 +92,9 @@ pub fn fit_all(
         let at = stage_name(path, i, specs.len());
         warn_if_dense(s, &at);
         let t = Instant::now();
-        let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
+        let sys = System::new(&s.starts, s.options)
+            .map_err(with_large_hint)
+            .with_context(|| at.clone())?;
         let def = sys.solve(&s.targets).with_context(|| at.clone())?;
         let st = sys.stats();
         progress.say(format_args!(
@@ -106,7 +108,11 @@ pub fn fit_all(
             st.bandwidth,
             t.elapsed().as_secs_f64() * 1e3
         ));
-        out.push((def, s.region.clone(), s.phase));
+        out.push(FittedStage {
+            deformation: def,
+            region: s.region.clone(),
+            phase: s.phase,
+        });
     }
     Ok(out)
 }
@@ -265,6 +271,16 @@ pub fn extension_in(out: &Path, allowed: &[&str], what: &str) -> Result<String> 
         );
     }
     Ok(ext)
+}
+
+/// The engine's refusal of a system past the memory limit, with the flag
+/// that lifts it (the library speaks of `FitOptions::memory_limit`).
+fn with_large_hint(e: csrbf::FitError) -> anyhow::Error {
+    if matches!(e, csrbf::FitError::TooLarge { .. }) {
+        anyhow::Error::new(e).context("the system is past the memory limit: use a smaller R, or pass --allow-large to fit it knowingly")
+    } else {
+        e.into()
+    }
 }
 
 /// Warns before a long fit when R reaches most of the starts: the system is

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use csrbf::{Combine, Deformation, Region, compose_diagnosed};
+use csrbf::{Combine, FittedStage, compose_diagnosed};
 use csrbf_mesh::Mesh;
 
 use crate::common::{Progress, check_output, check_phase, fit_all, read_controls, read_mesh};
@@ -66,7 +66,7 @@ pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn move_and_write(
     m: &mut Mesh,
-    stages: &[(Deformation, Region, f64)],
+    stages: &[FittedStage],
     combine: Combine,
     phase: f64,
     mesh_path: &Path,
@@ -77,9 +77,9 @@ pub(crate) fn move_and_write(
     let t = Instant::now();
     let lookup = |name: &str| m.part_vertices(name);
     let triangles = m.faces.triangles();
-    let stages: Vec<(Deformation, Region, f64)> = stages
+    let stages: Vec<FittedStage> = stages
         .iter()
-        .map(|(d, r, p)| (d.clone(), r.clone(), p * phase))
+        .map(|s| s.clone().with_phase(s.phase * phase))
         .collect();
     let (moved, report) = compose_diagnosed(&m.positions, &stages, combine, &triangles, &lookup)
         .with_context(|| mesh_path.display().to_string())?;

@@ -152,9 +152,12 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                 .with_context(|| format!("{}: deformation {i}", path.display()))?;
             let within = csrbf::vertices_within(&m.positions, &s.starts, s.options.radius);
             stage.insert("vertices_within_r".into(), json!(within));
-            let stages1 = [(def, s.region.clone(), s.phase)];
+            let stages1 = [csrbf::FittedStage::new(def)
+                .with_region(s.region.clone())
+                .with_phase(s.phase)];
             let lookup = |n: &str| m.part_vertices(n);
-            let moved = csrbf::compose(&m.positions, &stages1, csrbf::Combine::Chain, &lookup)?;
+            let moved =
+                csrbf::compose_with_groups(&m.positions, &stages1, csrbf::Combine::Chain, &lookup)?;
             let report = csrbf::diagnose(
                 &m.positions,
                 &moved,
@@ -190,7 +193,8 @@ fn deformation_info(path: &Path) -> Result<Value> {
     let list: Vec<Value> = replay
         .stages
         .iter()
-        .map(|(d, r, phase)| {
+        .map(|s| {
+            let (d, r, phase) = (&s.deformation, &s.region, s.phase);
             json!({
                 "controls": d.starts().len(),
                 "kernel": d.kernel().name(),

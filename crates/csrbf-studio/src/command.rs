@@ -431,7 +431,7 @@ mod tests {
         let layer = Box::new(ControlSpec::new(
             vec![DVec3::X],
             vec![DVec3::X * 1.1],
-            csrbf::FitOptions::default().with_radius(0.3),
+            csrbf::FitOptions::new(0.3),
         ));
         let steps = vec![
             Command::add(0, DVec3::Y, DVec3::Y * 1.2),

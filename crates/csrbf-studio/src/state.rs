@@ -40,11 +40,7 @@ pub struct Document {
 impl Document {
     /// A document on `mesh` with one empty layer of radius `radius`.
     pub fn new(mesh: Mesh, mesh_path: PathBuf, radius: f64) -> Document {
-        let layer = ControlSpec::new(
-            Vec::new(),
-            Vec::new(),
-            FitOptions::default().with_radius(radius),
-        );
+        let layer = ControlSpec::new(Vec::new(), Vec::new(), FitOptions::new(radius));
         Document {
             mesh: Arc::new(mesh),
             mesh_path,

@@ -9,6 +9,8 @@ use crate::deformation::Deformation;
 use crate::error::{Error, Result};
 use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, for_each_cell};
 use crate::kernel::Kernel;
+use crate::octree::Octree;
+use crate::system::Shared;
 
 /// Per-point kernel weights of one set of starts (one [`crate::System`]).
 ///
@@ -19,14 +21,33 @@ use crate::kernel::Kernel;
 ///
 /// Weights are kept in f32 to halve the memory (about 8 bytes per
 /// point-start pair); a displacement through a binding agrees with
-/// [`Deformation::displacements`] to about 1e-7 relative.
+/// [`Deformation::displacements`] to about 1e-7 relative (6e-8 of the
+/// displacement's size was the largest difference seen on the bundled
+/// models), so a [`crate::Pipeline`], which binds, and [`crate::compose`],
+/// which does not, differ by that much.
+///
+/// A binding remembers the fingerprint of the starts, kernel and radius it
+/// was made for and refuses any other deformation
+/// ([`Error::BindingMismatch`]): its weights would give wrong displacements.
+/// A point with a non-finite coordinate gets a NaN displacement.
 #[derive(Clone, Debug)]
 pub struct Binding {
     kernel: Kernel,
     radius: f64,
     starts: usize,
+    fingerprint: u64,
     points: usize,
     chunks: Vec<Chunk>,
+}
+
+/// What a binding is made from: the starts' octree, kernel, radius and
+/// fingerprint.
+struct Support<'a> {
+    octree: &'a Octree,
+    kernel: Kernel,
+    radius: f64,
+    starts: usize,
+    fingerprint: u64,
 }
 
 /// The rows of one cell of points.
@@ -45,29 +66,53 @@ struct Chunk {
 impl Binding {
     /// Finds, for every point, the starts of `deformation` within R and their
     /// weights. Only the starts, kernel and R matter: any deformation solved
-    /// from the same [`crate::System`] can then be applied through it.
+    /// from the same [`crate::System`] can then be applied through it
+    /// ([`crate::System::bind`] binds without a solve).
     pub fn new<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
+        let support = Support {
+            octree: deformation.octree(),
+            kernel: deformation.kernel(),
+            radius: deformation.radius(),
+            starts: deformation.starts().len(),
+            fingerprint: deformation.fingerprint(),
+        };
+        Binding::dispatch(&support, points)
+    }
+
+    /// Binds to a system's starts ([`crate::System::bind`]).
+    pub(crate) fn of_shared<P: Point>(shared: &Shared, points: &[P]) -> Binding {
+        let support = Support {
+            octree: &shared.octree,
+            kernel: shared.kernel,
+            radius: shared.radius,
+            starts: shared.starts.len(),
+            fingerprint: shared.fingerprint,
+        };
+        Binding::dispatch(&support, points)
+    }
+
+    fn dispatch<P: Point>(support: &Support<'_>, points: &[P]) -> Binding {
         match P::slice(points) {
-            Points::F32(p) => Binding::of_f32(deformation, p),
-            Points::F64(p) => Binding::of_f64(deformation, p),
+            Points::F32(p) => Binding::of_f32(support, p),
+            Points::F64(p) => Binding::of_f64(support, p),
         }
     }
 
     // The hot loop, compiled here (not in the caller's crate) for each kind.
     #[inline(never)]
-    fn of_f32(deformation: &Deformation, points: &[Vec3]) -> Binding {
-        Binding::build(deformation, points)
+    fn of_f32(support: &Support<'_>, points: &[Vec3]) -> Binding {
+        Binding::build(support, points)
     }
 
     #[inline(never)]
-    fn of_f64(deformation: &Deformation, points: &[DVec3]) -> Binding {
-        Binding::build(deformation, points)
+    fn of_f64(support: &Support<'_>, points: &[DVec3]) -> Binding {
+        Binding::build(support, points)
     }
 
-    fn build<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
-        let blocks = Blocks::for_starts(points, deformation.radius(), deformation.starts().len());
+    fn build<P: Point>(support: &Support<'_>, points: &[P]) -> Binding {
+        let blocks = Blocks::for_starts(points, support.radius, support.starts);
         let mut chunks = vec![Chunk::default(); blocks.cells.len()];
-        let (kernel, radius) = (deformation.kernel(), deformation.radius());
+        let (kernel, radius) = (support.kernel, support.radius);
         let parallel = points.len() >= PARALLEL_POINTS;
         // One chunk per cell: split `chunks` like a per-point buffer of length 1 per cell.
         let one_each = Blocks {
@@ -79,7 +124,7 @@ impl Binding {
             let (s, e) = blocks.cells[c];
             let idx = &blocks.order[s..e];
             cand.gather(
-                deformation.octree(),
+                support.octree,
                 idx.iter().map(|&i| points[i as usize].to_dvec3()),
                 radius,
             );
@@ -90,17 +135,20 @@ impl Binding {
             for &i in idx {
                 let x = points[i as usize].to_dvec3();
                 chunk.positions.push(x);
-                cand.for_each_weight(x, kernel, radius, |j, w| {
-                    chunk.ids.push(j);
-                    chunk.weights.push(w as f32);
-                });
+                if x.is_finite() {
+                    cand.for_each_weight(x, kernel, radius, |j, w| {
+                        chunk.ids.push(j);
+                        chunk.weights.push(w as f32);
+                    });
+                }
                 chunk.offsets.push(chunk.ids.len() as u32);
             }
         });
         Binding {
             kernel,
             radius,
-            starts: deformation.starts().len(),
+            starts: support.starts,
+            fingerprint: support.fingerprint,
             points: points.len(),
             chunks,
         }
@@ -134,12 +182,11 @@ impl Binding {
     /// Writes D of `deformation` at every bound point into `out` (point order).
     ///
     /// Fails when the deformation has other starts, kernel or radius than
-    /// the one the binding was made for, or `out` has the wrong length.
+    /// the one the binding was made for (by their fingerprint, computed once
+    /// per system: no comparison of the starts per call), or `out` has the
+    /// wrong length.
     pub fn displacements_into(&self, deformation: &Deformation, out: &mut [Vec3]) -> Result<()> {
-        if deformation.kernel() != self.kernel
-            || deformation.radius() != self.radius
-            || deformation.starts().len() != self.starts
-        {
+        if deformation.fingerprint() != self.fingerprint {
             return Err(Error::BindingMismatch {
                 bound_starts: self.starts,
                 bound_kernel: self.kernel,
@@ -162,7 +209,11 @@ impl Binding {
             (0..chunk.rows.len())
                 .map(|r| {
                     let (s, e) = (chunk.offsets[r] as usize, chunk.offsets[r + 1] as usize);
-                    let mut d = affine.map_or(DVec3::ZERO, |a| a.eval(chunk.positions[r]));
+                    let x = chunk.positions[r];
+                    if !x.is_finite() {
+                        return Vec3::NAN;
+                    }
+                    let mut d = affine.map_or(DVec3::ZERO, |a| a.eval(x));
                     for (&j, &w) in chunk.ids[s..e].iter().zip(&chunk.weights[s..e]) {
                         d += alpha[j as usize] * w as f64;
                     }
@@ -188,6 +239,28 @@ impl Binding {
         let mut out = vec![Vec3::ZERO; self.points];
         self.displacements_into(deformation, &mut out)?;
         Ok(out)
+    }
+
+    /// D of several deformations of this binding's system at every bound
+    /// point: `out` holds one block of `len()` vectors per deformation, in
+    /// their order (dataset augmentation: one mesh, many edits). The
+    /// deformations run in parallel; each is checked as
+    /// [`Binding::displacements_into`] checks it.
+    pub fn displacements_many(&self, deformations: &[Deformation], out: &mut [Vec3]) -> Result<()> {
+        let n = self.points;
+        if out.len() != n * deformations.len() {
+            return Err(Error::PointCount {
+                what: "displacement buffer (points x deformations)",
+                expected: n * deformations.len(),
+                got: out.len(),
+            });
+        }
+        if n == 0 {
+            return Ok(());
+        }
+        out.par_chunks_mut(n)
+            .zip(deformations.par_iter())
+            .try_for_each(|(o, d)| self.displacements_into(d, o))
     }
 }
 

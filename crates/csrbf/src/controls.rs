@@ -441,9 +441,8 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         None | Some(Value::Null) => Region::All,
         Some(r) => parse_region(r, &at("region"))?,
     };
-    let options = FitOptions::default()
+    let options = FitOptions::new(radius)
         .with_kernel(kernel)
-        .with_radius(radius)
         .with_polynomial(polynomial)
         .with_solver(solver)
         .with_ordering(ordering);
@@ -756,9 +755,8 @@ mod tests {
         let mut a = ControlSpec::new(
             vec![DVec3::new(0.1, 0.2, 0.3), DVec3::ONE],
             vec![DVec3::new(0.1, 0.25, 0.3), DVec3::ONE],
-            FitOptions::default()
+            FitOptions::new(0.7)
                 .with_kernel(Kernel::C4)
-                .with_radius(0.7)
                 .with_polynomial(Polynomial::Linear)
                 .with_solver(SolverChoice::Skyline)
                 .with_ordering(Ordering::BreadthFirst),
@@ -771,7 +769,7 @@ mod tests {
             }),
             width: 0.5,
         };
-        let mut b = ControlSpec::new(vec![], vec![], FitOptions::default().with_radius(3.0));
+        let mut b = ControlSpec::new(vec![], vec![], FitOptions::new(3.0));
         b.handle = Some(
             Handle::new(Region::Group("ear".into()))
                 .with_rotation(Rotation::new(DVec3::Z, 30.0).with_pivot(DVec3::X))
@@ -797,11 +795,7 @@ mod tests {
 
     #[test]
     fn specs_and_stages_convert_both_ways() {
-        let mut spec = ControlSpec::new(
-            vec![DVec3::ZERO],
-            vec![DVec3::X],
-            FitOptions::default().with_radius(2.0),
-        );
+        let mut spec = ControlSpec::new(vec![DVec3::ZERO], vec![DVec3::X], FitOptions::new(2.0));
         spec.phase = 0.5;
         spec.region = Region::Group("lips".into());
         let stage = spec.to_stage().expect("stage");

@@ -1,9 +1,11 @@
 //! A fitted deformation: the space map T(x) = x + D(x), evaluated anywhere.
 
+use std::sync::Arc;
+
 use glam::{DVec3, Vec3};
 
-use crate::error::{Error, Result};
-use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, for_each_cell};
+use crate::error::{Error, FitError, Result};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, PointsMut, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
 use crate::system::{FitOptions, System, prow};
@@ -34,20 +36,49 @@ impl Affine {
 /// A deformation: everything needed to replay it (kernel, R, starts,
 /// coefficients, the polynomial part and the order after sorting), plus an
 /// octree over the starts for evaluation.
+///
+/// The starts and the octree are shared (reference-counted) with the
+/// [`System`] that solved it and with every other deformation it solves, so
+/// a solve copies only the coefficients. A fingerprint of the starts, kernel
+/// and radius, computed once when the system is built, tells a [`crate::Binding`]
+/// whether a deformation is one it was made for.
 #[derive(Clone, Debug)]
 pub struct Deformation {
     kernel: Kernel,
     radius: f64,
-    starts: Vec<DVec3>,
+    starts: Arc<[DVec3]>,
     coefficients: Vec<DVec3>,
     affine: Option<Affine>,
-    order: Vec<u32>,
-    octree: Octree,
+    order: Arc<[u32]>,
+    octree: Arc<Octree>,
+    fingerprint: u64,
+}
+
+/// A 64-bit fingerprint of what per-point kernel weights depend on: the
+/// kernel, the radius and every start, bit for bit. Two sets of starts that
+/// differ anywhere give different fingerprints but for a 2^-64 chance.
+pub(crate) fn fingerprint(kernel: Kernel, radius: f64, starts: &[DVec3]) -> u64 {
+    // A multiply-xorshift mix per word (splitmix64's finaliser), chained.
+    let mix = |mut h: u64, w: u64| {
+        h ^= w.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^ (h >> 31)
+    };
+    let mut h = mix(
+        mix(kernel.code() as u64, radius.to_bits()),
+        starts.len() as u64,
+    );
+    for s in starts {
+        h = mix(mix(mix(h, s.x.to_bits()), s.y.to_bits()), s.z.to_bits());
+    }
+    h
 }
 
 impl PartialEq for Deformation {
     fn eq(&self, o: &Self) -> bool {
-        self.kernel == o.kernel
+        self.fingerprint == o.fingerprint
+            && self.kernel == o.kernel
             && self.radius.to_bits() == o.radius.to_bits()
             && self.starts == o.starts
             && self.coefficients == o.coefficients
@@ -66,15 +97,19 @@ impl Deformation {
     ///
     /// let starts = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
     /// let targets = [DVec3::new(0.0, 0.0, 0.1), DVec3::X, DVec3::Y, DVec3::Z];
-    /// let opts = FitOptions::default().with_radius(1.5).with_polynomial(Polynomial::None);
+    /// let opts = FitOptions::new(1.5).with_polynomial(Polynomial::None);
     /// let d = Deformation::fit(&starts, &targets, opts)?;
     /// assert!((d.map(DVec3::ZERO) - targets[0]).length() < 1e-12);
     /// assert_eq!(d.displacement_at(DVec3::splat(10.0)), DVec3::ZERO);
     /// # Ok::<(), csrbf::Error>(())
     /// ```
-    pub fn fit<P: Point>(starts: &[P], targets: &[P], options: FitOptions) -> Result<Deformation> {
+    pub fn fit<P: Point>(
+        starts: &[P],
+        targets: &[P],
+        options: FitOptions,
+    ) -> Result<Deformation, FitError> {
         if starts.len() != targets.len() {
-            return Err(Error::LengthMismatch {
+            return Err(FitError::LengthMismatch {
                 starts: starts.len(),
                 targets: targets.len(),
             });
@@ -82,8 +117,8 @@ impl Deformation {
         System::new(starts, options)?.solve(targets)
     }
 
-    /// Puts a deformation together from its stored parts (the replay file).
-    /// The octree is rebuilt when not given.
+    /// Puts a deformation together from its stored parts (the replay file):
+    /// the octree and fingerprint are computed here.
     pub(crate) fn from_parts(
         kernel: Kernel,
         radius: f64,
@@ -91,17 +126,80 @@ impl Deformation {
         coefficients: Vec<DVec3>,
         affine: Option<Affine>,
         order: Vec<u32>,
-        octree: Option<Octree>,
     ) -> Deformation {
-        let octree = octree.unwrap_or_else(|| Octree::new(&starts));
+        let octree = Arc::new(Octree::new(&starts));
+        let fingerprint = fingerprint(kernel, radius, &starts);
         Deformation {
             kernel,
             radius,
-            starts,
+            starts: starts.into(),
             coefficients,
             affine,
-            order,
+            order: order.into(),
             octree,
+            fingerprint,
+        }
+    }
+
+    /// A deformation of a system's shared starts and octree (no copy).
+    pub(crate) fn from_shared(
+        shared: &crate::system::Shared,
+        coefficients: Vec<DVec3>,
+        affine: Option<Affine>,
+    ) -> Deformation {
+        Deformation {
+            kernel: shared.kernel,
+            radius: shared.radius,
+            starts: shared.starts.clone(),
+            coefficients,
+            affine,
+            order: shared.order.clone(),
+            octree: shared.octree.clone(),
+            fingerprint: shared.fingerprint,
+        }
+    }
+
+    /// Replaces the coefficients and polynomial part (a new solve of the
+    /// same system), keeping every allocation.
+    pub(crate) fn set_solution(&mut self, coefficients: &[DVec3], affine: Option<Affine>) {
+        self.coefficients.clear();
+        self.coefficients.extend_from_slice(coefficients);
+        self.affine = affine;
+    }
+
+    /// The fingerprint of its starts, kernel and radius (see [`Deformation`]):
+    /// equal for every deformation solved from one [`System`].
+    pub fn fingerprint(&self) -> u64 {
+        self.fingerprint
+    }
+
+    /// Encodes it alone as a `.csrbf` file's bytes (over every point, at
+    /// full phase): what `csrbf fit` writes for a file of one deformation.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        crate::format::encode(
+            &[crate::FittedStage::new(self.clone())],
+            crate::Combine::Chain,
+        )
+    }
+
+    /// Decodes a `.csrbf` file of one deformation over every point at full
+    /// phase (what [`Deformation::to_bytes`] writes). A file of several
+    /// deformations, or of one with a region or another phase, is refused:
+    /// read it with [`crate::format::decode`].
+    pub fn from_bytes(bytes: &[u8]) -> Result<Deformation> {
+        let replay = crate::format::decode(bytes)?;
+        let n = replay.stages.len();
+        let mut stages = replay.stages.into_iter();
+        match (stages.next(), n) {
+            (Some(s), 1) if s.region == crate::Region::All && s.phase == 1.0 => Ok(s.deformation),
+            (Some(s), 1) => Err(crate::error::FormatError::NotSingle(format!(
+                "its deformation has region {} and phase {}",
+                s.region, s.phase
+            ))
+            .into()),
+            _ => Err(
+                crate::error::FormatError::NotSingle(format!("it holds {n} deformations")).into(),
+            ),
         }
     }
 
@@ -138,12 +236,16 @@ impl Deformation {
         &self.order
     }
     /// The octree over the starts.
-    pub fn octree(&self) -> &Octree {
+    pub(crate) fn octree(&self) -> &Octree {
         &self.octree
     }
 
-    /// The displacement D(x) = sum alpha_j phi(|x - s_j| / R) + p(x).
+    /// The displacement D(x) = sum alpha_j phi(|x - s_j| / R) + p(x); NaN
+    /// for a point with a non-finite coordinate.
     pub fn displacement_at(&self, x: DVec3) -> DVec3 {
+        if !x.is_finite() {
+            return DVec3::NAN;
+        }
         let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
         let inv = 1.0 / self.radius;
         self.octree.for_each_within(x, self.radius, |j, d2| {
@@ -157,51 +259,107 @@ impl Deformation {
         x + self.displacement_at(x)
     }
 
-    /// D at every point, in parallel for large inputs. A non-finite point
-    /// gets a non-finite displacement (NaN in, NaN out); check inputs first
-    /// where that matters.
+    /// D at every point, in parallel for large inputs. A point with a
+    /// non-finite coordinate gets a NaN displacement (NaN in, NaN out), with
+    /// or without the polynomial part; the other points are not affected.
     pub fn displacements<P: Point>(&self, points: &[P]) -> Vec<DVec3> {
-        match P::slice(points) {
-            Points::F32(p) => self.displacements_of_f32(p),
-            Points::F64(p) => self.displacements_of_f64(p),
-        }
+        let mut out = vec![DVec3::ZERO; points.len()];
+        self.fill_f64(P::slice(points), &mut out);
+        out
     }
 
     /// D at every point as f32 vectors, for vertex buffers.
     pub fn displacements_f32<P: Point>(&self, points: &[P]) -> Vec<Vec3> {
-        match P::slice(points) {
-            Points::F32(p) => self.displacements_f32_of_f32(p),
-            Points::F64(p) => self.displacements_f32_of_f64(p),
+        let mut out = vec![Vec3::ZERO; points.len()];
+        self.fill_f32(P::slice(points), &mut out);
+        out
+    }
+
+    /// D at every point written into `out` (no allocation when the points
+    /// are evaluated in their own order, one buffer of `out`'s size when
+    /// they are sorted into cells). Fails when the lengths differ.
+    pub fn displacements_into<P: Point>(&self, points: &[P], out: &mut [DVec3]) -> Result<()> {
+        check_len("displacement buffer", points.len(), out.len())?;
+        self.fill_f64(P::slice(points), out);
+        Ok(())
+    }
+
+    /// [`Deformation::displacements_into`] with f32 vectors.
+    pub fn displacements_f32_into<P: Point>(&self, points: &[P], out: &mut [Vec3]) -> Result<()> {
+        check_len("displacement buffer", points.len(), out.len())?;
+        self.fill_f32(P::slice(points), out);
+        Ok(())
+    }
+
+    /// Moves every point to x + phase * D(x), in place. The displacements
+    /// are evaluated at the points as given (into one temporary buffer) and
+    /// then added, so the result does not depend on the order of the points.
+    ///
+    /// ```
+    /// use csrbf::{Deformation, FitOptions};
+    /// use csrbf::glam::Vec3;
+    ///
+    /// let d = Deformation::fit(&[Vec3::ZERO], &[Vec3::Z], FitOptions::new(1.0))?;
+    /// let mut mesh = vec![Vec3::ZERO, Vec3::X * 2.0];
+    /// d.deform_in_place(&mut mesh, 0.5)?;
+    /// assert!((mesh[0].z - 0.5).abs() < 1e-6 && mesh[1] == Vec3::X * 2.0);
+    /// # Ok::<(), csrbf::Error>(())
+    /// ```
+    pub fn deform_in_place<P: Point>(&self, points: &mut [P], phase: f64) -> Result<()> {
+        crate::error::check_phase(phase)?;
+        match P::slice_mut(points) {
+            PointsMut::F32(p) => {
+                let mut d = vec![Vec3::ZERO; p.len()];
+                self.fill_f32(Points::F32(p), &mut d);
+                let t = phase as f32;
+                for (p, d) in p.iter_mut().zip(d) {
+                    *p += d * t;
+                }
+            }
+            PointsMut::F64(p) => {
+                let mut d = vec![DVec3::ZERO; p.len()];
+                self.fill_f64(Points::F64(p), &mut d);
+                for (p, d) in p.iter_mut().zip(d) {
+                    *p += d * phase;
+                }
+            }
         }
+        Ok(())
     }
 
     // The hot loops, compiled here (not in the caller's crate) for each kind.
-    #[inline(never)]
-    fn displacements_of_f32(&self, points: &[Vec3]) -> Vec<DVec3> {
-        let mut out = vec![DVec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut out, |d, _| d, |_| {});
-        out
+    fn fill_f64(&self, points: Points<'_>, out: &mut [DVec3]) {
+        match points {
+            Points::F32(p) => self.f64_of_f32(p, out),
+            Points::F64(p) => self.f64_of_f64(p, out),
+        }
+    }
+
+    fn fill_f32(&self, points: Points<'_>, out: &mut [Vec3]) {
+        match points {
+            Points::F32(p) => self.f32_of_f32(p, out),
+            Points::F64(p) => self.f32_of_f64(p, out),
+        }
     }
 
     #[inline(never)]
-    fn displacements_of_f64(&self, points: &[DVec3]) -> Vec<DVec3> {
-        let mut out = vec![DVec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut out, |d, _| d, |_| {});
-        out
+    fn f64_of_f32(&self, points: &[Vec3], out: &mut [DVec3]) {
+        self.displacements_sorted(points, out, |d, _| d, |_| {});
     }
 
     #[inline(never)]
-    fn displacements_f32_of_f32(&self, points: &[Vec3]) -> Vec<Vec3> {
-        let mut out = vec![Vec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut out, |d, _| d.as_vec3(), |_| {});
-        out
+    fn f64_of_f64(&self, points: &[DVec3], out: &mut [DVec3]) {
+        self.displacements_sorted(points, out, |d, _| d, |_| {});
     }
 
     #[inline(never)]
-    fn displacements_f32_of_f64(&self, points: &[DVec3]) -> Vec<Vec3> {
-        let mut out = vec![Vec3::ZERO; points.len()];
-        self.displacements_sorted(points, &mut out, |d, _| d.as_vec3(), |_| {});
-        out
+    fn f32_of_f32(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.displacements_sorted(points, out, |d, _| d.as_vec3(), |_| {});
+    }
+
+    #[inline(never)]
+    fn f32_of_f64(&self, points: &[DVec3], out: &mut [Vec3]) {
+        self.displacements_sorted(points, out, |d, _| d.as_vec3(), |_| {});
     }
 
     /// D at every point as f32 vectors, with what the diagnostics need from
@@ -263,6 +421,10 @@ impl Deformation {
                 );
                 for (o, &i) in out.iter_mut().zip(idx) {
                     let x = points[i as usize].to_dvec3();
+                    if !x.is_finite() {
+                        *o = conv(DVec3::NAN, false);
+                        continue;
+                    }
                     let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
                     let mut near = false;
                     cand.for_each_weight(x, kernel, radius, |j, w| {
@@ -279,5 +441,18 @@ impl Deformation {
                 out[i as usize] = buffer[k];
             }
         }
+    }
+}
+
+/// `Ok` when a buffer has the length its points need.
+pub(crate) fn check_len(what: &'static str, expected: usize, got: usize) -> Result<()> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(Error::PointCount {
+            what,
+            expected,
+            got,
+        })
     }
 }

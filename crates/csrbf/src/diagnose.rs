@@ -5,14 +5,14 @@
 //! start (a local edit made global).
 //!
 //! ```
-//! use csrbf::{Deformation, FitOptions, Polynomial, Region, diagnose};
+//! use csrbf::{Deformation, FitOptions, FittedStage, Polynomial, diagnose};
 //! use glam::{DVec3, Vec3};
 //!
 //! let rest: Vec<Vec3> = (0..50).map(|i| Vec3::new(i as f32 * 0.1, 0.0, 0.0)).collect();
 //! let d = Deformation::fit(&[DVec3::new(2.0, 0.0, 0.0)], &[DVec3::new(2.0, 0.3, 0.0)],
-//!     FitOptions::default().with_radius(1.0).with_polynomial(Polynomial::None))?;
-//! let stages = [(d, Region::All, 1.0)];
-//! let moved = csrbf::compose(&rest, &stages, csrbf::Combine::Chain, &|_| None)?;
+//!     FitOptions::new(1.0).with_polynomial(Polynomial::None))?;
+//! let stages = [FittedStage::new(d)];
+//! let moved = csrbf::compose(&rest, &stages, csrbf::Combine::Chain)?;
 //! let report = diagnose(&rest, &moved, &[], &stages, &|_| None)?;
 //! assert_eq!(report.moved, 19); // the points within R = 1 of x = 2
 //! assert!(report.warnings.is_empty());
@@ -201,7 +201,7 @@ pub fn diagnose(
     rest: &[Vec3],
     moved: &[Vec3],
     triangles: &[[u32; 3]],
-    stages: &[(Deformation, Region, f64)],
+    stages: &[crate::FittedStage],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<Diagnostics> {
     diagnose_with(rest, moved, triangles, stages, groups, None)
@@ -212,7 +212,7 @@ pub fn diagnose(
 /// more than the faces' check.
 pub fn compose_diagnosed(
     rest: &[Vec3],
-    stages: &[(Deformation, Region, f64)],
+    stages: &[crate::FittedStage],
     combine: crate::Combine,
     triangles: &[[u32; 3]],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
@@ -238,7 +238,7 @@ fn diagnose_with(
     rest: &[Vec3],
     moved: &[Vec3],
     triangles: &[[u32; 3]],
-    stages: &[(Deformation, Region, f64)],
+    stages: &[crate::FittedStage],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
     traced: Option<&[StageReach]>,
 ) -> Result<Diagnostics> {
@@ -276,7 +276,8 @@ fn diagnose_with(
     // Vertices within R of some start of a deformation acting on them.
     let mut near_any = vec![false; rest.len()];
     let mut any_linear = false;
-    for (k, (def, region, phase)) in stages.iter().enumerate() {
+    for (k, stage) in stages.iter().enumerate() {
+        let (def, region, phase) = (&stage.deformation, &stage.region, &stage.phase);
         any_linear |= def.polynomial() == Polynomial::Linear;
         let own;
         let seen: &StageReach = match traced {
@@ -550,7 +551,7 @@ fn flipped_faces(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Combine, FitOptions, compose, compose_diagnosed};
+    use crate::{Combine, FitOptions, FittedStage, compose, compose_diagnosed};
 
     /// A flat grid of n x n vertices in the XY plane, two triangles a square.
     fn grid(n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
@@ -577,9 +578,9 @@ mod tests {
     }
 
     /// Diagnoses both ways (after the fact, and while composing): they agree.
-    fn run(stages: &[(Deformation, Region, f64)]) -> (Diagnostics, Vec<Vec3>) {
+    fn run(stages: &[crate::FittedStage]) -> (Diagnostics, Vec<Vec3>) {
         let (rest, tris) = grid(41);
-        let moved = compose(&rest, stages, Combine::Chain, &|_| None).expect("compose");
+        let moved = compose(&rest, stages, Combine::Chain).expect("compose");
         let after = diagnose(&rest, &moved, &tris, stages, &|_| None).expect("diagnose");
         let (moved2, during) =
             compose_diagnosed(&rest, stages, Combine::Chain, &tris, &|_| None).expect("both");
@@ -589,27 +590,19 @@ mod tests {
     }
 
     fn one(from: DVec3, to: DVec3, r: f64, poly: Polynomial) -> Deformation {
-        Deformation::fit(
-            &[from],
-            &[to],
-            FitOptions::default().with_radius(r).with_polynomial(poly),
-        )
-        .or_else(|_| {
-            // Linear needs 4 starts: pin three far corners.
-            let s = [
-                from,
-                DVec3::new(0.0, 0.0, 0.0),
-                DVec3::new(1.0, 0.0, 0.0),
-                DVec3::new(0.0, 1.0, 0.5),
-            ];
-            let t = [to, s[1], s[2], s[3]];
-            Deformation::fit(
-                &s,
-                &t,
-                FitOptions::default().with_radius(r).with_polynomial(poly),
-            )
-        })
-        .expect("fit")
+        Deformation::fit(&[from], &[to], FitOptions::new(r).with_polynomial(poly))
+            .or_else(|_| {
+                // Linear needs 4 starts: pin three far corners.
+                let s = [
+                    from,
+                    DVec3::new(0.0, 0.0, 0.0),
+                    DVec3::new(1.0, 0.0, 0.0),
+                    DVec3::new(0.0, 1.0, 0.5),
+                ];
+                let t = [to, s[1], s[2], s[3]];
+                Deformation::fit(&s, &t, FitOptions::new(r).with_polynomial(poly))
+            })
+            .expect("fit")
     }
 
     #[test]
@@ -620,7 +613,11 @@ mod tests {
             0.2,
             Polynomial::None,
         );
-        let (r, _) = run(&[(d, Region::All, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: d,
+            region: Region::All,
+            phase: 1.0,
+        }]);
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
         assert!(r.moved > 0 && r.moved < 41 * 41 / 5);
         assert!((r.largest_move - 0.05).abs() < 1e-6);
@@ -635,7 +632,11 @@ mod tests {
             0.2,
             Polynomial::None,
         );
-        let (r, _) = run(&[(d, Region::All, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: d,
+            region: Region::All,
+            phase: 1.0,
+        }]);
         assert!(
             r.warnings
                 .iter()
@@ -649,7 +650,11 @@ mod tests {
             0.2,
             Polynomial::None,
         );
-        let (r, _) = run(&[(d, Region::All, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: d,
+            region: Region::All,
+            phase: 1.0,
+        }]);
         assert!(
             r.flipped.is_empty() && r.warnings.is_empty(),
             "{:?}",
@@ -665,7 +670,11 @@ mod tests {
             0.2,
             Polynomial::None,
         );
-        let (r, _) = run(&[(far.clone(), Region::All, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: far.clone(),
+            region: Region::All,
+            phase: 1.0,
+        }]);
         assert!(
             matches!(
                 r.warnings[..],
@@ -678,7 +687,11 @@ mod tests {
             center: DVec3::splat(9.0),
             radius: 0.1,
         };
-        let (r, _) = run(&[(far, empty, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: far,
+            region: empty,
+            phase: 1.0,
+        }]);
         assert!(matches!(
             r.warnings[..],
             [Warning::EmptyRegion { stage: 0, .. }]
@@ -693,7 +706,11 @@ mod tests {
             min: DVec3::new(0.0, 0.0, -1.0),
             max: DVec3::new(0.55, 1.0, 1.0),
         };
-        let (r, _) = run(&[(bump, half, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: bump,
+            region: half,
+            phase: 1.0,
+        }]);
         assert!(
             matches!(
                 r.warnings[..],
@@ -709,7 +726,11 @@ mod tests {
             0.2,
             Polynomial::Linear,
         );
-        let (r, _) = run(&[(lin, Region::All, 1.0)]);
+        let (r, _) = run(&[FittedStage {
+            deformation: lin,
+            region: Region::All,
+            phase: 1.0,
+        }]);
         assert!(
             r.warnings
                 .iter()
@@ -753,9 +774,7 @@ mod tests {
         let d = Deformation::fit(
             &starts,
             &starts,
-            FitOptions::default()
-                .with_radius(0.08)
-                .with_polynomial(Polynomial::None),
+            FitOptions::new(0.08).with_polynomial(Polynomial::None),
         )
         .expect("fit");
         let (near, touched) = reach(&d, &rest);

@@ -1,15 +1,92 @@
 //! The engine's errors: each says what was wrong and where.
 
-/// Everything that can go wrong when fitting, evaluating or reading a deformation.
+/// Everything that can go wrong in the engine. The kinds a caller would
+/// tell apart are enums of their own, each with the variant that says what
+/// was wrong and where: [`FitError`] (starts, destinations and options that
+/// make no map), [`NameError`] (a kernel, polynomial, solver, ordering or
+/// combine name), [`FormatError`] (a `.csrbf` file), [`RegionError`].
+/// Fitting calls ([`crate::System::new`], [`crate::System::solve`],
+/// [`crate::Deformation::fit`]) return [`FitError`] itself.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum Error {
-    /// A kernel name that is not one of c0, c2, c4, c6.
-    #[error("unknown kernel {0:?}: expected one of c0, c2, c4, c6")]
-    UnknownKernel(String),
-    /// A polynomial name that is not `none` or `linear`.
-    #[error("unknown polynomial {0:?}: expected one of none, linear")]
-    UnknownPolynomial(String),
+    /// The control vectors or options cannot be fitted.
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    /// A name that is not one of the choices.
+    #[error(transparent)]
+    Name(#[from] NameError),
+    /// A `.csrbf` file that cannot be read.
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// A region that cannot be used.
+    #[error(transparent)]
+    Region(#[from] RegionError),
+    /// A handle that cannot make control vectors (its message says why).
+    #[error("handle: {0}")]
+    BadHandle(String),
+    /// The phase is outside [0, 1].
+    #[error("phase must be within [0, 1], got {0}")]
+    BadPhase(f64),
+    /// A buffer or region was used with the wrong number of points.
+    #[error("{what}: expected {expected} points, got {got}")]
+    PointCount {
+        /// What was being matched.
+        what: &'static str,
+        /// Points it was made for.
+        expected: usize,
+        /// Points given.
+        got: usize,
+    },
+    /// A pipeline stage that does not exist.
+    #[error("stage {index} does not exist: the pipeline has {count} stage(s)")]
+    StageIndex {
+        /// The index asked for.
+        index: usize,
+        /// How many stages there are.
+        count: usize,
+    },
+    /// A binding used with a deformation fitted to other starts, kernel or
+    /// radius (their fingerprints differ): its weights would be wrong.
+    #[error(
+        "the binding was made for other starts than this deformation's (bound: {bound_starts} starts, kernel {bound_kernel}, R {bound_radius}; given: {starts} starts, kernel {kernel}, R {radius}; the starts' fingerprints differ): bind again, or solve from the system the binding came from"
+    )]
+    BindingMismatch {
+        /// Starts the binding was made for.
+        bound_starts: usize,
+        /// Its kernel.
+        bound_kernel: crate::Kernel,
+        /// Its radius.
+        bound_radius: f64,
+        /// The deformation's starts.
+        starts: usize,
+        /// Its kernel.
+        kernel: crate::Kernel,
+        /// Its radius.
+        radius: f64,
+    },
+    /// [`crate::System::solve_into`] given a deformation another system solved.
+    #[error(
+        "solve_into: the deformation was solved by another system (other starts, kernel or radius): solve into one this system made"
+    )]
+    SystemMismatch,
+    /// A deformation gave a non-finite position.
+    #[error(
+        "deformation {stage} moved point {point} to a non-finite position: its control vectors ask for moves beyond floating-point range"
+    )]
+    NonFiniteResult {
+        /// Which deformation.
+        stage: usize,
+        /// The first point.
+        point: usize,
+    },
+}
+
+/// Why control vectors and options make no deformation: what was wrong and
+/// where (control indices are the caller's).
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum FitError {
     /// The radius of support is zero, negative or not finite.
     #[error("radius of support must be a finite number > 0, got {0}")]
     BadRadius(f64),
@@ -82,16 +159,6 @@ pub enum Error {
         /// Largest coordinate.
         size: f64,
     },
-    /// A deformation gave a non-finite position.
-    #[error(
-        "deformation {stage} moved point {point} to a non-finite position: its control vectors ask for moves beyond floating-point range"
-    )]
-    NonFiniteResult {
-        /// Which deformation.
-        stage: usize,
-        /// The first point.
-        point: usize,
-    },
     /// `linear` needs at least 4 starts.
     #[error(
         "the linear polynomial needs at least 4 start points, got {0}; use polynomial \"none\" for fewer"
@@ -118,43 +185,12 @@ pub enum Error {
         /// What was given.
         got: usize,
     },
-    /// The phase is outside [0, 1].
-    #[error("phase must be within [0, 1], got {0}")]
-    BadPhase(f64),
-    /// A compact deformation file is damaged or of another version.
-    #[error("not a valid .csrbf file: {0}")]
-    Format(String),
     /// The sparse solver failed for a reason other than a pivot.
     #[error("sparse solver failed: {0}")]
     Solver(String),
-    /// A region or binding was used with the wrong number of points.
-    #[error("{what}: expected {expected} points, got {got}")]
-    PointCount {
-        /// What was being matched.
-        what: &'static str,
-        /// Points it was made for.
-        expected: usize,
-        /// Points given.
-        got: usize,
-    },
-    /// A solver name that is not auto, skyline or supernodal.
-    #[error("unknown solver {0:?}: expected auto, skyline or supernodal")]
-    UnknownSolver(String),
-    /// An ordering name that is not auto, rcm, breadth-first or identity.
-    #[error("unknown ordering {0:?}: expected auto, rcm, breadth-first or identity")]
-    UnknownOrdering(String),
-    /// A combine name that is not `chain` or `add`.
-    #[error("unknown combine {0:?}: expected chain or add")]
-    UnknownCombine(String),
-    /// A handle that cannot make control vectors (its message says why).
-    #[error("handle: {0}")]
-    BadHandle(String),
-    /// A region that cannot be used (its message says why).
-    #[error("region: {0}")]
-    BadRegion(String),
     /// The system would take more memory than the limit allows.
     #[error(
-        "R = {radius} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {:.1} GB, {:.1}x the limit of {:.1} GB: use a smaller R (about {suggested_radius:.4} fits), or lift the limit knowingly (--allow-large)",
+        "R = {radius} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {:.1} GB, {:.1}x the limit of {:.1} GB: use a smaller R (about {suggested_radius:.4} fits), or lift the limit knowingly (FitOptions::memory_limit)",
         bytes / 1e9, bytes / *limit as f64, *limit as f64 / 1e9
     )]
     TooLarge {
@@ -171,38 +207,57 @@ pub enum Error {
         /// A radius that fits.
         suggested_radius: f64,
     },
-    /// A pipeline stage that does not exist.
-    #[error("stage {index} does not exist: the pipeline has {count} stage(s)")]
-    StageIndex {
-        /// The index asked for.
-        index: usize,
-        /// How many stages there are.
-        count: usize,
-    },
-    /// A binding used with a deformation it was not made for.
+}
+
+/// A name that is not one of the choices (control files, command lines).
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum NameError {
+    /// A kernel name that is not one of c0, c2, c4, c6.
+    #[error("unknown kernel {0:?}: expected one of c0, c2, c4, c6")]
+    UnknownKernel(String),
+    /// A polynomial name that is not `none` or `linear`.
+    #[error("unknown polynomial {0:?}: expected one of none, linear")]
+    UnknownPolynomial(String),
+    /// A solver name that is not auto, skyline or supernodal.
+    #[error("unknown solver {0:?}: expected auto, skyline or supernodal")]
+    UnknownSolver(String),
+    /// An ordering name that is not auto, rcm, breadth-first or identity.
+    #[error("unknown ordering {0:?}: expected auto, rcm, breadth-first or identity")]
+    UnknownOrdering(String),
+    /// A combine name that is not `chain` or `add`.
+    #[error("unknown combine {0:?}: expected chain or add")]
+    UnknownCombine(String),
+}
+
+/// Why a `.csrbf` file cannot be read.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum FormatError {
+    /// Damaged, truncated, or of another version (the message says which).
+    #[error("not a valid .csrbf file: {0}")]
+    Damaged(String),
+    /// A file of several deformations, or one with a region or phase, read
+    /// as a single deformation.
     #[error(
-        "the binding was made for {bound_starts} starts (kernel {bound_kernel}, R {bound_radius}), not this deformation's {starts} (kernel {kernel}, R {radius}): bind again"
+        "not a single deformation over every point: {0}; read it as a pipeline (csrbf::format::decode)"
     )]
-    BindingMismatch {
-        /// Starts the binding was made for.
-        bound_starts: usize,
-        /// Its kernel.
-        bound_kernel: crate::Kernel,
-        /// Its radius.
-        bound_radius: f64,
-        /// The deformation's starts.
-        starts: usize,
-        /// Its kernel.
-        kernel: crate::Kernel,
-        /// Its radius.
-        radius: f64,
-    },
+    NotSingle(String),
+}
+
+/// Why a region cannot be used.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum RegionError {
+    /// A field with a value no region has (the message names the field).
+    #[error("region: {0}")]
+    Invalid(String),
     /// A region names a part the mesh does not have.
     #[error("region names part {0:?}, which the mesh does not have")]
     UnknownGroup(String),
     /// A vertex index in a region is out of range.
     #[error("region vertex {index} is out of range for {count} points")]
-    RegionIndex {
+    Index {
         /// The bad index.
         index: usize,
         /// The number of points.

@@ -12,11 +12,29 @@ use crate::octree::Octree;
 /// ([`Vec3`]) for vertex buffers. Public functions taking `&[P]` are thin
 /// shells: they hand the slice to code compiled once inside this crate
 /// ([`Point::slice`]), so its speed does not depend on the caller's build.
-pub trait Point: Copy + Send + Sync {
+/// Sealed: implemented for `Vec3` and `DVec3` only.
+pub trait Point: Copy + Send + Sync + sealed::Sealed {
     /// The point in f64.
     fn to_dvec3(self) -> DVec3;
     /// The slice as one of the two concrete kinds.
     fn slice(points: &[Self]) -> Points<'_>;
+    /// The mutable slice as one of the two concrete kinds.
+    fn slice_mut(points: &mut [Self]) -> PointsMut<'_>;
+}
+
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for glam::Vec3 {}
+    impl Sealed for glam::DVec3 {}
+}
+
+/// A mutable slice of points of one of the two kinds.
+#[derive(Debug)]
+pub enum PointsMut<'a> {
+    /// f32 points (vertex buffers).
+    F32(&'a mut [Vec3]),
+    /// f64 points.
+    F64(&'a mut [DVec3]),
 }
 
 /// A slice of points of one of the two kinds [`Point`] is implemented for.
@@ -36,6 +54,9 @@ impl Point for DVec3 {
     fn slice(points: &[Self]) -> Points<'_> {
         Points::F64(points)
     }
+    fn slice_mut(points: &mut [Self]) -> PointsMut<'_> {
+        PointsMut::F64(points)
+    }
 }
 
 impl Point for Vec3 {
@@ -45,6 +66,9 @@ impl Point for Vec3 {
     }
     fn slice(points: &[Self]) -> Points<'_> {
         Points::F32(points)
+    }
+    fn slice_mut(points: &mut [Self]) -> PointsMut<'_> {
+        PointsMut::F32(points)
     }
 }
 

@@ -28,9 +28,10 @@
 use glam::DVec3;
 
 use crate::deformation::{Affine, Deformation};
-use crate::error::{Error, Result};
+use crate::error::{Error, FormatError, Result};
 use crate::kernel::{Kernel, Polynomial};
 use crate::pipeline::Combine;
+use crate::pipeline::FittedStage;
 use crate::region::Region;
 
 /// The file's first bytes.
@@ -40,23 +41,54 @@ pub const VERSION: u16 = 2;
 
 /// What a `.csrbf` file holds: deformations with their regions and phases,
 /// and how they combine.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Replay {
     /// Deformation, region and phase of each stage, in order.
-    pub stages: Vec<(Deformation, Region, f64)>,
+    pub stages: Vec<FittedStage>,
     /// How the stages act together.
     pub combine: Combine,
 }
 
+impl Replay {
+    /// The file's bytes ([`encode`]).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        encode(&self.stages, self.combine)
+    }
+
+    /// Reads a file's bytes ([`decode`]).
+    pub fn from_bytes(bytes: &[u8]) -> Result<Replay> {
+        decode(bytes)
+    }
+
+    /// The rest points moved by every stage ([`crate::compose_with_groups`]).
+    pub fn compose(
+        &self,
+        rest: &[glam::Vec3],
+        groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    ) -> Result<Vec<glam::Vec3>> {
+        crate::pipeline::compose_with_groups(rest, &self.stages, self.combine, groups)
+    }
+}
+
+/// A damaged file's error.
+fn damaged(message: impl Into<String>) -> Error {
+    FormatError::Damaged(message.into()).into()
+}
+
 /// Encodes deformations with their regions and phases (borrowed: nothing is
 /// copied but into the bytes).
-pub fn encode(stages: &[(Deformation, Region, f64)], combine: Combine) -> Vec<u8> {
+pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
     let mut w = Vec::new();
     w.extend_from_slice(MAGIC);
     w.extend_from_slice(&VERSION.to_le_bytes());
     w.extend_from_slice(&(combine as u16).to_le_bytes());
     w.extend_from_slice(&(stages.len() as u32).to_le_bytes());
-    for (d, region, phase) in stages {
+    for FittedStage {
+        deformation: d,
+        region,
+        phase,
+    } in stages
+    {
         w.push(d.kernel().code());
         w.push(d.polynomial() as u8);
         w.extend_from_slice(&0u16.to_le_bytes());
@@ -87,67 +119,58 @@ pub fn encode(stages: &[(Deformation, Region, f64)], combine: Combine) -> Vec<u8
 /// version, sizes, checksum and that every value is finite.
 pub fn decode(bytes: &[u8]) -> Result<Replay> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
-        return Err(Error::Format(
-            "it does not start with the csrbf magic bytes".into(),
-        ));
+        return Err(damaged("it does not start with the csrbf magic bytes"));
     }
     if bytes.len() < 22 {
-        return Err(Error::Format(format!(
-            "truncated: only {} bytes",
-            bytes.len()
-        )));
+        return Err(damaged(format!("truncated: only {} bytes", bytes.len())));
     }
     let (body, tail) = bytes.split_at(bytes.len() - 8);
     let version = u16::from_le_bytes([bytes[6], bytes[7]]);
     if version != VERSION && version != 1 {
-        return Err(Error::Format(format!(
+        return Err(damaged(format!(
             "version {version} is not supported (this build reads versions 1 and {VERSION})"
         )));
     }
     let mut sum = [0u8; 8];
     sum.copy_from_slice(tail);
     if u64::from_le_bytes(sum) != fnv1a(body) {
-        return Err(Error::Format(
-            "checksum mismatch: the file is damaged or truncated".into(),
+        return Err(damaged(
+            "checksum mismatch: the file is damaged or truncated",
         ));
     }
     let mut r = Reader { b: body, at: 8 };
     let combine = match (version, r.u16("header")?) {
         (1, _) | (_, 0) => Combine::Chain,
         (_, 1) => Combine::Add,
-        (_, c) => return Err(Error::Format(format!("unknown combine code {c}"))),
+        (_, c) => return Err(damaged(format!("unknown combine code {c}"))),
     };
     let count = r.u32("stage count")? as usize;
     let mut out = Vec::new();
     for s in 0..count {
         let kernel = Kernel::from_code(r.u8("kernel")?)
-            .ok_or_else(|| Error::Format(format!("stage {s}: unknown kernel code")))?;
+            .ok_or_else(|| damaged(format!("stage {s}: unknown kernel code")))?;
         let poly = match r.u8("polynomial")? {
             0 => Polynomial::None,
             1 => Polynomial::Linear,
             c => {
-                return Err(Error::Format(format!(
-                    "stage {s}: unknown polynomial code {c}"
-                )));
+                return Err(damaged(format!("stage {s}: unknown polynomial code {c}")));
             }
         };
         r.u16("reserved")?;
         let radius = r.f64("radius")?;
         if !(radius > 0.0 && radius.is_finite()) {
-            return Err(Error::Format(format!(
-                "stage {s}: radius {radius} is not valid"
-            )));
+            return Err(damaged(format!("stage {s}: radius {radius} is not valid")));
         }
         let phase = if version == 1 { 1.0 } else { r.f64("phase")? };
         if !(0.0..=1.0).contains(&phase) {
-            return Err(Error::Format(format!(
+            return Err(damaged(format!(
                 "stage {s}: phase {phase} is not within [0, 1]"
             )));
         }
         let n = r.u32("start count")? as usize;
         // Guard the allocations against a forged count.
         if n.saturating_mul(52) > r.b.len() - r.at.min(r.b.len()) {
-            return Err(Error::Format(format!(
+            return Err(damaged(format!(
                 "stage {s}: {n} starts do not fit in the file"
             )));
         }
@@ -175,14 +198,14 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
         };
         let order = (0..n).map(|_| r.u32("order")).collect::<Result<Vec<_>>>()?;
         if order.iter().any(|&o| o as usize >= n) {
-            return Err(Error::Format(format!(
+            return Err(damaged(format!(
                 "stage {s}: order refers to a start that does not exist"
             )));
         }
         let region = get_region(&mut r)?;
         let finite = |what: &str, v: &[DVec3]| -> Result<()> {
             match v.iter().position(|x| !x.is_finite()) {
-                Some(i) => Err(Error::Format(format!(
+                Some(i) => Err(damaged(format!(
                     "stage {s}: {what} {i} is not finite (NaN or infinite)"
                 ))),
                 None => Ok(()),
@@ -193,19 +216,26 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
         if let Some(a) = &affine {
             finite("affine coefficient", &a.coefficients)?;
             if !(a.center.is_finite() && a.scale.is_finite() && a.scale != 0.0) {
-                return Err(Error::Format(format!(
+                return Err(damaged(format!(
                     "stage {s}: the affine part's centre or scale is not finite"
                 )));
             }
         }
-        out.push((
-            Deformation::from_parts(kernel, radius, starts, coefficients, affine, order, None),
+        out.push(FittedStage {
+            deformation: Deformation::from_parts(
+                kernel,
+                radius,
+                starts,
+                coefficients,
+                affine,
+                order,
+            ),
             region,
             phase,
-        ));
+        });
     }
     if r.at != r.b.len() {
-        return Err(Error::Format(format!(
+        return Err(damaged(format!(
             "{} unexpected bytes after the last stage",
             r.b.len() - r.at
         )));
@@ -280,23 +310,21 @@ fn get_region(r: &mut Reader) -> Result<Region> {
             let bytes = r.take(n, "region name")?;
             Region::Group(
                 String::from_utf8(bytes.to_vec())
-                    .map_err(|_| Error::Format("region name is not UTF-8".into()))?,
+                    .map_err(|_| damaged("region name is not UTF-8"))?,
             )
         }
         5 => {
             let width = r.f64("region falloff")?;
             let inner = get_region(r)?;
             if !(width > 0.0 && width.is_finite()) || matches!(inner, Region::Falloff { .. }) {
-                return Err(Error::Format(format!(
-                    "region falloff {width} is not valid"
-                )));
+                return Err(damaged(format!("region falloff {width} is not valid")));
             }
             Region::Falloff {
                 inner: Box::new(inner),
                 width,
             }
         }
-        t => return Err(Error::Format(format!("unknown region tag {t}"))),
+        t => return Err(damaged(format!("unknown region tag {t}"))),
     })
 }
 
@@ -308,7 +336,7 @@ struct Reader<'a> {
 impl Reader<'_> {
     fn need(&self, n: usize, what: &str) -> Result<()> {
         if self.b.len().saturating_sub(self.at) < n {
-            return Err(Error::Format(format!(
+            return Err(damaged(format!(
                 "truncated at byte {} while reading {what}",
                 self.at
             )));
@@ -360,10 +388,10 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// The deformation for people to read: kernel, R, polynomial, starts,
 /// coefficients, the polynomial part, the order and the region.
 #[cfg(feature = "serde")]
-pub fn to_json(stages: &[(Deformation, Region, f64)], combine: Combine) -> serde_json::Value {
+pub fn to_json(stages: &[FittedStage], combine: Combine) -> serde_json::Value {
     let list: Vec<serde_json::Value> = stages
         .iter()
-        .map(|(d, region, phase)| {
+        .map(|FittedStage { deformation: d, region, phase }| {
             serde_json::json!({
                 "kernel": d.kernel(),
                 "radius": d.radius(),
@@ -410,7 +438,11 @@ mod tests {
         let r = decode(&version_1(0.5)).expect("version 1");
         assert_eq!(r.combine, Combine::Chain);
         assert_eq!(r.stages.len(), 1);
-        let (d, region, phase) = &r.stages[0];
+        let FittedStage {
+            deformation: d,
+            region,
+            phase,
+        } = &r.stages[0];
         assert_eq!((region, *phase), (&Region::All, 1.0));
         assert_eq!(
             d.displacement_at(DVec3::new(1.0, 2.0, 3.0)),
@@ -434,9 +466,8 @@ mod tests {
             vec![DVec3::ZERO],
             None,
             vec![0],
-            None,
         );
-        let e = decode(&encode(&[(d, Region::All, 1.0)], Combine::Chain))
+        let e = decode(&encode(&[FittedStage::new(d)], Combine::Chain))
             .expect_err("NaN start accepted")
             .to_string();
         assert!(e.contains("start 0 is not finite"), "{e}");

@@ -29,7 +29,7 @@
 use glam::{DAffine3, DMat3, DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, FitError, Result};
 use crate::kernel::Polynomial;
 use crate::octree::Octree;
 use crate::region::Region;
@@ -205,7 +205,7 @@ impl Handle {
     ) -> Result<HandleControls> {
         self.check()?;
         if !(radius > 0.0 && radius.is_finite()) {
-            return Err(Error::BadRadius(radius));
+            return Err(FitError::BadRadius(radius).into());
         }
         let selected = self.select.select(points, groups)?;
         if selected.is_empty() {
@@ -391,8 +391,7 @@ mod tests {
             let v = handle
                 .controls(&points, Some(&bx(-1.0, 4.0)), radius, polynomial, &|_| None)
                 .expect("controls");
-            let opts = FitOptions::default()
-                .with_radius(radius)
+            let opts = FitOptions::new(radius)
                 .with_kernel(Kernel::C2)
                 .with_polynomial(polynomial);
             let d = Deformation::fit(&v.starts, &v.targets, opts).expect("fit");

@@ -112,13 +112,13 @@ impl fmt::Display for Kernel {
 }
 
 impl FromStr for Kernel {
-    type Err = crate::Error;
+    type Err = crate::NameError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Kernel::ALL
             .into_iter()
             .find(|k| k.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| crate::Error::UnknownKernel(s.to_owned()))
+            .ok_or_else(|| crate::NameError::UnknownKernel(s.to_owned()))
     }
 }
 
@@ -159,13 +159,13 @@ impl fmt::Display for Polynomial {
 }
 
 impl FromStr for Polynomial {
-    type Err = crate::Error;
+    type Err = crate::NameError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Polynomial::ALL
             .into_iter()
             .find(|p| p.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| crate::Error::UnknownPolynomial(s.to_owned()))
+            .ok_or_else(|| crate::NameError::UnknownPolynomial(s.to_owned()))
     }
 }
 

@@ -106,12 +106,12 @@ impl std::fmt::Display for Ordering {
 }
 
 impl std::str::FromStr for Ordering {
-    type Err = crate::Error;
-    fn from_str(s: &str) -> Result<Self, crate::Error> {
+    type Err = crate::NameError;
+    fn from_str(s: &str) -> Result<Self, crate::NameError> {
         Ordering::ALL
             .into_iter()
             .find(|o| o.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| crate::Error::UnknownOrdering(s.to_owned()))
+            .ok_or_else(|| crate::NameError::UnknownOrdering(s.to_owned()))
     }
 }
 

@@ -2,7 +2,7 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::error::{Error, Result};
+use crate::error::{RegionError, Result};
 
 /// Where a deformation applies; points outside do not move.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -61,6 +61,53 @@ impl std::fmt::Display for Region {
 }
 
 impl Region {
+    /// Refuses a region no point could sensibly be in, naming the field: a
+    /// sphere whose centre is not finite or whose radius is negative or not
+    /// finite, a box with a corner not finite or `min` above `max` on an
+    /// axis, a falloff whose width is not a finite number > 0 or that wraps
+    /// another falloff. [`Region::select`] and [`Region::weights`] check.
+    pub fn check(&self) -> Result<(), RegionError> {
+        let bad = |m: String| Err(RegionError::Invalid(m));
+        match self {
+            Region::Sphere { center, radius } => {
+                if !center.is_finite() {
+                    return bad(format!("sphere.center {center} is not finite"));
+                }
+                if !(*radius >= 0.0 && radius.is_finite()) {
+                    return bad(format!(
+                        "sphere.radius must be a finite number >= 0, got {radius}"
+                    ));
+                }
+            }
+            Region::Box { min, max } => {
+                if !min.is_finite() || !max.is_finite() {
+                    return bad(format!("box.min {min} or box.max {max} is not finite"));
+                }
+                for (axis, (lo, hi)) in ["x", "y", "z"]
+                    .iter()
+                    .zip(min.to_array().into_iter().zip(max.to_array()))
+                {
+                    if lo > hi {
+                        return bad(format!("box.min.{axis} {lo} is above box.max.{axis} {hi}"));
+                    }
+                }
+            }
+            Region::Falloff { inner, width } => {
+                if matches!(**inner, Region::Falloff { .. }) {
+                    return bad("a falloff cannot wrap another falloff".into());
+                }
+                if !(*width > 0.0 && width.is_finite()) {
+                    return bad(format!(
+                        "falloff width must be a finite number > 0, got {width}"
+                    ));
+                }
+                inner.check()?;
+            }
+            Region::All | Region::Vertices(_) | Region::Group(_) => {}
+        }
+        Ok(())
+    }
+
     /// The indices of the points in the region, ascending. `group` resolves a
     /// part name into point indices (None when there is no such part).
     pub fn select(
@@ -68,6 +115,7 @@ impl Region {
         points: &[Vec3],
         group: &dyn Fn(&str) -> Option<Vec<u32>>,
     ) -> Result<Vec<u32>> {
+        self.check()?;
         let n = points.len();
         let filter = |keep: &dyn Fn(DVec3) -> bool| -> Vec<u32> {
             (0..n as u32)
@@ -82,10 +130,11 @@ impl Region {
             Region::Box { min, max } => filter(&|p| p.cmpge(*min).all() && p.cmple(*max).all()),
             Region::Vertices(v) => {
                 if let Some(&bad) = v.iter().find(|&&i| i as usize >= n) {
-                    return Err(Error::RegionIndex {
+                    return Err(RegionError::Index {
                         index: bad as usize,
                         count: n,
-                    });
+                    }
+                    .into());
                 }
                 let mut v = v.clone();
                 v.sort_unstable();
@@ -93,7 +142,7 @@ impl Region {
                 v
             }
             Region::Group(name) => {
-                let mut v = group(name).ok_or_else(|| Error::UnknownGroup(name.clone()))?;
+                let mut v = group(name).ok_or_else(|| RegionError::UnknownGroup(name.clone()))?;
                 v.retain(|&i| (i as usize) < n);
                 v.sort_unstable();
                 v.dedup();
@@ -115,12 +164,8 @@ impl Region {
             let w = vec![1.0; v.len()];
             return Ok((v, w));
         };
+        self.check()?;
         let width = *width;
-        if matches!(**inner, Region::Falloff { .. }) || !(width > 0.0 && width.is_finite()) {
-            return Err(Error::BadRegion(format!(
-                "a falloff needs a width > 0 around a plain region, got {self}"
-            )));
-        }
         // Distance of a point outside the inner region to it.
         let inside = inner.select(points, group)?;
         let outside_distance: Box<dyn Fn(DVec3) -> f64 + Sync> = match &**inner {
@@ -272,10 +317,11 @@ mod tests {
         );
         assert_eq!(
             Region::Vertices(vec![10]).select(&p, &none),
-            Err(Error::RegionIndex {
+            Err(RegionError::Index {
                 index: 10,
                 count: 10
-            })
+            }
+            .into())
         );
         let groups = |n: &str| (n == "tip").then(|| vec![9, 8]);
         assert_eq!(
@@ -284,7 +330,7 @@ mod tests {
         );
         assert_eq!(
             Region::Group("toe".into()).select(&p, &groups),
-            Err(Error::UnknownGroup("toe".into()))
+            Err(RegionError::UnknownGroup("toe".into()).into())
         );
         assert_eq!(Region::All.select(&p, &none).map(|v| v.len()), Ok(10));
     }

@@ -10,7 +10,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, Par, Side};
 
-use crate::error::{Error, Result};
+use crate::error::{FitError, NameError, Result};
 use crate::skyline::{Profile, Rhs};
 
 /// Which factorisation to use.
@@ -53,12 +53,12 @@ impl std::fmt::Display for SolverChoice {
 }
 
 impl std::str::FromStr for SolverChoice {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
+    type Err = NameError;
+    fn from_str(s: &str) -> Result<Self, NameError> {
         SolverChoice::ALL
             .into_iter()
             .find(|c| c.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| Error::UnknownSolver(s.to_owned()))
+            .ok_or_else(|| NameError::UnknownSolver(s.to_owned()))
     }
 }
 
@@ -90,15 +90,17 @@ fn parallelism(work: f64) -> Par {
 
 impl Factor {
     /// Factors the profile; a failed pivot is reported by control index.
-    pub(crate) fn skyline(mut profile: Profile, perm: Vec<u32>) -> Result<Factor> {
-        profile.factor().map_err(|e| Error::NotPositiveDefinite {
-            control: perm[e.row] as usize,
-        })?;
+    pub(crate) fn skyline(mut profile: Profile, perm: Vec<u32>) -> Result<Factor, FitError> {
+        profile
+            .factor()
+            .map_err(|e| FitError::NotPositiveDefinite {
+                control: perm[e.row] as usize,
+            })?;
         Ok(Factor::Skyline { profile, perm })
     }
 
     /// Symbolic analysis (AMD ordering, elimination tree, supernodes).
-    pub(crate) fn supernodal_symbolic(a: &LowerCsc) -> Result<SymbolicCholesky<u32>> {
+    pub(crate) fn supernodal_symbolic(a: &LowerCsc) -> Result<SymbolicCholesky<u32>, FitError> {
         let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
         factorize_symbolic_cholesky(
             pattern,
@@ -106,11 +108,14 @@ impl Factor {
             SymmetricOrdering::Amd,
             Default::default(),
         )
-        .map_err(|e| Error::Solver(format!("{e:?}")))
+        .map_err(|e| FitError::Solver(format!("{e:?}")))
     }
 
     /// Numeric factorisation with a symbolic analysis already made.
-    pub(crate) fn supernodal(symbolic: SymbolicCholesky<u32>, a: &LowerCsc) -> Result<Factor> {
+    pub(crate) fn supernodal(
+        symbolic: SymbolicCholesky<u32>,
+        a: &LowerCsc,
+    ) -> Result<Factor, FitError> {
         let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
         let matrix = SparseColMatRef::new(pattern, &a.values);
         let mut values = vec![0.0; symbolic.len_val()];
@@ -118,7 +123,7 @@ impl Factor {
         let mut mem = MemBuffer::try_new(
             symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
         )
-        .map_err(|e| Error::Solver(format!("{e:?}")))?;
+        .map_err(|e| FitError::Solver(format!("{e:?}")))?;
         let result = symbolic.factorize_numeric_llt(
             &mut values,
             matrix,
@@ -133,7 +138,7 @@ impl Factor {
                 .perm()
                 .map(|p| p.arrays().0[index.min(a.n - 1)] as usize)
                 .unwrap_or(index);
-            return Err(Error::NotPositiveDefinite { control });
+            return Err(FitError::NotPositiveDefinite { control });
         }
         clear_upper_vector_state();
         Ok(Factor::Supernodal { symbolic, values })

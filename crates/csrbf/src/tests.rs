@@ -6,6 +6,14 @@ use glam::{DMat3, DVec3, Vec3};
 use crate::testing::{Rng, assert_close};
 use crate::*;
 
+fn fitted(deformation: Deformation, region: Region, phase: f64) -> FittedStage {
+    FittedStage {
+        deformation,
+        region,
+        phase,
+    }
+}
+
 /// Random distinct starts in the unit cube and random destinations.
 fn scene(n: usize, seed: u64) -> (Vec<DVec3>, Vec<DVec3>) {
     let mut rng = Rng::new(seed);
@@ -18,10 +26,9 @@ fn scene(n: usize, seed: u64) -> (Vec<DVec3>, Vec<DVec3>) {
 }
 
 fn options(kernel: Kernel, poly: Polynomial, radius: f64, solver: SolverChoice) -> FitOptions {
-    FitOptions::default()
+    FitOptions::new(radius)
         .with_kernel(kernel)
         .with_polynomial(poly)
-        .with_radius(radius)
         .with_solver(solver)
 }
 
@@ -228,9 +235,7 @@ fn blocked_evaluation_and_binding_match_pointwise_evaluation() {
     // New destinations through the same binding.
     let sys = System::new(
         &s,
-        *System::new(&s, FitOptions::default().with_radius(0.25))
-            .expect("s")
-            .options(),
+        *System::new(&s, FitOptions::new(0.25)).expect("s").options(),
     )
     .expect("system");
     let d2 = sys
@@ -260,12 +265,10 @@ fn frames_scale_the_displacement_by_the_phase() {
 #[test]
 fn bad_controls_are_named() {
     let (mut s, t) = scene(10, 1);
-    let lin = FitOptions::default()
-        .with_radius(0.5)
-        .with_polynomial(Polynomial::Linear);
+    let lin = FitOptions::new(0.5).with_polynomial(Polynomial::Linear);
     assert_eq!(
         Deformation::fit::<DVec3>(&[], &[], lin).err(),
-        Some(Error::NoControls)
+        Some(FitError::NoControls)
     );
     for r in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         assert_eq!(
@@ -278,7 +281,7 @@ fn bad_controls_are_named() {
     s[7] = s[3];
     assert_eq!(
         Deformation::fit(&s, &t, lin).err(),
-        Some(Error::DuplicateStart {
+        Some(FitError::DuplicateStart {
             first: 3,
             second: 7
         })
@@ -286,21 +289,21 @@ fn bad_controls_are_named() {
     s[7].x = f64::NAN;
     assert_eq!(
         Deformation::fit(&s, &t, lin).err(),
-        Some(Error::NotFinite {
+        Some(FitError::NotFinite {
             index: 7,
             what: "start"
         })
     );
     assert_eq!(
         Deformation::fit(&s[..3], &t[..3], lin).err(),
-        Some(Error::TooFewForLinear(3))
+        Some(FitError::TooFewForLinear(3))
     );
     let flat: Vec<DVec3> = (0..20)
         .map(|i| DVec3::new(i as f64 * 0.1, (i % 3) as f64 * 0.1, 0.5))
         .collect();
     assert_eq!(
         Deformation::fit(&flat, &flat, lin).err(),
-        Some(Error::CoplanarStarts)
+        Some(FitError::CoplanarStarts)
     );
     // `none` handles the same flat set.
     assert!(Deformation::fit(&flat, &flat, lin.with_polynomial(Polynomial::None)).is_ok());
@@ -308,7 +311,7 @@ fn bad_controls_are_named() {
     let sys = System::new(&s, lin).expect("system");
     assert_eq!(
         sys.solve(&t[..4]).err(),
-        Some(Error::TargetCount {
+        Some(FitError::TargetCount {
             expected: 10,
             got: 4
         })
@@ -327,7 +330,7 @@ fn near_coincident_starts_are_named() {
             assert!(
                 matches!(
                     err,
-                    Some(Error::StartsTooClose {
+                    Some(FitError::StartsTooClose {
                         first: 5,
                         second: 20,
                         ..
@@ -353,7 +356,7 @@ fn a_failed_pivot_names_the_control_in_the_callers_numbering() {
     }
     p.set(2, 1, 3.0); // rows 1, 2 are controls 2, 0
     let err = crate::solver::Factor::skyline(p, perm).err();
-    assert_eq!(err, Some(Error::NotPositiveDefinite { control: 0 }));
+    assert_eq!(err, Some(FitError::NotPositiveDefinite { control: 0 }));
 }
 
 #[test]
@@ -372,8 +375,8 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
     )
     .expect("fit");
     let stages = vec![
-        (d1, Region::All, 1.0),
-        (
+        fitted(d1, Region::All, 1.0),
+        fitted(
             d2,
             Region::Sphere {
                 center: DVec3::splat(0.5),
@@ -381,8 +384,8 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
             },
             0.25,
         ),
-        (
-            Deformation::fit(&s, &t, FitOptions::default().with_radius(0.3)).expect("fit"),
+        fitted(
+            Deformation::fit(&s, &t, FitOptions::new(0.3)).expect("fit"),
             Region::Group("lips".into()),
             0.5,
         ),
@@ -395,8 +398,8 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
     let back = back.stages;
     for (a, b) in back.iter().zip(&stages) {
         assert_eq!(
-            a.0.displacement_at(DVec3::splat(0.4)),
-            b.0.displacement_at(DVec3::splat(0.4))
+            a.deformation.displacement_at(DVec3::splat(0.4)),
+            b.deformation.displacement_at(DVec3::splat(0.4))
         );
     }
     // Every truncation and a flipped byte anywhere are refused, never a panic.
@@ -427,9 +430,7 @@ fn pipeline_composes_in_order_on_regions() {
     let scale_s: Vec<DVec3> = s.iter().map(|p| *p * 2.0).collect();
     let scaled: Vec<DVec3> = scale_s.iter().map(|p| *p * 1.5).collect();
     // Affine maps everywhere: the linear polynomial reproduces them.
-    let opts = FitOptions::default()
-        .with_radius(0.5)
-        .with_polynomial(Polynomial::Linear);
+    let opts = FitOptions::new(0.5).with_polynomial(Polynomial::Linear);
     let mut p = Pipeline::new(rest.clone());
     p.push(Stage::new(s.clone(), shift, opts));
     p.push(Stage::new(scale_s, scaled, opts));
@@ -457,7 +458,7 @@ fn pipeline_recomputes_only_what_a_change_invalidates() {
     let mut rng = Rng::new(8);
     let rest: Vec<Vec3> = (0..300).map(|_| rng.vec3().as_vec3()).collect();
     let (s, t) = scene(20, 8);
-    let opts = FitOptions::default().with_radius(0.5);
+    let opts = FitOptions::new(0.5);
     let mut p = Pipeline::new(rest);
     p.push(Stage::new(s.clone(), t.clone(), opts));
     p.push(Stage::new(s.clone(), t.clone(), opts));
@@ -499,7 +500,7 @@ fn pipeline_recomputes_only_what_a_change_invalidates() {
 #[test]
 fn system_reports_the_papers_memory_figures() {
     let (s, _) = scene(92, 17);
-    let sys = System::new(&s, FitOptions::default().with_radius(0.3)).expect("system");
+    let sys = System::new(&s, FitOptions::new(0.3)).expect("system");
     let st = sys.stats();
     assert_eq!(st.controls, 92);
     assert_eq!(st.dense_bytes, 33856);
@@ -519,7 +520,7 @@ fn chain_and_add_mean_the_same_in_compose_and_the_pipeline() {
     let rest: Vec<Vec3> = (0..400).map(|_| rng.vec3().as_vec3()).collect();
     let (s1, t1) = scene(15, 4);
     let (s2, t2) = scene(12, 5);
-    let opts = FitOptions::default().with_radius(0.45);
+    let opts = FitOptions::new(0.45);
     let d1 = Deformation::fit(&s1, &t1, opts).expect("fit 1");
     let d2 = Deformation::fit(&s2, &t2, opts).expect("fit 2");
     let half = Region::Box {
@@ -527,12 +528,12 @@ fn chain_and_add_mean_the_same_in_compose_and_the_pipeline() {
         max: DVec3::new(0.6, 1.0, 1.0),
     };
     let stages = vec![
-        (d1.clone(), Region::All, 1.0),
-        (d2.clone(), half.clone(), 0.5),
+        fitted(d1.clone(), Region::All, 1.0),
+        fitted(d2.clone(), half.clone(), 0.5),
     ];
     let none = |_: &str| None;
     // Add: both displacements at the rest points.
-    let added = compose(&rest, &stages, Combine::Add, &none).expect("add");
+    let added = compose(&rest, &stages, Combine::Add).expect("add");
     let in_half = half.select(&rest, &none).expect("select");
     for (i, (p, r)) in added.iter().zip(&rest).enumerate() {
         let mut want = r.as_dvec3() + d1.displacement_at(r.as_dvec3());
@@ -542,7 +543,7 @@ fn chain_and_add_mean_the_same_in_compose_and_the_pipeline() {
         assert!((p.as_dvec3() - want).length() < 1e-5, "add, point {i}");
     }
     // Chain: the second at the points the first moved.
-    let chained = compose(&rest, &stages, Combine::Chain, &none).expect("chain");
+    let chained = compose(&rest, &stages, Combine::Chain).expect("chain");
     for (i, (p, r)) in chained.iter().zip(&rest).enumerate() {
         let x = (r.as_dvec3() + d1.displacement_at(r.as_dvec3()))
             .as_vec3()
@@ -579,7 +580,7 @@ fn falloffs_scale_the_displacement_smoothly() {
     let d = Deformation::fit(
         &[DVec3::new(1.5, 0.0, 0.0)],
         &[DVec3::new(1.5, 0.3, 0.0)],
-        FitOptions::default().with_radius(2.0),
+        FitOptions::new(2.0),
     )
     .expect("fit");
     let region = Region::Falloff {
@@ -593,9 +594,8 @@ fn falloffs_scale_the_displacement_smoothly() {
     let (sel, w) = region.weights(&rest, &none).expect("weights");
     let out = compose(
         &rest,
-        &[(d.clone(), region.clone(), 1.0)],
+        &[fitted(d.clone(), region.clone(), 1.0)],
         Combine::Chain,
-        &none,
     )
     .expect("compose");
     for (i, p) in rest.iter().enumerate() {
@@ -617,7 +617,7 @@ fn falloffs_scale_the_displacement_smoothly() {
         Stage::new(
             vec![DVec3::new(1.5, 0.0, 0.0)],
             vec![DVec3::new(1.5, 0.3, 0.0)],
-            FitOptions::default().with_radius(2.0),
+            FitOptions::new(2.0),
         )
         .with_region(region),
     );
@@ -631,7 +631,7 @@ fn falloffs_scale_the_displacement_smoothly() {
 #[test]
 fn stage_indices_phases_and_bindings_are_named() {
     let (s, t) = scene(12, 9);
-    let opts = FitOptions::default().with_radius(0.5);
+    let opts = FitOptions::new(0.5);
     let mut p = Pipeline::new(vec![Vec3::ZERO; 4]);
     p.push(Stage::new(s.clone(), t.clone(), opts).with_phase(7.0));
     assert_eq!(p.evaluate().err(), Some(Error::BadPhase(7.0)));
@@ -667,12 +667,12 @@ fn dense_systems_are_refused_before_any_allocation() {
     let mut rng = Rng::new(77);
     let starts: Vec<DVec3> = (0..20_000).map(|_| rng.vec3()).collect();
     let t = std::time::Instant::now();
-    let e = System::new(&starts, FitOptions::default().with_radius(10.0)).expect_err("refused");
+    let e = System::new(&starts, FitOptions::new(10.0)).expect_err("refused");
     assert!(
         t.elapsed().as_secs() < 10,
         "the refusal must come from the estimate"
     );
-    let Error::TooLarge {
+    let FitError::TooLarge {
         bytes,
         limit,
         suggested_radius,
@@ -690,7 +690,7 @@ fn dense_systems_are_refused_before_any_allocation() {
     let est = estimate(&starts, 10.0);
     assert!(est.nearly_dense() && est.fraction > 0.99);
     // A small limit refuses a sparse system too, and a large one lets it through.
-    let sparse = FitOptions::default().with_radius(0.05);
+    let sparse = FitOptions::new(0.05);
     assert!(System::new(&starts, sparse.with_memory_limit(1000)).is_err());
     assert!(System::new(&starts, sparse).is_ok());
 }
@@ -700,11 +700,7 @@ fn dense_systems_are_refused_before_any_allocation() {
 fn pipeline_results_are_read_without_recomputing() {
     let (s, t) = scene(10, 3);
     let mut p = Pipeline::new(vec![Vec3::splat(0.5); 3]);
-    p.push(Stage::new(
-        s,
-        t.clone(),
-        FitOptions::default().with_radius(0.6),
-    ));
+    p.push(Stage::new(s, t.clone(), FitOptions::new(0.6)));
     assert!(p.output().is_none() && p.fitted(0).is_none());
     let out = p.evaluate().expect("evaluate").to_vec();
     assert_eq!(p.output(), Some(&out[..]));
@@ -727,7 +723,7 @@ fn near_starts_with_conflicting_moves_are_named() {
         DVec3::new(2.15, 10.18, 4.42 + 1e-4),
         DVec3::new(0.0, 8.0, 4.0),
     ];
-    let opts = FitOptions::default().with_radius(3.5);
+    let opts = FitOptions::new(3.5);
     let apart = [
         starts[0] + DVec3::Y * 0.5,
         starts[1] + DVec3::NEG_Y * 0.0,
@@ -737,7 +733,7 @@ fn near_starts_with_conflicting_moves_are_named() {
     assert!(
         matches!(
             e,
-            Error::ConflictingStarts {
+            FitError::ConflictingStarts {
                 first: 0,
                 second: 1,
                 ..
@@ -769,12 +765,10 @@ fn starts_out_of_range_are_named_for_what_they_are() {
         DVec3::Z,
         DVec3::X,
     ];
-    let opts = FitOptions::default()
-        .with_radius(1.0)
-        .with_polynomial(Polynomial::Linear);
+    let opts = FitOptions::new(1.0).with_polynomial(Polynomial::Linear);
     assert!(matches!(
         Deformation::fit(&far, &far, opts),
-        Err(Error::StartScale { .. })
+        Err(FitError::StartScale { .. })
     ));
     let tiny: Vec<DVec3> = (0..5)
         .map(|i| {
@@ -799,7 +793,7 @@ fn starts_out_of_range_are_named_for_what_they_are() {
 /// error or a valid value, never a panic.
 #[test]
 fn control_and_replay_readers_survive_thousands_of_mutations() {
-    use crate::synthetic::mutate;
+    use crate::fuzz::mutate;
     let controls = [
         std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/controls/head_smile.json")).expect("smile"),
         br#"{"combine": "add", "deformations": [
@@ -810,17 +804,15 @@ fn control_and_replay_readers_survive_thousands_of_mutations() {
             .to_vec(),
     ];
     let (s, t) = scene(40, 3);
-    let lin = FitOptions::default()
-        .with_radius(0.4)
-        .with_polynomial(Polynomial::Linear);
+    let lin = FitOptions::new(0.4).with_polynomial(Polynomial::Linear);
     let stages = vec![
-        (
+        fitted(
             Deformation::fit(&s, &t, lin).expect("fit"),
             Region::Group("lips".into()),
             0.5,
         ),
-        (
-            Deformation::fit(&s, &t, FitOptions::default().with_radius(0.3)).expect("fit"),
+        fitted(
+            Deformation::fit(&s, &t, FitOptions::new(0.3)).expect("fit"),
             Region::All,
             1.0,
         ),
@@ -846,4 +838,281 @@ fn control_and_replay_readers_survive_thousands_of_mutations() {
         }
     }
     assert!(read > 0 && refused > 0, "{read} read, {refused} refused");
+}
+
+/// Issue 21: the library as a caller uses it.
+mod library {
+    use super::*;
+
+    /// The issue's example: same count, kernel and radius, other starts.
+    #[test]
+    fn a_binding_refuses_a_deformation_of_other_starts() {
+        let o = FitOptions::new(1.0);
+        let da = Deformation::fit(&[DVec3::ZERO], &[DVec3::new(0.0, 0.1, 0.0)], o).expect("a");
+        let db =
+            Deformation::fit(&[DVec3::splat(5.0)], &[DVec3::new(5.0, 5.1, 5.0)], o).expect("b");
+        let binding = Binding::new(&da, &[Vec3::ZERO]);
+        let e = binding
+            .displacements(&db)
+            .expect_err("other starts accepted");
+        assert!(matches!(e, Error::BindingMismatch { .. }), "{e}");
+        assert!(e.to_string().contains("other starts"), "{e}");
+        // One coordinate's last bit is enough.
+        let nudged = DVec3::new(0.0, 0.0, f64::from_bits(1));
+        let dc = Deformation::fit(&[nudged], &[DVec3::new(0.0, 0.1, 0.0)], o).expect("c");
+        assert!(binding.displacements(&dc).is_err());
+        // Any deformation of the same starts is accepted, whatever its destinations.
+        let dd = Deformation::fit(&[DVec3::ZERO], &[DVec3::new(0.3, 0.0, 0.0)], o).expect("d");
+        let got = binding.displacements(&dd).expect("same starts");
+        assert!((got[0].x - 0.3).abs() < 1e-6);
+        // So does a deformation read back from its bytes.
+        let back = Deformation::from_bytes(&dd.to_bytes()).expect("bytes");
+        assert_eq!(back, dd);
+        assert!(binding.displacements(&back).is_ok());
+        // solve_into refuses a deformation another system solved.
+        let sys = System::new(&[DVec3::splat(5.0)], o).expect("system");
+        let mut other = da.clone();
+        assert_eq!(
+            sys.solve_into(&[DVec3::splat(5.0)], &mut other),
+            Err(Error::SystemMismatch)
+        );
+        assert_eq!(
+            other, da,
+            "a refused solve_into left the deformation as it was"
+        );
+    }
+
+    #[test]
+    fn system_binds_solves_into_and_solves_many_like_one_at_a_time() {
+        let (s, t) = scene(60, 21);
+        let sys = System::new(&s, FitOptions::new(0.4)).expect("system");
+        let mut rng = Rng::new(5);
+        let points: Vec<Vec3> = (0..700).map(|_| rng.vec3().as_vec3()).collect();
+        let bound = sys.bind(&points);
+        let d = sys.solve(&t).expect("solve");
+        // Solving shares the starts, it does not copy them.
+        assert!(std::ptr::eq(d.starts().as_ptr(), sys.starts().as_ptr()));
+        assert_eq!(d.fingerprint(), sys.fingerprint());
+        let via_new = Binding::new(&d, &points).displacements(&d).expect("new");
+        assert_eq!(bound.displacements(&d).expect("bind"), via_new);
+        // solve_into gives the deformation solve gives.
+        let t2: Vec<DVec3> = t.iter().map(|p| *p + DVec3::new(0.0, 0.0, 0.02)).collect();
+        let mut into = d.clone();
+        sys.solve_into(&t2, &mut into).expect("solve_into");
+        assert_eq!(into, sys.solve(&t2).expect("solve 2"));
+        // Many at once, in parallel, as one at a time.
+        let sets = vec![t.clone(), t2.clone(), s.clone()];
+        let many = sys.solve_many(&sets).expect("solve_many");
+        let mut out = vec![Vec3::ZERO; points.len() * sets.len()];
+        bound.displacements_many(&many, &mut out).expect("many");
+        for (k, set) in sets.iter().enumerate() {
+            let one = sys.solve(set).expect("one");
+            assert_eq!(many[k], one);
+            let want = bound.displacements(&one).expect("one");
+            assert_eq!(&out[k * points.len()..(k + 1) * points.len()], &want[..]);
+        }
+        // The identity (targets = starts) moves nothing.
+        assert!(out[2 * points.len()..].iter().all(|d| d.length() < 1e-6));
+        assert!(matches!(
+            bound.displacements_many(&many, &mut out[1..]),
+            Err(Error::PointCount { .. })
+        ));
+        assert!(matches!(
+            sys.solve_many(&[t.clone(), t[1..].to_vec()]),
+            Err(FitError::TargetCount { .. })
+        ));
+    }
+
+    #[test]
+    fn into_and_in_place_agree_with_the_allocating_calls() {
+        let (s, t) = scene(80, 22);
+        for poly in [Polynomial::None, Polynomial::Linear] {
+            let d =
+                Deformation::fit(&s, &t, FitOptions::new(0.35).with_polynomial(poly)).expect("fit");
+            let mut rng = Rng::new(9);
+            let p64: Vec<DVec3> = (0..1500).map(|_| rng.vec3()).collect();
+            let p32: Vec<Vec3> = p64.iter().map(|p| p.as_vec3()).collect();
+            let mut o64 = vec![DVec3::ZERO; p64.len()];
+            d.displacements_into(&p64, &mut o64).expect("into");
+            assert_eq!(o64, d.displacements(&p64));
+            let mut o32 = vec![Vec3::ZERO; p32.len()];
+            d.displacements_f32_into(&p32, &mut o32).expect("into f32");
+            assert_eq!(o32, d.displacements_f32(&p32));
+            let mut moved = p64.clone();
+            d.deform_in_place(&mut moved, 0.25).expect("in place");
+            for ((m, p), o) in moved.iter().zip(&p64).zip(&o64) {
+                assert_eq!(*m, *p + *o * 0.25);
+            }
+            let mut moved32 = p32.clone();
+            d.deform_in_place(&mut moved32, 1.0).expect("in place f32");
+            for ((m, p), o) in moved32.iter().zip(&p32).zip(&o32) {
+                assert_eq!(*m, *p + *o);
+            }
+            assert!(matches!(
+                d.displacements_into(&p64, &mut o64[1..]),
+                Err(Error::PointCount { .. })
+            ));
+            assert_eq!(
+                d.deform_in_place(&mut moved, 1.5),
+                Err(Error::BadPhase(1.5))
+            );
+        }
+    }
+
+    /// A NaN point gets a NaN displacement on every path, with or without
+    /// the polynomial part, and its neighbours are not affected.
+    #[test]
+    fn a_non_finite_point_gets_nan_everywhere() {
+        // Enough starts that points are sorted into cells, and few.
+        for n in [5, 200] {
+            let (s, t) = scene(n, 23);
+            for poly in [Polynomial::None, Polynomial::Linear] {
+                let d = Deformation::fit(&s, &t, FitOptions::new(0.4).with_polynomial(poly))
+                    .expect("fit");
+                let mut rng = Rng::new(1);
+                let mut pts: Vec<DVec3> = (0..900).map(|_| rng.vec3()).collect();
+                let clean = d.displacements(&pts);
+                for (k, bad) in [
+                    (0, f64::NAN),
+                    (450, f64::INFINITY),
+                    (899, f64::NEG_INFINITY),
+                ] {
+                    pts[k].y = bad;
+                }
+                let got = d.displacements(&pts);
+                let got32 = d.displacements_f32(&pts);
+                let pts32: Vec<Vec3> = pts.iter().map(|p| p.as_vec3()).collect();
+                let bound = Binding::new(&d, &pts32).displacements(&d).expect("binding");
+                for i in 0..pts.len() {
+                    if [0, 450, 899].contains(&i) {
+                        assert!(
+                            got[i].is_nan() && got32[i].is_nan() && bound[i].is_nan(),
+                            "{i}"
+                        );
+                        assert!(d.displacement_at(pts[i]).is_nan());
+                    } else {
+                        assert_eq!(got[i], clean[i], "point {i} changed by a NaN neighbour");
+                        assert!((bound[i].as_dvec3() - clean[i]).length() < 1e-6);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn impossible_regions_are_refused_naming_the_field() {
+        let pts = [Vec3::ZERO, Vec3::X];
+        let none = |_: &str| None;
+        let cases = [
+            (
+                Region::Sphere {
+                    center: DVec3::ZERO,
+                    radius: f64::NAN,
+                },
+                "sphere.radius",
+            ),
+            (
+                Region::Sphere {
+                    center: DVec3::ZERO,
+                    radius: -1.0,
+                },
+                "sphere.radius",
+            ),
+            (
+                Region::Sphere {
+                    center: DVec3::new(f64::NAN, 0.0, 0.0),
+                    radius: 1.0,
+                },
+                "sphere.center",
+            ),
+            (
+                Region::Box {
+                    min: DVec3::new(0.0, 2.0, 0.0),
+                    max: DVec3::ONE,
+                },
+                "box.min.y",
+            ),
+            (
+                Region::Box {
+                    min: DVec3::ZERO,
+                    max: DVec3::new(1.0, f64::NAN, 1.0),
+                },
+                "box.max",
+            ),
+            (
+                Region::Falloff {
+                    inner: Box::new(Region::All),
+                    width: -0.5,
+                },
+                "falloff width",
+            ),
+            (
+                Region::Falloff {
+                    inner: Box::new(Region::Box {
+                        min: DVec3::ONE,
+                        max: DVec3::ZERO,
+                    }),
+                    width: 0.5,
+                },
+                "box.min.x",
+            ),
+        ];
+        let d = Deformation::fit(&[DVec3::ZERO], &[DVec3::Y], FitOptions::new(1.0)).expect("fit");
+        for (region, field) in cases {
+            let e = region.select(&pts, &none).expect_err("accepted");
+            assert!(e.to_string().contains(field), "{region}: {e}");
+            assert!(matches!(e, Error::Region(RegionError::Invalid(_))));
+            let stage = FittedStage::new(d.clone()).with_region(region.clone());
+            assert!(compose(&pts, &[stage], Combine::Chain).is_err());
+            let mut p = Pipeline::new(pts.to_vec());
+            p.push(
+                Stage::new(vec![DVec3::ZERO], vec![DVec3::Y], FitOptions::new(1.0))
+                    .with_region(region),
+            );
+            assert!(p.evaluate().is_err());
+        }
+        // An empty box of zero size and a sphere of radius 0 are fine.
+        let point_box = Region::Box {
+            min: DVec3::ZERO,
+            max: DVec3::ZERO,
+        };
+        assert_eq!(point_box.select(&pts, &none).expect("point box"), vec![0]);
+    }
+
+    /// A pipeline saves to `.csrbf` directly, and the file replays it.
+    #[test]
+    fn a_pipeline_saves_and_replays() {
+        let mut rng = Rng::new(77);
+        let rest: Vec<Vec3> = (0..500).map(|_| rng.vec3().as_vec3()).collect();
+        let (s1, t1) = scene(20, 31);
+        let (s2, t2) = scene(15, 32);
+        for combine in Combine::ALL {
+            let mut p = Pipeline::new(rest.clone())
+                .with_combine(combine)
+                .with_groups(vec![("left".into(), (0..250).collect())]);
+            p.push(Stage::new(s1.clone(), t1.clone(), FitOptions::new(0.4)));
+            p.push(
+                Stage::new(s2.clone(), t2.clone(), FitOptions::new(0.3))
+                    .with_region(Region::Group("left".into()))
+                    .with_phase(0.5),
+            );
+            let bytes = p.to_replay().expect("replay").to_bytes();
+            let back = format::Replay::from_bytes(&bytes).expect("decode");
+            assert_eq!(back.combine, combine);
+            assert_eq!(back.stages[1].phase, 0.5);
+            let groups = |n: &str| (n == "left").then(|| (0..250).collect());
+            let replayed = back.compose(&rest, &groups).expect("compose");
+            let evaluated = p.evaluate().expect("evaluate");
+            let worst = replayed
+                .iter()
+                .zip(evaluated)
+                .map(|(a, b)| a.distance(*b))
+                .fold(0.0f32, f32::max);
+            // f32 binding weights against f64 evaluation (see Binding).
+            assert!(worst < 1e-6, "{combine}: {worst}");
+            // A file of two deformations is not one deformation.
+            let e = Deformation::from_bytes(&bytes).expect_err("two read as one");
+            assert!(e.to_string().contains("2 deformations"), "{e}");
+        }
+    }
 }

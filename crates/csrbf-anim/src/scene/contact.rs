@@ -47,10 +47,9 @@ impl Scene {
             return;
         }
         let radius = c.reach * (0.5 * r + depth);
-        let opts = FitOptions::default()
+        let opts = FitOptions::new(radius)
             .with_kernel(c.kernel)
-            .with_polynomial(Polynomial::None)
-            .with_radius(radius);
+            .with_polynomial(Polynomial::None);
         let Ok(def) = System::new(&starts, opts).and_then(|s| s.solve(&targets)) else {
             return;
         };

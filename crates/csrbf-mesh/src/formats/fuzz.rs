@@ -9,7 +9,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
 
-use csrbf::synthetic::{Rng, mutate};
+use csrbf::fuzz::mutate;
+use csrbf::synthetic::Rng;
 
 use crate::{Format, Mesh};
 

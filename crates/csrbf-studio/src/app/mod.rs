@@ -493,7 +493,10 @@ impl StudioApp {
         let result = csrbf_anim::apply::fit_file(&m.doc.mesh, &m.doc.controls).and_then(|s| {
             let s: Vec<_> = s
                 .into_iter()
-                .map(|(d, r, p)| (d, r, p * m.doc.phase))
+                .map(|s| {
+                    let phase = s.phase * m.doc.phase;
+                    s.with_phase(phase)
+                })
                 .collect();
             csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine)
         });

@@ -41,22 +41,8 @@ impl Octree {
     /// Deepest level; below it points are left in one leaf.
     pub const MAX_DEPTH: u32 = 24;
 
-    /// Number of points in the tree.
-    pub fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Whether the tree holds no point.
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-
-    /// Number of nodes, leaves included.
-    pub fn node_count(&self) -> usize {
-        self.nodes.len()
-    }
-
     /// Depth of the deepest leaf (the root has depth 0).
+    #[cfg(test)]
     pub fn depth(&self) -> u32 {
         fn walk(t: &Octree, n: usize, d: u32) -> u32 {
             let node = t.nodes[n];

@@ -19,6 +19,7 @@ impl Octree {
     }
 
     /// The indices of every point closer than `radius` to `q`, in no set order.
+    #[cfg(test)]
     pub fn within(&self, q: DVec3, radius: f64) -> Vec<u32> {
         let mut out = Vec::new();
         self.for_each_within(q, radius, |i, _| out.push(i));

@@ -23,7 +23,7 @@ fn matches_brute_force_on_random_clouds() {
             }
         }
         let tree = Octree::new(&points);
-        assert_eq!(tree.len(), points.len());
+        assert_eq!(tree.points.len(), points.len());
         for _ in 0..50 {
             let q = rng.vec3() * 4.0 - 1.5;
             let r = rng.f64() * 0.8;

@@ -16,7 +16,7 @@ pub(super) fn factor(
     envelope: Envelope,
     options: &FitOptions,
     _band: Band,
-) -> Result<Factor> {
+) -> Result<Factor, crate::error::FitError> {
     let kernel = options.kernel;
     let inv_r = 1.0 / options.radius;
     let phi = |i: usize, j: usize| kernel.eval(starts[i].distance(starts[j]) * inv_r);

@@ -3,20 +3,20 @@
 use glam::{DMat3, DVec3};
 
 use super::{FitOptions, SystemStats, maybe_par_map};
-use crate::error::{Error, Result};
+use crate::error::FitError;
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
 use crate::ordering::Graph;
 
-pub(super) fn validate(starts: &[DVec3], options: &FitOptions) -> Result<()> {
+pub(super) fn validate(starts: &[DVec3], options: &FitOptions) -> Result<(), FitError> {
     if !(options.radius > 0.0 && options.radius.is_finite()) {
-        return Err(Error::BadRadius(options.radius));
+        return Err(FitError::BadRadius(options.radius));
     }
     if starts.is_empty() {
-        return Err(Error::NoControls);
+        return Err(FitError::NoControls);
     }
     if let Some(i) = starts.iter().position(|s| !s.is_finite()) {
-        return Err(Error::NotFinite {
+        return Err(FitError::NotFinite {
             index: i,
             what: "start",
         });
@@ -32,14 +32,14 @@ pub(super) fn validate(starts: &[DVec3], options: &FitOptions) -> Result<()> {
     if size > f32::MAX as f64
         || (starts.len() > 1 && extent > 0.0 && extent < f64::MIN_POSITIVE * 1e10)
     {
-        return Err(Error::StartScale { extent, size });
+        return Err(FitError::StartScale { extent, size });
     }
     if options.polynomial == Polynomial::Linear {
         if starts.len() < 4 {
-            return Err(Error::TooFewForLinear(starts.len()));
+            return Err(FitError::TooFewForLinear(starts.len()));
         }
         if coplanar(starts) {
-            return Err(Error::CoplanarStarts);
+            return Err(FitError::CoplanarStarts);
         }
     }
     Ok(())
@@ -75,7 +75,7 @@ pub(super) struct ClosePair {
 
 /// Starts closer than this fraction of R are a "near pair": fine with the
 /// same move, refused when their moves differ by more than their distance
-/// (see [`crate::Error::ConflictingStarts`]).
+/// (see [`crate::FitError::ConflictingStarts`]).
 pub const NEAR_FRACTION: f64 = 0.01;
 
 /// Neighbour lists within R (no self), the first pair of starts too close

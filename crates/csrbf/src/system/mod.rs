@@ -12,13 +12,16 @@ mod graph;
 mod options;
 mod poly;
 
+use std::sync::Arc;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::binding::Binding;
 use crate::deformation::{Affine, Deformation};
-use crate::error::{Error, Result};
+use crate::error::{Error, FitError, Result};
 use crate::evaluate::Point;
-use crate::kernel::Polynomial;
+use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
 use crate::ordering;
 use crate::skyline::Envelope;
@@ -32,13 +35,42 @@ use assemble::factor;
 use graph::{neighbour_counts, neighbour_graph, validate};
 use poly::{PolyBlock, poly_block};
 
+/// What every deformation a system solves shares with it: the starts, their
+/// order and octree, and the fingerprint a [`Binding`] checks.
+#[derive(Debug)]
+pub(crate) struct Shared {
+    pub(crate) kernel: Kernel,
+    pub(crate) radius: f64,
+    pub(crate) starts: Arc<[DVec3]>,
+    pub(crate) order: Arc<[u32]>,
+    pub(crate) octree: Arc<Octree>,
+    pub(crate) fingerprint: u64,
+}
+
 /// The symbolic and numeric state for one set of start points.
+///
+/// ```
+/// use csrbf::{FitOptions, System};
+/// use csrbf::glam::{DVec3, Vec3};
+///
+/// let starts = [DVec3::ZERO, DVec3::X];
+/// let sys = System::new(&starts, FitOptions::new(0.8))?;
+/// let points = vec![Vec3::ZERO, Vec3::X * 0.5];
+/// let binding = sys.bind(&points); // no solve needed first
+/// let mut d = sys.solve(&starts)?; // the identity
+/// let mut shown = vec![Vec3::ZERO; 2];
+/// for step in 1..=3 {
+///     let targets = [DVec3::new(0.0, 0.1 * step as f64, 0.0), DVec3::X];
+///     sys.solve_into(&targets, &mut d)?; // reuses d's buffers
+///     binding.displacements_into(&d, &mut shown)?;
+/// }
+/// assert!((shown[0].y - 0.3).abs() < 1e-6);
+/// # Ok::<(), csrbf::Error>(())
+/// ```
 #[derive(Debug)]
 pub struct System {
     options: FitOptions,
-    starts: Vec<DVec3>,
-    octree: Octree,
-    order: Vec<u32>,
+    shared: Shared,
     factor: Factor,
     poly: Option<PolyBlock>,
     stats: SystemStats,
@@ -52,19 +84,19 @@ impl System {
     /// Checks: at least one start, finite coordinates, a valid radius, no two
     /// starts at the same place, and for `linear` at least 4 starts not on one
     /// plane.
-    pub fn new<P: Point>(starts: &[P], options: FitOptions) -> Result<System> {
+    pub fn new<P: Point>(starts: &[P], options: FitOptions) -> Result<System, FitError> {
         let starts: Vec<DVec3> = starts.iter().map(|p| p.to_dvec3()).collect();
-        System::build(&starts, options)
+        System::build(starts, options)
     }
 
-    fn build(starts: &[DVec3], options: FitOptions) -> Result<System> {
-        validate(starts, &options)?;
+    fn build(starts: Vec<DVec3>, options: FitOptions) -> Result<System, FitError> {
+        validate(&starts, &options)?;
         let radius = options.radius;
         // A nearly dense system is refused before its graph is built.
         if starts.len() >= 2000 {
-            let e = estimate(starts, radius);
+            let e = estimate(&starts, radius);
             if e.bytes > options.memory_limit as f64 {
-                return Err(Error::TooLarge {
+                return Err(FitError::TooLarge {
                     bytes: e.bytes,
                     limit: options.memory_limit,
                     neighbours: e.neighbours,
@@ -74,16 +106,16 @@ impl System {
                 });
             }
         }
-        let octree = Octree::new(starts);
-        let (graph, close, near) = neighbour_graph(starts, &octree, radius, options.kernel);
+        let octree = Octree::new(&starts);
+        let (graph, close, near) = neighbour_graph(&starts, &octree, radius, options.kernel);
         if let Some(c) = close {
             return Err(if c.d2 == 0.0 {
-                Error::DuplicateStart {
+                FitError::DuplicateStart {
                     first: c.first,
                     second: c.second,
                 }
             } else {
-                Error::StartsTooClose {
+                FitError::StartsTooClose {
                     first: c.first,
                     second: c.second,
                     distance: c.d2.sqrt(),
@@ -123,18 +155,24 @@ impl System {
         };
         neighbour_counts(&graph, &mut stats);
 
-        let factor = factor(starts, &graph, perm.clone(), envelope, &options, after)?;
+        let factor = factor(&starts, &graph, perm.clone(), envelope, &options, after)?;
         stats.solver = factor.choice().name().to_owned();
         stats.factor_bytes = factor.value_bytes();
         let poly = match options.polynomial {
             Polynomial::None => None,
-            Polynomial::Linear => Some(poly_block(starts, &factor)?),
+            Polynomial::Linear => Some(poly_block(&starts, &factor)?),
         };
+        let fingerprint = crate::deformation::fingerprint(options.kernel, radius, &starts);
         Ok(System {
             options,
-            starts: starts.to_vec(),
-            octree,
-            order: perm,
+            shared: Shared {
+                kernel: options.kernel,
+                radius,
+                starts: starts.into(),
+                order: perm.into(),
+                octree: Arc::new(octree),
+                fingerprint,
+            },
             factor,
             poly,
             stats,
@@ -143,38 +181,71 @@ impl System {
     }
 
     /// Solves for the coefficients that carry each start to its destination.
-    /// Only the right-hand sides change: nothing is assembled or factored again.
-    pub fn solve<P: Point>(&self, targets: &[P]) -> Result<Deformation> {
-        let targets: Vec<DVec3> = targets.iter().map(|p| p.to_dvec3()).collect();
-        self.solve_f64(&targets)
+    /// Only the right-hand sides change: nothing is assembled or factored
+    /// again, and the deformation shares the system's starts and octree.
+    pub fn solve<P: Point>(&self, targets: &[P]) -> Result<Deformation, FitError> {
+        let (y, affine) = self.solution(targets)?;
+        Ok(Deformation::from_shared(&self.shared, y, affine))
     }
 
-    fn solve_f64(&self, targets: &[DVec3]) -> Result<Deformation> {
-        self.check_near_pairs(targets)?;
-        if targets.len() != self.starts.len() {
-            return Err(Error::TargetCount {
-                expected: self.starts.len(),
+    /// Solves again into a deformation this system solved before, reusing
+    /// its buffers (a drag loop). Fails when `deformation` came from other
+    /// starts, kernel or radius (its fingerprint differs).
+    pub fn solve_into<P: Point>(&self, targets: &[P], deformation: &mut Deformation) -> Result<()> {
+        if deformation.fingerprint() != self.shared.fingerprint {
+            return Err(Error::SystemMismatch);
+        }
+        let (y, affine) = self.solution(targets)?;
+        deformation.set_solution(&y, affine);
+        Ok(())
+    }
+
+    /// Solves for several sets of destinations at once, in parallel
+    /// (dataset augmentation: one mesh, many edits).
+    pub fn solve_many<T: AsRef<[DVec3]> + Sync>(
+        &self,
+        target_sets: &[T],
+    ) -> Result<Vec<Deformation>, FitError> {
+        target_sets
+            .par_iter()
+            .map(|t| self.solve(t.as_ref()))
+            .collect()
+    }
+
+    /// Binds these points to the system's starts: their kernel weights,
+    /// found once, apply to every deformation the system solves.
+    pub fn bind<P: Point>(&self, points: &[P]) -> Binding {
+        Binding::of_shared(&self.shared, points)
+    }
+
+    /// The coefficients and polynomial part for these destinations.
+    fn solution<P: Point>(&self, targets: &[P]) -> Result<(Vec<DVec3>, Option<Affine>), FitError> {
+        let starts = &self.shared.starts;
+        if targets.len() != starts.len() {
+            return Err(FitError::TargetCount {
+                expected: starts.len(),
                 got: targets.len(),
             });
         }
-        if let Some(i) = targets.iter().position(|t| !t.is_finite()) {
-            return Err(Error::NotFinite {
-                index: i,
-                what: "destination",
-            });
+        let mut y: Vec<DVec3> = Vec::with_capacity(targets.len());
+        for (i, (t, s)) in targets.iter().zip(starts.iter()).enumerate() {
+            let t = t.to_dvec3();
+            if !t.is_finite() {
+                return Err(FitError::NotFinite {
+                    index: i,
+                    what: "destination",
+                });
+            }
+            y.push(t - *s);
         }
-        let mut y: Vec<DVec3> = targets
-            .iter()
-            .zip(&self.starts)
-            .map(|(t, s)| *t - *s)
-            .collect();
+        self.check_near_pairs(&y)?;
         self.factor.solve_in_place(&mut y);
         let affine = match &self.poly {
             None => None,
             Some(pb) => {
                 // r = P^T y (4 x 3), beta = S^-1 r, alpha = y - W beta.
                 let mut r = [DVec3::ZERO; 4];
-                for (s, yi) in self.starts.iter().zip(&y) {
+                for (s, yi) in starts.iter().zip(&y) {
                     let p = prow(*s, pb.center, pb.scale);
                     for (k, rk) in r.iter_mut().enumerate() {
                         *rk += *yi * p[k];
@@ -195,31 +266,24 @@ impl System {
                 })
             }
         };
-        Ok(Deformation::from_parts(
-            self.options.kernel,
-            self.options.radius,
-            self.starts.clone(),
-            y,
-            affine,
-            self.order.clone(),
-            Some(self.octree.clone()),
-        ))
+        Ok((y, affine))
     }
 
     /// Starts nearly on top of each other (closer than 1 % of R) must move
     /// alike: moves that differ by more than their distance ask for a
     /// gradient no smooth map has, and the interpolant overshoots far away.
-    fn check_near_pairs(&self, targets: &[DVec3]) -> Result<()> {
+    /// `moves` are the destinations less the starts.
+    fn check_near_pairs(&self, moves: &[DVec3]) -> Result<(), FitError> {
+        let starts = &self.shared.starts;
         for &(a, b) in &self.near {
             let (a, b) = (a as usize, b as usize);
-            if a >= targets.len() || b >= targets.len() {
+            if a >= moves.len() || b >= moves.len() {
                 continue;
             }
-            let distance = self.starts[a].distance(self.starts[b]);
-            let difference =
-                ((targets[a] - self.starts[a]) - (targets[b] - self.starts[b])).length();
+            let distance = starts[a].distance(starts[b]);
+            let difference = (moves[a] - moves[b]).length();
             if difference > distance {
-                return Err(Error::ConflictingStarts {
+                return Err(FitError::ConflictingStarts {
                     first: a,
                     second: b,
                     distance,
@@ -238,7 +302,13 @@ impl System {
 
     /// The start points.
     pub fn starts(&self) -> &[DVec3] {
-        &self.starts
+        &self.shared.starts
+    }
+
+    /// The fingerprint of its starts, kernel and radius, shared by every
+    /// deformation it solves ([`Deformation::fingerprint`]).
+    pub fn fingerprint(&self) -> u64 {
+        self.shared.fingerprint
     }
 
     /// The figures of the system.
@@ -248,7 +318,7 @@ impl System {
 
     /// The ordering used (`order[new] = start index`).
     pub fn order(&self) -> &[u32] {
-        &self.order
+        &self.shared.order
     }
 }
 

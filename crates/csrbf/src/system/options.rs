@@ -4,14 +4,23 @@ use crate::kernel::{Kernel, Polynomial};
 use crate::ordering::Ordering;
 use crate::solver::SolverChoice;
 
-/// How to build a deformation. Plain data; `Default` is C2, R = 1, no polynomial,
-/// automatic ordering and solver.
+/// How to build a deformation. Plain data: [`FitOptions::new`] takes the
+/// radius of support, the one parameter with no sensible default (it is in
+/// the model's units); the rest default to C2, no polynomial, automatic
+/// ordering and solver.
+///
+/// Choosing R: a share of the model's size (5-20 % of its bounding box's
+/// diagonal for a local edit), or so that each start has some neighbours
+/// within R (`csrbf info --controls C` prints neighbours per start and the
+/// system's memory; [`System::stats`](crate::System::stats) gives the same
+/// figures). A larger R gives smoother, wider edits and a denser system.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[non_exhaustive]
 pub struct FitOptions {
     /// The Wendland kernel. Default C2.
     pub kernel: Kernel,
-    /// Radius of support R, in the units of the points. Default 1.
+    /// Radius of support R, in the units of the points. No default: given
+    /// to [`FitOptions::new`].
     pub radius: f64,
     /// The polynomial term. Default none (local edits stay local).
     pub polynomial: Polynomial,
@@ -21,7 +30,7 @@ pub struct FitOptions {
     pub solver: SolverChoice,
     /// Most memory the neighbour graph and factor may take, estimated
     /// before either is built: past it the fit is refused (see
-    /// [`crate::Error::TooLarge`]). Default [`DEFAULT_MEMORY_LIMIT`];
+    /// [`crate::FitError::TooLarge`]). Default [`DEFAULT_MEMORY_LIMIT`];
     /// `u64::MAX` lifts it.
     pub memory_limit: u64,
 }
@@ -31,20 +40,33 @@ pub struct FitOptions {
 /// swaps or aborts.
 pub const DEFAULT_MEMORY_LIMIT: u64 = 4 << 30;
 
-impl Default for FitOptions {
-    fn default() -> Self {
+impl FitOptions {
+    /// Options with this radius of support R (in the points' units; checked
+    /// when fitting: finite and > 0) and the defaults for the rest.
+    ///
+    /// ```
+    /// use csrbf::{FitOptions, Kernel};
+    /// let o = FitOptions::new(0.3).with_kernel(Kernel::C4);
+    /// assert_eq!((o.radius, o.kernel), (0.3, Kernel::C4));
+    /// ```
+    ///
+    /// There is no `Default`: a radius must be chosen (issue 21; forgetting
+    /// it once moved 5806 of a 6200-vertex model).
+    ///
+    /// ```compile_fail
+    /// let o = csrbf::FitOptions::default();
+    /// ```
+    pub fn new(radius: f64) -> FitOptions {
         FitOptions {
             kernel: Kernel::C2,
-            radius: 1.0,
+            radius,
             polynomial: Polynomial::None,
             ordering: Ordering::Auto,
             solver: SolverChoice::Auto,
             memory_limit: DEFAULT_MEMORY_LIMIT,
         }
     }
-}
 
-impl FitOptions {
     /// With this kernel.
     pub fn with_kernel(mut self, kernel: Kernel) -> Self {
         self.kernel = kernel;

@@ -2,7 +2,7 @@
 
 use glam::{DMat4, DVec3, DVec4};
 
-use crate::error::{Error, Result};
+use crate::error::FitError;
 use crate::solver::Factor;
 
 /// The polynomial block after elimination: W = A^-1 P and S^-1 = (P^T W)^-1,
@@ -22,7 +22,7 @@ pub(crate) fn prow(s: DVec3, center: DVec3, scale: f64) -> DVec4 {
     DVec4::new(1.0, u.x, u.y, u.z)
 }
 
-pub(super) fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock> {
+pub(super) fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock, FitError> {
     let n = starts.len() as f64;
     let center = starts.iter().copied().sum::<DVec3>() / n;
     let scale = starts
@@ -42,7 +42,7 @@ pub(super) fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock>
     let det = s.determinant();
     let diag_product = s.x_axis.x * s.y_axis.y * s.z_axis.z * s.w_axis.w;
     if !(det > diag_product.abs() * 1e-14) || !det.is_finite() {
-        return Err(Error::CoplanarStarts);
+        return Err(FitError::CoplanarStarts);
     }
     Ok(PolyBlock {
         w,
