@@ -102,6 +102,24 @@ pub enum Warning {
     },
 }
 
+impl Warning {
+    /// A short stable name of the warning's kind, for callers that filter
+    /// or act on kinds (the Python package's `Report.warning_kinds`, the
+    /// Blender extension): `empty_region`, `past_fold_free_bound`,
+    /// `starts_far_from_mesh`, `support_crosses_region`, `polynomial_leak`,
+    /// `flipped_faces`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Warning::EmptyRegion { .. } => "empty_region",
+            Warning::PastFoldFreeBound { .. } => "past_fold_free_bound",
+            Warning::StartsFarFromMesh { .. } => "starts_far_from_mesh",
+            Warning::SupportCrossesRegion { .. } => "support_crosses_region",
+            Warning::PolynomialLeak { .. } => "polynomial_leak",
+            Warning::FlippedFaces { .. } => "flipped_faces",
+        }
+    }
+}
+
 fn list(v: &[usize], count: usize) -> String {
     let mut s = v
         .iter()
