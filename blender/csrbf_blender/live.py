@@ -1,0 +1,100 @@
+"""Live posing: while a destination empty moves, the shape key follows.
+
+The factored system and the vertices' binding are kept per object (as the
+studio keeps them): a moved destination costs one solve and one sparse
+product; a moved start, a new control or other settings rebuild them.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from . import core
+
+# Object name -> _State. Runtime only (not saved in the .blend).
+_states: dict[str, "_State"] = {}
+
+
+class _State:
+    def __init__(self, obj):
+        import csrbf
+
+        s = obj.csrbf
+        self.key = _settings_key(obj)
+        self.starts, self.targets = core.controls(obj)
+        self.rest = core.rest_positions(obj)
+        idx = None
+        if s.vertex_group:
+            idx = core.group_vertices(obj, s.vertex_group)
+            if idx is None:
+                raise ValueError(f"{obj.name!r} has no vertex group {s.vertex_group!r}")
+        self.region = idx
+        pts = self.rest if idx is None else self.rest[idx]
+        self.system = csrbf.System(self.starts, s.radius, kernel=s.kernel, polynomial=s.polynomial)
+        self.binding = self.system.bind(pts)
+        self.shown = None  # the targets last written
+
+    def update(self, obj, targets) -> None:
+        d = self.system.solve(targets)
+        disp = self.binding.displacements(d)
+        out = self.rest.copy()
+        if self.region is None:
+            out += disp
+        else:
+            out[self.region] += disp
+        core.write_shape_key(obj, obj.csrbf.layer, out)
+        self.shown = targets.copy()
+
+
+def _settings_key(obj):
+    s = obj.csrbf
+    return (s.radius, s.kernel, s.polynomial, s.vertex_group, s.layer, len(obj.data.vertices))
+
+
+def refresh(obj) -> str:
+    """Brings the object's shape key up to date with its empties; returns
+    what it did: "solved" (destinations moved), "rebuilt" (starts or
+    settings changed), "unchanged" or an error message (the key is then
+    left as it was)."""
+    starts, targets = core.controls(obj)
+    if len(starts) == 0:
+        return "no control vectors"
+    st = _states.get(obj.name)
+    did = "solved"
+    try:
+        if st is None or st.key != _settings_key(obj) or not np.array_equal(st.starts, starts):
+            st = _states[obj.name] = _State(obj)
+            did = "rebuilt"
+        elif st.shown is not None and np.array_equal(st.shown, targets):
+            return "unchanged"
+        st.update(obj, targets)
+    except Exception as e:  # the engine's refusal: shown, never raised into Blender's handler loop
+        _states.pop(obj.name, None)
+        obj.csrbf.warnings = f"live: {e}"
+        return f"error: {e}"
+    return did
+
+
+def _on_depsgraph(scene, depsgraph):
+    for obj in scene.objects:
+        if obj.type == "MESH" and obj.csrbf.live:
+            refresh(obj)
+
+
+def set_enabled(obj, on: bool) -> None:
+    if obj is not None and not on:
+        _states.pop(obj.name, None)
+    if obj is not None and on:
+        refresh(obj)
+
+
+def register():
+    if _on_depsgraph not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph)
+
+
+def unregister():
+    if _on_depsgraph in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(_on_depsgraph)
+    _states.clear()

@@ -1,0 +1,214 @@
+"""The operators: add a control vector, deform into a shape key (from the
+empties or from a control file), export the empties as a control file."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+
+import bpy
+from bpy.props import StringProperty
+from bpy_extras.io_utils import ExportHelper, ImportHelper
+
+from . import core
+
+
+def _mesh_object(op, context):
+    obj = context.active_object
+    if obj is None or obj.type != "MESH":
+        what = "nothing" if obj is None else f"{obj.name!r}, a {obj.type.lower()}"
+        op.report({"ERROR"}, f"csrbf: the active object must be a mesh, not {what}")
+        return None
+    return obj
+
+
+def _engine():
+    import csrbf  # the wheel the extension ships
+
+    return csrbf
+
+
+def apply_spec(op, obj, spec: dict, source: str) -> bool:
+    """Fits a control file (parsed JSON, regions by vertex group name) on the
+    object's rest shape and writes the result into the shape key named after
+    the first deformation's `name` (or the object's layer). Reports and
+    changes nothing on any error, or when a start reaches no vertex."""
+    csrbf = _engine()
+    settings = obj.csrbf
+    rest = core.rest_positions(obj)
+    mesh = csrbf.Mesh(rest, core.triangles(obj))
+    try:
+        out, report = csrbf.deform_mesh(mesh, core.resolve_groups(spec, obj))
+    except (csrbf.Error, ValueError, TypeError) as e:
+        op.report({"ERROR"}, f"csrbf: {source}: {e}")
+        return False
+    far = [w for w, k in zip(report.warnings, report.warning_kinds) if k == "starts_far_from_mesh"]
+    if far:
+        op.report({"ERROR"}, f"csrbf: {source}: {far[0]} (move the start onto the mesh or raise the radius)")
+        return False
+    first = spec.get("deformations", [spec])[0] if isinstance(spec, dict) else {}
+    name = first.get("name") if isinstance(first, dict) and isinstance(first.get("name"), str) else settings.layer
+    core.write_shape_key(obj, name or settings.layer, out.vertices)
+    settings.moved = report.moved
+    settings.flipped = report.flipped_faces
+    settings.largest_move = report.largest_move
+    settings.warnings = "\n".join(report.warnings)
+    level = {"WARNING"} if report.warnings else {"INFO"}
+    op.report(level, f"csrbf: {report.moved} of {len(rest)} vertices moved into shape key {name!r}"
+              + (f"; {len(report.warnings)} warning(s): {report.warnings[0]}" if report.warnings else ""))
+    return True
+
+
+class CSRBF_OT_add_control(bpy.types.Operator):
+    """Add a control vector: a start on the surface under the 3D cursor (or at each selected vertex in Edit Mode) and a destination to move with G/R"""
+
+    bl_idname = "csrbf.add_control"
+    bl_label = "Add Control Vector"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = _mesh_object(self, context)
+        if obj is None:
+            return {"CANCELLED"}
+        if obj.mode == "EDIT":
+            obj.update_from_editmode()
+            points = [v.co.copy() for v in obj.data.vertices if v.select]
+            if not points:
+                self.report({"ERROR"}, "csrbf: select a vertex to start a control vector at")
+                return {"CANCELLED"}
+            bpy.ops.object.mode_set(mode="OBJECT")
+        else:
+            if len(obj.data.polygons) == 0:
+                self.report({"ERROR"}, f"csrbf: {obj.name!r} has no faces to place a start on")
+                return {"CANCELLED"}
+            cursor = obj.matrix_world.inverted() @ context.scene.cursor.location
+            hit, location, _normal, _face = obj.closest_point_on_mesh(cursor)
+            if not hit:
+                self.report({"ERROR"}, "csrbf: no surface point found near the 3D cursor")
+                return {"CANCELLED"}
+            points = [location]
+        settings = obj.csrbf
+        size = core.diagonal(core.rest_positions(obj)) or 1.0
+        if not settings.initialised:
+            settings.radius = 0.15 * size
+            settings.initialised = True
+        col = bpy.data.collections.get(core.collection_name(obj))
+        if col is None:
+            col = bpy.data.collections.new(core.collection_name(obj))
+            context.scene.collection.children.link(col)
+        target = None
+        for p in points:
+            k = settings.next_pair
+            settings.next_pair += 1
+            start = _empty(col, obj, f"{obj.name} start {k}", "SPHERE", 0.01 * size, p, "start", k)
+            target = _empty(col, obj, f"{obj.name} to {k}", "PLAIN_AXES", 0.03 * size, p, "target", k)
+            start.hide_select = False
+        for o in context.view_layer.objects:
+            o.select_set(False)
+        if target is not None and target.name in context.view_layer.objects:
+            target.select_set(True)
+            context.view_layer.objects.active = target
+        self.report({"INFO"}, f"csrbf: {len(points)} control vector(s) added; move the destination (G) and Deform")
+        return {"FINISHED"}
+
+
+def _empty(col, obj, name, display, size, local, role, pair):
+    e = bpy.data.objects.new(name, None)
+    e.empty_display_type = display
+    e.empty_display_size = size
+    col.objects.link(e)
+    e.parent = obj
+    e.matrix_parent_inverse.identity()
+    e.location = local
+    e[core.ROLE] = role
+    e[core.PAIR] = pair
+    e[core.OWNER] = obj.name
+    return e
+
+
+class CSRBF_OT_deform(bpy.types.Operator):
+    """Fit the object's control vectors and write the deformation into its shape key (value 1)"""
+
+    bl_idname = "csrbf.deform"
+    bl_label = "Deform"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = _mesh_object(self, context)
+        if obj is None:
+            return {"CANCELLED"}
+        starts, _ = core.controls(obj)
+        if len(starts) == 0:
+            self.report({"ERROR"}, f"csrbf: {obj.name!r} has no control vectors: add one first")
+            return {"CANCELLED"}
+        settings = obj.csrbf
+        if not settings.radius > 0.0:
+            self.report({"ERROR"}, f"csrbf: the radius must be > 0, got {settings.radius}")
+            return {"CANCELLED"}
+        if settings.vertex_group and obj.vertex_groups.get(settings.vertex_group) is None:
+            self.report({"ERROR"}, f"csrbf: {obj.name!r} has no vertex group {settings.vertex_group!r}")
+            return {"CANCELLED"}
+        ok = apply_spec(self, obj, core.control_file(obj, settings), obj.name)
+        return {"FINISHED"} if ok else {"CANCELLED"}
+
+
+class CSRBF_OT_deform_from_file(bpy.types.Operator, ImportHelper):
+    """Deform the active mesh by a control file in the csrbf CLI's format (regions by vertex group name) into a shape key"""
+
+    bl_idname = "csrbf.deform_from_file"
+    bl_label = "Deform from Control File"
+    bl_options = {"REGISTER", "UNDO"}
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        obj = _mesh_object(self, context)
+        if obj is None:
+            return {"CANCELLED"}
+        path = self.filepath
+        try:
+            spec = core.read_control_file(path)
+        except json.JSONDecodeError as e:
+            self.report({"ERROR"}, f"csrbf: {path}: line {e.lineno}, column {e.colno}: {e.msg}")
+            return {"CANCELLED"}
+        except (OSError, UnicodeDecodeError) as e:
+            self.report({"ERROR"}, f"csrbf: cannot read {path}: {e}")
+            return {"CANCELLED"}
+        return {"FINISHED"} if apply_spec(self, obj, spec, path) else {"CANCELLED"}
+
+
+class CSRBF_OT_export_controls(bpy.types.Operator, ExportHelper):
+    """Write the object's control vectors (local coordinates) as a control file the csrbf CLI and csrbf-studio open"""
+
+    bl_idname = "csrbf.export_controls"
+    bl_label = "Export Control File"
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
+
+    def execute(self, context):
+        obj = _mesh_object(self, context)
+        if obj is None:
+            return {"CANCELLED"}
+        spec = core.control_file(obj, obj.csrbf)
+        if not spec["controls"]:
+            self.report({"ERROR"}, f"csrbf: {obj.name!r} has no control vectors to export")
+            return {"CANCELLED"}
+        path = bpy.path.abspath(self.filepath)
+        folder = os.path.dirname(path) or "."
+        tmp = None
+        try:  # whole or not at all: a temporary file beside the target, renamed
+            fd, tmp = tempfile.mkstemp(prefix=".csrbf-", suffix=".tmp", dir=folder)
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                json.dump(spec, f, indent=2)
+            os.replace(tmp, path)
+        except OSError as e:
+            if tmp is not None and os.path.exists(tmp):
+                os.remove(tmp)
+            self.report({"ERROR"}, f"csrbf: cannot write {path}: {e}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"csrbf: wrote {len(spec['controls'])} control vector(s) to {path}")
+        return {"FINISHED"}
+
+
+CLASSES = (CSRBF_OT_add_control, CSRBF_OT_deform, CSRBF_OT_deform_from_file, CSRBF_OT_export_controls)

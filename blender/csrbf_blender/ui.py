@@ -1,0 +1,100 @@
+"""The sidebar panel (3D view, N, tab csrbf) and the lines from each start to its destination."""
+
+from __future__ import annotations
+
+import bpy
+
+from . import core
+
+
+class CSRBF_PT_panel(bpy.types.Panel):
+    bl_label = "csrbf"
+    bl_idname = "CSRBF_PT_panel"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "csrbf"
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.active_object
+        if obj is not None and obj.type == "EMPTY" and obj.parent is not None and obj.get(core.ROLE):
+            obj = obj.parent  # a control's empty is selected: show its mesh
+        if obj is None or obj.type != "MESH":
+            layout.label(text="Select a mesh object", icon="INFO")
+            return
+        s = obj.csrbf
+        layout.label(text=obj.name, icon="MESH_DATA")
+        layout.operator("csrbf.add_control", icon="EMPTY_SINGLE_ARROW")
+        col = layout.column(align=True)
+        col.prop(s, "radius")
+        size = core.diagonal(core.rest_positions(obj)) if len(obj.data.vertices) else 0.0
+        if size > 0:
+            col.label(text=f"R = {100 * s.radius / size:.1f} % of the object's size")
+        col.prop(s, "kernel")
+        col.prop(s, "polynomial")
+        col.prop_search(s, "vertex_group", obj, "vertex_groups")
+        col.prop(s, "layer")
+        layout.label(text="Coordinates: the object's local space")
+        row = layout.row(align=True)
+        row.operator("csrbf.deform", icon="MOD_MESHDEFORM")
+        row.prop(s, "live", toggle=True, icon="PLAY")
+        layout.operator("csrbf.deform_from_file", icon="FILE")
+        layout.operator("csrbf.export_controls", icon="EXPORT")
+        starts, _ = core.controls(obj)
+        box = layout.box()
+        box.label(text=f"{len(starts)} control vector(s)")
+        if s.moved >= 0:
+            box.label(text=f"{s.moved} vertices moved, largest {s.largest_move:.4g}")
+            box.label(text=f"{s.flipped} face(s) turned over", icon="ERROR" if s.flipped else "CHECKMARK")
+        for w in s.warnings.splitlines()[:6]:
+            box.label(text=w, icon="ERROR")
+
+
+_draw_handle = None
+
+
+def _draw_lines():
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+
+    coords = []
+    for obj in bpy.context.scene.objects:
+        if obj.type != "MESH":
+            continue
+        col = bpy.data.collections.get(core.collection_name(obj))
+        if col is None:
+            continue
+        pairs = {}
+        for e in col.objects:
+            if e.get(core.OWNER) == obj.name and e.get(core.ROLE):
+                pairs.setdefault(e.get(core.PAIR), {})[e.get(core.ROLE)] = e.matrix_world.translation
+        for p in pairs.values():
+            if len(p) == 2:
+                coords += [tuple(p["start"]), tuple(p["target"])]
+    if not coords:
+        return
+    shader = gpu.shader.from_builtin("UNIFORM_COLOR")
+    batch = batch_for_shader(shader, "LINES", {"pos": coords})
+    shader.uniform_float("color", (1.0, 0.75, 0.1, 1.0))
+    gpu.state.line_width_set(2.0)
+    batch.draw(shader)
+
+
+CLASSES = (CSRBF_PT_panel,)
+
+
+def register():
+    global _draw_handle
+    for c in CLASSES:
+        bpy.utils.register_class(c)
+    if not bpy.app.background:  # no viewport to draw in when headless
+        _draw_handle = bpy.types.SpaceView3D.draw_handler_add(_draw_lines, (), "WINDOW", "POST_VIEW")
+
+
+def unregister():
+    global _draw_handle
+    if _draw_handle is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_draw_handle, "WINDOW")
+        _draw_handle = None
+    for c in reversed(CLASSES):
+        bpy.utils.unregister_class(c)
