@@ -88,8 +88,10 @@ pub(crate) fn move_and_write(
     if m.normals.is_some() {
         m.recompute_normals();
     }
+    // The stages' phases were scaled by `phase`: the fold phase is a share of it.
+    let fold_phase = report.fold_phase.map(|s| s * phase);
     progress.say(format_args!(
-        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) turned over",
+        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) inside out{}",
         m.positions.len(),
         report.moved,
         report.largest_move,
@@ -97,7 +99,10 @@ pub(crate) fn move_and_write(
             .largest_move_vertex
             .map(|v| format!(" (vertex {v})"))
             .unwrap_or_default(),
-        report.flipped.len(),
+        report.inside_out.len(),
+        fold_phase
+            .map(|p| format!(", folds from phase {p:.2} on"))
+            .unwrap_or_default(),
     ));
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -114,6 +119,9 @@ pub(crate) fn move_and_write(
             "moved": report.moved,
             "largest_move": report.largest_move,
             "largest_move_vertex": report.largest_move_vertex,
+            "inside_out_faces": report.inside_out.len(),
+            "inside_out": report.inside_out.iter().take(1000).collect::<Vec<_>>(),
+            "fold_phase": fold_phase,
             "flipped_faces": report.flipped.len(),
             "flipped": report.flipped.iter().take(1000).collect::<Vec<_>>(),
             "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),

@@ -163,6 +163,7 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                 &moved,
                 &m.faces.triangles(),
                 &stages1,
+                csrbf::Combine::Chain,
                 &lookup,
             )?;
             stage.insert(
@@ -171,6 +172,8 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                     "moved": report.moved,
                     "largest_move": report.largest_move,
                     "flipped_faces": report.flipped.len(),
+                    "inside_out_faces": report.inside_out.len(),
+                    "fold_phase": report.fold_phase,
                     "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
                 }),
             );

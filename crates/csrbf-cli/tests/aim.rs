@@ -76,7 +76,7 @@ fn pick_finds_what_render_draws_at_that_pixel() {
 }
 
 #[test]
-fn a_handle_turns_suzannes_ear_as_a_rigid_body_without_folding() {
+fn a_handle_turns_suzannes_ear_as_a_rigid_body_folding_only_in_the_bend() {
     let dir = TempDir::new("ear");
     let suzanne = model("assimp_Suzanne_248.obj");
     let pivot = [0.9, 0.85, -0.3];
@@ -103,8 +103,34 @@ fn a_handle_turns_suzannes_ear_as_a_rigid_body_without_folding() {
         "--json",
     ]);
     assert_eq!(v["flipped_faces"], 0, "{v}");
-    assert_eq!(v["warnings"].as_array().map(Vec::len), Some(0), "{v}");
     let a = csrbf_mesh::read(&suzanne).expect("in");
+    // Issue 17: a 90-degree bend over a gap of R/2 squeezes its inner side
+    // inside out at a few faces near the end of the turn (the old neighbour
+    // test saw none of it). Only there: not in the ear, not in the head.
+    let inside_out: Vec<u64> = v["inside_out"]
+        .as_array()
+        .expect("inside_out")
+        .iter()
+        .map(|t| t.as_u64().expect("index"))
+        .collect();
+    assert!(inside_out.len() <= 10, "{v}");
+    let triangles = a.faces.triangles();
+    for &t in &inside_out {
+        let c = triangles[t as usize]
+            .iter()
+            .map(|&i| a.positions[i as usize].x)
+            .sum::<f32>()
+            / 3.0;
+        assert!((0.6..1.1).contains(&c), "triangle {t} at x = {c}, outside the bend");
+    }
+    if !inside_out.is_empty() {
+        assert!(v["fold_phase"].as_f64().expect("fold phase") > 0.75, "{v}");
+    }
+    let warnings = v["warnings"].as_array().expect("warnings");
+    assert!(
+        warnings.iter().all(|w| w.as_str().is_some_and(|w| w.contains("inside out"))),
+        "{v}"
+    );
     let b = csrbf_mesh::read(&out).expect("out");
     // The ear's tip (the centroid of its outermost vertices, not samples).
     let tip: Vec<usize> = (0..a.positions.len())

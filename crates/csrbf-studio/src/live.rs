@@ -76,6 +76,7 @@ impl Live {
             &self.positions,
             &self.triangles,
             &fitted,
+            self.pipeline.combine(),
             &lookup,
         )
         .map_err(|source| LiveError { layer, source })?;

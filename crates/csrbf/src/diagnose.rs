@@ -13,7 +13,7 @@
 //!     FitOptions::new(1.0).with_polynomial(Polynomial::None))?;
 //! let stages = [FittedStage::new(d)];
 //! let moved = csrbf::compose(&rest, &stages, csrbf::Combine::Chain)?;
-//! let report = diagnose(&rest, &moved, &[], &stages, &|_| None)?;
+//! let report = diagnose(&rest, &moved, &[], &stages, csrbf::Combine::Chain, &|_| None)?;
 //! assert_eq!(report.moved, 19); // the points within R = 1 of x = 2
 //! assert!(report.warnings.is_empty());
 //! # Ok::<(), csrbf::Error>(())
@@ -93,7 +93,17 @@ pub enum Warning {
         /// One of them.
         example: u32,
     },
-    /// Faces turned over (see [`Diagnostics::flipped`]).
+    /// Faces the map turns inside out (see [`Diagnostics::inside_out`]).
+    InsideOut {
+        /// How many.
+        count: usize,
+        /// The first few, by triangle index.
+        triangles: Vec<u32>,
+        /// The first phase at which a face folds ([`Diagnostics::fold_phase`]).
+        fold_phase: Option<f64>,
+    },
+    /// Faces turned against their neighbours where the map does not fold
+    /// (see [`Diagnostics::flipped`]): creases.
     FlippedFaces {
         /// How many.
         count: usize,
@@ -116,6 +126,7 @@ impl Warning {
             Warning::SupportCrossesRegion { .. } => "support_crosses_region",
             Warning::PolynomialLeak { .. } => "polynomial_leak",
             Warning::FlippedFaces { .. } => "flipped_faces",
+            Warning::InsideOut { .. } => "inside_out",
         }
     }
 }
@@ -181,11 +192,24 @@ impl fmt::Display for Warning {
             ),
             Warning::FlippedFaces { count, triangles } => write!(
                 f,
-                "{count} face(s) turned over (triangles {}): the deformation folds the surface; use a larger radius, shorter moves or more controls",
+                "{count} face(s) turned against the faces around them where the map itself does not fold (triangles {}): a sharp crease of the surface; a larger radius smooths it",
                 list(
                     &triangles.iter().map(|&t| t as usize).collect::<Vec<_>>(),
                     *count
                 )
+            ),
+            Warning::InsideOut {
+                count,
+                triangles,
+                fold_phase,
+            } => write!(
+                f,
+                "{count} face(s) inside out (triangles {}): the map turns space over there{}; use a larger radius, shorter moves or more controls",
+                list(
+                    &triangles.iter().map(|&t| t as usize).collect::<Vec<_>>(),
+                    *count
+                ),
+                fold_phase.map_or(String::new(), |p| format!(" from phase {p:.2} on"))
             ),
         }
     }
@@ -205,6 +229,13 @@ pub struct Diagnostics {
     /// the deformed normals of its corners (the surface around it) where at
     /// rest it did not. A rigid turn of a whole part flips nothing.
     pub flipped: Vec<u32>,
+    /// Triangles the map turns inside out: det J <= 0 at their centroid
+    /// (see [`crate::folds`]), ascending. The truth of a fold, where
+    /// `flipped` sees only its crease.
+    pub inside_out: Vec<u32>,
+    /// The first phase in (0, 1] (a share of the phases given) at which
+    /// some triangle folds; None when none does.
+    pub fold_phase: Option<f64>,
     /// Everything worth a warning, in the order found.
     pub warnings: Vec<Warning>,
 }
@@ -220,9 +251,10 @@ pub fn diagnose(
     moved: &[Vec3],
     triangles: &[[u32; 3]],
     stages: &[crate::FittedStage],
+    combine: crate::Combine,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<Diagnostics> {
-    diagnose_with(rest, moved, triangles, stages, groups, None)
+    diagnose_with(rest, moved, triangles, stages, combine, groups, None)
 }
 
 /// [`crate::compose`] and [`diagnose`] in one: the reach of every start is
@@ -237,7 +269,15 @@ pub fn compose_diagnosed(
 ) -> Result<(Vec<Vec3>, Diagnostics)> {
     let mut traced = Vec::with_capacity(stages.len());
     let moved = crate::pipeline::compose_traced(rest, stages, combine, groups, Some(&mut traced))?;
-    let report = diagnose_with(rest, &moved, triangles, stages, groups, Some(&traced))?;
+    let report = diagnose_with(
+        rest,
+        &moved,
+        triangles,
+        stages,
+        combine,
+        groups,
+        Some(&traced),
+    )?;
     Ok((moved, report))
 }
 
@@ -257,6 +297,7 @@ fn diagnose_with(
     moved: &[Vec3],
     triangles: &[[u32; 3]],
     stages: &[crate::FittedStage],
+    combine: crate::Combine,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
     traced: Option<&[StageReach]>,
 ) -> Result<Diagnostics> {
@@ -397,10 +438,24 @@ fn diagnose_with(
         triangles,
         &moves.iter().map(|&m| m > tol).collect::<Vec<bool>>(),
     );
-    if !flipped.is_empty() {
+    let folds = crate::folds::folds(rest, triangles, stages, combine, groups)?;
+    if !folds.triangles.is_empty() {
+        warnings.push(Warning::InsideOut {
+            count: folds.triangles.len(),
+            triangles: folds.triangles.iter().copied().take(LISTED).collect(),
+            fold_phase: folds.fold_phase,
+        });
+    }
+    // Creases: turned against their neighbours where the map does not fold.
+    let creases: Vec<u32> = flipped
+        .iter()
+        .copied()
+        .filter(|t| folds.triangles.binary_search(t).is_err())
+        .collect();
+    if !creases.is_empty() {
         warnings.push(Warning::FlippedFaces {
-            count: flipped.len(),
-            triangles: flipped.iter().copied().take(LISTED).collect(),
+            count: creases.len(),
+            triangles: creases.iter().copied().take(LISTED).collect(),
         });
     }
     Ok(Diagnostics {
@@ -408,6 +463,8 @@ fn diagnose_with(
         largest_move: largest.map(|m| *m.1).unwrap_or(0.0),
         largest_move_vertex: largest.map(|m| m.0 as u32),
         flipped,
+        inside_out: folds.triangles,
+        fold_phase: folds.fold_phase,
         warnings,
     })
 }
@@ -599,7 +656,8 @@ mod tests {
     fn run(stages: &[crate::FittedStage]) -> (Diagnostics, Vec<Vec3>) {
         let (rest, tris) = grid(41);
         let moved = compose(&rest, stages, Combine::Chain).expect("compose");
-        let after = diagnose(&rest, &moved, &tris, stages, &|_| None).expect("diagnose");
+        let after =
+            diagnose(&rest, &moved, &tris, stages, Combine::Chain, &|_| None).expect("diagnose");
         let (moved2, during) =
             compose_diagnosed(&rest, stages, Combine::Chain, &tris, &|_| None).expect("both");
         assert_eq!(moved, moved2);

@@ -249,6 +249,31 @@ impl Candidates {
         }
     }
 
+    /// Calls `f(start index, x - start)` for every candidate closer than
+    /// `radius` to `x` (the gradient's pass needs the offset, not phi).
+    #[inline]
+    pub(crate) fn for_each_offset(&mut self, x: DVec3, radius: f64, mut f: impl FnMut(u32, DVec3)) {
+        let r2 = radius * radius;
+        let n = self.xs.len();
+        for base in (0..n).step_by(64) {
+            let end = (base + 64).min(n);
+            let (xs, ys, zs) = (
+                &self.xs[base..end],
+                &self.ys[base..end],
+                &self.zs[base..end],
+            );
+            let mut bits = crate::simd::hit_mask(self.cpu, xs, ys, zs, x.to_array(), r2);
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                f(
+                    self.id[base + k],
+                    DVec3::new(x.x - xs[k], x.y - ys[k], x.z - zs[k]),
+                );
+            }
+        }
+    }
+
     #[inline(always)]
     fn weights(
         &mut self,

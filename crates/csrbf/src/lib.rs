@@ -191,10 +191,12 @@ mod deformation;
 mod diagnose;
 mod error;
 mod evaluate;
+mod folds;
 pub mod format;
 #[cfg(any(test, feature = "fuzz"))]
 pub mod fuzz;
 pub mod handle;
+mod jacobian;
 #[cfg(feature = "serde")]
 pub mod json;
 mod kernel;
@@ -218,7 +220,9 @@ pub use deformation::{Affine, Deformation};
 pub use diagnose::{Diagnostics, Warning, compose_diagnosed, diagnose, vertices_within};
 pub use error::{Error, FitError, FormatError, NameError, RegionError, Result};
 pub use evaluate::{Point, Points, PointsMut};
+pub use folds::{Folds, folds};
 pub use handle::{Handle, HandleControls, Rotation};
+pub use jacobian::{det_cubic, fold_phase};
 pub use kernel::{Kernel, Polynomial};
 pub use ordering::Ordering;
 pub use pipeline::{Combine, FittedStage, Pipeline, Stage, Work, compose, compose_with_groups};

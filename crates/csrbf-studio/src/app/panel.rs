@@ -650,7 +650,18 @@ impl StudioApp {
             "{} vertices moved, the largest by {:.4}",
             d.moved, d.largest_move
         ));
-        if d.flipped.is_empty() {
+        if !d.inside_out.is_empty() {
+            ui.colored_label(
+                egui::Color32::from_rgb(255, 90, 90),
+                format!(
+                    "{} faces inside out (outlined in red){}",
+                    d.inside_out.len(),
+                    d.fold_phase
+                        .map(|p| format!(", from phase {p:.2} on"))
+                        .unwrap_or_default()
+                ),
+            );
+        } else if d.flipped.is_empty() {
             ui.label("no face turned over");
         } else {
             ui.colored_label(

@@ -690,12 +690,12 @@ impl StudioApp {
         if let Some(spec) = m.doc.controls.deformations.get(m.doc.active_layer) {
             region_lines(&spec.region, &mut overlay);
         }
-        // Flipped faces, in red over the surface.
+        // Faces inside out and creases, in red over the surface.
         if let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref())
             && v.display != Display::Rest
         {
             let tris = m.bvh.triangles();
-            for &t in d.flipped.iter().take(50_000) {
+            for &t in d.inside_out.iter().chain(&d.flipped).take(50_000) {
                 let Some(t) = tris.get(t as usize) else {
                     continue;
                 };

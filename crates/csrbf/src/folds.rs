@@ -1,0 +1,400 @@
+//! Where deformations acting on a mesh turn it inside out, and from which
+//! phase: det J <= 0 at a triangle's centroid.
+//!
+//! The centroid is sampled because it is the one point every triangle of a
+//! polygon's fan has inside it, away from the vertices a control vector's
+//! start usually sits on; a fold smaller than a triangle can slip between
+//! centroids, and a fold over a large triangle is judged at its middle.
+//!
+//! A stage on a region moves a point by phase * w * D, where w is the
+//! region's weight (1 inside, 0 outside, blended in a falloff). w lives on
+//! the vertices; on a triangle it is their linear interpolant, so the
+//! stage's Jacobian there is I + phase (w G + D grad(w)^T). Stages added
+//! ([`Combine::Add`], or a single stage) make the whole Jacobian
+//! I + s sum_k phase_k (...), linear in the scale s of every phase: its
+//! determinant is a cubic and [`fold_phase`] its first root. Chained stages
+//! multiply their Jacobians, each at the point the ones before it moved
+//! there; the fold phase is then found by scanning s and bisecting.
+
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::error::Result;
+use crate::jacobian::fold_phase;
+use crate::pipeline::{Combine, FittedStage};
+use crate::region::Region;
+
+/// What [`folds`] found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Folds {
+    /// Triangles whose centroid the deformed map turns inside out
+    /// (det J <= 0), ascending.
+    pub triangles: Vec<u32>,
+    /// The first scale s in (0, 1] of every stage's phase at which some
+    /// centroid folds; None when none does up to the phases given.
+    pub fold_phase: Option<f64>,
+}
+
+/// Steps of the scan of s for chained stages (then 30 bisections).
+const CHAIN_SCAN: usize = 32;
+
+/// One stage's weights on the triangles: per triangle the weight at the
+/// centroid and its gradient in rest coordinates; None when the stage acts
+/// on every point with weight 1.
+type FaceWeights = Option<Vec<(f64, DVec3)>>;
+
+/// Inside-out triangles of `rest` (deformed by `stages` combined as
+/// `combine`, each at its phase) and the first phase at which any folds.
+pub fn folds(
+    rest: &[Vec3],
+    triangles: &[[u32; 3]],
+    stages: &[FittedStage],
+    combine: Combine,
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<Folds> {
+    if triangles.is_empty() || stages.is_empty() {
+        return Ok(Folds::default());
+    }
+    let centroids: Vec<DVec3> = triangles
+        .iter()
+        .map(|t| {
+            t.iter()
+                .map(|&v| rest[v as usize].as_dvec3())
+                .sum::<DVec3>()
+                / 3.0
+        })
+        .collect();
+    let weights = stages
+        .iter()
+        .map(|s| face_weights(rest, triangles, &s.region, groups))
+        .collect::<Result<Vec<FaceWeights>>>()?;
+    if combine == Combine::Add || stages.len() == 1 {
+        return Ok(added(&centroids, stages, &weights));
+    }
+    Ok(chained(&centroids, stages, &weights))
+}
+
+fn face_weights(
+    rest: &[Vec3],
+    triangles: &[[u32; 3]],
+    region: &Region,
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<FaceWeights> {
+    if *region == Region::All {
+        return Ok(None);
+    }
+    let (idx, w) = region.weights(rest, groups)?;
+    let mut wv = vec![0.0f64; rest.len()];
+    for (&i, &w) in idx.iter().zip(&w) {
+        wv[i as usize] = w as f64;
+    }
+    Ok(Some(
+        triangles
+            .iter()
+            .map(|t| {
+                let p = t.map(|v| rest[v as usize].as_dvec3());
+                let w = t.map(|v| wv[v as usize]);
+                ((w[0] + w[1] + w[2]) / 3.0, plane_gradient(p, w))
+            })
+            .collect(),
+    ))
+}
+
+/// The gradient of the linear function with values `w` at the corners `p`,
+/// in the triangle's plane (zero across it, and for a degenerate triangle).
+fn plane_gradient(p: [DVec3; 3], w: [f64; 3]) -> DVec3 {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let n = e1.cross(e2);
+    let n2 = n.length_squared();
+    if !(n2 > 0.0) || (w[0] == w[1] && w[1] == w[2]) {
+        return DVec3::ZERO;
+    }
+    ((w[1] - w[0]) * e2.cross(n) + (w[2] - w[0]) * n.cross(e1)) / n2
+}
+
+/// The weight and gradient of stage `k` at triangle `f`.
+fn weight_at(weights: &FaceWeights, f: usize) -> (f64, DVec3) {
+    weights.as_ref().map_or((1.0, DVec3::ZERO), |w| w[f])
+}
+
+/// A stage's displacement gradient on a triangle, its region included:
+/// w G + D grad(w)^T.
+fn stage_gradient(w: f64, grad_w: DVec3, d: DVec3, g: DMat3) -> DMat3 {
+    g * w + DMat3::from_cols(d * grad_w.x, d * grad_w.y, d * grad_w.z)
+}
+
+/// Triangles (by index) a stage moves: any corner with a weight.
+fn acts_on(weights: &FaceWeights, f: usize) -> bool {
+    weights
+        .as_ref()
+        .is_none_or(|w| w[f].0 > 0.0 || w[f].1 != DVec3::ZERO)
+}
+
+fn added(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -> Folds {
+    let mut total = vec![DMat3::ZERO; centroids.len()];
+    for (k, stage) in stages.iter().enumerate() {
+        let faces: Vec<usize> = (0..centroids.len())
+            .filter(|&f| acts_on(&weights[k], f))
+            .collect();
+        let pts: Vec<DVec3> = faces.iter().map(|&f| centroids[f]).collect();
+        let dg = stage.deformation.displacements_and_gradients(&pts);
+        for (&f, (d, g)) in faces.iter().zip(dg) {
+            let (w, gw) = weight_at(&weights[k], f);
+            total[f] += stage_gradient(w, gw, d, g) * stage.phase;
+        }
+    }
+    let phases: Vec<Option<f64>> = total.par_iter().map(|g| fold_phase(*g)).collect();
+    Folds {
+        // Folded at s = 1, the phases given (the cubic's sign there).
+        triangles: (0..total.len() as u32)
+            .filter(|&f| (DMat3::IDENTITY + total[f as usize]).determinant() <= 0.0)
+            .collect(),
+        fold_phase: phases.into_iter().flatten().min_by(f64::total_cmp),
+    }
+}
+
+/// det J of the chain at every centroid in `faces`, every phase scaled by `s`.
+fn chain_dets(
+    centroids: &[DVec3],
+    faces: &[usize],
+    stages: &[FittedStage],
+    weights: &[FaceWeights],
+    s: f64,
+) -> Vec<f64> {
+    let mut x: Vec<DVec3> = faces.iter().map(|&f| centroids[f]).collect();
+    let mut jac = vec![DMat3::IDENTITY; faces.len()];
+    for (k, stage) in stages.iter().enumerate() {
+        let t = stage.phase * s;
+        let dg = stage.deformation.displacements_and_gradients(&x);
+        for (i, (d, g)) in dg.into_iter().enumerate() {
+            let (w, gw_rest) = weight_at(&weights[k], faces[i]);
+            // w lives on the rest surface: its gradient where this stage
+            // acts is the rest one carried by the stages before it.
+            let gw = if gw_rest == DVec3::ZERO {
+                gw_rest
+            } else {
+                jac[i].inverse().transpose() * gw_rest
+            };
+            let jk = DMat3::IDENTITY + stage_gradient(w, gw, d, g) * t;
+            jac[i] = jk * jac[i];
+            x[i] += d * (w * t);
+        }
+    }
+    jac.iter().map(|j| j.determinant()).collect()
+}
+
+fn chained(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -> Folds {
+    let all: Vec<usize> = (0..centroids.len()).collect();
+    let at_one = chain_dets(centroids, &all, stages, weights, 1.0);
+    let triangles: Vec<u32> = (0..at_one.len() as u32)
+        .filter(|&f| !(at_one[f as usize] > 0.0))
+        .collect();
+    // Scan s, then bisect the first bracket where some centroid folds.
+    let mut lo = 0.0;
+    let mut folded: Option<(f64, Vec<usize>)> = None;
+    for step in 1..=CHAIN_SCAN {
+        let s = step as f64 / CHAIN_SCAN as f64;
+        let dets = if step == CHAIN_SCAN {
+            at_one.clone()
+        } else {
+            chain_dets(centroids, &all, stages, weights, s)
+        };
+        let bad: Vec<usize> = (0..dets.len()).filter(|&f| !(dets[f] > 0.0)).collect();
+        if !bad.is_empty() {
+            folded = Some((s, bad));
+            break;
+        }
+        lo = s;
+    }
+    let fold_phase = folded.map(|(mut hi, bad)| {
+        for _ in 0..30 {
+            let mid = 0.5 * (lo + hi);
+            if chain_dets(centroids, &bad, stages, weights, mid)
+                .iter()
+                .any(|d| !(*d > 0.0))
+            {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    });
+    Folds {
+        triangles,
+        fold_phase,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Deformation, FitOptions, Kernel};
+    use glam::Vec3;
+
+    /// A grid of triangles in the plane z = 0, `n` x `n` cells over [0, 1]^2.
+    fn grid(n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut v = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                v.push(Vec3::new(i as f32 / n as f32, j as f32 / n as f32, 0.0));
+            }
+        }
+        let mut t = Vec::new();
+        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        for j in 0..n {
+            for i in 0..n {
+                t.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                t.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        (v, t)
+    }
+
+    /// A dense reference: det J of the composed map at each centroid by
+    /// central differences of the composition itself.
+    fn reference(
+        rest: &[Vec3],
+        tris: &[[u32; 3]],
+        stages: &[FittedStage],
+        combine: Combine,
+        s: f64,
+    ) -> Vec<u32> {
+        let map = |x: DVec3| -> DVec3 {
+            let mut p = x;
+            for st in stages {
+                let at = if combine == Combine::Chain { p } else { x };
+                p += st.deformation.displacement_at(at) * (st.phase * s);
+            }
+            p
+        };
+        let h = 1e-6;
+        (0..tris.len() as u32)
+            .filter(|&f| {
+                let c = tris[f as usize]
+                    .iter()
+                    .map(|&v| rest[v as usize].as_dvec3())
+                    .sum::<DVec3>()
+                    / 3.0;
+                let col = |k: usize| {
+                    (map(c + DVec3::AXES[k] * h) - map(c - DVec3::AXES[k] * h)) / (2.0 * h)
+                };
+                DMat3::from_cols(col(0), col(1), col(2)).determinant() <= 0.0
+            })
+            .collect()
+    }
+
+    #[test]
+    fn inside_out_triangles_match_a_dense_reference() {
+        let (rest, tris) = grid(40);
+        // A long pull across the middle: past the fold-free bound.
+        let d1 = Deformation::fit(
+            &[DVec3::new(0.5, 0.5, 0.0)],
+            &[DVec3::new(0.8, 0.5, 0.0)],
+            FitOptions::new(0.3).with_kernel(Kernel::C2),
+        )
+        .expect("fit");
+        let d2 = Deformation::fit(
+            &[DVec3::new(0.3, 0.3, 0.0), DVec3::new(0.7, 0.7, 0.0)],
+            &[DVec3::new(0.3, 0.45, 0.0), DVec3::new(0.55, 0.7, 0.0)],
+            FitOptions::new(0.25).with_kernel(Kernel::C4),
+        )
+        .expect("fit");
+        let none = |_: &str| None;
+        for (stages, combine) in [
+            (vec![FittedStage::new(d1.clone())], Combine::Chain),
+            (
+                vec![
+                    FittedStage::new(d1.clone()),
+                    FittedStage::new(d2.clone()).with_phase(0.8),
+                ],
+                Combine::Add,
+            ),
+            (
+                vec![FittedStage::new(d1.clone()), FittedStage::new(d2.clone())],
+                Combine::Chain,
+            ),
+        ] {
+            let got = folds(&rest, &tris, &stages, combine, &none).expect("folds");
+            let want = reference(&rest, &tris, &stages, combine, 1.0);
+            assert!(!want.is_empty(), "the edit must fold");
+            let diff = got.triangles.iter().filter(|t| !want.contains(t)).count()
+                + want.iter().filter(|t| !got.triangles.contains(t)).count();
+            assert!(
+                diff <= 2,
+                "{combine:?}: {} vs {} ({diff} differ)",
+                got.triangles.len(),
+                want.len()
+            );
+            // The fold phase: nothing folds just before it, something just after.
+            let p = got.fold_phase.expect("folds");
+            assert!(
+                reference(&rest, &tris, &stages, combine, p - 0.01).is_empty(),
+                "{combine:?} {p}"
+            );
+            assert!(
+                !reference(&rest, &tris, &stages, combine, (p + 0.01).min(1.0)).is_empty(),
+                "{combine:?} {p}"
+            );
+        }
+        // A short move folds nothing.
+        let small = Deformation::fit(
+            &[DVec3::new(0.5, 0.5, 0.0)],
+            &[DVec3::new(0.55, 0.5, 0.0)],
+            FitOptions::new(0.3),
+        )
+        .expect("fit");
+        let f = folds(
+            &rest,
+            &tris,
+            &[FittedStage::new(small)],
+            Combine::Chain,
+            &none,
+        )
+        .expect("folds");
+        assert_eq!(f, Folds::default());
+    }
+
+    /// A region's hard edge shears the triangles across it: their Jacobian
+    /// includes D grad(w)^T.
+    #[test]
+    fn a_region_edge_is_part_of_the_jacobian() {
+        let (rest, tris) = grid(20);
+        let d = Deformation::fit(
+            &[DVec3::new(0.5, 0.5, 0.0)],
+            &[DVec3::new(0.5, 0.5, 0.0) + DVec3::new(-0.2, 0.0, 0.0)],
+            FitOptions::new(0.6),
+        )
+        .expect("fit");
+        // The right half moves left, into the left half, which stays.
+        let region = Region::Box {
+            min: DVec3::new(0.5, -1.0, -1.0),
+            max: DVec3::new(2.0, 2.0, 2.0),
+        };
+        let none = |_: &str| None;
+        let f = folds(
+            &rest,
+            &tris,
+            &[FittedStage::new(d.clone()).with_region(region)],
+            Combine::Chain,
+            &none,
+        )
+        .expect("folds");
+        assert!(!f.triangles.is_empty());
+        let cx = |t: u32| {
+            tris[t as usize]
+                .iter()
+                .map(|&v| rest[v as usize].x)
+                .sum::<f32>()
+                / 3.0
+        };
+        assert!(
+            f.triangles.iter().all(|&t| (cx(t) - 0.5).abs() < 0.06),
+            "only the seam folds"
+        );
+        // Without the region nothing folds.
+        let whole =
+            folds(&rest, &tris, &[FittedStage::new(d)], Combine::Chain, &none).expect("folds");
+        assert!(whole.triangles.is_empty());
+    }
+}
