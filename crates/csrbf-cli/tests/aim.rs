@@ -121,14 +121,19 @@ fn a_handle_turns_suzannes_ear_as_a_rigid_body_folding_only_in_the_bend() {
             .map(|&i| a.positions[i as usize].x)
             .sum::<f32>()
             / 3.0;
-        assert!((0.6..1.1).contains(&c), "triangle {t} at x = {c}, outside the bend");
+        assert!(
+            (0.6..1.1).contains(&c),
+            "triangle {t} at x = {c}, outside the bend"
+        );
     }
     if !inside_out.is_empty() {
         assert!(v["fold_phase"].as_f64().expect("fold phase") > 0.75, "{v}");
     }
     let warnings = v["warnings"].as_array().expect("warnings");
     assert!(
-        warnings.iter().all(|w| w.as_str().is_some_and(|w| w.contains("inside out"))),
+        warnings
+            .iter()
+            .all(|w| w.as_str().is_some_and(|w| w.contains("inside out"))),
         "{v}"
     );
     let b = csrbf_mesh::read(&out).expect("out");

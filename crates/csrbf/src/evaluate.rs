@@ -204,6 +204,9 @@ pub(crate) struct Candidates {
     zs: Vec<f64>,
     id: Vec<u32>,
     cpu: Option<crate::simd::Avx2Fma>,
+    /// The bounds of the cell's points the candidates were gathered for.
+    lo: DVec3,
+    hi: DVec3,
 }
 
 impl Candidates {
@@ -222,6 +225,7 @@ impl Candidates {
         self.ys.clear();
         self.zs.clear();
         self.id.clear();
+        (self.lo, self.hi) = (lo, hi);
         octree.for_each_near_box(lo, hi, radius, |i, p| {
             self.xs.push(p.x);
             self.ys.push(p.y);
@@ -247,6 +251,21 @@ impl Candidates {
             Kernel::C4 => self.weights(x, radius, |r| Kernel::C4.eval(r), f),
             Kernel::C6 => self.weights(x, radius, |r| Kernel::C6.eval(r), f),
         }
+    }
+
+    /// An upper bound of |sum_j alpha_j grad(phi_j)| (spectral norm) over
+    /// every point of the cell: sum_j |alpha_j| max|phi'| / R, the maximum
+    /// of |phi'| taken over the distances the cell's box leaves possible.
+    pub(crate) fn gradient_bound(&self, alpha: &[DVec3], kernel: Kernel, radius: f64) -> f64 {
+        let inv = 1.0 / radius;
+        let mut sum = 0.0;
+        for k in 0..self.id.len() {
+            let p = DVec3::new(self.xs[k], self.ys[k], self.zs[k]);
+            let nearest = p.clamp(self.lo, self.hi);
+            let r0 = p.distance(nearest) * inv;
+            sum += alpha[self.id[k] as usize].length() * kernel.max_derivative_from(r0);
+        }
+        sum * inv
     }
 
     /// Calls `f(start index, x - start)` for every candidate closer than

@@ -131,25 +131,57 @@ fn acts_on(weights: &FaceWeights, f: usize) -> bool {
 }
 
 fn added(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -> Folds {
-    let mut total = vec![DMat3::ZERO; centroids.len()];
+    // One deformation over every point: cells whose gradient bound keeps
+    // |phase G| < 1 cannot fold and are not evaluated (most of a local edit).
+    let limit = match (stages, &weights[..]) {
+        ([one], [None]) if one.phase > 0.0 => 1.0 / one.phase,
+        _ => 0.0,
+    };
+    // The summed gradient of every face some stage evaluated, sparse.
+    let mut total: Vec<(u32, DMat3)> = Vec::new();
+    let mut slot: Vec<u32> = if stages.len() > 1 {
+        vec![u32::MAX; centroids.len()]
+    } else {
+        Vec::new()
+    };
     for (k, stage) in stages.iter().enumerate() {
-        let faces: Vec<usize> = (0..centroids.len())
-            .filter(|&f| acts_on(&weights[k], f))
-            .collect();
-        let pts: Vec<DVec3> = faces.iter().map(|&f| centroids[f]).collect();
-        let dg = stage.deformation.displacements_and_gradients(&pts);
-        for (&f, (d, g)) in faces.iter().zip(dg) {
-            let (w, gw) = weight_at(&weights[k], f);
-            total[f] += stage_gradient(w, gw, d, g) * stage.phase;
+        let faces: Vec<u32> = match &weights[k] {
+            None => (0..centroids.len() as u32).collect(),
+            Some(_) => (0..centroids.len() as u32)
+                .filter(|&f| acts_on(&weights[k], f as usize))
+                .collect(),
+        };
+        let pts: Vec<DVec3> = faces.iter().map(|&f| centroids[f as usize]).collect();
+        for (i, d, g) in stage
+            .deformation
+            .displacements_and_gradients_above(&pts, limit)
+        {
+            let f = faces[i as usize];
+            let (w, gw) = weight_at(&weights[k], f as usize);
+            let add = stage_gradient(w, gw, d, g) * stage.phase;
+            if slot.is_empty() {
+                total.push((f, add));
+            } else if slot[f as usize] == u32::MAX {
+                slot[f as usize] = total.len() as u32;
+                total.push((f, add));
+            } else {
+                total[slot[f as usize] as usize].1 += add;
+            }
         }
     }
-    let phases: Vec<Option<f64>> = total.par_iter().map(|g| fold_phase(*g)).collect();
+    let found: Vec<(u32, bool, Option<f64>)> = total
+        .par_iter()
+        .map(|(f, g)| {
+            // Folded at s = 1 (the phases given), and from which s on.
+            let folded = !((DMat3::IDENTITY + *g).determinant() > 0.0);
+            (*f, folded, fold_phase(*g))
+        })
+        .collect();
+    let mut triangles: Vec<u32> = found.iter().filter(|x| x.1).map(|x| x.0).collect();
+    triangles.sort_unstable();
     Folds {
-        // Folded at s = 1, the phases given (the cubic's sign there).
-        triangles: (0..total.len() as u32)
-            .filter(|&f| (DMat3::IDENTITY + total[f as usize]).determinant() <= 0.0)
-            .collect(),
-        fold_phase: phases.into_iter().flatten().min_by(f64::total_cmp),
+        triangles,
+        fold_phase: found.iter().filter_map(|x| x.2).min_by(f64::total_cmp),
     }
 }
 

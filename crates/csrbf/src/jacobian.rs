@@ -73,51 +73,76 @@ impl Deformation {
     /// D and G at every point (blocked and parallel, as
     /// [`Deformation::displacements`]).
     pub fn displacements_and_gradients<P: Point>(&self, points: &[P]) -> Vec<(DVec3, DMat3)> {
-        let n = points.len();
+        let mut out = vec![(DVec3::ZERO, DMat3::ZERO); points.len()];
+        for (i, d, g) in self.displacements_and_gradients_above(points, 0.0) {
+            out[i as usize] = (d, g);
+        }
+        out
+    }
+
+    /// `(index, D, G)` of the points where they may matter for a fold, in
+    /// no set order: points are evaluated by cells, and a cell where a bound
+    /// of |G| (from the coefficients of the starts near it and max|phi'|,
+    /// [`Kernel::max_derivative_from`]) is below `limit` is skipped. With
+    /// `limit` <= 1 a skipped point cannot fold at any phase in [0, 1]:
+    /// |t G| < 1 keeps I + t G invertible. A limit of 0 skips nothing.
+    pub(crate) fn displacements_and_gradients_above<P: Point>(
+        &self,
+        points: &[P],
+        limit: f64,
+    ) -> Vec<(u32, DVec3, DMat3)> {
         let blocks = Blocks::for_starts(points, self.radius(), self.starts().len());
-        let mut sorted = vec![(DVec3::ZERO, DMat3::ZERO); n];
+        let mut chunks: Vec<Vec<(u32, DVec3, DMat3)>> = vec![Vec::new(); blocks.cells.len()];
         let (kernel, radius) = (self.kernel(), self.radius());
         let inv = 1.0 / radius;
         let inv2 = inv * inv;
         let alpha = self.coefficients();
         let g0 = self.affine_gradient();
-        for_each_cell(
-            &blocks,
-            &mut sorted,
-            n >= PARALLEL_POINTS,
-            |(s, e), out, cand| {
-                let idx = &blocks.order[s..e];
-                cand.gather(
-                    self.octree(),
-                    idx.iter().map(|&i| points[i as usize].to_dvec3()),
-                    radius,
-                );
-                for (o, &i) in out.iter_mut().zip(idx) {
-                    let x = points[i as usize].to_dvec3();
-                    if !x.is_finite() {
-                        *o = (DVec3::NAN, DMat3::NAN);
-                        continue;
-                    }
-                    let mut d = self.affine().map_or(DVec3::ZERO, |a| a.eval(x));
-                    let mut g = g0;
-                    cand.for_each_offset(x, radius, |j, off| {
-                        let a = alpha[j as usize];
-                        let r = off.length() * inv;
-                        d += a * kernel.eval(r);
-                        add_term(&mut g, a, off, kernel.derivative_over_r(r) * inv2);
-                    });
-                    *o = (d, g);
+        let g0_norm =
+            (g0.x_axis.length_squared() + g0.y_axis.length_squared() + g0.z_axis.length_squared())
+                .sqrt();
+        // One output list per cell: split `chunks` as a buffer of one per cell.
+        let one_each = Blocks {
+            order: Vec::new(),
+            cells: (0..chunks.len()).map(|c| (c, c + 1)).collect(),
+            identity: false,
+        };
+        let parallel = points.len() >= PARALLEL_POINTS;
+        for_each_cell(&one_each, &mut chunks, parallel, |(c, _), out, cand| {
+            let (s, e) = blocks.cells[c];
+            let idx = &blocks.order[s..e];
+            cand.gather(
+                self.octree(),
+                idx.iter().map(|&i| points[i as usize].to_dvec3()),
+                radius,
+            );
+            let finite = idx
+                .iter()
+                .all(|&i| points[i as usize].to_dvec3().is_finite());
+            if limit > 0.0 && finite && g0_norm + cand.gradient_bound(alpha, kernel, radius) < limit
+            {
+                return; // no point of this cell can fold
+            }
+            let out = &mut out[0];
+            out.reserve(idx.len());
+            for &i in idx {
+                let x = points[i as usize].to_dvec3();
+                if !x.is_finite() {
+                    out.push((i, DVec3::NAN, DMat3::NAN));
+                    continue;
                 }
-            },
-        );
-        if blocks.identity {
-            return sorted;
-        }
-        let mut out = vec![(DVec3::ZERO, DMat3::ZERO); n];
-        for (k, &i) in blocks.order.iter().enumerate() {
-            out[i as usize] = sorted[k];
-        }
-        out
+                let mut d = self.affine().map_or(DVec3::ZERO, |a| a.eval(x));
+                let mut g = g0;
+                cand.for_each_offset(x, radius, |j, off| {
+                    let a = alpha[j as usize];
+                    let r = off.length() * inv;
+                    d += a * kernel.eval(r);
+                    add_term(&mut g, a, off, kernel.derivative_over_r(r) * inv2);
+                });
+                out.push((i, d, g));
+            }
+        });
+        chunks.concat()
     }
 
     /// The polynomial part's (constant) gradient; zero without one.
@@ -235,6 +260,40 @@ mod tests {
                 let mut rng = Rng::new(11);
                 let pts: Vec<DVec3> = (0..300).map(|_| rng.vec3()).collect();
                 let batch = d.displacements_and_gradients(&pts);
+                // A bound of 0 skips nothing; a huge one skips everything.
+                assert_eq!(
+                    d.displacements_and_gradients_above(&pts, 0.0).len(),
+                    pts.len()
+                );
+                assert!(
+                    d.displacements_and_gradients_above(&pts, f64::INFINITY)
+                        .is_empty()
+                );
+                // Any cell skipped under a limit of 1 holds only points with |G| < 1.
+                let kept: Vec<u32> = d
+                    .displacements_and_gradients_above(&pts, 1.0)
+                    .iter()
+                    .map(|v| v.0)
+                    .collect();
+                for (i, (_, g)) in batch.iter().enumerate() {
+                    if !kept.contains(&(i as u32)) {
+                        let frob = (g.x_axis.length_squared()
+                            + g.y_axis.length_squared()
+                            + g.z_axis.length_squared())
+                        .sqrt();
+                        // The spectral norm is at most the Frobenius one.
+                        let spectral = (g.transpose() * *g)
+                            .to_cols_array()
+                            .iter()
+                            .map(|x| x.abs())
+                            .sum::<f64>()
+                            .sqrt();
+                        assert!(
+                            frob.min(spectral) < 1.0 + 1e-9,
+                            "{kernel}: skipped a point with |G| {frob}"
+                        );
+                    }
+                }
                 let h = 1e-6;
                 for (p, (dd, g)) in pts.iter().zip(&batch) {
                     assert!((*dd - d.displacement_at(*p)).length() < 1e-12);

@@ -67,6 +67,23 @@ impl Kernel {
         }
     }
 
+    /// max |phi'(r)| over r in [r0, 1]: |phi'| rises to its peak (at r = 0
+    /// for C0, 1/4 for C2, 0.23557 for C4, 0.21529 for C6) and then falls, so
+    /// the maximum is at the peak or at r0 beyond it. A hair above the true
+    /// value (a 1e-9 margin for the peaks' rounding), never below.
+    pub fn max_derivative_from(self, r0: f64) -> f64 {
+        if r0 >= 1.0 {
+            return 0.0;
+        }
+        let peak = match self {
+            Kernel::C0 => 0.0,
+            Kernel::C2 => 0.25,
+            Kernel::C4 => 0.235_571_372_6,
+            Kernel::C6 => 0.215_286_038_9,
+        };
+        self.derivative(r0.max(peak)).abs() * (1.0 + 1e-9)
+    }
+
     /// The fold-free bound, as a fraction of R: a single control vector
     /// shorter than `fold_free_ratio() * R` gives a map that folds nowhere.
     ///
