@@ -133,7 +133,7 @@ fn acts_on(weights: &FaceWeights, f: usize) -> bool {
 fn added(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -> Folds {
     // One deformation over every point: cells whose gradient bound keeps
     // |phase G| < 1 cannot fold and are not evaluated (most of a local edit).
-    let limit = match (stages, &weights[..]) {
+    let limit = match (stages, weights) {
         ([one], [None]) if one.phase > 0.0 => 1.0 / one.phase,
         _ => 0.0,
     };
