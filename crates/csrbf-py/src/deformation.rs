@@ -324,15 +324,15 @@ impl PyDeformation {
     }
 
     fn __repr__(&self) -> String {
-        describe("Deformation", &self.inner, "")
+        describe(&self.inner)
     }
 }
 
 /// `Deformation(c2, R=0.3, 92 controls)`, "linear" added when it is.
-pub(crate) fn describe(what: &str, d: &Deformation, more: &str) -> String {
+fn describe(d: &Deformation) -> String {
     let n = d.starts().len();
     format!(
-        "{what}({}, R={}, {n} control{}{}{more})",
+        "Deformation({}, R={:?}, {n} control{}{})",
         d.kernel().name(),
         d.radius(),
         if n == 1 { "" } else { "s" },

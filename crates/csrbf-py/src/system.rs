@@ -137,7 +137,7 @@ impl PySystem {
         let o = self.inner.options();
         let n = self.inner.starts().len();
         format!(
-            "System({}, R={}, {n} control{}{}, {} solver)",
+            "System({}, R={:?}, {n} control{}{}, {} solver)",
             o.kernel.name(),
             o.radius,
             if n == 1 { "" } else { "s" },

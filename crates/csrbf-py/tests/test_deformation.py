@@ -128,6 +128,11 @@ def test_bad_arrays_name_the_argument_and_shape():
         d.displacements(cloud(), out=np.zeros((500, 3), dtype=np.float32))
     with pytest.raises(ValueError, match="C order"):
         d.displacements(cloud(), out=np.zeros((3, 500)).T)
+    points = cloud()
+    with pytest.raises(ValueError, match="out shares memory with points"):
+        d.displacements(points, out=points)
+    with pytest.raises(ValueError, match="out shares memory with points"):
+        d.deform(points, out=points[:])  # another view of the same memory
     ints = np.zeros((4, 3), dtype=np.int64)
     with pytest.raises(TypeError, match="out must be a float64 array"):
         d.deform(ints, out=np.zeros((4, 3), dtype=np.int64))
