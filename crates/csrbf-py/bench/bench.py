@@ -137,7 +137,7 @@ def scene_figures(binary, directory, name, runs):
         row["dense_max_diff"] = float(np.abs(got - reference).max())
     else:
         row["dense_ms"] = None
-        row["dense_note"] = f"needs {need / 1e9:.0f} GB, past the {DENSE_LIMIT / 1e9:.0f} GB this run allows"
+        row["dense_note"] = f"its (N, M) matrices need {need / 1e9:.0f} GB; not run (limit {DENSE_LIMIT / 1e9:.0f} GB)"
     return row
 
 
@@ -165,7 +165,11 @@ def main():
     binary = Path(args.csrbf)
     if not binary.exists():
         sys.exit(f"{binary} is missing: cargo build --release -p csrbf-cli")
-    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}"
+    cpu = platform.machine()
+    if Path("/proc/cpuinfo").exists():
+        cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                    if line.startswith("model name")), cpu)
+    machine = f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}"
     print(f"# csrbf {csrbf.__version__}, {machine}; medians of {args.runs}")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -6,7 +6,9 @@
 //! A wrong shape is a `ValueError` naming the argument and its shape,
 //! non-numeric input a `TypeError`.
 
-use numpy::{PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
@@ -104,9 +106,15 @@ pub fn as_ndarray<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Bound<'p
     }
     np.call_method1("asarray", (obj,)).map_err(|e| {
         if e.is_instance_of::<PyTypeError>(py) {
-            PyTypeError::new_err(format!("{name} must be an array of numbers: {}", e.value(py)))
+            PyTypeError::new_err(format!(
+                "{name} must be an array of numbers: {}",
+                e.value(py)
+            ))
         } else {
-            PyValueError::new_err(format!("{name} must be an (N, 3) array of numbers: {}", e.value(py)))
+            PyValueError::new_err(format!(
+                "{name} must be an (N, 3) array of numbers: {}",
+                e.value(py)
+            ))
         }
     })
 }
@@ -145,13 +153,21 @@ fn kind_of(arr: &Bound<'_, PyAny>, name: &str) -> PyResult<Option<Dtype>> {
 }
 
 /// `arr` in C order with this dtype (no copy when it already is).
-fn contiguous<'py>(arr: &Bound<'py, PyAny>, dtype: Dtype, name: &str) -> PyResult<Bound<'py, PyAny>> {
+fn contiguous<'py>(
+    arr: &Bound<'py, PyAny>,
+    dtype: Dtype,
+    name: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     let py = arr.py();
     let np = py.import("numpy")?;
     let kw = [("dtype", dtype.name())].into_py_dict(py)?;
-    np.call_method("ascontiguousarray", (arr,), Some(&kw)).map_err(|e| {
-        PyTypeError::new_err(format!("{name} must be an array of real numbers: {}", e.value(py)))
-    })
+    np.call_method("ascontiguousarray", (arr,), Some(&kw))
+        .map_err(|e| {
+            PyTypeError::new_err(format!(
+                "{name} must be an array of real numbers: {}",
+                e.value(py)
+            ))
+        })
 }
 
 use pyo3::types::IntoPyDict;
@@ -171,21 +187,31 @@ pub fn points<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Points<'py>>
 }
 
 /// Reads an (N, 3) array-like as float64 (starts, destinations).
-pub fn points_f64<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArray2<'py, f64>> {
+pub fn points_f64<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<PyReadonlyArray2<'py, f64>> {
     let arr = as_ndarray(obj, name)?;
     kind_of(&arr, name)?;
     check_shape(&arr, name, &[None, Some(3)], "(N, 3)")?;
-    Ok(contiguous(&arr, Dtype::F64, name)?.cast_into::<PyArray2<f64>>()?.readonly())
+    Ok(contiguous(&arr, Dtype::F64, name)?
+        .cast_into::<PyArray2<f64>>()?
+        .readonly())
 }
 
 /// A (K, M, 3) array-like as float64, one row of K per target set.
-pub fn target_sets<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Vec<Vec<csrbf::glam::DVec3>>> {
+pub fn target_sets<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+) -> PyResult<Vec<Vec<csrbf::glam::DVec3>>> {
     let arr = as_ndarray(obj, name)?;
     kind_of(&arr, name)?;
     check_shape(&arr, name, &[None, None, Some(3)], "(K, M, 3)")?;
     let arr = contiguous(&arr, Dtype::F64, name)?.cast_into::<PyArray3<f64>>()?;
     let arr = arr.readonly();
-    let data = arr.as_slice().map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let data = arr
+        .as_slice()
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let m = arr.shape()[1];
     let v = vectors(data);
     Ok(if m == 0 {
@@ -197,9 +223,18 @@ pub fn target_sets<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Vec<Vec
 
 /// Checks `arr`'s shape against `want` (None: any length), naming the
 /// argument and the shape it has.
-pub fn check_shape(arr: &Bound<'_, PyAny>, name: &str, want: &[Option<usize>], text: &str) -> PyResult<()> {
+pub fn check_shape(
+    arr: &Bound<'_, PyAny>,
+    name: &str,
+    want: &[Option<usize>],
+    text: &str,
+) -> PyResult<()> {
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
-    let ok = shape.len() == want.len() && shape.iter().zip(want).all(|(s, w)| w.is_none_or(|w| *s == w));
+    let ok = shape.len() == want.len()
+        && shape
+            .iter()
+            .zip(want)
+            .all(|(s, w)| w.is_none_or(|w| *s == w));
     if ok {
         Ok(())
     } else {
@@ -268,7 +303,11 @@ pub fn write<'py, T: numpy::Element, D: numpy::ndarray::Dimension>(
     arr.try_readwrite().map_err(|_| {
         PyValueError::new_err(format!(
             "out shares memory with {what}; give a separate array{}",
-            if what == "points" { " (deform(points, out=points) moves points in place)" } else { "" }
+            if what == "points" {
+                " (deform(points, out=points) moves points in place)"
+            } else {
+                ""
+            }
         ))
     })
 }

@@ -28,7 +28,7 @@ impl Triple for f64 {
 /// `s` as vectors; `s.len()` must be a multiple of 3 (the callers pass (N, 3)
 /// arrays; checked).
 pub fn vectors<T: Triple>(s: &[T]) -> &[T::V] {
-    assert!(s.len() % 3 == 0, "an (N, 3) buffer");
+    assert!(s.len().is_multiple_of(3), "an (N, 3) buffer");
     // SAFETY: T::V is #[repr(C)] {x, y, z: T}, 3 * size_of::<T>() bytes with
     // T's alignment (asserted above), so len / 3 of them fill exactly the
     // same bytes; every bit pattern of T is valid in both; the lifetime and
@@ -38,7 +38,7 @@ pub fn vectors<T: Triple>(s: &[T]) -> &[T::V] {
 
 /// `s` as mutable vectors; `s.len()` must be a multiple of 3.
 pub fn vectors_mut<T: Triple>(s: &mut [T]) -> &mut [T::V] {
-    assert!(s.len() % 3 == 0, "an (N, 3) buffer");
+    assert!(s.len().is_multiple_of(3), "an (N, 3) buffer");
     // SAFETY: as in `vectors`; the exclusive borrow of `s` moves to the result.
     unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<T::V>(), s.len() / 3) }
 }

@@ -81,11 +81,18 @@ pub fn fit(
     polynomial: &str,
     allow_large: bool,
 ) -> PyResult<PyDeformation> {
-    let options = engine::options(radius, self::kernel(kernel)?, self::polynomial(polynomial)?, allow_large);
+    let options = engine::options(
+        radius,
+        self::kernel(kernel)?,
+        self::polynomial(polynomial)?,
+        allow_large,
+    );
     let s = vectors_f64(starts, "starts")?;
     let t = vectors_f64(targets, "targets")?;
     check_lengths(s.len(), t.len())?;
-    let d = py.detach(|| Deformation::fit(&s, &t, options)).map_err(|e| error(&e))?;
+    let d = py
+        .detach(|| Deformation::fit(&s, &t, options))
+        .map_err(|e| error(&e))?;
     Ok(PyDeformation { inner: d })
 }
 
@@ -101,7 +108,11 @@ pub(crate) fn check_lengths(starts: usize, targets: usize) -> PyResult<()> {
 }
 
 /// D at `points` into `out`, whichever the dtypes (the caller made them equal).
-fn displacements_into(d: &Deformation, points: View<'_>, out: &mut OutData<'_>) -> Result<(), engine::Error> {
+fn displacements_into(
+    d: &Deformation,
+    points: View<'_>,
+    out: &mut OutData<'_>,
+) -> Result<(), engine::Error> {
     match (points, out) {
         (View::F32(p), OutData::F32(o)) => engine::displacements_f32_into(d, p, o),
         (View::F64(p), OutData::F64(o)) => engine::displacements_into(d, p, o),
@@ -206,9 +217,12 @@ impl PyDeformation {
                     Ok(_) => Dtype::F32,
                     Err(_) => Dtype::F64,
                 };
-                let n = o.getattr("shape").ok().and_then(|s| s.get_item(0).ok()?.extract().ok()).unwrap_or(0);
-                arrays::check_out(&o, dtype, &[n, 3])
-                    .map_err(|e| in_place_hint(py, e))?;
+                let n = o
+                    .getattr("shape")
+                    .ok()
+                    .and_then(|s| s.get_item(0).ok()?.extract().ok())
+                    .unwrap_or(0);
+                arrays::check_out(&o, dtype, &[n, 3]).map_err(|e| in_place_hint(py, e))?;
                 o
             }
             Some(o) => {
@@ -226,7 +240,11 @@ impl PyDeformation {
                 o
             }
         };
-        let dtype = if target.cast::<PyArray2<f32>>().is_ok() { Dtype::F32 } else { Dtype::F64 };
+        let dtype = if target.cast::<PyArray2<f32>>().is_ok() {
+            Dtype::F32
+        } else {
+            Dtype::F64
+        };
         with_out(&target, dtype, "points", |o| {
             py.detach(|| match o {
                 OutData::F32(p) => engine::deform_in_place(d, p, phase),
@@ -239,7 +257,9 @@ impl PyDeformation {
 
     /// D at one point, as a tuple (dx, dy, dz).
     fn displacement_at(&self, point: (f64, f64, f64)) -> (f64, f64, f64) {
-        let v = self.inner.displacement_at(DVec3::new(point.0, point.1, point.2));
+        let v = self
+            .inner
+            .displacement_at(DVec3::new(point.0, point.1, point.2));
         (v.x, v.y, v.z)
     }
 
@@ -258,8 +278,9 @@ impl PyDeformation {
         let bytes = py
             .detach(|| std::fs::read(&path))
             .map_err(|e| crate::Error::new_err(format!("{}: {e}", path.display())))?;
-        let d = engine::from_bytes(&bytes)
-            .map_err(|e| crate::Error::new_err(format!("{}: {}", path.display(), crate::chain(&e))))?;
+        let d = engine::from_bytes(&bytes).map_err(|e| {
+            crate::Error::new_err(format!("{}: {}", path.display(), crate::chain(&e)))
+        })?;
         Ok(PyDeformation { inner: d })
     }
 
@@ -276,10 +297,15 @@ impl PyDeformation {
     }
 
     /// Pickling goes through the `.csrbf` bytes (bit-exact).
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
         let py = slf.py();
         let ctor = slf.get_type().getattr("from_bytes")?;
-        Ok((ctor, (PyBytes::new(py, &engine::to_bytes(&slf.get().inner)),)))
+        Ok((
+            ctor,
+            (PyBytes::new(py, &engine::to_bytes(&slf.get().inner)),),
+        ))
     }
 
     /// The kernel's name: "c0", "c2", "c4" or "c6".
@@ -336,7 +362,11 @@ fn describe(d: &Deformation) -> String {
         d.kernel().name(),
         d.radius(),
         if n == 1 { "" } else { "s" },
-        if d.polynomial() == Polynomial::Linear { ", linear" } else { "" },
+        if d.polynomial() == Polynomial::Linear {
+            ", linear"
+        } else {
+            ""
+        },
     )
 }
 
@@ -363,7 +393,9 @@ fn copy_into(p: View<'_>, out: OutData<'_>) {
 fn in_place_hint(py: Python<'_>, e: PyErr) -> PyErr {
     let text = e.value(py).to_string();
     let kind = e.get_type(py);
-    let msg = format!("{text} (deform in place needs points to be a float32 or float64 (N, 3) array in C order)");
+    let msg = format!(
+        "{text} (deform in place needs points to be a float32 or float64 (N, 3) array in C order)"
+    );
     if kind.is(py.get_type::<pyo3::exceptions::PyTypeError>()) {
         pyo3::exceptions::PyTypeError::new_err(msg)
     } else {

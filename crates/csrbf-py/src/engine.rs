@@ -15,24 +15,41 @@ pub type Error = csrbf::Error;
 
 /// Fit options for this radius, kernel and polynomial; `allow_large` lifts
 /// the memory limit.
-pub fn options(radius: f64, kernel: Kernel, polynomial: Polynomial, allow_large: bool) -> FitOptions {
+pub fn options(
+    radius: f64,
+    kernel: Kernel,
+    polynomial: Polynomial,
+    allow_large: bool,
+) -> FitOptions {
     // until issue 21 lands: FitOptions::new(radius)
     let o = FitOptions::default()
         .with_radius(radius)
         .with_kernel(kernel)
         .with_polynomial(polynomial);
-    if allow_large { o.with_memory_limit(u64::MAX) } else { o }
+    if allow_large {
+        o.with_memory_limit(u64::MAX)
+    } else {
+        o
+    }
 }
 
 /// D at every point, into `out` (same length).
-pub fn displacements_into<P: Point>(d: &Deformation, points: &[P], out: &mut [DVec3]) -> Result<(), Error> {
+pub fn displacements_into<P: Point>(
+    d: &Deformation,
+    points: &[P],
+    out: &mut [DVec3],
+) -> Result<(), Error> {
     // until issue 21 lands: d.displacements_into(points, out)
     out.copy_from_slice(&d.displacements(points));
     Ok(())
 }
 
 /// D at every point as f32 vectors, into `out` (same length).
-pub fn displacements_f32_into<P: Point>(d: &Deformation, points: &[P], out: &mut [Vec3]) -> Result<(), Error> {
+pub fn displacements_f32_into<P: Point>(
+    d: &Deformation,
+    points: &[P],
+    out: &mut [Vec3],
+) -> Result<(), Error> {
     // until issue 21 lands: d.displacements_f32_into(points, out)
     out.copy_from_slice(&d.displacements_f32(points));
     Ok(())
@@ -55,11 +72,18 @@ impl Movable for DVec3 {
 }
 
 /// `points[i] += phase * D(points[i])`.
-pub fn deform_in_place<P: Movable>(d: &Deformation, points: &mut [P], phase: f64) -> Result<(), Error> {
+pub fn deform_in_place<P: Movable>(
+    d: &Deformation,
+    points: &mut [P],
+    phase: f64,
+) -> Result<(), Error> {
     // until issue 21 lands: d.deform_in_place(points, phase)
     csrbf::frame(&[], &[], phase, &mut [])?; // the engine's check of the phase
     let disp = d.displacements(points);
-    points.par_iter_mut().zip(disp).for_each(|(p, v)| *p = p.moved(v, phase));
+    points
+        .par_iter_mut()
+        .zip(disp)
+        .for_each(|(p, v)| *p = p.moved(v, phase));
     Ok(())
 }
 

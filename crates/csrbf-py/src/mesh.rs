@@ -62,7 +62,9 @@ impl PyMesh {
             (None, Some(faces)) => {
                 for (i, face) in faces.try_iter()?.enumerate() {
                     let face: Vec<i64> = face?.extract().map_err(|_| {
-                        PyTypeError::new_err(format!("faces[{i}] must be a sequence of vertex indices"))
+                        PyTypeError::new_err(format!(
+                            "faces[{i}] must be a sequence of vertex indices"
+                        ))
                     })?;
                     let corners = face
                         .iter()
@@ -167,7 +169,9 @@ impl PyMesh {
         if p.is_empty() {
             return 0.0;
         }
-        let (lo, hi) = p.iter().fold((p[0], p[0]), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let (lo, hi) = p
+            .iter()
+            .fold((p[0], p[0]), |(lo, hi), &v| (lo.min(v), hi.max(v)));
         (hi - lo).as_dvec3().length()
     }
 
@@ -188,7 +192,11 @@ impl PyMesh {
             "Mesh({} vertices, {} faces{})",
             m.positions.len(),
             m.faces.len(),
-            if parts > 0 { format!(", {parts} parts") } else { String::new() }
+            if parts > 0 {
+                format!(", {parts} parts")
+            } else {
+                String::new()
+            }
         )
     }
 }
@@ -251,7 +259,9 @@ fn vec3_rows<'py>(py: Python<'py>, v: &[csrbf::glam::Vec3]) -> Bound<'py, PyArra
 /// Raises csrbf.Error naming the file and line when it cannot be read.
 #[pyfunction]
 pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
-    let m = py.detach(|| csrbf_mesh::read(&path)).map_err(|e| error(&e))?;
+    let m = py
+        .detach(|| csrbf_mesh::read(&path))
+        .map_err(|e| error(&e))?;
     Ok(PyMesh { inner: m })
 }
 
@@ -265,11 +275,17 @@ pub fn write_mesh(py: Python<'_>, mesh: PyRef<'_, PyMesh>, path: PathBuf) -> PyR
     if let Some(lost) = format.loses(m) {
         warn(py, &format!("{}: {lost}", path.display()))?;
     }
-    py.detach(|| csrbf_mesh::write(&path, m)).map_err(|e| error(&e))
+    py.detach(|| csrbf_mesh::write(&path, m))
+        .map_err(|e| error(&e))
 }
 
 fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
-    PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyUserWarning>(), &std::ffi::CString::new(text)?, 2)
+    PyErr::warn(
+        py,
+        &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+        &std::ffi::CString::new(text)?,
+        2,
+    )
 }
 
 /// What `deform_mesh` did, as `csrbf deform` reports it.
@@ -318,7 +334,10 @@ impl PyReport {
         d.set_item("largest_move", self.largest_move)?;
         d.set_item("largest_move_vertex", self.largest_move_vertex)?;
         d.set_item("flipped_faces", self.flipped.len())?;
-        d.set_item("flipped", self.flipped.iter().take(1000).collect::<Vec<_>>())?;
+        d.set_item(
+            "flipped",
+            self.flipped.iter().take(1000).collect::<Vec<_>>(),
+        )?;
         d.set_item("warnings", &self.warnings)?;
         Ok(d)
     }
@@ -329,7 +348,9 @@ impl PyReport {
             self.vertices,
             self.moved,
             self.largest_move,
-            self.largest_move_vertex.map(|v| format!(" (vertex {v})")).unwrap_or_default(),
+            self.largest_move_vertex
+                .map(|v| format!(" (vertex {v})"))
+                .unwrap_or_default(),
             self.flipped.len(),
             self.warnings.len()
         )
@@ -364,7 +385,8 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
         })?;
         (text, path.display().to_string())
     };
-    let file = ControlFile::parse(&text).map_err(|e| crate::Error::new_err(format!("{name}: {}", crate::chain(&e))))?;
+    let file = ControlFile::parse(&text)
+        .map_err(|e| crate::Error::new_err(format!("{name}: {}", crate::chain(&e))))?;
     for w in &file.warnings {
         warn(py, &format!("{name}: {w}"))?;
     }

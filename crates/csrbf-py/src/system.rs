@@ -40,9 +40,16 @@ impl PySystem {
         polynomial: &str,
         allow_large: bool,
     ) -> PyResult<PySystem> {
-        let options = engine::options(radius, self::kernel(kernel)?, self::polynomial(polynomial)?, allow_large);
+        let options = engine::options(
+            radius,
+            self::kernel(kernel)?,
+            self::polynomial(polynomial)?,
+            allow_large,
+        );
         let s = vectors_f64(starts, "starts")?;
-        let inner = py.detach(|| System::new(&s, options)).map_err(|e| error(&e))?;
+        let inner = py
+            .detach(|| System::new(&s, options))
+            .map_err(|e| error(&e))?;
         Ok(PySystem { inner })
     }
 
@@ -57,13 +64,20 @@ impl PySystem {
 
     /// One deformation per target set: `targets` is (K, M, 3); solved in
     /// parallel. Returns a list of K Deformations.
-    fn solve_many(&self, py: Python<'_>, targets: &Bound<'_, PyAny>) -> PyResult<Vec<PyDeformation>> {
+    fn solve_many(
+        &self,
+        py: Python<'_>,
+        targets: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<PyDeformation>> {
         let sets = arrays::target_sets(targets, "targets")?;
         check_sets(self.inner.starts().len(), &sets)?;
         let ds = py
             .detach(|| engine::solve_many(&self.inner, &sets))
             .map_err(|e| error(&e))?;
-        Ok(ds.into_iter().map(|inner| PyDeformation { inner }).collect())
+        Ok(ds
+            .into_iter()
+            .map(|inner| PyDeformation { inner })
+            .collect())
     }
 
     /// A Binding of `points` to these starts (for `Binding.displacements`
@@ -77,7 +91,10 @@ impl PySystem {
                 View::F64(v) => engine::bind(&self.inner, v),
             })
             .map_err(|e| error(&e))?;
-        Ok(PyBinding { inner, dtype: p.dtype() })
+        Ok(PyBinding {
+            inner,
+            dtype: p.dtype(),
+        })
     }
 
     /// The starts, an (M, 3) float64 array.
@@ -141,7 +158,11 @@ impl PySystem {
             o.kernel.name(),
             o.radius,
             if n == 1 { "" } else { "s" },
-            if o.polynomial == csrbf::Polynomial::Linear { ", linear" } else { "" },
+            if o.polynomial == csrbf::Polynomial::Linear {
+                ", linear"
+            } else {
+                ""
+            },
             self.inner.stats().solver
         )
     }
@@ -176,14 +197,22 @@ impl PyBinding {
     /// Deformation or a System). Results have the points' dtype (float32
     /// stays float32; the weights are float32).
     #[new]
-    fn new(py: Python<'_>, deformation: &Bound<'_, PyAny>, points: &Bound<'_, PyAny>) -> PyResult<PyBinding> {
+    fn new(
+        py: Python<'_>,
+        deformation: &Bound<'_, PyAny>,
+        points: &Bound<'_, PyAny>,
+    ) -> PyResult<PyBinding> {
         if let Ok(s) = deformation.cast::<PySystem>() {
             return s.get().bind(py, points);
         }
         let d = deformation.cast::<PyDeformation>().map_err(|_| {
             pyo3::exceptions::PyTypeError::new_err(format!(
                 "deformation must be a csrbf.Deformation or csrbf.System, got {}",
-                deformation.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                deformation
+                    .get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
             ))
         })?;
         let p = arrays::points(points, "points")?;
@@ -193,7 +222,10 @@ impl PyBinding {
             View::F32(v) => Binding::new(d, v),
             View::F64(v) => Binding::new(d, v),
         });
-        Ok(PyBinding { inner, dtype: p.dtype() })
+        Ok(PyBinding {
+            inner,
+            dtype: p.dtype(),
+        })
     }
 
     /// D of `deformation` (fitted to the same starts) at every bound point:
@@ -272,7 +304,9 @@ impl PyBinding {
                 py.detach(|| {
                     let mut tmp = vec![Vec3::ZERO; o.len()];
                     engine::displacements_many(b, ds, &mut tmp)?;
-                    o.par_iter_mut().zip(tmp).for_each(|(o, t)| *o = t.as_dvec3());
+                    o.par_iter_mut()
+                        .zip(tmp)
+                        .for_each(|(o, t)| *o = t.as_dvec3());
                     Ok(())
                 })
             }
@@ -317,7 +351,10 @@ impl<T: numpy::Element> std::ops::DerefMut for Writable<'_, T> {
     }
 }
 
-fn writable<'py, T: numpy::Element>(out: &Bound<'py, PyAny>, dims: usize) -> PyResult<Writable<'py, T>> {
+fn writable<'py, T: numpy::Element>(
+    out: &Bound<'py, PyAny>,
+    dims: usize,
+) -> PyResult<Writable<'py, T>> {
     Ok(if dims == 2 {
         Writable::Two(arrays::write::<T, numpy::Ix2>(out, "an input")?)
     } else {
@@ -358,7 +395,12 @@ pub fn deform_many<'py>(
     out: Option<Bound<'py, PyAny>>,
     allow_large: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let options = engine::options(radius, self::kernel(kernel)?, self::polynomial(polynomial)?, allow_large);
+    let options = engine::options(
+        radius,
+        self::kernel(kernel)?,
+        self::polynomial(polynomial)?,
+        allow_large,
+    );
     let p = arrays::points(points, "points")?;
     let s = vectors_f64(starts, "starts")?;
     let sets = arrays::target_sets(targets, "targets")?;
