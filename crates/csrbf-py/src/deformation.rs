@@ -4,14 +4,14 @@
 use std::path::PathBuf;
 
 use csrbf::glam::{DVec3, Vec3};
-use csrbf::{Deformation, Kernel, Polynomial};
+use csrbf::{Deformation, FitOptions, Kernel, Polynomial};
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyType};
 
 use crate::arrays::{self, Dtype, View};
 use crate::cast::{vectors, vectors_mut};
-use crate::{engine, error};
+use crate::error;
 
 /// A fitted deformation D: x -> x + D(x), from control vectors (start ->
 /// destination) and a radius of support R.
@@ -32,12 +32,29 @@ pub struct PyDeformation {
 
 /// Parses a kernel name (`c0`, `c2`, `c4`, `c6`).
 pub(crate) fn kernel(name: &str) -> PyResult<Kernel> {
-    name.parse().map_err(|e: csrbf::Error| error(&e))
+    name.parse().map_err(|e: csrbf::NameError| error(&e))
 }
 
 /// Parses a polynomial name (`none`, `linear`).
 pub(crate) fn polynomial(name: &str) -> PyResult<Polynomial> {
-    name.parse().map_err(|e: csrbf::Error| error(&e))
+    name.parse().map_err(|e: csrbf::NameError| error(&e))
+}
+
+/// Fit options from the Python arguments; `allow_large` lifts the memory limit.
+pub(crate) fn options(
+    radius: f64,
+    kernel: &str,
+    polynomial: &str,
+    allow_large: bool,
+) -> PyResult<FitOptions> {
+    let o = FitOptions::new(radius)
+        .with_kernel(self::kernel(kernel)?)
+        .with_polynomial(self::polynomial(polynomial)?);
+    Ok(if allow_large {
+        o.with_memory_limit(u64::MAX)
+    } else {
+        o
+    })
 }
 
 /// Starts and destinations as float64 vectors, of equal lengths.
@@ -81,12 +98,7 @@ pub fn fit(
     polynomial: &str,
     allow_large: bool,
 ) -> PyResult<PyDeformation> {
-    let options = engine::options(
-        radius,
-        self::kernel(kernel)?,
-        self::polynomial(polynomial)?,
-        allow_large,
-    );
+    let options = options(radius, kernel, polynomial, allow_large)?;
     let s = vectors_f64(starts, "starts")?;
     let t = vectors_f64(targets, "targets")?;
     check_lengths(s.len(), t.len())?;
@@ -112,12 +124,12 @@ fn displacements_into(
     d: &Deformation,
     points: View<'_>,
     out: &mut OutData<'_>,
-) -> Result<(), engine::Error> {
+) -> csrbf::Result<()> {
     match (points, out) {
-        (View::F32(p), OutData::F32(o)) => engine::displacements_f32_into(d, p, o),
-        (View::F64(p), OutData::F64(o)) => engine::displacements_into(d, p, o),
-        (View::F64(p), OutData::F32(o)) => engine::displacements_f32_into(d, p, o),
-        (View::F32(p), OutData::F64(o)) => engine::displacements_into(d, p, o),
+        (View::F32(p), OutData::F32(o)) => d.displacements_f32_into(p, o),
+        (View::F64(p), OutData::F64(o)) => d.displacements_into(p, o),
+        (View::F64(p), OutData::F32(o)) => d.displacements_f32_into(p, o),
+        (View::F32(p), OutData::F64(o)) => d.displacements_into(p, o),
     }
 }
 
@@ -247,8 +259,8 @@ impl PyDeformation {
         };
         with_out(&target, dtype, "points", |o| {
             py.detach(|| match o {
-                OutData::F32(p) => engine::deform_in_place(d, p, phase),
-                OutData::F64(p) => engine::deform_in_place(d, p, phase),
+                OutData::F32(p) => d.deform_in_place(p, phase),
+                OutData::F64(p) => d.deform_in_place(p, phase),
             })
         })?
         .map_err(|e| error(&e))?;
@@ -266,7 +278,7 @@ impl PyDeformation {
     /// Saves the deformation as a `.csrbf` file (the CLI's format: `csrbf
     /// apply --deformation PATH` replays it), written whole or not at all.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = engine::to_bytes(&self.inner);
+        let bytes = self.inner.to_bytes();
         py.detach(|| csrbf_mesh::write_atomic(&path, &bytes))
             .map_err(|e| error(&e))
     }
@@ -278,7 +290,7 @@ impl PyDeformation {
         let bytes = py
             .detach(|| std::fs::read(&path))
             .map_err(|e| crate::Error::new_err(format!("{}: {e}", path.display())))?;
-        let d = engine::from_bytes(&bytes).map_err(|e| {
+        let d = Deformation::from_bytes(&bytes).map_err(|e| {
             crate::Error::new_err(format!("{}: {}", path.display(), crate::chain(&e)))
         })?;
         Ok(PyDeformation { inner: d })
@@ -286,13 +298,13 @@ impl PyDeformation {
 
     /// The `.csrbf` bytes of this deformation.
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
-        PyBytes::new(py, &engine::to_bytes(&self.inner))
+        PyBytes::new(py, &self.inner.to_bytes())
     }
 
     /// The deformation of `.csrbf` bytes (see `to_bytes`).
     #[classmethod]
     fn from_bytes(_cls: &Bound<'_, PyType>, data: &[u8]) -> PyResult<PyDeformation> {
-        let d = engine::from_bytes(data).map_err(|e| error(&e))?;
+        let d = Deformation::from_bytes(data).map_err(|e| error(&e))?;
         Ok(PyDeformation { inner: d })
     }
 
@@ -302,10 +314,7 @@ impl PyDeformation {
     ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
         let py = slf.py();
         let ctor = slf.get_type().getattr("from_bytes")?;
-        Ok((
-            ctor,
-            (PyBytes::new(py, &engine::to_bytes(&slf.get().inner)),),
-        ))
+        Ok((ctor, (PyBytes::new(py, &slf.get().inner.to_bytes()),)))
     }
 
     /// The kernel's name: "c0", "c2", "c4" or "c6".

@@ -12,7 +12,6 @@
 //! - [`system`]: `System` (factor once, solve many), `Binding`, `deform_many`;
 //! - [`mesh`]: `Mesh`, `read_mesh`, `write_mesh`, `deform_mesh` and its `Report`;
 //! - [`arrays`]: numpy arguments read without a copy where the layout allows;
-//! - [`engine`]: the engine calls this crate makes, in one place.
 //!
 //! Every engine, mesh-file and control-file error becomes `csrbf.Error` (a
 //! `ValueError`) carrying the whole message chain; a wrong shape or length is
@@ -23,7 +22,6 @@ use pyo3::prelude::*;
 pub mod arrays;
 mod cast;
 pub mod deformation;
-pub mod engine;
 pub mod mesh;
 pub mod system;
 

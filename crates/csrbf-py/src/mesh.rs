@@ -309,6 +309,11 @@ pub struct PyReport {
     /// the whole model).
     #[pyo3(get)]
     warnings: Vec<String>,
+    /// A stable name for each warning, in the same order, to filter on:
+    /// "empty_region", "past_fold_free_bound", "starts_far_from_mesh",
+    /// "support_crosses_region", "polynomial_leak", "flipped_faces".
+    #[pyo3(get)]
+    warning_kinds: Vec<&'static str>,
 }
 
 #[pymethods]
@@ -366,6 +371,7 @@ impl PyReport {
             largest_move_vertex: d.largest_move_vertex,
             flipped: d.flipped,
             warnings: d.warnings.iter().map(ToString::to_string).collect(),
+            warning_kinds: d.warnings.iter().map(|w| w.kind()).collect(),
         }
     }
 }

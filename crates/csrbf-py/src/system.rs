@@ -11,8 +11,8 @@ use rayon::prelude::*;
 
 use crate::arrays::{self, Dtype, View};
 use crate::cast::vectors_mut;
-use crate::deformation::{PyDeformation, check_lengths, kernel, polynomial, rows, vectors_f64};
-use crate::{engine, error};
+use crate::deformation::{PyDeformation, check_lengths, options, rows, vectors_f64};
+use crate::error;
 
 /// The symbolic and numeric work of one set of starts, done once: the
 /// neighbour graph, ordering and factor. `solve` gives a Deformation for new
@@ -40,12 +40,7 @@ impl PySystem {
         polynomial: &str,
         allow_large: bool,
     ) -> PyResult<PySystem> {
-        let options = engine::options(
-            radius,
-            self::kernel(kernel)?,
-            self::polynomial(polynomial)?,
-            allow_large,
-        );
+        let options = options(radius, kernel, polynomial, allow_large)?;
         let s = vectors_f64(starts, "starts")?;
         let inner = py
             .detach(|| System::new(&s, options))
@@ -72,7 +67,7 @@ impl PySystem {
         let sets = arrays::target_sets(targets, "targets")?;
         check_sets(self.inner.starts().len(), &sets)?;
         let ds = py
-            .detach(|| engine::solve_many(&self.inner, &sets))
+            .detach(|| self.inner.solve_many(&sets))
             .map_err(|e| error(&e))?;
         Ok(ds
             .into_iter()
@@ -85,12 +80,10 @@ impl PySystem {
     fn bind(&self, py: Python<'_>, points: &Bound<'_, PyAny>) -> PyResult<PyBinding> {
         let p = arrays::points(points, "points")?;
         let view = p.view();
-        let inner = py
-            .detach(|| match view {
-                View::F32(v) => engine::bind(&self.inner, v),
-                View::F64(v) => engine::bind(&self.inner, v),
-            })
-            .map_err(|e| error(&e))?;
+        let inner = py.detach(|| match view {
+            View::F32(v) => self.inner.bind(v),
+            View::F64(v) => self.inner.bind(v),
+        });
         Ok(PyBinding {
             inner,
             dtype: p.dtype(),
@@ -296,14 +289,14 @@ impl PyBinding {
             Dtype::F32 => {
                 let mut w = out_f32(&out, shape.len())?;
                 let o = vectors_mut::<f32>(&mut w);
-                py.detach(|| engine::displacements_many(b, ds, o))
+                py.detach(|| b.displacements_many(ds, o))
             }
             Dtype::F64 => {
                 let mut w = out_f64(&out, shape.len())?;
                 let o = vectors_mut::<f64>(&mut w);
                 py.detach(|| {
                     let mut tmp = vec![Vec3::ZERO; o.len()];
-                    engine::displacements_many(b, ds, &mut tmp)?;
+                    b.displacements_many(ds, &mut tmp)?;
                     o.par_iter_mut()
                         .zip(tmp)
                         .for_each(|(o, t)| *o = t.as_dvec3());
@@ -311,7 +304,7 @@ impl PyBinding {
                 })
             }
         }
-        .map_err(|e: engine::Error| error(&e))?;
+        .map_err(|e: csrbf::Error| error(&e))?;
         Ok(out)
     }
 }
@@ -395,12 +388,7 @@ pub fn deform_many<'py>(
     out: Option<Bound<'py, PyAny>>,
     allow_large: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let options = engine::options(
-        radius,
-        self::kernel(kernel)?,
-        self::polynomial(polynomial)?,
-        allow_large,
-    );
+    let options = options(radius, kernel, polynomial, allow_large)?;
     let p = arrays::points(points, "points")?;
     let s = vectors_f64(starts, "starts")?;
     let sets = arrays::target_sets(targets, "targets")?;
@@ -414,22 +402,22 @@ pub fn deform_many<'py>(
         None => arrays::zeros(py, p.dtype(), &[k, n, 3]),
     };
     let view = p.view();
-    let run = |o: OutVariants<'_>| -> Result<(), engine::Error> {
+    let run = |o: OutVariants<'_>| -> csrbf::Result<()> {
         csrbf::frame(&[], &[], phase, &mut [])?; // the engine's check of the phase
         let sys = System::new(&s, options)?;
-        let ds = engine::solve_many(&sys, &sets)?;
+        let ds = sys.solve_many(&sets)?;
         let binding = match view {
-            View::F32(v) => engine::bind(&sys, v)?,
-            View::F64(v) => engine::bind(&sys, v)?,
+            View::F32(v) => sys.bind(v),
+            View::F64(v) => sys.bind(v),
         };
         match (o, view) {
             (OutVariants::F32(o), View::F32(rest)) => {
-                engine::displacements_many(&binding, &ds, o)?;
+                binding.displacements_many(&ds, o)?;
                 place(o, rest, phase, |p, d, t| *p + d * t as f32)
             }
             (OutVariants::F64(o), View::F64(rest)) => {
                 let mut d = vec![Vec3::ZERO; o.len()];
-                engine::displacements_many(&binding, &ds, &mut d)?;
+                binding.displacements_many(&ds, &mut d)?;
                 o.par_iter_mut().zip(d).for_each(|(o, d)| *o = d.as_dvec3());
                 place(o, rest, phase, |p, d, t| *p + d * t)
             }
@@ -463,7 +451,7 @@ fn place<V: Copy + Send + Sync>(
     rest: &[V],
     phase: f64,
     f: impl Fn(&V, V, f64) -> V + Sync,
-) -> Result<(), engine::Error> {
+) -> csrbf::Result<()> {
     if rest.is_empty() {
         return Ok(());
     }

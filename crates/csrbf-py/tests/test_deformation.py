@@ -167,5 +167,7 @@ def test_empty_points_and_nan_points():
     d = csrbf.fit(STARTS, TARGETS, radius=0.8)
     assert d.displacements(np.empty((0, 3))).shape == (0, 3)
     assert d.deform(np.empty((0, 3), dtype=np.float32)).dtype == np.float32
-    got = d.displacements(np.array([[np.nan, 0.0, 0.0], [0.0, 0.0, 0.0]]))
-    assert np.allclose(got[1], [0.0, 0.1, 0.0])  # the other points are unharmed
+    for dtype in (np.float64, np.float32):
+        got = d.displacements(np.array([[np.nan, 0.0, 0.0], [0.0, 0.0, 0.0], [9.0, 9.0, np.inf]], dtype=dtype))
+        assert np.isnan(got[0]).all() and np.isnan(got[2]).all()  # NaN in, NaN out
+        assert np.allclose(got[1], [0.0, 0.1, 0.0])  # the other points are unharmed

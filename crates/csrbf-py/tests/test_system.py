@@ -53,9 +53,13 @@ def test_a_binding_agrees_with_the_deformation():
 def test_a_binding_refuses_a_deformation_of_other_starts():
     starts, points, rng = scene()
     b = csrbf.System(starts, radius=0.35).bind(points)
-    other = csrbf.fit(starts[:10], starts[:10], 0.35)
+    fewer = csrbf.fit(starts[:10], starts[:10], 0.35)
     with pytest.raises(csrbf.Error, match="start"):
-        b.displacements(other)
+        b.displacements(fewer)
+    # Other starts of the same count, kernel and radius (issue 21): refused too.
+    moved = starts + 0.01
+    with pytest.raises(csrbf.Error, match="start"):
+        b.displacements(csrbf.fit(moved, moved, 0.35))
 
 
 def test_solve_many_and_displacements_many():
