@@ -175,9 +175,9 @@ impl PyDeformation {
     ///     out: an (N, 3) array of that dtype, C-ordered, filled in place
     ///         and returned (not the points themselves).
     ///
-    /// A point with a NaN or infinite coordinate gets a non-finite
-    /// displacement; points farther than R from every start get zero (with
-    /// polynomial "none").
+    /// A point with a NaN or infinite coordinate gets a NaN displacement
+    /// (the others are unaffected); points farther than R from every start
+    /// get zero (with polynomial "none").
     #[pyo3(signature = (points, out = None))]
     fn displacements<'py>(
         &self,
