@@ -6,12 +6,10 @@
 //! A wrong shape is a `ValueError` naming the argument and its shape,
 //! non-numeric input a `TypeError`.
 
-use numpy::{
-    PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyReadwriteArray2, PyUntypedArrayMethods,
-};
+use numpy::{PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{IntoPyDict, PyTuple};
 
 use crate::cast::{Triple, vectors};
 
@@ -170,8 +168,6 @@ fn contiguous<'py>(
         })
 }
 
-use pyo3::types::IntoPyDict;
-
 /// Reads an (N, 3) array-like of numbers named `name`; float32 stays
 /// float32, everything else becomes float64.
 pub fn points<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Points<'py>> {
@@ -319,6 +315,3 @@ pub fn data_mut<'a, T: numpy::Element, D: numpy::ndarray::Dimension>(
     // check_out (or zeros) made sure of C order, so this cannot fail.
     a.as_slice_mut().unwrap_or(&mut [])
 }
-
-/// A 2-D readwrite array alias.
-pub type Out2<'py, T> = PyReadwriteArray2<'py, T>;
