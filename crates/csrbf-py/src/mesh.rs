@@ -304,6 +304,11 @@ pub struct PyReport {
     #[pyo3(get)]
     largest_move_vertex: Option<u32>,
     flipped: Vec<u32>,
+    inside_out: Vec<u32>,
+    /// The phase (of the one asked for) at which the first face folds, or
+    /// None when none does.
+    #[pyo3(get)]
+    fold_phase: Option<f64>,
     /// What to worry about, one sentence each (past the fold-free bound,
     /// starts out of reach, empty regions, seams, a polynomial that moved
     /// the whole model).
@@ -318,7 +323,21 @@ pub struct PyReport {
 
 #[pymethods]
 impl PyReport {
-    /// Triangles turned over (indices into `Mesh.triangles`), uint32.
+    /// Triangles the map turns inside out (det J <= 0 at their centroid;
+    /// indices into `Mesh.triangles`), uint32: the folds.
+    #[getter]
+    fn inside_out<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        PyArray1::from_slice(py, &self.inside_out)
+    }
+
+    /// How many triangles are inside out.
+    #[getter]
+    fn inside_out_faces(&self) -> usize {
+        self.inside_out.len()
+    }
+
+    /// Triangles turned against their neighbours where the map does not
+    /// fold (creases; indices into `Mesh.triangles`), uint32.
     #[getter]
     fn flipped<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
         PyArray1::from_slice(py, &self.flipped)
@@ -338,6 +357,12 @@ impl PyReport {
         d.set_item("moved", self.moved)?;
         d.set_item("largest_move", self.largest_move)?;
         d.set_item("largest_move_vertex", self.largest_move_vertex)?;
+        d.set_item("inside_out_faces", self.inside_out.len())?;
+        d.set_item(
+            "inside_out",
+            self.inside_out.iter().take(1000).collect::<Vec<_>>(),
+        )?;
+        d.set_item("fold_phase", self.fold_phase)?;
         d.set_item("flipped_faces", self.flipped.len())?;
         d.set_item(
             "flipped",
@@ -349,22 +374,29 @@ impl PyReport {
 
     fn __repr__(&self) -> String {
         format!(
-            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) turned over, {} warning(s))",
+            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) inside out{}, {} warning(s))",
             self.vertices,
             self.moved,
             self.largest_move,
             self.largest_move_vertex
                 .map(|v| format!(" (vertex {v})"))
                 .unwrap_or_default(),
-            self.flipped.len(),
+            self.inside_out.len(),
+            self.fold_phase
+                .map(|p| format!(", folds from phase {p:.2} on"))
+                .unwrap_or_default(),
             self.warnings.len()
         )
     }
 }
 
 impl PyReport {
-    fn new(vertices: usize, d: Diagnostics) -> PyReport {
+    /// The report of a deformation at `phase` (the engine's fold phase is a
+    /// share of the phases given: scaled as `csrbf deform` scales it).
+    fn new(vertices: usize, d: Diagnostics, phase: f64) -> PyReport {
         PyReport {
+            inside_out: d.inside_out,
+            fold_phase: d.fold_phase.map(|s| s * phase),
             vertices,
             moved: d.moved,
             largest_move: d.largest_move,
@@ -444,7 +476,7 @@ pub fn deform_mesh(
         .detach(|| csrbf_anim::apply::deform_mesh(&mut m, &file, phase))
         .map_err(|e| error(&e))?;
     let n = m.positions.len();
-    Ok((PyMesh { inner: m }, PyReport::new(n, report)))
+    Ok((PyMesh { inner: m }, PyReport::new(n, report, phase)))
 }
 
 /// Adds the mesh classes and functions to the module.

@@ -42,8 +42,12 @@ def test_deform_mesh_equals_csrbf_deform(model, tmp_path, cli):
     theirs = csrbf.read_mesh(tmp_path / "cli.ply")
     assert_close(out.vertices, theirs.vertices, diagonal(mesh.vertices))
     mine = report.to_dict()
-    for key in ("vertices", "moved", "largest_move_vertex", "flipped_faces", "flipped", "warnings"):
+    for key in ("vertices", "moved", "largest_move_vertex", "inside_out_faces", "inside_out",
+                "flipped_faces", "flipped", "warnings"):
         assert mine[key] == figures[key], key
+    assert (mine["fold_phase"] is None) == (figures["fold_phase"] is None)
+    if figures["fold_phase"] is not None:
+        assert mine["fold_phase"] == pytest.approx(figures["fold_phase"], rel=1e-9)
     assert mine["largest_move"] == pytest.approx(figures["largest_move"], rel=1e-6)
     assert report.moved > 0 and report.vertices == len(mesh)
     # The input mesh is left as it was.
@@ -124,6 +128,20 @@ def test_deform_mesh_takes_a_dict_and_reports_warnings(tmp_path):
     assert "polynomial_leak" in report.warning_kinds, report.warnings
     assert len(report.warning_kinds) == len(report.warnings)
     assert repr(report).startswith(f"Report({len(head)} vertices, {report.moved} moved, largest move ")
+    assert report.inside_out_faces == len(report.inside_out) and report.inside_out.dtype == np.uint32
+
+
+def test_a_fold_is_reported_inside_out_with_its_phase():
+    head = csrbf.read_mesh(HEAD)
+    spec = json.loads(SMILE.read_text())
+    c = spec["controls"][0]
+    # Far past the kernel's fold-free bound (0.474 R for C2): the map folds.
+    c["to"] = [f + 1.5 * spec["radius"] * u for f, u in zip(c["from"], (1.0, 0.0, 0.0))]
+    out, report = csrbf.deform_mesh(head, spec, phase=1.0)
+    assert report.inside_out_faces > 0 and 0 < report.fold_phase < 1
+    assert "past_fold_free_bound" in report.warning_kinds
+    _, half = csrbf.deform_mesh(head, spec, phase=0.5)
+    assert half.fold_phase is None or half.fold_phase == pytest.approx(report.fold_phase, rel=1e-6)
     with pytest.warns(UserWarning, match="colour"):
         csrbf.deform_mesh(head, {**spec, "colour": "red"})
 
