@@ -21,6 +21,11 @@ if [ "${1:-}" = "--tests" ] || [ "${1:-}" = "--studio" ]; then
   command -v import >/dev/null 2>&1 || need+=(imagemagick)
 fi
 if [ "${1:-}" = "--tests" ] && ! command -v node >/dev/null 2>&1; then need+=(nodejs npm); fi
+# The Python package's tests (scripts/test_python.sh) make venvs.
+if [ "${1:-}" = "--tests" ]; then
+  command -v python3 >/dev/null 2>&1 || need+=(python3)
+  python3 -c 'import ensurepip, venv' >/dev/null 2>&1 || need+=(python3-venv)
+fi
 if [ ${#need[@]} -gt 0 ]; then
   if command -v apt-get >/dev/null 2>&1; then
     sudo=""; [ "$(id -u)" = 0 ] || sudo="sudo"

@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # Every test, in the dev profile (a release test build recompiles every
 # dependency). Installs what the tests need first (scripts/setup.sh --tests).
+# The Python package (crates/csrbf-py, no Rust test targets) is tested by
+# pytest: scripts/test_python.sh, after the Rust tests, with the extension
+# built in this same workspace build.
 # The real models are read from ../shared/models when present, else from assets/models.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh --tests
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/xdg-$(id -u)}"
+# csrbf-py's cdylib is a Python extension: pyo3 must not link libpython.
+export PYO3_BUILD_EXTENSION_MODULE=1
 cargo test --workspace --locked
+scripts/test_python.sh

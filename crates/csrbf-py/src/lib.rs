@@ -1,0 +1,66 @@
+//! `csrbf` for Python: the engine's calls with numpy arrays in and out.
+//!
+//! A thin layer, like the CLI: each function checks and converts its
+//! arguments, makes one engine call with the GIL released
+//! ([`Python::detach`]) and converts the result. No algorithm lives here:
+//! fitting, evaluation, bindings and diagnostics are `csrbf`'s, meshes and
+//! their files `csrbf-mesh`'s, control files applied to meshes
+//! `csrbf-anim`'s. The Python-side parts (the PyVista accessor, type stubs)
+//! are in `python/csrbf/`.
+//!
+//! - [`deformation`]: `fit` and `Deformation` (evaluate, deform, save, load, pickle);
+//! - [`system`]: `System` (factor once, solve many), `Binding`, `deform_many`;
+//! - [`mesh`]: `Mesh`, `read_mesh`, `write_mesh`, `deform_mesh` and its `Report`;
+//! - [`arrays`]: numpy arguments read without a copy where the layout allows;
+//!
+//! Every engine, mesh-file and control-file error becomes `csrbf.Error` (a
+//! `ValueError`) carrying the whole message chain; a wrong shape or length is
+//! a plain `ValueError` naming the argument, non-numeric input a `TypeError`.
+
+use pyo3::prelude::*;
+
+pub mod arrays;
+mod cast;
+pub mod deformation;
+pub mod mesh;
+pub mod system;
+
+pyo3::create_exception!(
+    csrbf,
+    Error,
+    pyo3::exceptions::PyValueError,
+    "What the engine refused, with its message: the file and line, the JSON path or the control's index."
+);
+
+/// `csrbf.Error` carrying `e`'s message and every source below it, joined by
+/// `": "` (anyhow's `{:#}`).
+pub(crate) fn error(e: &(dyn std::error::Error + 'static)) -> PyErr {
+    Error::new_err(chain(e))
+}
+
+/// The message of `e` and of every source below it.
+pub(crate) fn chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = s.to_string();
+        // Some errors print their source themselves; do not say it twice.
+        if !text.ends_with(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
+}
+
+/// The extension module `csrbf._csrbf`; `csrbf/__init__.py` re-exports it.
+#[pymodule]
+fn _csrbf(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    deformation::register(m)?;
+    system::register(m)?;
+    mesh::register(m)?;
+    Ok(())
+}

@@ -1,0 +1,490 @@
+//! `csrbf.Mesh`, `read_mesh`, `write_mesh` and `deform_mesh`: the CLI's mesh
+//! formats and control files, from Python.
+
+use std::path::PathBuf;
+
+use csrbf::Diagnostics;
+use csrbf::controls::ControlFile;
+use csrbf_mesh::{Faces, Mesh};
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::arrays;
+use crate::cast::vectors_mut;
+use crate::error;
+
+/// A polygon mesh: vertices (float32), polygon faces, and what its file
+/// carried (named parts, normals, UVs, colours, materials), kept when it is
+/// written again.
+///
+/// >>> mesh = csrbf.read_mesh("head.off")
+/// >>> mesh.vertices.shape, mesh.triangles.shape
+/// ((1487, 3), (2918, 3))
+/// >>> csrbf.Mesh(vertices, triangles)          # from arrays
+#[pyclass(name = "Mesh", module = "csrbf")]
+#[derive(Clone)]
+pub struct PyMesh {
+    pub(crate) inner: Mesh,
+}
+
+#[pymethods]
+impl PyMesh {
+    /// A mesh from arrays.
+    ///
+    /// Args:
+    ///     vertices: (N, 3) positions (stored as float32).
+    ///     triangles: (M, 3) vertex indices, or None.
+    ///     faces: instead of triangles, a sequence of polygons (each a
+    ///         sequence of 3 or more vertex indices), e.g. quads.
+    #[new]
+    #[pyo3(signature = (vertices, triangles = None, *, faces = None))]
+    fn new(
+        vertices: &Bound<'_, PyAny>,
+        triangles: Option<&Bound<'_, PyAny>>,
+        faces: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyMesh> {
+        let positions = positions(vertices, "vertices")?;
+        let n = positions.len();
+        let mut f = Faces::new();
+        match (triangles, faces) {
+            (Some(_), Some(_)) => {
+                return Err(PyValueError::new_err("give triangles or faces, not both"));
+            }
+            (Some(t), None) => {
+                let t = indices(t, "triangles")?;
+                for (i, tri) in t.chunks(3).enumerate() {
+                    check_corners(tri, n, "triangles", i)?;
+                    f.push(tri);
+                }
+            }
+            (None, Some(faces)) => {
+                for (i, face) in faces.try_iter()?.enumerate() {
+                    let face: Vec<i64> = face?.extract().map_err(|_| {
+                        PyTypeError::new_err(format!(
+                            "faces[{i}] must be a sequence of vertex indices"
+                        ))
+                    })?;
+                    let corners = face
+                        .iter()
+                        .map(|&c| u32::try_from(c).map_err(|_| bad_index("faces", i, c, n)))
+                        .collect::<PyResult<Vec<u32>>>()?;
+                    if corners.len() < 3 {
+                        return Err(PyValueError::new_err(format!(
+                            "faces[{i}] has {} corners; a face needs at least 3",
+                            corners.len()
+                        )));
+                    }
+                    check_corners(&corners, n, "faces", i)?;
+                    f.push(&corners);
+                }
+            }
+            (None, None) => {}
+        }
+        Ok(PyMesh {
+            inner: Mesh {
+                positions,
+                faces: f,
+                ..Mesh::default()
+            },
+        })
+    }
+
+    /// The vertex positions, an (N, 3) float32 array (a copy). Assigning an
+    /// (N, 3) array of the same N moves the vertices.
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
+        vec3_rows(py, &self.inner.positions)
+    }
+
+    #[setter]
+    fn set_vertices(&mut self, vertices: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = positions(vertices, "vertices")?;
+        if p.len() != self.inner.positions.len() {
+            return Err(PyValueError::new_err(format!(
+                "vertices must keep the mesh's {} rows, got {}",
+                self.inner.positions.len(),
+                p.len()
+            )));
+        }
+        self.inner.positions = p;
+        Ok(())
+    }
+
+    /// The faces as triangles (polygons fanned), an (M, 3) uint32 array.
+    #[getter]
+    fn triangles<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
+        let t = self.inner.faces.triangles();
+        let a = PyArray2::<u32>::zeros(py, [t.len(), 3], false);
+        {
+            let mut w = a.readwrite();
+            for (o, t) in arrays::data_mut(&mut w).chunks_mut(3).zip(&t) {
+                o.copy_from_slice(t);
+            }
+        }
+        a
+    }
+
+    /// The polygon faces, a list of lists of vertex indices.
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        PyList::new(py, self.inner.faces.iter().map(<[u32]>::to_vec))
+    }
+
+    /// Named parts (groups, objects, materials): a dict of name -> the
+    /// uint32 indices of the part's vertices.
+    #[getter]
+    fn parts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, v) in self.inner.part_table() {
+            d.set_item(name, PyArray1::from_vec(py, v))?;
+        }
+        Ok(d)
+    }
+
+    /// Per-vertex normals, an (N, 3) float32 array, or None.
+    #[getter]
+    fn normals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f32>>> {
+        self.inner.normals.as_deref().map(|n| vec3_rows(py, n))
+    }
+
+    /// Per-vertex colours (linear RGBA in [0, 1]), an (N, 4) float32 array,
+    /// or None.
+    #[getter]
+    fn colors<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyArray2<f32>>>> {
+        self.inner
+            .colors
+            .as_ref()
+            .map(|c| PyArray2::from_vec2(py, &c.iter().map(|c| c.to_vec()).collect::<Vec<_>>()))
+            .transpose()
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// The diagonal of the bounding box: the scale to choose a radius by
+    /// (5-15 % of it for local edits).
+    #[getter]
+    fn diagonal(&self) -> f64 {
+        let p = &self.inner.positions;
+        if p.is_empty() {
+            return 0.0;
+        }
+        let (lo, hi) = p
+            .iter()
+            .fold((p[0], p[0]), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        (hi - lo).as_dvec3().length()
+    }
+
+    /// A deep copy.
+    fn copy(&self) -> PyMesh {
+        self.clone()
+    }
+
+    /// The number of vertices.
+    fn __len__(&self) -> usize {
+        self.inner.positions.len()
+    }
+
+    fn __repr__(&self) -> String {
+        let m = &self.inner;
+        let parts = m.part_table().len();
+        format!(
+            "Mesh({} vertices, {} faces{})",
+            m.positions.len(),
+            m.faces.len(),
+            if parts > 0 {
+                format!(", {parts} parts")
+            } else {
+                String::new()
+            }
+        )
+    }
+}
+
+fn bad_index(what: &str, face: usize, corner: i64, n: usize) -> PyErr {
+    PyValueError::new_err(format!(
+        "{what}[{face}] refers to vertex {corner}, but vertices has {n} rows"
+    ))
+}
+
+fn check_corners(corners: &[u32], n: usize, what: &str, face: usize) -> PyResult<()> {
+    match corners.iter().find(|&&c| c as usize >= n) {
+        Some(&c) => Err(bad_index(what, face, c as i64, n)),
+        None => Ok(()),
+    }
+}
+
+/// (N, 3) numbers as float32 vectors.
+fn positions(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<csrbf::glam::Vec3>> {
+    Ok(match arrays::points(obj, name)?.view() {
+        arrays::View::F32(v) => v.to_vec(),
+        arrays::View::F64(v) => v.iter().map(|p| p.as_vec3()).collect(),
+    })
+}
+
+/// (M, 3) non-negative integers.
+fn indices(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<u32>> {
+    let a = arrays::as_ndarray(obj, name)?;
+    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+    if kind != "i" && kind != "u" {
+        return Err(PyTypeError::new_err(format!(
+            "{name} must be an array of integers (vertex indices), got dtype {}",
+            a.getattr("dtype")?.str()?
+        )));
+    }
+    arrays::check_shape(&a, name, &[None, Some(3)], "(M, 3)")?;
+    let np = obj.py().import("numpy")?;
+    let a = np.call_method1("ascontiguousarray", (a, "int64"))?;
+    let a = a.cast_into::<PyArray2<i64>>()?;
+    let a = a.readonly();
+    let n = a.as_slice().unwrap_or(&[]);
+    n.iter()
+        .enumerate()
+        .map(|(i, &c)| u32::try_from(c).map_err(|_| bad_index(name, i / 3, c, usize::MAX)))
+        .collect()
+}
+
+/// An (N, 3) float32 array of vectors (a copy).
+fn vec3_rows<'py>(py: Python<'py>, v: &[csrbf::glam::Vec3]) -> Bound<'py, PyArray2<f32>> {
+    let a = PyArray2::<f32>::zeros(py, [v.len(), 3], false);
+    {
+        let mut w = a.readwrite();
+        vectors_mut(arrays::data_mut(&mut w)).copy_from_slice(v);
+    }
+    a
+}
+
+/// Reads a mesh file: OBJ, PLY, STL, OFF, glTF (.gltf, .glb), by extension.
+///
+/// Raises csrbf.Error naming the file and line when it cannot be read.
+#[pyfunction]
+pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
+    let m = py
+        .detach(|| csrbf_mesh::read(&path))
+        .map_err(|e| error(&e))?;
+    Ok(PyMesh { inner: m })
+}
+
+/// Writes a mesh file, the format by extension, whole or not at all
+/// (a temporary file renamed). Warns (UserWarning) when the format cannot
+/// keep everything (STL: no vertex order, parts, UVs or colours).
+#[pyfunction]
+pub fn write_mesh(py: Python<'_>, mesh: PyRef<'_, PyMesh>, path: PathBuf) -> PyResult<()> {
+    let m = &mesh.inner;
+    let format = csrbf_mesh::Format::from_path(&path).map_err(|e| error(&e))?;
+    if let Some(lost) = format.loses(m) {
+        warn(py, &format!("{}: {lost}", path.display()))?;
+    }
+    py.detach(|| csrbf_mesh::write(&path, m))
+        .map_err(|e| error(&e))
+}
+
+fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
+    PyErr::warn(
+        py,
+        &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+        &std::ffi::CString::new(text)?,
+        2,
+    )
+}
+
+/// What `deform_mesh` did, as `csrbf deform` reports it.
+#[pyclass(name = "Report", module = "csrbf", frozen)]
+pub struct PyReport {
+    /// Number of vertices.
+    #[pyo3(get)]
+    vertices: usize,
+    /// Vertices that moved (by more than 1e-6 of the rest diagonal).
+    #[pyo3(get)]
+    moved: usize,
+    /// The largest move.
+    #[pyo3(get)]
+    largest_move: f64,
+    /// The vertex that moved most, or None.
+    #[pyo3(get)]
+    largest_move_vertex: Option<u32>,
+    flipped: Vec<u32>,
+    inside_out: Vec<u32>,
+    /// The phase (of the one asked for) at which the first face folds, or
+    /// None when none does.
+    #[pyo3(get)]
+    fold_phase: Option<f64>,
+    /// What to worry about, one sentence each (past the fold-free bound,
+    /// starts out of reach, empty regions, seams, a polynomial that moved
+    /// the whole model).
+    #[pyo3(get)]
+    warnings: Vec<String>,
+    /// A stable name for each warning, in the same order, to filter on:
+    /// "empty_region", "past_fold_free_bound", "starts_far_from_mesh",
+    /// "support_crosses_region", "polynomial_leak", "flipped_faces".
+    #[pyo3(get)]
+    warning_kinds: Vec<&'static str>,
+}
+
+#[pymethods]
+impl PyReport {
+    /// Triangles the map turns inside out (det J <= 0 at their centroid;
+    /// indices into `Mesh.triangles`), uint32: the folds.
+    #[getter]
+    fn inside_out<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        PyArray1::from_slice(py, &self.inside_out)
+    }
+
+    /// How many triangles are inside out.
+    #[getter]
+    fn inside_out_faces(&self) -> usize {
+        self.inside_out.len()
+    }
+
+    /// Triangles turned against their neighbours where the map does not
+    /// fold (creases; indices into `Mesh.triangles`), uint32.
+    #[getter]
+    fn flipped<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        PyArray1::from_slice(py, &self.flipped)
+    }
+
+    /// How many triangles turned over.
+    #[getter]
+    fn flipped_faces(&self) -> usize {
+        self.flipped.len()
+    }
+
+    /// The figures as `csrbf deform --json` prints them (without the output
+    /// path and the time).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("vertices", self.vertices)?;
+        d.set_item("moved", self.moved)?;
+        d.set_item("largest_move", self.largest_move)?;
+        d.set_item("largest_move_vertex", self.largest_move_vertex)?;
+        d.set_item("inside_out_faces", self.inside_out.len())?;
+        d.set_item(
+            "inside_out",
+            self.inside_out.iter().take(1000).collect::<Vec<_>>(),
+        )?;
+        d.set_item("fold_phase", self.fold_phase)?;
+        d.set_item("flipped_faces", self.flipped.len())?;
+        d.set_item(
+            "flipped",
+            self.flipped.iter().take(1000).collect::<Vec<_>>(),
+        )?;
+        d.set_item("warnings", &self.warnings)?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) inside out{}, {} warning(s))",
+            self.vertices,
+            self.moved,
+            self.largest_move,
+            self.largest_move_vertex
+                .map(|v| format!(" (vertex {v})"))
+                .unwrap_or_default(),
+            self.inside_out.len(),
+            self.fold_phase
+                .map(|p| format!(", folds from phase {p:.2} on"))
+                .unwrap_or_default(),
+            self.warnings.len()
+        )
+    }
+}
+
+impl PyReport {
+    /// The report of a deformation at `phase` (the engine's fold phase is a
+    /// share of the phases given: scaled as `csrbf deform` scales it).
+    fn new(vertices: usize, d: Diagnostics, phase: f64) -> PyReport {
+        PyReport {
+            inside_out: d.inside_out,
+            fold_phase: d.fold_phase.map(|s| s * phase),
+            vertices,
+            moved: d.moved,
+            largest_move: d.largest_move,
+            largest_move_vertex: d.largest_move_vertex,
+            flipped: d.flipped,
+            warnings: d.warnings.iter().map(ToString::to_string).collect(),
+            warning_kinds: d.warnings.iter().map(|w| w.kind()).collect(),
+        }
+    }
+}
+
+/// A control file, from a path or a dict in the file's form; its unknown
+/// keys are warned about.
+fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<ControlFile> {
+    let (text, name) = if controls.is_instance_of::<PyDict>() {
+        let json = py.import("json")?.call_method1("dumps", (controls,))?;
+        (json.extract::<String>()?, "controls".to_string())
+    } else {
+        let path: PathBuf = controls.extract().map_err(|_| {
+            PyTypeError::new_err("controls must be a path to a control file or a dict in its form")
+        })?;
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            crate::Error::new_err(format!("cannot read control file {}: {e}", path.display()))
+        })?;
+        (text, path.display().to_string())
+    };
+    let file = ControlFile::parse(&text)
+        .map_err(|e| crate::Error::new_err(format!("{name}: {}", crate::chain(&e))))?;
+    for w in &file.warnings {
+        warn(py, &format!("{name}: {w}"))?;
+    }
+    Ok(file)
+}
+
+/// Deforms a mesh by a control file (the CLI's `csrbf deform`): handles
+/// sampled on the mesh, every deformation fitted on its region and combined
+/// as the file says, normals recomputed.
+///
+/// Args:
+///     mesh: a Mesh, or a path to a mesh file.
+///     controls: a path to a control file (JSON), or a dict in its form
+///         ({"radius": 0.3, "controls": [{"from": [..], "to": [..]}]}).
+///     phase: in [0, 1], times each deformation's own phase.
+///     allow_large: fit even systems estimated past the 4 GB limit.
+///
+/// Returns:
+///     (the deformed Mesh, a Report: moved, largest_move, flipped,
+///     warnings); the input mesh is not changed.
+///
+/// >>> out, report = csrbf.deform_mesh(mesh, "smile.json", phase=1.0)
+/// >>> report.moved, report.warnings
+#[pyfunction]
+#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false))]
+pub fn deform_mesh(
+    py: Python<'_>,
+    mesh: &Bound<'_, PyAny>,
+    controls: &Bound<'_, PyAny>,
+    phase: f64,
+    allow_large: bool,
+) -> PyResult<(PyMesh, PyReport)> {
+    let mut m = match mesh.cast::<PyMesh>() {
+        Ok(m) => m.borrow().inner.clone(),
+        Err(_) => {
+            let path: PathBuf = mesh.extract().map_err(|_| {
+                PyTypeError::new_err("mesh must be a csrbf.Mesh or a path to a mesh file")
+            })?;
+            read_mesh(py, path)?.inner
+        }
+    };
+    let mut file = control_file(py, controls)?;
+    if allow_large {
+        for spec in &mut file.deformations {
+            spec.options = spec.options.with_memory_limit(u64::MAX);
+        }
+    }
+    let report = py
+        .detach(|| csrbf_anim::apply::deform_mesh(&mut m, &file, phase))
+        .map_err(|e| error(&e))?;
+    let n = m.positions.len();
+    Ok((PyMesh { inner: m }, PyReport::new(n, report, phase)))
+}
+
+/// Adds the mesh classes and functions to the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyMesh>()?;
+    m.add_class::<PyReport>()?;
+    m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(write_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(deform_mesh, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,472 @@
+//! `csrbf.System` (factor once, solve many), `csrbf.Binding` (per-point
+//! weights for repeated frames) and `csrbf.deform_many` (one point set, K
+//! target sets, one call).
+
+use csrbf::glam::{DVec3, Vec3};
+use csrbf::{Binding, Deformation, System};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+
+use crate::arrays::{self, Dtype, View};
+use crate::cast::vectors_mut;
+use crate::deformation::{PyDeformation, check_lengths, options, rows, vectors_f64};
+use crate::error;
+
+/// The symbolic and numeric work of one set of starts, done once: the
+/// neighbour graph, ordering and factor. `solve` gives a Deformation for new
+/// destinations without refactoring (a drag, an optimisation step).
+///
+/// >>> s = csrbf.System(starts, radius=0.3)
+/// >>> d = s.solve(new_targets)
+#[pyclass(name = "System", module = "csrbf", frozen)]
+pub struct PySystem {
+    inner: System,
+}
+
+#[pymethods]
+impl PySystem {
+    /// Builds and factors the system of these starts.
+    ///
+    /// Args: as `csrbf.fit`, without the destinations.
+    #[new]
+    #[pyo3(signature = (starts, radius, kernel = "c2", polynomial = "none", *, allow_large = false))]
+    fn new(
+        py: Python<'_>,
+        starts: &Bound<'_, PyAny>,
+        radius: f64,
+        kernel: &str,
+        polynomial: &str,
+        allow_large: bool,
+    ) -> PyResult<PySystem> {
+        let options = options(radius, kernel, polynomial, allow_large)?;
+        let s = vectors_f64(starts, "starts")?;
+        let inner = py
+            .detach(|| System::new(&s, options))
+            .map_err(|e| error(&e))?;
+        Ok(PySystem { inner })
+    }
+
+    /// The deformation carrying the starts to `targets` ((M, 3), one per
+    /// start); no refactoring.
+    fn solve(&self, py: Python<'_>, targets: &Bound<'_, PyAny>) -> PyResult<PyDeformation> {
+        let t = vectors_f64(targets, "targets")?;
+        check_lengths(self.inner.starts().len(), t.len())?;
+        let d = py.detach(|| self.inner.solve(&t)).map_err(|e| error(&e))?;
+        Ok(PyDeformation { inner: d })
+    }
+
+    /// One deformation per target set: `targets` is (K, M, 3); solved in
+    /// parallel. Returns a list of K Deformations.
+    fn solve_many(
+        &self,
+        py: Python<'_>,
+        targets: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<PyDeformation>> {
+        let sets = arrays::target_sets(targets, "targets")?;
+        check_sets(self.inner.starts().len(), &sets)?;
+        let ds = py
+            .detach(|| self.inner.solve_many(&sets))
+            .map_err(|e| error(&e))?;
+        Ok(ds
+            .into_iter()
+            .map(|inner| PyDeformation { inner })
+            .collect())
+    }
+
+    /// A Binding of `points` to these starts (for `Binding.displacements`
+    /// of every deformation this system solves).
+    fn bind(&self, py: Python<'_>, points: &Bound<'_, PyAny>) -> PyResult<PyBinding> {
+        let p = arrays::points(points, "points")?;
+        let view = p.view();
+        let inner = py.detach(|| match view {
+            View::F32(v) => self.inner.bind(v),
+            View::F64(v) => self.inner.bind(v),
+        });
+        Ok(PyBinding {
+            inner,
+            dtype: p.dtype(),
+        })
+    }
+
+    /// The starts, an (M, 3) float64 array.
+    #[getter]
+    fn starts<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        rows(py, self.inner.starts())
+    }
+
+    /// The radius of support R.
+    #[getter]
+    fn radius(&self) -> f64 {
+        self.inner.options().radius
+    }
+
+    /// The kernel's name.
+    #[getter]
+    fn kernel(&self) -> &'static str {
+        self.inner.options().kernel.name()
+    }
+
+    /// The polynomial term's name.
+    #[getter]
+    fn polynomial(&self) -> &'static str {
+        self.inner.options().polynomial.name()
+    }
+
+    /// What `csrbf info --controls` reports: controls, neighbours per start,
+    /// non-zeros, bandwidth and envelope before and after ordering, the
+    /// ordering and solver chosen, profile and dense bytes.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.inner.stats();
+        let d = PyDict::new(py);
+        d.set_item("controls", s.controls)?;
+        d.set_item("neighbours_min", s.neighbours_min)?;
+        d.set_item("neighbours_mean", s.neighbours_mean)?;
+        d.set_item("neighbours_max", s.neighbours_max)?;
+        d.set_item("nonzeros", s.nonzeros)?;
+        d.set_item("bandwidth_before", s.bandwidth_before)?;
+        d.set_item("envelope_before", s.envelope_before)?;
+        d.set_item("bandwidth", s.bandwidth)?;
+        d.set_item("envelope", s.envelope)?;
+        d.set_item("ordering", &s.ordering)?;
+        d.set_item("solver", &s.solver)?;
+        d.set_item("profile_bytes", s.profile_bytes)?;
+        d.set_item("dense_bytes", s.dense_bytes)?;
+        d.set_item("factor_bytes", s.factor_bytes)?;
+        Ok(d)
+    }
+
+    /// The number of control vectors.
+    fn __len__(&self) -> usize {
+        self.inner.starts().len()
+    }
+
+    fn __repr__(&self) -> String {
+        let o = self.inner.options();
+        let n = self.inner.starts().len();
+        format!(
+            "System({}, R={:?}, {n} control{}{}, {} solver)",
+            o.kernel.name(),
+            o.radius,
+            if n == 1 { "" } else { "s" },
+            if o.polynomial == csrbf::Polynomial::Linear {
+                ", linear"
+            } else {
+                ""
+            },
+            self.inner.stats().solver
+        )
+    }
+}
+
+/// Every target set must have one row per start.
+fn check_sets(starts: usize, sets: &[Vec<DVec3>]) -> PyResult<()> {
+    match sets.first() {
+        Some(s) if s.len() != starts => Err(PyValueError::new_err(format!(
+            "targets must be (K, {starts}, 3), one row per start: got {} rows per set",
+            s.len()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Per-point weights of one set of starts, kept for repeated frames: a new
+/// deformation of those starts (from `System.solve`) updates every point
+/// with one sparse product.
+///
+/// >>> b = csrbf.Binding(s.solve(targets), vertices)   # or s.bind(vertices)
+/// >>> b.displacements(s.solve(other_targets))
+#[pyclass(name = "Binding", module = "csrbf", frozen)]
+pub struct PyBinding {
+    inner: Binding,
+    dtype: Dtype,
+}
+
+#[pymethods]
+impl PyBinding {
+    /// Binds `points` ((N, 3)) to the starts of `deformation` (a
+    /// Deformation or a System). Results have the points' dtype (float32
+    /// stays float32; the weights are float32).
+    #[new]
+    fn new(
+        py: Python<'_>,
+        deformation: &Bound<'_, PyAny>,
+        points: &Bound<'_, PyAny>,
+    ) -> PyResult<PyBinding> {
+        if let Ok(s) = deformation.cast::<PySystem>() {
+            return s.get().bind(py, points);
+        }
+        let d = deformation.cast::<PyDeformation>().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "deformation must be a csrbf.Deformation or csrbf.System, got {}",
+                deformation
+                    .get_type()
+                    .name()
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            ))
+        })?;
+        let p = arrays::points(points, "points")?;
+        let view = p.view();
+        let d = &d.get().inner;
+        let inner = py.detach(|| match view {
+            View::F32(v) => Binding::new(d, v),
+            View::F64(v) => Binding::new(d, v),
+        });
+        Ok(PyBinding {
+            inner,
+            dtype: p.dtype(),
+        })
+    }
+
+    /// D of `deformation` (fitted to the same starts) at every bound point:
+    /// an (N, 3) array of the points' dtype, or `out` filled in place.
+    #[pyo3(signature = (deformation, out = None))]
+    fn displacements<'py>(
+        &self,
+        py: Python<'py>,
+        deformation: &Bound<'py, PyDeformation>,
+        out: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let ds = std::slice::from_ref(&deformation.get().inner);
+        self.many(py, ds, &[self.inner.len(), 3], out)
+    }
+
+    /// The displacements of K deformations at every bound point, a
+    /// (K, N, 3) array of the points' dtype (or `out` filled in place).
+    #[pyo3(signature = (deformations, out = None))]
+    fn displacements_many<'py>(
+        &self,
+        py: Python<'py>,
+        deformations: Vec<Bound<'py, PyDeformation>>,
+        out: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let ds: Vec<Deformation> = deformations.iter().map(|d| d.get().inner.clone()).collect();
+        self.many(py, &ds, &[ds.len(), self.inner.len(), 3], out)
+    }
+
+    /// The number of bound points.
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+
+    /// Bytes the weights take.
+    #[getter]
+    fn nbytes(&self) -> usize {
+        self.inner.bytes()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Binding({} points, {} point-start pairs, {})",
+            self.inner.len(),
+            self.inner.pairs(),
+            self.dtype.name()
+        )
+    }
+}
+
+impl PyBinding {
+    /// Displacements of `ds` into a new or given array of `shape`.
+    fn many<'py>(
+        &self,
+        py: Python<'py>,
+        ds: &[Deformation],
+        shape: &[usize],
+        out: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let out = match out {
+            Some(o) => {
+                arrays::check_out(&o, self.dtype, shape)?;
+                o
+            }
+            None => arrays::zeros(py, self.dtype, shape),
+        };
+        let b = &self.inner;
+        match self.dtype {
+            Dtype::F32 => {
+                let mut w = out_f32(&out, shape.len())?;
+                let o = vectors_mut::<f32>(&mut w);
+                py.detach(|| b.displacements_many(ds, o))
+            }
+            Dtype::F64 => {
+                let mut w = out_f64(&out, shape.len())?;
+                let o = vectors_mut::<f64>(&mut w);
+                py.detach(|| {
+                    let mut tmp = vec![Vec3::ZERO; o.len()];
+                    b.displacements_many(ds, &mut tmp)?;
+                    o.par_iter_mut()
+                        .zip(tmp)
+                        .for_each(|(o, t)| *o = t.as_dvec3());
+                    Ok(())
+                })
+            }
+        }
+        .map_err(|e: csrbf::Error| error(&e))?;
+        Ok(out)
+    }
+}
+
+/// A checked float32 output array of 2 or 3 dimensions, as writeable data.
+fn out_f32<'py>(out: &Bound<'py, PyAny>, dims: usize) -> PyResult<Writable<'py, f32>> {
+    writable(out, dims)
+}
+
+/// A checked float64 output array of 2 or 3 dimensions, as writeable data.
+fn out_f64<'py>(out: &Bound<'py, PyAny>, dims: usize) -> PyResult<Writable<'py, f64>> {
+    writable(out, dims)
+}
+
+/// The data of a checked output array, borrowed for writing.
+pub(crate) enum Writable<'py, T: numpy::Element> {
+    Two(numpy::PyReadwriteArray2<'py, T>),
+    Three(numpy::PyReadwriteArray3<'py, T>),
+}
+
+impl<T: numpy::Element> std::ops::Deref for Writable<'_, T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        match self {
+            Writable::Two(a) => a.as_slice().unwrap_or(&[]),
+            Writable::Three(a) => a.as_slice().unwrap_or(&[]),
+        }
+    }
+}
+
+impl<T: numpy::Element> std::ops::DerefMut for Writable<'_, T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        match self {
+            Writable::Two(a) => arrays::data_mut(a),
+            Writable::Three(a) => arrays::data_mut(a),
+        }
+    }
+}
+
+fn writable<'py, T: numpy::Element>(
+    out: &Bound<'py, PyAny>,
+    dims: usize,
+) -> PyResult<Writable<'py, T>> {
+    Ok(if dims == 2 {
+        Writable::Two(arrays::write::<T, numpy::Ix2>(out, "an input")?)
+    } else {
+        Writable::Three(arrays::write::<T, numpy::Ix3>(out, "an input")?)
+    })
+}
+
+/// Deforms one point set by K target sets of the same starts, in one call on
+/// all cores (dataset augmentation): the system is factored once, the K
+/// solves run in parallel, the points are bound once and every variant is
+/// one sparse product.
+///
+/// Args:
+///     points: (N, 3) points (a mesh's vertices).
+///     starts: (M, 3) starts.
+///     targets: (K, M, 3), K sets of destinations.
+///     radius, kernel, polynomial, allow_large: as `csrbf.fit`.
+///     phase: in [0, 1], applied to every variant.
+///     out: a (K, N, 3) array of the points' dtype to fill in place.
+///
+/// Returns:
+///     (K, N, 3) positions, points + phase * D_k(points), in the points'
+///     dtype (displacements are computed in float32, as a Binding does).
+///
+/// >>> variants = csrbf.deform_many(vertices, starts, targets, radius=0.1)
+#[pyfunction]
+#[pyo3(signature = (points, starts, targets, radius, kernel = "c2", polynomial = "none", phase = 1.0, *, out = None, allow_large = false))]
+#[allow(clippy::too_many_arguments)]
+pub fn deform_many<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    starts: &Bound<'py, PyAny>,
+    targets: &Bound<'py, PyAny>,
+    radius: f64,
+    kernel: &str,
+    polynomial: &str,
+    phase: f64,
+    out: Option<Bound<'py, PyAny>>,
+    allow_large: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let options = options(radius, kernel, polynomial, allow_large)?;
+    let p = arrays::points(points, "points")?;
+    let s = vectors_f64(starts, "starts")?;
+    let sets = arrays::target_sets(targets, "targets")?;
+    check_sets(s.len(), &sets)?;
+    let (k, n) = (sets.len(), p.len());
+    let out = match out {
+        Some(o) => {
+            arrays::check_out(&o, p.dtype(), &[k, n, 3])?;
+            o
+        }
+        None => arrays::zeros(py, p.dtype(), &[k, n, 3]),
+    };
+    let view = p.view();
+    let run = |o: OutVariants<'_>| -> csrbf::Result<()> {
+        csrbf::frame(&[], &[], phase, &mut [])?; // the engine's check of the phase
+        let sys = System::new(&s, options)?;
+        let ds = sys.solve_many(&sets)?;
+        let binding = match view {
+            View::F32(v) => sys.bind(v),
+            View::F64(v) => sys.bind(v),
+        };
+        match (o, view) {
+            (OutVariants::F32(o), View::F32(rest)) => {
+                binding.displacements_many(&ds, o)?;
+                place(o, rest, phase, |p, d, t| *p + d * t as f32)
+            }
+            (OutVariants::F64(o), View::F64(rest)) => {
+                let mut d = vec![Vec3::ZERO; o.len()];
+                binding.displacements_many(&ds, &mut d)?;
+                o.par_iter_mut().zip(d).for_each(|(o, d)| *o = d.as_dvec3());
+                place(o, rest, phase, |p, d, t| *p + d * t)
+            }
+            _ => unreachable!("out has the points' dtype"),
+        }
+    };
+    match p.dtype() {
+        Dtype::F32 => {
+            let mut w = out_f32(&out, 3)?;
+            let o = vectors_mut::<f32>(&mut w);
+            py.detach(|| run(OutVariants::F32(o)))
+        }
+        Dtype::F64 => {
+            let mut w = out_f64(&out, 3)?;
+            let o = vectors_mut::<f64>(&mut w);
+            py.detach(|| run(OutVariants::F64(o)))
+        }
+    }
+    .map_err(|e| error(&e))?;
+    Ok(out)
+}
+
+enum OutVariants<'a> {
+    F32(&'a mut [Vec3]),
+    F64(&'a mut [DVec3]),
+}
+
+/// Turns displacements (variant after variant) into positions at `phase`.
+fn place<V: Copy + Send + Sync>(
+    out: &mut [V],
+    rest: &[V],
+    phase: f64,
+    f: impl Fn(&V, V, f64) -> V + Sync,
+) -> csrbf::Result<()> {
+    if rest.is_empty() {
+        return Ok(());
+    }
+    out.par_chunks_mut(rest.len()).for_each(|o| {
+        for (o, r) in o.iter_mut().zip(rest) {
+            *o = f(r, *o, phase);
+        }
+    });
+    Ok(())
+}
+
+/// Adds `System`, `Binding` and `deform_many` to the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PySystem>()?;
+    m.add_class::<PyBinding>()?;
+    m.add_function(wrap_pyfunction!(deform_many, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,170 @@
+"""The package and the `csrbf` binary agree: same fits, same files, same meshes."""
+
+import json
+
+import numpy as np
+import pytest
+
+import csrbf
+from conftest import HEAD, MODELS, SMILE, assert_close, controls_of, diagonal
+
+MODEL_FILES = sorted(p for p in MODELS.iterdir() if p.suffix in (".obj", ".off", ".ply", ".stl", ".glb"))
+
+
+def edit_for(mesh, path, seed=7, count=12):
+    """A control file of `count` vectors on a mesh's vertices, R 12 % of its diagonal."""
+    rng = np.random.default_rng(seed)
+    v = mesh.vertices.astype(np.float64)
+    diag = diagonal(v)
+    starts = v[rng.choice(len(v), size=min(count, len(v)), replace=False)]
+    starts = np.unique(starts, axis=0)
+    moves = rng.normal(0, 0.015 * diag, starts.shape)
+    spec = {
+        "radius": 0.12 * diag,
+        "kernel": "c2",
+        "controls": [{"from": s.tolist(), "to": (s + m).tolist()} for s, m in zip(starts, moves)],
+    }
+    path.write_text(json.dumps(spec))
+    return path
+
+
+def test_the_bundled_models_are_all_here():
+    assert len(MODEL_FILES) >= 6, MODEL_FILES
+
+
+@pytest.mark.parametrize("model", MODEL_FILES, ids=lambda p: p.name)
+def test_deform_mesh_equals_csrbf_deform(model, tmp_path, cli):
+    mesh = csrbf.read_mesh(model)
+    controls = SMILE if model == HEAD else edit_for(mesh, tmp_path / "edit.json")
+    out, report = csrbf.deform_mesh(mesh, controls, phase=0.8)
+    figures = cli("deform", "--mesh", model, "--controls", controls, "--phase", 0.8,
+                  "--out", tmp_path / "cli.ply", "--json")
+    theirs = csrbf.read_mesh(tmp_path / "cli.ply")
+    assert_close(out.vertices, theirs.vertices, diagonal(mesh.vertices))
+    mine = report.to_dict()
+    for key in ("vertices", "moved", "largest_move_vertex", "inside_out_faces", "inside_out",
+                "flipped_faces", "flipped", "warnings"):
+        assert mine[key] == figures[key], key
+    assert (mine["fold_phase"] is None) == (figures["fold_phase"] is None)
+    if figures["fold_phase"] is not None:
+        assert mine["fold_phase"] == pytest.approx(figures["fold_phase"], rel=1e-9)
+    assert mine["largest_move"] == pytest.approx(figures["largest_move"], rel=1e-6)
+    assert report.moved > 0 and report.vertices == len(mesh)
+    # The input mesh is left as it was.
+    assert np.array_equal(mesh.vertices, csrbf.read_mesh(model).vertices)
+
+
+@pytest.mark.parametrize("model", MODEL_FILES, ids=lambda p: p.name)
+def test_fit_and_displacements_equal_the_cli(model, tmp_path, cli):
+    """Python's fit writes the bytes `csrbf fit` writes; `csrbf apply` replays
+    what Python saved to the positions Python computes."""
+    mesh = csrbf.read_mesh(model)
+    controls = SMILE if model == HEAD else edit_for(mesh, tmp_path / "edit.json")
+    starts, targets, radius, kernel, poly = controls_of(controls)
+    d = csrbf.fit(starts, targets, radius, kernel=kernel, polynomial=poly)
+    cli("fit", "--controls", controls, "--out", tmp_path / "cli.csrbf")
+    assert (tmp_path / "cli.csrbf").read_bytes() == d.to_bytes()
+    assert csrbf.Deformation.load(tmp_path / "cli.csrbf") == d
+    d.save(tmp_path / "py.csrbf")
+    cli("apply", "--mesh", model, "--deformation", tmp_path / "py.csrbf", "--phase", 0.5,
+        "--out", tmp_path / "applied.ply")
+    applied = csrbf.read_mesh(tmp_path / "applied.ply").vertices
+    assert_close(d.deform(mesh.vertices, phase=0.5), applied, diagonal(mesh.vertices))
+
+
+def test_a_pickled_deformation_replays_in_the_cli(tmp_path, cli):
+    import pickle
+
+    starts, targets, radius, kernel, poly = controls_of(SMILE)
+    d = pickle.loads(pickle.dumps(csrbf.fit(starts, targets, radius)))
+    d.save(tmp_path / "smile.csrbf")
+    cli("apply", "--mesh", HEAD, "--deformation", tmp_path / "smile.csrbf", "--out", tmp_path / "a.ply")
+    cli("deform", "--mesh", HEAD, "--controls", SMILE, "--out", tmp_path / "b.ply")
+    a, b = (csrbf.read_mesh(tmp_path / f).vertices for f in ("a.ply", "b.ply"))
+    assert_close(a, b, diagonal(a))
+
+
+def test_meshes_round_trip_through_files(tmp_path):
+    head = csrbf.read_mesh(HEAD)
+    assert repr(head) == f"Mesh({len(head)} vertices, {len(head.faces)} faces)"
+    assert head.vertices.dtype == np.float32 and head.triangles.dtype == np.uint32
+    assert head.triangles.shape[1] == 3 and head.triangles.max() < len(head)
+    for ext in ("ply", "obj", "off", "glb"):
+        csrbf.write_mesh(head, tmp_path / f"head.{ext}")
+        back = csrbf.read_mesh(tmp_path / f"head.{ext}")
+        assert np.array_equal(back.vertices, head.vertices), ext
+        assert np.array_equal(back.triangles, head.triangles), ext
+    duck = csrbf.read_mesh(MODELS / "pybullet_duck.obj")
+    assert duck.parts and all(v.dtype == np.uint32 for v in duck.parts.values())
+    with pytest.warns(UserWarning, match="STL stores triangles, not vertices: it cannot keep .*parts"):
+        csrbf.write_mesh(duck, tmp_path / "duck.stl")
+
+
+def test_a_mesh_from_arrays():
+    quad = csrbf.Mesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], faces=[[0, 1, 2, 3]])
+    assert quad.faces == [[0, 1, 2, 3]] and quad.triangles.tolist() == [[0, 1, 2], [0, 2, 3]]
+    tri = csrbf.Mesh(np.eye(3), np.array([[0, 1, 2]]))
+    assert tri.vertices.dtype == np.float32 and len(tri) == 3
+    tri.vertices = tri.vertices * 2
+    assert tri.vertices[0, 0] == 2
+    assert tri.diagonal == pytest.approx(np.sqrt(12))  # the box (0, 0, 0)-(2, 2, 2)
+    with pytest.raises(ValueError, match="triangles\\[0\\] refers to vertex 5, but vertices has 3 rows"):
+        csrbf.Mesh(np.eye(3), [[0, 1, 5]])
+    with pytest.raises(ValueError, match=r"triangles must be an \(M, 3\) array, got shape \(1, 4\)"):
+        csrbf.Mesh(np.eye(3), [[0, 1, 2, 0]])
+    with pytest.raises(TypeError, match="triangles must be an array of integers"):
+        csrbf.Mesh(np.eye(3), [[0.0, 1.0, 2.0]])
+    with pytest.raises(ValueError, match="faces\\[0\\] has 2 corners"):
+        csrbf.Mesh(np.eye(3), faces=[[0, 1]])
+    with pytest.raises(ValueError, match="vertices must keep the mesh's 3 rows, got 2"):
+        tri.vertices = np.zeros((2, 3))
+
+
+def test_deform_mesh_takes_a_dict_and_reports_warnings(tmp_path):
+    head = csrbf.read_mesh(HEAD)
+    spec = json.loads(SMILE.read_text())
+    spec["polynomial"] = "linear"
+    out, report = csrbf.deform_mesh(head, spec)
+    assert "polynomial_leak" in report.warning_kinds, report.warnings
+    assert len(report.warning_kinds) == len(report.warnings)
+    assert repr(report).startswith(f"Report({len(head)} vertices, {report.moved} moved, largest move ")
+    assert report.inside_out_faces == len(report.inside_out) and report.inside_out.dtype == np.uint32
+
+
+def test_a_fold_is_reported_inside_out_with_its_phase():
+    head = csrbf.read_mesh(HEAD)
+    spec = json.loads(SMILE.read_text())
+    c = spec["controls"][0]
+    # Far past the kernel's fold-free bound (0.474 R for C2): the map folds.
+    c["to"] = [f + 1.5 * spec["radius"] * u for f, u in zip(c["from"], (1.0, 0.0, 0.0))]
+    out, report = csrbf.deform_mesh(head, spec, phase=1.0)
+    assert report.inside_out_faces > 0 and 0 < report.fold_phase < 1
+    assert "past_fold_free_bound" in report.warning_kinds
+    _, half = csrbf.deform_mesh(head, spec, phase=0.5)
+    assert half.fold_phase is None or half.fold_phase == pytest.approx(report.fold_phase, rel=1e-6)
+    with pytest.warns(UserWarning, match="colour"):
+        csrbf.deform_mesh(head, {**spec, "colour": "red"})
+
+
+def test_bad_files_raise_csrbf_errors_naming_them(tmp_path):
+    text = HEAD.read_text()
+    truncated = tmp_path / "truncated.off"
+    truncated.write_text(text[: len(text) // 2])
+    with pytest.raises(csrbf.Error, match="truncated.off"):
+        csrbf.read_mesh(truncated)
+    with pytest.raises(csrbf.Error, match="missing.obj"):
+        csrbf.read_mesh(tmp_path / "missing.obj")
+    with pytest.raises(csrbf.Error, match="unsupported|extension|format"):
+        csrbf.read_mesh(tmp_path / "mesh.xyz")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"radius": 1, "controls": [{"from": [0, 0], "to": [0, 0, 1]}]}')
+    with pytest.raises(csrbf.Error, match="bad.json: .*controls\\[0\\]"):
+        csrbf.deform_mesh(HEAD, bad)
+    with pytest.raises(csrbf.Error, match="nothing.json"):
+        csrbf.deform_mesh(HEAD, tmp_path / "nothing.json")
+    with pytest.raises(TypeError, match="controls must be a path"):
+        csrbf.deform_mesh(HEAD, 42)
+    cut = tmp_path / "cut.csrbf"
+    cut.write_bytes(csrbf.fit([[0, 0, 0]], [[0, 0, 1]], 1.0).to_bytes()[:-9])
+    with pytest.raises(csrbf.Error, match="cut.csrbf"):
+        csrbf.Deformation.load(cut)
