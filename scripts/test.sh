@@ -3,7 +3,8 @@
 # dependency). Installs what the tests need first (scripts/setup.sh --tests).
 # The Python package (crates/csrbf-py, no Rust test targets) is tested by
 # pytest: scripts/test_python.sh, after the Rust tests, with the extension
-# built in this same workspace build.
+# built in this same workspace build; the Blender extension by its headless
+# tests (scripts/test_blender.sh, bpy in a venv kept in the user's cache).
 # The real models are read from ../shared/models when present, else from assets/models.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,3 +14,4 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/xdg-$(id -u)}"
 export PYO3_BUILD_EXTENSION_MODULE=1
 cargo test --workspace --locked
 scripts/test_python.sh
+scripts/test_blender.sh
