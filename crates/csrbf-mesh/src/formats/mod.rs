@@ -2,7 +2,7 @@
 
 /// glTF reading and writing, and the buffer builder the scene exporter shares.
 pub mod gltf;
-mod obj;
+pub(crate) mod obj;
 mod off;
 mod ply;
 mod stl;
@@ -121,9 +121,11 @@ pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
     }
 }
 
+/// A mesh's bytes in a format; an OBJ names no material library (it has
+/// no folder to put one in: [`crate::write`] writes one beside the file).
 pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
     match format {
-        Format::Obj => obj::encode(mesh),
+        Format::Obj => obj::encode(mesh, None),
         Format::Ply => ply::encode(mesh, false),
         Format::PlyAscii => ply::encode(mesh, true),
         Format::Stl => stl::encode(mesh),
@@ -137,3 +139,5 @@ pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
 mod fuzz;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod write_tests;

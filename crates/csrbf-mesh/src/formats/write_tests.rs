@@ -1,0 +1,103 @@
+//! What writing keeps and names (issue 24): an OBJ's material library.
+
+use std::path::{Path, PathBuf};
+
+use crate::{Format, Mesh};
+
+/// A fresh temporary folder, removed on drop.
+struct Dir(PathBuf);
+
+impl Dir {
+    fn new(tag: &str) -> Dir {
+        let d = std::env::temp_dir().join(format!("csrbf-mesh-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).expect("dir");
+        Dir(d)
+    }
+}
+
+impl Drop for Dir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+const WITH_MATERIAL: &[u8] =
+    b"mtllib duck.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl blinn3\nf 1 2 3\nusemtl red\nf 2 4 3\n";
+
+fn mtllib(obj: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(obj).expect("obj");
+    text.lines()
+        .find_map(|l| l.strip_prefix("mtllib "))
+        .map(str::to_owned)
+}
+
+/// Issue 24, item 3: a deformed duck's OBJ named `duck.mtl`, which was not there.
+#[test]
+fn an_obj_names_only_a_material_library_that_exists() {
+    let d = Dir::new("mtllib");
+    let mesh = Mesh::from_bytes(WITH_MATERIAL, Format::Obj, "duck.obj".as_ref()).expect("parse");
+    assert_eq!(mesh.material_library.as_deref(), Some("duck.mtl"));
+    // Elsewhere: its own library, with every material, is written beside it.
+    let out = d.0.join("smile.obj");
+    crate::write(&out, &mesh).expect("write");
+    assert_eq!(mtllib(&out).as_deref(), Some("smile.mtl"));
+    let mtl = std::fs::read_to_string(d.0.join("smile.mtl")).expect("the library is there");
+    assert!(
+        mtl.contains("newmtl blinn3") && mtl.contains("newmtl red"),
+        "{mtl}"
+    );
+    let back = crate::read(&out).expect("read back");
+    assert_eq!(back.part_vertices("red"), Some(vec![1, 2, 3]));
+    // Beside the library it was read with: that one is named, not rewritten.
+    std::fs::write(d.0.join("duck.mtl"), "newmtl blinn3\nKd 1 0 0\n").expect("mtl");
+    let out = d.0.join("duck2.obj");
+    crate::write(&out, &mesh).expect("write");
+    assert_eq!(mtllib(&out).as_deref(), Some("duck.mtl"));
+    assert!(!d.0.join("duck2.mtl").exists());
+    // Someone else's file in the way is left alone, and nothing is named.
+    let mut moved = mesh.clone();
+    moved.material_library = None;
+    std::fs::write(d.0.join("theirs.mtl"), "newmtl mine\n").expect("mtl");
+    let out = d.0.join("theirs.obj");
+    crate::write(&out, &moved).expect("write");
+    assert_eq!(mtllib(&out), None);
+    assert_eq!(
+        std::fs::read_to_string(d.0.join("theirs.mtl")).expect("mtl"),
+        "newmtl mine\n"
+    );
+    // No materials: no library; and bytes in memory name none.
+    let plain = Mesh::from_bytes(
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        Format::Obj,
+        "p.obj".as_ref(),
+    )
+    .expect("parse");
+    let out = d.0.join("plain.obj");
+    crate::write(&out, &plain).expect("write");
+    assert_eq!(mtllib(&out), None);
+    let bytes = mesh.to_bytes(Format::Obj).expect("bytes");
+    assert!(!String::from_utf8_lossy(&bytes).contains("mtllib"));
+}
+
+/// A glTF model's colours and embedded texture go into the library.
+#[test]
+fn an_obj_from_gltf_keeps_its_materials_colour_and_texture() {
+    let d = Dir::new("mtl-texture");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/models");
+    let mesh = crate::read(&root.join("assimp_BoxTextured.glb")).expect("box");
+    let out = d.0.join("box.obj");
+    crate::write(&out, &mesh).expect("write");
+    let lib = mtllib(&out).expect("a library");
+    let mtl = std::fs::read_to_string(d.0.join(&lib)).expect("library");
+    let map = mtl
+        .lines()
+        .find_map(|l| l.strip_prefix("map_Kd "))
+        .expect("texture named");
+    let (_, bytes) = mesh
+        .materials
+        .iter()
+        .find_map(|m| m.texture.as_ref())
+        .expect("box texture");
+    assert_eq!(&std::fs::read(d.0.join(map)).expect("texture file"), bytes);
+}
