@@ -1,4 +1,5 @@
-//! What writing keeps and names (issue 24): an OBJ's material library.
+//! What writing keeps and names (issue 24): an OBJ's material library,
+//! PLY's UV names, and what PLY and OFF say they cannot keep.
 
 use std::path::{Path, PathBuf};
 
@@ -100,4 +101,44 @@ fn an_obj_from_gltf_keeps_its_materials_colour_and_texture() {
         .find_map(|m| m.texture.as_ref())
         .expect("box texture");
     assert_eq!(&std::fs::read(d.0.join(map)).expect("texture file"), bytes);
+}
+
+/// Issue 24, item 2: PLY wrote UVs as `u v`, which Blender keeps as plain
+/// attributes (its reader takes `s t`), and PLY and OFF dropped parts and
+/// seam UVs without a word.
+#[test]
+fn ply_uvs_are_s_t_and_ply_off_say_what_they_cannot_keep() {
+    let per_vertex = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    let mesh = Mesh::from_bytes(per_vertex, Format::Obj, "a.obj".as_ref()).expect("parse");
+    for fmt in [Format::PlyAscii, Format::Ply] {
+        let bytes = mesh.to_bytes(fmt).expect("ply");
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(
+            text.contains("property float s\nproperty float t\n"),
+            "{text}"
+        );
+        let back = Mesh::from_bytes(&bytes, fmt, "a.ply".as_ref()).expect("read back");
+        assert_eq!(
+            back.uvs.and_then(|u| u.per_vertex(&back.faces, 3)),
+            mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, 3))
+        );
+    }
+    // Neither parts nor UVs to lose: nothing said.
+    for fmt in [Format::Ply, Format::Off, Format::Obj, Format::Glb] {
+        assert_eq!(fmt.loses(&mesh), None, "{fmt:?}");
+    }
+    // Parts and a seam (vertex 2 has two UVs).
+    let seams = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 0.5 0.5\n\
+g left\nf 1/1 2/2 3/3\ng right\nf 2/5 4/4 3/3\n";
+    let mesh = Mesh::from_bytes(seams, Format::Obj, "b.obj".as_ref()).expect("parse");
+    for fmt in [Format::Ply, Format::PlyAscii, Format::Off] {
+        let said = fmt.loses(&mesh).unwrap_or_default();
+        assert!(
+            said.contains("left, right") && said.contains("seams") && said.contains("OBJ or glTF"),
+            "{fmt:?}: {said}"
+        );
+    }
+    for fmt in [Format::Obj, Format::Gltf] {
+        assert_eq!(fmt.loses(&mesh), None, "{fmt:?}");
+    }
 }
