@@ -68,6 +68,10 @@ pub fn view_nodes(file: &SceneFile) -> ViewNodes {
     for (k, (direction, color, intensity)) in lit.into_iter().enumerate() {
         let dir = direction.normalize_or(Vec3::NEG_Z);
         let rotation = Quat::from_rotation_arc(Vec3::NEG_Z, dir).normalize();
+        // glTF colours are in [0, 1]: a brighter one moves into the intensity.
+        let peak = color.iter().fold(1.0f32, |m, &c| m.max(c));
+        let color = color.map(|c| c.max(0.0) / peak);
+        let intensity = intensity * peak;
         lights.push(json!({
             "name": format!("light {}", k + 1), "type": "directional",
             "color": color, "intensity": intensity,
