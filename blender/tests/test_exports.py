@@ -206,3 +206,57 @@ def test_the_timeline_fits_when_imported_at_the_scenes_rate(demos, tmp_path):
     look = np.array([look[0], -look[2], look[1]]) / np.linalg.norm(look)
     forward = -np.array(cam.matrix_world.to_3x3().col[2][:])
     assert np.allclose(forward, look, atol=1e-5)
+
+
+def accessor(path: Path, doc: dict, index: int) -> np.ndarray:
+    """A float accessor of a GLB, one row per element."""
+    data = path.read_bytes()
+    (length,) = struct.unpack_from("<I", data, 12)
+    binary = data[20 + length + 8 :]
+    a = doc["accessors"][index]
+    view = doc["bufferViews"][a["bufferView"]]
+    width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[a["type"]]
+    start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    return np.frombuffer(binary, np.float32, a["count"] * width, start).reshape(a["count"], width)
+
+
+def obj_positions(path: Path) -> np.ndarray:
+    rows = [l.split()[1:4] for l in path.read_text().splitlines() if l.startswith("v ")]
+    return np.array(rows, np.float64)
+
+
+def test_shape_keys_in_blender_give_csrbf_deforms_positions(demos, tmp_path):
+    """Blender's shape keys at sampled frames against `csrbf deform` of each
+    control file at the phase the scene gives it then (the files of a part add)."""
+    fish = demos / "d" / "fish"
+    scene = json.loads((fish / "fish.scene.json").read_text())
+    glb = tmp_path / "fish.glb"
+    csrbf("export", "-q", fish / "fish.scene.json", "--out", glb)
+    doc = glb_json(glb)
+    anim = doc["animations"][0]
+    (channel,) = [c for c in anim["channels"] if c["target"]["path"] == "weights"]
+    files = [d["controls"] for d in scene["objects"][0]["parts"][0]["deformations"]]
+    weights = accessor(glb, doc, anim["samplers"][channel["sampler"]]["output"]).reshape(-1, len(files))
+    rest = obj_positions(fish / scene["objects"][0]["mesh"])
+    n = len(rest)
+    diagonal = np.linalg.norm(rest.max(0) - rest.min(0))
+    fresh()
+    bpy.context.scene.render.fps = int(scene.get("fps", 30))
+    bpy.ops.import_scene.gltf(filepath=str(glb))
+    (duck,) = meshes()
+    for frame in (0, 40, 75, len(weights) - 1):
+        want = rest.copy()
+        for k, controls in enumerate(files):
+            out = tmp_path / f"f{frame}_{k}.obj"
+            phase = float(weights[frame, k])
+            csrbf("deform", "-q", "--mesh", fish / scene["objects"][0]["mesh"], "--controls", fish / controls,
+                  "--phase", repr(phase), "--out", out)
+            want += obj_positions(out) - rest
+        bpy.context.scene.frame_set(frame)
+        evaluated = duck.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        co = np.zeros(3 * len(evaluated.vertices), np.float32)
+        evaluated.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)[:n]  # the seam copies follow the mesh's own vertices
+        got = np.stack([co[:, 0], co[:, 2], -co[:, 1]], 1)  # back to glTF's Y up
+        err = np.abs(got - want).max() / diagonal
+        assert err < 1e-6, (frame, err)
