@@ -136,6 +136,19 @@ pub fn axis_name(v: Vec3) -> String {
     format!("{v:?}")
 }
 
+/// The lights of a scene that lists none, as (direction travelled, grey
+/// level): a key light from the camera's upper left and a weaker fill from
+/// its right. What `csrbf animate` draws and `csrbf export` writes.
+pub fn default_lights(camera: &Camera) -> [(Vec3, f32); 2] {
+    let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
+    let right = fwd.cross(camera.up).normalize_or(Vec3::X);
+    let up = right.cross(fwd);
+    [
+        ((fwd - up * 0.8 + right * 0.6).normalize(), 0.85),
+        ((fwd + up * 0.2 - right * 0.9).normalize(), 0.3),
+    ]
+}
+
 impl Camera {
     /// A perspective camera.
     pub fn perspective(eye: Vec3, target: Vec3, up: Vec3, fov: f32) -> Camera {

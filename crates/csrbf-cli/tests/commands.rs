@@ -318,7 +318,31 @@ fn writing_stl_warns_what_it_loses() {
         "--out",
         arg(&ply),
     ]);
-    assert!(!String::from_utf8_lossy(&r.stderr).contains("STL stores"));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!err.contains("STL stores"));
+    // Issue 24, item 2: the duck's part and seam UVs do not fit PLY or OFF
+    // either, and that is said too; OBJ keeps both and says nothing.
+    assert!(
+        err.contains("PLY keeps one UV per vertex and no parts") && err.contains("seams"),
+        "{err}"
+    );
+    for (name, said) in [("d.off", true), ("d.obj", false)] {
+        let r = csrbf(&[
+            "deform",
+            "--mesh",
+            arg(&duck),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&dir.path(name)),
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(
+            err.contains("keeps one UV per vertex"),
+            said,
+            "{name}: {err}"
+        );
+    }
 }
 
 #[test]

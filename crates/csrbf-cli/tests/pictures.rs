@@ -333,6 +333,62 @@ fn exports_pass_the_khronos_validator() {
     validate(&glb);
 }
 
+/// Issue 24, item 1: a texture on the duck (UV seams: 2277 UVs for 2108
+/// vertices) vanished from `export` without a word; it arrives, valid.
+#[test]
+fn export_keeps_a_texture_on_a_mesh_with_uv_seams() {
+    let dir = TempDir::new("export-seams");
+    ok(&[
+        "demo",
+        "-q",
+        "fish",
+        "--out",
+        arg(&dir.path("d")),
+        "--size",
+        "32x24",
+        "--gif",
+    ]);
+    let scene = dir.path("d/fish/fish.scene.json");
+    let plain = dir.path("plain.glb");
+    ok(&["export", "-q", arg(&scene), "--out", arg(&plain)]);
+    // A 2x2 PNG, written by hand.
+    let mut png = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut png, 2, 2);
+        enc.set_color(png::ColorType::Rgba);
+        let mut w = enc.write_header().expect("header");
+        w.write_image_data(&[
+            255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255,
+        ])
+        .expect("pixels");
+    }
+    std::fs::write(dir.path("d/fish/checker.png"), &png).expect("png");
+    let text = std::fs::read_to_string(&scene).expect("scene");
+    let textured = text.replacen(
+        "\"name\": \"body\"",
+        "\"name\": \"body\", \"texture\": \"checker.png\"",
+        1,
+    );
+    assert_ne!(text, textured);
+    std::fs::write(&scene, textured).expect("scene");
+    let out = dir.path("duck.glb");
+    ok(&["export", "-q", arg(&scene), "--out", arg(&out)]);
+    validate(&out);
+    let bytes = std::fs::read(&out).expect("glb");
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("len")) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("json");
+    assert!(
+        doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"].is_u64(),
+        "no UVs"
+    );
+    assert_eq!(doc["images"].as_array().map(Vec::len), Some(1), "no image");
+    assert!(
+        bytes.windows(png.len()).any(|w| w == png),
+        "the PNG is not embedded"
+    );
+    assert!(bytes.len() > std::fs::metadata(&plain).expect("plain").len() as usize);
+}
+
 #[test]
 fn demo_writes_scene_poster_and_movie() {
     let dir = TempDir::new("demo");

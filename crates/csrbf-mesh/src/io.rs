@@ -42,10 +42,55 @@ pub fn load(path: &Path) -> Result<Loaded> {
 }
 
 /// Writes a mesh whole or not at all; the format comes from the extension.
+///
+/// An OBJ with material parts names a material library beside it: the one
+/// it was read with when that file is there, else `STEM.mtl` written with
+/// it (with its textures), unless a file of that name that csrbf did not
+/// write is in the way; then it names none. Never a library that is not there.
 pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
     let format = Format::from_path(path)?;
+    if format == Format::Obj {
+        mesh.validate(path)?;
+        let library = write_obj_library(path, mesh)?;
+        return write_atomic(path, &crate::formats::obj::encode(mesh, library.as_deref()));
+    }
     let bytes = mesh.to_bytes_for(format, path)?;
     write_atomic(path, &bytes)
+}
+
+/// Writes the material library an OBJ at `path` names, if it needs one;
+/// returns the name for its `mtllib` line.
+fn write_obj_library(path: &Path, mesh: &Mesh) -> Result<Option<String>> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let stem = path
+        .file_stem()
+        .map_or("mesh".into(), |s| s.to_string_lossy());
+    let Some(lib) = crate::formats::obj::library(mesh, &stem) else {
+        return Ok(None);
+    };
+    if let Some(kept) = &mesh.material_library
+        && dir.join(kept).is_file()
+    {
+        return Ok(Some(kept.clone()));
+    }
+    let name = format!("{stem}.mtl");
+    let target = dir.join(&name);
+    let ours = |p: &Path| {
+        std::fs::read(p).map_or(true, |b| {
+            b.starts_with(crate::formats::obj::WRITTEN_BY.as_bytes())
+        })
+    };
+    if target.exists() && !ours(&target) {
+        return Ok(None);
+    }
+    for (file, bytes) in &lib.textures {
+        write_atomic(&dir.join(file), bytes)?;
+    }
+    write_atomic(&target, lib.text.as_bytes())?;
+    Ok(Some(name))
 }
 
 /// The prefix of every temporary file csrbf writes (`.csrbf-PID-N.tmp`).

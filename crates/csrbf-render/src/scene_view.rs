@@ -393,21 +393,16 @@ fn view_of<'a>(
 
 pub use crate::View;
 
-/// A key light from the upper left of the camera and a weaker fill from the right.
+/// A key light from the upper left of the camera and a weaker fill from the
+/// right ([`csrbf_anim::camera::default_lights`], which `csrbf export` writes too).
 pub fn default_lights(camera: Camera) -> Vec<Light> {
-    let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
-    let right = fwd.cross(camera.up).normalize_or(Vec3::X);
-    let up = right.cross(fwd);
-    vec![
-        Light {
-            direction: (fwd - up * 0.8 + right * 0.6).normalize(),
-            color: Vec3::splat(0.85),
-        },
-        Light {
-            direction: (fwd + up * 0.2 - right * 0.9).normalize(),
-            color: Vec3::splat(0.3),
-        },
-    ]
+    csrbf_anim::camera::default_lights(&camera)
+        .into_iter()
+        .map(|(direction, grey)| Light {
+            direction,
+            color: Vec3::splat(grey),
+        })
+        .collect()
 }
 
 /// Three short axes (X red, Y green, Z blue) seen from the camera, in the

@@ -501,6 +501,7 @@ fn load_deformation(
     let mut stages = Vec::new();
     let lookup = |n: &str| mesh.part_vertices(n);
     for (si, spec) in cf.deformations.iter().enumerate() {
+        let name = spec.name.clone();
         // Handles become control vectors on the rest mesh.
         let spec = spec
             .resolve(&mesh.positions, &lookup)
@@ -557,6 +558,7 @@ fn load_deformation(
             phase: spec.phase as f32,
             region,
             weights,
+            name,
         });
     }
     let track = phase_track(df, at)?;

@@ -82,6 +82,8 @@ pub struct BoundStage {
     pub region: Vec<u32>,
     /// The weight of each of `region` (1, or less in a falloff).
     pub weights: Vec<f32>,
+    /// The deformation's `name` in its control file, if it has one.
+    pub name: Option<String>,
 }
 
 /// A deformation of a part with its phase track.

@@ -2,7 +2,7 @@
 
 /// glTF reading and writing, and the buffer builder the scene exporter shares.
 pub mod gltf;
-mod obj;
+pub(crate) mod obj;
 mod off;
 mod ply;
 mod stl;
@@ -39,10 +39,13 @@ impl Format {
     /// What writing `mesh` in this format cannot keep, when anything: STL
     /// stores triangles, not vertices, so reading it back gives vertices in
     /// the order the triangles first use them, without unused ones, with
-    /// coincident ones merged, and no parts, UVs or colours.
+    /// coincident ones merged, and no parts, UVs or colours; PLY and OFF keep
+    /// one UV per vertex and no parts.
     pub fn loses(self, mesh: &crate::Mesh) -> Option<String> {
-        if self != Format::Stl {
-            return None;
+        match self {
+            Format::Stl => {}
+            Format::Ply | Format::PlyAscii | Format::Off => return loses_per_vertex(self, mesh),
+            Format::Obj | Format::Gltf | Format::Glb => return None,
         }
         let mut seen = vec![false; mesh.positions.len()];
         let mut order = Vec::with_capacity(mesh.positions.len());
@@ -76,6 +79,17 @@ impl Format {
         })
     }
 
+    /// The format's name for messages.
+    fn label(self) -> &'static str {
+        match self {
+            Format::Obj => "OBJ",
+            Format::Ply | Format::PlyAscii => "PLY",
+            Format::Stl => "STL",
+            Format::Off => "OFF",
+            Format::Gltf | Format::Glb => "glTF",
+        }
+    }
+
     /// The format of a path, by its extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Format> {
         let ext = path
@@ -97,6 +111,31 @@ impl Format {
             }
         })
     }
+}
+
+/// What PLY and OFF cannot keep: parts, and UVs that differ between the
+/// corners of one vertex (seams).
+fn loses_per_vertex(format: Format, mesh: &Mesh) -> Option<String> {
+    let mut lost = Vec::new();
+    if !mesh.parts.is_empty() {
+        let mut names: Vec<&str> = mesh.parts.iter().map(|p| p.name.as_str()).collect();
+        names.dedup();
+        let shown = names.iter().take(5).copied().collect::<Vec<_>>().join(", ");
+        let more = if names.len() > 5 { ", ..." } else { "" };
+        lost.push(format!("its parts ({shown}{more})"));
+    }
+    if let Some(uv) = &mesh.uvs
+        && uv.per_vertex(&mesh.faces, mesh.positions.len()).is_none()
+    {
+        lost.push("its UVs, which have seams (a vertex with several UVs)".to_owned());
+    }
+    (!lost.is_empty()).then(|| {
+        format!(
+            "{} keeps one UV per vertex and no parts: it cannot keep {}; use OBJ or glTF to keep them",
+            format.label(),
+            lost.join(" or ")
+        )
+    })
 }
 
 pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
@@ -121,9 +160,11 @@ pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
     }
 }
 
+/// A mesh's bytes in a format; an OBJ names no material library (it has
+/// no folder to put one in: [`crate::write`] writes one beside the file).
 pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
     match format {
-        Format::Obj => obj::encode(mesh),
+        Format::Obj => obj::encode(mesh, None),
         Format::Ply => ply::encode(mesh, false),
         Format::PlyAscii => ply::encode(mesh, true),
         Format::Stl => stl::encode(mesh),
@@ -137,3 +178,5 @@ pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
 mod fuzz;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod write_tests;

@@ -188,10 +188,16 @@ fn resolve(tok: Option<&str>, count: usize, path: &Path, line: usize, what: &str
     Ok(idx as u32)
 }
 
-pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
+/// The first line of every OBJ and MTL file csrbf writes.
+pub(crate) const WRITTEN_BY: &str = "# written by csrbf";
+
+/// The OBJ text; `library` is the `mtllib` line's file, written only when
+/// it exists beside the OBJ (see [`library`]), never a dangling name.
+pub(crate) fn encode(mesh: &Mesh, library: Option<&str>) -> Vec<u8> {
     let mut s = String::with_capacity(mesh.positions.len() * 40 + mesh.faces.indices.len() * 12);
-    s.push_str("# written by csrbf\n");
-    if let Some(lib) = &mesh.material_library {
+    s.push_str(WRITTEN_BY);
+    s.push('\n');
+    if let Some(lib) = library {
         let _ = writeln!(s, "mtllib {lib}");
     }
     for (i, p) in mesh.positions.iter().enumerate() {
@@ -291,4 +297,44 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
         s.push('\n');
     }
     s.into_bytes()
+}
+
+/// A material library (`.mtl`) for an OBJ: its text and the texture files
+/// it names, each (file name, bytes), all to be written beside the OBJ.
+pub(crate) struct Library {
+    pub text: String,
+    pub textures: Vec<(String, Vec<u8>)>,
+}
+
+/// The material library of a mesh with material parts, for an OBJ whose
+/// file stem is `stem`: every material's colour (`Kd`, and `d` below 1) as
+/// the mesh knows it (light grey otherwise) and its embedded texture as
+/// `STEM_K.png` (or `.jpg`) named by `map_Kd`; `None` without materials.
+pub(crate) fn library(mesh: &Mesh, stem: &str) -> Option<Library> {
+    let mut names: Vec<&str> = Vec::new();
+    for p in mesh.parts.iter().filter(|p| p.kind == PartKind::Material) {
+        if !names.contains(&p.name.as_str()) {
+            names.push(&p.name);
+        }
+    }
+    if names.is_empty() {
+        return None;
+    }
+    let mut text = format!("{WRITTEN_BY}\n");
+    let mut textures = Vec::new();
+    for name in names {
+        let m = mesh.materials.iter().find(|m| m.name == name);
+        let [r, g, b, a] = m.map_or([0.8, 0.8, 0.8, 1.0], |m| m.color);
+        let _ = writeln!(text, "\nnewmtl {name}\nKd {r} {g} {b}");
+        if a < 1.0 {
+            let _ = writeln!(text, "d {a}");
+        }
+        if let Some((mime, bytes)) = m.and_then(|m| m.texture.as_ref()) {
+            let ext = if mime == "image/jpeg" { "jpg" } else { "png" };
+            let file = format!("{stem}_{}.{ext}", textures.len());
+            let _ = writeln!(text, "map_Kd {file}");
+            textures.push((file, bytes.clone()));
+        }
+    }
+    Some(Library { text, textures })
 }

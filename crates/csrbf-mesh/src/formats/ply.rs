@@ -408,7 +408,9 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
         );
     }
     if uvs.is_some() {
-        h.push_str("property float u\nproperty float v\n");
+        // `s t`: the names Blender's and trimesh's readers take as UVs
+        // (Blender keeps `u v` as plain attributes).
+        h.push_str("property float s\nproperty float t\n");
     }
     let face_records: usize = mesh
         .faces

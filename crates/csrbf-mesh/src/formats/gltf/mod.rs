@@ -15,7 +15,7 @@ mod write;
 
 pub(crate) use read::parse;
 pub(crate) use write::encode;
-pub use write::{Builder, package};
+pub use write::{Builder, UvSplit, package, split_uv_seams};
 
 /// Base64 for the tests' hand-made files.
 #[cfg(test)]

@@ -253,15 +253,45 @@ fn face_starts(faces: &Faces) -> Vec<usize> {
         .collect()
 }
 
-/// Vertices split where per-corner UVs differ: the source vertex of each
-/// written vertex, its UV, and the written vertex of every face corner.
-struct Split {
-    source: Vec<u32>,
-    uvs: Vec<Vec2>,
-    corners: Vec<u32>,
+/// A mesh's vertices split where its per-corner UVs differ (UV seams), as
+/// glTF needs one UV per vertex: the source vertex of each written vertex,
+/// its UV, and the written vertex of every face corner. The first written
+/// vertices are the mesh's own, in order; the copies follow.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UvSplit {
+    /// The mesh vertex each written vertex copies.
+    pub source: Vec<u32>,
+    /// The UV of each written vertex.
+    pub uvs: Vec<Vec2>,
+    /// The written vertex of every face corner (aligned with [`Faces::indices`]).
+    pub corners: Vec<u32>,
 }
 
-fn split_uv_seams(mesh: &Mesh) -> Option<Split> {
+impl UvSplit {
+    /// The fan triangles of the faces listed (a part's) over the written
+    /// vertices, flattened into an index list, as
+    /// [`Faces::triangle_indices`] gives them over the mesh's own.
+    pub fn triangle_indices(&self, faces: &Faces, list: &[u32]) -> Vec<u32> {
+        let mut out = Vec::new();
+        for &f in list {
+            let f = f as usize;
+            if f >= faces.len() {
+                continue;
+            }
+            let (a, b) = (faces.offsets[f] as usize, faces.offsets[f + 1] as usize);
+            if let Some(corners) = self.corners.get(a..b) {
+                out.extend(crate::fan(corners).flatten());
+            }
+        }
+        out
+    }
+}
+
+/// The mesh's vertices split at UV seams; `None` when it has no UVs or one
+/// UV per vertex already (then [`TexCoords::per_vertex`] gives them).
+///
+/// [`TexCoords::per_vertex`]: crate::TexCoords::per_vertex
+pub fn split_uv_seams(mesh: &Mesh) -> Option<UvSplit> {
     let uv = mesh.uvs.as_ref()?;
     let corners = uv.corners.as_ref()?;
     if uv.per_vertex(&mesh.faces, mesh.positions.len()).is_some() {
@@ -292,7 +322,7 @@ fn split_uv_seams(mesh: &Mesh) -> Option<Split> {
         };
         out.push(written);
     }
-    Some(Split {
+    Some(UvSplit {
         source,
         uvs,
         corners: out,
@@ -313,7 +343,12 @@ fn material_json(mesh: &Mesh, b: &mut Builder) -> (Vec<Value>, Vec<Value>, Vec<V
             textures.push(json!({ "source": images.len() - 1, "sampler": 0 }));
             pbr["baseColorTexture"] = json!({ "index": textures.len() - 1 });
         }
-        mats.push(json!({ "name": name, "pbrMetallicRoughness": pbr }));
+        let mut mat = json!({ "name": name, "pbrMetallicRoughness": pbr });
+        if color[3] < 1.0 {
+            // Without it, readers draw the material opaque.
+            mat["alphaMode"] = json!("BLEND");
+        }
+        mats.push(mat);
     }
     (mats, images, textures)
 }

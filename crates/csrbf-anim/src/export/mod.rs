@@ -1,10 +1,20 @@
 //! glTF 2.0 export of a scene: meshes with their parts' materials and
-//! textures, node translation and rotation sampled from the trajectories and
-//! orientation keys, and every deformation stage as a morph target whose
-//! weight follows its phase track. Contact deformations, rebuilt every frame,
-//! have no morph-target form and are left out (the objects still move).
+//! textures (vertices split at UV seams), node translation and rotation
+//! sampled from the trajectories and orientation keys, every deformation
+//! stage as a named morph target whose weight follows its phase track, the
+//! scene's camera and lights, and its fps and duration in the asset's
+//! extras. Contact deformations, rebuilt every frame, have no morph-target
+//! form and are left out (the objects still move).
 
-use csrbf_mesh::formats::gltf::{Builder, package};
+mod names;
+#[cfg(test)]
+mod tests;
+mod view;
+
+use names::target_names;
+
+use csrbf_mesh::formats::gltf::{Builder, package, split_uv_seams};
+use glam::Vec3;
 use serde_json::{Value, json};
 
 use csrbf::Combine;
@@ -16,12 +26,27 @@ pub fn export_notes(scene: &Scene) -> Vec<String> {
     let mut notes = Vec::new();
     for obj in &scene.objects {
         for anim in &obj.deformations {
-            if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+            if exported_whole(anim) {
                 notes.push(format!(
                     "{}: {}: its {} deformations are chained; glTF morph targets add, so the chain is exported as one morph target (the whole chain at full phase) weighted by its phase track: exact at phases 0 and 1, a straight blend between (\"combine\": \"add\" exports exactly)",
                     obj.name,
                     anim.controls,
                     anim.stages.len()
+                ));
+            }
+        }
+        let has_uvs = obj.mesh.uvs.is_some();
+        for p in &obj.parts {
+            if p.texture.is_some() && !has_uvs {
+                notes.push(format!(
+                    "{}: {}: the mesh has no UVs, so its texture is left out",
+                    obj.name, p.name
+                ));
+            }
+            if p.wireframe {
+                notes.push(format!(
+                    "{}: {}: glTF has no wireframe look; the part is exported as a surface",
+                    obj.name, p.name
                 ));
             }
         }
@@ -33,6 +58,12 @@ pub fn export_notes(scene: &Scene) -> Vec<String> {
         }
     }
     notes
+}
+
+/// Whether a deformation is exported as one morph target (a chain of
+/// several, which morph targets cannot add up to) rather than one per stage.
+fn exported_whole(anim: &crate::scene::Animated) -> bool {
+    anim.combine == Combine::Chain && anim.stages.len() > 1
 }
 
 /// The scene as glTF: binary `.glb` or `.gltf` JSON with an embedded buffer.
@@ -51,27 +82,33 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
 
     for (oi, obj) in scene.objects.iter().enumerate() {
         let n = obj.mesh.positions.len();
-        let pos: Vec<f32> = obj
-            .mesh
-            .positions
-            .iter()
-            .flat_map(|p| p.to_array())
-            .collect();
+        // glTF keeps one UV per vertex: a mesh with UV seams is written with
+        // its seam vertices split (as `csrbf deform --out x.glb` writes it),
+        // every per-vertex attribute and morph target copied to the splits.
+        let split = split_uv_seams(&obj.mesh);
+        let source: Vec<u32> = split
+            .as_ref()
+            .map_or_else(|| (0..n as u32).collect(), |s| s.source.clone());
+        let written = |per_vertex: &[Vec3]| -> Vec<f32> {
+            source
+                .iter()
+                .flat_map(|&v| per_vertex[v as usize].to_array())
+                .collect()
+        };
+        let pos = written(&obj.mesh.positions);
         let mut attributes = json!({ "POSITION": b.floats(&pos, 3, "VEC3", true) });
         let mut m = obj.mesh.clone();
         m.recompute_normals();
-        let nrm: Vec<f32> = m
-            .normals
-            .unwrap_or_default()
-            .iter()
-            .flat_map(|p| p.to_array())
-            .collect();
+        let nrm = written(m.normals.as_deref().unwrap_or(&obj.mesh.positions[..]));
         attributes["NORMAL"] = json!(b.floats(&nrm, 3, "VEC3", false));
-        let uvs = obj
-            .mesh
-            .uvs
-            .as_ref()
-            .and_then(|u| u.per_vertex(&obj.mesh.faces, n));
+        let uvs = match &split {
+            Some(s) => Some(s.uvs.clone()),
+            None => obj
+                .mesh
+                .uvs
+                .as_ref()
+                .and_then(|u| u.per_vertex(&obj.mesh.faces, n)),
+        };
         if let Some(uv) = &uvs {
             // glTF's texture origin is the top left.
             let t: Vec<f32> = uv.iter().flat_map(|v| [v.x, 1.0 - v.y]).collect();
@@ -79,32 +116,34 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         }
         // One morph target per deformation stage.
         let mut targets = Vec::new();
-        let mut target_names = Vec::new();
+        let names = target_names(&obj.deformations, exported_whole);
         let mut tracks = Vec::new();
         for anim in &obj.deformations {
-            if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+            if exported_whole(anim) {
                 // A chain is not a sum of targets: one target, the whole
                 // chain at full phase (see `export_notes`).
                 let full = Scene::chained_displacement(&obj.mesh.positions, anim);
-                let d: Vec<f32> = full.iter().flat_map(|v| v.to_array()).collect();
+                let d = written(&full);
                 targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                target_names.push(anim.controls.clone());
                 tracks.push(&anim.track);
                 continue;
             }
-            for (si, st) in anim.stages.iter().enumerate() {
-                let mut d = vec![0.0f32; 3 * n];
+            for st in &anim.stages {
+                let mut full = vec![Vec3::ZERO; n];
                 for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
-                    d[3 * v as usize..3 * v as usize + 3].copy_from_slice(&dv.to_array());
+                    full[v as usize] = *dv;
                 }
+                let d = written(&full);
                 targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                target_names.push(format!("{}#{si}", anim.controls));
                 tracks.push(&anim.track);
             }
         }
         let mut primitives = Vec::new();
         for p in &obj.parts {
-            let idx = obj.mesh.faces.triangle_indices(&p.faces);
+            let idx = match &split {
+                Some(s) => s.triangle_indices(&obj.mesh.faces, &p.faces),
+                None => obj.mesh.faces.triangle_indices(&p.faces),
+            };
             if idx.is_empty() {
                 continue;
             }
@@ -115,7 +154,16 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
                 textures.push(json!({ "source": images.len() - 1, "sampler": 0 }));
                 pbr["baseColorTexture"] = json!({ "index": textures.len() - 1 });
             }
-            materials.push(json!({ "name": format!("{}/{}", obj.name, p.name), "pbrMetallicRoughness": pbr, "doubleSided": true }));
+            let mut material = json!({ "name": format!("{}/{}", obj.name, p.name), "pbrMetallicRoughness": pbr, "doubleSided": true });
+            let see_through = p.color[3] < 1.0
+                || (uvs.is_some()
+                    && p.texture
+                        .as_ref()
+                        .is_some_and(|t| t.rgba.chunks_exact(4).any(|px| px[3] < 255)));
+            if see_through {
+                material["alphaMode"] = json!("BLEND");
+            }
+            materials.push(material);
             let mut prim = json!({ "attributes": attributes.clone(), "indices": b.indices(&idx), "material": materials.len() - 1, "mode": 4 });
             if !targets.is_empty() {
                 prim["targets"] = json!(targets.clone());
@@ -125,7 +173,7 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         let mut mesh = json!({ "name": obj.name, "primitives": primitives });
         if !targets.is_empty() {
             mesh["weights"] = json!(tracks.iter().map(|t| t.phase(0.0)).collect::<Vec<_>>());
-            mesh["extras"] = json!({ "targetNames": target_names });
+            mesh["extras"] = json!({ "targetNames": names });
         }
         meshes.push(mesh);
         let (rot0, shift0) = obj.transform(0.0);
@@ -163,14 +211,25 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
             channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": oi, "path": "weights" } }));
         }
     }
+    let view = view::view_nodes(&scene.file);
+    nodes.extend(view.nodes);
+    // glTF has no frame rate: the scene's timing, for tools that look (in the
+    // asset's extras, and the scene's, which Blender's importer can keep as
+    // custom properties).
+    let timing = json!({ "fps": fps, "duration": scene.file.duration, "frames": frames });
     let mut doc = json!({
-        "asset": { "version": "2.0", "generator": "csrbf" },
+        "asset": { "version": "2.0", "generator": "csrbf", "extras": timing },
         "scene": 0,
-        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
+        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>(), "extras": timing }],
         "nodes": nodes,
         "meshes": meshes,
         "materials": materials,
+        "cameras": view.cameras,
     });
+    if !view.lights.is_empty() {
+        doc["extensionsUsed"] = json!([view::LIGHTS_EXTENSION]);
+        doc["extensions"] = json!({ view::LIGHTS_EXTENSION: { "lights": view.lights } });
+    }
     if !channels.is_empty() {
         doc["animations"] =
             json!([{ "name": "scene", "samplers": samplers, "channels": channels }]);
