@@ -51,7 +51,8 @@ def apply_spec(op, obj, spec: dict, source: str) -> bool:
     name = first.get("name") if isinstance(first, dict) and isinstance(first.get("name"), str) else settings.layer
     core.write_shape_key(obj, name or settings.layer, out.vertices)
     settings.moved = report.moved
-    settings.flipped = report.flipped_faces
+    settings.inside_out = report.inside_out_faces
+    settings.fold_phase = -1.0 if report.fold_phase is None else report.fold_phase
     settings.largest_move = report.largest_move
     settings.warnings = "\n".join(report.warnings)
     level = {"WARNING"} if report.warnings else {"INFO"}

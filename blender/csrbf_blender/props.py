@@ -51,7 +51,8 @@ class CsrbfSettings(bpy.types.PropertyGroup):
     next_pair: IntProperty(default=0, options={"HIDDEN"})
     # The last deformation's diagnostics, for the panel.
     moved: IntProperty(default=-1, options={"HIDDEN"})
-    flipped: IntProperty(default=0, options={"HIDDEN"})
+    inside_out: IntProperty(default=0, options={"HIDDEN"})
+    fold_phase: FloatProperty(default=-1.0, options={"HIDDEN"})
     largest_move: FloatProperty(default=0.0, options={"HIDDEN"})
     warnings: StringProperty(default="", options={"HIDDEN"})
 

@@ -45,7 +45,8 @@ class CSRBF_PT_panel(bpy.types.Panel):
         box.label(text=f"{len(starts)} control vector(s)")
         if s.moved >= 0:
             box.label(text=f"{s.moved} vertices moved, largest {s.largest_move:.4g}")
-            box.label(text=f"{s.flipped} face(s) turned over", icon="ERROR" if s.flipped else "CHECKMARK")
+            folds = f", folds from phase {s.fold_phase:.2f}" if s.fold_phase >= 0 else ""
+            box.label(text=f"{s.inside_out} face(s) inside out{folds}", icon="ERROR" if s.inside_out else "CHECKMARK")
         for w in s.warnings.splitlines()[:6]:
             box.label(text=w, icon="ERROR")
 

@@ -69,6 +69,7 @@ def test_deform_from_file_equals_deform_mesh():
     got = core.shape_key_positions(obj, key[1].name)
     assert np.abs(got - want.vertices).max() <= 1e-6 * head.diagonal
     assert obj.csrbf.moved == report.moved > 100
+    assert obj.csrbf.inside_out == report.inside_out_faces
     # Run again: the same key is updated, not a new one, and from the rest shape.
     assert bpy.ops.csrbf.deform_from_file(filepath=str(SMILE)) == {"FINISHED"}
     assert len(obj.data.shape_keys.key_blocks) == 2
@@ -186,3 +187,18 @@ def test_bad_input_is_reported_and_changes_nothing(tmp_path):
         with pytest.raises(RuntimeError, match="must be a mesh"):
             op()
     assert same_state(before, state(obj))
+
+
+def test_a_folding_edit_says_so_in_the_panel():
+    obj = sphere()
+    bpy.context.scene.cursor.location = (0.0, 0.0, 1.5)
+    bpy.ops.csrbf.add_control()
+    target = bpy.context.view_layer.objects.active
+    target.location.x = 0.5  # a long sideways drag: past the fold-free bound
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.objects.active = obj
+    obj.csrbf.radius = 0.6
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}  # a fold is reported, not refused
+    assert obj.csrbf.inside_out > 0
+    assert 0.0 < obj.csrbf.fold_phase <= 1.0
+    assert "inside out" in obj.csrbf.warnings
