@@ -32,8 +32,10 @@ def test_the_dask_example_augments_a_folder_on_two_workers(tmp_path):
     assert done.returncode == 0, done.stderr
     assert "3/3 meshes" in done.stderr  # the progress bar
     assert "9 meshes written" in done.stdout
-    written = sorted(p.name for p in out.iterdir())
+    written = sorted(p.name for p in out.iterdir() if p.suffix != ".mtl")
     assert len(written) == 9 and "cgal_head_v002.off" in written and "assimp_sphereWithHole_v000.ply" in written
+    # An OBJ with materials gets its material library beside it (issue 24).
+    assert all((out / f"pybullet_duck_v{k:03d}.mtl").exists() for k in range(3))
 
     # Each variant is the deformation the example's seeded edits describe.
     example = load_example()
