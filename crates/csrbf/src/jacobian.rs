@@ -91,7 +91,13 @@ impl Deformation {
         points: &[P],
         limit: f64,
     ) -> Vec<(u32, DVec3, DMat3)> {
-        let blocks = Blocks::for_starts(points, self.radius(), self.starts().len());
+        // Skipping needs cells that are small in space, even with few starts
+        // (runs of points in their own order can span the whole mesh).
+        let blocks = if limit > 0.0 {
+            Blocks::new(points, self.radius() * 0.5)
+        } else {
+            Blocks::for_starts(points, self.radius(), self.starts().len())
+        };
         let mut chunks: Vec<Vec<(u32, DVec3, DMat3)>> = vec![Vec::new(); blocks.cells.len()];
         let (kernel, radius) = (self.kernel(), self.radius());
         let inv = 1.0 / radius;
