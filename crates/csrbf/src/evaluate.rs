@@ -269,11 +269,14 @@ impl Candidates {
     }
 
     /// Calls `f(start index, x - start)` for every candidate closer than
-    /// `radius` to `x` (the gradient's pass needs the offset, not phi).
-    #[inline]
+    /// `radius` to `x`.
+    #[inline(always)]
     pub(crate) fn for_each_offset(&mut self, x: DVec3, radius: f64, mut f: impl FnMut(u32, DVec3)) {
         let r2 = radius * radius;
         let n = self.xs.len();
+        // A bit mask of the hits per 64 candidates, then only the hits: no
+        // branch per candidate (about half are hits, which a branch would
+        // mispredict half the time).
         for base in (0..n).step_by(64) {
             let end = (base + 64).min(n);
             let (xs, ys, zs) = (
@@ -301,28 +304,8 @@ impl Candidates {
         phi: impl Fn(f64) -> f64,
         mut f: impl FnMut(u32, f64),
     ) {
-        let r2 = radius * radius;
         let inv = 1.0 / radius;
-        let n = self.xs.len();
-        // A bit mask of the hits per 64 candidates, then only the hits: no
-        // branch per candidate (about half are hits, which a branch would
-        // mispredict half the time).
-        for base in (0..n).step_by(64) {
-            let end = (base + 64).min(n);
-            let (xs, ys, zs) = (
-                &self.xs[base..end],
-                &self.ys[base..end],
-                &self.zs[base..end],
-            );
-            let mut bits = crate::simd::hit_mask(self.cpu, xs, ys, zs, x.to_array(), r2);
-            while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let (dx, dy, dz) = (xs[k] - x.x, ys[k] - x.y, zs[k] - x.z);
-                let d = dx * dx + dy * dy + dz * dz;
-                f(self.id[base + k], phi(d.sqrt() * inv));
-            }
-        }
+        self.for_each_offset(x, radius, |j, off| f(j, phi(off.length() * inv)));
     }
 }
 
