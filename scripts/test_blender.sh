@@ -45,3 +45,18 @@ versions = ext.python_versions_from_wheel(manifest["wheels"][0].rsplit("/", 1)[-
 assert versions == {(3,)}, versions
 print(f"blender tests: {sys.argv[1]} holds the manifest, the add-on and {manifest['wheels'][0]} (Python versions {versions})")
 PY
+# Blender installs the zip as a user would (Install from Disk), wheel and
+# all, and its operators run: in a throwaway home, so nothing of the user's
+# Blender is touched.
+home=$(mktemp -d)
+HOME="$home" "$venv/bin/python" - "$PWD/$zip" <<'PY'
+import sys, bpy
+assert bpy.ops.extensions.package_install_files(
+    filepath=sys.argv[1], repo="user_default", enable_on_install=True) == {"FINISHED"}
+assert "bl_ext.user_default.csrbf" in sys.modules, "the extension did not load"
+bpy.ops.mesh.primitive_uv_sphere_add()
+bpy.context.scene.cursor.location = (0, 0, 1.5)
+assert bpy.ops.csrbf.add_control() == {"FINISHED"}
+print("blender tests: Blender installed and enabled the packed extension; csrbf.add_control ran")
+PY
+rm -rf "$home"
