@@ -17,7 +17,7 @@ from . import core
 def _mesh_object(op, context):
     obj = context.active_object
     if obj is None or obj.type != "MESH":
-        what = "nothing" if obj is None else f"{obj.name!r}, a {obj.type.lower()}"
+        what = "nothing" if obj is None else f"{obj.name!r} ({obj.type.lower()})"
         op.report({"ERROR"}, f"csrbf: the active object must be a mesh, not {what}")
         return None
     return obj
@@ -27,6 +27,12 @@ def _engine():
     import csrbf  # the wheel the extension ships
 
     return csrbf
+
+
+def _has_region(spec) -> bool:
+    if not isinstance(spec, dict):
+        return False
+    return "region" in spec or any(_has_region(d) for d in spec.get("deformations", []))
 
 
 def apply_spec(op, obj, spec: dict, source: str) -> bool:
@@ -45,7 +51,8 @@ def apply_spec(op, obj, spec: dict, source: str) -> bool:
         return False
     far = [w for w, k in zip(report.warnings, report.warning_kinds) if k == "starts_far_from_mesh"]
     if far:
-        op.report({"ERROR"}, f"csrbf: {source}: {far[0]} (move the start onto the mesh or raise the radius)")
+        where = "onto the mesh, inside the deformation's region," if _has_region(spec) else "onto the mesh"
+        op.report({"ERROR"}, f"csrbf: {source}: {far[0]} (move the start {where} or raise the radius)")
         return False
     first = spec.get("deformations", [spec])[0] if isinstance(spec, dict) else {}
     name = first.get("name") if isinstance(first, dict) and isinstance(first.get("name"), str) else settings.layer
@@ -85,8 +92,9 @@ class CSRBF_OT_add_control(bpy.types.Operator):
                 return {"CANCELLED"}
             cursor = obj.matrix_world.inverted() @ context.scene.cursor.location
             hit, location, _normal, _face = obj.closest_point_on_mesh(cursor)
-            if not hit:
-                self.report({"ERROR"}, "csrbf: no surface point found near the 3D cursor")
+            size = core.diagonal(core.rest_positions(obj))
+            if not hit or (location - cursor).length > size:
+                self.report({"ERROR"}, f"csrbf: the 3D cursor is farther from {obj.name!r} than the object's size: place it on the surface first")
                 return {"CANCELLED"}
             points = [location]
         settings = obj.csrbf

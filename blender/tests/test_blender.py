@@ -187,6 +187,13 @@ def test_bad_input_is_reported_and_changes_nothing(tmp_path):
         with pytest.raises(RuntimeError, match="must be a mesh"):
             op()
     assert same_state(before, state(obj))
+    # A 3D cursor far from the mesh places no start.
+    bpy.context.view_layer.objects.active = obj
+    starts_before, _ = core.controls(obj)
+    bpy.context.scene.cursor.location = (1e4, 1e4, 1e4)
+    with pytest.raises(RuntimeError, match="place it on the surface"):
+        bpy.ops.csrbf.add_control()
+    assert len(core.controls(obj)[0]) == len(starts_before)
 
 
 def test_a_folding_edit_says_so_in_the_panel():
