@@ -1,6 +1,6 @@
 """csrbf's exports opened by the programs users open them in (issue 24):
-Blender's own glTF, OBJ and PLY importers, headless (the bpy module), and
-trimesh where it is installed. Every file is made here by the `csrbf`
+Blender's own glTF, OBJ, PLY and STL importers, headless (the bpy module),
+and trimesh (blender/requirements.txt installs it with Pillow). Every file is made here by the `csrbf`
 binary (CSRBF_BIN, else target/debug/csrbf, built when missing)."""
 
 from __future__ import annotations
@@ -119,6 +119,13 @@ def test_every_demo_imports_with_its_shape_keys_camera_and_lights(demos, tmp_pat
     glb = tmp_path / f"{demo}.glb"
     csrbf("export", "-q", demos / "d" / demo / f"{demo}.scene.json", "--out", glb)
     doc = glb_json(glb)
+    # trimesh reads every mesh with the vertices the file holds.
+    import trimesh
+
+    scene = trimesh.load(glb, process=False)
+    counts = sorted(len(g.vertices) for g in scene.geometry.values())
+    want = sorted(sum(doc["accessors"][p["attributes"]["POSITION"]]["count"] for p in m["primitives"]) for m in doc["meshes"])
+    assert counts == want, (counts, want)
     import_gltf(glb)
     objs = meshes()
     assert len(objs) == len(doc["meshes"])
@@ -173,8 +180,10 @@ def test_a_ply_keeps_its_uvs_in_blender(tmp_path):
 
 
 def test_trimesh_reads_the_textured_export(demos, tmp_path):
-    trimesh = pytest.importorskip("trimesh")
-    pytest.importorskip("PIL")  # trimesh decodes images with Pillow
+    import trimesh
+
+    import PIL  # noqa: F401  (trimesh decodes images with Pillow)
+
     glb = tmp_path / "box.glb"
     shutil.copy(MODELS / "assimp_BoxTextured.glb", tmp_path / "in.glb")
     controls = tmp_path / "c.json"
@@ -260,3 +269,103 @@ def test_shape_keys_in_blender_give_csrbf_deforms_positions(demos, tmp_path):
         got = np.stack([co[:, 0], co[:, 2], -co[:, 1]], 1)  # back to glTF's Y up
         err = np.abs(got - want).max() / diagonal
         assert err < 1e-6, (frame, err)
+
+
+# Every format csrbf writes, the importer Blender has for it (none for OFF)
+# and how that importer turns csrbf's Y-up coordinates (glTF's and OBJ's
+# importers convert to Blender's Z-up; PLY's and STL's keep them).
+FORMATS = {
+    "obj": (lambda p: bpy.ops.wm.obj_import(filepath=p), True),
+    "ply": (lambda p: bpy.ops.wm.ply_import(filepath=p), False),
+    "stl": (lambda p: bpy.ops.wm.stl_import(filepath=p), False),
+    "off": (None, False),
+    "gltf": (lambda p: bpy.ops.import_scene.gltf(filepath=p), True),
+    "glb": (lambda p: bpy.ops.import_scene.gltf(filepath=p), True),
+}
+
+
+def unique_rows(points: np.ndarray, diagonal: float) -> np.ndarray:
+    """The distinct points, sorted: readers split vertices at seams (glTF)
+    or not at all (STL's triangle soup), so positions compare as sets."""
+    key = np.round(points / (diagonal * 1e-7)).astype(np.int64)
+    _, first = np.unique(key, axis=0, return_index=True)
+    rows = points[first]
+    return rows[np.lexsort(rows.T[::-1])]
+
+
+def blender_points(z_up: bool) -> tuple[np.ndarray, int]:
+    """World positions of every imported mesh in csrbf's Y-up frame, and
+    the triangles they make."""
+    points, triangles = [], 0
+    for obj in meshes():
+        me = obj.data
+        co = np.zeros(3 * len(me.vertices), np.float64)
+        me.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        m = np.array(obj.matrix_world)
+        co = co @ m[:3, :3].T + m[:3, 3]
+        points.append(np.stack([co[:, 0], co[:, 2], -co[:, 1]], 1) if z_up else co)
+        me.calc_loop_triangles()
+        triangles += len(me.loop_triangles)
+    return np.concatenate(points), triangles
+
+
+def trimesh_points(path: Path):
+    import trimesh
+
+    loaded = trimesh.load(path, process=False)
+    if isinstance(loaded, trimesh.Scene):
+        loaded = loaded.to_geometry() if hasattr(loaded, "to_geometry") else loaded.dump(concatenate=True)
+    return np.asarray(loaded.vertices, np.float64), len(loaded.faces), loaded
+
+
+@pytest.mark.parametrize("fmt", sorted(FORMATS))
+def test_every_mesh_format_round_trips_through_trimesh_and_blender(tmp_path, fmt):
+    """The deformed duck (UV seams, a material) in each format csrbf
+    writes: Blender's importer and trimesh read the same triangles at the
+    positions `csrbf deform` gives (its OBJ, parsed here, is the
+    reference), UVs where the format keeps them, and csrbf says what a
+    format drops."""
+    controls = tmp_path / "c.json"
+    controls.write_text(json.dumps({"radius": 0.3, "controls": [{"from": [0, 0.3, 0], "to": [0.05, 0.4, 0]}]}))
+    duck = MODELS / "pybullet_duck.obj"
+    ref = tmp_path / "ref" / "duck.obj"
+    ref.parent.mkdir()
+    csrbf("deform", "-q", "--mesh", duck, "--controls", controls, "--out", ref)
+    rest = obj_positions(duck)
+    diagonal = float(np.linalg.norm(rest.max(0) - rest.min(0)))
+    want = unique_rows(obj_positions(ref), diagonal)
+    triangles = sum(1 for l in ref.read_text().splitlines() if l.startswith("f "))
+    assert not np.allclose(want, unique_rows(rest, diagonal), atol=1e-3 * diagonal)  # it moved
+
+    out = tmp_path / f"duck.{fmt}"
+    said = csrbf("deform", "--mesh", duck, "--controls", controls, "--out", out)
+    if fmt in ("ply", "off"):
+        assert "seams" in said and "OBJ or glTF" in said, said
+    if fmt == "stl":
+        assert "UVs" in said, said
+
+    def same(points, n_triangles, reader):
+        got = unique_rows(points, diagonal)
+        assert got.shape == want.shape, (reader, got.shape, want.shape)
+        err = np.abs(got - want).max() / diagonal
+        assert err < 1e-6, (reader, err)
+        assert n_triangles == triangles, (reader, n_triangles, triangles)
+
+    points, n_triangles, loaded = trimesh_points(out)
+    same(points, n_triangles, "trimesh")
+    if fmt in ("obj", "gltf", "glb"):
+        uv = loaded.visual.uv
+        assert uv is not None and len(uv) == len(loaded.vertices) and np.ptp(uv) > 0.5, fmt
+
+    importer, z_up = FORMATS[fmt]
+    if importer is None:  # Blender has no OFF importer
+        return
+    fresh()
+    assert importer(str(out)) == {"FINISHED"}
+    points, n_triangles = blender_points(z_up)
+    same(points, n_triangles, "blender")
+    if fmt in ("obj", "gltf", "glb"):
+        (obj,) = meshes()
+        assert len(obj.data.uv_layers) == 1, fmt
+        assert [m.name for m in obj.data.materials] == ["blinn3"], fmt

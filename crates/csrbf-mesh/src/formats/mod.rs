@@ -113,29 +113,52 @@ impl Format {
     }
 }
 
-/// What PLY and OFF cannot keep: parts, and UVs that differ between the
-/// corners of one vertex (seams).
+/// What PLY and OFF cannot keep: UVs that differ between the corners of
+/// one vertex (seams), and parts (OFF none; PLY one part of each kind per
+/// face, as face properties that only csrbf reads back as parts).
 fn loses_per_vertex(format: Format, mesh: &Mesh) -> Option<String> {
     let mut lost = Vec::new();
-    if !mesh.parts.is_empty() {
-        let mut names: Vec<&str> = mesh.parts.iter().map(|p| p.name.as_str()).collect();
-        names.dedup();
-        let shown = names.iter().take(5).copied().collect::<Vec<_>>().join(", ");
-        let more = if names.len() > 5 { ", ..." } else { "" };
-        lost.push(format!("its parts ({shown}{more})"));
-    }
     if let Some(uv) = &mesh.uvs
         && uv.per_vertex(&mesh.faces, mesh.positions.len()).is_none()
     {
         lost.push("its UVs, which have seams (a vertex with several UVs)".to_owned());
     }
-    (!lost.is_empty()).then(|| {
-        format!(
-            "{} keeps one UV per vertex and no parts: it cannot keep {}; use OBJ or glTF to keep them",
-            format.label(),
-            lost.join(" or ")
-        )
-    })
+    let mut names: Vec<&str> = mesh.parts.iter().map(|p| p.name.as_str()).collect();
+    names.dedup();
+    let shown = names.iter().take(5).copied().collect::<Vec<_>>().join(", ");
+    let more = if names.len() > 5 { ", ..." } else { "" };
+    let mut kept = None;
+    if mesh.parts.is_empty() {
+        // Nothing to keep.
+    } else if format == Format::Off {
+        lost.push(format!("its parts ({shown}{more})"));
+    } else if ply::parts_overlap(mesh) {
+        lost.push(format!(
+            "the parts ({shown}{more}) beyond the first of each kind where a face is in several"
+        ));
+    } else {
+        kept = Some(format!(
+            "{} keeps the parts ({shown}{more}) as face properties, which csrbf reads back but Blender's and trimesh's importers do not",
+            format.label()
+        ));
+    }
+    if lost.is_empty() {
+        return kept.map(|k| format!("{k}; use OBJ or glTF for them"));
+    }
+    let what = if format == Format::Off {
+        "keeps one UV per vertex and no parts"
+    } else {
+        "keeps one UV per vertex and one part of each kind per face"
+    };
+    let mut said = format!(
+        "{} {what}: it cannot keep {}",
+        format.label(),
+        lost.join(" or ")
+    );
+    if let Some(k) = kept {
+        said = format!("{said}; {k}");
+    }
+    Some(format!("{said}; use OBJ or glTF to keep them"))
 }
 
 pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {

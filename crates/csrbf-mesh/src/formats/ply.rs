@@ -1,6 +1,9 @@
 //! Stanford PLY: ASCII, binary little- and big-endian in; binary
 //! little-endian (or ASCII) out. Vertex positions, colours, texture
-//! coordinates and normals; polygon faces; other elements are skipped.
+//! coordinates and normals; polygon faces; parts as integer face
+//! properties `group`, `object` and `material` (-1: in none of that kind),
+//! named by `comment part <kind> <index> <name>` header lines, which is how
+//! csrbf writes them; other elements are skipped.
 
 use std::fmt::Write;
 use std::path::Path;
@@ -8,7 +11,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 
 use super::text::push_f32;
-use crate::{Faces, Mesh, MeshError, Result, TexCoords};
+use crate::{Faces, Mesh, MeshError, Part, PartKind, Result, TexCoords};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Scalar {
@@ -86,11 +89,17 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         .map_err(|_| err(None, "the header is not text".into()))?;
     let mut encoding = None;
     let mut elements: Vec<Element> = Vec::new();
+    let mut part_names: Vec<(PartKind, i64, String)> = Vec::new();
     for (i, line) in header.lines().enumerate() {
         let ln = i + 1;
         let tok: Vec<&str> = line.split_ascii_whitespace().collect();
         match tok.first().copied() {
-            Some("ply") | Some("comment") | Some("obj_info") | None => {}
+            Some("comment") => {
+                if let Some(named) = part_comment(line) {
+                    part_names.push(named);
+                }
+            }
+            Some("ply") | Some("obj_info") | None => {}
             Some("format") => {
                 encoding = Some(match tok.get(1).copied() {
                     Some("ascii") => Encoding::Ascii,
@@ -167,6 +176,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut colors = Vec::new();
     let mut uvs = Vec::new();
     let mut normals = Vec::new();
+    // Per kind of part, each face's index in it (-1: none).
+    let mut face_parts: Vec<(PartKind, Vec<i64>)> = Vec::new();
     let mut vals: Vec<f64> = Vec::new();
     for el in &elements {
         let is_vertex = el.name == "vertex";
@@ -189,6 +200,23 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         );
         let (nx, ny, nz) = (find(&["nx"]), find(&["ny"]), find(&["nz"]));
         let list_prop = find(&["vertex_indices", "vertex_index"]);
+        let part_props: Vec<(PartKind, usize)> = if is_face {
+            PART_KINDS
+                .iter()
+                .filter_map(|&k| {
+                    let i = find(&[k.name()])?;
+                    (el.props[i].list.is_none()).then_some((k, i))
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        if is_face {
+            face_parts = part_props
+                .iter()
+                .map(|&(k, _)| (k, Vec::with_capacity(el.count.min(bytes.len() / 4))))
+                .collect();
+        }
         if is_vertex && (px.is_none() || py.is_none() || pz.is_none()) {
             return Err(err(
                 None,
@@ -267,6 +295,14 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     )));
                 }
                 mesh.faces.push(&corners);
+                for ((_, i), (_, of)) in part_props.iter().zip(face_parts.iter_mut()) {
+                    let v = vals[*i];
+                    of.push(if v >= 0.0 && v.fract() == 0.0 && v < u32::MAX as f64 {
+                        v as i64
+                    } else {
+                        -1
+                    });
+                }
             }
         }
     }
@@ -282,7 +318,89 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     if !normals.is_empty() {
         mesh.normals = Some(normals);
     }
+    mesh.parts = parts_from_faces(&face_parts, &part_names);
     Ok(mesh)
+}
+
+const PART_KINDS: [PartKind; 3] = [PartKind::Group, PartKind::Object, PartKind::Material];
+
+/// `comment part material 3 red paint`: (Material, 3, "red paint").
+fn part_comment(line: &str) -> Option<(PartKind, i64, String)> {
+    let rest = line.trim_start().strip_prefix("comment")?.trim_start();
+    let rest = rest.strip_prefix("part ")?.trim_start();
+    let (kind, rest) = rest.split_once(' ')?;
+    let kind = *PART_KINDS.iter().find(|k| k.name() == kind)?;
+    let rest = rest.trim_start();
+    let (index, name) = rest.split_once(' ').unwrap_or((rest, ""));
+    Some((kind, index.parse().ok()?, name.to_owned()))
+}
+
+/// Parts from the faces' indices of each kind, in the order of their
+/// indices, named by the header's comments (else `group 3` and so on).
+fn parts_from_faces(
+    face_parts: &[(PartKind, Vec<i64>)],
+    names: &[(PartKind, i64, String)],
+) -> Vec<Part> {
+    let mut parts = Vec::new();
+    for (kind, of) in face_parts {
+        let mut by_index: std::collections::BTreeMap<i64, Vec<u32>> = Default::default();
+        for (f, &i) in of.iter().enumerate() {
+            if i >= 0 {
+                by_index.entry(i).or_default().push(f as u32);
+            }
+        }
+        for (i, faces) in by_index {
+            let name = names
+                .iter()
+                .find(|(k, j, _)| k == kind && *j == i)
+                .map_or_else(|| format!("{} {i}", kind.name()), |(_, _, n)| n.clone());
+            parts.push(Part {
+                name,
+                kind: *kind,
+                faces,
+            });
+        }
+    }
+    parts
+}
+
+/// Per kind of part the mesh has, each face's part of that kind (-1: none;
+/// a face in two parts of one kind keeps the first, which `Format::loses`
+/// reports) and the parts' names.
+fn face_part_columns(mesh: &Mesh) -> Vec<(PartKind, Vec<i32>, Vec<&str>)> {
+    let faces = mesh.faces.len();
+    let mut columns = Vec::new();
+    for kind in PART_KINDS {
+        let parts: Vec<&Part> = mesh.parts.iter().filter(|p| p.kind == kind).collect();
+        if parts.is_empty() {
+            continue;
+        }
+        let mut of = vec![-1i32; faces];
+        for (i, p) in parts.iter().enumerate() {
+            for &f in &p.faces {
+                if let Some(slot) = of.get_mut(f as usize)
+                    && *slot < 0
+                {
+                    *slot = i as i32;
+                }
+            }
+        }
+        columns.push((kind, of, parts.iter().map(|p| p.name.as_str()).collect()));
+    }
+    columns
+}
+
+/// Whether a face lies in two parts of one kind (a PLY face holds one).
+pub(crate) fn parts_overlap(mesh: &Mesh) -> bool {
+    PART_KINDS.iter().any(|&kind| {
+        let mut seen = vec![false; mesh.faces.len()];
+        mesh.parts.iter().filter(|p| p.kind == kind).any(|p| {
+            p.faces.iter().any(|&f| {
+                seen.get_mut(f as usize)
+                    .is_some_and(|s| std::mem::replace(s, true))
+            })
+        })
+    })
 }
 
 fn find(hay: &[u8], needle: &[u8]) -> Option<usize> {
@@ -397,6 +515,14 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
         "format binary_little_endian 1.0\n"
     });
     h.push_str("comment written by csrbf\n");
+    let part_columns = face_part_columns(mesh);
+    for (kind, _, names) in &part_columns {
+        for (i, name) in names.iter().enumerate() {
+            // A header line cannot hold a line break.
+            let name = name.replace(['\r', '\n'], " ");
+            let _ = writeln!(h, "comment part {} {i} {name}", kind.name());
+        }
+    }
     let _ = writeln!(h, "element vertex {n}");
     h.push_str("property float x\nproperty float y\nproperty float z\n");
     if mesh.normals.is_some() {
@@ -418,7 +544,11 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
         .map(|f| if f.len() <= 255 { 1 } else { f.len() - 2 })
         .sum();
     let _ = writeln!(h, "element face {face_records}");
-    h.push_str("property list uchar int vertex_indices\nend_header\n");
+    h.push_str("property list uchar int vertex_indices\n");
+    for (kind, _, _) in &part_columns {
+        let _ = writeln!(h, "property int {}", kind.name());
+    }
+    h.push_str("end_header\n");
     let mut floats: Vec<f32> = Vec::with_capacity(12);
     let mut out = h.into_bytes();
     let mut line = String::new();
@@ -450,19 +580,22 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
             }
         }
     }
-    for f in mesh.faces.iter() {
+    for (face, f) in mesh.faces.iter().enumerate() {
         // Faces of more than 255 corners do not fit a uchar count: fan them.
-        let parts: Vec<Vec<u32>> = if f.len() <= 255 {
+        let pieces: Vec<Vec<u32>> = if f.len() <= 255 {
             vec![f.to_vec()]
         } else {
             crate::fan(f).map(|t| t.to_vec()).collect()
         };
-        for f in parts {
+        for f in pieces {
             if ascii {
                 line.clear();
                 let _ = write!(line, "{}", f.len());
                 for v in &f {
                     let _ = write!(line, " {v}");
+                }
+                for (_, of, _) in &part_columns {
+                    let _ = write!(line, " {}", of[face]);
                 }
                 line.push('\n');
                 out.extend_from_slice(line.as_bytes());
@@ -470,6 +603,9 @@ pub(crate) fn encode(mesh: &Mesh, ascii: bool) -> Vec<u8> {
                 out.push(f.len() as u8);
                 for v in &f {
                     out.extend_from_slice(&(*v as i32).to_le_bytes());
+                }
+                for (_, of, _) in &part_columns {
+                    out.extend_from_slice(&of[face].to_le_bytes());
                 }
             }
         }

@@ -138,6 +138,17 @@ g left\nf 1/1 2/2 3/3\ng right\nf 2/5 4/4 3/3\n";
             "{fmt:?}: {said}"
         );
     }
+    // PLY keeps the parts as face properties, which csrbf reads back.
+    for fmt in [Format::Ply, Format::PlyAscii] {
+        let bytes = mesh.to_bytes(fmt).expect("ply");
+        let back = Mesh::from_bytes(&bytes, fmt, "b.ply".as_ref()).expect("read back");
+        assert_eq!(back.parts, mesh.parts, "{fmt:?}");
+        assert!(
+            fmt.loses(&mesh)
+                .unwrap_or_default()
+                .contains("face properties")
+        );
+    }
     for fmt in [Format::Obj, Format::Gltf] {
         assert_eq!(fmt.loses(&mesh), None, "{fmt:?}");
     }
@@ -164,4 +175,61 @@ fn a_see_through_material_is_blended_in_gltf() {
     };
     assert_eq!(mode("glass"), Some(serde_json::json!("BLEND")));
     assert_eq!(mode("wood"), Some(serde_json::Value::Null));
+}
+
+/// PLY holds one part of each kind per face: a face in two groups keeps
+/// the first, and the warning says so; names with spaces survive, and a
+/// line break in a name cannot break the header.
+#[test]
+fn ply_parts_overlapping_or_oddly_named() {
+    use crate::{Part, PartKind};
+    let src = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+    let mut mesh = Mesh::from_bytes(src, Format::Obj, "a.obj".as_ref()).expect("parse");
+    let part = |name: &str, kind, faces: &[u32]| Part {
+        name: name.into(),
+        kind,
+        faces: faces.to_vec(),
+    };
+    mesh.parts = vec![
+        part("red  paint", PartKind::Material, &[1]),
+        part("two\nlines", PartKind::Group, &[0]),
+    ];
+    let bytes = mesh.to_bytes(Format::PlyAscii).expect("ply");
+    let back = Mesh::from_bytes(&bytes, Format::PlyAscii, "a.ply".as_ref()).expect("read back");
+    assert_eq!(back.parts[0], part("two lines", PartKind::Group, &[0]));
+    assert_eq!(back.parts[1], mesh.parts[0]);
+    assert!(
+        !Format::Ply
+            .loses(&mesh)
+            .unwrap_or_default()
+            .contains("cannot keep")
+    );
+    mesh.parts.push(part("both", PartKind::Group, &[0, 1]));
+    let said = Format::Ply.loses(&mesh).unwrap_or_default();
+    assert!(said.contains("beyond the first of each kind"), "{said}");
+    let back = Mesh::from_bytes(
+        &mesh.to_bytes(Format::Ply).expect("ply"),
+        Format::Ply,
+        "a.ply".as_ref(),
+    )
+    .expect("read back");
+    let groups: Vec<_> = back
+        .parts
+        .iter()
+        .filter(|p| p.kind == PartKind::Group)
+        .collect();
+    assert_eq!(
+        (groups[0].faces.as_slice(), groups[1].faces.as_slice()),
+        (&[0u32][..], &[1u32][..])
+    );
+    // A PLY of another program with a bad part index: that face is in none.
+    let other = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+element face 2\nproperty list uchar int vertex_indices\nproperty int material\nend_header\n\
+0 0 0\n1 0 0\n0 1 0\n3 0 1 2 -4\n3 0 2 1 2\n";
+    let mesh = Mesh::from_bytes(other, Format::PlyAscii, "o.ply".as_ref()).expect("parse");
+    assert_eq!(mesh.parts.len(), 1);
+    assert_eq!(
+        (mesh.parts[0].name.as_str(), &mesh.parts[0].faces[..]),
+        ("material 2", &[1u32][..])
+    );
 }
