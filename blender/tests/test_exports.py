@@ -36,6 +36,12 @@ def csrbf(*args) -> str:
     return r.stderr
 
 
+def khronos_validates(path: Path):
+    """The Khronos glTF validator (scripts/setup.sh installs it) finds no error."""
+    r = subprocess.run(["node", str(ROOT / "scripts" / "validate_gltf.mjs"), str(path)], capture_output=True, text=True)
+    assert r.returncode == 0 and ": 0 errors" in r.stdout, r.stdout + r.stderr
+
+
 def glb_json(path: Path) -> dict:
     data = path.read_bytes()
     (length,) = struct.unpack_from("<I", data, 12)
@@ -93,6 +99,7 @@ def test_a_texture_on_the_duck_with_uv_seams_arrives(demos, tmp_path):
     doc = glb_json(glb)
     written = doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]["count"]
     assert written > 2108  # split at the seams
+    khronos_validates(glb)
 
     import_gltf(glb)
     (duck,) = meshes()
