@@ -19,7 +19,8 @@ use crate::ordering::Ordering;
 use crate::pipeline::Combine;
 use crate::region::Region;
 use crate::solver::SolverChoice;
-use crate::system::FitOptions;
+use crate::sweep::{Path, Paths, Sweep, SweepOptions};
+use crate::system::{FitOptions, System};
 
 /// A problem in a control file, with where it is.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -51,6 +52,12 @@ pub struct ControlSpec {
     pub anchor: Option<Region>,
     /// A name for people (`"name"`; the studio's layer list shows it).
     pub name: Option<String>,
+    /// A fold-free sweep (`"sweep": true` or `{"steps": k}`) instead of the
+    /// papers' single map; None (the default) for the single map.
+    pub sweep: Option<SweepOptions>,
+    /// The paths the starts follow in a sweep: straight, except a handle's
+    /// moving samples, which [`ControlSpec::resolve`] sets on its motion.
+    pub paths: Paths,
 }
 
 impl ControlSpec {
@@ -76,10 +83,59 @@ impl ControlSpec {
                 self.options.polynomial,
                 groups,
             )?;
+            let first = out.starts.len();
+            out.paths.moving = Some((first..first + v.moving, handle_path(&h, v.pivot)));
             out.starts.extend(v.starts);
             out.targets.extend(v.targets);
         }
         Ok(out)
+    }
+
+    /// Fits the deformation (a handle must be resolved first): one stage,
+    /// or a sweep's steps, on its region at its phase.
+    pub fn fit(&self) -> crate::Result<Vec<crate::FittedStage>> {
+        if self.handle.is_some() {
+            return Err(crate::Error::BadHandle(
+                "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
+            ));
+        }
+        let Some(sweep) = self.sweep else {
+            let d = System::new(&self.starts, self.options)?.solve(&self.targets)?;
+            return Ok(vec![
+                crate::FittedStage::new(d)
+                    .with_region(self.region.clone())
+                    .with_phase(self.phase),
+            ]);
+        };
+        let fitted = Sweep::fit(
+            &self.starts,
+            &self.targets,
+            &self.paths,
+            self.options,
+            sweep,
+        )?;
+        Ok(crate::FittedStage::sweep(
+            fitted,
+            self.region.clone(),
+            self.phase,
+        ))
+    }
+}
+
+/// A handle's motion as the path of its moving samples: the scale, turn
+/// and translation spread over the phase, about the pivot the samples were
+/// placed with.
+fn handle_path(h: &Handle, pivot: DVec3) -> Path {
+    let pivot = h.rotate.and_then(|r| r.pivot).unwrap_or(pivot);
+    let (axis, angle) = h.rotate.map_or((DVec3::ZERO, 0.0), |r| {
+        (r.axis.normalize_or_zero(), r.angle_deg.to_radians())
+    });
+    Path::Motion {
+        pivot,
+        axis,
+        angle,
+        scale: h.scale.unwrap_or(1.0),
+        translate: h.translate.unwrap_or(DVec3::ZERO),
     }
 }
 
@@ -122,6 +178,8 @@ impl ControlSpec {
             handle: None,
             anchor: None,
             name: None,
+            sweep: None,
+            paths: Paths::default(),
         }
     }
 
@@ -184,6 +242,11 @@ impl ControlSpec {
         }
         if let Some(a) = &self.anchor {
             v["anchor"] = region_json(a);
+        }
+        match self.sweep {
+            None => {}
+            Some(SweepOptions { steps: None }) => v["sweep"] = true.into(),
+            Some(SweepOptions { steps: Some(k) }) => v["sweep"] = serde_json::json!({ "steps": k }),
         }
         v
     }
@@ -299,6 +362,14 @@ impl ControlFile {
         } else {
             vec![spec(&root, "", &mut warnings)?]
         };
+        if combine == Combine::Add
+            && let Some(i) = deformations.iter().position(|d| d.sweep.is_some())
+        {
+            return Err(err(
+                &format!("deformations[{i}].sweep"),
+                "a sweep's steps act one after another; \"combine\": \"add\" cannot hold one: use \"chain\"",
+            ));
+        }
         Ok(ControlFile {
             deformations,
             combine,
@@ -321,6 +392,7 @@ const KEYS: &[&str] = &[
     "handle",
     "anchor",
     "combine",
+    "sweep",
 ];
 
 fn join(base: &str, key: &str) -> String {
@@ -456,6 +528,7 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
             ));
         }
     };
+    let sweep = parse_sweep(obj.get("sweep"), &at("sweep"), warnings)?;
     Ok(ControlSpec {
         starts,
         targets,
@@ -465,7 +538,46 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         handle,
         anchor,
         name,
+        sweep,
+        paths: Paths::default(),
     })
+}
+
+/// `"sweep"`: false or absent (the single map), true (k chosen), or
+/// `{"steps": k}`.
+fn parse_sweep(
+    v: Option<&Value>,
+    at: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Option<SweepOptions>, ControlError> {
+    match v {
+        None | Some(Value::Null) | Some(Value::Bool(false)) => Ok(None),
+        Some(Value::Bool(true)) => Ok(Some(SweepOptions::default())),
+        Some(Value::Object(o)) => {
+            unknown_keys(o, &["steps"], at, warnings);
+            let steps = match o.get("steps") {
+                None | Some(Value::Null) => None,
+                Some(k) => Some(
+                    k.as_u64()
+                        .filter(|&k| k >= 1 && k as usize <= crate::MAX_STEPS)
+                        .ok_or_else(|| {
+                            err(
+                                &join(at, "steps"),
+                                format!(
+                                    "must be a whole number from 1 to {}, got {k}",
+                                    crate::MAX_STEPS
+                                ),
+                            )
+                        })? as usize,
+                ),
+            };
+            Ok(Some(SweepOptions { steps }))
+        }
+        Some(other) => Err(err(
+            at,
+            format!("expected true, false or {{\"steps\": k}}, found {other}"),
+        )),
+    }
 }
 
 fn vectors(

@@ -335,12 +335,16 @@ fn diagnose_with(
     // Vertices within R of some start of a deformation acting on them.
     let mut near_any = vec![false; rest.len()];
     let mut any_linear = false;
-    for (k, stage) in stages.iter().enumerate() {
-        let (def, region, phase) = (&stage.deformation, &stage.region, &stage.phase);
+    for (at, stage) in stages.iter().enumerate() {
+        let (def, region, phase) = (&stage.deformation, &stage.region, &stage.applied_phase());
+        // Warnings name the deformation as the user numbers them: a sweep's
+        // steps are one deformation, and its first step speaks for it.
+        let k = crate::pipeline::deformation_index(stages, at);
+        let later_step = stage.sweep.is_some_and(|s| s.index > 0);
         any_linear |= def.polynomial() == Polynomial::Linear;
         let own;
         let seen: &StageReach = match traced {
-            Some(t) => &t[k],
+            Some(t) => &t[at],
             None => {
                 let selected = region.select(rest, groups)?;
                 let inside: Vec<Vec3> = selected.iter().map(|&i| rest[i as usize]).collect();
@@ -354,6 +358,12 @@ fn diagnose_with(
             }
         };
         let (selected, near, touched) = (&seen.selected, &seen.near, &seen.touched);
+        if later_step {
+            for (&i, &x) in selected.iter().zip(near) {
+                near_any[i as usize] |= x;
+            }
+            continue;
+        }
         if selected.is_empty() {
             warnings.push(Warning::EmptyRegion {
                 stage: k,
@@ -367,8 +377,9 @@ fn diagnose_with(
         let lengths: Vec<f64> = moves.iter().map(|d| d.length() * phase).collect();
         let relative = relative_moves(def, &moves, *phase);
         let bound = def.kernel().fold_free_ratio() * def.radius();
+        // A sweep's steps are certified where they are fitted.
         let over: Vec<usize> = (0..relative.len())
-            .filter(|&j| relative[j] > bound)
+            .filter(|&j| relative[j] > bound && stage.sweep.is_none())
             .collect();
         if !over.is_empty() {
             warnings.push(Warning::PastFoldFreeBound {
@@ -693,6 +704,7 @@ mod tests {
             deformation: d,
             region: Region::All,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
         assert!(r.moved > 0 && r.moved < 41 * 41 / 5);
@@ -712,6 +724,7 @@ mod tests {
             deformation: d,
             region: Region::All,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(
             r.warnings
@@ -730,6 +743,7 @@ mod tests {
             deformation: d,
             region: Region::All,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(
             r.flipped.is_empty() && r.warnings.is_empty(),
@@ -750,6 +764,7 @@ mod tests {
             deformation: far.clone(),
             region: Region::All,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(
             matches!(
@@ -767,6 +782,7 @@ mod tests {
             deformation: far,
             region: empty,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(matches!(
             r.warnings[..],
@@ -786,6 +802,7 @@ mod tests {
             deformation: bump,
             region: half,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(
             matches!(
@@ -806,6 +823,7 @@ mod tests {
             deformation: lin,
             region: Region::All,
             phase: 1.0,
+            sweep: None,
         }]);
         assert!(
             r.warnings

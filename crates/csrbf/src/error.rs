@@ -80,6 +80,14 @@ pub enum Error {
         /// The first point.
         point: usize,
     },
+    /// A sweep's steps chain; stages that add cannot hold one.
+    #[error(
+        "stage {stage} is a step of a sweep, whose steps act one after another: \"combine\": \"add\" cannot hold it; use \"chain\" (or no sweep)"
+    )]
+    SweepAdded {
+        /// The stage.
+        stage: usize,
+    },
 }
 
 /// Why control vectors and options make no deformation: what was wrong and
@@ -184,6 +192,34 @@ pub enum FitError {
         expected: usize,
         /// What was given.
         got: usize,
+    },
+    /// A sweep's step count is 0 or above [`crate::MAX_STEPS`].
+    #[error("a sweep takes 1 to {} steps, got {steps}", crate::MAX_STEPS)]
+    SweepSteps {
+        /// The count asked for.
+        steps: usize,
+    },
+    /// Even the most steps leave a step that may fold.
+    #[error(
+        "a sweep of {steps} steps still has a step whose gradient bound is {bound:.3} (>= 1, so it may fold): the control vectors pull apart too sharply for R; use a larger R or fewer, farther controls"
+    )]
+    SweepTooStiff {
+        /// Steps tried.
+        steps: usize,
+        /// The worst step's bound.
+        bound: f64,
+    },
+    /// Two starts' paths meet, so no map can carry both.
+    #[error(
+        "controls {first} and {second} meet on their way, at phase {phase:.3}: a sweep carries every start along its path and two cannot be at one place; change one path"
+    )]
+    PathsMeet {
+        /// The first control.
+        first: usize,
+        /// The second.
+        second: usize,
+        /// Where on the way (0 start, 1 destination).
+        phase: f64,
     },
     /// The sparse solver failed for a reason other than a pivot.
     #[error("sparse solver failed: {0}")]

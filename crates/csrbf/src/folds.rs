@@ -68,7 +68,10 @@ pub fn folds(
         .iter()
         .map(|s| face_weights(rest, triangles, &s.region, groups))
         .collect::<Result<Vec<FaceWeights>>>()?;
-    if combine == Combine::Add || stages.len() == 1 {
+    // A sweep's steps move by phases that are not linear in the scale: only
+    // the chained scan follows them.
+    let swept = stages.iter().any(|s| s.sweep.is_some());
+    if (combine == Combine::Add || stages.len() == 1) && !swept {
         return Ok(added(&centroids, stages, &weights));
     }
     Ok(chained(&centroids, stages, &weights))
@@ -196,7 +199,7 @@ fn chain_dets(
     let mut x: Vec<DVec3> = faces.iter().map(|&f| centroids[f]).collect();
     let mut jac = vec![DMat3::IDENTITY; faces.len()];
     for (k, stage) in stages.iter().enumerate() {
-        let t = stage.phase * s;
+        let t = stage.phase_at(s);
         let dg = stage.deformation.displacements_and_gradients(&x);
         for (i, (d, g)) in dg.into_iter().enumerate() {
             let (w, gw_rest) = weight_at(&weights[k], faces[i]);
@@ -221,6 +224,26 @@ fn chained(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights])
     let triangles: Vec<u32> = (0..at_one.len() as u32)
         .filter(|&f| !(at_one[f as usize] > 0.0))
         .collect();
+    // Every stage certified (|phase G| < 1 everywhere, over every point, as
+    // a sweep's steps are) and none blended by a region: no phase can fold,
+    // so there is nothing to scan for. The dets at the phases given are
+    // still measured above.
+    let certified = weights.iter().all(Option::is_none)
+        && stages.iter().all(|s| {
+            // A sweep's step can run in full whatever the sweep's phase.
+            let most = if s.sweep.is_some() {
+                1.0
+            } else {
+                s.phase.clamp(0.0, 1.0)
+            };
+            s.deformation.gradient_bound() * most < 1.0
+        });
+    if certified && triangles.is_empty() {
+        return Folds {
+            triangles,
+            fold_phase: None,
+        };
+    }
     // Scan s, then bisect the first bracket where some centroid folds.
     let mut lo = 0.0;
     let mut folded: Option<(f64, Vec<usize>)> = None;

@@ -5,13 +5,14 @@
 //! Layout (all little-endian):
 //!
 //! ```text
-//! magic "CSRBF\0" | version u16 = 2 | combine u16 (0 chain, 1 add) | stages u32
+//! magic "CSRBF\0" | version u16 = 3 | combine u16 (0 chain, 1 add) | stages u32
 //! per stage:
 //!   kernel u8 | polynomial u8 | reserved u16 | radius f64 | phase f64 | n u32
 //!   starts 3n f64 | coefficients 3n f64
 //!   if linear: centre 3 f64 | scale f64 | coefficients 12 f64
 //!   order n u32
-//!   region: tag u8 (0 all, 1 sphere, 2 box, 3 vertices, 4 group) and its data
+//!   region: tag u8 (0 all, 1 sphere, 2 box, 3 vertices, 4 group, 5 falloff) and its data
+//!   sweep: step u32 | steps u32 (0 0: not a sweep's step)
 //! checksum u64: FNV-1a of every byte before it
 //! ```
 //!
@@ -19,8 +20,9 @@
 //! radius of support R, the stage's phase within the file (in [0, 1]), the
 //! starts and their coefficients alpha, the affine part (centre, scale and
 //! the 4 coefficient vectors of p(x)) when linear, the order the system was
-//! factored in (kept so a refit is bit-exact), and the region. Version 1
-//! files (no combine, no phase) still read: chained, every phase 1.
+//! factored in (kept so a refit is bit-exact), the region, and which step
+//! of a fold-free sweep the stage is. Version 2 files (no sweep) and
+//! version 1 files (no combine, no phase: chained, every phase 1) still read.
 //!
 //! The checksum proves the bytes were not damaged; the values are checked
 //! too: a NaN or infinite start, coefficient, affine term or phase is refused.
@@ -31,13 +33,13 @@ use crate::deformation::{Affine, Deformation};
 use crate::error::{Error, FormatError, Result};
 use crate::kernel::{Kernel, Polynomial};
 use crate::pipeline::Combine;
-use crate::pipeline::FittedStage;
+use crate::pipeline::{FittedStage, SweepStep};
 use crate::region::Region;
 
 /// The file's first bytes.
 pub const MAGIC: &[u8; 6] = b"CSRBF\0";
-/// The version this build writes (it reads this one and version 1).
-pub const VERSION: u16 = 2;
+/// The version this build writes (it reads this one and versions 1 and 2).
+pub const VERSION: u16 = 3;
 
 /// What a `.csrbf` file holds: deformations with their regions and phases,
 /// and how they combine.
@@ -87,6 +89,7 @@ pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
         deformation: d,
         region,
         phase,
+        sweep,
     } in stages
     {
         w.push(d.kernel().code());
@@ -109,6 +112,9 @@ pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
             w.extend_from_slice(&o.to_le_bytes());
         }
         put_region(&mut w, region);
+        let (step, steps) = sweep.map_or((0, 0), |s| (s.index, s.count));
+        w.extend_from_slice(&step.to_le_bytes());
+        w.extend_from_slice(&steps.to_le_bytes());
     }
     let sum = fnv1a(&w);
     w.extend_from_slice(&sum.to_le_bytes());
@@ -126,9 +132,9 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
     }
     let (body, tail) = bytes.split_at(bytes.len() - 8);
     let version = u16::from_le_bytes([bytes[6], bytes[7]]);
-    if version != VERSION && version != 1 {
+    if !(1..=VERSION).contains(&version) {
         return Err(damaged(format!(
-            "version {version} is not supported (this build reads versions 1 and {VERSION})"
+            "version {version} is not supported (this build reads versions 1 to {VERSION})"
         )));
     }
     let mut sum = [0u8; 8];
@@ -221,6 +227,22 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
                 )));
             }
         }
+        let sweep = if version >= 3 {
+            let (index, count) = (r.u32("sweep step")?, r.u32("sweep steps")?);
+            match (index, count) {
+                (0, 0) => None,
+                (i, c) if i < c && c as usize <= crate::MAX_STEPS => {
+                    Some(SweepStep { index: i, count: c })
+                }
+                _ => {
+                    return Err(damaged(format!(
+                        "stage {s}: sweep step {index} of {count} is not valid"
+                    )));
+                }
+            }
+        } else {
+            None
+        };
         out.push(FittedStage {
             deformation: Deformation::from_parts(
                 kernel,
@@ -232,6 +254,7 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
             ),
             region,
             phase,
+            sweep,
         });
     }
     if r.at != r.b.len() {
@@ -391,11 +414,12 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 pub fn to_json(stages: &[FittedStage], combine: Combine) -> serde_json::Value {
     let list: Vec<serde_json::Value> = stages
         .iter()
-        .map(|FittedStage { deformation: d, region, phase }| {
+        .map(|FittedStage { deformation: d, region, phase, sweep }| {
             serde_json::json!({
                 "kernel": d.kernel(),
                 "radius": d.radius(),
                 "phase": phase,
+                "sweep": sweep.map(|s| serde_json::json!({"step": s.index, "steps": s.count})),
                 "polynomial": d.polynomial(),
                 "starts": d.starts().iter().map(|v| v.to_array()).collect::<Vec<_>>(),
                 "coefficients": d.coefficients().iter().map(|v| v.to_array()).collect::<Vec<_>>(),
@@ -442,6 +466,7 @@ mod tests {
             deformation: d,
             region,
             phase,
+            ..
         } = &r.stages[0];
         assert_eq!((region, *phase), (&Region::All, 1.0));
         assert_eq!(

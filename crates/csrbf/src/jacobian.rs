@@ -104,9 +104,7 @@ impl Deformation {
         let inv2 = inv * inv;
         let alpha = self.coefficients();
         let g0 = self.affine_gradient();
-        let g0_norm =
-            (g0.x_axis.length_squared() + g0.y_axis.length_squared() + g0.z_axis.length_squared())
-                .sqrt();
+        let g0_norm = self.affine_gradient_norm();
         // One output list per cell: split `chunks` as a buffer of one per cell.
         let one_each = Blocks {
             order: Vec::new(),
@@ -149,6 +147,13 @@ impl Deformation {
             }
         });
         chunks.concat()
+    }
+
+    /// A bound of the polynomial part's gradient's spectral norm (its
+    /// Frobenius norm).
+    pub(crate) fn affine_gradient_norm(&self) -> f64 {
+        let g = self.affine_gradient();
+        (g.x_axis.length_squared() + g.y_axis.length_squared() + g.z_axis.length_squared()).sqrt()
     }
 
     /// The polynomial part's (constant) gradient; zero without one.

@@ -207,6 +207,7 @@ mod region;
 mod simd;
 pub mod skyline;
 mod solver;
+mod sweep;
 pub mod synthetic;
 mod system;
 
@@ -225,9 +226,12 @@ pub use handle::{Handle, HandleControls, Rotation};
 pub use jacobian::{det_cubic, fold_phase};
 pub use kernel::{Kernel, Polynomial};
 pub use ordering::Ordering;
-pub use pipeline::{Combine, FittedStage, Pipeline, Stage, Work, compose, compose_with_groups};
+pub use pipeline::{
+    Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,
+};
 pub use region::Region;
 pub use solver::SolverChoice;
+pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};
 pub use system::{
     DEFAULT_MEMORY_LIMIT, Estimate, FitOptions, OrderingFigures, System, SystemStats, estimate,
 };

@@ -110,14 +110,31 @@ impl Stage {
 /// A fitted deformation with where and how much it applies: one stage of
 /// [`compose`], of a `.csrbf` file ([`crate::format::Replay`]) and of the
 /// diagnostics.
+///
+/// A fold-free sweep ([`crate::Sweep`]) is a run of consecutive stages, one
+/// per step, chained: each carries `sweep` (its step and the count), every
+/// step has the sweep's region and phase, and step j of k moves by
+/// clamp(phase k - j, 0, 1) of its map ([`FittedStage::phase_at`]).
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct FittedStage {
     /// The fitted map.
     pub deformation: Deformation,
     /// Where it applies (chosen on the rest points).
     pub region: Region,
-    /// Its phase in [0, 1].
+    /// Its phase in [0, 1] (a sweep's steps: the sweep's phase).
     pub phase: f64,
+    /// Which step of a sweep this is; None for a plain deformation.
+    pub sweep: Option<SweepStep>,
+}
+
+/// Step `index` of a sweep of `count` steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SweepStep {
+    /// Which step, from 0.
+    pub index: u32,
+    /// How many steps the sweep has.
+    pub count: u32,
 }
 
 impl FittedStage {
@@ -127,7 +144,44 @@ impl FittedStage {
             deformation,
             region: Region::All,
             phase: 1.0,
+            sweep: None,
         }
+    }
+
+    /// A fitted sweep's steps as stages, each on `region` at the sweep's
+    /// `phase`.
+    pub fn sweep(sweep: crate::Sweep, region: Region, phase: f64) -> Vec<FittedStage> {
+        let count = sweep.steps.len() as u32;
+        sweep
+            .steps
+            .into_iter()
+            .enumerate()
+            .map(|(j, deformation)| FittedStage {
+                deformation,
+                region: region.clone(),
+                phase,
+                sweep: (count > 1).then_some(SweepStep {
+                    index: j as u32,
+                    count,
+                }),
+            })
+            .collect()
+    }
+
+    /// How far this stage moves when every phase is scaled by `scale`: its
+    /// phase times `scale`, or for step j of a sweep of k,
+    /// clamp(phase scale k - j, 0, 1).
+    pub fn phase_at(&self, scale: f64) -> f64 {
+        let t = self.phase * scale;
+        match self.sweep {
+            None => t,
+            Some(s) => crate::sweep::step_phase(t, s.index as usize, s.count as usize),
+        }
+    }
+
+    /// How far this stage moves: [`FittedStage::phase_at`] 1.
+    pub fn applied_phase(&self) -> f64 {
+        self.phase_at(1.0)
     }
 
     /// With this region.
@@ -443,11 +497,11 @@ impl Pipeline {
         for i in 0..self.stages.len() {
             let deformation = self.deformation(i)?.clone();
             let s = &self.stages[i].stage;
-            stages.push(FittedStage {
-                deformation,
-                region: s.region.clone(),
-                phase: s.phase,
-            });
+            stages.push(
+                FittedStage::new(deformation)
+                    .with_region(s.region.clone())
+                    .with_phase(s.phase),
+            );
         }
         Ok(crate::format::Replay {
             stages,
@@ -547,6 +601,15 @@ impl Pipeline {
     }
 }
 
+/// The index among the user's deformations of stage `at`: a sweep's steps
+/// count as one.
+pub(crate) fn deformation_index(stages: &[FittedStage], at: usize) -> usize {
+    stages[..at]
+        .iter()
+        .filter(|s| s.sweep.is_none_or(|s| s.index + 1 == s.count))
+        .count()
+}
+
 /// One-shot composition without bindings (the least memory): applies each
 /// deformation, at its phase, to the points of its region (selected on the
 /// rest points), combined as `combine` says: [`Combine::Chain`] evaluates
@@ -582,10 +645,15 @@ pub(crate) fn compose_traced(
 ) -> Result<Vec<Vec3>> {
     let mut points = rest.to_vec();
     for (k, stage) in stages.iter().enumerate() {
-        let (def, region, phase) = (&stage.deformation, &stage.region, &stage.phase);
-        crate::error::check_phase(*phase)?;
+        let (def, region) = (&stage.deformation, &stage.region);
+        crate::error::check_phase(stage.phase)?;
+        if combine == Combine::Add && stage.sweep.is_some() {
+            return Err(Error::SweepAdded {
+                stage: deformation_index(stages, k),
+            });
+        }
         let (active, weights) = region.weights(rest, groups)?;
-        let t = *phase as f32;
+        let t = stage.applied_phase() as f32;
         let all = active.len() == points.len() && !matches!(region, Region::Falloff { .. });
         // Where this stage is evaluated: the moved points, or the rest ones.
         let from = match combine {
@@ -625,7 +693,10 @@ pub(crate) fn compose_traced(
             .zip(rest)
             .position(|(p, r)| !p.is_finite() && r.is_finite())
         {
-            return Err(Error::NonFiniteResult { stage: k, point: i });
+            return Err(Error::NonFiniteResult {
+                stage: deformation_index(stages, k),
+                point: i,
+            });
         }
     }
     Ok(points)

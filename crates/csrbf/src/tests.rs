@@ -11,6 +11,7 @@ fn fitted(deformation: Deformation, region: Region, phase: f64) -> FittedStage {
         deformation,
         region,
         phase,
+        sweep: None,
     }
 }
 
