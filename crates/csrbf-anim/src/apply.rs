@@ -7,7 +7,7 @@ use std::path::Path;
 
 use csrbf::controls::ControlFile;
 use csrbf::format::{self, Replay};
-use csrbf::{Diagnostics, FittedStage, System, compose_diagnosed};
+use csrbf::{Diagnostics, FittedStage, compose_diagnosed};
 use csrbf_mesh::Mesh;
 
 /// What can go wrong in these calls.
@@ -38,22 +38,13 @@ pub enum ApplyError {
 /// Fits every deformation of `file` on `mesh` (handles sampled on it).
 pub fn fit_file(mesh: &Mesh, file: &ControlFile) -> Result<Vec<FittedStage>, ApplyError> {
     let lookup = |n: &str| mesh.part_vertices(n);
-    file.deformations
-        .iter()
-        .enumerate()
-        .map(|(index, spec)| {
-            let engine = |source| ApplyError::Engine { index, source };
-            let spec = spec.resolve(&mesh.positions, &lookup).map_err(engine)?;
-            let d = System::new(&spec.starts, spec.options)
-                .and_then(|s| s.solve(&spec.targets))
-                .map_err(|e| engine(e.into()))?;
-            Ok(FittedStage {
-                deformation: d,
-                region: spec.region.clone(),
-                phase: spec.phase,
-            })
-        })
-        .collect()
+    let mut out = Vec::with_capacity(file.deformations.len());
+    for (index, spec) in file.deformations.iter().enumerate() {
+        let engine = |source| ApplyError::Engine { index, source };
+        let spec = spec.resolve(&mesh.positions, &lookup).map_err(engine)?;
+        out.extend(spec.fit().map_err(engine)?);
+    }
+    Ok(out)
 }
 
 /// Deforms `mesh` in place by `file` at `phase` (each deformation at its own
@@ -66,9 +57,9 @@ pub fn deform_mesh(
 ) -> Result<Diagnostics, ApplyError> {
     let stages: Vec<_> = fit_file(mesh, file)?
         .into_iter()
-        .map(|s| FittedStage {
-            phase: s.phase * phase,
-            ..s
+        .map(|s| {
+            let scaled = s.phase * phase;
+            s.with_phase(scaled)
         })
         .collect();
     let triangles = mesh.faces.triangles();

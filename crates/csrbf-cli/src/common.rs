@@ -92,6 +92,30 @@ pub fn fit_all(
         let at = stage_name(path, i, specs.len());
         warn_if_dense(s, &at);
         let t = Instant::now();
+        if let Some(options) = s.sweep {
+            let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)
+                .map_err(with_large_hint)
+                .with_context(|| at.clone())?;
+            progress.say(format_args!(
+                "swept {} controls ({}, R {}) in {} step(s), each step's |dD/dx| <= {:.3} (the single map's bound: {:.3}), {:.2} ms",
+                s.starts.len(),
+                s.options.kernel,
+                s.options.radius,
+                sweep.len(),
+                sweep.bound(),
+                sweep.plain_bound,
+                t.elapsed().as_secs_f64() * 1e3
+            ));
+            if !sweep.certified() {
+                eprintln!(
+                    "warning: {at}: a step of the sweep's {} has a gradient bound of {:.3} (>= 1), so it may fold: leave out \"steps\" and csrbf takes as many as it needs",
+                    sweep.len(),
+                    sweep.bound()
+                );
+            }
+            out.extend(FittedStage::sweep(sweep, s.region.clone(), s.phase));
+            continue;
+        }
         let sys = System::new(&s.starts, s.options)
             .map_err(with_large_hint)
             .with_context(|| at.clone())?;
@@ -108,11 +132,11 @@ pub fn fit_all(
             st.bandwidth,
             t.elapsed().as_secs_f64() * 1e3
         ));
-        out.push(FittedStage {
-            deformation: def,
-            region: s.region.clone(),
-            phase: s.phase,
-        });
+        out.push(
+            FittedStage::new(def)
+                .with_region(s.region.clone())
+                .with_phase(s.phase),
+        );
     }
     Ok(out)
 }

@@ -145,16 +145,34 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                 .collect();
             stage.insert("handle_vectors".into(), json!(made));
         }
+        // The fold-free certificate: the single map's bound of |dD/dx| (below
+        // 1: it cannot fold), and a sweep's steps and their bound.
+        let at = || format!("{}: deformation {i}", path.display());
+        let stages1: Vec<csrbf::FittedStage> = match s.sweep {
+            None => {
+                let def = System::new(&s.starts, s.options)
+                    .and_then(|sys| sys.solve(&s.targets))
+                    .with_context(at)?;
+                stage.insert("gradient_bound".into(), json!(def.gradient_bound()));
+                vec![csrbf::FittedStage::new(def)
+                    .with_region(s.region.clone())
+                    .with_phase(s.phase)]
+            }
+            Some(options) => {
+                let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)
+                    .with_context(at)?;
+                stage.insert("gradient_bound".into(), json!(sweep.plain_bound));
+                stage.insert(
+                    "sweep".into(),
+                    json!({ "steps": sweep.len(), "step_bound": sweep.bound(), "certified": sweep.certified() }),
+                );
+                csrbf::FittedStage::sweep(sweep, s.region.clone(), s.phase)
+            }
+        };
         if let Some(m) = &mesh {
             // Per control: the vertices within R of its start.
-            let def = System::new(&s.starts, s.options)
-                .and_then(|sys| sys.solve(&s.targets))
-                .with_context(|| format!("{}: deformation {i}", path.display()))?;
             let within = csrbf::vertices_within(&m.positions, &s.starts, s.options.radius);
             stage.insert("vertices_within_r".into(), json!(within));
-            let stages1 = [csrbf::FittedStage::new(def)
-                .with_region(s.region.clone())
-                .with_phase(s.phase)];
             let lookup = |n: &str| m.part_vertices(n);
             let moved =
                 csrbf::compose_with_groups(&m.positions, &stages1, csrbf::Combine::Chain, &lookup)?;
@@ -198,14 +216,19 @@ fn deformation_info(path: &Path) -> Result<Value> {
         .iter()
         .map(|s| {
             let (d, r, phase) = (&s.deformation, &s.region, s.phase);
-            json!({
+            let mut v = json!({
                 "controls": d.starts().len(),
                 "kernel": d.kernel().name(),
                 "radius": d.radius(),
                 "polynomial": d.polynomial().name(),
                 "phase": phase,
                 "region": r.to_string(),
-            })
+                "gradient_bound": d.gradient_bound(),
+            });
+            if let Some(step) = s.sweep {
+                v["sweep_step"] = json!({ "step": step.index, "steps": step.count });
+            }
+            v
         })
         .collect();
     Ok(json!({

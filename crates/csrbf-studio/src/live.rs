@@ -63,11 +63,11 @@ impl Live {
             .filter_map(|k| {
                 let stage = self.pipeline.stage(k)?;
                 let d = self.pipeline.fitted(k)?.clone();
-                Some(csrbf::FittedStage {
-                    deformation: d,
-                    region: stage.region.clone(),
-                    phase: stage.phase,
-                })
+                Some(
+                    csrbf::FittedStage::new(d)
+                        .with_region(stage.region.clone())
+                        .with_phase(stage.phase),
+                )
             })
             .collect();
         let layer = self.layers.first().copied().unwrap_or(0);

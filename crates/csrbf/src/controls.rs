@@ -153,12 +153,17 @@ pub struct ControlFile {
 
 impl ControlSpec {
     /// The pipeline stage of this deformation. A handle must be resolved on
-    /// the mesh first ([`ControlSpec::resolve`]).
+    /// the mesh first ([`ControlSpec::resolve`]); a sweep has no single
+    /// stage (its steps are fitted together: [`ControlSpec::fit`]) and is
+    /// refused rather than shown as the single map.
     pub fn to_stage(&self) -> crate::Result<crate::Stage> {
         if self.handle.is_some() {
             return Err(crate::Error::BadHandle(
                 "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
             ));
+        }
+        if self.sweep.is_some() {
+            return Err(crate::Error::SweepStage);
         }
         Ok(
             crate::Stage::new(self.starts.clone(), self.targets.clone(), self.options)

@@ -26,6 +26,14 @@ pub fn export_notes(scene: &Scene) -> Vec<String> {
     let mut notes = Vec::new();
     for obj in &scene.objects {
         for anim in &obj.deformations {
+            if is_one_sweep(anim) {
+                notes.push(format!(
+                    "{}: {}: a fold-free sweep of {} steps, exported as one morph target per step whose weights rise one after another (exact at every phase)",
+                    obj.name,
+                    anim.controls,
+                    anim.stages.len()
+                ));
+            }
             if exported_whole(anim) {
                 notes.push(format!(
                     "{}: {}: its {} deformations are chained; glTF morph targets add, so the chain is exported as one morph target (the whole chain at full phase) weighted by its phase track: exact at phases 0 and 1, a straight blend between (\"combine\": \"add\" exports exactly)",
@@ -63,7 +71,54 @@ pub fn export_notes(scene: &Scene) -> Vec<String> {
 /// Whether a deformation is exported as one morph target (a chain of
 /// several, which morph targets cannot add up to) rather than one per stage.
 fn exported_whole(anim: &crate::scene::Animated) -> bool {
-    anim.combine == Combine::Chain && anim.stages.len() > 1
+    anim.combine == Combine::Chain && anim.stages.len() > 1 && !is_one_sweep(anim)
+}
+
+/// Whether a control file is one fold-free sweep: exported as one morph
+/// target per step, whose weights rise one after another. Exact at every
+/// phase: step j moves each vertex straight from where the steps before it
+/// left it, by its weight times its target.
+fn is_one_sweep(anim: &crate::scene::Animated) -> bool {
+    let k = anim.stages.len();
+    k > 1
+        && anim
+            .stages
+            .iter()
+            .enumerate()
+            .all(|(j, s)| s.sweep.is_some_and(|s| s.index as usize == j && s.count as usize == k))
+}
+
+/// Each step's move of every vertex of a sweep at full phase (the steps
+/// before it in full): its morph targets.
+fn sweep_targets(rest: &[Vec3], anim: &crate::scene::Animated) -> Vec<Vec<Vec3>> {
+    let mut x = rest.to_vec();
+    anim.stages
+        .iter()
+        .map(|st| {
+            let pts: Vec<Vec3> = st.region.iter().map(|&v| x[v as usize]).collect();
+            let d = st.deformation.displacements_f32(&pts);
+            let mut full = vec![Vec3::ZERO; rest.len()];
+            for ((&v, d), w) in st.region.iter().zip(d).zip(&st.weights) {
+                full[v as usize] = d * *w;
+                x[v as usize] += d * *w;
+            }
+            full
+        })
+        .collect()
+}
+
+/// A morph target's weight over time: its file's phase track, or a sweep's
+/// step's share of it.
+struct Weight<'a> {
+    track: &'a crate::track::PhaseTrack,
+    step: Option<&'a crate::scene::BoundStage>,
+}
+
+impl Weight<'_> {
+    fn at(&self, time: f64) -> f32 {
+        let t = self.track.phase(time) as f32;
+        self.step.map_or(t, |s| s.phase_at(t))
+    }
 }
 
 /// The scene as glTF: binary `.glb` or `.gltf` JSON with an embedded buffer.
@@ -119,13 +174,29 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         let names = target_names(&obj.deformations, exported_whole);
         let mut tracks = Vec::new();
         for anim in &obj.deformations {
+            if is_one_sweep(anim) {
+                for (st, full) in anim.stages.iter().zip(sweep_targets(&obj.mesh.positions, anim)) {
+                    let d = written(&full);
+                    targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
+                    tracks.push(Weight { track: &anim.track, step: Some(st) });
+                }
+                continue;
+            }
+            if is_one_sweep(anim) {
+                for (st, full) in anim.stages.iter().zip(sweep_targets(&obj.mesh.positions, anim)) {
+                    let d = written(&full);
+                    targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
+                    tracks.push(Weight { track: &anim.track, step: Some(st) });
+                }
+                continue;
+            }
             if exported_whole(anim) {
                 // A chain is not a sum of targets: one target, the whole
                 // chain at full phase (see `export_notes`).
                 let full = Scene::chained_displacement(&obj.mesh.positions, anim);
                 let d = written(&full);
                 targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                tracks.push(&anim.track);
+                tracks.push(Weight { track: &anim.track, step: None });
                 continue;
             }
             for st in &anim.stages {
@@ -135,7 +206,7 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
                 }
                 let d = written(&full);
                 targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                tracks.push(&anim.track);
+                tracks.push(Weight { track: &anim.track, step: None });
             }
         }
         let mut primitives = Vec::new();
@@ -172,7 +243,7 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         }
         let mut mesh = json!({ "name": obj.name, "primitives": primitives });
         if !targets.is_empty() {
-            mesh["weights"] = json!(tracks.iter().map(|t| t.phase(0.0)).collect::<Vec<_>>());
+            mesh["weights"] = json!(tracks.iter().map(|t| t.at(0.0)).collect::<Vec<_>>());
             mesh["extras"] = json!({ "targetNames": names });
         }
         meshes.push(mesh);
@@ -204,7 +275,7 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         if !tracks.is_empty() {
             let w: Vec<f32> = times
                 .iter()
-                .flat_map(|&t| tracks.iter().map(move |tr| tr.phase(t as f64) as f32))
+                .flat_map(|&t| tracks.iter().map(move |tr| tr.at(t as f64)))
                 .collect();
             let output = b.animation_floats(&w, 1, "SCALAR", false);
             samplers.push(json!({ "input": input, "output": output, "interpolation": "LINEAR" }));

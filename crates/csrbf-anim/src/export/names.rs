@@ -27,10 +27,19 @@ pub fn target_names(
         }
         let several = anim.stages.len() > 1;
         for (si, st) in anim.stages.iter().enumerate() {
-            let name = match &st.name {
-                Some(n) if !n.trim().is_empty() => n.trim().to_owned(),
-                _ if several => format!("{stem}.{si}"),
-                _ => stem.clone(),
+            let given = st.name.as_deref().map(str::trim).filter(|n| !n.is_empty());
+            let name = match (given, st.sweep) {
+                // A sweep's steps: `name step 3/8`, the step last so a cut
+                // keeps the name's start.
+                (n, Some(s)) => format!(
+                    "{} step {}/{}",
+                    cut(n.unwrap_or(&stem), MAX_NAME_BYTES - 16),
+                    s.index + 1,
+                    s.count
+                ),
+                (Some(n), None) => n.to_owned(),
+                (None, None) if several => format!("{stem}.{si}"),
+                (None, None) => stem.clone(),
             };
             names.push(unique(&names, name));
         }

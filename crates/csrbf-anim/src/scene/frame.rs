@@ -86,14 +86,19 @@ impl Scene {
         let mut x = rest.to_vec();
         for (si, st) in anim.stages.iter().enumerate() {
             if si == 0 {
+                let f = st.displacement_factor(t);
                 for (&v, d) in st.vertices.iter().zip(&st.displacement) {
-                    x[v as usize] += *d * t;
+                    x[v as usize] += *d * f;
                 }
             } else {
+                let f = st.phase_at(t);
+                if f == 0.0 {
+                    continue; // a sweep's step not begun yet
+                }
                 let pts: Vec<Vec3> = st.region.iter().map(|&v| x[v as usize]).collect();
                 let d = st.deformation.displacements_f32(&pts);
                 for ((&v, d), w) in st.region.iter().zip(d).zip(&st.weights) {
-                    x[v as usize] += d * (st.phase * t * w);
+                    x[v as usize] += d * (f * w);
                 }
             }
         }

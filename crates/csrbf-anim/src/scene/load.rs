@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use csrbf::{Binding, Combine, Region, System};
+use csrbf::{Binding, Combine, Region};
 use csrbf_mesh::Mesh;
 use glam::{DQuat, DVec3, Vec3};
 
@@ -500,17 +500,44 @@ fn load_deformation(
         .map_err(|e| scene_err(at("controls"), e))?;
     let mut stages = Vec::new();
     let lookup = |n: &str| mesh.part_vertices(n);
-    for (si, spec) in cf.deformations.iter().enumerate() {
-        let name = spec.name.clone();
+    let fitted = |spec: &csrbf::controls::ControlSpec| {
         // Handles become control vectors on the rest mesh.
-        let spec = spec
-            .resolve(&mesh.positions, &lookup)
-            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-        let sys = System::new(&spec.starts, spec.options)
-            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-        let deformation = sys
-            .solve(&spec.targets)
-            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        let spec = spec.resolve(&mesh.positions, &lookup)?;
+        let steps = spec.fit()?;
+        Ok::<_, csrbf::Error>((spec, steps))
+    };
+    for spec in &cf.deformations {
+        let name = spec.name.clone();
+        let (spec, steps) =
+            fitted(spec).map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        for step in steps {
+            let si = stages.len();
+            stages.push(bind_stage(mesh, part, &spec, step, name.clone(), si > 0 && cf.combine == Combine::Chain)
+                .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?);
+        }
+    }
+    let track = phase_track(df, at)?;
+    Ok(Animated {
+        part: pi,
+        controls: df.controls.clone(),
+        stages,
+        combine: cf.combine,
+        track,
+    })
+}
+
+/// One fitted stage bound to the part's vertices in its region.
+/// `per_frame`: a chained stage after the first, evaluated every frame.
+fn bind_stage(
+    mesh: &Mesh,
+    part: &Part,
+    spec: &csrbf::controls::ControlSpec,
+    step: csrbf::FittedStage,
+    name: Option<String>,
+    per_frame: bool,
+) -> std::result::Result<BoundStage, csrbf::Error> {
+    let deformation = step.deformation;
+    {
         // The stage acts on the part's vertices that are also in its region,
         // each by its weight there (less than 1 in a falloff).
         let (region, weights): (Vec<u32>, Vec<f32>) = if spec.region == Region::All {
@@ -518,8 +545,7 @@ fn load_deformation(
         } else {
             let (sel, w) = spec
                 .region
-                .weights(&mesh.positions, &|n| mesh.part_vertices(n))
-                .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+                .weights(&mesh.positions, &|n| mesh.part_vertices(n))?;
             let mut weight = vec![0.0f32; mesh.positions.len()];
             for (v, w) in sel.into_iter().zip(w) {
                 weight[v as usize] = w;
@@ -533,25 +559,30 @@ fn load_deformation(
         };
         let pts: Vec<Vec3> = region.iter().map(|&v| mesh.positions[v as usize]).collect();
         let binding = Binding::new(&deformation, &pts);
-        let per_frame = cf.combine == Combine::Chain && si > 0;
         let (vertices, displacement) = if per_frame {
             (region.clone(), Vec::new())
         } else {
-            let displacement = binding
-                .displacements(&deformation)
-                .map_err(|e| scene_err(at("controls"), e.to_string()))?;
+            let displacement = binding.displacements(&deformation)?;
+            // The phase in the file, except for a sweep's step, which moves
+            // by its share of it (BoundStage::displacement_factor).
+            let phase = if step.sweep.is_some() { 1.0 } else { spec.phase as f32 };
             // Keep only the vertices that move: a frame then touches nothing else.
             region
                 .iter()
                 .zip(displacement)
                 .zip(&weights)
                 .filter(|((_, d), _)| *d != Vec3::ZERO)
-                .map(|((&v, d), w)| (v, d * (spec.phase as f32 * w)))
+                .map(|((&v, d), w)| (v, d * (phase * w)))
                 .unzip()
         };
-        stages.push(BoundStage {
+        // The overlay shows a sweep's controls once, from start to destination.
+        let targets = match step.sweep {
+            Some(s) if s.index > 0 => Vec::new(),
+            _ => spec.targets.clone(),
+        };
+        Ok(BoundStage {
             deformation,
-            targets: spec.targets,
+            targets,
             vertices,
             binding,
             displacement,
@@ -559,14 +590,7 @@ fn load_deformation(
             region,
             weights,
             name,
-        });
+            sweep: step.sweep,
+        })
     }
-    let track = phase_track(df, at)?;
-    Ok(Animated {
-        part: pi,
-        controls: df.controls.clone(),
-        stages,
-        combine: cf.combine,
-        track,
-    })
 }

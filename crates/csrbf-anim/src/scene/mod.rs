@@ -84,6 +84,32 @@ pub struct BoundStage {
     pub weights: Vec<f32>,
     /// The deformation's `name` in its control file, if it has one.
     pub name: Option<String>,
+    /// Which step of a fold-free sweep this stage is (None: a plain
+    /// deformation). A sweep's step moves by
+    /// [`csrbf::step_phase`]`(phase t, index, count)` at track phase t, and
+    /// its `displacement` (step 0's) is kept without the phase.
+    pub sweep: Option<csrbf::SweepStep>,
+}
+
+impl BoundStage {
+    /// How far this stage moves at track phase `t`: its phase in the file
+    /// times t, or a sweep's step's share of it.
+    pub fn phase_at(&self, t: f32) -> f32 {
+        let p = self.phase * t;
+        match self.sweep {
+            None => p,
+            Some(s) => csrbf::step_phase(p as f64, s.index as usize, s.count as usize) as f32,
+        }
+    }
+
+    /// The factor of the kept `displacement` at track phase `t` (the phase
+    /// in the file is in it already, except for a sweep's step).
+    pub fn displacement_factor(&self, t: f32) -> f32 {
+        match self.sweep {
+            None => t,
+            Some(_) => self.phase_at(t),
+        }
+    }
 }
 
 /// A deformation of a part with its phase track.
