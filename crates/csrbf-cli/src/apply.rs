@@ -32,7 +32,7 @@ pub fn apply(
     move_and_write(
         &mut m,
         &replay.stages,
-        replay.combine,
+        (None, replay.combine),
         phase,
         mesh,
         out,

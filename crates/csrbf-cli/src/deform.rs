@@ -4,10 +4,13 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use csrbf::controls::ControlSpec;
 use csrbf::{Combine, FittedStage, compose_diagnosed};
 use csrbf_mesh::Mesh;
 
-use crate::common::{Progress, check_output, check_phase, fit_all, read_controls, read_mesh};
+use crate::common::{
+    Progress, check_output, check_phase, fit_all, read_controls, read_mesh, resolve_all,
+};
 
 /// Options of `deform`.
 #[derive(clap::Args, Debug)]
@@ -42,17 +45,13 @@ pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
     check_output(out, &[mesh.as_path(), controls.as_path()], force, true)?;
     let file = read_controls(controls, progress)?;
     let mut m = read_mesh(mesh, progress)?;
-    let stages = fit_all(
-        &file.deformations,
-        controls,
-        Some(&m),
-        allow_large,
-        progress,
-    )?;
+    // Handles sampled once: the fit and, if the edit folds, the remedies use them.
+    let specs = resolve_all(&file.deformations, controls, Some(&m), progress)?;
+    let stages = fit_all(&specs, controls, Some(&m), allow_large, progress)?;
     move_and_write(
         &mut m,
         &stages,
-        file.combine,
+        (Some(&specs), file.combine),
         phase,
         mesh,
         out,
@@ -61,13 +60,62 @@ pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
     )
 }
 
+/// When an edit folds: the smallest radius that would not and the sweep,
+/// measured, as one line for people and a JSON object.
+fn remedies_said(
+    m: &Mesh,
+    triangles: &[[u32; 3]],
+    specs: &[ControlSpec],
+    combine: Combine,
+    phase: f64,
+) -> (String, serde_json::Value) {
+    let lookup = |name: &str| m.part_vertices(name);
+    let Ok(r) = csrbf::remedies(&m.positions, triangles, specs, combine, phase, &lookup) else {
+        return (String::new(), serde_json::Value::Null);
+    };
+    let mut ways = Vec::new();
+    if let Some((scale, ms)) = r.radius_scale {
+        let radii: Vec<String> = specs
+            .iter()
+            .filter(|s| s.sweep.is_none())
+            .map(|s| format!("{:.4} -> {:.4}", s.options.radius, s.options.radius * scale))
+            .collect();
+        ways.push(format!(
+            "a radius {scale:.2}x as large ({}) folds no face (fit + deform {ms:.2} ms)",
+            radii.join(", ")
+        ));
+    }
+    if let Some((steps, ms)) = r.sweep {
+        ways.push(format!(
+            "\"sweep\": true cannot fold ({steps} step(s), fit + deform {ms:.2} ms)"
+        ));
+    }
+    let line = if ways.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "to keep it from folding: {}; the edit as it is takes {:.2} ms",
+            ways.join(", or "),
+            r.plain_ms
+        )
+    };
+    let value = serde_json::json!({
+        "radius_scale": r.radius_scale.map(|x| x.0),
+        "radius_ms": r.radius_scale.map(|x| x.1),
+        "sweep_steps": r.sweep.map(|x| x.0),
+        "sweep_ms": r.sweep.map(|x| x.1),
+        "plain_ms": r.plain_ms,
+    });
+    (line, value)
+}
+
 /// Moves the vertices (each stage at its own phase times `phase`),
 /// recomputes normals where the mesh had them, writes.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn move_and_write(
     m: &mut Mesh,
     stages: &[FittedStage],
-    combine: Combine,
+    (specs, combine): (Option<&[ControlSpec]>, Combine),
     phase: f64,
     mesh_path: &Path,
     out: &Path,
@@ -84,6 +132,12 @@ pub(crate) fn move_and_write(
     let (moved, report) = compose_diagnosed(&m.positions, &stages, combine, &triangles, &lookup)
         .with_context(|| mesh_path.display().to_string())?;
     let deform_ms = t.elapsed().as_secs_f64() * 1e3;
+    let (remedy, remedy_json) = match specs {
+        Some(specs) if !report.inside_out.is_empty() => {
+            remedies_said(m, &triangles, specs, combine, phase)
+        }
+        _ => (String::new(), serde_json::Value::Null),
+    };
     m.positions = moved;
     if m.normals.is_some() {
         m.recompute_normals();
@@ -107,6 +161,9 @@ pub(crate) fn move_and_write(
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
+    if !remedy.is_empty() {
+        eprintln!("warning: {remedy}");
+    }
     if let Some(lost) = csrbf_mesh::Format::from_path(out)?.loses(m) {
         eprintln!("warning: {}: {lost}", out.display());
     }
@@ -126,6 +183,7 @@ pub(crate) fn move_and_write(
             "flipped": report.flipped.iter().take(1000).collect::<Vec<_>>(),
             "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
             "deform_ms": deform_ms,
+            "remedies": remedy_json,
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
     }

@@ -154,9 +154,11 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                     .and_then(|sys| sys.solve(&s.targets))
                     .with_context(at)?;
                 stage.insert("gradient_bound".into(), json!(def.gradient_bound()));
-                vec![csrbf::FittedStage::new(def)
-                    .with_region(s.region.clone())
-                    .with_phase(s.phase)]
+                vec![
+                    csrbf::FittedStage::new(def)
+                        .with_region(s.region.clone())
+                        .with_phase(s.phase),
+                ]
             }
             Some(options) => {
                 let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)

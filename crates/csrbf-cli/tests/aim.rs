@@ -440,3 +440,161 @@ fn before_after_arrows_only_and_the_gizmo_draw_what_they_say() {
     );
     assert!(!out.exists());
 }
+
+/// Issue 17, parts 3 and 4: a shove that turns the head inside out says how
+/// large a radius would not, and that a sweep cannot; with `"sweep": true`
+/// no face folds at any phase, every start lands on its destination, and
+/// `fit` + `apply` replay the sweep to the byte.
+#[test]
+fn a_fold_says_its_remedies_and_a_sweep_folds_nowhere() {
+    let dir = TempDir::new("sweep");
+    let head = model("cgal_head.off");
+    let shove = serde_json::json!({"radius": 2, "controls": [
+        {"from": [0.9, 12.9, 4.5], "to": [0.9, 10.5, 4.5]},
+        {"from": [-5.89911, 7.551, -1.42866], "to": [-2.9, 9.05, -1.42866]}]});
+    let plain = dir.write("plain.json", shove.to_string());
+    let out = dir.path("out.ply");
+    let deform = |controls: &std::path::Path, phase: &str| -> Value {
+        json(&[
+            "deform",
+            "-q",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(controls),
+            "--phase",
+            phase,
+            "--out",
+            arg(&out),
+            "--force",
+            "--json",
+        ])
+    };
+    let v = deform(&plain, "1");
+    assert!(v["inside_out_faces"].as_u64().expect("count") > 0, "{v}");
+    let remedies = &v["remedies"];
+    let scale = remedies["radius_scale"]
+        .as_f64()
+        .expect("a radius that does not fold");
+    assert!(scale > 1.0 && scale <= 4.0, "{remedies}");
+    assert!(
+        remedies["sweep_steps"].as_u64().expect("steps") > 1,
+        "{remedies}"
+    );
+    // The radius it names folds nothing.
+    let mut larger = shove.clone();
+    larger["radius"] = (2.0 * scale).into();
+    let larger = dir.write("larger.json", larger.to_string());
+    assert_eq!(deform(&larger, "1")["inside_out_faces"], 0);
+
+    let mut swept = shove.clone();
+    swept["sweep"] = true.into();
+    let swept = dir.write("swept.json", swept.to_string());
+    for phase in ["0.2", "0.5", "0.77", "1"] {
+        let v = deform(&swept, phase);
+        assert_eq!(v["inside_out_faces"], 0, "phase {phase}: {v}");
+        assert_eq!(v["fold_phase"], Value::Null, "phase {phase}");
+        assert_eq!(v["remedies"], Value::Null);
+    }
+    // Every start lands on its destination (1e-6 of the head's diagonal):
+    // a mesh whose first vertices are the starts, deformed by the sweep.
+    let controls = shove["controls"].as_array().expect("controls");
+    let xyz = |c: &Value, k: &str| -> [f64; 3] {
+        let a: Vec<f64> = c[k]
+            .as_array()
+            .expect("xyz")
+            .iter()
+            .map(|x| x.as_f64().expect("x"))
+            .collect();
+        [a[0], a[1], a[2]]
+    };
+    let mut obj = String::new();
+    for c in controls {
+        let [x, y, z] = xyz(c, "from");
+        obj += &format!("v {x} {y} {z}\n");
+    }
+    obj += "v 30 30 30\nf 1 2 3\n";
+    let points = dir.write("starts.obj", obj);
+    let landed = dir.path("landed.obj");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&points),
+        "--controls",
+        arg(&swept),
+        "--out",
+        arg(&landed),
+    ]);
+    let landed = csrbf_mesh::read(&landed).expect("landed");
+    for (k, c) in controls.iter().enumerate() {
+        let [x, y, z] = xyz(c, "to");
+        let miss = landed.positions[k]
+            .as_dvec3()
+            .distance(glam::DVec3::new(x, y, z));
+        assert!(
+            miss < 1e-6 * 24.134,
+            "control {k} misses its destination by {miss}"
+        );
+    }
+    // Its .csrbf keeps the steps: apply gives what deform gave.
+    let replay = dir.path("swept.csrbf");
+    ok(&[
+        "fit",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&swept),
+        "--out",
+        arg(&replay),
+    ]);
+    let applied = dir.path("applied.ply");
+    ok(&[
+        "apply",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--deformation",
+        arg(&replay),
+        "--out",
+        arg(&applied),
+    ]);
+    assert_eq!(
+        std::fs::read(&applied).expect("applied"),
+        std::fs::read(&out).expect("deformed")
+    );
+    let info = json(&[
+        "info",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&swept),
+        "--json",
+    ]);
+    assert!(
+        info["sweep"]["certified"].as_bool().expect("certified"),
+        "{info}"
+    );
+    assert!(
+        info["gradient_bound"].as_f64().expect("bound") > 1.0,
+        "{info}"
+    );
+    // A bad sweep key is named.
+    let mut bad = shove.clone();
+    bad["sweep"] = serde_json::json!({"steps": 0});
+    let bad = dir.write("bad.json", bad.to_string());
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&bad),
+            "--out",
+            arg(&out),
+            "--force",
+        ],
+        &["bad.json", "sweep.steps", "whole number from 1"],
+    );
+}

@@ -204,6 +204,7 @@ mod octree;
 pub mod ordering;
 mod pipeline;
 mod region;
+mod remedy;
 mod simd;
 pub mod skyline;
 mod solver;
@@ -230,6 +231,7 @@ pub use pipeline::{
     Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,
 };
 pub use region::Region;
+pub use remedy::{Remedies, remedies};
 pub use solver::SolverChoice;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};
 pub use system::{

@@ -81,11 +81,10 @@ fn exported_whole(anim: &crate::scene::Animated) -> bool {
 fn is_one_sweep(anim: &crate::scene::Animated) -> bool {
     let k = anim.stages.len();
     k > 1
-        && anim
-            .stages
-            .iter()
-            .enumerate()
-            .all(|(j, s)| s.sweep.is_some_and(|s| s.index as usize == j && s.count as usize == k))
+        && anim.stages.iter().enumerate().all(|(j, s)| {
+            s.sweep
+                .is_some_and(|s| s.index as usize == j && s.count as usize == k)
+        })
 }
 
 /// Each step's move of every vertex of a sweep at full phase (the steps
@@ -175,18 +174,32 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         let mut tracks = Vec::new();
         for anim in &obj.deformations {
             if is_one_sweep(anim) {
-                for (st, full) in anim.stages.iter().zip(sweep_targets(&obj.mesh.positions, anim)) {
+                for (st, full) in anim
+                    .stages
+                    .iter()
+                    .zip(sweep_targets(&obj.mesh.positions, anim))
+                {
                     let d = written(&full);
                     targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                    tracks.push(Weight { track: &anim.track, step: Some(st) });
+                    tracks.push(Weight {
+                        track: &anim.track,
+                        step: Some(st),
+                    });
                 }
                 continue;
             }
             if is_one_sweep(anim) {
-                for (st, full) in anim.stages.iter().zip(sweep_targets(&obj.mesh.positions, anim)) {
+                for (st, full) in anim
+                    .stages
+                    .iter()
+                    .zip(sweep_targets(&obj.mesh.positions, anim))
+                {
                     let d = written(&full);
                     targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                    tracks.push(Weight { track: &anim.track, step: Some(st) });
+                    tracks.push(Weight {
+                        track: &anim.track,
+                        step: Some(st),
+                    });
                 }
                 continue;
             }
@@ -196,7 +209,10 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
                 let full = Scene::chained_displacement(&obj.mesh.positions, anim);
                 let d = written(&full);
                 targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                tracks.push(Weight { track: &anim.track, step: None });
+                tracks.push(Weight {
+                    track: &anim.track,
+                    step: None,
+                });
                 continue;
             }
             for st in &anim.stages {
@@ -206,7 +222,10 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
                 }
                 let d = written(&full);
                 targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                tracks.push(Weight { track: &anim.track, step: None });
+                tracks.push(Weight {
+                    track: &anim.track,
+                    step: None,
+                });
             }
         }
         let mut primitives = Vec::new();

@@ -229,3 +229,57 @@ fn the_camera_lights_and_timeline_are_exported() {
     assert_eq!(extras["fps"], s.file.fps);
     assert_eq!(extras["duration"], s.file.duration);
 }
+
+/// Issue 17: a sweep is one morph target per step, named `NAME step j/k`,
+/// whose weights rise one after another; the frame the scene draws at a
+/// phase between steps is what those targets give.
+#[test]
+fn a_sweep_exports_one_target_per_step_rising_in_turn() {
+    let (d, scene) = DemoDir::new("fish", "sweep");
+    let beak = std::fs::read_to_string(d.0.join("controls/beak.json")).expect("beak");
+    let swept = beak.replacen('{', "{\"sweep\": {\"steps\": 4}, ", 1);
+    std::fs::write(d.0.join("controls/beak.json"), swept).expect("write");
+    let s = Scene::load(&scene).expect("load");
+    let doc = glb_json(&export_gltf(&s, true));
+    let names = doc["meshes"][0]["extras"]["targetNames"].clone();
+    assert_eq!(
+        names,
+        serde_json::json!(["beak step 1/4", "beak step 2/4", "beak step 3/4", "beak step 4/4", "tail", "wings"])
+    );
+    let notes = export_notes(&s);
+    assert!(notes.iter().any(|n| n.contains("sweep of 4 steps")), "{notes:?}");
+    // The weights at a time: the track's phase p gives step j clamp(4p - j).
+    let anim = &s.objects[0].deformations[0];
+    let time = (0..200)
+        .map(|k| k as f64 * s.file.duration / 200.0)
+        .find(|&t| {
+            let p = anim.track.phase(t) * anim.stages[0].phase as f64;
+            (p * 4.0).fract() > 0.2 && p > 0.3 && p < 0.9
+        })
+        .expect("a time between steps");
+    let p = (anim.track.phase(time) as f32) * anim.stages[0].phase;
+    let want: Vec<f32> = (0..4).map(|j| (4.0 * p - j as f32).clamp(0.0, 1.0)).collect();
+    let got: Vec<f32> = anim.stages.iter().map(|st| st.phase_at(anim.track.phase(time) as f32)).collect();
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() < 1e-6, "{got:?} vs {want:?}");
+    }
+    // The targets summed with those weights are the frame (beak only).
+    let only_beak = {
+        let mut f = s.file.clone();
+        f.objects[0].parts[0].deformations.truncate(1);
+        std::fs::write(&scene, f.to_json()).expect("write");
+        Scene::load(&scene).expect("load")
+    };
+    let frame = only_beak.frame(time);
+    let rest = &only_beak.objects[0].mesh.positions;
+    let targets = super::sweep_targets(rest, &only_beak.objects[0].deformations[0]);
+    let (rot, shift) = only_beak.objects[0].transform(time);
+    for (v, r) in rest.iter().enumerate() {
+        let local = targets
+            .iter()
+            .zip(&want)
+            .fold(*r, |x, (t, w)| x + t[v] * *w);
+        let world = rot.as_quat() * local + shift.as_vec3();
+        assert!(world.distance(frame.objects[0].positions[v]) < 1e-5, "vertex {v}");
+    }
+}

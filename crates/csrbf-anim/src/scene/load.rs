@@ -508,12 +508,21 @@ fn load_deformation(
     };
     for spec in &cf.deformations {
         let name = spec.name.clone();
-        let (spec, steps) =
-            fitted(spec).map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
+        let (spec, steps) = fitted(spec)
+            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
         for step in steps {
             let si = stages.len();
-            stages.push(bind_stage(mesh, part, &spec, step, name.clone(), si > 0 && cf.combine == Combine::Chain)
-                .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?);
+            stages.push(
+                bind_stage(
+                    mesh,
+                    part,
+                    &spec,
+                    step,
+                    name.clone(),
+                    si > 0 && cf.combine == Combine::Chain,
+                )
+                .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?,
+            );
         }
     }
     let track = phase_track(df, at)?;
@@ -565,7 +574,11 @@ fn bind_stage(
             let displacement = binding.displacements(&deformation)?;
             // The phase in the file, except for a sweep's step, which moves
             // by its share of it (BoundStage::displacement_factor).
-            let phase = if step.sweep.is_some() { 1.0 } else { spec.phase as f32 };
+            let phase = if step.sweep.is_some() {
+                1.0
+            } else {
+                spec.phase as f32
+            };
             // Keep only the vertices that move: a frame then touches nothing else.
             region
                 .iter()
