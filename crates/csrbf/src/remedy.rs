@@ -157,8 +157,15 @@ mod tests {
             FitOptions::new(0.25).with_kernel(Kernel::C2),
         );
         let none = |_: &str| None;
-        let r =
-            remedies(&rest, &tris, &[spec.clone()], Combine::Chain, 1.0, &none).expect("remedies");
+        let r = remedies(
+            &rest,
+            &tris,
+            std::slice::from_ref(&spec),
+            Combine::Chain,
+            1.0,
+            &none,
+        )
+        .expect("remedies");
         let (scale, _) = r.radius_scale.expect("a radius that does not fold");
         // One vector folds nowhere below 64/135 R (the kernel's bound), and
         // does fold well past it: the smallest radius lies between.
@@ -171,7 +178,7 @@ mod tests {
             trial(
                 &rest,
                 &tris,
-                &[spec.clone()],
+                std::slice::from_ref(&spec),
                 Combine::Chain,
                 1.0,
                 &none,

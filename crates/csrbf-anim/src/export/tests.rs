@@ -244,10 +244,20 @@ fn a_sweep_exports_one_target_per_step_rising_in_turn() {
     let names = doc["meshes"][0]["extras"]["targetNames"].clone();
     assert_eq!(
         names,
-        serde_json::json!(["beak step 1/4", "beak step 2/4", "beak step 3/4", "beak step 4/4", "tail", "wings"])
+        serde_json::json!([
+            "beak step 1/4",
+            "beak step 2/4",
+            "beak step 3/4",
+            "beak step 4/4",
+            "tail",
+            "wings"
+        ])
     );
     let notes = export_notes(&s);
-    assert!(notes.iter().any(|n| n.contains("sweep of 4 steps")), "{notes:?}");
+    assert!(
+        notes.iter().any(|n| n.contains("sweep of 4 steps")),
+        "{notes:?}"
+    );
     // The weights at a time: the track's phase p gives step j clamp(4p - j).
     let anim = &s.objects[0].deformations[0];
     let time = (0..200)
@@ -258,8 +268,14 @@ fn a_sweep_exports_one_target_per_step_rising_in_turn() {
         })
         .expect("a time between steps");
     let p = (anim.track.phase(time) as f32) * anim.stages[0].phase;
-    let want: Vec<f32> = (0..4).map(|j| (4.0 * p - j as f32).clamp(0.0, 1.0)).collect();
-    let got: Vec<f32> = anim.stages.iter().map(|st| st.phase_at(anim.track.phase(time) as f32)).collect();
+    let want: Vec<f32> = (0..4)
+        .map(|j| (4.0 * p - j as f32).clamp(0.0, 1.0))
+        .collect();
+    let got: Vec<f32> = anim
+        .stages
+        .iter()
+        .map(|st| st.phase_at(anim.track.phase(time) as f32))
+        .collect();
     for (g, w) in got.iter().zip(&want) {
         assert!((g - w).abs() < 1e-6, "{got:?} vs {want:?}");
     }
@@ -280,6 +296,9 @@ fn a_sweep_exports_one_target_per_step_rising_in_turn() {
             .zip(&want)
             .fold(*r, |x, (t, w)| x + t[v] * *w);
         let world = rot.as_quat() * local + shift.as_vec3();
-        assert!(world.distance(frame.objects[0].positions[v]) < 1e-5, "vertex {v}");
+        assert!(
+            world.distance(frame.objects[0].positions[v]) < 1e-5,
+            "vertex {v}"
+        );
     }
 }
