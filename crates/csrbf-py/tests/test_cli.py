@@ -144,6 +144,19 @@ def test_a_fold_is_reported_inside_out_with_its_phase():
     assert half.fold_phase is None or half.fold_phase == pytest.approx(report.fold_phase, rel=1e-6)
     with pytest.warns(UserWarning, match="colour"):
         csrbf.deform_mesh(head, {**spec, "colour": "red"})
+    # The same edit as a fold-free sweep: nothing inside out at any phase,
+    # and the start still lands on its destination.
+    for phase in (0.3, 0.5, 1.0):
+        out, swept = csrbf.deform_mesh(head, {**spec, "sweep": True}, phase=phase)
+        assert swept.inside_out_faces == 0 and swept.fold_phase is None, (phase, swept)
+    starts = np.array([v["from"] for v in spec["controls"]] + [[30.0, 30.0, 30.0]], np.float32)
+    points = csrbf.Mesh(starts, triangles=np.array([[0, 1, len(starts) - 1]]))
+    landed, _ = csrbf.deform_mesh(points, {**spec, "sweep": True})
+    want = np.array([v["to"] for v in spec["controls"]])
+    miss = np.linalg.norm(landed.vertices[:-1] - want, axis=1).max()
+    assert miss < 1e-6 * diagonal(head.vertices), miss
+    with pytest.raises(csrbf.Error, match="sweep.steps"):
+        csrbf.deform_mesh(head, {**spec, "sweep": {"steps": 0}})
 
 
 def test_bad_files_raise_csrbf_errors_naming_them(tmp_path):

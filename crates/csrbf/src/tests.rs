@@ -412,12 +412,12 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
         bad[at] ^= 0x40;
         assert!(format::decode(&bad).is_err(), "flip at {at} accepted");
     }
-    let mut v3 = bytes.clone();
-    v3[6] = 3;
+    let mut v4 = bytes.clone();
+    v4[6] = 4;
     assert!(
-        format::decode(&v3)
+        format::decode(&v4)
             .err()
-            .is_some_and(|e| e.to_string().contains("version 3"))
+            .is_some_and(|e| e.to_string().contains("version 4"))
     );
 }
 
