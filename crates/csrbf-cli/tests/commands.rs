@@ -314,10 +314,13 @@ fn writing_stl_warns_what_it_loses() {
     );
     let err = deform_to("d.ply");
     assert!(!err.contains("STL stores"));
-    // Issue 24, item 2: the duck's part and seam UVs do not fit PLY or OFF
-    // either, and that is said too; OBJ keeps both and says nothing.
+    // Issue 24, item 2: the duck's seam UVs do not fit PLY or OFF either,
+    // and that is said too; PLY keeps its parts as face properties that
+    // other programs do not read (said); OBJ keeps both and says nothing.
     assert!(
-        err.contains("PLY keeps one UV per vertex and no parts") && err.contains("seams"),
+        err.contains("PLY keeps one UV per vertex")
+            && err.contains("seams")
+            && err.contains("face properties"),
         "{err}"
     );
     for (name, said) in [("d.off", true), ("d.obj", false)] {

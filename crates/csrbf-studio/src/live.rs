@@ -59,16 +59,10 @@ impl Live {
     pub fn update(&mut self, doc: &Document) -> Result<(), LiveError> {
         self.update_positions(doc)?;
         let lookup = |n: &str| doc.mesh.part_vertices(n);
+        // Every layer's fitted stages (a sweep's every step).
         let fitted: Vec<_> = (0..self.layers.len())
-            .filter_map(|k| {
-                let stage = self.pipeline.stage(k)?;
-                let d = self.pipeline.fitted(k)?.clone();
-                Some(
-                    csrbf::FittedStage::new(d)
-                        .with_region(stage.region.clone())
-                        .with_phase(stage.phase),
-                )
-            })
+            .filter_map(|k| self.pipeline.fitted_stages(k))
+            .flatten()
             .collect();
         let layer = self.layers.first().copied().unwrap_or(0);
         let report = diagnose(
@@ -151,6 +145,7 @@ impl Live {
             let Some(old) = self.pipeline.stage(k) else {
                 continue;
             };
+            let sweep = old.sweep != new.sweep || old.paths != new.paths;
             let (starts, targets, options, region, phase) = (
                 old.starts != new.starts,
                 old.targets != new.targets,
@@ -174,6 +169,9 @@ impl Live {
             }
             if phase {
                 let _ = p.set_phase(k, new.phase);
+            }
+            if sweep {
+                let _ = p.set_sweep(k, new.sweep, new.paths.clone());
             }
         }
     }
@@ -300,5 +298,54 @@ mod tests {
         let err = live.update(&doc).expect_err("coincident starts");
         assert_eq!(err.layer, 0);
         assert_eq!(live.positions(), &kept[..]);
+    }
+
+    /// Issue 17: a layer made a sweep (the panel's toggle is a
+    /// `ReplaceLayer`, undone like any edit) stops folding in the preview,
+    /// and the preview is what `csrbf deform` gives for the same file.
+    #[test]
+    fn a_sweep_layer_previews_without_folds_and_undoes() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 24, 48);
+        let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.5);
+        let mut history = History::default();
+        let mut live = Live::new(&doc);
+        // A pull far past the fold-free bound at R 0.5.
+        history
+            .apply(
+                &mut doc,
+                Command::add(0, DVec3::Y, DVec3::new(0.7, 1.0, 0.0)),
+            )
+            .expect("add");
+        live.update(&doc).expect("update");
+        let folded = live.diagnostics().expect("diagnosed").inside_out.len();
+        assert!(folded > 0, "the single map should fold");
+        let mut swept = doc.controls.deformations[0].clone();
+        swept.sweep = Some(csrbf::SweepOptions::default());
+        history
+            .apply(
+                &mut doc,
+                Command::ReplaceLayer {
+                    layer: 0,
+                    spec: Box::new(swept),
+                },
+            )
+            .expect("sweep");
+        live.update(&doc).expect("update");
+        let report = live.diagnostics().expect("diagnosed");
+        assert!(
+            report.inside_out.is_empty() && report.fold_phase.is_none(),
+            "{report:?}"
+        );
+        let mut fresh = (*doc.mesh).clone();
+        csrbf_anim::apply::deform_mesh(&mut fresh, &doc.controls, doc.phase).expect("fresh fit");
+        for (a, b) in live.positions().iter().zip(&fresh.positions) {
+            assert!((*a - *b).length() < 1e-5, "{a} vs {b}");
+        }
+        history.undo(&mut doc).expect("undo");
+        live.update(&doc).expect("update");
+        assert_eq!(
+            live.diagnostics().expect("diagnosed").inside_out.len(),
+            folded
+        );
     }
 }

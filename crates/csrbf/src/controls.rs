@@ -152,23 +152,19 @@ pub struct ControlFile {
 }
 
 impl ControlSpec {
-    /// The pipeline stage of this deformation. A handle must be resolved on
-    /// the mesh first ([`ControlSpec::resolve`]); a sweep has no single
-    /// stage (its steps are fitted together: [`ControlSpec::fit`]) and is
-    /// refused rather than shown as the single map.
+    /// The pipeline stage of this deformation (a sweep's too). A handle
+    /// must be resolved on the mesh first ([`ControlSpec::resolve`]).
     pub fn to_stage(&self) -> crate::Result<crate::Stage> {
         if self.handle.is_some() {
             return Err(crate::Error::BadHandle(
                 "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
             ));
         }
-        if self.sweep.is_some() {
-            return Err(crate::Error::SweepStage);
-        }
         Ok(
             crate::Stage::new(self.starts.clone(), self.targets.clone(), self.options)
                 .with_region(self.region.clone())
-                .with_phase(self.phase),
+                .with_phase(self.phase)
+                .with_sweep(self.sweep, self.paths.clone()),
         )
     }
 
@@ -285,6 +281,8 @@ impl From<&crate::Stage> for ControlSpec {
         let mut spec = ControlSpec::new(s.starts.clone(), s.targets.clone(), s.options);
         spec.region = s.region.clone();
         spec.phase = s.phase;
+        spec.sweep = s.sweep;
+        spec.paths = s.paths.clone();
         spec
     }
 }

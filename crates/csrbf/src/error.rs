@@ -80,11 +80,6 @@ pub enum Error {
         /// The first point.
         point: usize,
     },
-    /// A sweep asked of a live pipeline, whose stages are single maps.
-    #[error(
-        "this deformation is a fold-free sweep (\"sweep\" in its control file), which the live pipeline (the studio's preview) cannot show yet: `csrbf deform`, `animate` and `export` do it; remove \"sweep\" to edit it here"
-    )]
-    SweepStage,
     /// A sweep's steps chain; stages that add cannot hold one.
     #[error(
         "stage {stage} is a step of a sweep, whose steps act one after another: \"combine\": \"add\" cannot hold it; use \"chain\" (or no sweep)"

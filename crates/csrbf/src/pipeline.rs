@@ -20,6 +20,7 @@ use crate::deformation::Deformation;
 use crate::diagnose::StageReach;
 use crate::error::{Error, NameError, Result};
 use crate::region::Region;
+use crate::sweep::{Paths, SweepOptions};
 use crate::system::{FitOptions, System};
 
 /// How the deformations of one file act together.
@@ -68,6 +69,7 @@ impl std::str::FromStr for Combine {
 
 /// One deformation of a pipeline, as the user describes it.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct Stage {
     /// Start points of the control vectors.
     pub starts: Vec<DVec3>,
@@ -79,6 +81,10 @@ pub struct Stage {
     pub region: Region,
     /// Phase in [0, 1]: 0 rest, 1 full deformation.
     pub phase: f64,
+    /// A fold-free sweep instead of the single map (None: the single map).
+    pub sweep: Option<SweepOptions>,
+    /// The paths the starts follow in a sweep (straight unless a handle's).
+    pub paths: Paths,
 }
 
 impl Stage {
@@ -90,7 +96,16 @@ impl Stage {
             options,
             region: Region::All,
             phase: 1.0,
+            sweep: None,
+            paths: Paths::default(),
         }
+    }
+
+    /// As a fold-free sweep along `paths` (None: the single map).
+    pub fn with_sweep(mut self, sweep: Option<SweepOptions>, paths: Paths) -> Stage {
+        self.sweep = sweep;
+        self.paths = paths;
+        self
     }
 
     /// With this region.
@@ -151,9 +166,13 @@ impl FittedStage {
     /// A fitted sweep's steps as stages, each on `region` at the sweep's
     /// `phase`.
     pub fn sweep(sweep: crate::Sweep, region: Region, phase: f64) -> Vec<FittedStage> {
-        let count = sweep.steps.len() as u32;
-        sweep
-            .steps
+        Self::from_steps(sweep.steps, region, phase)
+    }
+
+    /// A sweep's steps (in order) as stages.
+    fn from_steps(steps: Vec<Deformation>, region: Region, phase: f64) -> Vec<FittedStage> {
+        let count = steps.len() as u32;
+        steps
             .into_iter()
             .enumerate()
             .map(|(j, deformation)| FittedStage {
@@ -243,7 +262,10 @@ struct StageState {
     gen_region: u64,
     gen_phase: u64,
     system: Option<(u64, System)>,
+    /// The fitted map; a sweep's first step.
     deformation: Option<((u64, u64), Deformation)>,
+    /// A sweep's every step, fitted with `deformation`.
+    steps: Vec<Deformation>,
     /// Active points, and the generations (input, region, system) the binding was made from.
     binding: Option<Bound>,
     displacement: Option<(Key3, u64, Vec<Vec3>)>,
@@ -316,8 +338,27 @@ impl Pipeline {
         self.current.then(|| self.last_points())
     }
 
-    /// Stage `i`'s deformation as last fitted, when it is still current;
-    /// None when it was never fitted or its inputs changed. Reads, never computes.
+    /// Stage `i` as last fitted (a sweep's every step), with its region and
+    /// phase, when it is still current; None when it was never fitted or its
+    /// inputs changed. Reads, never computes.
+    pub fn fitted_stages(&self, i: usize) -> Option<Vec<FittedStage>> {
+        let d = self.fitted(i)?;
+        let s = &self.stages[i];
+        let (region, phase) = (s.stage.region.clone(), s.stage.phase);
+        Some(if s.stage.sweep.is_some() {
+            FittedStage::from_steps(s.steps.clone(), region, phase)
+        } else {
+            vec![
+                FittedStage::new(d.clone())
+                    .with_region(region)
+                    .with_phase(phase),
+            ]
+        })
+    }
+
+    /// Stage `i`'s deformation as last fitted (a sweep's first step), when
+    /// it is still current; None when it was never fitted or its inputs
+    /// changed. Reads, never computes.
     pub fn fitted(&self, i: usize) -> Option<&Deformation> {
         let s = self.stages.get(i)?;
         match &s.deformation {
@@ -350,6 +391,7 @@ impl Pipeline {
             gen_phase: g,
             system: None,
             deformation: None,
+            steps: Vec::new(),
             binding: None,
             displacement: None,
             output: None,
@@ -438,6 +480,16 @@ impl Pipeline {
         Ok(())
     }
 
+    /// Stage `i` as a fold-free sweep along `paths`, or (None) the single map.
+    pub fn set_sweep(&mut self, i: usize, sweep: Option<SweepOptions>, paths: Paths) -> Result<()> {
+        let g = self.bump();
+        let s = self.state(i)?;
+        s.stage.sweep = sweep;
+        s.stage.paths = paths;
+        s.gen_system = g;
+        Ok(())
+    }
+
     /// A new phase for stage `i`, in [0, 1].
     pub fn set_phase(&mut self, i: usize, phase: f64) -> Result<()> {
         crate::error::check_phase(phase)?;
@@ -477,6 +529,20 @@ impl Pipeline {
     }
 
     fn refresh_deformation(&mut self, i: usize) -> Result<()> {
+        let s = self.state(i)?;
+        if let Some(sweep) = s.stage.sweep {
+            // A sweep fits its own systems, one per step.
+            let key = (s.gen_system, s.gen_targets);
+            if s.deformation.as_ref().is_none_or(|(k, _)| *k != key) {
+                let st = &s.stage;
+                let fitted =
+                    crate::Sweep::fit(&st.starts, &st.targets, &st.paths, st.options, sweep)?;
+                s.deformation = Some((key, fitted.steps[0].clone()));
+                s.steps = fitted.steps;
+                self.work.solves += 1;
+            }
+            return Ok(());
+        }
         self.refresh_system(i)?;
         let s = &mut self.stages[i];
         let key = (s.gen_system, s.gen_targets);
@@ -495,13 +561,8 @@ impl Pipeline {
     pub fn to_replay(&mut self) -> Result<crate::format::Replay> {
         let mut stages = Vec::with_capacity(self.stages.len());
         for i in 0..self.stages.len() {
-            let deformation = self.deformation(i)?.clone();
-            let s = &self.stages[i].stage;
-            stages.push(
-                FittedStage::new(deformation)
-                    .with_region(s.region.clone())
-                    .with_phase(s.phase),
-            );
+            self.refresh_deformation(i)?;
+            stages.extend(self.fitted_stages(i).expect("just refreshed"));
         }
         Ok(crate::format::Replay {
             stages,
@@ -534,6 +595,20 @@ impl Pipeline {
         let groups = &self.groups;
         // A phase set when the stage was made is checked here, as set_phase checks.
         crate::error::check_phase(s.stage.phase)?;
+        if s.stage.sweep.is_some() {
+            if self.combine == Combine::Add {
+                return Err(Error::SweepAdded { stage: i });
+            }
+            return Self::sweep_output(
+                s,
+                input,
+                input_gen,
+                &self.rest,
+                groups,
+                &mut self.next_gen,
+                &mut self.work,
+            );
+        }
         // evaluate refreshed the deformation before the output.
         let (_, def) = s.deformation.as_ref().expect("deformation refreshed first");
 
@@ -598,6 +673,60 @@ impl Pipeline {
         });
         self.work.outputs += 1;
         Ok(generation)
+    }
+}
+
+impl Pipeline {
+    /// A sweep stage's output: its steps chained at their shares of the
+    /// phase, on the points of its region (no binding: every step is
+    /// evaluated where the steps before it moved the points).
+    fn sweep_output(
+        s: &mut StageState,
+        input: &[Vec3],
+        input_gen: u64,
+        rest: &[Vec3],
+        groups: &[(String, Vec<u32>)],
+        next_gen: &mut u64,
+        work: &mut Work,
+    ) -> Result<u64> {
+        let okey = (
+            input_gen,
+            s.gen_region.max(s.gen_system).max(s.gen_targets),
+            s.gen_phase,
+        );
+        if let Some(o) = &s.output
+            && o.key == okey
+        {
+            return Ok(o.generation);
+        }
+        let lookup = |name: &str| {
+            groups
+                .iter()
+                .find(|(n, _)| n == name)
+                .map(|(_, v)| v.clone())
+        };
+        let (active, weights) = s.stage.region.weights(rest, &lookup)?;
+        let mut out = input.to_vec();
+        let k = s.steps.len();
+        for (j, step) in s.steps.iter().enumerate() {
+            let f = crate::sweep::step_phase(s.stage.phase, j, k) as f32;
+            if f == 0.0 {
+                break;
+            }
+            let pts: Vec<Vec3> = active.iter().map(|&a| out[a as usize]).collect();
+            let d = step.displacements_f32(&pts);
+            for ((&a, d), w) in active.iter().zip(d).zip(&weights) {
+                out[a as usize] += d * (f * w);
+            }
+        }
+        *next_gen += 1;
+        s.output = Some(Output {
+            key: okey,
+            points: out,
+            generation: *next_gen,
+        });
+        work.outputs += 1;
+        Ok(*next_gen)
     }
 }
 

@@ -600,4 +600,56 @@ mod tests {
             assert!(matches!(e, FitError::SweepSteps { .. }), "{e}");
         }
     }
+
+    /// The live pipeline (the studio's preview) gives what `compose` gives
+    /// for a sweep at every phase, switches between the single map and the
+    /// sweep, and saves the steps in its replay.
+    #[test]
+    fn a_pipeline_stage_sweeps_as_compose_does() {
+        let (rest, _) = grid(20);
+        let starts = vec![DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.1, 0.9, 0.0)];
+        let targets = vec![DVec3::new(0.8, 0.55, 0.0), DVec3::new(0.1, 0.9, 0.0)];
+        let options = FitOptions::new(0.3);
+        let spec = crate::controls::ControlSpec {
+            sweep: Some(SweepOptions::default()),
+            ..crate::controls::ControlSpec::new(starts.clone(), targets.clone(), options)
+        };
+        let mut p = crate::Pipeline::new(rest.clone());
+        p.push(spec.to_stage().expect("stage"));
+        let steps = spec.fit().expect("fit");
+        assert!(steps.len() > 1);
+        for phase in [1.0, 0.6, 0.25, 0.0] {
+            p.set_phase(0, phase).expect("phase");
+            let got = p.evaluate().expect("evaluate").to_vec();
+            let stages: Vec<FittedStage> =
+                steps.iter().map(|s| s.clone().with_phase(phase)).collect();
+            let want = compose(&rest, &stages, Combine::Chain).expect("compose");
+            let worst = got
+                .iter()
+                .zip(&want)
+                .map(|(a, b)| a.distance(*b))
+                .fold(0.0f32, f32::max);
+            assert!(worst < 1e-6, "phase {phase}: {worst}");
+        }
+        assert_eq!(p.fitted_stages(0).map(|s| s.len()), Some(steps.len()));
+        assert_eq!(p.to_replay().expect("replay").stages.len(), steps.len());
+        // Back to the single map, and to the sweep again.
+        p.set_phase(0, 1.0).expect("phase");
+        p.set_sweep(0, None, Paths::default()).expect("single");
+        let single = p.evaluate().expect("evaluate").to_vec();
+        let plain = crate::Deformation::fit(&starts, &targets, options).expect("fit");
+        let want = compose(&rest, &[FittedStage::new(plain)], Combine::Chain).expect("compose");
+        assert!(single.iter().zip(&want).all(|(a, b)| a.distance(*b) < 1e-6));
+        assert_eq!(p.fitted_stages(0).map(|s| s.len()), Some(1));
+        p.set_sweep(0, Some(SweepOptions { steps: Some(5) }), Paths::default())
+            .expect("sweep");
+        p.evaluate().expect("evaluate");
+        assert_eq!(p.fitted_stages(0).map(|s| s.len()), Some(5));
+        // Stages that add cannot hold a sweep.
+        p.set_combine(Combine::Add);
+        assert!(matches!(
+            p.evaluate(),
+            Err(crate::Error::SweepAdded { stage: 0 })
+        ));
+    }
 }

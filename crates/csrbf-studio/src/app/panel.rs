@@ -383,11 +383,24 @@ impl StudioApp {
             diag,
             "Where this layer acts; chosen vertices come from the Vertices tool",
         );
-        if poly != spec.options.polynomial || phase != spec.phase || region != spec.region {
+        let mut sweep = spec.sweep.is_some();
+        ui.checkbox(&mut sweep, "fold-free sweep").on_hover_text(
+            "Take the layer as a chain of small steps along each control's path, each certified not to fold: \
+             no face turns inside out at any phase, and a handle's half phase is a half turn",
+        );
+        let sweep_changed = sweep != spec.sweep.is_some();
+        if poly != spec.options.polynomial
+            || phase != spec.phase
+            || region != spec.region
+            || sweep_changed
+        {
             let mut new = spec.clone();
             new.options.polynomial = poly;
             new.phase = phase;
             new.region = region;
+            if sweep_changed {
+                new.sweep = sweep.then(csrbf::SweepOptions::default);
+            }
             commands.push((
                 Command::ReplaceLayer {
                     layer: l,
