@@ -128,6 +128,8 @@ def control_file(obj, settings) -> dict:
     }
     if settings.vertex_group:
         spec["region"] = {"group": settings.vertex_group}
+    if settings.sweep:
+        spec["sweep"] = True
     return spec
 
 

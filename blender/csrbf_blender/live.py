@@ -36,20 +36,31 @@ class _State:
         self.shown = None  # the targets last written
 
     def update(self, obj, targets) -> None:
-        d = self.system.solve(targets)
-        disp = self.binding.displacements(d)
-        out = self.rest.copy()
-        if self.region is None:
-            out += disp
+        if obj.csrbf.sweep:
+            # A sweep's steps move with the destinations: fitted anew each
+            # move (its report goes to the panel, as Deform's does).
+            import csrbf
+
+            mesh = csrbf.Mesh(self.rest, core.triangles(obj))
+            out, report = csrbf.deform_mesh(mesh, core.resolve_groups(core.control_file(obj, obj.csrbf), obj))
+            out = out.vertices
+            obj.csrbf.inside_out = report.inside_out_faces
+            obj.csrbf.fold_phase = -1.0 if report.fold_phase is None else report.fold_phase
         else:
-            out[self.region] += disp
+            d = self.system.solve(targets)
+            disp = self.binding.displacements(d)
+            out = self.rest.copy()
+            if self.region is None:
+                out += disp
+            else:
+                out[self.region] += disp
         core.write_shape_key(obj, obj.csrbf.layer, out)
         self.shown = targets.copy()
 
 
 def _settings_key(obj):
     s = obj.csrbf
-    return (s.radius, s.kernel, s.polynomial, s.vertex_group, s.layer, len(obj.data.vertices))
+    return (s.radius, s.kernel, s.polynomial, s.sweep, s.vertex_group, s.layer, len(obj.data.vertices))
 
 
 def refresh(obj) -> str:

@@ -38,6 +38,11 @@ class CsrbfSettings(bpy.types.PropertyGroup):
     )
     kernel: EnumProperty(name="Kernel", items=KERNELS, default="c2")
     polynomial: EnumProperty(name="Polynomial", items=POLYNOMIALS, default="none")
+    sweep: BoolProperty(
+        name="Fold-free sweep",
+        default=False,
+        description="Take the deformation as a chain of small steps along each control's path, each certified not to fold: no face turns inside out (slower: several fits per move)",
+    )
     vertex_group: StringProperty(
         name="Region", default="", description="Only the vertices of this vertex group move (empty: every vertex)"
     )

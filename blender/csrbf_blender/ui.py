@@ -32,6 +32,7 @@ class CSRBF_PT_panel(bpy.types.Panel):
             col.label(text=f"R = {100 * s.radius / size:.1f} % of the object's size")
         col.prop(s, "kernel")
         col.prop(s, "polynomial")
+        col.prop(s, "sweep")
         col.prop_search(s, "vertex_group", obj, "vertex_groups")
         col.prop(s, "layer")
         layout.label(text="Coordinates: the object's local space")

@@ -209,3 +209,18 @@ def test_a_folding_edit_says_so_in_the_panel():
     assert obj.csrbf.inside_out > 0
     assert 0.0 < obj.csrbf.fold_phase <= 1.0
     assert "inside out" in obj.csrbf.warnings
+    # The same edit as a fold-free sweep: nothing inside out, the pole on its
+    # destination; live posing keeps it so.
+    obj.csrbf.sweep = True
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert obj.csrbf.inside_out == 0 and obj.csrbf.fold_phase < 0
+    rest = core.rest_positions(obj)
+    north = int(np.argmax(rest[:, 2]))
+    got = core.shape_key_positions(obj, obj.csrbf.layer)
+    assert np.allclose(got[north], [0.5, 0.0, 1.0], atol=1e-4), got[north]
+    obj.csrbf.live = True
+    target.location.x = 0.6
+    bpy.context.view_layer.update()
+    got = core.shape_key_positions(obj, obj.csrbf.layer)
+    assert np.allclose(got[north], [0.6, 0.0, 1.0], atol=1e-4), got[north]
+    assert obj.csrbf.inside_out == 0
