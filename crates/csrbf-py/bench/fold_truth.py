@@ -59,6 +59,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--edits", type=int, default=24)
     ap.add_argument("--model", action="append")
+    ap.add_argument("--dump", help="write each edit's control file (with the sweep) into this folder")
     args = ap.parse_args()
     shared = ROOT.parent / "shared" / "models"
     models = [Path(m) for m in args.model] if args.model else [shared / m for m in UNSEEN if (shared / m).exists()]
@@ -92,6 +93,10 @@ def main():
             rows.append((path.name, k, spec["kernel"], plain, folded, phase, None, str(err), plain_s, 0.0))
             continue
         sweep_s = time.perf_counter() - t0
+        if args.dump:
+            import json
+            Path(args.dump).mkdir(exist_ok=True)
+            (Path(args.dump) / f"edit{e:02d}_{path.stem}.json").write_text(json.dumps({**spec, "sweep": True}))
         worst_half = max(csrbf.deform_mesh(mesh, {**spec, "sweep": True}, phase=p)[1].inside_out_faces
                          for p in (0.25, 0.5, 0.75))
         pts = csrbf.Mesh(np.vstack([starts, [v.max(0) + mesh.diagonal]]).astype(np.float32),

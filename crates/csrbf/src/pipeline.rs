@@ -708,16 +708,20 @@ impl Pipeline {
         let (active, weights) = s.stage.region.weights(rest, &lookup)?;
         let mut out = input.to_vec();
         let k = s.steps.len();
+        // In f64 through the steps, rounded once (as compose does).
+        let mut pos: Vec<DVec3> = active.iter().map(|&a| out[a as usize].as_dvec3()).collect();
         for (j, step) in s.steps.iter().enumerate() {
-            let f = crate::sweep::step_phase(s.stage.phase, j, k) as f32;
+            let f = crate::sweep::step_phase(s.stage.phase, j, k);
             if f == 0.0 {
                 break;
             }
-            let pts: Vec<Vec3> = active.iter().map(|&a| out[a as usize]).collect();
-            let d = step.displacements_f32(&pts);
-            for ((&a, d), w) in active.iter().zip(d).zip(&weights) {
-                out[a as usize] += d * (f * w);
+            let d = step.displacements(&pos);
+            for ((p, d), w) in pos.iter_mut().zip(d).zip(&weights) {
+                *p += d * (f * *w as f64);
             }
+        }
+        for (&a, p) in active.iter().zip(&pos) {
+            out[a as usize] = p.as_vec3();
         }
         *next_gen += 1;
         s.output = Some(Output {
@@ -773,6 +777,9 @@ pub(crate) fn compose_traced(
     mut trace: Option<&mut Vec<StageReach>>,
 ) -> Result<Vec<Vec3>> {
     let mut points = rest.to_vec();
+    // A sweep's points in f64 through its steps (k roundings to f32 would
+    // add up to more than the 1e-6 of the diagonal its starts land within).
+    let mut run: Option<Vec<DVec3>> = None;
     for (k, stage) in stages.iter().enumerate() {
         let (def, region) = (&stage.deformation, &stage.region);
         crate::error::check_phase(stage.phase)?;
@@ -783,6 +790,46 @@ pub(crate) fn compose_traced(
         }
         let (active, weights) = region.weights(rest, groups)?;
         let t = stage.applied_phase() as f32;
+        if let Some(step) = stage.sweep {
+            let pos = match run.as_mut() {
+                Some(pos) if step.index > 0 && pos.len() == active.len() => pos,
+                _ => run.insert(
+                    active
+                        .iter()
+                        .map(|&i| points[i as usize].as_dvec3())
+                        .collect(),
+                ),
+            };
+            if let Some(trace) = trace.as_deref_mut() {
+                let sub: Vec<Vec3> = pos.iter().map(|p| p.as_vec3()).collect();
+                let (_, near, touched) = def.displacements_reach(&sub);
+                trace.push(StageReach {
+                    selected: active.clone(),
+                    near,
+                    touched,
+                });
+            }
+            if t > 0.0 {
+                let d = def.displacements(pos);
+                for ((p, d), w) in pos.iter_mut().zip(d).zip(&weights) {
+                    *p += d * (t as f64 * *w as f64);
+                }
+                for (&i, p) in active.iter().zip(pos.iter()) {
+                    points[i as usize] = p.as_vec3();
+                }
+            }
+            if let Some(i) = active
+                .iter()
+                .position(|&i| !points[i as usize].is_finite() && rest[i as usize].is_finite())
+            {
+                return Err(Error::NonFiniteResult {
+                    stage: deformation_index(stages, k),
+                    point: active[i] as usize,
+                });
+            }
+            continue;
+        }
+        run = None;
         let all = active.len() == points.len() && !matches!(region, Region::Falloff { .. });
         // Where this stage is evaluated: the moved points, or the rest ones.
         let from = match combine {
