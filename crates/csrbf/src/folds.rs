@@ -287,24 +287,7 @@ mod tests {
     use crate::{Deformation, FitOptions, Kernel};
     use glam::Vec3;
 
-    /// A grid of triangles in the plane z = 0, `n` x `n` cells over [0, 1]^2.
-    fn grid(n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let mut v = Vec::new();
-        for j in 0..=n {
-            for i in 0..=n {
-                v.push(Vec3::new(i as f32 / n as f32, j as f32 / n as f32, 0.0));
-            }
-        }
-        let mut t = Vec::new();
-        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-        for j in 0..n {
-            for i in 0..n {
-                t.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                t.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-        (v, t)
-    }
+    use crate::testing::grid;
 
     /// A dense reference: det J of the composed map at each centroid by
     /// central differences of the composition itself.

@@ -34,35 +34,53 @@ pub struct Remedies {
     pub plain_ms: f64,
 }
 
-/// Fits `specs` (handles resolved) with every plain deformation's radius
-/// scaled by `scale` (or made a sweep) and counts the inside-out triangles
-/// at the phases given times `phase`, with the time taken.
-fn trial(
-    rest: &[Vec3],
-    triangles: &[[u32; 3]],
-    specs: &[ControlSpec],
+/// An edit as [`remedies`] tries it.
+struct Edit<'a> {
+    rest: &'a [Vec3],
+    triangles: &'a [[u32; 3]],
+    specs: &'a [ControlSpec],
     combine: Combine,
     phase: f64,
-    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
-    change: &dyn Fn(&mut ControlSpec),
-) -> Result<(usize, usize, f64)> {
-    let t = Instant::now();
-    let mut stages: Vec<FittedStage> = Vec::new();
-    for spec in specs {
-        let mut spec = spec.clone();
-        if spec.sweep.is_none() {
-            change(&mut spec);
+    groups: &'a dyn Fn(&str) -> Option<Vec<u32>>,
+}
+
+impl Edit<'_> {
+    /// Fits the specs (handles resolved) with every plain deformation
+    /// changed by `change` (its radius scaled, or made a sweep), and gives
+    /// the inside-out triangles at the phases given times `phase`, the
+    /// stages fitted and the milliseconds the fit and deformation took.
+    fn trial(&self, change: &dyn Fn(&mut ControlSpec)) -> Result<(usize, usize, f64)> {
+        let t = Instant::now();
+        let mut stages: Vec<FittedStage> = Vec::new();
+        for spec in self.specs {
+            let mut spec = spec.clone();
+            if spec.sweep.is_none() {
+                change(&mut spec);
+            }
+            stages.extend(spec.fit()?.into_iter().map(|s| {
+                let p = s.phase * self.phase;
+                s.with_phase(p)
+            }));
         }
-        stages.extend(spec.fit()?.into_iter().map(|s| {
-            let p = s.phase * phase;
-            s.with_phase(p)
-        }));
+        let moved = compose_with_groups(self.rest, &stages, self.combine, self.groups)?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        std::hint::black_box(moved);
+        let found = crate::folds(
+            self.rest,
+            self.triangles,
+            &stages,
+            self.combine,
+            self.groups,
+        )?;
+        Ok((found.triangles.len(), stages.len(), ms))
     }
-    let moved = compose_with_groups(rest, &stages, combine, groups)?;
-    let ms = t.elapsed().as_secs_f64() * 1e3;
-    std::hint::black_box(moved);
-    let found = crate::folds(rest, triangles, &stages, combine, groups)?;
-    Ok((found.triangles.len(), stages.len(), ms))
+
+    /// [`Edit::trial`] with every plain radius times `s`.
+    fn scaled(&self, s: f64) -> Result<(usize, usize, f64)> {
+        self.trial(&|spec: &mut ControlSpec| {
+            spec.options = spec.options.with_radius(spec.options.radius * s);
+        })
+    }
 }
 
 /// What would keep `specs` (resolved on `rest`) from turning faces of the
@@ -76,20 +94,22 @@ pub fn remedies(
     phase: f64,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<Remedies> {
-    let scaled = |s: f64| {
-        move |spec: &mut ControlSpec| {
-            spec.options = spec.options.with_radius(spec.options.radius * s);
-        }
+    let edit = Edit {
+        rest,
+        triangles,
+        specs,
+        combine,
+        phase,
+        groups,
     };
-    let try_scale = |s: f64| trial(rest, triangles, specs, combine, phase, groups, &scaled(s));
-    let (_, _, plain_ms) = try_scale(1.0)?;
+    let (_, _, plain_ms) = edit.scaled(1.0)?;
     // Grow until nothing folds, then bisect between the last that folded
     // and the first that did not. A radius that the engine refuses (too
     // large a system) counts as not found.
     let mut lo = 1.0;
     let mut found = None;
     for s in [1.25, 1.5, 2.0, 3.0, MOST_SCALE] {
-        match try_scale(s) {
+        match edit.scaled(s) {
             Ok((0, _, ms)) => {
                 found = Some((s, ms));
                 break;
@@ -101,7 +121,7 @@ pub fn remedies(
     if let Some((mut hi, mut ms)) = found {
         while hi - lo > 0.02 * lo {
             let mid = 0.5 * (lo + hi);
-            match try_scale(mid)? {
+            match edit.scaled(mid)? {
                 (0, _, t) => {
                     hi = mid;
                     ms = t;
@@ -113,7 +133,7 @@ pub fn remedies(
     }
     let sweep = if combine == Combine::Chain {
         let swept = |spec: &mut ControlSpec| spec.sweep = Some(crate::SweepOptions::default());
-        match trial(rest, triangles, specs, combine, phase, groups, &swept) {
+        match edit.trial(&swept) {
             Ok((_, steps, ms)) => Some((steps, ms)),
             Err(_) => None,
         }
@@ -136,21 +156,7 @@ mod tests {
     #[test]
     fn a_folding_pull_is_fixed_by_a_larger_radius_or_a_sweep() {
         // A 30 x 30 grid of triangles pulled hard at its middle.
-        let n = 30;
-        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-        let rest: Vec<Vec3> = (0..=n)
-            .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, j as f32, 0.0) / n as f32))
-            .collect();
-        let tris: Vec<[u32; 3]> = (0..n)
-            .flat_map(|j| {
-                (0..n).flat_map(move |i| {
-                    [
-                        [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                        [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                    ]
-                })
-            })
-            .collect();
+        let (rest, tris) = crate::testing::grid(30);
         let spec = ControlSpec::new(
             vec![DVec3::new(0.5, 0.5, 0.0)],
             vec![DVec3::new(0.8, 0.5, 0.0)],
@@ -174,21 +180,16 @@ mod tests {
             "{scale}"
         );
         // Checked: at that radius nothing folds, a little below something does.
-        let fold_count = |s: f64| {
-            trial(
-                &rest,
-                &tris,
-                std::slice::from_ref(&spec),
-                Combine::Chain,
-                1.0,
-                &none,
-                &|sp: &mut ControlSpec| sp.options = sp.options.with_radius(sp.options.radius * s),
-            )
-            .expect("trial")
-            .0
+        let edit = Edit {
+            rest: &rest,
+            triangles: &tris,
+            specs: std::slice::from_ref(&spec),
+            combine: Combine::Chain,
+            phase: 1.0,
+            groups: &none,
         };
-        assert_eq!(fold_count(scale), 0);
-        assert!(fold_count(scale / 1.05) > 0);
+        assert_eq!(edit.scaled(scale).expect("trial").0, 0);
+        assert!(edit.scaled(scale / 1.05).expect("trial").0 > 0);
         let (steps, _) = r.sweep.expect("a sweep");
         assert!(steps > 1);
     }

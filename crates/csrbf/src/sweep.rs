@@ -375,28 +375,9 @@ impl Deformation {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::Rng;
+    use crate::testing::{Rng, grid};
     use crate::{Combine, FittedStage, Kernel, Polynomial, compose, folds};
     use glam::{DMat3, Vec3};
-
-    /// A grid of triangles in the plane z = 0, `n` x `n` cells over [0, 1]^2.
-    fn grid(n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-        let v = (0..=n)
-            .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, j as f32, 0.0) / n as f32))
-            .collect();
-        let t = (0..n)
-            .flat_map(|j| {
-                (0..n).flat_map(move |i| {
-                    [
-                        [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                        [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                    ]
-                })
-            })
-            .collect();
-        (v, t)
-    }
 
     /// The spectral norm of G (power iteration on G^T G).
     fn spectral(g: DMat3) -> f64 {

@@ -188,21 +188,6 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
                 }
                 continue;
             }
-            if is_one_sweep(anim) {
-                for (st, full) in anim
-                    .stages
-                    .iter()
-                    .zip(sweep_targets(&obj.mesh.positions, anim))
-                {
-                    let d = written(&full);
-                    targets.push(json!({ "POSITION": b.floats(&d, 3, "VEC3", true) }));
-                    tracks.push(Weight {
-                        track: &anim.track,
-                        step: Some(st),
-                    });
-                }
-                continue;
-            }
             if exported_whole(anim) {
                 // A chain is not a sum of targets: one target, the whole
                 // chain at full phase (see `export_notes`).
