@@ -219,15 +219,12 @@ fn chain_dets(
 }
 
 fn chained(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -> Folds {
-    let all: Vec<usize> = (0..centroids.len()).collect();
-    let at_one = chain_dets(centroids, &all, stages, weights, 1.0);
-    let triangles: Vec<u32> = (0..at_one.len() as u32)
-        .filter(|&f| !(at_one[f as usize] > 0.0))
-        .collect();
-    // Every stage certified (|phase G| < 1 everywhere, over every point, as
-    // a sweep's steps are) and none blended by a region: no phase can fold,
-    // so there is nothing to scan for. The dets at the phases given are
-    // still measured above.
+    // Every stage certified (|phase G| < 1 everywhere in space, as a sweep's
+    // steps are) and none blended by a region: each stage's map is
+    // one-to-one at every phase, and so is their chain. Nothing can fold,
+    // and the check (k evaluations with gradients at every centroid) is not
+    // run: `crates/csrbf-py/bench/fold_truth.py` measures it against a dense
+    // reference instead.
     let certified = weights.iter().all(Option::is_none)
         && stages.iter().all(|s| {
             // A sweep's step can run in full whatever the sweep's phase.
@@ -238,12 +235,14 @@ fn chained(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights])
             };
             s.deformation.gradient_bound() * most < 1.0
         });
-    if certified && triangles.is_empty() {
-        return Folds {
-            triangles,
-            fold_phase: None,
-        };
+    if certified {
+        return Folds::default();
     }
+    let all: Vec<usize> = (0..centroids.len()).collect();
+    let at_one = chain_dets(centroids, &all, stages, weights, 1.0);
+    let triangles: Vec<u32> = (0..at_one.len() as u32)
+        .filter(|&f| !(at_one[f as usize] > 0.0))
+        .collect();
     // Scan s, then bisect the first bracket where some centroid folds.
     let mut lo = 0.0;
     let mut folded: Option<(f64, Vec<usize>)> = None;
