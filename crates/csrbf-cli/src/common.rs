@@ -92,6 +92,12 @@ pub fn fit_all(
         let at = stage_name(path, i, specs.len());
         warn_if_dense(s, &at);
         let t = Instant::now();
+        if s.starts.is_empty() {
+            // Work in progress (the reader warned): moves nothing, and the
+            // deformations after it keep their numbers.
+            out.extend(s.fit().with_context(|| at.clone())?);
+            continue;
+        }
         if let Some(options) = s.sweep {
             let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)
                 .map_err(with_large_hint)

@@ -106,6 +106,16 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
     let specs = resolve_all(&specs, path, mesh.as_ref(), &quiet)?;
     let mut stages = Vec::new();
     for (i, s) in specs.iter().enumerate() {
+        if s.starts.is_empty() {
+            // Work in progress: nothing to fit (the reader warned).
+            stages.push(json!({
+                "controls": 0,
+                "kernel": s.options.kernel.name(),
+                "radius": s.options.radius,
+                "polynomial": s.options.polynomial.name(),
+            }));
+            continue;
+        }
         let sys = System::new(&s.starts, s.options)
             .with_context(|| format!("{}: deformation {i}", path.display()))?;
         let st = sys.stats();

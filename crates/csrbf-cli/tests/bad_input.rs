@@ -126,10 +126,6 @@ fn bad_control_files() {
         ),
         (r#"{"radius": 1e999, "controls": []}"#, &["c.json"]),
         (
-            r#"{"radius": 1, "controls": []}"#,
-            &["controls", "no controls"],
-        ),
-        (
             r#"{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [0,0], "to": [0,0,0]}]}"#,
             &["controls[1].from", "three numbers"],
         ),

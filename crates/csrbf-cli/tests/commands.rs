@@ -414,3 +414,70 @@ fn what_the_studio_saves_csrbf_deform_turns_into_the_mesh_the_studio_shows() {
         "the edit moved the head"
     );
 }
+
+/// Issue 23, bug 1: a layer with no control vectors yet (the studio saves
+/// one before its first vector) is read, moves nothing and is said; the
+/// deformations after it keep their numbers in messages.
+#[test]
+fn a_layer_with_no_vectors_yet_is_read_and_said() {
+    let dir = TempDir::new("wip");
+    let head = model("cgal_head.off");
+    let wip = dir.write(
+        "wip.json",
+        r#"{"deformations": [{"radius": 2, "controls": []},
+            {"radius": 3, "controls": [{"from": [0, 12, 3], "to": [0, 12.3, 3]}]}]}"#,
+    );
+    let out = dir.path("w.ply");
+    let r = csrbf(&[
+        "deform",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&wip),
+        "--out",
+        arg(&out),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(
+        err.contains("deformations[0].controls: no control vectors yet"),
+        "{err}"
+    );
+    let only = dir.write(
+        "only.json",
+        r#"{"radius": 3, "controls": [{"from": [0, 12, 3], "to": [0, 12.3, 3]}]}"#,
+    );
+    let out2 = dir.path("o.ply");
+    ok(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&only),
+        "--out",
+        arg(&out2),
+    ]);
+    assert_eq!(
+        std::fs::read(&out).expect("w"),
+        std::fs::read(&out2).expect("o")
+    );
+    // An error in the layer after it names that layer by its number in the file.
+    let bad = dir.write(
+        "bad.json",
+        r#"{"deformations": [{"radius": 2, "controls": []},
+            {"radius": 3, "controls": [{"from": [0, 12, 3], "to": [0, 12.3, 3]}, {"from": [0, 12, 3], "to": [0, 12, 3]}]}]}"#,
+    );
+    fails(
+        &[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&bad),
+            "--out",
+            arg(&dir.path("b.ply")),
+        ],
+        &["deformations[1]", "controls 0 and 1"],
+    );
+}

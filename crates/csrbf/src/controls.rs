@@ -99,6 +99,14 @@ impl ControlSpec {
                 "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
             ));
         }
+        if self.starts.is_empty() && self.targets.is_empty() {
+            // Work in progress: no control vectors yet (the parser warned).
+            return Ok(vec![
+                crate::FittedStage::new(crate::Deformation::identity(self.options))
+                    .with_region(self.region.clone())
+                    .with_phase(self.phase),
+            ]);
+        }
         let Some(sweep) = self.sweep else {
             let d = System::new(&self.starts, self.options)?.solve(&self.targets)?;
             return Ok(vec![
@@ -593,9 +601,10 @@ fn vectors(
         .as_array()
         .ok_or_else(|| err(here, "expected a list of control vectors"))?;
     if list.is_empty() && !may_be_empty {
-        return Err(err(
-            here,
-            "no controls: give at least one {\"from\": [x, y, z], \"to\": [x, y, z]}",
+        // Work in progress (an editor saves a layer before its first
+        // vector): read, does nothing, and said.
+        warnings.push(format!(
+            "{here}: no control vectors yet: this deformation moves nothing until one is added"
         ));
     }
     let mut starts = Vec::with_capacity(list.len());
@@ -989,7 +998,6 @@ mod tests {
                 "radius: must be a finite number > 0",
             ),
             (r#"{"controls": []}"#, "radius: missing"),
-            (r#"{"radius": 1, "controls": []}"#, "controls: no controls"),
             (
                 r#"{"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}, {"from": [0,0], "to": [1,1,1]}]}"#,
                 "controls[1].from: expected three numbers",
@@ -1066,5 +1074,41 @@ mod tests {
                 .unwrap_or_default();
             assert!(e.contains(want), "{text}: {e:?} does not contain {want:?}");
         }
+    }
+
+    /// Issue 23: a layer with no control vectors yet (an editor saves it
+    /// before its first vector) is read, moves nothing, keeps the numbers of
+    /// the layers after it, round-trips through `.csrbf`, and is said.
+    #[test]
+    fn a_layer_with_no_vectors_yet_is_work_in_progress() {
+        let f = ControlFile::parse(
+            r#"{"deformations": [{"radius": 0.5, "kernel": "c4", "controls": []},
+                {"radius": 1, "controls": [{"from": [0,0,0], "to": [0,0,0.5]}]}]}"#,
+        )
+        .expect("parse");
+        assert_eq!(
+            f.warnings,
+            vec!["deformations[0].controls: no control vectors yet: this deformation moves nothing until one is added".to_owned()]
+        );
+        let stages: Vec<_> = f
+            .deformations
+            .iter()
+            .flat_map(|d| d.fit().expect("fit"))
+            .collect();
+        assert_eq!(stages.len(), 2);
+        let pts = vec![
+            glam::Vec3::new(0.1, 0.0, 0.0),
+            glam::Vec3::new(5.0, 5.0, 5.0),
+        ];
+        let alone = crate::compose(&pts, &stages[..1], Combine::Chain).expect("compose");
+        assert_eq!(alone, pts);
+        let both = crate::compose(&pts, &stages, Combine::Chain).expect("compose");
+        assert!(both[0].z > 0.3 && both[1] == pts[1]);
+        let back =
+            crate::format::decode(&crate::format::encode(&stages, Combine::Chain)).expect("decode");
+        assert_eq!(back.stages, stages);
+        // What a writer makes of it reads back the same.
+        let again = ControlFile::parse(&f.to_text()).expect("parse again");
+        assert_eq!(again.deformations, f.deformations);
     }
 }

@@ -141,6 +141,20 @@ impl Deformation {
         }
     }
 
+    /// The map that moves nothing: a layer with no control vectors yet (work
+    /// in progress in an editor), kept so that later layers keep their
+    /// numbers.
+    pub fn identity(options: FitOptions) -> Deformation {
+        Deformation::from_parts(
+            options.kernel,
+            options.radius,
+            Vec::new(),
+            Vec::new(),
+            None,
+            Vec::new(),
+        )
+    }
+
     /// A deformation of a system's shared starts and octree (no copy).
     pub(crate) fn from_shared(
         shared: &crate::system::Shared,
