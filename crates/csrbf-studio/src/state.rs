@@ -63,3 +63,30 @@ impl Document {
         self.controls.to_text()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 23, bug 1: what "save" writes for a document whose layer has no
+    /// control vector yet reads back with its radius, kernel and region, and
+    /// deforms (to nothing) in the CLI's library call.
+    #[test]
+    fn an_empty_layer_saves_and_reads_back_whole() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 8, 16);
+        let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.37);
+        doc.controls.deformations[0].options = doc.controls.deformations[0]
+            .options
+            .with_kernel(csrbf::Kernel::C6);
+        doc.controls.deformations[0].region = csrbf::Region::Sphere {
+            center: csrbf::glam::DVec3::ZERO,
+            radius: 0.5,
+        };
+        let back = ControlFile::parse(&doc.to_text()).expect("the studio's own file");
+        assert_eq!(back.deformations, doc.controls.deformations);
+        assert_eq!(back.warnings.len(), 1, "{:?}", back.warnings);
+        let mut moved = (*doc.mesh).clone();
+        csrbf_anim::apply::deform_mesh(&mut moved, &back, 1.0).expect("deform");
+        assert_eq!(moved.positions, doc.mesh.positions);
+    }
+}
