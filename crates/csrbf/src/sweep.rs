@@ -346,35 +346,95 @@ impl Deformation {
     /// [0, 1]: no face can fold.
     pub fn gradient_bound(&self) -> f64 {
         let radius = self.radius();
-        let g0 = self.affine_gradient_norm();
         let cell = radius / 4.0;
-        let reach = 5i64; // cells within R of a start's cell: R / (R/4) + 1
-        let kernel: Kernel = self.kernel();
-        let mut sums: HashMap<(i64, i64, i64), f64> = HashMap::new();
-        for (s, a) in self.starts().iter().zip(self.coefficients()) {
-            let weight = a.length();
-            if weight == 0.0 {
-                continue;
+        let (kernel, starts, alpha) = (self.kernel(), self.starts(), self.coefficients());
+        // Each half of the starts sums into its own map (two cores), then
+        // the smaller map is added into the larger.
+        let sums = |range: std::ops::Range<usize>| {
+            let mut sums: CellSums = HashMap::default();
+            for j in range {
+                add_to_cells(
+                    &mut sums,
+                    starts[j],
+                    alpha[j].length(),
+                    kernel,
+                    radius,
+                    cell,
+                );
             }
-            let home = (s / cell).floor();
-            let (hx, hy, hz) = (home.x as i64, home.y as i64, home.z as i64);
-            for dz in -reach..=reach {
-                for dy in -reach..=reach {
-                    for dx in -reach..=reach {
-                        let key = (hx + dx, hy + dy, hz + dz);
-                        let lo = DVec3::new(key.0 as f64, key.1 as f64, key.2 as f64) * cell;
-                        let nearest = s.clamp(lo, lo + DVec3::splat(cell));
-                        let r0 = s.distance(nearest) / radius;
-                        if r0 >= 1.0 {
-                            continue;
-                        }
-                        *sums.entry(key).or_insert(0.0) += weight * kernel.max_derivative_from(r0);
-                    }
+            sums
+        };
+        let half = starts.len() / 2;
+        let (mut a, mut b) = if starts.len() > 256 {
+            rayon::join(|| sums(0..half), || sums(half..starts.len()))
+        } else {
+            (sums(0..starts.len()), HashMap::default())
+        };
+        if a.len() < b.len() {
+            std::mem::swap(&mut a, &mut b);
+        }
+        for (key, v) in b {
+            *a.entry(key).or_insert(0.0) += v;
+        }
+        let most = a.values().copied().fold(0.0, f64::max);
+        self.affine_gradient_norm() + most / radius
+    }
+}
+
+/// Sums of |alpha| max|phi'| per cell of the bound's grid.
+type CellSums = HashMap<(i64, i64, i64), f64, std::hash::BuildHasherDefault<CellHasher>>;
+
+/// Adds one start's share to every cell of side `cell` within R of it.
+fn add_to_cells(
+    sums: &mut CellSums,
+    s: DVec3,
+    weight: f64,
+    kernel: Kernel,
+    radius: f64,
+    cell: f64,
+) {
+    if weight == 0.0 {
+        return;
+    }
+    // Cells within R of a start's cell: R / (R/4) + 1 each way.
+    let reach = 5i64;
+    let home = (s / cell).floor();
+    let (hx, hy, hz) = (home.x as i64, home.y as i64, home.z as i64);
+    for dz in -reach..=reach {
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let key = (hx + dx, hy + dy, hz + dz);
+                let lo = DVec3::new(key.0 as f64, key.1 as f64, key.2 as f64) * cell;
+                let nearest = s.clamp(lo, lo + DVec3::splat(cell));
+                let r0 = s.distance(nearest) / radius;
+                if r0 < 1.0 {
+                    *sums.entry(key).or_insert(0.0) += weight * kernel.max_derivative_from(r0);
                 }
             }
         }
-        let most = sums.values().copied().fold(0.0, f64::max);
-        g0 + most / radius
+    }
+}
+
+/// A fast hash of a cell's three coordinates (the map's keys are not
+/// chosen by anyone who could make them collide on purpose).
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+    fn write_i64(&mut self, v: i64) {
+        // One round of a multiply-rotate mix per coordinate.
+        self.0 = (self.0.rotate_left(23) ^ v as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.write_i64(v as i64);
     }
 }
 
