@@ -30,9 +30,26 @@ fi
 scripts/build-windows.sh "${build_args[@]}"
 tdir="${CSRBF_WINDOWS_TARGET_DIR:-$PWD/target-windows}"
 exe_dir="$tdir/x86_64-pc-windows-gnu/$([ "${1:-}" = "--dev" ] && echo debug || echo release)"
-# The Linux binary of this same commit (the dev profile `cargo test` builds: no rebuild there).
-cargo build --locked -q -p csrbf-cli
-linux="${CARGO_TARGET_DIR:-$PWD/target}/debug/csrbf"
+# The Linux binary of this same commit and the CLI's test binary, as
+# scripts/test.sh's `cargo test --workspace` built them (the same command and
+# settings, so nothing is rebuilt after it).
+export PYO3_BUILD_EXTENSION_MODULE=1
+built=$(cargo test --workspace --locked --no-run -q --message-format=json-render-diagnostics | python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") != "compiler-artifact" or not m.get("executable"):
+        continue
+    t = m["target"]
+    if m["package_id"].split("#")[0].endswith("/csrbf-cli"):
+        if t["kind"] == ["bin"] and t["name"] == "csrbf":
+            print("linux=" + m["executable"])
+        elif t["kind"] == ["test"] and t["name"] == "tests":
+            print("cli_tests=" + m["executable"])
+')
+linux=$(echo "$built" | sed -n 's/^linux=//p')
+cli_tests=$(echo "$built" | sed -n 's/^cli_tests=//p')
+[ -x "$linux" ] && [ -x "$cli_tests" ] || { echo "test-windows: cargo test --no-run gave no csrbf or CLI tests: $built" >&2; exit 1; }
 
 # The test helpers for Wine, and a prefix of our own.
 wine_dir="$tdir/wine"
@@ -59,6 +76,6 @@ xvfb=$!
 trap 'kill $xvfb 2>/dev/null || true; wineserver -k 2>/dev/null || true' EXIT
 read -r -t 30 number <&3 || { echo "test-windows: Xvfb did not start" >&2; exit 1; }
 start=$(date +%s)
-python3 scripts/windows/compare.py --linux "$linux" --exe-dir "$exe_dir" --work "$work" \
+python3 scripts/windows/compare.py --linux "$linux" --cli-tests "$cli_tests" --exe-dir "$exe_dir" --work "$work" \
   --prefix "$WINEPREFIX" --display ":$number"
 echo "test-windows: the comparisons took $(( $(date +%s) - start )) s"

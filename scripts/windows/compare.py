@@ -307,13 +307,12 @@ def pictures(p, lin, win):
                                  os.path.join(win, sub, f), (160, 120))
 
 
-def bad_inputs(env):
+def bad_inputs(env, cli_tests):
     """The CLI's bad-input tests, as they are, against csrbf.exe."""
     e = dict(env)
     e["CSRBF_TEST_EXE"] = os.path.join(e.pop("CSRBF_EXE_DIR"), "csrbf.exe")
     e["CSRBF_TEST_RUNNER"] = "wine"
-    r = subprocess.run(["cargo", "test", "--locked", "-p", "csrbf-cli", "--test", "tests",
-                        "bad_input::", "--", "--test-threads", "2"], cwd=ROOT, env=e,
+    r = subprocess.run([cli_tests, "bad_input::", "--test-threads", "2"], cwd=ROOT, env=e,
                        capture_output=True, text=True)
     summary = [line for line in r.stdout.splitlines() if line.startswith("test ")]
     check(r.returncode == 0 and any("bad_input::" in line for line in summary),
@@ -485,8 +484,12 @@ def studio(p, base, display):
         check(alive, f"studio ({what}) runs", "" if alive else open(log.name).read()[-800:])
         check(drawn, f"studio ({what}) draws the head (screenshot {shot})")
     recent = os.path.join(appdata, "recent.txt")
-    check(os.path.isfile(recent), "the studio keeps its recent files in %APPDATA%\\csrbf-studio",
-          recent)
+    if check(os.path.isfile(recent), "the studio keeps its recent files in %APPDATA%\\csrbf-studio",
+             recent):
+        with open(recent, encoding="utf-8") as f:
+            lines = f.read().splitlines()
+        check(len(lines) == 2 and all(line.startswith("Z:\\") for line in lines),
+              "the recent files are plain Windows paths (no \\\\?\\)", "; ".join(lines))
 
 
 def head_drawn(png):
@@ -506,6 +509,7 @@ def head_drawn(png):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--linux", required=True, help="the Linux csrbf of this commit")
+    ap.add_argument("--cli-tests", required=True, help="the CLI's test binary (tests/tests.rs)")
     ap.add_argument("--exe-dir", required=True, help="folder of csrbf.exe and csrbf-studio.exe")
     ap.add_argument("--work", required=True, help="a scratch folder (emptied)")
     ap.add_argument("--prefix", required=True, help="the Wine prefix to use (made if missing)")
@@ -531,7 +535,7 @@ def main():
     pictures(p, lin, win)
     windows_paths(p, base, lin, win, tol)
     ffmpeg_lookup(p, base, win)
-    bad_inputs(env)
+    bad_inputs(env, a.cli_tests)
     if not a.skip_studio:
         studio(p, base, a.display)
     if failures:
