@@ -42,7 +42,7 @@ for line in sys.stdin:
         continue
     t = m["target"]
     if m["package_id"].split("#")[0].endswith("/csrbf-cli"):
-        if t["kind"] == ["bin"] and t["name"] == "csrbf":
+        if t["kind"] == ["bin"] and t["name"] == "csrbf" and not m["profile"]["test"]:
             print("linux=" + m["executable"])
         elif t["kind"] == ["test"] and t["name"] == "tests":
             print("cli_tests=" + m["executable"])
