@@ -36,14 +36,5 @@ cp "$wheel" "$stage/wheels/"
 mkdir -p dist
 out="dist/csrbf_blender-$version.zip"
 # Whole or not at all: packed beside the target, then renamed.
-python3 - "$stage" "$out.tmp" <<'PY'
-import os, sys, zipfile
-stage, out = sys.argv[1], sys.argv[2]
-with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
-    for root, _, files in os.walk(stage):
-        for f in sorted(files):
-            path = os.path.join(root, f)
-            z.write(path, os.path.relpath(path, stage))
-PY
-mv "$out.tmp" "$out"
+python3 scripts/zip_folder.py "$stage" "$out"
 echo "build-blender-extension: wrote $out ($(du -h "$out" | cut -f1), wheel $name)"

@@ -26,6 +26,7 @@ pub mod camera;
 pub mod demos;
 mod export;
 mod file;
+pub mod path;
 mod rotation;
 mod scene;
 mod spline;

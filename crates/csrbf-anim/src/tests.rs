@@ -66,6 +66,30 @@ fn a_scene_round_trips_through_its_file() {
     }
 }
 
+/// Issue 22: a scene written on Windows (backslashes, files in other
+/// folders) opens here, and frames the same as the one written with `/`.
+#[test]
+fn a_scene_written_on_windows_opens_here() {
+    let d = Dir::new("windows-paths");
+    std::fs::create_dir_all(d.0.join("models")).expect("dir");
+    std::fs::create_dir_all(d.0.join("scenes")).expect("dir");
+    std::fs::rename(d.0.join("head.off"), d.0.join("models/head.off")).expect("move");
+    let scene = |sep: &str| {
+        let text = GOOD
+            .replace("\"head.off\"", &format!("\"..{sep}models{sep}head.off\""))
+            .replace("\"smile.json\"", &format!("\"..{sep}smile.json\""))
+            .replace('\\', "\\\\");
+        let p = d.0.join("scenes/s.scene.json");
+        std::fs::write(&p, text).expect("write");
+        Scene::load(&p).expect("load")
+    };
+    let (windows, unix) = (scene("\\"), scene("/"));
+    assert_eq!(
+        windows.frame(0.7).objects[0].positions,
+        unix.frame(0.7).objects[0].positions
+    );
+}
+
 #[test]
 fn frames_move_deform_and_turn() {
     let d = Dir::new("frames");

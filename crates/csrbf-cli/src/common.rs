@@ -245,21 +245,10 @@ pub fn check_output(out: &Path, inputs: &[&Path], force: bool, mesh: bool) -> Re
     Ok(())
 }
 
-/// Whether two paths name one file (a hard link too): same device and inode.
+/// Whether two paths name one file (a hard link too): the same device and
+/// inode on Unix, volume and file index on Windows.
 fn same_file(a: &Path, b: &Path) -> bool {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        match (std::fs::metadata(a), std::fs::metadata(b)) {
-            (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
-            _ => false,
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = (a, b);
-        false
-    }
+    same_file::is_same_file(a, b).unwrap_or(false)
 }
 
 /// Removes temporaries an earlier, killed run left beside `out`.

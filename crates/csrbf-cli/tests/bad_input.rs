@@ -401,8 +401,11 @@ fn odd_outputs_and_degenerate_meshes() {
         "--size",
         "32x24",
     ]);
-    // A missing input: the system's message once.
+    // A missing input: the system's message once (its words are the
+    // system's: "No such file or directory" here, "The system cannot find
+    // the file specified." from csrbf.exe, issue 22).
     let r = csrbf(&["info", "--mesh", arg(&dir.path("missing.obj"))]);
     let err = String::from_utf8_lossy(&r.stderr);
-    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+    assert_eq!(err.matches("(os error 2)").count(), 1, "{err}");
+    assert!(err.contains("missing.obj"), "{err}");
 }

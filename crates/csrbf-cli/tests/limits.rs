@@ -85,7 +85,7 @@ fn an_interrupted_movie_leaves_nothing_and_stale_temporaries_are_swept() {
     let scene = dir.path("d/ball/ball.scene.json");
     for out in ["m.gif", "frames/", "m.mp4"] {
         let target = dir.path(out);
-        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_csrbf"))
+        let mut child = command()
             .args([
                 "animate",
                 arg(&scene),

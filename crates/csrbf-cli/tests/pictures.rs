@@ -160,7 +160,7 @@ fn animate_writes_gif_frames_and_mp4_whole() {
         assert_eq!(&bytes[4..8], b"ftyp");
     }
     // Without ffmpeg: a clear message suggesting GIF or frames, and no file.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_csrbf"))
+    let out = command()
         .env("CSRBF_FFMPEG", "/nonexistent/ffmpeg")
         .args([
             "animate",

@@ -94,10 +94,22 @@ pub fn all_models() -> Vec<PathBuf> {
 }
 
 pub fn csrbf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_csrbf"))
-        .args(args)
-        .output()
-        .expect("run csrbf")
+    command().args(args).output().expect("run csrbf")
+}
+
+/// The `csrbf` under test: the one built with these tests or, when
+/// `CSRBF_TEST_EXE` names another, that one run by `CSRBF_TEST_RUNNER` (how
+/// scripts/test_windows.py runs the bad-input tests on `csrbf.exe` under Wine).
+pub fn command() -> Command {
+    match std::env::var_os("CSRBF_TEST_EXE") {
+        Some(exe) => {
+            let runner = std::env::var_os("CSRBF_TEST_RUNNER").unwrap_or_else(|| "wine".into());
+            let mut c = Command::new(runner);
+            c.arg(exe);
+            c
+        }
+        None => Command::new(env!("CARGO_BIN_EXE_csrbf")),
+    }
 }
 
 pub fn arg(p: &Path) -> &str {

@@ -190,13 +190,41 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        drop(f);
+        replace(&tmp, path)
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     untrack_temp(&tmp);
     result.map_err(io)
+}
+
+/// Moves the finished temporary `tmp` over `path` (a rename: whole or not
+/// at all). Windows refuses to replace a file that another program holds
+/// open (an image viewer, a DCC tool); the error then says so and that the
+/// old file is kept, instead of the bare "Access is denied".
+pub fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
+    std::fs::rename(tmp, path).map_err(|e| {
+        if held_open(&e) && path.exists() {
+            std::io::Error::new(
+                e.kind(),
+                format!(
+                    "another program has it open, so it cannot be replaced \
+                     (close it there and try again); the old file is kept ({e})"
+                ),
+            )
+        } else {
+            e
+        }
+    })
+}
+
+/// Whether a failed rename means the target is held open by another
+/// program: Windows' access denied (5), sharing (32) and lock (33)
+/// violations. A rename over an open file never fails on Unix.
+fn held_open(e: &std::io::Error) -> bool {
+    cfg!(windows) && matches!(e.raw_os_error(), Some(5 | 32 | 33))
 }
 
 impl Mesh {

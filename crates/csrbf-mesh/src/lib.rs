@@ -38,7 +38,7 @@ pub use geometry::{
     vertex_normals,
 };
 pub use io::{
-    Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, temp_beside,
+    Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, replace, temp_beside,
     track_temp, untrack_temp, write, write_atomic,
 };
 

@@ -61,12 +61,19 @@ pub enum RenderError {
     /// The caller stopped the work; nothing was left on disk.
     #[error("cancelled")]
     Cancelled,
-    /// ffmpeg is not installed.
+    /// ffmpeg is not installed (not on the PATH).
     #[error(
-        "ffmpeg was not found, so MP4 cannot be written: install it (Debian: apt-get install ffmpeg), or write a GIF (--out movie.gif) or frames (--out frames/)"
+        "ffmpeg was not found, so MP4 cannot be written: {FFMPEG_HINT}, or write a GIF (--out movie.gif) or frames (--out frames/)"
     )]
     NoFfmpeg,
 }
+
+/// How to get ffmpeg, on this platform.
+const FFMPEG_HINT: &str = if cfg!(windows) {
+    "put ffmpeg.exe in a folder on the PATH (builds at ffmpeg.org/download.html), or name it with the CSRBF_FFMPEG variable"
+} else {
+    "install it (Debian: apt-get install ffmpeg)"
+};
 
 /// The crate's result type.
 pub type Result<T, E = RenderError> = std::result::Result<T, E>;

@@ -85,9 +85,23 @@ pub struct MovieWriter {
     frames: usize,
 }
 
-/// The ffmpeg program: `CSRBF_FFMPEG` if set, else `ffmpeg` on the PATH.
-fn ffmpeg() -> String {
-    std::env::var("CSRBF_FFMPEG").unwrap_or_else(|_| "ffmpeg".into())
+/// The ffmpeg program: `CSRBF_FFMPEG` if set, else `ffmpeg` (`ffmpeg.exe`
+/// on Windows) in a folder of the PATH.
+fn ffmpeg() -> Result<PathBuf> {
+    if let Some(p) = std::env::var_os("CSRBF_FFMPEG") {
+        return Ok(PathBuf::from(p));
+    }
+    find_on_path("ffmpeg", std::env::var_os("PATH").as_deref()).ok_or(RenderError::NoFfmpeg)
+}
+
+/// The program `name` (with the platform's executable suffix, `.exe` on
+/// Windows) in the first folder of `path` (a PATH value) that holds it.
+fn find_on_path(name: &str, path: Option<&std::ffi::OsStr>) -> Option<PathBuf> {
+    let file = format!("{name}{}", std::env::consts::EXE_SUFFIX);
+    std::env::split_paths(path?)
+        .filter(|d| !d.as_os_str().is_empty())
+        .map(|d| d.join(&file))
+        .find(|p| p.is_file())
 }
 
 impl MovieWriter {
@@ -108,7 +122,7 @@ impl MovieWriter {
         let sink = match format {
             MovieFormat::Mp4 => {
                 let tmp_mp4 = tmp.with_extension("tmp.mp4");
-                let child = Command::new(ffmpeg())
+                let child = Command::new(ffmpeg()?)
                     .args([
                         "-hide_banner",
                         "-loglevel",
@@ -259,19 +273,19 @@ impl MovieWriter {
                         String::from_utf8_lossy(&out.stderr).trim()
                     )));
                 }
-                std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
+                csrbf_mesh::replace(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
             }
             Some(Sink::Gif { encoder }) => {
                 let file = encoder.into_inner().map_err(|e| io(&self.path, e))?;
                 file.sync_all().map_err(|e| io(&self.path, e))?;
                 drop(file);
-                std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
+                csrbf_mesh::replace(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
             }
             Some(Sink::Frames { .. }) => {
                 if self.path.is_dir() {
                     std::fs::remove_dir(&self.path).map_err(|e| io(&self.path, e))?;
                 }
-                std::fs::rename(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
+                csrbf_mesh::replace(&self.tmp, &self.path).map_err(|e| io(&self.path, e))?;
             }
             None => {}
         }
@@ -451,4 +465,29 @@ pub fn render_movie(
         frames,
         fell_back,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::find_on_path;
+
+    #[test]
+    fn ffmpeg_is_found_in_the_first_path_folder_that_holds_it() {
+        let base = std::env::temp_dir().join(format!("csrbf-path-{}", std::process::id()));
+        let (a, b, c) = (base.join("a"), base.join("b b"), base.join("c"));
+        for d in [&a, &b, &c] {
+            std::fs::create_dir_all(d).expect("dir");
+        }
+        let exe = format!("ffmpeg{}", std::env::consts::EXE_SUFFIX);
+        // A folder named like the program is not it.
+        std::fs::create_dir_all(a.join(&exe)).expect("dir");
+        std::fs::write(b.join(&exe), b"").expect("write");
+        std::fs::write(c.join(&exe), b"").expect("write");
+        let path = std::env::join_paths([&a, &b, &c]).expect("path");
+        assert_eq!(find_on_path("ffmpeg", Some(&path)), Some(b.join(&exe)));
+        assert_eq!(find_on_path("ffmpeg", None), None);
+        let only_a = std::env::join_paths([&a]).expect("path");
+        assert_eq!(find_on_path("ffmpeg", Some(&only_a)), None);
+        let _ = std::fs::remove_dir_all(&base);
+    }
 }

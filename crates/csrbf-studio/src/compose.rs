@@ -220,7 +220,7 @@ impl SceneDoc {
 
     /// A path the scene names (mesh, texture, control file), resolved.
     pub fn resolve(&self, named: &str) -> PathBuf {
-        self.dir().join(named)
+        csrbf_anim::path::resolve(&self.dir(), named)
     }
 
     /// How the scene names `path`: relative to its folder once it has one,

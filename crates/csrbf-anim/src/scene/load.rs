@@ -174,7 +174,7 @@ pub(super) fn load_object(
     at: &dyn Fn(&str) -> String,
     warnings: &mut Vec<String>,
 ) -> Result<Object> {
-    let mesh_path = dir.join(&of.mesh);
+    let mesh_path = crate::path::resolve(dir, &of.mesh);
     let mut mesh = assets
         .mesh(&mesh_path)
         .map_err(|e| scene_err(at("mesh"), e))?;
@@ -443,9 +443,10 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
         // A part selected by a material of the mesh takes that material's
         // embedded image (glTF) when the scene names none.
         None => embedded_texture(mesh, &pf.select),
-        Some(t) => {
-            Some(load_texture(&dir.join(t)).map_err(|e| scene_err(at("texture"), e.to_string()))?)
-        }
+        Some(t) => Some(
+            load_texture(&crate::path::resolve(dir, t))
+                .map_err(|e| scene_err(at("texture"), e.to_string()))?,
+        ),
     };
     Ok(Part {
         name: pf.name.clone(),
@@ -494,7 +495,7 @@ fn load_deformation(
     assets: &Assets,
     at: &dyn Fn(&str) -> String,
 ) -> Result<Animated> {
-    let path = dir.join(&df.controls);
+    let path = crate::path::resolve(dir, &df.controls);
     let cf = assets
         .controls(&path)
         .map_err(|e| scene_err(at("controls"), e))?;

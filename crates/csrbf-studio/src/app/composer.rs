@@ -225,7 +225,7 @@ impl Composer {
         }
         let dir = self.doc.dir();
         for o in &file.objects {
-            let p = dir.join(&o.mesh);
+            let p = csrbf_anim::path::resolve(&dir, &o.mesh);
             if !self.read.contains(&p)
                 && let Ok(m) = csrbf_mesh::read(&p)
             {

@@ -315,16 +315,18 @@ impl FileDialog {
 }
 
 /// Where the app keeps its recent files and recovery file by default:
-/// `$CSRBF_STUDIO_STATE`, else `$XDG_STATE_HOME/csrbf-studio`, else
-/// `~/.local/state/csrbf-studio`.
+/// `$CSRBF_STUDIO_STATE`, else the platform's place for them (the `dirs`
+/// convention) with `csrbf-studio` under it: on Linux `$XDG_STATE_HOME`,
+/// else `~/.local/state`; on Windows `%APPDATA%` (the roaming application
+/// data, `C:\Users\NAME\AppData\Roaming`); on macOS `~/Library/Application
+/// Support`.
 pub fn state_dir() -> Option<PathBuf> {
     if let Some(d) = std::env::var_os("CSRBF_STUDIO_STATE") {
         return Some(PathBuf::from(d));
     }
-    if let Some(d) = std::env::var_os("XDG_STATE_HOME").filter(|d| !d.is_empty()) {
-        return Some(PathBuf::from(d).join("csrbf-studio"));
-    }
-    std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state/csrbf-studio"))
+    dirs::state_dir()
+        .or_else(dirs::data_dir)
+        .map(|d| d.join("csrbf-studio"))
 }
 
 /// The recent files, newest first (at most 10).
@@ -347,7 +349,7 @@ pub fn remember(dir: Option<&Path>, path: &Path) {
     let Some(dir) = dir else {
         return;
     };
-    let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let path = canonical(path);
     let mut list = recent_files(Some(dir));
     list.retain(|p| *p != path);
     list.insert(0, path);
@@ -355,6 +357,22 @@ pub fn remember(dir: Option<&Path>, path: &Path) {
     let text: String = list.iter().map(|p| format!("{}\n", p.display())).collect();
     let _ = std::fs::create_dir_all(dir);
     let _ = csrbf_mesh::write_atomic(&dir.join("recent.txt"), text.as_bytes());
+}
+
+/// `path` absolute with its links resolved, as people write it: Windows'
+/// canonical form `\\?\C:\...` (what `canonicalize` gives there) without
+/// its `\\?\`, which the recent files would otherwise show.
+pub fn canonical(path: &Path) -> PathBuf {
+    let p = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    without_verbatim(p)
+}
+
+/// `\\?\C:\x` as `C:\x`; any other path as it is.
+fn without_verbatim(p: PathBuf) -> PathBuf {
+    match p.to_str().and_then(|s| s.strip_prefix(r"\\?\")) {
+        Some(rest) if rest.as_bytes().get(1) == Some(&b':') => PathBuf::from(rest),
+        _ => p,
+    }
 }
 
 /// The unsaved session kept in case the app dies: the mesh's path, the
@@ -469,4 +487,24 @@ fn write_in_background(path: PathBuf, bytes: Vec<u8>) {
             }
             let _ = csrbf_mesh::write_atomic(&path, &bytes);
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_windows_canonical_path_loses_its_verbatim_prefix() {
+        let p = |s: &str| PathBuf::from(s);
+        assert_eq!(
+            without_verbatim(p(r"\\?\C:\scenes\face.json")),
+            p(r"C:\scenes\face.json")
+        );
+        // A share (\\?\UNC\...) and a Unix path stay as they are.
+        assert_eq!(without_verbatim(p(r"\\?\UNC\host\x")), p(r"\\?\UNC\host\x"));
+        assert_eq!(
+            without_verbatim(p("/home/a/face.json")),
+            p("/home/a/face.json")
+        );
+    }
 }

@@ -1394,8 +1394,7 @@ impl eframe::App for StudioApp {
             let text = m.doc.to_text();
             if m.recovered_text != text {
                 Recovery {
-                    mesh: std::fs::canonicalize(&m.doc.mesh_path)
-                        .unwrap_or_else(|_| m.doc.mesh_path.clone()),
+                    mesh: files::canonical(&m.doc.mesh_path),
                     controls_path: m.controls_path.clone(),
                     controls: text.clone(),
                 }
