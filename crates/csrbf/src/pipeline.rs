@@ -26,6 +26,7 @@ use crate::system::{FitOptions, System};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+#[non_exhaustive]
 pub enum Combine {
     /// Each deformation moves the points the ones before it moved (the
     /// papers' VTK pipeline; the default): later starts are in deformed
@@ -68,6 +69,7 @@ impl std::str::FromStr for Combine {
 
 /// One deformation of a pipeline, as the user describes it.
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct Stage {
     /// Start points of the control vectors.
     pub starts: Vec<DVec3>,
