@@ -40,7 +40,7 @@ impl Drop for TempDir {
 }
 
 // Where the real models are: one copy for every crate's tests.
-pub use csrbf_testkit::{all_models, bundled_dir, model, root};
+pub use csrbf_testkit::{all_models, model, root};
 
 pub fn csrbf(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_csrbf"))

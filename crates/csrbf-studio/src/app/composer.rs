@@ -1487,7 +1487,7 @@ impl StudioApp {
             size,
             ppp,
         };
-        if hovered && c.navigate(&input, v, &px_of) {
+        if hovered && c.navigate(&input, v, px_of) {
             return;
         }
         let Some(pos) = input.pos else {
