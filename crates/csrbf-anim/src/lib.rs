@@ -21,6 +21,10 @@
 //! assert_eq!(t.position(1.0), DVec3::X);
 //! ```
 
+// `unwrap` only in tests (clippy.toml allows it there); library code says
+// why a value is there with `expect`, or handles its absence.
+#![warn(clippy::unwrap_used)]
+
 pub mod apply;
 pub mod camera;
 pub mod demos;
@@ -38,9 +42,9 @@ pub use export::{export_gltf, export_notes};
 pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{
-    Animated, Assets, BoundStage, Contact, DEFAULT_PART_COLOR, Frame, FrameObject, MAX_FPS,
-    MAX_FRAMES, MAX_SIDE, Object, Part, Scene, Texture, TextureError, decode_texture, frame_count,
-    load_texture,
+    Animated, AssetError, Assets, BoundStage, Contact, DEFAULT_PART_COLOR, Frame, FrameObject,
+    MAX_FPS, MAX_FRAMES, MAX_SIDE, Object, Part, Scene, Texture, TextureError, decode_texture,
+    frame_count, load_texture,
 };
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};

@@ -39,59 +39,8 @@ impl Drop for TempDir {
     }
 }
 
-pub fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// The models bundled in the repository: every test can use these.
-pub fn bundled_dir() -> PathBuf {
-    root().join("assets/models")
-}
-
-/// A real model by file name: the bundled copy, else the shared folder's.
-/// A test that names a model neither holds fails saying so (never skips).
-pub fn model(name: &str) -> PathBuf {
-    let bundled = bundled_dir().join(name);
-    if bundled.is_file() {
-        return bundled;
-    }
-    let shared = root().join("../shared/models").join(name);
-    assert!(
-        shared.is_file(),
-        "model {name} is neither bundled (assets/models) nor in ../shared/models"
-    );
-    shared
-}
-
-/// Every real model: the bundled ones, and those of `../shared/models` as an
-/// extra when that folder is beside the checkout (said on standard error).
-pub fn all_models() -> Vec<PathBuf> {
-    let list = |dir: &Path| -> Vec<PathBuf> {
-        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
-            .unwrap_or_default();
-        v.retain(|p| csrbf_mesh::Format::from_path(p).is_ok());
-        v.sort();
-        v
-    };
-    let mut models = list(&bundled_dir());
-    let shared = root().join("../shared/models");
-    if shared.is_dir() {
-        let extra: Vec<PathBuf> = list(&shared)
-            .into_iter()
-            .filter(|p| !models.iter().any(|m| m.file_name() == p.file_name()))
-            .collect();
-        eprintln!(
-            "also using {} models from {}",
-            extra.len(),
-            shared.display()
-        );
-        models.extend(extra);
-    } else {
-        eprintln!("{} not found: the bundled models only", shared.display());
-    }
-    models
-}
+// Where the real models are: one copy for every crate's tests.
+pub use csrbf_testkit::{all_models, model, root};
 
 pub fn csrbf(args: &[&str]) -> Output {
     command().args(args).output().expect("run csrbf")

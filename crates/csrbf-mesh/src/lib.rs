@@ -22,6 +22,10 @@
 //! # Ok::<(), csrbf_mesh::MeshError>(())
 //! ```
 
+// `unwrap` only in tests (clippy.toml allows it there); library code says
+// why a value is there with `expect`, or handles its absence.
+#![warn(clippy::unwrap_used)]
+
 pub mod bvh;
 mod error;
 /// The file formats.
@@ -29,6 +33,7 @@ pub mod formats;
 mod geometry;
 mod io;
 pub mod shapes;
+mod stand_in;
 
 pub use bvh::{Bvh, Hit, Ray};
 pub use error::{MeshError, Result};
@@ -41,6 +46,7 @@ pub use io::{
     Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, replace, temp_beside,
     track_temp, untrack_temp, write, write_atomic,
 };
+pub use stand_in::StandIn;
 
 use glam::{Vec2, Vec3};
 

@@ -17,6 +17,10 @@
 //! `ValueError`) carrying the whole message chain; a wrong shape or length is
 //! a plain `ValueError` naming the argument, non-numeric input a `TypeError`.
 
+// `unwrap` only in tests (clippy.toml allows it there); library code says
+// why a value is there with `expect`, or handles its absence.
+#![warn(clippy::unwrap_used)]
+
 use pyo3::prelude::*;
 
 pub mod arrays;

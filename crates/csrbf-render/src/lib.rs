@@ -7,6 +7,10 @@
 //! [`movie`] writes frames as MP4 (through ffmpeg), GIF (pure Rust) or a
 //! folder of PNGs, whole or not at all. No numerics live here.
 
+// `unwrap` only in tests (clippy.toml allows it there); library code says
+// why a value is there with `expect`, or handles its absence.
+#![warn(clippy::unwrap_used)]
+
 pub mod image;
 pub mod movie;
 mod renderer;

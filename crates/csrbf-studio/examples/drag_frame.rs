@@ -20,8 +20,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use csrbf::glam::{DVec3, Vec3};
+use csrbf_mesh::StandIn;
 use csrbf_render::{DrawOptions, Renderer, SceneRenderer, View, default_lights};
-use csrbf_studio::app::StandIn;
 use csrbf_studio::{Command, Document, History, Live, Orbit, Preview, pick_surface};
 
 const SIZE: [u32; 2] = [1280, 800];

@@ -306,6 +306,74 @@ impl Command {
         }
     }
 
+    /// The selected controls (or every control of the active layer when
+    /// none is selected) mirrored across the plane through the mesh's
+    /// centre normal to `axis` (0 X, 1 Y, 2 Z), as one step of new
+    /// controls; with how many. A start on the plane is its own image, and
+    /// an image already there is not added twice: None when nothing is left.
+    pub fn mirror(doc: &Document, axis: usize) -> Option<(Command, usize)> {
+        let (lo, hi) = doc.mesh.bounds()?;
+        let centre = ((lo + hi) * 0.5).as_dvec3();
+        let l = doc.active_layer;
+        let sel: Vec<(usize, usize)> = if doc.selection.0.is_empty() {
+            let n = doc.controls.deformations.get(l)?.starts.len();
+            (0..n).map(|i| (l, i)).collect()
+        } else {
+            doc.selection.0.clone()
+        };
+        let flip = |p: DVec3| {
+            let mut q = p;
+            q[axis] = 2.0 * centre[axis] - p[axis];
+            q
+        };
+        let mut batch = Vec::new();
+        for &(layer, i) in &sel {
+            let s = doc.controls.deformations.get(layer)?;
+            let (a, b) = (flip(*s.starts.get(i)?), flip(*s.targets.get(i)?));
+            let r = s.options.radius;
+            let taken = s.starts.iter().any(|p| p.distance(a) < 1e-6 * r.max(1e-12));
+            if !taken {
+                batch.push(Command::add(layer, a, b));
+            }
+        }
+        let n = batch.len();
+        (n > 0).then_some((Command::Batch(batch), n))
+    }
+
+    /// The vertices chosen with the vertex tool made what `target` says,
+    /// from the active layer `spec`: a new layer after the others holding a
+    /// handle that selects them (its controls and region cleared), or the
+    /// active layer with them as its anchor or its region.
+    pub fn use_vertices(
+        doc: &Document,
+        spec: &csrbf::controls::ControlSpec,
+        vertices: Vec<u32>,
+        target: crate::tools::VertexTarget,
+    ) -> Command {
+        use crate::tools::VertexTarget;
+        let chosen = csrbf::Region::Vertices(vertices);
+        let mut new = spec.clone();
+        match target {
+            VertexTarget::Handle => {
+                new.starts.clear();
+                new.targets.clear();
+                new.region = csrbf::Region::All;
+                new.anchor = None;
+                new.handle = Some(csrbf::Handle::new(chosen));
+                return Command::InsertLayer {
+                    layer: doc.controls.deformations.len(),
+                    spec: Box::new(new),
+                };
+            }
+            VertexTarget::Anchor => new.anchor = Some(chosen),
+            VertexTarget::Region => new.region = chosen,
+        }
+        Command::ReplaceLayer {
+            layer: doc.active_layer,
+            spec: Box::new(new),
+        }
+    }
+
     /// Moves layer `from` to position `to` (both existing indices), as one step.
     pub fn move_layer(doc: &Document, from: usize, to: usize) -> Option<Command> {
         let spec = doc.controls.deformations.get(from)?.clone();
@@ -421,6 +489,63 @@ mod tests {
             PathBuf::from("s.obj"),
             0.5,
         )
+    }
+
+    #[test]
+    fn mirror_adds_each_image_once_and_none_for_a_start_on_the_plane() {
+        let mut d = doc();
+        let mut h = History::default();
+        h.apply(
+            &mut d,
+            Command::add(0, DVec3::new(0.5, 0.2, 0.0), DVec3::new(0.6, 0.2, 0.0)),
+        )
+        .unwrap();
+        h.apply(&mut d, Command::add(0, DVec3::new(0.0, 0.9, 0.1), DVec3::Y))
+            .unwrap();
+        // Across X: the first has an image, the second is on the plane.
+        let (c, n) = Command::mirror(&d, 0).expect("one image");
+        assert_eq!(n, 1);
+        h.apply(&mut d, c).unwrap();
+        let s = &d.controls.deformations[0];
+        assert_eq!(s.starts[2], DVec3::new(-0.5, 0.2, 0.0));
+        assert_eq!(s.targets[2], DVec3::new(-0.6, 0.2, 0.0));
+        // Mirrored again: every image is already there.
+        assert!(Command::mirror(&d, 0).is_none());
+        // Only the selection when there is one.
+        d.selection.0 = vec![(0, 0)];
+        let (_, n) = Command::mirror(&d, 1).expect("image across Y");
+        assert_eq!(n, 1);
+    }
+
+    #[test]
+    fn chosen_vertices_become_a_handle_layer_an_anchor_or_a_region() {
+        use crate::tools::VertexTarget;
+        let mut d = doc();
+        let mut h = History::default();
+        h.apply(&mut d, Command::add(0, DVec3::Y, DVec3::Y * 1.2))
+            .unwrap();
+        let spec = d.controls.deformations[0].clone();
+        let c = Command::use_vertices(&d, &spec, vec![1, 2], VertexTarget::Handle);
+        h.apply(&mut d, c).unwrap();
+        let new = &d.controls.deformations[1];
+        assert!(new.starts.is_empty() && new.anchor.is_none());
+        assert_eq!(
+            new.handle.as_ref().map(|h| &h.select),
+            Some(&csrbf::Region::Vertices(vec![1, 2]))
+        );
+        assert_eq!(new.options, spec.options);
+        for (target, anchor) in [(VertexTarget::Anchor, true), (VertexTarget::Region, false)] {
+            let c = Command::use_vertices(&d, &spec, vec![3], target);
+            h.apply(&mut d, c).unwrap();
+            let layer = &d.controls.deformations[0];
+            assert_eq!(layer.starts, spec.starts, "the controls stay");
+            let got = if anchor {
+                layer.anchor.clone()
+            } else {
+                Some(layer.region.clone())
+            };
+            assert_eq!(got, Some(csrbf::Region::Vertices(vec![3])));
+        }
     }
 
     #[test]

@@ -16,6 +16,8 @@
 //! - [`compose`]: the Composer's scene document, its edits (keys at the
 //!   playhead kept in time order, TCB, timing, objects), their undo, and
 //!   real-time playback (`Playback`: the fps kept, dropped frames counted);
+//! - [`gizmo`]: the rotate gizmo's rings (one size on screen for the Picker
+//!   and the Composer), which one is under the pointer, and turns;
 //! - [`live`]: the preview: each layer's system is factored once and solved
 //!   again when only destinations move; the deformed positions, their
 //!   diagnostics, and a picking tree refitted to them.
@@ -34,9 +36,14 @@
 //! # Ok::<(), csrbf_studio::EditError>(())
 //! ```
 
+// `unwrap` only in tests (clippy.toml allows it there); library code says
+// why a value is there with `expect`, or handles its absence.
+#![warn(clippy::unwrap_used)]
+
 pub mod app;
 pub mod command;
 pub mod compose;
+pub mod gizmo;
 pub mod live;
 pub mod orbit;
 pub mod preview;

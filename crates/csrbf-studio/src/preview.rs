@@ -173,8 +173,14 @@ impl Drop for Preview {
 }
 
 /// Above this many triangles, a drag step's frame keeps the last normals
-/// (the app draws a stand-in then; see `app::BIG_MESH_TRIANGLES`).
+/// (the app draws a stand-in then; see [`BIG_MESH_TRIANGLES`]).
 pub const NORMALS_EVERY_STEP: usize = 200_000;
+
+/// Above this many triangles the viewport draws one sample per pixel (on a
+/// software rasteriser 4x costs more than it shows) and, while the model
+/// moves, a lighter stand-in ([`csrbf_mesh::StandIn`]): the Picker's model
+/// and the Composer's objects alike.
+pub const BIG_MESH_TRIANGLES: usize = NORMALS_EVERY_STEP;
 
 fn work(inbox: Receiver<Request>, outbox: Sender<PreviewFrame>, wake: impl Fn()) {
     // Fits run on all but one core: the window (and a software rasteriser

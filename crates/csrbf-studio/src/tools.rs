@@ -81,6 +81,17 @@ pub struct MarkerHit {
     pub end: End,
 }
 
+/// What the vertices chosen with the vertex tool become.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexTarget {
+    /// A handle's selection (a new handle layer).
+    Handle,
+    /// The active handle's anchor.
+    Anchor,
+    /// The active layer's region.
+    Region,
+}
+
 /// The control marker nearest `pixel` within `tolerance` pixels, nearer
 /// markers to the eye winning ties; destinations are tried before starts, as
 /// they are what a user drags. Handles' generated controls are not markers.

@@ -15,20 +15,13 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
-mod support;
+use crate::support;
 
-fn model(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../assets/models")
-        .join(name)
-}
+use csrbf_testkit::{all_models, model};
 
 /// A private state folder, so tests neither see nor leave recovery files.
 fn state_dir(test: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-app-{test}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp folder");
-    d
+    csrbf_testkit::scratch(env!("CARGO_TARGET_TMPDIR"), &format!("studio-app-{test}"))
 }
 
 fn open(args: Args, test: &str) -> Harness<'static, StudioApp> {
@@ -584,36 +577,6 @@ fn the_vertex_brush_paints_vertices_near_the_pointer() {
         "{}",
         chosen.len()
     );
-}
-
-/// The bundled models, and those of `../shared/models` when it is there.
-fn all_models() -> Vec<PathBuf> {
-    let list = |dir: &Path| -> Vec<PathBuf> {
-        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
-            .unwrap_or_default();
-        v.retain(|p| csrbf_mesh::Format::from_path(p).is_ok());
-        v.sort();
-        v
-    };
-    let bundled = model("");
-    let mut models = list(&bundled);
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if shared.is_dir() {
-        let extra: Vec<PathBuf> = list(&shared)
-            .into_iter()
-            .filter(|p| !models.iter().any(|m| m.file_name() == p.file_name()))
-            .collect();
-        eprintln!(
-            "also using {} models from {}",
-            extra.len(),
-            shared.display()
-        );
-        models.extend(extra);
-    } else {
-        eprintln!("{} not found: the bundled models only", shared.display());
-    }
-    models
 }
 
 #[test]

@@ -14,18 +14,20 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
-mod support;
+use crate::support;
 
 fn assets() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets")
+    csrbf_testkit::root().join("assets")
 }
 
 /// A private folder per test.
 fn temp(test: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-compose-{test}"));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("temp folder");
-    d
+    // Named by the checkout too: a target directory shared with another
+    // checkout must not hand this test the other's saved scene (issue 19).
+    csrbf_testkit::scratch(
+        env!("CARGO_TARGET_TMPDIR"),
+        &format!("studio-compose-{test}"),
+    )
 }
 
 fn app(args: Args, state: PathBuf) -> Harness<'static, StudioApp> {
@@ -330,7 +332,7 @@ fn play_moves_the_playhead_by_the_scenes_frame_rate() {
 
 /// Runs the Khronos glTF validator on a file; its report must have no error.
 fn validate(file: &Path) {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/validate_gltf.mjs");
+    let script = csrbf_testkit::root().join("scripts/validate_gltf.mjs");
     let out = std::process::Command::new("node")
         .arg(&script)
         .arg(file)

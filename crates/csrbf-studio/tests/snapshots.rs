@@ -3,7 +3,7 @@
 //! driver: the head at rest, deformed with its control vectors, and folded
 //! with the turned-over faces outlined in red. Compared to the PNGs in
 //! `tests/snapshots/` with kittest's tolerance (regenerate them with
-//! `UPDATE_SNAPSHOTS=1 cargo test -p csrbf-studio --test snapshots`).
+//! `UPDATE_SNAPSHOTS=1 cargo test -p csrbf-studio -- snapshots`).
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -13,16 +13,14 @@ use eframe::egui;
 use egui_kittest::Harness;
 
 fn head() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/models/cgal_head.off")
+    csrbf_testkit::model("cgal_head.off")
 }
 
 /// The app on the head with `controls` (JSON text) opened, settled, its
 /// viewport drawn; the viewport's pixels only (the status bar's timings
 /// change from run to run).
 fn viewport(name: &str, controls: Option<&str>) -> (image::RgbaImage, Harness<'static, StudioApp>) {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-snap-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp folder");
+    let dir = csrbf_testkit::scratch(env!("CARGO_TARGET_TMPDIR"), &format!("studio-snap-{name}"));
     let controls = controls.map(|text| {
         let p = dir.join("controls.json");
         std::fs::write(&p, text).expect("write");
@@ -168,11 +166,9 @@ fn difference(a: &image::RgbaImage, b: &image::RgbaImage, skip: u32) -> (f64, f6
 /// one sample per pixel on a software rasteriser, the movie four).
 #[test]
 fn the_composer_shows_through_the_scene_camera_what_csrbf_animate_renders() {
-    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets");
+    let assets = csrbf_testkit::root().join("assets");
     let scene_path = assets.join("scenes/face.scene.json");
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("studio-snap-compose");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp folder");
+    let dir = csrbf_testkit::scratch(env!("CARGO_TARGET_TMPDIR"), "studio-snap-compose");
     let args = Args {
         mesh: Some(scene_path.clone()),
         controls: None,

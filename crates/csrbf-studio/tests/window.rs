@@ -90,10 +90,11 @@ impl Session {
         let turn = ONE_AT_A_TIME
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("studio-window-{name}"));
-        let _ = std::fs::remove_dir_all(&work);
-        std::fs::create_dir_all(&work).expect("temp folder");
+        let root = csrbf_testkit::root();
+        let work = csrbf_testkit::scratch(
+            env!("CARGO_TARGET_TMPDIR"),
+            &format!("studio-window-{name}"),
+        );
 
         // An X server on a free display; it prints the number it took.
         let mut xvfb = Command::new("Xvfb")
@@ -200,7 +201,7 @@ impl Session {
 
 #[test]
 fn the_app_in_a_real_window_places_drags_and_saves() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let root = csrbf_testkit::root();
     let session = Session::start("window", &[&root.join("assets/models/cgal_head.off")]);
     let (display, work) = (session.display.clone(), session.work.clone());
 
@@ -274,7 +275,7 @@ fn the_app_in_a_real_window_places_drags_and_saves() {
 /// head turned and smiling between them.
 #[test]
 fn the_composer_plays_the_face_scene_in_a_real_window() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let root = csrbf_testkit::root();
     let session = Session::start("play", &[&root.join("assets/scenes/face.scene.json")]);
     // The viewport's middle (the side panel takes the right, the timeline
     // the bottom).

@@ -175,6 +175,42 @@ impl Handle {
         Ok(())
     }
 
+    /// The point the handle turns and scales about: the rotation's own
+    /// pivot, else the centroid of the selection among `points` (as
+    /// [`Handle::controls`] takes it). `groups` resolves part names.
+    pub fn pivot(
+        &self,
+        points: &[Vec3],
+        groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    ) -> Result<DVec3> {
+        if let Some(p) = self.rotate.and_then(|r| r.pivot) {
+            return Ok(p);
+        }
+        let selected = self.selection(points, groups)?;
+        let sum: DVec3 = selected
+            .iter()
+            .map(|&i| points[i as usize].as_dvec3())
+            .sum();
+        Ok(sum / selected.len() as f64)
+    }
+
+    /// The points `select` holds; none is refused.
+    fn selection(
+        &self,
+        points: &[Vec3],
+        groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    ) -> Result<Vec<u32>> {
+        let selected = self.select.select(points, groups)?;
+        if selected.is_empty() {
+            return Err(Error::BadHandle(format!(
+                "select ({}) holds none of the {} points",
+                self.select,
+                points.len()
+            )));
+        }
+        Ok(selected)
+    }
+
     /// The motion as an affine map, about `pivot` (the rotation's own pivot
     /// when it has one).
     pub fn motion(&self, pivot: DVec3) -> DAffine3 {
@@ -207,14 +243,7 @@ impl Handle {
         if !(radius > 0.0 && radius.is_finite()) {
             return Err(FitError::BadRadius(radius).into());
         }
-        let selected = self.select.select(points, groups)?;
-        if selected.is_empty() {
-            return Err(Error::BadHandle(format!(
-                "select ({}) holds none of the {} points",
-                self.select,
-                points.len()
-            )));
-        }
+        let selected = self.selection(points, groups)?;
         let sel: Vec<DVec3> = selected
             .iter()
             .map(|&i| points[i as usize].as_dvec3())
@@ -434,6 +463,26 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(drift < 0.05, "{polynomial}: anchor moved {drift}");
         }
+    }
+
+    #[test]
+    fn the_pivot_is_the_one_the_controls_turn_about() {
+        let points = tube();
+        let centroid = Handle::new(bx(6.0, 11.0)).with_scale(2.0);
+        let own = Handle::new(bx(6.0, 11.0))
+            .with_rotation(Rotation::new(DVec3::Z, 30.0).with_pivot(DVec3::new(5.0, 0.0, 0.0)));
+        for h in [centroid, own] {
+            let v = h
+                .controls(&points, None, 2.0, Polynomial::None, &|_| None)
+                .expect("controls");
+            let p = h.pivot(&points, &|_| None).expect("pivot");
+            assert!(p.distance(v.pivot) < 1e-9, "{p} vs {}", v.pivot);
+        }
+        let empty = Handle::new(bx(50.0, 60.0));
+        assert!(matches!(
+            empty.pivot(&points, &|_| None),
+            Err(Error::BadHandle(_))
+        ));
     }
 
     #[test]

@@ -182,6 +182,10 @@
 //! with a non-finite coordinate gets a NaN displacement (with or without
 //! the polynomial part), and the other points are not affected.
 
+// `unwrap` only in tests (clippy.toml allows it there); library code says
+// why a value is there with `expect`, or handles its absence.
+#![warn(clippy::unwrap_used)]
+
 pub use glam;
 
 mod binding;

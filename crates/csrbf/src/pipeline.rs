@@ -27,6 +27,7 @@ use crate::system::{FitOptions, System};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+#[non_exhaustive]
 pub enum Combine {
     /// Each deformation moves the points the ones before it moved (the
     /// papers' VTK pipeline; the default): later starts are in deformed

@@ -177,7 +177,7 @@ pub(super) fn load_object(
     let mesh_path = crate::path::resolve(dir, &of.mesh);
     let mut mesh = assets
         .mesh(&mesh_path)
-        .map_err(|e| scene_err(at("mesh"), e))?;
+        .map_err(|e| scene_err(at("mesh"), e.to_string()))?;
     if !(of.scale > 0.0 && of.scale.is_finite()) {
         return Err(scene_err(
             at("scale"),
@@ -498,7 +498,7 @@ fn load_deformation(
     let path = crate::path::resolve(dir, &df.controls);
     let cf = assets
         .controls(&path)
-        .map_err(|e| scene_err(at("controls"), e))?;
+        .map_err(|e| scene_err(at("controls"), e.to_string()))?;
     let mut stages = Vec::new();
     let lookup = |n: &str| mesh.part_vertices(n);
     let fitted = |spec: &csrbf::controls::ControlSpec| {

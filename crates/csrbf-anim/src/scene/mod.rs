@@ -202,21 +202,53 @@ impl Assets {
     }
 
     /// The mesh at `path`: the value given, else read from the file.
-    fn mesh(&self, path: &Path) -> std::result::Result<Mesh, String> {
+    fn mesh(&self, path: &Path) -> std::result::Result<Mesh, AssetError> {
         match self.meshes.get(path) {
             Some(m) => Ok(m.clone()),
-            None => csrbf_mesh::read(path).map_err(|e| e.full()),
+            None => csrbf_mesh::read(path).map_err(AssetError::Mesh),
         }
     }
 
     /// The control file at `path`: the value given, else read and parsed.
-    fn controls(&self, path: &Path) -> std::result::Result<ControlFile, String> {
+    fn controls(&self, path: &Path) -> std::result::Result<ControlFile, AssetError> {
         if let Some(c) = self.controls.get(path) {
             return Ok(c.clone());
         }
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        ControlFile::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+        let text = std::fs::read_to_string(path).map_err(|e| AssetError::Read {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        ControlFile::parse(&text).map_err(|e| AssetError::Controls {
+            path: path.to_path_buf(),
+            source: e,
+        })
     }
+}
+
+/// Why a mesh or a control file a scene names could not be had (the
+/// message a scene error carries at the object's `mesh` or `controls`).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum AssetError {
+    /// The mesh could not be read (the mesh crate's whole chain).
+    #[error("{}", .0.full())]
+    Mesh(csrbf_mesh::MeshError),
+    /// The control file could not be read.
+    #[error("{}: {source}", path.display())]
+    Read {
+        /// The control file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// The control file is not one the CLI accepts.
+    #[error("{}: {source}", path.display())]
+    Controls {
+        /// The control file.
+        path: PathBuf,
+        /// What is wrong, where.
+        source: csrbf::controls::ControlError,
+    },
 }
 
 /// The colour of a part that names none: light grey.

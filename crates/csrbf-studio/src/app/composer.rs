@@ -8,22 +8,26 @@
 //! The timeline and the side panel are in `timeline.rs` and `scene_panel.rs`;
 //! this file keeps the state, the viewport and the files.
 
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use csrbf::glam::{DQuat, DVec3, Vec2, Vec3};
-use csrbf_anim::{Assets, Camera, Frame, ObjectFile, Scene, SceneFile};
+use csrbf::glam::{DVec3, Vec2, Vec3};
+use csrbf_anim::{AnimError, Camera, Frame, ObjectFile, Scene, SceneFile};
 use csrbf_render::{Line, SceneOptions};
 use eframe::egui;
 
 use super::files::{Purpose, SceneRecovery};
-use super::viewport::{PointerInput, axis_rings, polyline_distance};
+use super::key_drag::{self, KeyDrag, Press, Released, Shown};
+use super::viewport::{PointerInput, polyline};
 use super::{Pending, StudioApp, gpu};
-use crate::compose::{KeyValue, Playback, SceneDoc, SceneEdit, SceneHistory, Track, key_value};
-use crate::{DragTool, Orbit};
+use crate::Orbit;
+use crate::compose::{
+    KeyValue, Loaded, Playback, SceneDoc, SceneEdit, SceneHistory, Track, key_value, scene_bounds,
+    world_centre,
+};
+use crate::gizmo::{RING_PIXELS, axis_rings};
 
 /// Which program the window is.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -35,43 +39,7 @@ pub enum Mode {
     Compose,
 }
 
-/// A key of the timeline: object, track, index.
-pub type KeyRef = (usize, Track, usize);
-
-/// A key being dragged in the viewport (a position key in 3-D, or an
-/// orientation key by a ring of its gizmo).
-#[derive(Clone, Debug)]
-pub(super) enum KeyDrag {
-    Position {
-        object: usize,
-        index: usize,
-        /// The key's marker moved on the plane facing the camera, or along
-        /// the held axis (the Picker's tool).
-        tool: DragTool,
-        /// The key's position when the drag began.
-        start: [f64; 3],
-        /// The pointer's pixel at the press.
-        pressed: Vec2,
-    },
-    Turn {
-        object: usize,
-        index: usize,
-        axis: Vec3,
-        centre: Vec3,
-        start: DQuat,
-        pressed: Vec2,
-    },
-    /// The scene camera's eye (or its target) moved on the plane facing
-    /// the view, or along the held axis.
-    Camera {
-        target: bool,
-        tool: DragTool,
-        start: csrbf_anim::CameraFile,
-        pressed: Vec2,
-    },
-    Orbit,
-    Pan,
-}
+pub use crate::compose::KeyRef;
 
 /// A key copied (Ctrl+C), to paste at the playhead (Ctrl+V).
 #[derive(Clone, Copy, Debug)]
@@ -99,22 +67,10 @@ pub(super) struct ExportJob {
 pub(super) struct Composer {
     pub doc: SceneDoc,
     pub history: SceneHistory,
-    /// The loaded scene (None while it has no object or cannot load).
-    pub scene: Option<Arc<Scene>>,
-    /// Why the scene cannot load as it stands, if it cannot.
-    pub problem: Option<String>,
-    /// Meshes read once, by resolved path.
-    assets: Assets,
-    read: HashSet<PathBuf>,
-    /// Identifies the GPU preparation of `scene` (changes when objects,
-    /// parts or looks do).
-    pub gpu_id: u64,
+    /// The scene the document describes, loaded, with its mesh cache,
+    /// stand-ins and the frame at the playhead.
+    pub loaded: Loaded,
     pub samples: u32,
-    /// The frame at `frame_at`.
-    pub frame: Arc<Frame>,
-    frame_at: Option<(u64, f64)>,
-    /// Bumped whenever `scene` changes.
-    generation: u64,
     pub orbit: Orbit,
     pub framed: bool,
     /// Look through the scene's camera (its gate: the scene's aspect).
@@ -147,13 +103,8 @@ pub(super) struct Composer {
     pub recovered_text: String,
     /// A rename being typed: the object and its text.
     pub renaming: Option<(usize, String)>,
-    /// The last time the scene was loaded whole, in ms.
-    pub load_ms: f64,
     /// The part a texture or control file being chosen is for.
     pub part_target: Option<(usize, usize)>,
-    /// Lighter copies of the objects over `BIG_MESH_TRIANGLES`, drawn while
-    /// the scene plays or a key is dragged (as the Picker does on a drag).
-    pub stand_ins: Vec<Option<Arc<super::StandIn>>>,
     /// Where the timeline's ruler was drawn (time 0 at its left edge,
     /// the duration at its right).
     pub ruler: egui::Rect,
@@ -161,27 +112,13 @@ pub(super) struct Composer {
     pub rows: Vec<((usize, Track), egui::Rect)>,
 }
 
-/// Where an object's frame is at `time`: its centre of gravity in the world.
-fn world_centre(scene: &Scene, object: usize, time: f64) -> Option<Vec3> {
-    let o = scene.objects.get(object)?;
-    let (rot, shift) = o.transform(time);
-    Some((rot * o.center + shift).as_vec3())
-}
-
 impl Composer {
     fn new(doc: SceneDoc, samples: u32) -> Composer {
         Composer {
             doc,
             history: SceneHistory::default(),
-            scene: None,
-            problem: None,
-            assets: Assets::new(),
-            read: HashSet::new(),
-            gpu_id: 0,
+            loaded: Loaded::new(),
             samples,
-            frame: Arc::new(Frame::default()),
-            frame_at: None,
-            generation: 0,
             orbit: Orbit::new(Vec3::Y, Vec3::splat(-1.0), Vec3::splat(1.0), 1.6),
             framed: false,
             through_camera: false,
@@ -202,77 +139,22 @@ impl Composer {
             recovery_at: None,
             recovered_text: String::new(),
             renaming: None,
-            load_ms: 0.0,
             part_target: None,
-            stand_ins: Vec::new(),
             ruler: egui::Rect::NOTHING,
             rows: Vec::new(),
         }
     }
 
-    /// The scene `file` describes: the loaded one retimed when only keys,
-    /// timing or the camera differ, else loaded again (meshes from the
-    /// cache). The current scene is not changed.
-    fn prepare(&mut self, file: &SceneFile, force: bool) -> Result<Option<Scene>, String> {
-        if file.objects.is_empty() {
-            return Ok(None);
-        }
-        if !force && let Some(s) = &self.scene {
-            let mut s = (**s).clone();
-            if s.retime(file.clone()).map_err(|e| e.to_string())? {
-                return Ok(Some(s));
-            }
-        }
-        let dir = self.doc.dir();
-        for o in &file.objects {
-            let p = csrbf_anim::path::resolve(&dir, &o.mesh);
-            if !self.read.contains(&p)
-                && let Ok(m) = csrbf_mesh::read(&p)
-            {
-                self.assets.set_mesh(p.clone(), m);
-                self.read.insert(p);
-            }
-        }
-        let name = self
-            .doc
-            .path
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("(new scene)"));
-        let started = Instant::now();
-        let scene = Scene::from_file_with(file.clone(), &dir, &name, &self.assets)
-            .map_err(|e| e.to_string())?;
-        self.load_ms = started.elapsed().as_secs_f64() * 1e3;
-        Ok(Some(scene))
+    /// The scene `file` describes (see [`Loaded::prepare`]); the current
+    /// scene is not changed.
+    fn prepare(&mut self, file: &SceneFile, force: bool) -> Result<Option<Scene>, AnimError> {
+        self.loaded.prepare(&self.doc, file, force)
     }
 
     /// Installs a prepared scene; `structural`: the GPU prepares it again.
+    /// A selection the scene no longer has is dropped.
     fn install(&mut self, scene: Option<Scene>, structural: bool, next_id: &mut u64) {
-        let same_shape =
-            match (&self.scene, &scene) {
-                (Some(a), Some(b)) => {
-                    !structural
-                        && a.objects.len() == b.objects.len()
-                        && a.file.objects.iter().zip(&b.file.objects).all(|(x, y)| {
-                            x.mesh == y.mesh && x.parts == y.parts && x.scale == y.scale
-                        })
-                }
-                _ => false,
-            };
-        if !same_shape {
-            self.gpu_id = *next_id;
-            *next_id += 1;
-            self.stand_ins = scene
-                .iter()
-                .flat_map(|s| &s.objects)
-                .map(|o| {
-                    (o.triangles.len() > gpu::BIG_MESH_TRIANGLES)
-                        .then(|| Arc::new(super::StandIn::new(&o.mesh.positions, &o.triangles)))
-                })
-                .collect();
-        }
-        self.scene = scene.map(Arc::new);
-        self.generation += 1;
-        self.problem = None;
+        self.loaded.install(scene, structural, next_id);
         self.hidden.resize(self.doc.file.objects.len(), false);
         if self
             .selected
@@ -289,24 +171,7 @@ impl Composer {
 
     /// The frame at the playhead (computed when the scene or time changed).
     pub fn frame_now(&mut self) {
-        let Some(scene) = &self.scene else {
-            return;
-        };
-        let at = (self.generation, self.doc.playhead);
-        if self.frame_at != Some(at) {
-            scene.frame_into(self.doc.playhead, Arc::make_mut(&mut self.frame));
-            self.frame_at = Some(at);
-        }
-    }
-
-    /// Retimes the loaded scene in place to `file` (a drag step: no undo
-    /// step, the document unchanged until the drag ends).
-    fn preview_file(&mut self, file: SceneFile) {
-        if let Some(s) = self.scene.as_mut()
-            && Arc::make_mut(s).retime(file).unwrap_or(false)
-        {
-            self.generation += 1;
-        }
+        self.loaded.frame_at(self.doc.playhead);
     }
 
     /// The scene's camera.
@@ -330,50 +195,144 @@ impl Composer {
     /// The world box of every object over the whole scene (sampled), and of
     /// the scene camera's eye and target when `frame_camera` says so.
     fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        let s = self.scene.as_ref()?;
-        let mut lo = Vec3::INFINITY;
-        let mut hi = Vec3::NEG_INFINITY;
-        let d = self.doc.file.duration;
-        for (k, o) in s.objects.iter().enumerate() {
-            for j in 0..=16 {
-                let c = world_centre(s, k, d * j as f64 / 16.0).unwrap_or_default();
-                let r = o.radius as f32;
-                lo = lo.min(c - Vec3::splat(r));
-                hi = hi.max(c + Vec3::splat(r));
-            }
-        }
-        if self.frame_camera && lo.is_finite() {
-            let f = &self.doc.file.camera;
-            for p in [f.eye, f.target] {
-                let p = DVec3::from_array(p).as_vec3();
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-        }
-        lo.is_finite().then_some((lo, hi))
+        let camera = self.frame_camera.then_some(&self.doc.file.camera);
+        scene_bounds(self.loaded.scene.as_ref()?, self.doc.file.duration, camera)
     }
 
     /// The value a new key of `track` gets at the playhead: what the scene
     /// shows there now.
     pub fn value_now(&self, object: usize, track: Track) -> Option<KeyValue> {
-        let t = self.doc.playhead;
-        let o = self.scene.as_ref()?.objects.get(object)?;
-        Some(match track {
-            Track::Position => KeyValue::Position(o.trajectory.position(t).to_array()),
-            Track::Orientation => KeyValue::Orientation(o.orientation.rotation(t).to_array()),
-            Track::Phase { part, deformation } => {
-                // Deformations are listed part by part, in file order.
-                let of = self.doc.file.objects.get(object)?;
-                let flat = of
-                    .parts
-                    .get(..part)?
-                    .iter()
-                    .map(|p| p.deformations.len())
-                    .sum::<usize>()
-                    + deformation;
-                KeyValue::Phase(o.deformations.get(flat)?.track.phase(t).clamp(0.0, 1.0))
+        self.loaded.value_now(&self.doc, object, track)
+    }
+}
+
+/// The Composer's viewport input: what the pointer does to its camera and,
+/// through [`key_drag`], to its keys.
+impl Composer {
+    /// Orbit, pan and zoom leave the scene camera's view for the free one.
+    fn leave_camera(&mut self) {
+        if self.through_camera {
+            self.through_camera = false;
+            let cam = self.scene_camera();
+            let d = cam.target - cam.eye;
+            self.orbit.target = cam.target;
+            self.orbit.distance = d.length();
+            if let csrbf_anim::Projection::Perspective { fov } = cam.projection {
+                self.orbit.fov = fov;
             }
-        })
+            self.orbit.look_from(-d);
+        }
+    }
+
+    /// Frames the objects (and the scene camera when asked) in a viewport
+    /// of `rect`: from the scene camera's side, a little above the objects'
+    /// ground (paths in it show as paths, not lines).
+    fn frame_view(&mut self, rect: egui::Rect) {
+        if let Some((lo, hi)) = self.bounds() {
+            let aspect = rect.width() / rect.height().max(1.0);
+            let cam = self.scene_camera();
+            let up = self.orbit.up;
+            let mut d = (cam.eye - cam.target).normalize_or(Vec3::Z);
+            if d.dot(up) < 0.35 {
+                d = ((d - up * d.dot(up)).normalize_or(Vec3::Z) + up * 0.4).normalize();
+            }
+            self.orbit = Orbit::new(up, lo, hi, aspect);
+            self.orbit.look_from(d);
+            // Turned a little, so the scene camera shows from its side.
+            self.orbit.yaw += 0.6;
+            self.orbit.frame(lo, hi, aspect);
+        }
+        self.framed = true;
+        self.frame_camera = false;
+    }
+
+    /// The wheel zooms about the point under the pointer; a secondary or
+    /// middle drag orbits (pans with Shift). True when a drag took it.
+    fn navigate(
+        &mut self,
+        input: &PointerInput,
+        v: key_drag::View<'_>,
+        px_of: impl Fn(egui::Pos2) -> Vec2,
+    ) -> bool {
+        if input.scroll != 0.0 {
+            self.leave_camera();
+            let point = input.pos.map_or(self.orbit.target, |p| {
+                self.orbit.point_on_target_plane(px_of(p), v.size)
+            });
+            self.orbit.zoom_about((-input.scroll * 0.002).exp(), point);
+        }
+        if (input.secondary || input.middle) && input.delta != egui::Vec2::ZERO {
+            self.leave_camera();
+            if input.modifiers.shift {
+                let (dx, dy) = (input.delta.x * v.ppp, input.delta.y * v.ppp);
+                self.orbit.pan(dx, dy, v.size[1] as f32);
+            } else {
+                self.orbit.orbit(input.delta.x, input.delta.y);
+            }
+            return true;
+        }
+        false
+    }
+
+    /// A primary press at `px`: a drag begins (true), or an object is
+    /// selected.
+    fn press(
+        &mut self,
+        scene: &Scene,
+        v: key_drag::View<'_>,
+        px: Vec2,
+        modifiers: egui::Modifiers,
+        axis: Option<DVec3>,
+    ) -> bool {
+        self.drag = None;
+        let scope = key_drag::Scope {
+            doc: &self.doc,
+            scene,
+            hidden: &self.hidden,
+            key: self.key,
+            through_camera: self.through_camera,
+            axis,
+        };
+        match key_drag::press(&scope, v, px, modifiers.alt, modifiers.shift) {
+            Press::Drag(d) => {
+                if matches!(d, KeyDrag::Orbit | KeyDrag::Pan) {
+                    self.leave_camera();
+                }
+                self.drag = Some(d);
+                true
+            }
+            Press::Key { key, time, drag } => {
+                self.selected = Some(key.0);
+                self.key = Some(key);
+                self.doc.playhead = time;
+                self.drag = Some(drag);
+                true
+            }
+            Press::Object(hit) => {
+                self.selected = hit;
+                if self.key.is_some_and(|k| Some(k.0) != self.selected) {
+                    self.key = None;
+                }
+                false
+            }
+        }
+    }
+
+    /// The pointer moved by `delta` points, to `px`, with the button down.
+    fn dragged(&mut self, v: key_drag::View<'_>, px: Vec2, delta: egui::Vec2) {
+        match &self.drag {
+            Some(KeyDrag::Orbit) => self.orbit.orbit(delta.x, delta.y),
+            Some(KeyDrag::Pan) => {
+                self.orbit
+                    .pan(delta.x * v.ppp, delta.y * v.ppp, v.size[1] as f32);
+            }
+            Some(d) => match key_drag::moved(d, &self.doc, v, px) {
+                Some(Shown::File(file)) => self.loaded.preview(file),
+                Some(Shown::Camera(camera)) => self.camera_preview = Some(camera),
+                None => {}
+            },
+            None => {}
+        }
     }
 }
 
@@ -385,12 +344,12 @@ impl StudioApp {
 
     /// The loaded scene the Composer shows.
     pub fn loaded_scene(&self) -> Option<&Scene> {
-        self.composer.as_ref()?.scene.as_deref()
+        self.composer.as_ref()?.loaded.scene.as_deref()
     }
 
     /// The frame shown (the scene at the playhead).
     pub fn shown_frame(&self) -> Option<&Frame> {
-        self.composer.as_ref().map(|c| &*c.frame)
+        self.composer.as_ref().map(|c| &*c.loaded.frame)
     }
 
     /// Which program the window is.
@@ -433,7 +392,8 @@ impl StudioApp {
         let Some(c) = self.composer.as_ref() else {
             return Vec::new();
         };
-        let (Some((cam, size, gate)), Some(scene)) = (self.compose_camera(), c.scene.as_ref())
+        let (Some((cam, size, gate)), Some(scene)) =
+            (self.compose_camera(), c.loaded.scene.as_ref())
         else {
             return Vec::new();
         };
@@ -449,7 +409,7 @@ impl StudioApp {
             return Vec::new();
         };
         let ppp = size[0] as f32 / gate.width();
-        axis_rings(centre, &cam, size, RING_PIXELS)
+        axis_rings(centre, &cam, size, RING_PIXELS * ppp)
             .into_iter()
             .map(|(axis, pts, _)| {
                 let screen = pts
@@ -513,7 +473,7 @@ impl StudioApp {
         let started = Instant::now();
         let doc = match SceneDoc::open(path) {
             Ok(d) => d,
-            Err(e) => return self.show_error("Cannot open the scene", e),
+            Err(e) => return self.show_error("Cannot open the scene", e.to_string()),
         };
         self.adopt_scene(doc, started, &format!("Opened {}", path.display()));
         if self.composer.as_ref().is_some_and(|c| c.doc.path.is_some()) {
@@ -528,10 +488,11 @@ impl StudioApp {
         let file = c.doc.file.clone();
         let scene = match c.prepare(&file, true) {
             Ok(s) => s,
-            Err(e) => return self.show_error("Cannot open the scene", e),
+            Err(e) => return self.show_error("Cannot open the scene", e.to_string()),
         };
         c.install(scene, true, &mut self.next_mesh_id);
         let warnings = c
+            .loaded
             .scene
             .as_ref()
             .map(|s| s.warnings.join("; "))
@@ -605,7 +566,7 @@ impl StudioApp {
                 true
             }
             Err(e) => {
-                self.show_error("Not done", e);
+                self.show_error("Not done", e.to_string());
                 false
             }
         }
@@ -634,7 +595,7 @@ impl StudioApp {
             Err(e) => {
                 // A file changed on disk since: keep the document as it was.
                 c.doc = before;
-                self.show_error("Cannot undo", e);
+                self.show_error("Cannot undo", e.to_string());
             }
         }
     }
@@ -645,14 +606,13 @@ impl StudioApp {
         let Some(c) = self.composer.as_mut() else {
             return;
         };
-        c.read.clear();
-        c.assets = Assets::new();
+        c.loaded.forget_meshes();
         let file = c.doc.file.clone();
         match c.prepare(&file, true) {
             Ok(scene) => c.install(scene, true, &mut self.next_mesh_id),
             Err(e) => {
-                c.problem = Some(e.clone());
-                self.show_error("The scene no longer loads", e);
+                c.loaded.problem = Some(e.to_string());
+                self.show_error("The scene no longer loads", e.to_string());
             }
         }
     }
@@ -673,7 +633,7 @@ impl StudioApp {
             return;
         };
         if let Err(e) = c.doc.saveable() {
-            return self.show_error("Cannot save the scene", e);
+            return self.show_error("Cannot save the scene", e.to_string());
         }
         let rebased = c.doc.rebased(path);
         match csrbf_mesh::write_atomic(path, rebased.to_json().as_bytes()) {
@@ -682,7 +642,7 @@ impl StudioApp {
                 c.doc.path = Some(path.to_path_buf());
                 c.doc.dirty = false;
                 // Paths changed form, not meaning: the cache keys stay valid.
-                if let Some(s) = c.scene.as_mut() {
+                if let Some(s) = c.loaded.scene.as_mut() {
                     let s = Arc::make_mut(s);
                     s.file = c.doc.file.clone();
                     s.dir = c.doc.dir();
@@ -726,7 +686,9 @@ impl StudioApp {
         };
         let first = c.doc.file.objects.is_empty();
         if self.scene_edit(SceneEdit::AddObject(Box::new(object))) {
-            let c = self.composer.as_mut().expect("checked");
+            let Some(c) = self.composer.as_mut() else {
+                return;
+            };
             c.selected = Some(c.doc.file.objects.len() - 1);
             if first {
                 // The scene's camera starts framing its first object.
@@ -873,14 +835,15 @@ impl StudioApp {
             self.status = "An export is running".into();
             return None;
         }
-        match (&c.scene, c.doc.saveable()) {
+        match (&c.loaded.scene, c.doc.saveable()) {
             (Some(s), Ok(())) => Some(s.clone()),
             (_, Err(e)) => {
-                self.show_error(&format!("Cannot export the {what}"), e);
+                self.show_error(&format!("Cannot export the {what}"), e.to_string());
                 None
             }
             (None, Ok(())) => {
                 let p = c
+                    .loaded
                     .problem
                     .clone()
                     .unwrap_or_else(|| "the scene is empty".into());
@@ -1128,7 +1091,9 @@ impl StudioApp {
             track,
             value,
         }) {
-            let c = self.composer.as_mut().expect("checked");
+            let Some(c) = self.composer.as_mut() else {
+                return;
+            };
             let index = c.doc.key_times(object, track).iter().position(|&k| k == t);
             c.key = index.map(|i| (object, track, i));
             c.selected = Some(object);
@@ -1336,6 +1301,12 @@ impl StudioApp {
         if paste || shortcut(Modifiers::COMMAND, Key::V) {
             self.paste_key();
         }
+        self.compose_plain_keys(ctx);
+    }
+
+    /// The Composer's keys without modifiers: playback, keys, the view.
+    fn compose_plain_keys(&mut self, ctx: &egui::Context) {
+        use egui::{Key, Modifiers};
         let plain = |k: Key| ctx.input_mut(|i| i.consume_key(Modifiers::NONE, k));
         if plain(Key::Space) {
             self.toggle_play();
@@ -1469,40 +1440,16 @@ impl StudioApp {
         // letterbox: only that is filled (a fill costs on a software
         // rasteriser).
         let gate = self.scene_gate(rect);
-        let grey = egui::Color32::from_gray(28);
-        let empty = self.composer.as_ref().is_none_or(|c| c.scene.is_none());
-        if empty || gate == rect {
-            if empty {
-                ui.painter().rect_filled(rect, 0.0, grey);
-            }
-        } else {
-            let p = ui.painter();
-            p.rect_filled(
-                egui::Rect::from_x_y_ranges(rect.x_range(), rect.top()..=gate.top()),
-                0.0,
-                grey,
-            );
-            p.rect_filled(
-                egui::Rect::from_x_y_ranges(rect.x_range(), gate.bottom()..=rect.bottom()),
-                0.0,
-                grey,
-            );
-            p.rect_filled(
-                egui::Rect::from_x_y_ranges(rect.left()..=gate.left(), gate.y_range()),
-                0.0,
-                grey,
-            );
-            p.rect_filled(
-                egui::Rect::from_x_y_ranges(gate.right()..=rect.right(), gate.y_range()),
-                0.0,
-                grey,
-            );
-        }
+        let empty = self
+            .composer
+            .as_ref()
+            .is_none_or(|c| c.loaded.scene.is_none());
+        letterbox(ui, rect, gate, empty);
         let Some(c) = self.composer.as_mut() else {
             return;
         };
-        if c.scene.is_none() {
-            let text = match &c.problem {
+        if c.loaded.scene.is_none() {
+            let text = match &c.loaded.problem {
                 Some(p) => p.clone(),
                 None => "Add a mesh: Scene > Add object, or drop one here".into(),
             };
@@ -1516,24 +1463,7 @@ impl StudioApp {
             return;
         }
         if !c.framed && rect.width() > 1.0 {
-            if let Some((lo, hi)) = c.bounds() {
-                // From the scene camera's side, a little above the objects'
-                // ground (paths in it show as paths, not lines).
-                let aspect = rect.width() / rect.height().max(1.0);
-                let cam = c.scene_camera();
-                let up = c.orbit.up;
-                let mut d = (cam.eye - cam.target).normalize_or(Vec3::Z);
-                if d.dot(up) < 0.35 {
-                    d = ((d - up * d.dot(up)).normalize_or(Vec3::Z) + up * 0.4).normalize();
-                }
-                c.orbit = Orbit::new(up, lo, hi, aspect);
-                c.orbit.look_from(d);
-                // Turned a little, so the scene camera shows from its side.
-                c.orbit.yaw += 0.6;
-                c.orbit.frame(lo, hi, aspect);
-            }
-            c.framed = true;
-            c.frame_camera = false;
+            c.frame_view(rect);
         }
         c.frame_now();
         self.compose_pointer(ui, &response);
@@ -1546,297 +1476,47 @@ impl StudioApp {
         };
         let ppp = self.viewport.2;
         let axis = self.axis_vector();
-        let PointerInput {
-            pressed,
-            down,
-            released,
-            pos,
-            modifiers,
-            scroll,
-            secondary,
-            middle,
-            delta,
-        } = PointerInput::read(ui);
+        let input = PointerInput::read(ui);
         let hovered = response.hovered() || response.dragged();
         let Some(c) = self.composer.as_mut() else {
             return;
         };
         let px_of = |p: egui::Pos2| Vec2::new((p.x - gate.min.x) * ppp, (p.y - gate.min.y) * ppp);
-        // Orbit, pan and zoom leave the scene camera's view for the free one.
-        let leave = |c: &mut Composer| {
-            if c.through_camera {
-                c.through_camera = false;
-                let cam = c.scene_camera();
-                let d = cam.target - cam.eye;
-                c.orbit.target = cam.target;
-                c.orbit.distance = d.length();
-                if let csrbf_anim::Projection::Perspective { fov } = cam.projection {
-                    c.orbit.fov = fov;
-                }
-                c.orbit.look_from(-d);
-            }
+        let v = key_drag::View {
+            cam: &cam,
+            size,
+            ppp,
         };
-        if hovered && scroll != 0.0 {
-            leave(c);
-            let point = pos.map_or(c.orbit.target, |p| {
-                c.orbit.point_on_target_plane(px_of(p), size)
-            });
-            c.orbit.zoom_about((-scroll * 0.002).exp(), point);
-        }
-        if hovered && (secondary || middle) && delta != egui::Vec2::ZERO {
-            leave(c);
-            if modifiers.shift {
-                c.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32);
-            } else {
-                c.orbit.orbit(delta.x, delta.y);
-            }
+        if hovered && c.navigate(&input, v, px_of) {
             return;
         }
-        let Some(pos) = pos else {
+        let Some(pos) = input.pos else {
             return;
         };
         let px = px_of(pos);
-        let Some(scene) = c.scene.clone() else {
+        let Some(scene) = c.loaded.scene.clone() else {
             return;
         };
-        if pressed && response.hovered() {
-            c.drag = None;
-            if modifiers.alt {
-                leave(c);
-                c.drag = Some(if modifiers.shift {
-                    KeyDrag::Pan
-                } else {
-                    KeyDrag::Orbit
-                });
-                return;
-            }
-            // The orientation gizmo of the selected orientation key.
-            if let Some((o, Track::Orientation, i)) = c.key
-                && let Some(t) = c.doc.key_times(o, Track::Orientation).get(i).copied()
-                && let Some(centre) = world_centre(&scene, o, t)
-            {
-                let ring = axis_rings(centre, &cam, size, RING_PIXELS)
-                    .into_iter()
-                    .filter_map(|(a, pts, _)| {
-                        polyline_distance(&cam, size, &pts, px).map(|d| (a, d))
-                    })
-                    .filter(|(_, d)| *d < 6.0)
-                    .min_by(|a, b| a.1.total_cmp(&b.1));
-                if let Some((a, _)) = ring
-                    && let Some(KeyValue::Orientation(q)) =
-                        key_value(&c.doc.file.objects[o], Track::Orientation, i)
-                {
-                    c.drag = Some(KeyDrag::Turn {
-                        object: o,
-                        index: i,
-                        axis: a,
-                        centre,
-                        start: DQuat::from_array(q),
-                        pressed: px,
-                    });
-                    return;
-                }
-            }
-            // A position key's marker under the pointer.
-            let mut best: Option<(f32, usize, usize, Vec3)> = None;
-            for (o, of) in c.doc.file.objects.iter().enumerate() {
-                if c.hidden.get(o).copied().unwrap_or(false) {
-                    continue;
-                }
-                let centre = scene.objects.get(o).map_or(DVec3::ZERO, |x| x.center);
-                for (i, k) in of.trajectory.iter().enumerate() {
-                    let w = (DVec3::from_array(k.position) + centre).as_vec3();
-                    if let Some((p, _)) = cam.project(w, size) {
-                        let d = p.distance(px);
-                        // The selected key wins where markers overlap.
-                        let d = if c.key == Some((o, Track::Position, i)) {
-                            d - 2.0
-                        } else {
-                            d
-                        };
-                        if d < 9.0 * ppp && best.is_none_or(|b| d < b.0) {
-                            best = Some((d, o, i, w));
-                        }
-                    }
-                }
-            }
-            if let Some((_, o, i, w)) = best {
-                c.selected = Some(o);
-                c.key = Some((o, Track::Position, i));
-                c.doc.playhead = c.doc.file.objects[o].trajectory[i].time;
-                c.drag = Some(KeyDrag::Position {
-                    object: o,
-                    index: i,
-                    tool: DragTool::begin(&cam, size, px, w.as_dvec3(), axis),
-                    start: c.doc.file.objects[o].trajectory[i].position,
-                    pressed: px,
-                });
-                return;
-            }
-            // The scene camera's eye or target (when looking from elsewhere).
-            if !c.through_camera {
-                let f = c.doc.file.camera.clone();
-                let ends = [(false, f.eye), (true, f.target)];
-                let near = ends
-                    .iter()
-                    .filter_map(|&(is_target, p)| {
-                        let w = DVec3::from_array(p);
-                        let (q, _) = cam.project(w.as_vec3(), size)?;
-                        let d = q.distance(px);
-                        (d < 9.0 * ppp).then_some((d, is_target, w))
-                    })
-                    .min_by(|a, b| a.0.total_cmp(&b.0));
-                if let Some((_, target, w)) = near {
-                    c.drag = Some(KeyDrag::Camera {
-                        target,
-                        tool: DragTool::begin(&cam, size, px, w, axis),
-                        start: f,
-                        pressed: px,
-                    });
-                    return;
-                }
-            }
-            // Else select the object under the pointer (its bounding sphere).
-            let ray = cam.ray(px, size);
-            let hit = scene
-                .objects
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| !c.hidden.get(*k).copied().unwrap_or(false))
-                .filter_map(|(k, o)| {
-                    let centre = world_centre(&scene, k, c.doc.playhead)?;
-                    let oc = ray.origin - centre;
-                    let b = oc.dot(ray.dir);
-                    let disc = b * b - (oc.length_squared() - (o.radius as f32).powi(2));
-                    (disc >= 0.0).then(|| (k, -b - disc.sqrt()))
-                })
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            c.selected = hit.map(|h| h.0);
-            if c.key.is_some_and(|k| Some(k.0) != c.selected) {
-                c.key = None;
-            }
+        // A press that begins a drag is all this frame does.
+        if input.pressed && response.hovered() && c.press(&scene, v, px, input.modifiers, axis) {
+            return;
         }
-        if down && delta != egui::Vec2::ZERO {
-            match c.drag.clone() {
-                Some(KeyDrag::Orbit) => c.orbit.orbit(delta.x, delta.y),
-                Some(KeyDrag::Pan) => c.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32),
-                Some(KeyDrag::Position {
-                    object,
-                    index,
-                    tool,
-                    start,
-                    ..
-                }) => {
-                    let mut file = c.doc.file.clone();
-                    // (The key may be gone: an undo by key during the drag.)
-                    if let Some(to) = tool.moved_to(&cam, size, px)
-                        && let Some(k) = file
-                            .objects
-                            .get_mut(object)
-                            .and_then(|o| o.trajectory.get_mut(index))
-                    {
-                        k.position = (DVec3::from_array(start) + to - tool.origin).to_array();
-                        c.preview_file(file);
-                    }
-                }
-                Some(KeyDrag::Camera {
-                    target,
-                    tool,
-                    start,
-                    ..
-                }) => {
-                    if let Some(to) = tool.moved_to(&cam, size, px) {
-                        c.camera_preview = Some(camera_moved(&start, target, to - tool.origin));
-                    }
-                }
-                Some(KeyDrag::Turn {
-                    object,
-                    index,
-                    axis,
-                    centre,
-                    start,
-                    pressed,
-                }) => {
-                    let q = turned(&cam, size, centre, axis, start, pressed, px);
-                    let mut file = c.doc.file.clone();
-                    if let Some(k) = file
-                        .objects
-                        .get_mut(object)
-                        .and_then(|o| o.orientation.get_mut(index))
-                    {
-                        *k = csrbf_anim::OrientationKeyFile {
-                            time: k.time,
-                            quaternion: Some(q.to_array()),
-                            axis: None,
-                            angle: None,
-                            euler: None,
-                        };
-                        c.preview_file(file);
-                    }
-                }
-                None => {}
-            }
+        if input.down && input.delta != egui::Vec2::ZERO {
+            c.dragged(v, px, input.delta);
         }
-        if released {
+        if input.released {
             let drag = c.drag.take();
             c.camera_preview = None;
-            match drag {
-                Some(KeyDrag::Camera {
-                    target,
-                    tool,
-                    start,
-                    pressed,
-                }) if px.distance(pressed) > 1.0
-                    && let Some(to) = tool.moved_to(&cam, size, px) =>
-                {
-                    let moved = camera_moved(&start, target, to - tool.origin);
-                    if DVec3::from_array(moved.eye) == DVec3::from_array(moved.target) {
-                        self.status = "Not done: the camera's eye and target would meet".into();
-                    } else {
-                        self.scene_edit(SceneEdit::SetCamera(moved));
-                    }
+            match drag.map(|d| key_drag::release(d, v, px)) {
+                Some(Released::Edit(edit)) => {
+                    self.scene_edit(edit);
                 }
-                Some(KeyDrag::Position {
-                    object,
-                    index,
-                    tool,
-                    start,
-                    pressed,
-                }) if px.distance(pressed) > 1.0
-                    && let Some(to) = tool.moved_to(&cam, size, px) =>
-                {
-                    let moved = DVec3::from_array(start) + to - tool.origin;
-                    self.scene_edit(SceneEdit::SetKey {
-                        object,
-                        track: Track::Position,
-                        index,
-                        value: KeyValue::Position(moved.to_array()),
-                    });
+                Some(Released::Refused(why)) => self.status = why.into(),
+                Some(Released::Revert) => {
+                    let file = c.doc.file.clone();
+                    c.loaded.preview(file);
                 }
-                Some(KeyDrag::Turn {
-                    object,
-                    index,
-                    axis,
-                    centre,
-                    start,
-                    pressed,
-                }) if px.distance(pressed) > 1.0 => {
-                    let q = turned(&cam, size, centre, axis, start, pressed, px);
-                    self.scene_edit(SceneEdit::SetKey {
-                        object,
-                        track: Track::Orientation,
-                        index,
-                        value: KeyValue::Orientation(q.to_array()),
-                    });
-                }
-                Some(KeyDrag::Position { .. } | KeyDrag::Turn { .. }) => {
-                    // A click without a move: the drag's preview is undone.
-                    if let Some(c) = self.composer.as_mut() {
-                        let file = c.doc.file.clone();
-                        c.preview_file(file);
-                    }
-                }
-                _ => {}
+                Some(Released::Nothing) | None => {}
             }
         }
     }
@@ -1849,65 +1529,20 @@ impl StudioApp {
         let Some(c) = self.composer.as_ref() else {
             return;
         };
-        let Some(scene) = c.scene.clone() else {
+        let Some(scene) = c.loaded.scene.clone() else {
             return;
         };
         let mut lines = Vec::new();
         let mut overlay = Vec::new();
-        let duration = c.doc.file.duration;
-        // Trajectories: the centre of gravity over the whole scene.
-        for (o, obj) in scene.objects.iter().enumerate() {
-            if c.hidden.get(o).copied().unwrap_or(false) || obj.trajectory.keys().len() < 2 {
-                continue;
-            }
-            let selected = c.selected == Some(o);
-            let color = if selected {
-                [1.0, 0.85, 0.3, 1.0]
-            } else {
-                [0.7, 0.65, 0.45, 1.0]
-            };
-            let n = ((duration * c.doc.file.fps * 2.0) as usize).clamp(32, 600);
-            let pts: Vec<Vec3> = (0..=n)
-                .filter_map(|j| world_centre(&scene, o, duration * j as f64 / n as f64))
-                .collect();
-            for w in pts.windows(2) {
-                overlay.push(Line {
-                    a: w[0],
-                    b: w[1],
-                    color,
-                });
-            }
-        }
-        // The orientation gizmo.
-        if let Some((o, Track::Orientation, i)) = c.key
-            && let Some(t) = c.doc.key_times(o, Track::Orientation).get(i).copied()
-            && let Some(centre) = world_centre(&scene, o, t)
-        {
-            let held = match &c.drag {
-                Some(KeyDrag::Turn { axis, .. }) => Some(*axis),
-                _ => None,
-            };
-            for (a, pts, color) in axis_rings(centre, &cam, size, RING_PIXELS) {
-                let color = if held == Some(a) {
-                    [1.0, 1.0, 0.4, 1.0]
-                } else {
-                    color
-                };
-                for w in pts.windows(2) {
-                    overlay.push(Line {
-                        a: w[0],
-                        b: w[1],
-                        color,
-                    });
-                }
-            }
-        }
+        c.trajectory_lines(&scene, &mut overlay);
+        c.gizmo_lines(&scene, (&cam, size, ppp), &mut overlay);
         // The scene's camera, when looking from elsewhere.
         if !c.through_camera {
             let [w, h] = c.doc.file.size;
+            let aspect = w as f32 / h.max(1) as f32;
             csrbf_render::camera_lines(
                 &c.scene_camera(),
-                w as f32 / h.max(1) as f32,
+                aspect,
                 [0.55, 0.75, 1.0, 1.0],
                 &mut lines,
             );
@@ -1915,9 +1550,10 @@ impl StudioApp {
         // Big meshes are drawn by their stand-ins while the scene moves.
         let moving = c.playback.playing || c.drag.is_some();
         let stand_ins: Vec<_> = c
+            .loaded
             .stand_ins
             .iter()
-            .zip(&c.frame.objects)
+            .zip(&c.loaded.frame.objects)
             .map(|(s, f)| {
                 let s = s.as_ref().filter(|_| moving)?;
                 let (p, n) = s.shape(&f.positions);
@@ -1929,27 +1565,13 @@ impl StudioApp {
         options.draw.flat = self.view.flat;
         options.draw.wireframe = self.view.wireframe;
         // What the picture shows, to draw it only when that changes.
-        let stamp = {
-            use std::hash::{Hash, Hasher};
-            let mut h = std::collections::hash_map::DefaultHasher::new();
-            c.generation.hash(&mut h);
-            moving.hash(&mut h);
-            c.doc.playhead.to_bits().hash(&mut h);
-            format!("{cam:?}{:?}{:?}", options.draw, c.hidden).hash(&mut h);
-            for l in lines.iter().chain(&overlay) {
-                for v in [l.a, l.b] {
-                    v.to_array().map(f32::to_bits).hash(&mut h);
-                }
-                l.color.map(f32::to_bits).hash(&mut h);
-            }
-            h.finish()
-        };
+        let stamp = picture_stamp(c, moving, &cam, &options, lines.iter().chain(&overlay));
         let paint = gpu::ScenePaint {
             size,
-            id: c.gpu_id,
+            id: c.loaded.gpu_id,
             samples: c.samples,
-            scene,
-            frame: c.frame.clone(),
+            scene: scene.clone(),
+            frame: c.loaded.frame.clone(),
             options,
             lines,
             overlay,
@@ -1965,26 +1587,112 @@ impl StudioApp {
             cam.project(p, size)
                 .map(|(q, _)| egui::pos2(gate.min.x + q.x / ppp, gate.min.y + q.y / ppp))
         };
-        // The scene camera's eye (a square) and target (a ring): drag them.
-        if !c.through_camera {
-            let f = c.camera_preview.as_ref().unwrap_or(&c.doc.file.camera);
-            let blue = egui::Color32::from_rgb(140, 190, 255);
-            if let Some(q) = to_screen(DVec3::from_array(f.eye).as_vec3()) {
-                painter.rect(
-                    egui::Rect::from_center_size(q, egui::vec2(9.0, 9.0)),
-                    0.0,
-                    blue,
-                    egui::Stroke::new(1.0, egui::Color32::BLACK),
-                    egui::StrokeKind::Outside,
-                );
-            }
-            if let Some(q) = to_screen(DVec3::from_array(f.target).as_vec3()) {
-                painter.circle_stroke(q, 5.0, egui::Stroke::new(2.0, blue));
-            }
+        c.camera_marks(&painter, &to_screen);
+        c.key_marks(&scene, &painter, &to_screen);
+        c.time_label(&painter, gate);
+        if let Some(e) = self.gpu.as_ref().and_then(gpu::last_error) {
+            painter.text(
+                gate.left_bottom() + egui::vec2(8.0, -8.0),
+                egui::Align2::LEFT_BOTTOM,
+                e,
+                egui::FontId::proportional(13.0),
+                egui::Color32::LIGHT_RED,
+            );
         }
-        let scene = c.scene.as_ref().expect("checked");
-        for (o, of) in c.doc.file.objects.iter().enumerate() {
-            if c.hidden.get(o).copied().unwrap_or(false) {
+    }
+}
+
+/// What the Composer's viewport draws over the scene.
+impl Composer {
+    /// Trajectories: each shown object's centre of gravity over the whole
+    /// scene.
+    fn trajectory_lines(&self, scene: &Scene, overlay: &mut Vec<Line>) {
+        let duration = self.doc.file.duration;
+        for (o, obj) in scene.objects.iter().enumerate() {
+            if self.hidden.get(o).copied().unwrap_or(false) || obj.trajectory.keys().len() < 2 {
+                continue;
+            }
+            let color = if self.selected == Some(o) {
+                [1.0, 0.85, 0.3, 1.0]
+            } else {
+                [0.7, 0.65, 0.45, 1.0]
+            };
+            let n = ((duration * self.doc.file.fps * 2.0) as usize).clamp(32, 600);
+            let pts: Vec<Vec3> = (0..=n)
+                .filter_map(|j| world_centre(scene, o, duration * j as f64 / n as f64))
+                .collect();
+            polyline(&pts, color, overlay);
+        }
+    }
+
+    /// The selected orientation key's gizmo, its held ring lit.
+    fn gizmo_lines(
+        &self,
+        scene: &Scene,
+        (cam, size, ppp): (&Camera, [u32; 2], f32),
+        overlay: &mut Vec<Line>,
+    ) {
+        let Some((o, Track::Orientation, i)) = self.key else {
+            return;
+        };
+        let Some(centre) = (self.doc.key_times(o, Track::Orientation).get(i))
+            .and_then(|&t| world_centre(scene, o, t))
+        else {
+            return;
+        };
+        let held = match &self.drag {
+            Some(KeyDrag::Turn { axis, .. }) => Some(*axis),
+            _ => None,
+        };
+        for (a, pts, color) in axis_rings(centre, cam, size, RING_PIXELS * ppp) {
+            let color = if held == Some(a) {
+                [1.0, 1.0, 0.4, 1.0]
+            } else {
+                color
+            };
+            polyline(&pts, color, overlay);
+        }
+    }
+
+    /// The scene camera's eye (a square) and target (a ring), when looking
+    /// from elsewhere: drag them.
+    fn camera_marks(
+        &self,
+        painter: &egui::Painter,
+        to_screen: &dyn Fn(Vec3) -> Option<egui::Pos2>,
+    ) {
+        if self.through_camera {
+            return;
+        }
+        let f = self
+            .camera_preview
+            .as_ref()
+            .unwrap_or(&self.doc.file.camera);
+        let blue = egui::Color32::from_rgb(140, 190, 255);
+        if let Some(q) = to_screen(DVec3::from_array(f.eye).as_vec3()) {
+            painter.rect(
+                egui::Rect::from_center_size(q, egui::vec2(9.0, 9.0)),
+                0.0,
+                blue,
+                egui::Stroke::new(1.0, egui::Color32::BLACK),
+                egui::StrokeKind::Outside,
+            );
+        }
+        if let Some(q) = to_screen(DVec3::from_array(f.target).as_vec3()) {
+            painter.circle_stroke(q, 5.0, egui::Stroke::new(2.0, blue));
+        }
+    }
+
+    /// Position keys' markers (the chosen one with its time) and a ring on
+    /// the selected object at the playhead.
+    fn key_marks(
+        &self,
+        scene: &Scene,
+        painter: &egui::Painter,
+        to_screen: &dyn Fn(Vec3) -> Option<egui::Pos2>,
+    ) {
+        for (o, of) in self.doc.file.objects.iter().enumerate() {
+            if self.hidden.get(o).copied().unwrap_or(false) {
                 continue;
             }
             let centre = scene.objects.get(o).map_or(DVec3::ZERO, |x| x.center);
@@ -1998,15 +1706,15 @@ impl StudioApp {
                 let Some(p) = to_screen((k.position + centre).as_vec3()) else {
                     continue;
                 };
-                let chosen = c.key == Some((o, Track::Position, i));
-                let fill = if chosen {
-                    egui::Color32::from_rgb(255, 220, 80)
+                let chosen = self.key == Some((o, Track::Position, i));
+                let (radius, fill) = if chosen {
+                    (6.0, egui::Color32::from_rgb(255, 220, 80))
                 } else {
-                    egui::Color32::from_rgb(200, 170, 90)
+                    (4.5, egui::Color32::from_rgb(200, 170, 90))
                 };
                 painter.circle(
                     p,
-                    if chosen { 6.0 } else { 4.5 },
+                    radius,
                     fill,
                     egui::Stroke::new(1.0, egui::Color32::BLACK),
                 );
@@ -2020,19 +1728,19 @@ impl StudioApp {
                     );
                 }
             }
-            if c.selected == Some(o)
-                && let Some(p) = world_centre(scene, o, c.doc.playhead).and_then(to_screen)
+            if self.selected == Some(o)
+                && let Some(p) = world_centre(scene, o, self.doc.playhead).and_then(to_screen)
             {
                 painter.circle_stroke(p, 7.0, egui::Stroke::new(1.5, egui::Color32::WHITE));
             }
         }
-        // The time and, while playing, the rate.
-        let mut label = format!(
-            "{:.2} s  frame {}",
-            c.doc.playhead,
-            Playback::frame_of(&c.doc, c.doc.playhead)
-        );
-        if c.through_camera {
+    }
+
+    /// The time and frame at the playhead, top left.
+    fn time_label(&self, painter: &egui::Painter, gate: egui::Rect) {
+        let t = self.doc.playhead;
+        let mut label = format!("{t:.2} s  frame {}", Playback::frame_of(&self.doc, t));
+        if self.through_camera {
             label.push_str("  (scene camera)");
         }
         painter.text(
@@ -2042,48 +1750,52 @@ impl StudioApp {
             egui::FontId::monospace(13.0),
             egui::Color32::from_gray(220),
         );
-        if let Some(e) = self.gpu.as_ref().and_then(gpu::last_error) {
-            painter.text(
-                gate.left_bottom() + egui::vec2(8.0, -8.0),
-                egui::Align2::LEFT_BOTTOM,
-                e,
-                egui::FontId::proportional(13.0),
-                egui::Color32::LIGHT_RED,
-            );
-        }
     }
 }
 
-/// `camera` with its eye (or its target) moved by `by`.
-fn camera_moved(
-    camera: &csrbf_anim::CameraFile,
-    target: bool,
-    by: DVec3,
-) -> csrbf_anim::CameraFile {
-    let mut out = camera.clone();
-    let end = if target {
-        &mut out.target
-    } else {
-        &mut out.eye
-    };
-    *end = (DVec3::from_array(*end) + by).to_array();
-    out
+/// The viewport's grey outside the scene camera's `gate` (all of it when
+/// `empty`): only that is filled, as a fill costs on a software rasteriser.
+fn letterbox(ui: &egui::Ui, rect: egui::Rect, gate: egui::Rect, empty: bool) {
+    let grey = egui::Color32::from_gray(28);
+    if empty {
+        ui.painter().rect_filled(rect, 0.0, grey);
+        return;
+    }
+    if gate == rect {
+        return;
+    }
+    let p = ui.painter();
+    for bar in [
+        egui::Rect::from_x_y_ranges(rect.x_range(), rect.top()..=gate.top()),
+        egui::Rect::from_x_y_ranges(rect.x_range(), gate.bottom()..=rect.bottom()),
+        egui::Rect::from_x_y_ranges(rect.left()..=gate.left(), gate.y_range()),
+        egui::Rect::from_x_y_ranges(gate.right()..=rect.right(), gate.y_range()),
+    ] {
+        p.rect_filled(bar, 0.0, grey);
+    }
 }
 
-/// The gizmo rings' radius, in points.
-const RING_PIXELS: f32 = 48.0;
-
-/// The orientation `start` turned about `axis` through `centre` by the
-/// angle the pointer swept on the ring's plane from `pressed` to `px`.
-fn turned(
+/// A hash of what the Composer's picture shows (the scene's generation,
+/// whether it moves, the time, the view and the lines), to draw it only
+/// when that changes.
+fn picture_stamp<'a>(
+    c: &Composer,
+    moving: bool,
     cam: &Camera,
-    size: [u32; 2],
-    centre: Vec3,
-    axis: Vec3,
-    start: DQuat,
-    pressed: Vec2,
-    px: Vec2,
-) -> DQuat {
-    let angle = crate::swept_angle(cam, size, centre.as_dvec3(), axis.as_dvec3(), pressed, px);
-    (DQuat::from_axis_angle(axis.as_dvec3().normalize(), angle) * start).normalize()
+    options: &SceneOptions,
+    lines: impl Iterator<Item = &'a Line>,
+) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    c.loaded.generation().hash(&mut h);
+    moving.hash(&mut h);
+    c.doc.playhead.to_bits().hash(&mut h);
+    format!("{cam:?}{:?}{:?}", options.draw, c.hidden).hash(&mut h);
+    for l in lines {
+        for v in [l.a, l.b] {
+            v.to_array().map(f32::to_bits).hash(&mut h);
+        }
+        l.color.map(f32::to_bits).hash(&mut h);
+    }
+    h.finish()
 }

@@ -187,29 +187,7 @@ impl FileDialog {
             .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
             .open(&mut open)
             .show(ctx, |ui| {
-                ui.horizontal(|ui| {
-                    if ui
-                        .button("Up")
-                        .on_hover_text("The folder above (Backspace)")
-                        .clicked()
-                        && let Some(p) = self.dir.parent()
-                    {
-                        let p = p.to_path_buf();
-                        self.enter(p);
-                    }
-                    let mut dir = self.dir.display().to_string();
-                    let r = ui.add(
-                        egui::TextEdit::singleline(&mut dir)
-                            .desired_width(f32::INFINITY)
-                            .id_salt("folder"),
-                    );
-                    if r.changed() {
-                        self.dir = PathBuf::from(&dir);
-                    }
-                    if r.lost_focus() {
-                        self.list();
-                    }
-                });
+                self.folder_ui(ui);
                 ui.label(format!(
                     "Showing folders and {}",
                     self.purpose.endings().join(", ")
@@ -219,83 +197,18 @@ impl FileDialog {
                     .max_height(height)
                     .auto_shrink([false, false])
                     .show(ui, |ui| {
-                        let mut go = None;
-                        for (name, is_dir) in &self.entries {
-                            let label = if *is_dir {
-                                format!("[{name}]")
-                            } else {
-                                name.clone()
-                            };
-                            let r = ui.selectable_label(!*is_dir && *name == self.name, label);
-                            if r.double_clicked() {
-                                go = Some((name.clone(), *is_dir, true));
-                            } else if r.clicked() {
-                                go = Some((name.clone(), *is_dir, false));
-                            }
-                        }
-                        match go {
-                            Some((name, true, _)) => {
-                                let d = self.dir.join(name);
-                                self.enter(d);
-                            }
-                            Some((name, false, twice)) => {
-                                self.name = name;
-                                if twice {
-                                    choice = Some(Choice::File(self.dir.join(&self.name)));
-                                }
-                            }
-                            None => {}
+                        if let Some(c) = self.entries_ui(ui) {
+                            choice = Some(c);
                         }
                     });
                 if let Some(e) = &self.error {
                     ui.colored_label(egui::Color32::LIGHT_RED, e);
                 }
-                ui.horizontal(|ui| {
-                    ui.label("File:");
-                    let out = egui::TextEdit::singleline(&mut self.name)
-                        .desired_width(300.0)
-                        .id_salt("file name")
-                        .show(ui);
-                    let r = out.response;
-                    if std::mem::take(&mut self.focus) {
-                        // Focused with the name selected: typing replaces it.
-                        r.request_focus();
-                        let mut state = out.state;
-                        state
-                            .cursor
-                            .set_char_range(Some(egui::text::CCursorRange::two(
-                                egui::text::CCursor::new(0),
-                                egui::text::CCursor::new(self.name.chars().count()),
-                            )));
-                        state.store(ui.ctx(), r.id);
-                    }
-                    let enter = r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-                    let verb = if self.purpose.saves() { "Save" } else { "Open" };
-                    if (ui.button(verb).clicked() || enter) && !self.name.trim().is_empty() {
-                        let p = Path::new(self.name.trim());
-                        choice = Some(Choice::File(if p.is_absolute() {
-                            p.to_path_buf()
-                        } else {
-                            self.dir.join(p)
-                        }));
-                    }
-                    if ui.button("Cancel").clicked() {
-                        choice = Some(Choice::Cancel);
-                    }
-                });
-                if let Some(p) = self.replace.clone() {
-                    ui.horizontal(|ui| {
-                        ui.colored_label(
-                            egui::Color32::from_rgb(240, 190, 90),
-                            format!("{} exists. Replace it?", p.display()),
-                        );
-                        if ui.button("Replace").clicked() {
-                            choice = Some(Choice::File(p.clone()));
-                        }
-                        if ui.button("Keep it").clicked() {
-                            self.replace = None;
-                        }
-                    });
+                if let Some(c) = self.name_ui(ui) {
+                    choice = Some(c);
+                }
+                if let Some(c) = self.replace_ui(ui) {
+                    choice = Some(c);
                 }
             });
         if !open {
@@ -312,6 +225,135 @@ impl FileDialog {
         }
         choice
     }
+
+    /// Up, and the folder as text.
+    fn folder_ui(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            if ui
+                .button("Up")
+                .on_hover_text("The folder above (Backspace)")
+                .clicked()
+                && let Some(p) = self.dir.parent()
+            {
+                let p = p.to_path_buf();
+                self.enter(p);
+            }
+            let mut dir = self.dir.display().to_string();
+            let r = ui.add(
+                egui::TextEdit::singleline(&mut dir)
+                    .desired_width(f32::INFINITY)
+                    .id_salt("folder"),
+            );
+            if r.changed() {
+                self.dir = PathBuf::from(&dir);
+            }
+            if r.lost_focus() {
+                self.list();
+            }
+        });
+    }
+
+    /// The folder's entries: a click picks a file's name or enters a
+    /// folder; a double click on a file chooses it.
+    fn entries_ui(&mut self, ui: &mut egui::Ui) -> Option<Choice> {
+        let mut go = None;
+        for (name, is_dir) in &self.entries {
+            let label = if *is_dir {
+                format!("[{name}]")
+            } else {
+                name.clone()
+            };
+            let r = ui.selectable_label(!*is_dir && *name == self.name, label);
+            if r.double_clicked() {
+                go = Some((name.clone(), *is_dir, true));
+            } else if r.clicked() {
+                go = Some((name.clone(), *is_dir, false));
+            }
+        }
+        match go {
+            Some((name, true, _)) => {
+                let d = self.dir.join(name);
+                self.enter(d);
+                None
+            }
+            Some((name, false, twice)) => {
+                self.name = name;
+                twice.then(|| Choice::File(self.dir.join(&self.name)))
+            }
+            None => None,
+        }
+    }
+
+    /// The file's name (focused, selected, at first), Open or Save, Cancel.
+    fn name_ui(&mut self, ui: &mut egui::Ui) -> Option<Choice> {
+        let mut choice = None;
+        ui.horizontal(|ui| {
+            ui.label("File:");
+            let out = egui::TextEdit::singleline(&mut self.name)
+                .desired_width(300.0)
+                .id_salt("file name")
+                .show(ui);
+            let r = out.response;
+            if std::mem::take(&mut self.focus) {
+                // Focused with the name selected: typing replaces it.
+                r.request_focus();
+                let mut state = out.state;
+                state
+                    .cursor
+                    .set_char_range(Some(egui::text::CCursorRange::two(
+                        egui::text::CCursor::new(0),
+                        egui::text::CCursor::new(self.name.chars().count()),
+                    )));
+                state.store(ui.ctx(), r.id);
+            }
+            let enter = r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+            let verb = if self.purpose.saves() { "Save" } else { "Open" };
+            if (ui.button(verb).clicked() || enter) && !self.name.trim().is_empty() {
+                let p = Path::new(self.name.trim());
+                choice = Some(Choice::File(if p.is_absolute() {
+                    p.to_path_buf()
+                } else {
+                    self.dir.join(p)
+                }));
+            }
+            if ui.button("Cancel").clicked() {
+                choice = Some(Choice::Cancel);
+            }
+        });
+        choice
+    }
+
+    /// Replace or keep a file that exists, when saving over one.
+    fn replace_ui(&mut self, ui: &mut egui::Ui) -> Option<Choice> {
+        let p = self.replace.clone()?;
+        let mut choice = None;
+        ui.horizontal(|ui| {
+            ui.colored_label(
+                egui::Color32::from_rgb(240, 190, 90),
+                format!("{} exists. Replace it?", p.display()),
+            );
+            if ui.button("Replace").clicked() {
+                choice = Some(Choice::File(p.clone()));
+            }
+            if ui.button("Keep it").clicked() {
+                self.replace = None;
+            }
+        });
+        choice
+    }
+}
+
+/// The File menu's Recent submenu: the file clicked, if one was.
+pub fn recent_menu(ui: &mut egui::Ui, recent: &[PathBuf]) -> Option<PathBuf> {
+    let mut chosen = None;
+    ui.menu_button("Recent", |ui| {
+        for p in recent {
+            if ui.button(p.display().to_string()).clicked() {
+                chosen = Some(p.clone());
+            }
+        }
+    });
+    chosen
 }
 
 /// Where the app keeps its recent files and recovery file by default:

@@ -18,10 +18,7 @@ use eframe::wgpu;
 /// The colour format the model is drawn in (sRGB, as the CLI's pictures).
 const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
-/// Above this many triangles the viewport draws one sample per pixel (on a
-/// software rasteriser 4x costs more than it shows) and, while the model
-/// moves, a lighter stand-in.
-pub const BIG_MESH_TRIANGLES: usize = crate::preview::NORMALS_EVERY_STEP;
+pub use crate::preview::BIG_MESH_TRIANGLES;
 
 /// A mesh newly opened: the GPU side prepares its parts once.
 pub struct NewMesh {
@@ -45,7 +42,7 @@ pub struct ViewportPaint {
     pub positions: Arc<Vec<Vec3>>,
     /// A light copy to draw instead (a big mesh moving); `positions` and
     /// `normals` are then its vertices'.
-    pub stand_in: Option<Arc<super::StandIn>>,
+    pub stand_in: Option<Arc<csrbf_mesh::StandIn>>,
     /// Their normals.
     pub normals: Arc<Vec<Vec3>>,
     /// The camera.
@@ -331,7 +328,7 @@ impl ViewportPaint {
 
 /// A stand-in at one frame: its triangles, its vertices' positions and
 /// normals.
-pub type StandInFrame = (Arc<super::StandIn>, Vec<Vec3>, Vec<Vec3>);
+pub type StandInFrame = (Arc<csrbf_mesh::StandIn>, Vec<Vec3>, Vec<Vec3>);
 
 /// One picture of the Composer's viewport: a frame of the scene.
 pub struct ScenePaint {

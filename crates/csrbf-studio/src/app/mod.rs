@@ -6,6 +6,7 @@
 mod composer;
 mod files;
 mod gpu;
+mod key_drag;
 mod panel;
 mod scene_panel;
 mod timeline;
@@ -22,6 +23,7 @@ use eframe::egui;
 
 use crate::{Command, Document, History, Orbit, Preview, PreviewFrame};
 pub use composer::{KeyRef, Mode};
+use csrbf_mesh::StandIn;
 use files::SceneRecovery;
 use files::{Choice, FileDialog, Purpose};
 pub use files::{MESH_ENDINGS, Recovery, state_dir};
@@ -77,7 +79,7 @@ struct Model {
     /// Vertices chosen with the vertex tool (for a handle, region or anchor).
     picked_vertices: Vec<u32>,
     /// What the last box of the vertex tool is for.
-    vertex_target: panel::VertexTarget,
+    vertex_target: crate::tools::VertexTarget,
     /// The generation whose preview is shown.
     shown_generation: u64,
     /// When the recovery file was last written.
@@ -86,6 +88,65 @@ struct Model {
     framed: bool,
     /// The control file as last written to the recovery file.
     recovered_text: String,
+}
+
+impl Model {
+    /// The model of `mesh` read from `path`: its document, the preview on a
+    /// worker (waking `ctx`), the picking tree, normals, a stand-in when it
+    /// is big, and a camera framing it for a viewport of `size`. `gpu`: the
+    /// mesh's GPU id and whether the rasteriser is software.
+    fn new(
+        mesh: Mesh,
+        path: &Path,
+        scene: csrbf_anim::Scene,
+        (id, software): (u64, bool),
+        size: [u32; 2],
+        ctx: &egui::Context,
+    ) -> Model {
+        let up = csrbf_mesh::guess_up(&mesh, path);
+        let (lo, hi) = mesh.bounds().unwrap_or_default();
+        let diagonal = mesh.diagonal() as f64;
+        let triangles = mesh.faces.triangles();
+        let bvh = Bvh::new(&mesh.positions, &triangles);
+        let rest_normals = Arc::new(csrbf_mesh::triangle_vertex_normals(
+            &mesh.positions,
+            &triangles,
+        ));
+        let shown = Arc::new(mesh.positions.clone());
+        let big = triangles.len() > gpu::BIG_MESH_TRIANGLES;
+        let stand_in = big.then(|| Arc::new(StandIn::new(&mesh.positions, &triangles)));
+        let doc = Document::new(mesh, path.to_path_buf(), (diagonal * 0.15).max(1e-9));
+        let wake = ctx.clone();
+        let preview = Preview::new(&doc, move || wake.request_repaint());
+        let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
+        Model {
+            hidden: vec![false; doc.controls.deformations.len()],
+            history: History::default(),
+            preview,
+            controls_path: None,
+            shown_normals: rest_normals.clone(),
+            rest_positions: shown.clone(),
+            rest_normals,
+            shown,
+            bvh,
+            bvh_fresh: true,
+            gpu_mesh: Arc::new(gpu::NewMesh {
+                id,
+                scene: Mutex::new(Some(scene)),
+                samples: if software || big { 1 } else { 4 },
+            }),
+            stand_in,
+            orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
+            up,
+            picked_vertices: Vec::new(),
+            vertex_target: crate::tools::VertexTarget::Handle,
+            shown_generation: 0,
+            recovery_at: None,
+            framed: false,
+            recovered_text: String::new(),
+            doc,
+        }
+    }
 }
 
 /// Something waiting for the person's answer about unsaved changes.
@@ -121,7 +182,7 @@ pub struct StudioApp {
     recent: Vec<PathBuf>,
     /// Where recent files and the recovery file are kept.
     state: Option<PathBuf>,
-    handle_mode: panel::HandleMode,
+    handle_mode: crate::gizmo::HandleMode,
     /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
     software: bool,
     /// Picker or Composer.
@@ -173,7 +234,7 @@ impl StudioApp {
             allow_close: false,
             recent: files::recent_files(state.as_deref()),
             state,
-            handle_mode: panel::HandleMode::default(),
+            handle_mode: crate::gizmo::HandleMode::default(),
             software,
             mode: Mode::Pick,
             composer: None,
@@ -286,12 +347,12 @@ impl StudioApp {
             Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
         };
         let mesh = loaded.mesh;
-        let Some((lo, hi)) = mesh.bounds() else {
+        if mesh.bounds().is_none() {
             return self.show_error(
                 "Cannot open the mesh",
                 format!("{}: the mesh has no vertices", path.display()),
             );
-        };
+        }
         if mesh.faces.is_empty() {
             return self.show_error(
                 "Cannot open the mesh",
@@ -312,54 +373,11 @@ impl StudioApp {
             Ok(s) => s,
             Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
         };
-        let up = csrbf_mesh::guess_up(&mesh, path);
-        let diagonal = mesh.diagonal() as f64;
-        let triangles = mesh.faces.triangles();
-        let bvh = Bvh::new(&mesh.positions, &triangles);
-        let rest_normals = Arc::new(csrbf_mesh::triangle_vertex_normals(
-            &mesh.positions,
-            &triangles,
-        ));
-        let shown = Arc::new(mesh.positions.clone());
-        let stand_in = (triangles.len() > gpu::BIG_MESH_TRIANGLES)
-            .then(|| Arc::new(StandIn::new(&mesh.positions, &triangles)));
-        let doc = Document::new(mesh, path.to_path_buf(), (diagonal * 0.15).max(1e-9));
-        let wake = ctx.clone();
-        let preview = Preview::new(&doc, move || wake.request_repaint());
-        let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
         let id = self.next_mesh_id;
         self.next_mesh_id += 1;
-        self.model = Some(Model {
-            hidden: vec![false; doc.controls.deformations.len()],
-            history: History::default(),
-            preview,
-            controls_path: None,
-            shown_normals: rest_normals.clone(),
-            rest_positions: shown.clone(),
-            rest_normals,
-            shown,
-            bvh,
-            bvh_fresh: true,
-            gpu_mesh: Arc::new(gpu::NewMesh {
-                id,
-                scene: Mutex::new(Some(scene)),
-                samples: if self.software || triangles.len() > gpu::BIG_MESH_TRIANGLES {
-                    1
-                } else {
-                    4
-                },
-            }),
-            stand_in,
-            orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
-            up,
-            picked_vertices: Vec::new(),
-            vertex_target: panel::VertexTarget::Handle,
-            shown_generation: 0,
-            recovery_at: None,
-            framed: false,
-            recovered_text: String::new(),
-            doc,
-        });
+        let model = Model::new(mesh, path, scene, (id, self.software), size, ctx);
+        let up = model.up;
+        self.model = Some(model);
         self.gesture = Gesture::None;
         files::remember(self.state.as_deref(), path);
         self.recent = files::recent_files(self.state.as_deref());
@@ -762,159 +780,136 @@ impl StudioApp {
         let Some(m) = self.model.as_ref() else {
             return;
         };
-        let Some((lo, hi)) = m.doc.mesh.bounds() else {
-            return;
-        };
-        let centre = ((lo + hi) * 0.5).as_dvec3();
-        let l = m.doc.active_layer;
-        let sel: Vec<(usize, usize)> = if m.doc.selection.0.is_empty() {
-            let n = m.doc.controls.deformations[l].starts.len();
-            (0..n).map(|i| (l, i)).collect()
-        } else {
-            m.doc.selection.0.clone()
-        };
-        let flip = |p: csrbf::glam::DVec3| {
-            let mut q = p;
-            q[axis] = 2.0 * centre[axis] - p[axis];
-            q
-        };
-        let mut batch = Vec::new();
-        for &(layer, i) in &sel {
-            let s = &m.doc.controls.deformations[layer];
-            let (a, b) = (flip(s.starts[i]), flip(s.targets[i]));
-            // A start on the plane is its own mirror image; a start whose
-            // image is already there is not added twice.
-            let r = s.options.radius;
-            let taken = s.starts.iter().any(|p| p.distance(a) < 1e-6 * r.max(1e-12));
-            if !taken {
-                batch.push(Command::add(layer, a, b));
-            }
-        }
-        if batch.is_empty() {
+        let Some((batch, n)) = Command::mirror(&m.doc, axis) else {
             self.status = "Nothing to mirror: every image is already there".into();
             return;
-        }
-        let n = batch.len();
-        self.edit(Command::Batch(batch), true);
+        };
+        self.edit(batch, true);
         self.status = format!(
             "Mirrored {n} control vector(s) across the {} plane through the model's centre",
             ["YZ", "XZ", "XY"][axis]
         );
     }
 
+    /// The open file dialog, message, unsaved-changes question and
+    /// recovery offers, each a modal of its own.
     fn dialogs(&mut self, ctx: &egui::Context) {
-        if let Some(d) = self.dialog.as_mut()
-            && let Some(choice) = d.show(ctx)
-        {
-            let purpose = d.purpose;
-            self.dialog = None;
-            // This frame was drawn with the dialog open: draw the result.
-            ctx.request_repaint();
-            if let Choice::File(p) = choice {
-                match purpose {
-                    Purpose::OpenMesh => self.open_mesh(ctx, &p),
-                    Purpose::OpenControls => self.open_controls(&p),
-                    Purpose::SaveControls => self.save_to(&p),
-                    Purpose::ExportMesh => self.export_mesh(&p),
-                    Purpose::ExportFitted => self.export_fitted(&p),
-                    Purpose::OpenScene => self.open_scene(&p),
-                    Purpose::SaveScene => self.save_scene_to(&p),
-                    Purpose::AddObject => self.add_object(&p),
-                    Purpose::Texture => self.set_texture(&p),
-                    Purpose::AddControls => self.add_deformation(&p),
-                    Purpose::ExportMovie => self.export_movie(&p),
-                    Purpose::ExportGltf => self.export_gltf(&p),
-                }
-            }
+        self.file_dialog(ctx);
+        self.message_modal(ctx);
+        self.unsaved_modal(ctx);
+        self.recovery_offers(ctx);
+    }
+
+    fn file_dialog(&mut self, ctx: &egui::Context) {
+        let Some(d) = self.dialog.as_mut() else {
+            return;
+        };
+        let Some(choice) = d.show(ctx) else {
+            return;
+        };
+        let purpose = d.purpose;
+        self.dialog = None;
+        // This frame was drawn with the dialog open: draw the result.
+        ctx.request_repaint();
+        let Choice::File(p) = choice else {
+            return;
+        };
+        match purpose {
+            Purpose::OpenMesh => self.open_mesh(ctx, &p),
+            Purpose::OpenControls => self.open_controls(&p),
+            Purpose::SaveControls => self.save_to(&p),
+            Purpose::ExportMesh => self.export_mesh(&p),
+            Purpose::ExportFitted => self.export_fitted(&p),
+            Purpose::OpenScene => self.open_scene(&p),
+            Purpose::SaveScene => self.save_scene_to(&p),
+            Purpose::AddObject => self.add_object(&p),
+            Purpose::Texture => self.set_texture(&p),
+            Purpose::AddControls => self.add_deformation(&p),
+            Purpose::ExportMovie => self.export_movie(&p),
+            Purpose::ExportGltf => self.export_gltf(&p),
         }
-        if let Some((title, text)) = self.message.clone() {
-            let mut close = false;
-            egui::Modal::new(egui::Id::unique("message")).show(ctx, |ui| {
-                ui.set_max_width(520.0);
-                ui.heading(&title);
-                ui.label(&text);
-                // A button only: the Enter that confirmed a file dialog is
-                // still in this frame's input.
-                if ui.button("OK").clicked() {
-                    close = true;
-                }
-            });
-            if close {
-                self.message = None;
+    }
+
+    fn message_modal(&mut self, ctx: &egui::Context) {
+        let Some((title, text)) = self.message.clone() else {
+            return;
+        };
+        let mut close = false;
+        egui::Modal::new(egui::Id::unique("message")).show(ctx, |ui| {
+            ui.set_max_width(520.0);
+            ui.heading(&title);
+            ui.label(&text);
+            // A button only: the Enter that confirmed a file dialog is
+            // still in this frame's input.
+            if ui.button("OK").clicked() {
+                close = true;
             }
+        });
+        if close {
+            self.message = None;
         }
-        if let Some(pending) = self.pending.clone() {
-            let mut answer = None;
-            let scene = matches!(pending, Pending::NewScene | Pending::OpenScene(_))
-                || (matches!(pending, Pending::Close)
-                    && self.composer.as_ref().is_some_and(|c| c.doc.dirty));
-            egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
-                ui.heading("Unsaved changes");
-                ui.label(if scene {
-                    "The scene has changes that are not saved."
+    }
+
+    /// Save, Discard or Cancel before what is pending (open, close, ...).
+    fn unsaved_modal(&mut self, ctx: &egui::Context) {
+        let Some(pending) = self.pending.clone() else {
+            return;
+        };
+        let scene = matches!(pending, Pending::NewScene | Pending::OpenScene(_))
+            || (matches!(pending, Pending::Close)
+                && self.composer.as_ref().is_some_and(|c| c.doc.dirty));
+        match unsaved_question(ctx, scene) {
+            Some(Answer::Save) => {
+                self.pending = None;
+                if scene {
+                    self.save_scene();
                 } else {
-                    "The control file has changes that are not saved."
-                });
-                ui.horizontal(|ui| {
-                    if ui.button("Save").clicked() {
-                        answer = Some(0);
-                    }
-                    if ui.button("Discard").clicked() {
-                        answer = Some(1);
-                    }
-                    if ui.button("Cancel").clicked() {
-                        answer = Some(2);
-                    }
-                });
-            });
-            match answer {
-                Some(0) => {
-                    self.pending = None;
-                    if scene {
-                        self.save_scene();
-                    } else {
-                        self.save();
-                    }
-                    let saved = if scene {
-                        self.composer.as_ref().is_some_and(|c| !c.doc.dirty)
-                    } else {
-                        self.model.as_ref().is_some_and(|m| !m.doc.dirty)
-                    };
-                    if saved {
-                        self.resume(ctx, pending);
-                    }
+                    self.save();
                 }
-                Some(1) => {
-                    self.pending = None;
-                    if scene {
-                        if let Some(c) = self.composer.as_mut() {
-                            c.doc.dirty = false;
-                        }
-                        SceneRecovery::clear(self.state.as_deref());
-                    } else {
-                        if let Some(m) = self.model.as_mut() {
-                            m.doc.dirty = false;
-                        }
-                        Recovery::clear(self.state.as_deref());
-                    }
+                let saved = if scene {
+                    self.composer.as_ref().is_some_and(|c| !c.doc.dirty)
+                } else {
+                    self.model.as_ref().is_some_and(|m| !m.doc.dirty)
+                };
+                if saved {
                     self.resume(ctx, pending);
                 }
-                Some(_) => self.pending = None,
-                None => {}
             }
+            Some(Answer::Discard) => {
+                self.pending = None;
+                self.discard(scene);
+                self.resume(ctx, pending);
+            }
+            Some(Answer::Cancel) => self.pending = None,
+            None => {}
         }
+    }
+
+    /// Forgets the unsaved changes of the scene (`scene`) or the controls.
+    fn discard(&mut self, scene: bool) {
+        if scene {
+            if let Some(c) = self.composer.as_mut() {
+                c.doc.dirty = false;
+            }
+            SceneRecovery::clear(self.state.as_deref());
+        } else {
+            if let Some(m) = self.model.as_mut() {
+                m.doc.dirty = false;
+            }
+            Recovery::clear(self.state.as_deref());
+        }
+    }
+
+    /// What the recovery files kept from a session that closed unsaved.
+    fn recovery_offers(&mut self, ctx: &egui::Context) {
         if let Some(r) = self.scene_recovery_offer.clone() {
-            let answer = restore_question(
-                ctx,
-                "Restore the last scene?",
-                &format!(
-                    "The studio closed with unsaved changes to the scene {}.",
-                    r.path
-                        .as_ref()
-                        .map_or("(never saved)".into(), |p| p.display().to_string())
-                ),
+            let text = format!(
+                "The studio closed with unsaved changes to the scene {}.",
+                r.path
+                    .as_ref()
+                    .map_or("(never saved)".into(), |p| p.display().to_string())
             );
-            match answer {
+            match restore_question(ctx, "Restore the last scene?", &text) {
                 Some(true) => {
                     self.scene_recovery_offer = None;
                     self.restore_scene(&r);
@@ -927,15 +922,11 @@ impl StudioApp {
             }
         }
         if let Some(r) = self.recovery_offer.clone() {
-            let answer = restore_question(
-                ctx,
-                "Restore the last session?",
-                &format!(
-                    "The studio closed with unsaved changes to the controls of {}.",
-                    r.mesh.display()
-                ),
+            let text = format!(
+                "The studio closed with unsaved changes to the controls of {}.",
+                r.mesh.display()
             );
-            match answer {
+            match restore_question(ctx, "Restore the last session?", &text) {
                 Some(true) => {
                     self.recovery_offer = None;
                     self.restore(ctx, &r);
@@ -1002,151 +993,101 @@ impl StudioApp {
         }
         egui::MenuBar::new().ui(ui, |ui| {
             self.mode_switch(ui);
-            ui.menu_button("File", |ui| {
-                if self.composer.is_some() && ui.button("Back to the Composer").clicked() {
-                    self.back_to_composer();
-                }
-                if ui.button("New scene (Composer)").clicked() {
-                    self.new_scene();
-                }
-                if ui.button("Open scene…").clicked() {
-                    self.ask(Purpose::OpenScene);
-                }
-                ui.separator();
-                if ui.button("Open mesh…  Ctrl+O").clicked() {
-                    self.ask(Purpose::OpenMesh);
-                }
-                let has = self.model.is_some();
-                if ui
-                    .add_enabled(has, egui::Button::new("Open control file…"))
-                    .clicked()
-                {
-                    self.ask(Purpose::OpenControls);
-                }
-                ui.menu_button("Recent", |ui| {
-                    for p in self.recent.clone() {
-                        if ui.button(p.display().to_string()).clicked() {
-                            let ctx = ui.ctx().clone();
-                            let is_mesh = p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                                MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str())
-                            });
-                            if is_scene(&p) {
-                                self.open_scene(&p);
-                            } else if is_mesh {
-                                self.open_mesh(&ctx, &p);
-                            } else {
-                                self.open_controls(&p);
-                            }
-                        }
-                    }
-                });
-                ui.separator();
-                if ui
-                    .add_enabled(has, egui::Button::new("Save controls  Ctrl+S"))
-                    .clicked()
-                {
-                    self.save();
-                }
-                if ui
-                    .add_enabled(has, egui::Button::new("Save controls as…  Ctrl+Shift+S"))
-                    .clicked()
-                {
-                    self.ask(Purpose::SaveControls);
-                }
-                if ui
-                    .add_enabled(has, egui::Button::new("Export deformed mesh…"))
-                    .clicked()
-                {
-                    self.ask(Purpose::ExportMesh);
-                }
-                if ui
-                    .add_enabled(has, egui::Button::new("Export fitted .csrbf…"))
-                    .clicked()
-                {
-                    self.ask(Purpose::ExportFitted);
-                }
-                ui.separator();
-                if ui.button("Quit").clicked() {
-                    ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
-                }
-            });
-            ui.menu_button("Edit", |ui| {
-                if ui.button("Undo  Ctrl+Z").clicked() {
-                    self.undo();
-                }
-                if ui.button("Redo  Ctrl+Shift+Z").clicked() {
-                    self.redo();
-                }
-                ui.separator();
-                if ui.button("Delete selected  Del").clicked() {
-                    self.delete_selected();
-                }
-                if ui.button("Duplicate (stamp)  Ctrl+D").clicked() {
-                    self.duplicate();
-                }
-                if ui.button("Select all in layer  Ctrl+A").clicked() {
-                    self.select_all();
-                }
-                for (axis, name) in ["X  (M)", "Y", "Z"].into_iter().enumerate() {
-                    if ui.button(format!("Mirror across {name}")).clicked() {
-                        self.mirror(axis);
-                    }
-                }
-            });
+            ui.menu_button("File", |ui| self.file_menu(ui));
+            ui.menu_button("Edit", |ui| self.edit_menu(ui));
             ui.menu_button("View", |ui| self.view_menu(ui));
         });
     }
-}
 
-/// A light copy of a big mesh, drawn while it moves: the triangles of a
-/// vertex clustering (`csrbf_mesh::cluster_triangles`, about 50k whatever
-/// the size) over the few vertices they use, which are gathered from the
-/// deformed positions each frame (so it moves by the same map).
-pub struct StandIn {
-    /// The full mesh's vertices it uses.
-    pub vertices: Vec<u32>,
-    /// Its triangles, indexing `vertices`.
-    pub indices: Vec<u32>,
-}
-
-impl StandIn {
-    /// The stand-in of a mesh (80 cells along its longest side).
-    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> StandIn {
-        let light = csrbf_mesh::cluster_triangles(positions, triangles, 80);
-        let mut local = std::collections::HashMap::new();
-        let mut vertices = Vec::new();
-        let mut indices = Vec::with_capacity(light.len() * 3);
-        for t in light {
-            for i in t {
-                let k = *local.entry(i).or_insert_with(|| {
-                    vertices.push(i);
-                    vertices.len() as u32 - 1
-                });
-                indices.push(k);
+    /// The Picker's File menu.
+    fn file_menu(&mut self, ui: &mut egui::Ui) {
+        if self.composer.is_some() && ui.button("Back to the Composer").clicked() {
+            self.back_to_composer();
+        }
+        if ui.button("New scene (Composer)").clicked() {
+            self.new_scene();
+        }
+        if ui.button("Open scene…").clicked() {
+            self.ask(Purpose::OpenScene);
+        }
+        ui.separator();
+        if ui.button("Open mesh…  Ctrl+O").clicked() {
+            self.ask(Purpose::OpenMesh);
+        }
+        let has = self.model.is_some();
+        if ui
+            .add_enabled(has, egui::Button::new("Open control file…"))
+            .clicked()
+        {
+            self.ask(Purpose::OpenControls);
+        }
+        if let Some(p) = files::recent_menu(ui, &self.recent) {
+            let is_mesh = p
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str()));
+            if is_scene(&p) {
+                self.open_scene(&p);
+            } else if is_mesh {
+                self.open_mesh(&ui.ctx().clone(), &p);
+            } else {
+                self.open_controls(&p);
             }
         }
-        StandIn { vertices, indices }
+        ui.separator();
+        if ui
+            .add_enabled(has, egui::Button::new("Save controls  Ctrl+S"))
+            .clicked()
+        {
+            self.save();
+        }
+        if ui
+            .add_enabled(has, egui::Button::new("Save controls as…  Ctrl+Shift+S"))
+            .clicked()
+        {
+            self.ask(Purpose::SaveControls);
+        }
+        if ui
+            .add_enabled(has, egui::Button::new("Export deformed mesh…"))
+            .clicked()
+        {
+            self.ask(Purpose::ExportMesh);
+        }
+        if ui
+            .add_enabled(has, egui::Button::new("Export fitted .csrbf…"))
+            .clicked()
+        {
+            self.ask(Purpose::ExportFitted);
+        }
+        ui.separator();
+        if ui.button("Quit").clicked() {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
     }
 
-    /// The stand-in's positions and normals (its own, from its triangles:
-    /// the full mesh's may lag a drag) given the full mesh's positions.
-    pub fn shape(&self, positions: &[Vec3]) -> (Vec<Vec3>, Vec<Vec3>) {
-        let p = self.gather(positions);
-        let tris: Vec<[u32; 3]> = self
-            .indices
-            .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]])
-            .collect();
-        let n = csrbf_mesh::triangle_vertex_normals(&p, &tris);
-        (p, n)
-    }
-
-    /// `values` of the full mesh at the stand-in's vertices.
-    pub fn gather(&self, values: &[Vec3]) -> Vec<Vec3> {
-        self.vertices
-            .iter()
-            .map(|&i| values.get(i as usize).copied().unwrap_or_default())
-            .collect()
+    /// The Picker's Edit menu.
+    fn edit_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("Undo  Ctrl+Z").clicked() {
+            self.undo();
+        }
+        if ui.button("Redo  Ctrl+Shift+Z").clicked() {
+            self.redo();
+        }
+        ui.separator();
+        if ui.button("Delete selected  Del").clicked() {
+            self.delete_selected();
+        }
+        if ui.button("Duplicate (stamp)  Ctrl+D").clicked() {
+            self.duplicate();
+        }
+        if ui.button("Select all in layer  Ctrl+A").clicked() {
+            self.select_all();
+        }
+        for (axis, name) in ["X  (M)", "Y", "Z"].into_iter().enumerate() {
+            if ui.button(format!("Mirror across {name}")).clicked() {
+                self.mirror(axis);
+            }
+        }
     }
 }
 
@@ -1204,6 +1145,39 @@ fn undo_keys(ctx: &egui::Context) -> Option<bool> {
     } else {
         None
     }
+}
+
+/// The answer to "Unsaved changes".
+enum Answer {
+    Save,
+    Discard,
+    Cancel,
+}
+
+/// Asks what to do with the unsaved changes of the scene (`scene`) or the
+/// control file; None while unanswered.
+fn unsaved_question(ctx: &egui::Context, scene: bool) -> Option<Answer> {
+    let mut answer = None;
+    egui::Modal::new(egui::Id::unique("unsaved")).show(ctx, |ui| {
+        ui.heading("Unsaved changes");
+        ui.label(if scene {
+            "The scene has changes that are not saved."
+        } else {
+            "The control file has changes that are not saved."
+        });
+        ui.horizontal(|ui| {
+            if ui.button("Save").clicked() {
+                answer = Some(Answer::Save);
+            }
+            if ui.button("Discard").clicked() {
+                answer = Some(Answer::Discard);
+            }
+            if ui.button("Cancel").clicked() {
+                answer = Some(Answer::Cancel);
+            }
+        });
+    });
+    answer
 }
 
 /// Asks whether to restore what a recovery file kept: Some(true) to
@@ -1277,21 +1251,9 @@ fn side_panel(id: &'static str, ui: &egui::Ui) -> egui::Panel {
         .size_range(280.0..=560.0)
 }
 
-impl eframe::App for StudioApp {
-    /// The panels' colour: they are drawn without a fill of their own, which a
-    /// software rasteriser would shade pixel by pixel.
-    fn clear_color(&self, visuals: &egui::Visuals) -> [f32; 4] {
-        visuals.panel_fill.to_normalized_gamma_f32()
-    }
-
-    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
-        let started = Instant::now();
-        let ctx = ui.ctx().clone();
-        self.set_title(&ctx);
-        if let Some(m) = self.model.as_mut() {
-            take_frame(m);
-        }
-        // Files dropped on the window.
+impl StudioApp {
+    /// Files dropped on the window: each opened by what it is and the mode.
+    fn dropped_files(&mut self, ctx: &egui::Context) {
         let dropped: Vec<PathBuf> = ctx.input(|i| {
             i.raw
                 .dropped_files
@@ -1306,13 +1268,14 @@ impl eframe::App for StudioApp {
                 .and_then(|e| e.to_str())
                 .map(str::to_ascii_lowercase)
                 .unwrap_or_default();
+            let compose = self.mode == Mode::Compose;
             if is_scene(&p) {
                 self.open_scene(&p);
-            } else if MESH_ENDINGS.contains(&ext.as_str()) && self.mode == Mode::Compose {
+            } else if MESH_ENDINGS.contains(&ext.as_str()) && compose {
                 self.add_object(&p);
             } else if MESH_ENDINGS.contains(&ext.as_str()) {
-                self.open_mesh(&ctx, &p);
-            } else if ext == "json" && self.mode == Mode::Compose {
+                self.open_mesh(ctx, &p);
+            } else if ext == "json" && compose {
                 self.add_deformation(&p);
             } else if ext == "json" {
                 self.open_controls(&p);
@@ -1327,6 +1290,91 @@ impl eframe::App for StudioApp {
                 );
             }
         }
+    }
+
+    /// The Composer's frame: the timeline, the scene panel, the viewport,
+    /// dialogs, export progress and the recovery file.
+    fn compose_frame(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        egui::Panel::bottom("timeline")
+            .frame(bare_panel(ui))
+            .resizable(true)
+            .default_size(230.0)
+            .size_range(120.0..=600.0)
+            .show(ui, |ui| self.timeline_ui(ui));
+        side_panel("scene", ui).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.scene_panel(ui));
+        });
+        egui::CentralPanel::default()
+            .frame(egui::Frame::NONE)
+            .show(ui, |ui| self.compose_viewport(ui));
+        self.dialogs(&ctx);
+        self.export_ui(&ctx);
+        self.scene_recovery(&ctx);
+    }
+
+    /// The Picker's frame: the side panel, the viewport, dialogs and the
+    /// recovery file.
+    fn pick_frame(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        side_panel("parameters", ui).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+        });
+        egui::CentralPanel::default()
+            .frame(egui::Frame::NONE)
+            .show(ui, |ui| self.viewport_ui(ui));
+        self.dialogs(&ctx);
+        self.write_recovery();
+        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            // Come back to write the recovery file even if nothing moves.
+            ctx.request_repaint_after(Duration::from_secs(1));
+        }
+        if self.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
+            ctx.request_repaint_after(Duration::from_millis(30));
+        }
+    }
+
+    /// The recovery file, while there are unsaved changes: at most once a
+    /// second, and only when something changed.
+    fn write_recovery(&mut self) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        if !m.doc.dirty
+            || m.recovery_at
+                .is_some_and(|t| t.elapsed() <= Duration::from_secs(1))
+        {
+            return;
+        }
+        m.recovery_at = Some(Instant::now());
+        let text = m.doc.to_text();
+        if m.recovered_text != text {
+            Recovery {
+                mesh: files::canonical(&m.doc.mesh_path),
+                controls_path: m.controls_path.clone(),
+                controls: text.clone(),
+            }
+            .store(self.state.as_deref());
+            m.recovered_text = text;
+        }
+    }
+}
+
+impl eframe::App for StudioApp {
+    /// The panels' colour: they are drawn without a fill of their own, which a
+    /// software rasteriser would shade pixel by pixel.
+    fn clear_color(&self, visuals: &egui::Visuals) -> [f32; 4] {
+        visuals.panel_fill.to_normalized_gamma_f32()
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        let started = Instant::now();
+        let ctx = ui.ctx().clone();
+        self.set_title(&ctx);
+        if let Some(m) = self.model.as_mut() {
+            take_frame(m);
+        }
+        self.dropped_files(&ctx);
         if ctx.input(|i| i.viewport().close_requested())
             && !self.allow_close
             && (self.model.as_ref().is_some_and(|m| m.doc.dirty)
@@ -1358,56 +1406,9 @@ impl eframe::App for StudioApp {
             .frame(bare_panel(ui))
             .show(ui, |ui| self.status_bar(ui));
         if self.mode == Mode::Compose {
-            egui::Panel::bottom("timeline")
-                .frame(bare_panel(ui))
-                .resizable(true)
-                .default_size(230.0)
-                .size_range(120.0..=600.0)
-                .show(ui, |ui| self.timeline_ui(ui));
-            side_panel("scene", ui).show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.scene_panel(ui));
-            });
-            egui::CentralPanel::default()
-                .frame(egui::Frame::NONE)
-                .show(ui, |ui| self.compose_viewport(ui));
-            self.dialogs(&ctx);
-            self.export_ui(&ctx);
-            self.scene_recovery(&ctx);
-            self.frame_time = started.elapsed();
-            return;
-        }
-        side_panel("parameters", ui).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
-        });
-        egui::CentralPanel::default()
-            .frame(egui::Frame::NONE)
-            .show(ui, |ui| self.viewport_ui(ui));
-        self.dialogs(&ctx);
-        // The recovery file, while there are unsaved changes.
-        if let Some(m) = self.model.as_mut()
-            && m.doc.dirty
-            && m.recovery_at
-                .is_none_or(|t| t.elapsed() > Duration::from_secs(1))
-        {
-            // At most once a second, and only when something changed.
-            m.recovery_at = Some(Instant::now());
-            let text = m.doc.to_text();
-            if m.recovered_text != text {
-                Recovery {
-                    mesh: files::canonical(&m.doc.mesh_path),
-                    controls_path: m.controls_path.clone(),
-                    controls: text.clone(),
-                }
-                .store(self.state.as_deref());
-                m.recovered_text = text;
-            }
-        }
-        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
-            // Come back to write the recovery file even if nothing moves.
-            ctx.request_repaint_after(Duration::from_secs(1));
-        }
-        if self.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
-            ctx.request_repaint_after(Duration::from_millis(30));
+            self.compose_frame(ui);
+        } else {
+            self.pick_frame(ui);
         }
         self.frame_time = started.elapsed();
     }
@@ -1418,31 +1419,6 @@ impl eframe::App for StudioApp {
         }
         if self.composer.as_ref().is_some_and(|c| !c.doc.dirty) {
             SceneRecovery::clear(self.state.as_deref());
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::StandIn;
-
-    #[test]
-    fn the_stand_in_follows_the_full_mesh_with_few_vertices() {
-        let m = csrbf_mesh::shapes::uv_sphere(1.0, 400, 800);
-        let tris = m.faces.triangles();
-        let light = StandIn::new(&m.positions, &tris);
-        assert!(light.vertices.len() * 10 < m.positions.len());
-        assert!(light.indices.len() * 10 < tris.len() * 3);
-        assert!(
-            light
-                .indices
-                .iter()
-                .all(|&i| (i as usize) < light.vertices.len())
-        );
-        // Gathered from moved positions, its vertices are the moved ones.
-        let moved: Vec<_> = m.positions.iter().map(|p| *p * 2.0).collect();
-        for (k, p) in light.gather(&moved).iter().enumerate() {
-            assert_eq!(*p, moved[light.vertices[k] as usize]);
         }
     }
 }

@@ -5,19 +5,9 @@ use csrbf::glam::DVec3;
 use csrbf::{Handle, Kernel, Polynomial, Region};
 use eframe::egui;
 
-use super::{StudioApp, Tool};
+use super::composer::Composer;
+use super::{Model, StudioApp, Tool};
 use crate::Command;
-
-/// What the vertices chosen with the vertex tool become.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum VertexTarget {
-    /// A handle's selection (a new handle layer).
-    Handle,
-    /// The active handle's anchor.
-    Anchor,
-    /// The active layer's region.
-    Region,
-}
 
 /// A button of the selection that is not one edit.
 enum Action {
@@ -26,108 +16,20 @@ enum Action {
     Mirror(usize),
 }
 
-/// What a drag from a handle's pivot does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum HandleMode {
-    /// Turn about the held axis (X, Y, Z) or the view axis.
-    #[default]
-    Rotate,
-    /// Scale about the pivot.
-    Scale,
-    /// Move on the plane facing the camera (or along the held axis).
-    Move,
-}
+use crate::gizmo::HandleMode;
+use crate::tools::VertexTarget;
 
 impl StudioApp {
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
+        let frame_ms = self.frame_time.as_secs_f64() * 1e3;
+        let rate = self.playback_rate();
         ui.horizontal(|ui| {
             if self.mode == super::Mode::Compose
                 && let Some(c) = self.composer.as_ref()
             {
-                let vertices: usize = c.scene.as_ref().map_or(0, |s| {
-                    s.objects.iter().map(|o| o.mesh.positions.len()).sum()
-                });
-                ui.label(format!(
-                    "{} objects · {} vertices · {} fps · {:.2} s",
-                    c.doc.file.objects.len(),
-                    vertices,
-                    c.doc.file.fps,
-                    c.doc.file.duration
-                ));
-                ui.separator();
-                if c.playback.playing {
-                    let rate = self.playback_rate();
-                    ui.label(format!("playing at {rate:.1} fps"));
-                    if c.every_frame {
-                        ui.label("(every frame: slower than real time when it must)");
-                    } else if c.playback.dropped > 0 {
-                        ui.colored_label(
-                            egui::Color32::from_rgb(240, 190, 90),
-                            format!(
-                                "{} frames dropped: this machine draws slower than {} fps",
-                                c.playback.dropped, c.doc.file.fps
-                            ),
-                        );
-                    }
-                    ui.separator();
-                } else if c.playback.dropped > 0 {
-                    ui.label(format!("last play dropped {} frames", c.playback.dropped));
-                    ui.separator();
-                }
-                ui.label(format!(
-                    "frame {:.1} ms",
-                    self.frame_time.as_secs_f64() * 1e3
-                ));
-                if c.doc.dirty {
-                    ui.separator();
-                    ui.label("unsaved");
-                }
-                ui.separator();
+                compose_status(ui, c, rate, frame_ms);
             } else if let Some(m) = self.model.as_ref() {
-                let controls: usize = m
-                    .doc
-                    .controls
-                    .deformations
-                    .iter()
-                    .map(|s| s.starts.len())
-                    .sum();
-                ui.label(format!(
-                    "{} vertices · {} triangles · {} controls",
-                    m.doc.mesh.positions.len(),
-                    m.bvh.triangles().len(),
-                    controls
-                ));
-                ui.separator();
-                let solver = m
-                    .doc
-                    .controls
-                    .deformations
-                    .get(m.doc.active_layer)
-                    .map(|s| format!("{:?}", s.options.solver).to_lowercase())
-                    .unwrap_or_default();
-                ui.label(format!("solver {solver}"));
-                if let Some(f) = m.preview.latest() {
-                    ui.separator();
-                    ui.label(format!(
-                        "fit {:.1} ms · {} factorisations",
-                        f.took.as_secs_f64() * 1e3,
-                        f.factorisations
-                    ));
-                }
-                if !m.preview.is_settled() {
-                    ui.spinner();
-                    ui.label("fitting…");
-                }
-                ui.separator();
-                ui.label(format!(
-                    "frame {:.1} ms",
-                    self.frame_time.as_secs_f64() * 1e3
-                ));
-                if m.doc.dirty {
-                    ui.separator();
-                    ui.label("unsaved");
-                }
-                ui.separator();
+                pick_status(ui, m, frame_ms);
             }
             if let Some(e) = self.gpu.as_ref().and_then(super::gpu::last_error) {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
@@ -179,136 +81,48 @@ impl StudioApp {
 
     fn layers_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Layers");
-        let m = self.model.as_mut().expect("checked");
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
         let n = m.doc.controls.deformations.len();
+        // Some(None): only what is shown changed.
         let mut command = None;
         for l in 0..n {
             ui.horizontal(|ui| {
-                let count = m.doc.controls.deformations[l].starts.len();
-                let handle = if m.doc.controls.deformations[l].handle.is_some() {
-                    " + handle"
-                } else {
-                    ""
-                };
-                let name = m.doc.controls.deformations[l]
-                    .name
-                    .clone()
-                    .unwrap_or_else(|| format!("Layer {}", l + 1));
-                if ui
-                    .selectable_label(m.doc.active_layer == l, format!("{name} ({count}{handle})"))
-                    .on_hover_text("New controls go to the active layer")
-                    .clicked()
-                {
-                    m.doc.active_layer = l;
-                }
-                let mut shown = !m.hidden[l];
-                if ui
-                    .checkbox(&mut shown, "")
-                    .on_hover_text("Show this layer's deformation")
-                    .changed()
-                {
-                    m.hidden[l] = !shown;
-                    command = Some(None);
-                }
-                if l > 0
-                    && ui
-                        .small_button("up")
-                        .on_hover_text("Earlier in the chain")
-                        .clicked()
-                {
-                    command = Some(Command::move_layer(&m.doc, l, l - 1));
-                }
-                if l + 1 < n
-                    && ui
-                        .small_button("down")
-                        .on_hover_text("Later in the chain")
-                        .clicked()
-                {
-                    command = Some(Command::move_layer(&m.doc, l, l + 1));
-                }
-                if n > 1
-                    && ui
-                        .small_button("remove")
-                        .on_hover_text("Remove this layer")
-                        .clicked()
-                {
-                    command = Some(Some(Command::RemoveLayer { layer: l }));
+                if let Some(c) = layer_row(ui, m, l) {
+                    command = Some(c);
                 }
             });
         }
-        // Rename the active layer (saved as the deformation's "name").
-        let active = m.doc.active_layer;
-        let mut name = m.doc.controls.deformations[active]
-            .name
-            .clone()
-            .unwrap_or_default();
-        ui.horizontal(|ui| {
-            ui.label("name");
-            let r = ui.add(
-                egui::TextEdit::singleline(&mut name)
-                    .hint_text(format!("Layer {}", active + 1))
-                    .desired_width(160.0),
-            );
-            let old = m.doc.controls.deformations[active]
-                .name
-                .clone()
-                .unwrap_or_default();
-            if r.lost_focus() && name != old {
-                let mut spec = m.doc.controls.deformations[active].clone();
-                spec.name = (!name.trim().is_empty()).then(|| name.trim().to_string());
-                command = Some(Some(Command::ReplaceLayer {
-                    layer: active,
-                    spec: Box::new(spec),
-                }));
-            }
-        });
+        if let Some(c) = layer_name_ui(ui, m) {
+            command = Some(Some(c));
+        }
         if ui.button("Add layer").clicked() {
-            let mut spec = m.doc.controls.deformations[m.doc.active_layer].clone();
-            spec.starts.clear();
-            spec.targets.clear();
-            spec.handle = None;
-            spec.anchor = None;
-            spec.region = Region::All;
-            spec.name = None;
-            let layer = n;
-            command = Some(Some(Command::InsertLayer {
-                layer,
-                spec: Box::new(spec),
-            }));
-            m.doc.active_layer = layer;
+            command = Some(Some(add_layer(m)));
         }
         match command {
             Some(Some(c)) => {
                 self.edit(c, true);
-                let m = self.model.as_mut().expect("checked");
-                m.doc.active_layer = m
-                    .doc
-                    .active_layer
-                    .min(m.doc.controls.deformations.len() - 1);
+                if let Some(m) = self.model.as_mut() {
+                    let last = m.doc.controls.deformations.len() - 1;
+                    m.doc.active_layer = m.doc.active_layer.min(last);
+                }
             }
             Some(None) => self.refresh(true),
             None => {}
         }
-        let m = self.model.as_mut().expect("checked");
-        let mut combine = m.doc.controls.combine;
-        ui.horizontal(|ui| {
-            ui.label("Layers combine:");
-            ui.radio_value(&mut combine, csrbf::Combine::Chain, "chain")
-                .on_hover_text("Each layer moves the points the one before moved");
-            ui.radio_value(&mut combine, csrbf::Combine::Add, "add")
-                .on_hover_text("The layers' displacements add up, each on the rest shape");
-        });
-        if combine != m.doc.controls.combine {
-            m.doc.controls.combine = combine;
-            m.doc.dirty = true;
+        if let Some(m) = self.model.as_mut()
+            && combine_ui(ui, m)
+        {
             self.refresh(true);
         }
     }
 
     fn parameters_ui(&mut self, ui: &mut egui::Ui) {
-        let m = self.model.as_mut().expect("checked");
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
         let l = m.doc.active_layer;
-        let diag = m.doc.diagonal().max(1e-12);
         let spec = m.doc.controls.deformations[l].clone();
         ui.heading(format!(
             "{} parameters",
@@ -316,99 +130,14 @@ impl StudioApp {
                 .clone()
                 .unwrap_or_else(|| format!("Layer {}", l + 1))
         ));
-        let mut radius = spec.options.radius;
-        let r = ui
-            .add(
-                egui::Slider::new(&mut radius, diag * 0.002..=diag * 2.0)
-                    .logarithmic(true)
-                    .text("radius R")
-                    .custom_formatter(|v, _| format!("{v:.4}")),
-            )
-            .on_hover_text(
-                "Radius of support: each control moves the points within R of its start",
-            );
-        ui.label(format!(
-            "R = {:.4} = {:.1} % of the diagonal ({diag:.4})",
-            radius,
-            radius / diag * 100.0
-        ));
+        let r = radius_ui(ui, m, &spec);
         self.view.all_spheres = r.dragged() || r.has_focus();
-        if r.drag_started() {
-            m.history.begin_drag();
-        }
         let drag_stopped = r.drag_stopped();
-        let mut commands: Vec<(Command, bool)> = Vec::new();
-        if r.changed() && radius > 0.0 && radius.is_finite() && radius != spec.options.radius {
-            commands.push((Command::SetRadius { layer: l, radius }, true));
+        let mut commands: Vec<Command> = Vec::new();
+        if let Some(radius) = r.radius {
+            commands.push(Command::SetRadius { layer: l, radius });
         }
-        let mut kernel = spec.options.kernel;
-        egui::ComboBox::from_label("kernel")
-            .selected_text(kernel.name())
-            .show_ui(ui, |ui| {
-                for k in Kernel::ALL {
-                    ui.selectable_value(&mut kernel, k, k.name());
-                }
-            })
-            .response
-            .on_hover_text("Wendland function: C0 is continuous only; C2, C4, C6 are smoother");
-        if kernel != spec.options.kernel {
-            commands.push((Command::SetKernel { layer: l, kernel }, true));
-        }
-        let mut poly = spec.options.polynomial;
-        egui::ComboBox::from_label("polynomial")
-            .selected_text(poly.name())
-            .show_ui(ui, |ui| {
-                for p in Polynomial::ALL {
-                    ui.selectable_value(&mut poly, p, p.name());
-                }
-            })
-            .response
-            .on_hover_text("none: edits stay local; linear: affine maps reproduced, but the whole model may move");
-        let mut phase = spec.phase;
-        ui.add(egui::Slider::new(&mut phase, 0.0..=1.0).text("layer phase"));
-        let mut region = spec.region.clone();
-        let bounds = m
-            .doc
-            .mesh
-            .bounds()
-            .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
-            .unwrap_or((DVec3::ZERO, DVec3::ONE));
-        let groups: Vec<&str> = m.doc.mesh.parts.iter().map(|p| p.name.as_str()).collect();
-        region_ui(
-            ui,
-            "region",
-            &mut region,
-            bounds,
-            &groups,
-            diag,
-            "Where this layer acts; chosen vertices come from the Vertices tool",
-        );
-        let mut sweep = spec.sweep.is_some();
-        ui.checkbox(&mut sweep, "fold-free sweep").on_hover_text(
-            "Take the layer as a chain of small steps along each control's path, each certified not to fold: \
-             no face turns inside out at any phase, and a handle's half phase is a half turn",
-        );
-        let sweep_changed = sweep != spec.sweep.is_some();
-        if poly != spec.options.polynomial
-            || phase != spec.phase
-            || region != spec.region
-            || sweep_changed
-        {
-            let mut new = spec.clone();
-            new.options.polynomial = poly;
-            new.phase = phase;
-            new.region = region;
-            if sweep_changed {
-                new.sweep = sweep.then(csrbf::SweepOptions::default);
-            }
-            commands.push((
-                Command::ReplaceLayer {
-                    layer: l,
-                    spec: Box::new(new),
-                },
-                true,
-            ));
-        }
+        commands.extend(options_ui(ui, m, &spec));
         let mut global = m.doc.phase;
         ui.add(egui::Slider::new(&mut global, 0.0..=1.0).text("phase (all layers)"))
             .on_hover_text("0 shows the rest shape, 1 the full deformation");
@@ -416,8 +145,8 @@ impl StudioApp {
         if phase_changed {
             m.doc.phase = global;
         }
-        for (c, full) in commands {
-            self.edit(c, full);
+        for c in commands {
+            self.edit(c, true);
         }
         if phase_changed {
             self.refresh(false);
@@ -428,7 +157,9 @@ impl StudioApp {
     }
 
     fn selection_ui(&mut self, ui: &mut egui::Ui) {
-        let m = self.model.as_mut().expect("checked");
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
         ui.heading("Selection");
         let sel = m.doc.selection.0.clone();
         if sel.is_empty() {
@@ -436,59 +167,10 @@ impl StudioApp {
             return;
         }
         ui.label(format!("{} control vector(s) selected", sel.len()));
-        let mut commands = Vec::new();
-        if let [(layer, index)] = sel[..]
-            && let Some(spec) = m.doc.controls.deformations.get(layer)
-            && index < spec.starts.len()
-        {
-            let (mut s, mut t) = (spec.starts[index], spec.targets[index]);
-            ui.label(format!("Layer {}, control {}", layer + 1, index + 1));
-            let speed = m.doc.diagonal() * 1e-3;
-            let changed_s = vec3_ui(ui, "start", &mut s, speed);
-            let changed_t = vec3_ui(ui, "destination", &mut t, speed);
-            let d = t - s;
-            ui.label(format!(
-                "move ({:.4}, {:.4}, {:.4}), length {:.4}",
-                d.x,
-                d.y,
-                d.z,
-                d.length()
-            ));
-            if changed_s {
-                commands.push((
-                    Command::SetStart {
-                        layer,
-                        index,
-                        start: s,
-                    },
-                    true,
-                ));
-            }
-            if changed_t {
-                commands.push((
-                    Command::SetTarget {
-                        layer,
-                        index,
-                        target: t,
-                    },
-                    true,
-                ));
-            }
-            if ui
-                .button("Make it a pin")
-                .on_hover_text("Destination = start: this point stays put")
-                .clicked()
-            {
-                commands.push((
-                    Command::SetTarget {
-                        layer,
-                        index,
-                        target: s,
-                    },
-                    true,
-                ));
-            }
-        }
+        let commands = match sel[..] {
+            [one] => control_ui(ui, m, one),
+            _ => Vec::new(),
+        };
         let mut action = None;
         ui.horizontal(|ui| {
             if ui.button("Delete").on_hover_text("Del").clicked() {
@@ -514,8 +196,8 @@ impl StudioApp {
                 }
             }
         });
-        for (c, full) in commands {
-            self.edit(c, full);
+        for c in commands {
+            self.edit(c, true);
         }
         match action {
             Some(Action::Delete) => self.delete_selected(),
@@ -528,7 +210,9 @@ impl StudioApp {
     fn vertices_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Handle");
         let axis = self.axis;
-        let m = self.model.as_mut().expect("checked");
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
         ui.label("Vertices tool (V): drag a box, or Ctrl+drag a brush, on the surface; then:");
         ui.horizontal(|ui| {
             ui.radio_value(&mut m.vertex_target, VertexTarget::Handle, "handle");
@@ -547,40 +231,7 @@ impl StudioApp {
         let spec = m.doc.controls.deformations[l].clone();
         let mut commands = Vec::new();
         if !m.picked_vertices.is_empty() && ui.button("Apply the chosen vertices").clicked() {
-            let chosen = Region::Vertices(m.picked_vertices.clone());
-            match m.vertex_target {
-                VertexTarget::Handle => {
-                    // A new layer holding the handle, after the active one.
-                    let mut new = spec.clone();
-                    new.starts.clear();
-                    new.targets.clear();
-                    new.region = Region::All;
-                    new.anchor = None;
-                    new.handle = Some(Handle::new(chosen));
-                    commands.push(Command::InsertLayer {
-                        layer: m.doc.controls.deformations.len(),
-                        spec: Box::new(new),
-                    });
-                    m.doc.active_layer = m.doc.controls.deformations.len();
-                }
-                VertexTarget::Anchor => {
-                    let mut new = spec.clone();
-                    new.anchor = Some(chosen);
-                    commands.push(Command::ReplaceLayer {
-                        layer: l,
-                        spec: Box::new(new),
-                    });
-                }
-                VertexTarget::Region => {
-                    let mut new = spec.clone();
-                    new.region = chosen;
-                    commands.push(Command::ReplaceLayer {
-                        layer: l,
-                        spec: Box::new(new),
-                    });
-                }
-            }
-            m.picked_vertices.clear();
+            commands.push(apply_chosen(m, &spec));
         }
         if let Some(h) = spec.handle.clone() {
             ui.label(format!(
@@ -592,46 +243,8 @@ impl StudioApp {
                 ui.radio_value(&mut self.handle_mode, HandleMode::Scale, "scale");
                 ui.radio_value(&mut self.handle_mode, HandleMode::Move, "move");
             });
-            let mut new = h.clone();
-            let mut rot = h.rotate.unwrap_or_else(|| {
-                csrbf::Rotation::new(super::viewport::handle_axis(axis, &m.orbit.camera()), 0.0)
-            });
-            let mut angle = rot.angle_deg;
-            ui.add(
-                egui::Slider::new(&mut angle, -180.0..=180.0)
-                    .text("angle")
-                    .suffix("°"),
-            )
-            .on_hover_text("Turn about the axis through the pivot, degrees");
-            let mut ax = rot.axis;
-            let axis_changed = vec3_ui(ui, "axis", &mut ax, 0.01);
-            let mut scale = h.scale.unwrap_or(1.0);
-            ui.add(
-                egui::DragValue::new(&mut scale)
-                    .speed(0.005)
-                    .range(0.01..=100.0)
-                    .prefix("scale "),
-            );
-            let mut t = h.translate.unwrap_or(DVec3::ZERO);
-            let t_changed = vec3_ui(ui, "move", &mut t, m.doc.diagonal() * 1e-3);
-            if angle != rot.angle_deg || axis_changed {
-                rot.angle_deg = angle;
-                if ax.length() > 0.0 && ax.is_finite() {
-                    rot.axis = ax;
-                }
-                new.rotate = Some(rot);
-            }
-            if scale != h.scale.unwrap_or(1.0) && scale > 0.0 {
-                new.scale = Some(scale);
-            }
-            if t_changed {
-                new.translate = Some(t);
-            }
-            ui.label(match &spec.anchor {
-                Some(a) => format!("anchor: {a}"),
-                None => "no anchor: pins only where the engine needs them".into(),
-            });
-            if new != h {
+            let view_axis = crate::gizmo::handle_axis(axis, &m.orbit.camera());
+            if let Some(new) = handle_ui(ui, &h, view_axis, m.doc.diagonal()) {
                 let mut s = spec.clone();
                 s.handle = Some(new);
                 commands.push(Command::ReplaceLayer {
@@ -639,6 +252,10 @@ impl StudioApp {
                     spec: Box::new(s),
                 });
             }
+            ui.label(match &spec.anchor {
+                Some(a) => format!("anchor: {a}"),
+                None => "no anchor: pins only where the engine needs them".into(),
+            });
         }
         for c in commands {
             self.edit(c, true);
@@ -646,7 +263,9 @@ impl StudioApp {
     }
 
     fn diagnostics_ui(&mut self, ui: &mut egui::Ui) {
-        let m = self.model.as_ref().expect("checked");
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
         ui.heading("Diagnostics");
         let Some(f) = m.preview.latest() else {
             ui.label("fitting…");
@@ -696,6 +315,425 @@ impl StudioApp {
             );
         }
     }
+}
+
+/// Layer `l`'s row: select it, show it, move it up or down, remove it.
+/// Some(None) when only whether it is shown changed.
+fn layer_row(ui: &mut egui::Ui, m: &mut Model, l: usize) -> Option<Option<Command>> {
+    let n = m.doc.controls.deformations.len();
+    let spec = &m.doc.controls.deformations[l];
+    let count = spec.starts.len();
+    let handle = if spec.handle.is_some() {
+        " + handle"
+    } else {
+        ""
+    };
+    let name = spec
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("Layer {}", l + 1));
+    if ui
+        .selectable_label(m.doc.active_layer == l, format!("{name} ({count}{handle})"))
+        .on_hover_text("New controls go to the active layer")
+        .clicked()
+    {
+        m.doc.active_layer = l;
+    }
+    let mut command = None;
+    let mut shown = !m.hidden[l];
+    if ui
+        .checkbox(&mut shown, "")
+        .on_hover_text("Show this layer's deformation")
+        .changed()
+    {
+        m.hidden[l] = !shown;
+        command = Some(None);
+    }
+    let button = |ui: &mut egui::Ui, label: &str, hover: &str| {
+        ui.small_button(label).on_hover_text(hover).clicked()
+    };
+    if l > 0 && button(ui, "up", "Earlier in the chain") {
+        command = Some(Command::move_layer(&m.doc, l, l - 1));
+    }
+    if l + 1 < n && button(ui, "down", "Later in the chain") {
+        command = Some(Command::move_layer(&m.doc, l, l + 1));
+    }
+    if n > 1 && button(ui, "remove", "Remove this layer") {
+        command = Some(Some(Command::RemoveLayer { layer: l }));
+    }
+    command
+}
+
+/// The active layer's name (saved as the deformation's "name"): the
+/// rename when the field lost focus changed.
+fn layer_name_ui(ui: &mut egui::Ui, m: &Model) -> Option<Command> {
+    let active = m.doc.active_layer;
+    let old = m.doc.controls.deformations[active]
+        .name
+        .clone()
+        .unwrap_or_default();
+    let mut name = old.clone();
+    let mut command = None;
+    ui.horizontal(|ui| {
+        ui.label("name");
+        let r = ui.add(
+            egui::TextEdit::singleline(&mut name)
+                .hint_text(format!("Layer {}", active + 1))
+                .desired_width(160.0),
+        );
+        if r.lost_focus() && name != old {
+            let mut spec = m.doc.controls.deformations[active].clone();
+            spec.name = (!name.trim().is_empty()).then(|| name.trim().to_string());
+            command = Some(Command::ReplaceLayer {
+                layer: active,
+                spec: Box::new(spec),
+            });
+        }
+    });
+    command
+}
+
+/// A new empty layer after the others, with the active one's options; it
+/// becomes the active layer.
+fn add_layer(m: &mut Model) -> Command {
+    let mut spec = m.doc.controls.deformations[m.doc.active_layer].clone();
+    spec.starts.clear();
+    spec.targets.clear();
+    spec.handle = None;
+    spec.anchor = None;
+    spec.region = Region::All;
+    spec.name = None;
+    let layer = m.doc.controls.deformations.len();
+    m.doc.active_layer = layer;
+    Command::InsertLayer {
+        layer,
+        spec: Box::new(spec),
+    }
+}
+
+/// How the layers combine (chain or add); true when it changed.
+fn combine_ui(ui: &mut egui::Ui, m: &mut Model) -> bool {
+    let mut combine = m.doc.controls.combine;
+    ui.horizontal(|ui| {
+        ui.label("Layers combine:");
+        ui.radio_value(&mut combine, csrbf::Combine::Chain, "chain")
+            .on_hover_text("Each layer moves the points the one before moved");
+        ui.radio_value(&mut combine, csrbf::Combine::Add, "add")
+            .on_hover_text("The layers' displacements add up, each on the rest shape");
+    });
+    let changed = combine != m.doc.controls.combine;
+    if changed {
+        m.doc.controls.combine = combine;
+        m.doc.dirty = true;
+    }
+    changed
+}
+
+/// The radius slider's response, and the new radius when it changed.
+struct RadiusEdit {
+    response: egui::Response,
+    radius: Option<f64>,
+}
+
+impl std::ops::Deref for RadiusEdit {
+    type Target = egui::Response;
+    fn deref(&self) -> &egui::Response {
+        &self.response
+    }
+}
+
+/// The active layer's radius of support, on a log slider; a drag of it is
+/// one undo step.
+fn radius_ui(ui: &mut egui::Ui, m: &mut Model, spec: &csrbf::controls::ControlSpec) -> RadiusEdit {
+    let diag = m.doc.diagonal().max(1e-12);
+    let mut radius = spec.options.radius;
+    let response = ui
+        .add(
+            egui::Slider::new(&mut radius, diag * 0.002..=diag * 2.0)
+                .logarithmic(true)
+                .text("radius R")
+                .custom_formatter(|v, _| format!("{v:.4}")),
+        )
+        .on_hover_text("Radius of support: each control moves the points within R of its start");
+    ui.label(format!(
+        "R = {:.4} = {:.1} % of the diagonal ({diag:.4})",
+        radius,
+        radius / diag * 100.0
+    ));
+    if response.drag_started() {
+        m.history.begin_drag();
+    }
+    let changed =
+        response.changed() && radius > 0.0 && radius.is_finite() && radius != spec.options.radius;
+    RadiusEdit {
+        response,
+        radius: changed.then_some(radius),
+    }
+}
+
+/// The active layer's kernel, polynomial, phase, region and sweep: the commands
+/// their changes make.
+fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec) -> Vec<Command> {
+    let l = m.doc.active_layer;
+    let diag = m.doc.diagonal().max(1e-12);
+    let mut commands = Vec::new();
+    let mut kernel = spec.options.kernel;
+    egui::ComboBox::from_label("kernel")
+        .selected_text(kernel.name())
+        .show_ui(ui, |ui| {
+            for k in Kernel::ALL {
+                ui.selectable_value(&mut kernel, k, k.name());
+            }
+        })
+        .response
+        .on_hover_text("Wendland function: C0 is continuous only; C2, C4, C6 are smoother");
+    if kernel != spec.options.kernel {
+        commands.push(Command::SetKernel { layer: l, kernel });
+    }
+    let mut poly = spec.options.polynomial;
+    egui::ComboBox::from_label("polynomial")
+        .selected_text(poly.name())
+        .show_ui(ui, |ui| {
+            for p in Polynomial::ALL {
+                ui.selectable_value(&mut poly, p, p.name());
+            }
+        })
+        .response
+        .on_hover_text(
+            "none: edits stay local; linear: affine maps reproduced, but the whole model may move",
+        );
+    let mut phase = spec.phase;
+    ui.add(egui::Slider::new(&mut phase, 0.0..=1.0).text("layer phase"));
+    let mut region = spec.region.clone();
+    let bounds = m
+        .doc
+        .mesh
+        .bounds()
+        .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
+        .unwrap_or((DVec3::ZERO, DVec3::ONE));
+    let groups: Vec<&str> = m.doc.mesh.parts.iter().map(|p| p.name.as_str()).collect();
+    region_ui(
+        ui,
+        "region",
+        &mut region,
+        bounds,
+        &groups,
+        diag,
+        "Where this layer acts; chosen vertices come from the Vertices tool",
+    );
+    let mut sweep = spec.sweep.is_some();
+    ui.checkbox(&mut sweep, "fold-free sweep").on_hover_text(
+        "Take the layer as a chain of small steps along each control's path, each certified not to fold: \
+         no face turns inside out at any phase, and a handle's half phase is a half turn",
+    );
+    let sweep_changed = sweep != spec.sweep.is_some();
+    if poly != spec.options.polynomial
+        || phase != spec.phase
+        || region != spec.region
+        || sweep_changed
+    {
+        let mut new = spec.clone();
+        new.options.polynomial = poly;
+        new.phase = phase;
+        new.region = region;
+        if sweep_changed {
+            new.sweep = sweep.then(csrbf::SweepOptions::default);
+        }
+        commands.push(Command::ReplaceLayer {
+            layer: l,
+            spec: Box::new(new),
+        });
+    }
+    commands
+}
+
+/// The one selected control's start and destination, typed, and Make it
+/// a pin: the commands they make.
+fn control_ui(ui: &mut egui::Ui, m: &Model, (layer, index): (usize, usize)) -> Vec<Command> {
+    let mut commands = Vec::new();
+    let Some(spec) = m.doc.controls.deformations.get(layer) else {
+        return commands;
+    };
+    let (Some(&start), Some(&target)) = (spec.starts.get(index), spec.targets.get(index)) else {
+        return commands;
+    };
+    let (mut s, mut t) = (start, target);
+    ui.label(format!("Layer {}, control {}", layer + 1, index + 1));
+    let speed = m.doc.diagonal() * 1e-3;
+    let changed_s = vec3_ui(ui, "start", &mut s, speed);
+    let changed_t = vec3_ui(ui, "destination", &mut t, speed);
+    let d = t - s;
+    ui.label(format!(
+        "move ({:.4}, {:.4}, {:.4}), length {:.4}",
+        d.x,
+        d.y,
+        d.z,
+        d.length()
+    ));
+    if changed_s {
+        commands.push(Command::SetStart {
+            layer,
+            index,
+            start: s,
+        });
+    }
+    if changed_t {
+        commands.push(Command::SetTarget {
+            layer,
+            index,
+            target: t,
+        });
+    }
+    if ui
+        .button("Make it a pin")
+        .on_hover_text("Destination = start: this point stays put")
+        .clicked()
+    {
+        commands.push(Command::SetTarget {
+            layer,
+            index,
+            target: s,
+        });
+    }
+    commands
+}
+
+/// The chosen vertices made what the vertex target says (see
+/// [`Command::use_vertices`]); a new handle layer becomes the active one.
+fn apply_chosen(m: &mut Model, spec: &csrbf::controls::ControlSpec) -> Command {
+    let chosen = std::mem::take(&mut m.picked_vertices);
+    let command = Command::use_vertices(&m.doc, spec, chosen, m.vertex_target);
+    if let Command::InsertLayer { layer, .. } = &command {
+        m.doc.active_layer = *layer;
+    }
+    command
+}
+
+/// A handle's angle, axis (`view_axis` until it has one), scale and move;
+/// the new handle when any changed.
+fn handle_ui(ui: &mut egui::Ui, h: &Handle, view_axis: DVec3, diagonal: f64) -> Option<Handle> {
+    let mut new = h.clone();
+    let mut rot = h
+        .rotate
+        .unwrap_or_else(|| csrbf::Rotation::new(view_axis, 0.0));
+    let mut angle = rot.angle_deg;
+    ui.add(
+        egui::Slider::new(&mut angle, -180.0..=180.0)
+            .text("angle")
+            .suffix("°"),
+    )
+    .on_hover_text("Turn about the axis through the pivot, degrees");
+    let mut ax = rot.axis;
+    let axis_changed = vec3_ui(ui, "axis", &mut ax, 0.01);
+    let mut scale = h.scale.unwrap_or(1.0);
+    ui.add(
+        egui::DragValue::new(&mut scale)
+            .speed(0.005)
+            .range(0.01..=100.0)
+            .prefix("scale "),
+    );
+    let mut t = h.translate.unwrap_or(DVec3::ZERO);
+    let t_changed = vec3_ui(ui, "move", &mut t, diagonal * 1e-3);
+    if angle != rot.angle_deg || axis_changed {
+        rot.angle_deg = angle;
+        if ax.length() > 0.0 && ax.is_finite() {
+            rot.axis = ax;
+        }
+        new.rotate = Some(rot);
+    }
+    if scale != h.scale.unwrap_or(1.0) && scale > 0.0 {
+        new.scale = Some(scale);
+    }
+    if t_changed {
+        new.translate = Some(t);
+    }
+    (new != *h).then_some(new)
+}
+
+/// The Composer's status: the scene's size and timing, the playing rate
+/// and frames dropped, the frame's time, unsaved.
+fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame_ms: f64) {
+    let vertices: usize = c.loaded.scene.as_ref().map_or(0, |s| {
+        s.objects.iter().map(|o| o.mesh.positions.len()).sum()
+    });
+    ui.label(format!(
+        "{} objects · {} vertices · {} fps · {:.2} s",
+        c.doc.file.objects.len(),
+        vertices,
+        c.doc.file.fps,
+        c.doc.file.duration
+    ));
+    ui.separator();
+    if c.playback.playing {
+        ui.label(format!("playing at {rate:.1} fps"));
+        if c.every_frame {
+            ui.label("(every frame: slower than real time when it must)");
+        } else if c.playback.dropped > 0 {
+            ui.colored_label(
+                egui::Color32::from_rgb(240, 190, 90),
+                format!(
+                    "{} frames dropped: this machine draws slower than {} fps",
+                    c.playback.dropped, c.doc.file.fps
+                ),
+            );
+        }
+        ui.separator();
+    } else if c.playback.dropped > 0 {
+        ui.label(format!("last play dropped {} frames", c.playback.dropped));
+        ui.separator();
+    }
+    ui.label(format!("frame {frame_ms:.1} ms"));
+    if c.doc.dirty {
+        ui.separator();
+        ui.label("unsaved");
+    }
+    ui.separator();
+}
+
+/// The Picker's status: the model's size, the solver, the last fit, the
+/// frame's time, unsaved.
+fn pick_status(ui: &mut egui::Ui, m: &Model, frame_ms: f64) {
+    let controls: usize = m
+        .doc
+        .controls
+        .deformations
+        .iter()
+        .map(|s| s.starts.len())
+        .sum();
+    ui.label(format!(
+        "{} vertices · {} triangles · {} controls",
+        m.doc.mesh.positions.len(),
+        m.bvh.triangles().len(),
+        controls
+    ));
+    ui.separator();
+    let solver = m
+        .doc
+        .controls
+        .deformations
+        .get(m.doc.active_layer)
+        .map(|s| format!("{:?}", s.options.solver).to_lowercase())
+        .unwrap_or_default();
+    ui.label(format!("solver {solver}"));
+    if let Some(f) = m.preview.latest() {
+        ui.separator();
+        ui.label(format!(
+            "fit {:.1} ms · {} factorisations",
+            f.took.as_secs_f64() * 1e3,
+            f.factorisations
+        ));
+    }
+    if !m.preview.is_settled() {
+        ui.spinner();
+        ui.label("fitting…");
+    }
+    ui.separator();
+    ui.label(format!("frame {frame_ms:.1} ms"));
+    if m.doc.dirty {
+        ui.separator();
+        ui.label("unsaved");
+    }
+    ui.separator();
 }
 
 pub(super) fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64) -> bool {

@@ -7,13 +7,14 @@
 use std::path::Path;
 
 use csrbf::glam::{DQuat, DVec3, EulerRot};
-use csrbf_anim::{ContactFile, DeformationFile, Easing, Interpolation, LightFile};
+use csrbf_anim::{ContactFile, DeformationFile, Easing, Interpolation, LightFile, ObjectFile};
 use eframe::egui;
 
 use super::StudioApp;
+use super::composer::Composer;
 use super::composer::Mode;
 use super::files::Purpose;
-use super::panel::vec3_ui;
+use super::panel::{region_ui, vec3_ui};
 use crate::compose::{KeyValue, SceneEdit, Track, key_value};
 
 impl StudioApp {
@@ -46,69 +47,8 @@ impl StudioApp {
     pub(super) fn compose_menu(&mut self, ui: &mut egui::Ui) {
         egui::MenuBar::new().ui(ui, |ui| {
             self.mode_switch(ui);
-            ui.menu_button("File", |ui| {
-                if ui.button("New scene").clicked() {
-                    self.new_scene();
-                }
-                if ui.button("Open scene…  Ctrl+O").clicked() {
-                    self.ask(Purpose::OpenScene);
-                }
-                ui.menu_button("Recent", |ui| {
-                    for p in self.recent.clone() {
-                        if ui.button(p.display().to_string()).clicked() {
-                            if super::is_scene(&p) {
-                                self.open_scene(&p);
-                            } else {
-                                self.add_object(&p);
-                            }
-                        }
-                    }
-                });
-                ui.separator();
-                if ui.button("Save scene  Ctrl+S").clicked() {
-                    self.save_scene();
-                }
-                if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
-                    self.ask(Purpose::SaveScene);
-                }
-                ui.separator();
-                if ui.button("Export movie…  Ctrl+E").clicked() {
-                    self.ask(Purpose::ExportMovie);
-                }
-                if ui.button("Export glTF…  Ctrl+Shift+E").clicked() {
-                    self.ask(Purpose::ExportGltf);
-                }
-                ui.separator();
-                if ui.button("Quit").clicked() {
-                    ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
-                }
-            });
-            ui.menu_button("Edit", |ui| {
-                if ui.button("Undo  Ctrl+Z").clicked() {
-                    self.scene_undo(false);
-                }
-                if ui.button("Redo  Ctrl+Shift+Z").clicked() {
-                    self.scene_undo(true);
-                }
-                ui.separator();
-                if ui.button("Delete key  Del").clicked() {
-                    self.delete_key();
-                }
-                if ui.button("Copy key to the playhead  Ctrl+D").clicked() {
-                    self.copy_key();
-                }
-                if ui.button("Copy key  Ctrl+C").clicked() {
-                    let ctx = ui.ctx().clone();
-                    self.copy_key_to_clipboard(&ctx);
-                }
-                if ui
-                    .button("Paste key  Ctrl+V")
-                    .on_hover_text("At the playhead, onto the selected object")
-                    .clicked()
-                {
-                    self.paste_key();
-                }
-            });
+            ui.menu_button("File", |ui| self.compose_file_menu(ui));
+            ui.menu_button("Edit", |ui| self.compose_edit_menu(ui));
             ui.menu_button("Scene", |ui| {
                 if ui.button("Add object…").clicked() {
                     self.ask(Purpose::AddObject);
@@ -132,6 +72,69 @@ impl StudioApp {
                 ui.checkbox(&mut self.view.wireframe, "Wireframe");
             });
         });
+    }
+
+    /// The Composer's File menu.
+    fn compose_file_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("New scene").clicked() {
+            self.new_scene();
+        }
+        if ui.button("Open scene…  Ctrl+O").clicked() {
+            self.ask(Purpose::OpenScene);
+        }
+        if let Some(p) = super::files::recent_menu(ui, &self.recent) {
+            if super::is_scene(&p) {
+                self.open_scene(&p);
+            } else {
+                self.add_object(&p);
+            }
+        }
+        ui.separator();
+        if ui.button("Save scene  Ctrl+S").clicked() {
+            self.save_scene();
+        }
+        if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
+            self.ask(Purpose::SaveScene);
+        }
+        ui.separator();
+        if ui.button("Export movie…  Ctrl+E").clicked() {
+            self.ask(Purpose::ExportMovie);
+        }
+        if ui.button("Export glTF…  Ctrl+Shift+E").clicked() {
+            self.ask(Purpose::ExportGltf);
+        }
+        ui.separator();
+        if ui.button("Quit").clicked() {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+
+    /// The Composer's Edit menu.
+    fn compose_edit_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("Undo  Ctrl+Z").clicked() {
+            self.scene_undo(false);
+        }
+        if ui.button("Redo  Ctrl+Shift+Z").clicked() {
+            self.scene_undo(true);
+        }
+        ui.separator();
+        if ui.button("Delete key  Del").clicked() {
+            self.delete_key();
+        }
+        if ui.button("Copy key to the playhead  Ctrl+D").clicked() {
+            self.copy_key();
+        }
+        if ui.button("Copy key  Ctrl+C").clicked() {
+            let ctx = ui.ctx().clone();
+            self.copy_key_to_clipboard(&ctx);
+        }
+        if ui
+            .button("Paste key  Ctrl+V")
+            .on_hover_text("At the playhead, onto the selected object")
+            .clicked()
+        {
+            self.paste_key();
+        }
     }
 
     /// Sets the texture of the part chosen in the panel.
@@ -205,119 +208,24 @@ impl StudioApp {
                 .as_ref()
                 .map_or("(not saved yet)".into(), |p| p.display().to_string()),
         );
-        if let Some(p) = &c.problem {
+        if let Some(p) = &c.loaded.problem {
             ui.colored_label(egui::Color32::LIGHT_RED, p);
         }
-        let mut size = c.doc.file.size;
-        let mut background = c.doc.file.background;
-        let mut look = false;
-        ui.horizontal(|ui| {
-            ui.label("Picture");
-            look |= ui
-                .add(
-                    egui::DragValue::new(&mut size[0])
-                        .range(16..=8192)
-                        .suffix(" px"),
-                )
-                .changed();
-            ui.label("x");
-            look |= ui
-                .add(
-                    egui::DragValue::new(&mut size[1])
-                        .range(16..=8192)
-                        .suffix(" px"),
-                )
-                .changed();
-            look |= ui.color_edit_button_rgb(&mut background).changed();
-            ui.label("background");
-        });
+        let look = look_ui(ui, c);
         ui.separator();
         ui.heading("Camera");
-        let mut camera = c.doc.file.camera.clone();
-        let mut eye = DVec3::from_array(camera.eye);
-        let mut target = DVec3::from_array(camera.target);
-        let speed = c
-            .scene
-            .as_ref()
-            .and_then(|s| s.objects.iter().map(|o| o.radius).reduce(f64::max))
-            .unwrap_or(1.0)
-            * 0.01;
-        let mut cam_changed = vec3_ui(ui, "Eye", &mut eye, speed);
-        cam_changed |= vec3_ui(ui, "Target", &mut target, speed);
-        ui.horizontal(|ui| {
-            ui.label("Field of view");
-            cam_changed |= ui
-                .add(
-                    egui::DragValue::new(&mut camera.fov)
-                        .range(2.0..=178.0)
-                        .suffix("°"),
-                )
-                .changed();
-        });
-        let mut from_view = false;
-        ui.horizontal(|ui| {
-            from_view = ui
-                .button("Set from the view")
-                .on_hover_text(
-                    "The scene camera takes the viewport's eye, target and field of view",
-                )
-                .clicked();
-            ui.checkbox(&mut c.through_camera, "Look through it (C)");
-        });
-        if from_view {
-            let cam = c.orbit.camera();
-            eye = cam.eye.as_dvec3();
-            target = cam.target.as_dvec3();
-            camera.up = c.orbit.up.as_dvec3().to_array();
-            camera.fov = c.orbit.fov as f64;
-            cam_changed = true;
-        }
-        camera.eye = eye.to_array();
-        camera.target = target.to_array();
+        let camera = camera_ui(ui, c);
         ui.separator();
         let lights_edit = lights_ui(ui, &c.doc.file.lights, c.scene_camera());
         ui.separator();
         ui.heading("Objects");
-        let mut select = None;
-        let names: Vec<String> = c.doc.file.objects.iter().map(|o| o.name.clone()).collect();
-        for (k, name) in names.iter().enumerate() {
-            ui.horizontal(|ui| {
-                let mut shown = !c.hidden.get(k).copied().unwrap_or(false);
-                if ui
-                    .checkbox(&mut shown, "")
-                    .on_hover_text(
-                        "Shown in the viewport (a view setting: movies show every object)",
-                    )
-                    .changed()
-                    && let Some(h) = c.hidden.get_mut(k)
-                {
-                    *h = !shown;
-                }
-                if ui.selectable_label(c.selected == Some(k), name).clicked() {
-                    select = Some(k);
-                }
-            });
-        }
-        if let Some(k) = select {
-            c.selected = Some(k);
-            c.renaming = None;
-        }
-        let mut add = false;
-        let mut remove = None;
-        ui.horizontal(|ui| {
-            add = ui.button("Add object…").clicked();
-            if let Some(k) = c.selected
-                && ui.button("Remove").clicked()
-            {
-                remove = Some(k);
-            }
-        });
+        let (add, remove) = objects_ui(ui, c);
         let selected = c.selected;
         // Apply what was asked, one edit each.
-        if look {
+        if let Some((size, background)) = look {
             self.scene_edit_merging(SceneEdit::SetLook { size, background }, Some("look"));
         }
-        if cam_changed {
+        if let Some(camera) = camera {
             self.scene_edit_merging(SceneEdit::SetCamera(camera), Some("camera"));
         }
         if let Some(lights) = lights_edit {
@@ -350,279 +258,66 @@ impl StudioApp {
         };
         let mut object = original.clone();
         ui.heading(format!("Object {:?}", object.name));
-        let mut rename = None;
-        ui.horizontal(|ui| {
-            ui.label("Name");
-            let text = match &mut c.renaming {
-                Some((k, t)) if *k == o => t,
-                _ => {
-                    c.renaming = Some((o, object.name.clone()));
-                    &mut c.renaming.as_mut().expect("just set").1
-                }
-            };
-            let r = ui.add(egui::TextEdit::singleline(text).desired_width(180.0));
-            if r.lost_focus() && *text != object.name {
-                rename = Some(text.clone());
-            }
-        });
+        let mut out = ObjectOut {
+            rename: name_ui(ui, c, o, &object.name),
+            ..ObjectOut::default()
+        };
         ui.label(format!("Mesh {}", object.mesh));
-        let mut tag = None;
-        ui.horizontal(|ui| {
-            ui.label("Scale");
-            if ui
-                .add(
-                    egui::DragValue::new(&mut object.scale)
-                        .speed(0.01)
-                        .range(1e-6..=1e6),
-                )
-                .changed()
-            {
-                tag = Some("scale");
-            }
-            ui.label("Turning");
-            egui::ComboBox::from_id_salt("interpolation")
-                .selected_text(format!("{:?}", object.interpolation).to_lowercase())
-                .show_ui(ui, |ui| {
-                    for i in [Interpolation::Squad, Interpolation::Slerp] {
-                        if ui
-                            .selectable_value(
-                                &mut object.interpolation,
-                                i,
-                                format!("{i:?}").to_lowercase(),
-                            )
-                            .changed()
-                        {
-                            tag = Some("interpolation");
-                        }
-                    }
-                });
-        });
-        // Contact: pushed by another object's bounding sphere.
-        let others: Vec<String> = c
-            .doc
-            .file
-            .objects
-            .iter()
-            .enumerate()
+        scale_ui(ui, &mut object, &mut out);
+        let others: Vec<String> = (c.doc.file.objects.iter().enumerate())
             .filter(|(k, _)| *k != o)
             .map(|(_, x)| x.name.clone())
             .collect();
-        ui.horizontal(|ui| {
-            ui.label("Pushed by");
-            let current = object
-                .contact
-                .as_ref()
-                .map_or("nothing".to_string(), |x| x.with.clone());
-            egui::ComboBox::from_id_salt("contact")
-                .selected_text(current)
-                .show_ui(ui, |ui| {
-                    if ui
-                        .selectable_label(object.contact.is_none(), "nothing")
-                        .clicked()
-                    {
-                        object.contact = None;
-                        tag = Some("contact");
-                    }
-                    for n in &others {
-                        let on = object.contact.as_ref().is_some_and(|x| &x.with == n);
-                        if ui.selectable_label(on, n).clicked() {
-                            object.contact = Some(ContactFile {
-                                with: n.clone(),
-                                kernel: Default::default(),
-                                reach: 1.5,
-                            });
-                            tag = Some("contact");
-                        }
-                    }
-                });
-            if let Some(x) = object.contact.as_mut()
-                && ui
-                    .add(
-                        egui::DragValue::new(&mut x.reach)
-                            .speed(0.01)
-                            .range(0.1..=10.0)
-                            .prefix("reach "),
-                    )
-                    .on_hover_text(
-                        "Radius of support: this many times the depth plus the pusher's radius",
-                    )
-                    .changed()
-            {
-                tag = Some("reach");
-            }
-        });
-        let mut picker = None;
-        let mut choose = None;
-        // The object's mesh as loaded (scaled): its box and groups, for the
-        // parts' face selections.
-        let shape = c.scene.as_ref().and_then(|s| s.objects.get(o)).map(|x| {
-            let (lo, hi) = x
-                .mesh
-                .bounds()
-                .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
-                .unwrap_or((DVec3::ZERO, DVec3::ONE));
-            let groups: Vec<String> = x.mesh.parts.iter().map(|p| p.name.clone()).collect();
-            // Where a new part starts: the surface point nearest the box's
-            // middle (the middle itself is inside a closed mesh, no face
-            // there).
-            let mid = (lo + hi) * 0.5;
-            let seed = x
-                .mesh
-                .positions
-                .iter()
-                .map(|p| p.as_dvec3())
-                .min_by(|a, b| a.distance(mid).total_cmp(&b.distance(mid)))
-                .unwrap_or(mid);
-            ((lo, hi), groups, (hi - lo).length().max(1e-9), seed)
-        });
+        contact_ui(ui, &mut object, &others, &mut out);
+        let shape = part_shape(c, o);
         let parts = object.parts.len();
-        let mut remove_part = None;
         for (pi, part) in object.parts.iter_mut().enumerate() {
-            ui.horizontal(|ui| {
-                ui.label(egui::RichText::new(format!("Part {:?}", part.name)).strong());
-                if parts > 1 && ui.small_button("Remove part").clicked() {
-                    remove_part = Some(pi);
-                }
-            });
-            if let Some((bounds, groups, diag, _)) = &shape {
-                match select_region(&part.select) {
-                    Some(mut region) => {
-                        let before = region.clone();
-                        let names: Vec<&str> = groups.iter().map(String::as_str).collect();
-                        ui.push_id(("faces", pi), |ui| {
-                            super::panel::region_ui(
-                                ui,
-                                "faces",
-                                &mut region,
-                                *bounds,
-                                &names,
-                                *diag,
-                                "Which faces this part has: the whole mesh, a group of it, or \
-                                 the faces whose corners all lie in a sphere or box (in the \
-                                 mesh's coordinates, scaled). A face belongs to the last part \
-                                 that selects it.",
-                            );
-                        });
-                        if region != before {
-                            part.select = select_json(&region);
-                            tag = Some("faces");
-                        }
-                    }
-                    None => {
-                        ui.label(format!("faces: {}", part.select));
-                    }
-                }
-            }
-            ui.horizontal(|ui| {
-                let mut rgba = part.color.map_or(csrbf_anim::DEFAULT_PART_COLOR, |c| c.0);
-                if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
-                    part.color = Some(csrbf_anim::Color(rgba));
-                    tag = Some("colour");
-                }
-                ui.label("colour");
-                if ui.checkbox(&mut part.wireframe, "edges").changed() {
-                    tag = Some("edges");
-                }
-            });
-            ui.horizontal(|ui| {
-                ui.label(format!(
-                    "Texture {}",
-                    part.texture.as_deref().unwrap_or("none")
-                ));
-                if ui.button("Texture…").clicked() {
-                    choose = Some((pi, Purpose::Texture));
-                }
-                if part.texture.is_some() && ui.button("None").clicked() {
-                    part.texture = None;
-                    tag = Some("texture");
-                }
-            });
-            let mut drop = None;
-            for (di, d) in part.deformations.iter_mut().enumerate() {
-                ui.horizontal(|ui| {
-                    ui.label(format!("Deformation {}", d.controls));
-                });
-                ui.horizontal(|ui| {
-                    egui::ComboBox::from_id_salt(("easing", pi, di))
-                        .selected_text(format!("{:?}", d.easing).to_lowercase())
-                        .show_ui(ui, |ui| {
-                            for e in [Easing::Smooth, Easing::Linear] {
-                                if ui
-                                    .selectable_value(&mut d.easing, e, format!("{e:?}").to_lowercase())
-                                    .changed()
-                                {
-                                    tag = Some("easing");
-                                }
-                            }
-                        });
-                    if ui
-                        .button("Edit in Picker")
-                        .on_hover_text("Open this control file on the mesh in the Picker; File > Back to the Composer returns")
-                        .clicked()
-                    {
-                        picker = Some((pi, di));
-                    }
-                    if ui.button("Remove").clicked() {
-                        drop = Some(di);
-                    }
-                });
-            }
-            if let Some(di) = drop {
-                part.deformations.remove(di);
-                tag = Some("deformations");
-            }
-            if ui.button("Add deformation…").clicked() {
-                choose = Some((pi, Purpose::AddControls));
-            }
+            part_ui(ui, (pi, part), parts, shape.as_ref(), &mut out);
         }
-        if let Some(pi) = remove_part {
+        if let Some(pi) = out.remove_part {
             object.parts.remove(pi);
-            tag = Some("parts");
+            out.tag = Some("parts");
         }
         if ui
             .button("Add part")
             .on_hover_text("A part carved out of the others (to start, a sphere about the surface point nearest the mesh's middle), with its own colour, texture and deformations")
             .clicked()
         {
-            let name = (1..)
-                .map(|k| format!("part {k}"))
-                .find(|n| !object.parts.iter().any(|p| &p.name == n))
-                .expect("a free name");
-            let select = shape.as_ref().map_or("all".into(), |(_, _, diag, seed)| {
-                select_json(&csrbf::Region::Sphere {
-                    center: *seed,
-                    radius: diag * 0.15,
-                })
-            });
-            object.parts.push(csrbf_anim::PartFile {
-                name,
-                select,
-                color: Some(csrbf_anim::Color([0.85, 0.35, 0.3, 1.0])),
-                texture: None,
-                wireframe: false,
-                deformations: Vec::new(),
-            });
-            tag = Some("parts");
+            add_part(&mut object, shape.as_ref());
+            out.tag = Some("parts");
         }
-        if let Some((pi, purpose)) = choose {
+        self.apply_object(o, &original, object, out);
+    }
+
+    /// What the object's panel asked for, applied after drawing it.
+    fn apply_object(
+        &mut self,
+        o: usize,
+        original: &ObjectFile,
+        object: ObjectFile,
+        out: ObjectOut,
+    ) {
+        if let Some((pi, purpose)) = out.choose
+            && let Some(c) = self.composer.as_mut()
+        {
             c.part_target = Some((o, pi));
             self.ask(purpose);
         }
         // A refused name goes back to the object's.
-        if let Some(name) = rename
+        if let Some(name) = out.rename
             && !self.scene_edit(SceneEdit::RenameObject(o, name))
             && let Some(c) = self.composer.as_mut()
         {
             c.renaming = None;
         }
-        if let Some(tag) = tag
-            && object != original
+        if let Some(tag) = out.tag
+            && object != *original
         {
             // A removed deformation shifts the phase tracks: a step of its own.
             let merge = (!matches!(tag, "deformations" | "contact" | "parts")).then_some(tag);
             self.scene_edit_merging(SceneEdit::ReplaceObject(o, Box::new(object)), merge);
         }
-        if let Some((pi, di)) = picker {
+        if let Some((pi, di)) = out.picker {
             self.edit_in_picker(o, pi, di);
         }
     }
@@ -641,113 +336,27 @@ impl StudioApp {
         let Some(time) = c.doc.key_times(o, track).get(i).copied() else {
             return;
         };
-        let name = match track {
-            Track::Position => "Position key".to_string(),
-            Track::Orientation => "Orientation key".to_string(),
-            Track::Phase { part, deformation } => format!(
-                "Phase key of {}",
-                of.parts
-                    .get(part)
-                    .and_then(|p| p.deformations.get(deformation))
-                    .map_or("?", |d| d.controls.as_str())
-            ),
-        };
-        ui.heading(format!("{name} of {:?}", of.name));
+        ui.heading(format!("{} of {:?}", key_name(of, track), of.name));
         let mut edits = Vec::new();
         let mut t = time;
         ui.horizontal(|ui| {
             ui.label("Time");
-            if ui
-                .add(
-                    egui::DragValue::new(&mut t)
-                        .speed(1.0 / c.doc.file.fps)
-                        .range(0.0..=c.doc.file.duration)
-                        .suffix(" s")
-                        .max_decimals(4),
-                )
-                .changed()
-            {
-                edits.push((
-                    SceneEdit::MoveKey {
-                        object: o,
-                        track,
-                        index: i,
-                        time: t,
-                    },
-                    "key time",
-                ));
+            let drag = egui::DragValue::new(&mut t)
+                .speed(1.0 / c.doc.file.fps)
+                .range(0.0..=c.doc.file.duration)
+                .suffix(" s")
+                .max_decimals(4);
+            if ui.add(drag).changed() {
+                let edit = SceneEdit::MoveKey {
+                    object: o,
+                    track,
+                    index: i,
+                    time: t,
+                };
+                edits.push((edit, "key time"));
             }
         });
-        match key_value(of, track, i) {
-            Some(KeyValue::Position(p)) => {
-                let mut v = DVec3::from_array(p);
-                if vec3_ui(ui, "Position", &mut v, 0.01) {
-                    edits.push((
-                        SceneEdit::SetKey {
-                            object: o,
-                            track,
-                            index: i,
-                            value: KeyValue::Position(v.to_array()),
-                        },
-                        "key value",
-                    ));
-                }
-                let k = of.trajectory[i];
-                let mut tcb = [k.tension, k.continuity, k.bias];
-                let mut changed = false;
-                for (j, label) in ["Tension", "Continuity", "Bias"].into_iter().enumerate() {
-                    changed |= ui
-                        .add(egui::Slider::new(&mut tcb[j], -1.0..=1.0).text(label))
-                        .changed();
-                }
-                if changed {
-                    edits.push((
-                        SceneEdit::SetTcb {
-                            object: o,
-                            index: i,
-                            tcb,
-                        },
-                        "tcb",
-                    ));
-                }
-            }
-            Some(KeyValue::Orientation(q)) => {
-                let (x, y, z) = DQuat::from_array(q).to_euler(EulerRot::XYZ);
-                let mut e = DVec3::new(x, y, z) * (180.0 / std::f64::consts::PI);
-                if vec3_ui(ui, "Turn (°, XYZ)", &mut e, 0.5) {
-                    let r = e * (std::f64::consts::PI / 180.0);
-                    let q = DQuat::from_euler(EulerRot::XYZ, r.x, r.y, r.z);
-                    edits.push((
-                        SceneEdit::SetKey {
-                            object: o,
-                            track,
-                            index: i,
-                            value: KeyValue::Orientation(q.to_array()),
-                        },
-                        "key value",
-                    ));
-                }
-                ui.label("Drag a ring of the gizmo in the viewport to turn it about X, Y or Z.");
-            }
-            Some(KeyValue::Phase(p)) => {
-                let mut p = p;
-                if ui
-                    .add(egui::Slider::new(&mut p, 0.0..=1.0).text("Phase"))
-                    .changed()
-                {
-                    edits.push((
-                        SceneEdit::SetKey {
-                            object: o,
-                            track,
-                            index: i,
-                            value: KeyValue::Phase(p),
-                        },
-                        "key value",
-                    ));
-                }
-            }
-            None => {}
-        }
+        key_value_ui(ui, (o, of), (track, i), &mut edits);
         let (mut delete, mut copy) = (false, false);
         ui.horizontal(|ui| {
             delete = ui.button("Delete key").clicked();
@@ -773,6 +382,81 @@ impl StudioApp {
         if copy {
             self.copy_key();
         }
+    }
+}
+
+/// "Position key", "Orientation key" or "Phase key of CONTROLS".
+fn key_name(of: &ObjectFile, track: Track) -> String {
+    match track {
+        Track::Position => "Position key".to_string(),
+        Track::Orientation => "Orientation key".to_string(),
+        Track::Phase { part, deformation } => format!(
+            "Phase key of {}",
+            of.parts
+                .get(part)
+                .and_then(|p| p.deformations.get(deformation))
+                .map_or("?", |d| d.controls.as_str())
+        ),
+    }
+}
+
+/// A key's value (a position and its TCB, a turn in degrees, a phase), the
+/// edits it asks for pushed to `edits` with their merge tags.
+fn key_value_ui(
+    ui: &mut egui::Ui,
+    (o, of): (usize, &ObjectFile),
+    (track, i): (Track, usize),
+    edits: &mut Vec<(SceneEdit, &'static str)>,
+) {
+    let set = |value| SceneEdit::SetKey {
+        object: o,
+        track,
+        index: i,
+        value,
+    };
+    match key_value(of, track, i) {
+        Some(KeyValue::Position(p)) => {
+            let mut v = DVec3::from_array(p);
+            if vec3_ui(ui, "Position", &mut v, 0.01) {
+                edits.push((set(KeyValue::Position(v.to_array())), "key value"));
+            }
+            let k = of.trajectory[i];
+            let mut tcb = [k.tension, k.continuity, k.bias];
+            let mut changed = false;
+            for (j, label) in ["Tension", "Continuity", "Bias"].into_iter().enumerate() {
+                changed |= ui
+                    .add(egui::Slider::new(&mut tcb[j], -1.0..=1.0).text(label))
+                    .changed();
+            }
+            if changed {
+                let edit = SceneEdit::SetTcb {
+                    object: o,
+                    index: i,
+                    tcb,
+                };
+                edits.push((edit, "tcb"));
+            }
+        }
+        Some(KeyValue::Orientation(q)) => {
+            let (x, y, z) = DQuat::from_array(q).to_euler(EulerRot::XYZ);
+            let mut e = DVec3::new(x, y, z) * (180.0 / std::f64::consts::PI);
+            if vec3_ui(ui, "Turn (°, XYZ)", &mut e, 0.5) {
+                let r = e * (std::f64::consts::PI / 180.0);
+                let q = DQuat::from_euler(EulerRot::XYZ, r.x, r.y, r.z);
+                edits.push((set(KeyValue::Orientation(q.to_array())), "key value"));
+            }
+            ui.label("Drag a ring of the gizmo in the viewport to turn it about X, Y or Z.");
+        }
+        Some(KeyValue::Phase(p)) => {
+            let mut p = p;
+            if ui
+                .add(egui::Slider::new(&mut p, 0.0..=1.0).text("Phase"))
+                .changed()
+            {
+                edits.push((set(KeyValue::Phase(p)), "key value"));
+            }
+        }
+        None => {}
     }
 }
 
@@ -863,5 +547,392 @@ fn select_json(region: &csrbf::Region) -> serde_json::Value {
     match region {
         csrbf::Region::All => "all".into(),
         r => csrbf::controls::region_json(r),
+    }
+}
+
+/// The picture's size and background; the new pair when either changed.
+fn look_ui(ui: &mut egui::Ui, c: &Composer) -> Option<([u32; 2], [f32; 3])> {
+    let mut size = c.doc.file.size;
+    let mut background = c.doc.file.background;
+    let mut look = false;
+    ui.horizontal(|ui| {
+        ui.label("Picture");
+        look |= ui.add(pixels(&mut size[0])).changed();
+        ui.label("x");
+        look |= ui.add(pixels(&mut size[1])).changed();
+        look |= ui.color_edit_button_rgb(&mut background).changed();
+        ui.label("background");
+    });
+    look.then_some((size, background))
+}
+
+/// A picture side, in pixels.
+fn pixels(v: &mut u32) -> egui::DragValue<'_> {
+    egui::DragValue::new(v).range(16..=8192).suffix(" px")
+}
+
+/// The scene camera: eye, target, field of view, set from the view, look
+/// through it; the new camera when it changed.
+fn camera_ui(ui: &mut egui::Ui, c: &mut Composer) -> Option<csrbf_anim::CameraFile> {
+    let mut camera = c.doc.file.camera.clone();
+    let mut eye = DVec3::from_array(camera.eye);
+    let mut target = DVec3::from_array(camera.target);
+    let speed = c
+        .loaded
+        .scene
+        .as_ref()
+        .and_then(|s| s.objects.iter().map(|o| o.radius).reduce(f64::max))
+        .unwrap_or(1.0)
+        * 0.01;
+    let mut changed = vec3_ui(ui, "Eye", &mut eye, speed);
+    changed |= vec3_ui(ui, "Target", &mut target, speed);
+    ui.horizontal(|ui| {
+        ui.label("Field of view");
+        let fov = egui::DragValue::new(&mut camera.fov)
+            .range(2.0..=178.0)
+            .suffix("°");
+        changed |= ui.add(fov).changed();
+    });
+    let mut from_view = false;
+    ui.horizontal(|ui| {
+        from_view = ui
+            .button("Set from the view")
+            .on_hover_text("The scene camera takes the viewport's eye, target and field of view")
+            .clicked();
+        ui.checkbox(&mut c.through_camera, "Look through it (C)");
+    });
+    if from_view {
+        let cam = c.orbit.camera();
+        eye = cam.eye.as_dvec3();
+        target = cam.target.as_dvec3();
+        camera.up = c.orbit.up.as_dvec3().to_array();
+        camera.fov = c.orbit.fov as f64;
+        changed = true;
+    }
+    camera.eye = eye.to_array();
+    camera.target = target.to_array();
+    changed.then_some(camera)
+}
+
+/// The objects, each shown or hidden and selectable; Add object and Remove
+/// (whether Add was clicked, and the object to remove).
+fn objects_ui(ui: &mut egui::Ui, c: &mut Composer) -> (bool, Option<usize>) {
+    let mut select = None;
+    let names: Vec<String> = c.doc.file.objects.iter().map(|o| o.name.clone()).collect();
+    for (k, name) in names.iter().enumerate() {
+        ui.horizontal(|ui| {
+            let mut shown = !c.hidden.get(k).copied().unwrap_or(false);
+            if ui
+                .checkbox(&mut shown, "")
+                .on_hover_text("Shown in the viewport (a view setting: movies show every object)")
+                .changed()
+                && let Some(h) = c.hidden.get_mut(k)
+            {
+                *h = !shown;
+            }
+            if ui.selectable_label(c.selected == Some(k), name).clicked() {
+                select = Some(k);
+            }
+        });
+    }
+    if let Some(k) = select {
+        c.selected = Some(k);
+        c.renaming = None;
+    }
+    let mut add = false;
+    let mut remove = None;
+    ui.horizontal(|ui| {
+        add = ui.button("Add object…").clicked();
+        if let Some(k) = c.selected
+            && ui.button("Remove").clicked()
+        {
+            remove = Some(k);
+        }
+    });
+    (add, remove)
+}
+
+/// What an object's panel asked for this frame.
+#[derive(Default)]
+struct ObjectOut {
+    /// The edit's merge tag, when the object changed.
+    tag: Option<&'static str>,
+    /// A new name typed.
+    rename: Option<String>,
+    /// A part and deformation to edit in the Picker.
+    picker: Option<(usize, usize)>,
+    /// A file to choose for a part.
+    choose: Option<(usize, Purpose)>,
+    remove_part: Option<usize>,
+}
+
+/// The object's name, typed; the new one when the field lost focus changed.
+fn name_ui(ui: &mut egui::Ui, c: &mut Composer, o: usize, name: &str) -> Option<String> {
+    let mut rename = None;
+    ui.horizontal(|ui| {
+        ui.label("Name");
+        let text = match &mut c.renaming {
+            Some((k, t)) if *k == o => t,
+            _ => &mut c.renaming.insert((o, name.to_string())).1,
+        };
+        let r = ui.add(egui::TextEdit::singleline(text).desired_width(180.0));
+        if r.lost_focus() && *text != name {
+            rename = Some(text.clone());
+        }
+    });
+    rename
+}
+
+/// The object's scale and how it turns between orientation keys.
+fn scale_ui(ui: &mut egui::Ui, object: &mut ObjectFile, out: &mut ObjectOut) {
+    ui.horizontal(|ui| {
+        ui.label("Scale");
+        let scale = egui::DragValue::new(&mut object.scale)
+            .speed(0.01)
+            .range(1e-6..=1e6);
+        if ui.add(scale).changed() {
+            out.tag = Some("scale");
+        }
+        ui.label("Turning");
+        egui::ComboBox::from_id_salt("interpolation")
+            .selected_text(format!("{:?}", object.interpolation).to_lowercase())
+            .show_ui(ui, |ui| {
+                for i in [Interpolation::Squad, Interpolation::Slerp] {
+                    let name = format!("{i:?}").to_lowercase();
+                    if ui
+                        .selectable_value(&mut object.interpolation, i, name)
+                        .changed()
+                    {
+                        out.tag = Some("interpolation");
+                    }
+                }
+            });
+    });
+}
+
+/// Contact: pushed by another object's bounding sphere, and its reach.
+fn contact_ui(ui: &mut egui::Ui, object: &mut ObjectFile, others: &[String], out: &mut ObjectOut) {
+    ui.horizontal(|ui| {
+        ui.label("Pushed by");
+        let current = object
+            .contact
+            .as_ref()
+            .map_or("nothing".to_string(), |x| x.with.clone());
+        egui::ComboBox::from_id_salt("contact")
+            .selected_text(current)
+            .show_ui(ui, |ui| {
+                if ui
+                    .selectable_label(object.contact.is_none(), "nothing")
+                    .clicked()
+                {
+                    object.contact = None;
+                    out.tag = Some("contact");
+                }
+                for n in others {
+                    let on = object.contact.as_ref().is_some_and(|x| &x.with == n);
+                    if ui.selectable_label(on, n).clicked() {
+                        object.contact = Some(ContactFile {
+                            with: n.clone(),
+                            kernel: Default::default(),
+                            reach: 1.5,
+                        });
+                        out.tag = Some("contact");
+                    }
+                }
+            });
+        if let Some(x) = object.contact.as_mut()
+            && ui
+                .add(
+                    egui::DragValue::new(&mut x.reach)
+                        .speed(0.01)
+                        .range(0.1..=10.0)
+                        .prefix("reach "),
+                )
+                .on_hover_text(
+                    "Radius of support: this many times the depth plus the pusher's radius",
+                )
+                .changed()
+        {
+            out.tag = Some("reach");
+        }
+    });
+}
+
+/// The object's mesh as loaded (scaled), for its parts' face selections:
+/// its box, groups, diagonal, and where a new part starts.
+struct Shape {
+    bounds: (DVec3, DVec3),
+    groups: Vec<String>,
+    diag: f64,
+    /// The surface point nearest the box's middle (the middle itself is
+    /// inside a closed mesh, no face there).
+    seed: DVec3,
+}
+
+fn part_shape(c: &Composer, o: usize) -> Option<Shape> {
+    let x = c.loaded.scene.as_ref()?.objects.get(o)?;
+    let (lo, hi) = x
+        .mesh
+        .bounds()
+        .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
+        .unwrap_or((DVec3::ZERO, DVec3::ONE));
+    let mid = (lo + hi) * 0.5;
+    let seed = x
+        .mesh
+        .positions
+        .iter()
+        .map(|p| p.as_dvec3())
+        .min_by(|a, b| a.distance(mid).total_cmp(&b.distance(mid)))
+        .unwrap_or(mid);
+    Some(Shape {
+        bounds: (lo, hi),
+        groups: x.mesh.parts.iter().map(|p| p.name.clone()).collect(),
+        diag: (hi - lo).length().max(1e-9),
+        seed,
+    })
+}
+
+/// A new part: a sphere about the shape's seed, or the whole mesh.
+fn add_part(object: &mut ObjectFile, shape: Option<&Shape>) {
+    let name = (1..)
+        .map(|k| format!("part {k}"))
+        .find(|n| !object.parts.iter().any(|p| &p.name == n))
+        .expect("a free name");
+    let select = shape.map_or("all".into(), |s| {
+        select_json(&csrbf::Region::Sphere {
+            center: s.seed,
+            radius: s.diag * 0.15,
+        })
+    });
+    object.parts.push(csrbf_anim::PartFile {
+        name,
+        select,
+        color: Some(csrbf_anim::Color([0.85, 0.35, 0.3, 1.0])),
+        texture: None,
+        wireframe: false,
+        deformations: Vec::new(),
+    });
+}
+
+/// One part: its faces, colour, edges, texture and deformations.
+fn part_ui(
+    ui: &mut egui::Ui,
+    (pi, part): (usize, &mut csrbf_anim::PartFile),
+    parts: usize,
+    shape: Option<&Shape>,
+    out: &mut ObjectOut,
+) {
+    ui.horizontal(|ui| {
+        ui.label(egui::RichText::new(format!("Part {:?}", part.name)).strong());
+        if parts > 1 && ui.small_button("Remove part").clicked() {
+            out.remove_part = Some(pi);
+        }
+    });
+    if let Some(shape) = shape {
+        faces_ui(ui, (pi, part), shape, out);
+    }
+    ui.horizontal(|ui| {
+        let mut rgba = part.color.map_or(csrbf_anim::DEFAULT_PART_COLOR, |c| c.0);
+        if ui.color_edit_button_rgba_unmultiplied(&mut rgba).changed() {
+            part.color = Some(csrbf_anim::Color(rgba));
+            out.tag = Some("colour");
+        }
+        ui.label("colour");
+        if ui.checkbox(&mut part.wireframe, "edges").changed() {
+            out.tag = Some("edges");
+        }
+    });
+    ui.horizontal(|ui| {
+        ui.label(format!(
+            "Texture {}",
+            part.texture.as_deref().unwrap_or("none")
+        ));
+        if ui.button("Texture…").clicked() {
+            out.choose = Some((pi, Purpose::Texture));
+        }
+        if part.texture.is_some() && ui.button("None").clicked() {
+            part.texture = None;
+            out.tag = Some("texture");
+        }
+    });
+    deformations_ui(ui, (pi, part), out);
+    if ui.button("Add deformation…").clicked() {
+        out.choose = Some((pi, Purpose::AddControls));
+    }
+}
+
+/// The faces a part selects, as a region editor (or its text when it is not
+/// one the editor shows).
+fn faces_ui(
+    ui: &mut egui::Ui,
+    (pi, part): (usize, &mut csrbf_anim::PartFile),
+    shape: &Shape,
+    out: &mut ObjectOut,
+) {
+    let Some(mut region) = select_region(&part.select) else {
+        ui.label(format!("faces: {}", part.select));
+        return;
+    };
+    let before = region.clone();
+    let names: Vec<&str> = shape.groups.iter().map(String::as_str).collect();
+    ui.push_id(("faces", pi), |ui| {
+        region_ui(
+            ui,
+            "faces",
+            &mut region,
+            shape.bounds,
+            &names,
+            shape.diag,
+            "Which faces this part has: the whole mesh, a group of it, or \
+             the faces whose corners all lie in a sphere or box (in the \
+             mesh's coordinates, scaled). A face belongs to the last part \
+             that selects it.",
+        );
+    });
+    if region != before {
+        part.select = select_json(&region);
+        out.tag = Some("faces");
+    }
+}
+
+/// A part's deformations: easing, Edit in Picker, Remove.
+fn deformations_ui(
+    ui: &mut egui::Ui,
+    (pi, part): (usize, &mut csrbf_anim::PartFile),
+    out: &mut ObjectOut,
+) {
+    let mut drop = None;
+    for (di, d) in part.deformations.iter_mut().enumerate() {
+        ui.horizontal(|ui| {
+            ui.label(format!("Deformation {}", d.controls));
+        });
+        ui.horizontal(|ui| {
+            egui::ComboBox::from_id_salt(("easing", pi, di))
+                .selected_text(format!("{:?}", d.easing).to_lowercase())
+                .show_ui(ui, |ui| {
+                    for e in [Easing::Smooth, Easing::Linear] {
+                        if ui
+                            .selectable_value(&mut d.easing, e, format!("{e:?}").to_lowercase())
+                            .changed()
+                        {
+                            out.tag = Some("easing");
+                        }
+                    }
+                });
+            if ui
+                .button("Edit in Picker")
+                .on_hover_text("Open this control file on the mesh in the Picker; File > Back to the Composer returns")
+                .clicked()
+            {
+                out.picker = Some((pi, di));
+            }
+            if ui.button("Remove").clicked() {
+                drop = Some(di);
+            }
+        });
+    }
+    if let Some(di) = drop {
+        part.deformations.remove(di);
+        out.tag = Some("deformations");
     }
 }

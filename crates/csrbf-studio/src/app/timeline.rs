@@ -8,7 +8,8 @@
 use eframe::egui;
 
 use super::StudioApp;
-use crate::compose::{SceneEdit, Track};
+use super::composer::Composer;
+use crate::compose::{KeyRef, SceneEdit, Track};
 
 /// Height of a track row, in points.
 const ROW: f32 = 18.0;
@@ -35,120 +36,34 @@ impl StudioApp {
         let mut action = None;
         let mut timing = None;
         ui.horizontal_wrapped(|ui| {
-            if ui
-                .button("Start")
-                .on_hover_text("To the start (Home)")
-                .clicked()
-            {
-                action = Some(0);
-            }
-            if ui
-                .button("Back")
-                .on_hover_text("One frame back (Left)")
-                .clicked()
-            {
-                action = Some(1);
-            }
-            let play = if c.playback.playing { "Pause" } else { "Play" };
-            if ui.button(play).on_hover_text("Space").clicked() {
-                action = Some(2);
-            }
-            if ui
-                .button("Next")
-                .on_hover_text("One frame on (Right)")
-                .clicked()
-            {
-                action = Some(3);
-            }
-            if ui.button("End").on_hover_text("To the end (End)").clicked() {
-                action = Some(4);
-            }
-            ui.checkbox(&mut c.playback.looping, "Loop");
-            ui.checkbox(&mut c.every_frame, "Every frame")
-                .on_hover_text(
-                    "Draw every frame even when slower than real time, instead of dropping frames",
-                );
-            let d = c.doc.file.duration;
-            let mut ranged = c.playback.range.is_some();
-            if ui
-                .checkbox(&mut ranged, "Range")
-                .on_hover_text("Play only between two times")
-                .changed()
-            {
-                c.playback.range = ranged.then_some((0.0, d));
-            }
-            if let Some((a, b)) = c.playback.range.as_mut() {
-                ui.add(
-                    egui::DragValue::new(a)
-                        .range(0.0..=d)
-                        .speed(0.02)
-                        .suffix(" s"),
-                );
-                ui.label("to");
-                ui.add(
-                    egui::DragValue::new(b)
-                        .range(0.0..=d)
-                        .speed(0.02)
-                        .suffix(" s"),
-                );
+            action = transport_buttons(ui, c.playback.playing);
+            playback_options(ui, c);
+            ui.separator();
+            if playhead_ui(ui, c) {
+                action = Some(Transport::Playhead);
             }
             ui.separator();
-            let mut t = c.doc.playhead;
-            if ui
-                .add(
-                    egui::DragValue::new(&mut t)
-                        .range(0.0..=d)
-                        .speed(1.0 / c.doc.file.fps)
-                        .suffix(" s")
-                        .max_decimals(3),
-                )
-                .on_hover_text("The playhead")
-                .changed()
-            {
-                action = Some(10);
-                c.doc.playhead = t;
-            }
-            ui.separator();
-            let (mut fps, mut duration) = (c.doc.file.fps, c.doc.file.duration);
-            let a = ui
-                .add(
-                    egui::DragValue::new(&mut fps)
-                        .range(1.0..=240.0)
-                        .speed(0.2)
-                        .suffix(" fps"),
-                )
-                .changed();
-            let b = ui
-                .add(
-                    egui::DragValue::new(&mut duration)
-                        .range(0.04..=3600.0)
-                        .speed(0.02)
-                        .suffix(" s long"),
-                )
-                .changed();
-            if a || b {
-                timing = Some((fps, duration));
-            }
+            timing = timing_ui(ui, c);
         });
         match action {
-            Some(0) => self.set_playhead(0.0),
-            Some(1) | Some(3) => {
+            Some(Transport::Start) => self.set_playhead(0.0),
+            Some(step @ (Transport::Back | Transport::Next)) => {
                 if let Some(c) = self.composer.as_mut() {
                     c.playback.pause();
-                    c.playback
-                        .step(&mut c.doc, if action == Some(1) { -1 } else { 1 });
+                    let by = if step == Transport::Back { -1 } else { 1 };
+                    c.playback.step(&mut c.doc, by);
                 }
             }
-            Some(2) => self.toggle_play(),
-            Some(4) => {
+            Some(Transport::Play) => self.toggle_play(),
+            Some(Transport::End) => {
                 let d = self.scene_doc().map_or(0.0, |d| d.file.duration);
                 self.set_playhead(d);
             }
-            Some(10) => {
+            Some(Transport::Playhead) => {
                 let t = self.scene_doc().map_or(0.0, |d| d.playhead);
                 self.set_playhead(t);
             }
-            _ => {}
+            None => {}
         }
         if let Some((fps, duration)) = timing {
             self.scene_edit_merging(SceneEdit::SetTiming { fps, duration }, Some("timing"));
@@ -160,247 +75,46 @@ impl StudioApp {
             return;
         };
         let width = (ui.available_width() - NAMES - 80.0).max(80.0);
-        let duration = c.doc.file.duration;
-        let fps = c.doc.file.fps;
-        // The ruler: click or drag to scrub.
-        let mut scrub = None;
-        ui.horizontal(|ui| {
-            ui.add_sized([NAMES, ROW], egui::Label::new("Time"));
-            ui.add_space(56.0);
-            let (rect, r) =
-                ui.allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
-            c.ruler = rect;
-            let p = ui.painter_at(rect.expand(2.0));
-            p.rect_filled(rect, 2.0, egui::Color32::from_gray(45));
-            let step = nice_step(duration, width);
-            let mut s = 0.0;
-            while s <= duration + 1e-9 {
-                let x = rect.left() + (s / duration) as f32 * rect.width();
-                p.line_segment(
-                    [
-                        egui::pos2(x, rect.bottom() - 6.0),
-                        egui::pos2(x, rect.bottom()),
-                    ],
-                    egui::Stroke::new(1.0, egui::Color32::GRAY),
-                );
-                p.text(
-                    egui::pos2(x + 2.0, rect.top()),
-                    egui::Align2::LEFT_TOP,
-                    format!("{s:.2}")
-                        .trim_end_matches('0')
-                        .trim_end_matches('.'),
-                    egui::FontId::proportional(10.0),
-                    egui::Color32::LIGHT_GRAY,
-                );
-                s += step;
-            }
-            if (r.clicked() || r.dragged())
-                && let Some(pos) = r.interact_pointer_pos()
-            {
-                scrub = Some(((pos.x - rect.left()) / rect.width()) as f64 * duration);
-            }
-        });
-        let playhead = c.doc.playhead;
+        let mut out = Rows {
+            scrub: ruler_ui(ui, c, width),
+            ..Rows::default()
+        };
         c.rows.clear();
-        let mut select_key = None;
-        let mut select_object = None;
-        let mut add = None;
-        let mut moved = None;
         let objects = c.doc.file.objects.clone();
         for (o, of) in objects.iter().enumerate() {
-            let header = ui.horizontal(|ui| {
-                let r = ui.selectable_label(
-                    c.selected == Some(o),
-                    egui::RichText::new(&of.name).strong(),
-                );
-                if r.clicked() {
-                    select_object = Some(o);
+            ui.horizontal(|ui| {
+                let name = egui::RichText::new(&of.name).strong();
+                if ui.selectable_label(c.selected == Some(o), name).clicked() {
+                    out.select_object = Some(o);
                 }
             });
-            let _ = header;
-            let mut tracks = vec![
-                (Track::Position, "position".to_string()),
-                (Track::Orientation, "orientation".to_string()),
-            ];
-            for (pi, p) in of.parts.iter().enumerate() {
-                for (di, d) in p.deformations.iter().enumerate() {
-                    let stem = std::path::Path::new(&d.controls)
-                        .file_stem()
-                        .map_or(d.controls.clone(), |s| s.to_string_lossy().into_owned());
-                    tracks.push((
-                        Track::Phase {
-                            part: pi,
-                            deformation: di,
-                        },
-                        format!("phase {stem}"),
-                    ));
-                }
-            }
-            for (track, name) in tracks {
-                let times = c.doc.key_times(o, track);
-                ui.horizontal(|ui| {
-                    ui.allocate_ui_with_layout(
-                        egui::vec2(NAMES, ROW),
-                        egui::Layout::left_to_right(egui::Align::Center),
-                        |ui| {
-                            ui.set_min_width(NAMES);
-                            ui.add(egui::Label::new(format!("    {name}")).truncate());
-                        },
-                    );
-                    if ui
-                        .add_sized([50.0, ROW], egui::Button::new("Key"))
-                        .on_hover_text("A key at the playhead, with the value shown there now")
-                        .clicked()
-                    {
-                        add = Some((o, track));
-                    }
-                    let (rect, r) = ui
-                        .allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
-                    c.rows.push(((o, track), rect));
-                    let x_of = |t: f64| rect.left() + (t / duration) as f32 * rect.width();
-                    let t_of = |x: f32| {
-                        let t = ((x - rect.left()) / rect.width()) as f64 * duration;
-                        ((t * fps).round() / fps).clamp(0.0, duration)
-                    };
-                    let p = ui.painter_at(rect.expand(6.0));
-                    let row_selected = c.selected == Some(o);
-                    p.rect_filled(
-                        rect,
-                        2.0,
-                        egui::Color32::from_gray(if row_selected { 38 } else { 32 }),
-                    );
-                    // A phase track shows its phase over time (0 at the row's
-                    // bottom, 1 at its top), with a key being dragged where
-                    // the drag has it; the other tracks a line between keys.
-                    let phased = match track {
-                        Track::Phase { part, deformation } => of
-                            .parts
-                            .get(part)
-                            .and_then(|p| p.deformations.get(deformation)),
-                        _ => None,
-                    };
-                    if let Some(d) = phased {
-                        let mut keys: Vec<(f64, f64)> =
-                            d.phase.iter().map(|k| (k.time, k.phase)).collect();
-                        if let Some(((_, _, ki), to)) = c
-                            .time_drag
-                            .filter(|((ko, kt, _), _)| *ko == o && *kt == track)
-                            && let Some(k) = keys.get_mut(ki)
-                        {
-                            k.0 = to;
-                        }
-                        p.add(egui::Shape::line(
-                            phase_curve(keys, d.easing, rect, duration),
-                            egui::Stroke::new(1.0, egui::Color32::from_rgb(110, 150, 200)),
-                        ));
-                    } else if times.len() > 1 {
-                        p.line_segment(
-                            [
-                                egui::pos2(x_of(times[0]), rect.center().y),
-                                egui::pos2(x_of(*times.last().expect("keys")), rect.center().y),
-                            ],
-                            egui::Stroke::new(1.0, egui::Color32::from_gray(90)),
-                        );
-                    }
-                    let nearest = |x: f32| {
-                        times
-                            .iter()
-                            .enumerate()
-                            .map(|(i, &t)| (i, (x_of(t) - x).abs()))
-                            .filter(|(_, d)| *d <= 6.0)
-                            .min_by(|a, b| a.1.total_cmp(&b.1))
-                            .map(|(i, _)| i)
-                    };
-                    let dragging = c
-                        .time_drag
-                        .filter(|((ko, kt, _), _)| *ko == o && *kt == track);
-                    for (i, &t) in times.iter().enumerate() {
-                        let chosen = c.key == Some((o, track, i));
-                        let t = match dragging {
-                            Some(((_, _, ki), to)) if ki == i => to,
-                            _ => t,
-                        };
-                        // A phase key sits on its curve, at its phase.
-                        let y = phased
-                            .and_then(|d| d.phase.get(i))
-                            .map_or(rect.center().y, |k| phase_y(rect, k.phase));
-                        diamond(
-                            &p,
-                            egui::pos2(x_of(t), y),
-                            if chosen { 6.0 } else { 4.5 },
-                            if chosen {
-                                egui::Color32::from_rgb(255, 220, 80)
-                            } else {
-                                egui::Color32::from_rgb(190, 190, 200)
-                            },
-                        );
-                    }
-                    // The playhead.
-                    let x = x_of(playhead);
-                    p.line_segment(
-                        [egui::pos2(x, rect.top()), egui::pos2(x, rect.bottom())],
-                        egui::Stroke::new(1.5, egui::Color32::from_rgb(240, 90, 70)),
-                    );
-                    let at = r.interact_pointer_pos();
-                    // A drag starts a few points from where it was pressed:
-                    // the key is the one under the press.
-                    let origin = ui.input(|i| i.pointer.press_origin()).or(at);
-                    if r.drag_started()
-                        && let Some(pos) = origin
-                        && let Some(i) = nearest(pos.x)
-                    {
-                        select_key = Some((o, track, i));
-                        c.time_drag = Some(((o, track, i), times[i]));
-                    }
-                    if r.dragged()
-                        && let Some(pos) = at
-                    {
-                        if let Some((k, _)) = c
-                            .time_drag
-                            .filter(|((ko, kt, _), _)| *ko == o && *kt == track)
-                        {
-                            c.time_drag = Some((k, t_of(pos.x)));
-                        } else {
-                            scrub = Some(t_of(pos.x));
-                        }
-                    }
-                    if r.drag_stopped()
-                        && let Some((k, to)) = c.time_drag.take()
-                        && k.0 == o
-                        && k.1 == track
-                        && times.get(k.2).is_some_and(|&t| t != to)
-                    {
-                        moved = Some((k, to));
-                    }
-                    if r.clicked()
-                        && let Some(pos) = at
-                    {
-                        match nearest(pos.x) {
-                            Some(i) => select_key = Some((o, track, i)),
-                            None => {
-                                scrub = Some(t_of(pos.x));
-                                select_object = Some(o);
-                            }
-                        }
-                    }
-                });
+            for (track, name) in track_names(of) {
+                ui.horizontal(|ui| track_row(ui, c, (o, of), (track, &name), width, &mut out));
             }
             ui.add_space(4.0);
         }
-        if let Some(o) = select_object {
+        self.apply_rows(out);
+    }
+
+    /// What the rows asked for: selections, a scrub, a key added or moved.
+    fn apply_rows(&mut self, out: Rows) {
+        let Some(c) = self.composer.as_mut() else {
+            return;
+        };
+        if let Some(o) = out.select_object {
             c.selected = Some(o);
         }
-        if let Some(k) = select_key {
+        if let Some(k) = out.select_key {
             c.key = Some(k);
             c.selected = Some(k.0);
         }
-        if let Some(t) = scrub {
+        if let Some(t) = out.scrub {
             self.set_playhead(t);
         }
-        if let Some((o, track)) = add {
+        if let Some((o, track)) = out.add {
             self.add_key(o, track);
         }
-        if let Some(((o, track, index), time)) = moved
+        if let Some(((o, track, index), time)) = out.moved
             && self.scene_edit(SceneEdit::MoveKey {
                 object: o,
                 track,
@@ -411,6 +125,376 @@ impl StudioApp {
         {
             let i = c.doc.key_times(o, track).iter().position(|&k| k == time);
             c.key = i.map(|i| (o, track, i));
+        }
+    }
+}
+
+/// A transport button pressed, or the playhead typed.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Transport {
+    Start,
+    Back,
+    Play,
+    Next,
+    End,
+    Playhead,
+}
+
+/// Start, Back, Play or Pause, Next, End.
+fn transport_buttons(ui: &mut egui::Ui, playing: bool) -> Option<Transport> {
+    let mut action = None;
+    let play = if playing { "Pause" } else { "Play" };
+    for (label, hover, what) in [
+        ("Start", "To the start (Home)", Transport::Start),
+        ("Back", "One frame back (Left)", Transport::Back),
+        (play, "Space", Transport::Play),
+        ("Next", "One frame on (Right)", Transport::Next),
+        ("End", "To the end (End)", Transport::End),
+    ] {
+        if ui.button(label).on_hover_text(hover).clicked() {
+            action = Some(what);
+        }
+    }
+    action
+}
+
+/// Loop, every frame, and the range played.
+fn playback_options(ui: &mut egui::Ui, c: &mut Composer) {
+    ui.checkbox(&mut c.playback.looping, "Loop");
+    ui.checkbox(&mut c.every_frame, "Every frame")
+        .on_hover_text(
+            "Draw every frame even when slower than real time, instead of dropping frames",
+        );
+    let d = c.doc.file.duration;
+    let mut ranged = c.playback.range.is_some();
+    if ui
+        .checkbox(&mut ranged, "Range")
+        .on_hover_text("Play only between two times")
+        .changed()
+    {
+        c.playback.range = ranged.then_some((0.0, d));
+    }
+    if let Some((a, b)) = c.playback.range.as_mut() {
+        ui.add(seconds(a, d));
+        ui.label("to");
+        ui.add(seconds(b, d));
+    }
+}
+
+/// A time in the scene, `[0, duration]` seconds.
+fn seconds(v: &mut f64, duration: f64) -> egui::DragValue<'_> {
+    egui::DragValue::new(v)
+        .range(0.0..=duration)
+        .speed(0.02)
+        .suffix(" s")
+}
+
+/// The playhead as a number; true when it was typed or dragged.
+fn playhead_ui(ui: &mut egui::Ui, c: &mut Composer) -> bool {
+    let mut t = c.doc.playhead;
+    let changed = ui
+        .add(
+            egui::DragValue::new(&mut t)
+                .range(0.0..=c.doc.file.duration)
+                .speed(1.0 / c.doc.file.fps)
+                .suffix(" s")
+                .max_decimals(3),
+        )
+        .on_hover_text("The playhead")
+        .changed();
+    if changed {
+        c.doc.playhead = t;
+    }
+    changed
+}
+
+/// The scene's frame rate and duration; the new pair when either changed.
+fn timing_ui(ui: &mut egui::Ui, c: &Composer) -> Option<(f64, f64)> {
+    let (mut fps, mut duration) = (c.doc.file.fps, c.doc.file.duration);
+    let a = ui
+        .add(
+            egui::DragValue::new(&mut fps)
+                .range(1.0..=240.0)
+                .speed(0.2)
+                .suffix(" fps"),
+        )
+        .changed();
+    let b = ui
+        .add(
+            egui::DragValue::new(&mut duration)
+                .range(0.04..=3600.0)
+                .speed(0.02)
+                .suffix(" s long"),
+        )
+        .changed();
+    (a || b).then_some((fps, duration))
+}
+
+/// What the timeline's rows asked for this frame (applied after drawing).
+#[derive(Default)]
+struct Rows {
+    scrub: Option<f64>,
+    select_key: Option<KeyRef>,
+    select_object: Option<usize>,
+    add: Option<(usize, Track)>,
+    moved: Option<(KeyRef, f64)>,
+}
+
+/// The ruler: click or drag to scrub (the time asked for).
+fn ruler_ui(ui: &mut egui::Ui, c: &mut Composer, width: f32) -> Option<f64> {
+    let duration = c.doc.file.duration;
+    let mut scrub = None;
+    ui.horizontal(|ui| {
+        ui.add_sized([NAMES, ROW], egui::Label::new("Time"));
+        ui.add_space(56.0);
+        let (rect, r) =
+            ui.allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
+        c.ruler = rect;
+        let p = ui.painter_at(rect.expand(2.0));
+        p.rect_filled(rect, 2.0, egui::Color32::from_gray(45));
+        let step = nice_step(duration, width);
+        let mut s = 0.0;
+        while s <= duration + 1e-9 {
+            let x = rect.left() + (s / duration) as f32 * rect.width();
+            p.line_segment(
+                [
+                    egui::pos2(x, rect.bottom() - 6.0),
+                    egui::pos2(x, rect.bottom()),
+                ],
+                egui::Stroke::new(1.0, egui::Color32::GRAY),
+            );
+            p.text(
+                egui::pos2(x + 2.0, rect.top()),
+                egui::Align2::LEFT_TOP,
+                format!("{s:.2}")
+                    .trim_end_matches('0')
+                    .trim_end_matches('.'),
+                egui::FontId::proportional(10.0),
+                egui::Color32::LIGHT_GRAY,
+            );
+            s += step;
+        }
+        if (r.clicked() || r.dragged())
+            && let Some(pos) = r.interact_pointer_pos()
+        {
+            scrub = Some(((pos.x - rect.left()) / rect.width()) as f64 * duration);
+        }
+    });
+    scrub
+}
+
+/// An object's tracks and their names: position, orientation, then each
+/// deformation's phase (named by its control file).
+fn track_names(of: &csrbf_anim::ObjectFile) -> Vec<(Track, String)> {
+    let mut tracks = vec![
+        (Track::Position, "position".to_string()),
+        (Track::Orientation, "orientation".to_string()),
+    ];
+    for (pi, p) in of.parts.iter().enumerate() {
+        for (di, d) in p.deformations.iter().enumerate() {
+            let stem = std::path::Path::new(&d.controls)
+                .file_stem()
+                .map_or(d.controls.clone(), |s| s.to_string_lossy().into_owned());
+            let track = Track::Phase {
+                part: pi,
+                deformation: di,
+            };
+            tracks.push((track, format!("phase {stem}")));
+        }
+    }
+    tracks
+}
+
+/// The time scale of a row: x of a time, and the frame time nearest an x.
+#[derive(Clone, Copy)]
+struct Scale {
+    rect: egui::Rect,
+    duration: f64,
+    fps: f64,
+}
+
+impl Scale {
+    fn x_of(&self, t: f64) -> f32 {
+        self.rect.left() + (t / self.duration) as f32 * self.rect.width()
+    }
+
+    fn t_of(&self, x: f32) -> f64 {
+        let t = ((x - self.rect.left()) / self.rect.width()) as f64 * self.duration;
+        ((t * self.fps).round() / self.fps).clamp(0.0, self.duration)
+    }
+
+    /// The key of `times` within 6 points of `x`, the nearest.
+    fn nearest(&self, times: &[f64], x: f32) -> Option<usize> {
+        times
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| (i, (self.x_of(t) - x).abs()))
+            .filter(|(_, d)| *d <= 6.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i)
+    }
+}
+
+/// One track's row: its name, a Key button, and its keys on the time scale
+/// (click to select, drag in time).
+fn track_row(
+    ui: &mut egui::Ui,
+    c: &mut Composer,
+    (o, of): (usize, &csrbf_anim::ObjectFile),
+    (track, name): (Track, &str),
+    width: f32,
+    out: &mut Rows,
+) {
+    ui.allocate_ui_with_layout(
+        egui::vec2(NAMES, ROW),
+        egui::Layout::left_to_right(egui::Align::Center),
+        |ui| {
+            ui.set_min_width(NAMES);
+            ui.add(egui::Label::new(format!("    {name}")).truncate());
+        },
+    );
+    if ui
+        .add_sized([50.0, ROW], egui::Button::new("Key"))
+        .on_hover_text("A key at the playhead, with the value shown there now")
+        .clicked()
+    {
+        out.add = Some((o, track));
+    }
+    let (rect, r) = ui.allocate_exact_size(egui::vec2(width, ROW), egui::Sense::click_and_drag());
+    c.rows.push(((o, track), rect));
+    let scale = Scale {
+        rect,
+        duration: c.doc.file.duration,
+        fps: c.doc.file.fps,
+    };
+    let times = c.doc.key_times(o, track);
+    paint_row(ui, c, (o, of), track, scale, &times);
+    row_input(ui, c, (o, track), scale, &times, &r, out);
+}
+
+/// A row's background, its curve or line, its keys and the playhead.
+fn paint_row(
+    ui: &egui::Ui,
+    c: &Composer,
+    (o, of): (usize, &csrbf_anim::ObjectFile),
+    track: Track,
+    scale: Scale,
+    times: &[f64],
+) {
+    let rect = scale.rect;
+    let p = ui.painter_at(rect.expand(6.0));
+    let shade = if c.selected == Some(o) { 38 } else { 32 };
+    p.rect_filled(rect, 2.0, egui::Color32::from_gray(shade));
+    // A phase track shows its phase over time (0 at the row's bottom, 1 at
+    // its top), with a key being dragged where the drag has it; the other
+    // tracks a line between keys.
+    let phased = match track {
+        Track::Phase { part, deformation } => of
+            .parts
+            .get(part)
+            .and_then(|p| p.deformations.get(deformation)),
+        _ => None,
+    };
+    let dragging = c
+        .time_drag
+        .filter(|((ko, kt, _), _)| *ko == o && *kt == track);
+    if let Some(d) = phased {
+        let mut keys: Vec<(f64, f64)> = d.phase.iter().map(|k| (k.time, k.phase)).collect();
+        if let Some(((_, _, ki), to)) = dragging
+            && let Some(k) = keys.get_mut(ki)
+        {
+            k.0 = to;
+        }
+        p.add(egui::Shape::line(
+            phase_curve(keys, d.easing, rect, scale.duration),
+            egui::Stroke::new(1.0, egui::Color32::from_rgb(110, 150, 200)),
+        ));
+    } else if let [first, .., last] = times {
+        p.line_segment(
+            [
+                egui::pos2(scale.x_of(*first), rect.center().y),
+                egui::pos2(scale.x_of(*last), rect.center().y),
+            ],
+            egui::Stroke::new(1.0, egui::Color32::from_gray(90)),
+        );
+    }
+    for (i, &t) in times.iter().enumerate() {
+        let chosen = c.key == Some((o, track, i));
+        let t = match dragging {
+            Some(((_, _, ki), to)) if ki == i => to,
+            _ => t,
+        };
+        // A phase key sits on its curve, at its phase.
+        let y = phased
+            .and_then(|d| d.phase.get(i))
+            .map_or(rect.center().y, |k| phase_y(rect, k.phase));
+        let (size, fill) = if chosen {
+            (6.0, egui::Color32::from_rgb(255, 220, 80))
+        } else {
+            (4.5, egui::Color32::from_rgb(190, 190, 200))
+        };
+        diamond(&p, egui::pos2(scale.x_of(t), y), size, fill);
+    }
+    // The playhead.
+    let x = scale.x_of(c.doc.playhead);
+    p.line_segment(
+        [egui::pos2(x, rect.top()), egui::pos2(x, rect.bottom())],
+        egui::Stroke::new(1.5, egui::Color32::from_rgb(240, 90, 70)),
+    );
+}
+
+/// A row's pointer: a drag moves the key under the press in time (else
+/// scrubs); a click selects the key under it (else scrubs there and
+/// selects the object).
+fn row_input(
+    ui: &egui::Ui,
+    c: &mut Composer,
+    (o, track): (usize, Track),
+    scale: Scale,
+    times: &[f64],
+    r: &egui::Response,
+    out: &mut Rows,
+) {
+    let at = r.interact_pointer_pos();
+    // A drag starts a few points from where it was pressed: the key is the
+    // one under the press.
+    let origin = ui.input(|i| i.pointer.press_origin()).or(at);
+    if r.drag_started()
+        && let Some(pos) = origin
+        && let Some(i) = scale.nearest(times, pos.x)
+    {
+        out.select_key = Some((o, track, i));
+        c.time_drag = Some(((o, track, i), times[i]));
+    }
+    if r.dragged()
+        && let Some(pos) = at
+    {
+        if let Some((k, _)) = c
+            .time_drag
+            .filter(|((ko, kt, _), _)| *ko == o && *kt == track)
+        {
+            c.time_drag = Some((k, scale.t_of(pos.x)));
+        } else {
+            out.scrub = Some(scale.t_of(pos.x));
+        }
+    }
+    if r.drag_stopped()
+        && let Some((k, to)) = c.time_drag.take()
+        && k.0 == o
+        && k.1 == track
+        && times.get(k.2).is_some_and(|&t| t != to)
+    {
+        out.moved = Some((k, to));
+    }
+    if r.clicked()
+        && let Some(pos) = at
+    {
+        match scale.nearest(times, pos.x) {
+            Some(i) => out.select_key = Some((o, track, i)),
+            None => {
+                out.scrub = Some(scale.t_of(pos.x));
+                out.select_object = Some(o);
+            }
         }
     }
 }

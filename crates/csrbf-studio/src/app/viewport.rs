@@ -3,12 +3,14 @@
 //! control vectors, the flipped faces, the gizmo).
 
 use csrbf::glam::{DVec3, Vec2, Vec3};
-use csrbf_anim::ViewPreset;
+use csrbf_anim::{Camera, ViewPreset};
 use csrbf_render::{DrawOptions, Line, axis_gizmo, circle_lines, control_lines};
 use eframe::egui;
 
-use super::{Model, StudioApp, Tool, gpu, panel::VertexTarget};
-use crate::{Command, DragTool, End, pick_marker, pick_surface_on, swept_angle};
+use super::{Model, StudioApp, Tool, gpu};
+use crate::gizmo::{HandleDrag, RING_PIXELS, axis_rings, ring_under, world_per_pixel};
+use crate::tools::VertexTarget;
+use crate::{Command, DragTool, End, pick_marker, pick_surface_on};
 
 /// What is shown of the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,14 +107,11 @@ pub enum Gesture {
         add: bool,
     },
     /// Turning, scaling or moving a handle about its pivot.
+    /// A handle's gizmo dragged (a ring turned, or the pivot rotated,
+    /// scaled or moved).
     Handle {
         layer: usize,
-        from: egui::Pos2,
-        pivot_px: Vec2,
-        start: Box<csrbf::Handle>,
-        tool: DragTool,
-        /// The axis ring grabbed (a turn about that axis), if any.
-        ring: Option<DVec3>,
+        drag: Box<HandleDrag>,
     },
     Orbit,
     Pan,
@@ -255,7 +254,9 @@ impl StudioApp {
             && scroll != 0.0
             && let Some(pos) = pos
         {
-            let m = self.model.as_mut().expect("checked by the caller");
+            let Some(m) = self.model.as_mut() else {
+                return;
+            };
             let px = Self::pixel(pos, rect, ppp);
             let cam = m.orbit.camera();
             let point = fresh_bvh(m)
@@ -266,7 +267,9 @@ impl StudioApp {
         }
         // Orbit and pan: right or middle button, Shift to pan; Alt+left orbits.
         if hovered && (secondary || middle) && delta != egui::Vec2::ZERO {
-            let m = self.model.as_mut().expect("checked by the caller");
+            let Some(m) = self.model.as_mut() else {
+                return;
+            };
             if modifiers.shift || (middle && modifiers.ctrl) {
                 m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32);
             } else {
@@ -306,7 +309,9 @@ impl StudioApp {
         let axis = self.axis_vector();
         let tool = self.tool;
         let stamp = self.view.stamp;
-        let m = self.model.as_mut().expect("checked by the caller");
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
         let cam = m.orbit.camera();
         // A handle's pivot, grabbed in the vertex tool.
         if tool == Tool::Vertices
@@ -315,23 +320,27 @@ impl StudioApp {
         {
             // An axis ring under the pointer turns about that axis; inside
             // the outer ring, the panel's mode (rotate, scale, move) applies.
-            let ring = axis_rings(pivot.as_vec3(), &cam, size, RING_PIXELS * ppp)
-                .into_iter()
-                .filter_map(|(a, pts, _)| {
-                    let d = polyline_distance(&cam, size, &pts, px)?;
-                    (d < 7.0 * ppp).then_some((d, a))
-                })
-                .min_by(|x, y| x.0.total_cmp(&y.0))
-                .map(|(_, a)| a.as_dvec3());
+            let ring = ring_under(
+                pivot.as_vec3(),
+                &cam,
+                size,
+                RING_PIXELS * ppp,
+                px,
+                7.0 * ppp,
+            )
+            .map(|a| a.as_dvec3());
             if ring.is_some() || pivot_px.distance(px) < (RING_PIXELS + 8.0) * ppp {
                 m.history.begin_drag();
+                let drag = HandleDrag {
+                    start: handle,
+                    ring,
+                    pivot_px,
+                    pressed: px,
+                    tool: DragTool::begin(&cam, size, px, pivot, axis),
+                };
                 self.gesture = Gesture::Handle {
                     layer,
-                    from: pos,
-                    pivot_px,
-                    start: Box::new(handle),
-                    tool: DragTool::begin(&cam, size, px, pivot, axis),
-                    ring,
+                    drag: Box::new(drag),
                 };
                 return;
             }
@@ -462,58 +471,15 @@ impl StudioApp {
                 // A destination moving is a drag step; a start needs a refit.
                 self.edit(command, end == End::Start);
             }
-            Gesture::Handle {
-                layer,
-                from,
-                pivot_px,
-                start,
-                tool,
-                ring,
-            } => {
-                let mut h = (*start).clone();
-                let pressed = Self::pixel_of(from, ppp, self.viewport.1);
-                if let Some(axis) = ring {
-                    // A turn about the ring's axis (the angle the pointer swept
-                    // on the ring's plane, as the Composer's rings), composed
-                    // with the turn so far.
-                    let turn = swept_angle(&cam, size, tool.origin, axis, pressed, px);
-                    h.rotate = Some(compose_turn(start.rotate, axis, turn.to_degrees()));
-                } else {
-                    match self.handle_mode {
-                        super::panel::HandleMode::Rotate => {
-                            let mut r = h.rotate.unwrap_or_else(|| {
-                                csrbf::Rotation::new(handle_axis(self.axis, &cam), 0.0)
-                            });
-                            let turn = swept_angle(&cam, size, tool.origin, r.axis, pressed, px);
-                            r.angle_deg =
-                                start.rotate.map_or(0.0, |r| r.angle_deg) + turn.to_degrees();
-                            h.rotate = Some(r);
-                        }
-                        super::panel::HandleMode::Scale => {
-                            let d0 = (pressed - pivot_px).length();
-                            let d1 = (px - pivot_px).length();
-                            if d0 > 1.0 {
-                                h.scale = Some(start.scale.unwrap_or(1.0) * (d1 / d0) as f64);
-                            }
-                        }
-                        super::panel::HandleMode::Move => {
-                            if let Some(p) = tool.moved_to(&cam, size, px) {
-                                h.translate = Some(
-                                    start.translate.unwrap_or(DVec3::ZERO) + (p - tool.origin),
-                                );
-                            }
-                        }
-                    }
-                }
+            Gesture::Handle { layer, drag } => {
+                let h = drag.moved(self.handle_mode, self.axis, (&cam, size), px);
                 let mut spec = m.doc.controls.deformations[layer].clone();
                 spec.handle = Some(h);
-                self.edit(
-                    Command::ReplaceLayer {
-                        layer,
-                        spec: Box::new(spec),
-                    },
-                    false,
-                );
+                let command = Command::ReplaceLayer {
+                    layer,
+                    spec: Box::new(spec),
+                };
+                self.edit(command, false);
             }
             Gesture::Orbit => m.orbit.orbit(delta.x, delta.y),
             Gesture::Pan => m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32),
@@ -554,10 +520,6 @@ impl StudioApp {
             m.picked_vertices.len(),
             self.view.brush * 100.0
         );
-    }
-
-    fn pixel_of(pos: egui::Pos2, ppp: f32, rect: egui::Rect) -> Vec2 {
-        Self::pixel(pos, rect, ppp)
     }
 
     fn release(&mut self, pos: egui::Pos2, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
@@ -634,7 +596,9 @@ impl StudioApp {
 
     fn paint(&mut self, ui: &egui::Ui, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
         let v = self.view.clone();
-        let m = self.model.as_ref().expect("checked by the caller");
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
         let cam = m.orbit.camera();
         let (positions, normals) = match v.display {
             Display::Rest => (m.rest_positions.clone(), m.rest_normals.clone()),
@@ -642,107 +606,18 @@ impl StudioApp {
         };
         let mut overlay = Vec::new();
         let mut lines = Vec::new();
-        // Control vectors: start, arrow to the destination, support spheres
-        // of the selection (all of the active layer's while R changes).
-        for (layer, spec) in m.doc.controls.deformations.iter().enumerate() {
-            if m.hidden.get(layer).copied().unwrap_or(false) {
-                continue;
-            }
-            let r = spec.options.radius as f32;
-            let mut plain = Vec::new();
-            let mut selected = Vec::new();
-            for (i, (s, t)) in spec.starts.iter().zip(&spec.targets).enumerate() {
-                let now = *s + (*t - *s) * (spec.phase * m.doc.phase);
-                let c = (s.as_vec3(), now.as_vec3(), t.as_vec3(), r);
-                let show_sphere = (v.spheres && m.doc.selection.contains(layer, i))
-                    || (v.all_spheres && layer == m.doc.active_layer);
-                if show_sphere {
-                    selected.push(c);
-                } else {
-                    plain.push(c);
-                }
-            }
-            let mut drawn = Vec::new();
-            if v.arrows || v.starts {
-                control_lines(&plain, false, &mut drawn);
-            }
-            // Spheres are drawn for moving vectors only by the renderer's
-            // helper; a pin's sphere is shown too here, so draw them as if
-            // moving (the arrow of a pin has no length anyway).
-            let nudged: Vec<_> = selected
-                .iter()
-                .map(|&(s, now, t, r)| {
-                    let t = if t.distance(s) < 1e-6 * r {
-                        s + Vec3::splat(1e-5 * r)
-                    } else {
-                        t
-                    };
-                    (s, now, t, r)
-                })
-                .collect();
-            control_lines(&nudged, true, &mut drawn);
-            if !v.arrows {
-                drawn.retain(|l| l.color[0] == 1.0 && l.color[1] == 1.0);
-            }
-            overlay.extend(drawn);
-        }
+        control_overlay(m, &v, &mut overlay);
         // The active layer's region, if it is a sphere or a box.
         if let Some(spec) = m.doc.controls.deformations.get(m.doc.active_layer) {
             region_lines(&spec.region, &mut overlay);
         }
-        // Faces inside out and creases, in red over the surface.
-        if let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref())
-            && v.display != Display::Rest
-        {
-            let tris = m.bvh.triangles();
-            for &t in d.inside_out.iter().chain(&d.flipped).take(50_000) {
-                let Some(t) = tris.get(t as usize) else {
-                    continue;
-                };
-                let p = |k: usize| positions.get(t[k] as usize).copied().unwrap_or_default();
-                for (a, b) in [(0, 1), (1, 2), (2, 0)] {
-                    lines.push(Line {
-                        a: p(a),
-                        b: p(b),
-                        color: [1.0, 0.1, 0.1, 1.0],
-                    });
-                }
-            }
+        if v.display != Display::Rest {
+            fold_lines(m, &positions, &mut lines);
         }
         if v.display == Display::Both {
-            // The rest shape's edges, faint (up to 300k edges).
-            let rest = &m.doc.mesh.positions;
-            for t in m.bvh.triangles().iter().take(100_000) {
-                for (a, b) in [(0, 1), (1, 2), (2, 0)] {
-                    overlay.push(Line {
-                        a: rest[t[a] as usize],
-                        b: rest[t[b] as usize],
-                        color: [0.6, 0.8, 1.0, 0.25],
-                    });
-                }
-            }
+            rest_edges(m, &mut overlay);
         }
-        // The handle's pivot and the vertices chosen.
-        if let Some((_, _, pivot)) = active_handle(m) {
-            // The gizmo: the outer ring (the panel's mode) and a ring per axis.
-            ring(
-                pivot.as_vec3(),
-                &cam,
-                size,
-                (RING_PIXELS + 8.0) * ppp,
-                [1.0, 0.8, 0.2, 1.0],
-                &mut overlay,
-            );
-            for (_, pts, color) in axis_rings(pivot.as_vec3(), &cam, size, RING_PIXELS * ppp) {
-                for w in pts.windows(2) {
-                    overlay.push(Line {
-                        a: w[0],
-                        b: w[1],
-                        color,
-                    });
-                }
-            }
-        }
+        handle_gizmo(m, (&cam, size, ppp), &mut overlay);
         if v.gizmo {
             axis_gizmo(&cam, size, &mut overlay);
         }
@@ -786,7 +661,20 @@ impl StudioApp {
             ui.painter()
                 .rect_filled(rect, 0.0, egui::Color32::from_gray(40));
         }
-        // Chosen vertices and the selection box, drawn by egui on top.
+        self.paint_marks(ui, rect, (&cam, size, ppp));
+    }
+
+    /// Chosen vertices, the selection box and the held axis, drawn by egui
+    /// on top.
+    fn paint_marks(
+        &self,
+        ui: &egui::Ui,
+        rect: egui::Rect,
+        (cam, size, ppp): (&Camera, [u32; 2], f32),
+    ) {
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
         let painter = ui.painter_at(rect);
         let to_screen = |q: Vec2| egui::pos2(rect.min.x + q.x / ppp, rect.min.y + q.y / ppp);
         for &i in m.picked_vertices.iter().take(20_000) {
@@ -815,6 +703,119 @@ impl StudioApp {
                 egui::Color32::YELLOW,
             );
         }
+    }
+}
+
+/// Control vectors: start, arrow to the destination, support spheres of the
+/// selection (all of the active layer's while R changes).
+fn control_overlay(m: &Model, v: &ViewSettings, overlay: &mut Vec<Line>) {
+    for (layer, spec) in m.doc.controls.deformations.iter().enumerate() {
+        if m.hidden.get(layer).copied().unwrap_or(false) {
+            continue;
+        }
+        let r = spec.options.radius as f32;
+        let mut plain = Vec::new();
+        let mut selected = Vec::new();
+        for (i, (s, t)) in spec.starts.iter().zip(&spec.targets).enumerate() {
+            let now = *s + (*t - *s) * (spec.phase * m.doc.phase);
+            let c = (s.as_vec3(), now.as_vec3(), t.as_vec3(), r);
+            let show_sphere = (v.spheres && m.doc.selection.contains(layer, i))
+                || (v.all_spheres && layer == m.doc.active_layer);
+            if show_sphere {
+                selected.push(c);
+            } else {
+                plain.push(c);
+            }
+        }
+        let mut drawn = Vec::new();
+        if v.arrows || v.starts {
+            control_lines(&plain, false, &mut drawn);
+        }
+        // Spheres are drawn for moving vectors only by the renderer's
+        // helper; a pin's sphere is shown too here, so draw them as if
+        // moving (the arrow of a pin has no length anyway).
+        let nudged: Vec<_> = selected
+            .iter()
+            .map(|&(s, now, t, r)| {
+                let t = if t.distance(s) < 1e-6 * r {
+                    s + Vec3::splat(1e-5 * r)
+                } else {
+                    t
+                };
+                (s, now, t, r)
+            })
+            .collect();
+        control_lines(&nudged, true, &mut drawn);
+        if !v.arrows {
+            drawn.retain(|l| l.color[0] == 1.0 && l.color[1] == 1.0);
+        }
+        overlay.extend(drawn);
+    }
+}
+
+/// Faces inside out and creases, in red over the surface at `positions`.
+fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
+    let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref()) else {
+        return;
+    };
+    let tris = m.bvh.triangles();
+    for &t in d.inside_out.iter().chain(&d.flipped).take(50_000) {
+        let Some(t) = tris.get(t as usize) else {
+            continue;
+        };
+        let p = |k: usize| positions.get(t[k] as usize).copied().unwrap_or_default();
+        for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+            lines.push(Line {
+                a: p(a),
+                b: p(b),
+                color: [1.0, 0.1, 0.1, 1.0],
+            });
+        }
+    }
+}
+
+/// The rest shape's edges, faint (up to 300k edges).
+fn rest_edges(m: &Model, overlay: &mut Vec<Line>) {
+    let rest = &m.doc.mesh.positions;
+    for t in m.bvh.triangles().iter().take(100_000) {
+        for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+            overlay.push(Line {
+                a: rest[t[a] as usize],
+                b: rest[t[b] as usize],
+                color: [0.6, 0.8, 1.0, 0.25],
+            });
+        }
+    }
+}
+
+/// The active handle's gizmo about its pivot: the outer ring (the panel's
+/// mode) and a ring per axis.
+fn handle_gizmo(m: &Model, (cam, size, ppp): (&Camera, [u32; 2], f32), overlay: &mut Vec<Line>) {
+    let Some((_, _, pivot)) = active_handle(m) else {
+        return;
+    };
+    let outer = (RING_PIXELS + 8.0) * ppp;
+    ring(
+        pivot.as_vec3(),
+        cam,
+        size,
+        outer,
+        [1.0, 0.8, 0.2, 1.0],
+        overlay,
+    );
+    for (_, pts, color) in axis_rings(pivot.as_vec3(), cam, size, RING_PIXELS * ppp) {
+        polyline(&pts, color, overlay);
+    }
+}
+
+/// The segments of a polyline, all of one colour.
+pub(super) fn polyline(pts: &[Vec3], color: [f32; 4], out: &mut Vec<Line>) {
+    for w in pts.windows(2) {
+        out.push(Line {
+            a: w[0],
+            b: w[1],
+            color,
+        });
     }
 }
 
@@ -860,132 +861,14 @@ fn fresh_bvh(m: &mut Model) -> Option<()> {
     Some(())
 }
 
-/// The active layer's handle and its pivot (the centroid of its selection
-/// at rest, or the rotation's own pivot).
+/// The active layer's handle and its pivot (the rotation's own, else the
+/// centroid of its selection at rest: what the engine turns it about).
 pub(super) fn active_handle(m: &Model) -> Option<(usize, csrbf::Handle, DVec3)> {
     let layer = m.doc.active_layer;
     let h = m.doc.controls.deformations.get(layer)?.handle.clone()?;
-    if let Some(p) = h.rotate.and_then(|r| r.pivot) {
-        return Some((layer, h, p));
-    }
     let lookup = |n: &str| m.doc.mesh.part_vertices(n);
-    let sel = h.select.select(&m.doc.mesh.positions, &lookup).ok()?;
-    if sel.is_empty() {
-        return None;
-    }
-    let sum: DVec3 = sel
-        .iter()
-        .map(|&i| m.doc.mesh.positions[i as usize].as_dvec3())
-        .sum();
-    Some((layer, h, sum / sel.len() as f64))
-}
-
-/// The rotation axis of a new handle turn: the held axis, else the view's.
-pub(super) fn handle_axis(axis: Option<usize>, cam: &csrbf_anim::Camera) -> DVec3 {
-    match axis {
-        Some(a) => {
-            let mut v = DVec3::ZERO;
-            v[a] = 1.0;
-            v
-        }
-        None => -cam.basis().2.as_dvec3(),
-    }
-}
-
-/// The handle gizmo's axis rings' radius, in points.
-const RING_PIXELS: f32 = 40.0;
-
-/// World length of one pixel at `centre`.
-pub(super) fn world_per_pixel(
-    centre: Vec3,
-    cam: &csrbf_anim::Camera,
-    size: [u32; 2],
-) -> Option<f32> {
-    let (c, _) = cam.project(centre, size)?;
-    let (right, _, _) = cam.basis();
-    let (q, _) = cam.project(centre + right * 0.01, size)?;
-    let per_unit = (q - c).length() / 0.01;
-    (per_unit > 0.0 && per_unit.is_finite()).then(|| 1.0 / per_unit)
-}
-
-/// The gizmo's three rings about `centre`, `radius` pixels wide: for X, Y
-/// and Z, the axis, the ring's points (closed) and its colour.
-pub(super) fn axis_rings(
-    centre: Vec3,
-    cam: &csrbf_anim::Camera,
-    size: [u32; 2],
-    radius: f32,
-) -> Vec<(Vec3, Vec<Vec3>, [f32; 4])> {
-    let Some(w) = world_per_pixel(centre, cam, size) else {
-        return Vec::new();
-    };
-    let r = radius * w;
-    [
-        (Vec3::X, [0.95, 0.3, 0.25, 1.0]),
-        (Vec3::Y, [0.35, 0.9, 0.35, 1.0]),
-        (Vec3::Z, [0.35, 0.55, 1.0, 1.0]),
-    ]
-    .into_iter()
-    .map(|(axis, color)| {
-        let u = axis.any_orthonormal_vector();
-        let v = axis.cross(u);
-        let pts = (0..=64)
-            .map(|j| {
-                let a = j as f32 / 64.0 * std::f32::consts::TAU;
-                centre + (u * a.cos() + v * a.sin()) * r
-            })
-            .collect();
-        (axis, pts, color)
-    })
-    .collect()
-}
-
-/// The pointer's distance in pixels to a polyline as drawn (None when it
-/// is behind the camera).
-pub(super) fn polyline_distance(
-    cam: &csrbf_anim::Camera,
-    size: [u32; 2],
-    pts: &[Vec3],
-    px: Vec2,
-) -> Option<f32> {
-    let screen: Vec<Vec2> = pts
-        .iter()
-        .map(|p| cam.project(*p, size).map(|q| q.0))
-        .collect::<Option<_>>()?;
-    screen
-        .windows(2)
-        .map(|w| {
-            let (a, b) = (w[0], w[1]);
-            let ab = b - a;
-            let t = ((px - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
-            px.distance(a + ab * t)
-        })
-        .min_by(f32::total_cmp)
-}
-
-/// `turn` degrees about `axis` after the rotation `before`: added to its
-/// angle when the axes agree, else composed (as quaternions).
-pub(super) fn compose_turn(
-    before: Option<csrbf::Rotation>,
-    axis: DVec3,
-    turn: f64,
-) -> csrbf::Rotation {
-    let axis = axis.normalize();
-    let Some(r) = before else {
-        return csrbf::Rotation::new(axis, turn);
-    };
-    let old = r.axis.normalize_or_zero();
-    let along = old.dot(axis);
-    let mut out = if along.abs() > 1.0 - 1e-9 {
-        csrbf::Rotation::new(r.axis, r.angle_deg + turn * along.signum())
-    } else {
-        let q = csrbf::glam::DQuat::from_axis_angle(axis, turn.to_radians())
-            * csrbf::glam::DQuat::from_axis_angle(old, r.angle_deg.to_radians());
-        let (a, angle) = q.to_axis_angle();
-        csrbf::Rotation::new(a, angle.to_degrees())
-    };
-    out.pivot = r.pivot;
-    out
+    let pivot = h.pivot(&m.doc.mesh.positions, &lookup).ok()?;
+    Some((layer, h, pivot))
 }
 
 /// A circle of `radius` pixels about `centre` facing the camera.
@@ -1002,51 +885,4 @@ fn ring(
     };
     let (right, up, _) = cam.basis();
     circle_lines(centre, (right, up), radius * w, 48, color, out);
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn turns_about_the_same_axis_add_and_about_another_compose() {
-        let r = compose_turn(None, DVec3::Z * 2.0, 30.0);
-        assert_eq!((r.axis, r.angle_deg), (DVec3::Z, 30.0));
-        let r = compose_turn(Some(r), DVec3::NEG_Z, 10.0);
-        assert!(
-            (r.angle_deg - 20.0).abs() < 1e-12,
-            "opposite axis subtracts"
-        );
-        // 90 about Z then 90 about X: the composite maps X to Z.
-        let r = compose_turn(Some(csrbf::Rotation::new(DVec3::Z, 90.0)), DVec3::X, 90.0);
-        let q = csrbf::glam::DQuat::from_axis_angle(r.axis, r.angle_deg.to_radians());
-        assert!(
-            (q * DVec3::X - DVec3::Z).length() < 1e-9,
-            "{:?}",
-            q * DVec3::X
-        );
-        // The pivot is kept.
-        let with_pivot = csrbf::Rotation::new(DVec3::Y, 5.0).with_pivot(DVec3::ONE);
-        assert_eq!(
-            compose_turn(Some(with_pivot), DVec3::X, 5.0).pivot,
-            Some(DVec3::ONE)
-        );
-    }
-
-    #[test]
-    fn the_ring_facing_the_camera_is_under_the_pointer_at_its_radius() {
-        let cam =
-            csrbf_anim::Camera::perspective(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
-        let size = [400, 300];
-        let rings = axis_rings(Vec3::ZERO, &cam, size, 40.0);
-        assert_eq!(rings.len(), 3);
-        let c = csrbf_anim::Camera::centre_pixel(size);
-        let on_z = c + Vec2::new(40.0, 0.0).rotate(Vec2::from_angle(0.7));
-        let d: Vec<f32> = rings
-            .iter()
-            .map(|(_, pts, _)| polyline_distance(&cam, size, pts, on_z).expect("in front"))
-            .collect();
-        assert!(d[2] < 1.0, "{d:?}");
-        assert!(d[0] > 7.0 && d[1] > 7.0, "{d:?}");
-    }
 }

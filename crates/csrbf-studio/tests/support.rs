@@ -1,4 +1,4 @@
-//! Helpers shared by the studio's kittest suites (`app.rs`, `compose.rs`).
+//! Helpers shared by the kittest modules (`app`, `compose`).
 
 use csrbf_studio::app::StudioApp;
 use eframe::egui;
