@@ -443,19 +443,19 @@ impl StudioApp {
     }
 
     fn composer_samples(&self) -> u32 {
-        if self.software { 1 } else { 4 }
+        if self.screen.software { 1 } else { 4 }
     }
 
     /// Switches to the Composer with a new, empty scene (after asking about
     /// unsaved changes to the scene open).
     pub fn new_scene(&mut self) {
         if self.composer.as_ref().is_some_and(|c| c.doc.dirty) {
-            self.pending = Some(Pending::NewScene);
+            self.shell.pending = Some(Pending::NewScene);
             return;
         }
         self.composer = Some(Composer::new(SceneDoc::empty(), self.composer_samples()));
         self.mode = Mode::Compose;
-        self.status = "New scene: add a mesh (Scene > Add object, or drop one here)".into();
+        self.shell.status = "New scene: add a mesh (Scene > Add object, or drop one here)".into();
     }
 
     /// Opens a scene file in the Composer. A file the CLI would refuse (or
@@ -463,7 +463,7 @@ impl StudioApp {
     /// open scene as it was and says why, in the CLI's words.
     pub fn open_scene(&mut self, path: &Path) {
         if self.composer.as_ref().is_some_and(|c| c.doc.dirty) {
-            self.pending = Some(Pending::OpenScene(path.to_path_buf()));
+            self.shell.pending = Some(Pending::OpenScene(path.to_path_buf()));
             return;
         }
         self.open_scene_now(path);
@@ -477,8 +477,8 @@ impl StudioApp {
         };
         self.adopt_scene(doc, started, &format!("Opened {}", path.display()));
         if self.composer.as_ref().is_some_and(|c| c.doc.path.is_some()) {
-            super::files::remember(self.state.as_deref(), path);
-            self.recent = super::files::recent_files(self.state.as_deref());
+            super::files::remember(self.shell.state.as_deref(), path);
+            self.shell.recent = super::files::recent_files(self.shell.state.as_deref());
         }
     }
 
@@ -490,7 +490,7 @@ impl StudioApp {
             Ok(s) => s,
             Err(e) => return self.show_error("Cannot open the scene", e.to_string()),
         };
-        c.install(scene, true, &mut self.next_mesh_id);
+        c.install(scene, true, &mut self.screen.next_mesh_id);
         let warnings = c
             .loaded
             .scene
@@ -499,8 +499,8 @@ impl StudioApp {
             .unwrap_or_default();
         self.composer = Some(c);
         self.mode = Mode::Compose;
-        self.gesture = super::viewport::Gesture::None;
-        self.status = format!(
+        self.picker.gesture = super::viewport::Gesture::None;
+        self.shell.status = format!(
             "{note} in {:.0} ms{}",
             started.elapsed().as_secs_f64() * 1e3,
             if warnings.is_empty() {
@@ -509,7 +509,7 @@ impl StudioApp {
                 format!(" ({warnings})")
             }
         );
-        eprintln!("csrbf-studio: {}", self.status);
+        eprintln!("csrbf-studio: {}", self.shell.status);
     }
 
     /// Reopens the scene kept in the recovery file.
@@ -545,7 +545,7 @@ impl StudioApp {
         };
         let mut trial = c.doc.clone();
         if let Err(e) = edit.apply(&mut trial) {
-            self.status = format!("Not done: {e}");
+            self.shell.status = format!("Not done: {e}");
             return false;
         }
         let structural = matches!(
@@ -559,10 +559,10 @@ impl StudioApp {
                     None => c.history.apply(&mut c.doc, &edit),
                 };
                 if let Err(e) = applied {
-                    self.status = format!("Not done: {e}");
+                    self.shell.status = format!("Not done: {e}");
                     return false;
                 }
-                c.install(scene, structural, &mut self.next_mesh_id);
+                c.install(scene, structural, &mut self.screen.next_mesh_id);
                 true
             }
             Err(e) => {
@@ -583,14 +583,14 @@ impl StudioApp {
             c.history.undo(&mut c.doc)
         };
         if let Err(e) = r {
-            self.status = e.to_string();
+            self.shell.status = e.to_string();
             return;
         }
         let file = c.doc.file.clone();
         match c.prepare(&file, false) {
             Ok(scene) => {
-                c.install(scene, false, &mut self.next_mesh_id);
-                self.status = if redo { "Redone" } else { "Undone" }.into();
+                c.install(scene, false, &mut self.screen.next_mesh_id);
+                self.shell.status = if redo { "Redone" } else { "Undone" }.into();
             }
             Err(e) => {
                 // A file changed on disk since: keep the document as it was.
@@ -609,7 +609,7 @@ impl StudioApp {
         c.loaded.forget_meshes();
         let file = c.doc.file.clone();
         match c.prepare(&file, true) {
-            Ok(scene) => c.install(scene, true, &mut self.next_mesh_id),
+            Ok(scene) => c.install(scene, true, &mut self.screen.next_mesh_id),
             Err(e) => {
                 c.loaded.problem = Some(e.to_string());
                 self.show_error("The scene no longer loads", e.to_string());
@@ -647,10 +647,10 @@ impl StudioApp {
                     s.file = c.doc.file.clone();
                     s.dir = c.doc.dir();
                 }
-                SceneRecovery::clear(self.state.as_deref());
-                self.status = format!("Saved {}", path.display());
-                super::files::remember(self.state.as_deref(), path);
-                self.recent = super::files::recent_files(self.state.as_deref());
+                SceneRecovery::clear(self.shell.state.as_deref());
+                self.shell.status = format!("Saved {}", path.display());
+                super::files::remember(self.shell.state.as_deref(), path);
+                self.shell.recent = super::files::recent_files(self.shell.state.as_deref());
             }
             Err(e) => self.show_error("Cannot save the scene", e.to_string()),
         }
@@ -715,7 +715,7 @@ impl StudioApp {
                     c.framed = false;
                 }
             }
-            self.status = format!("Added {} as {name:?}", path.display());
+            self.shell.status = format!("Added {} as {name:?}", path.display());
         }
     }
 
@@ -739,18 +739,18 @@ impl StudioApp {
         let mesh = c.doc.resolve(&o.mesh);
         let controls = c.doc.resolve(&d.controls);
         if o.scale != 1.0 {
-            self.status = format!(
+            self.shell.status = format!(
                 "The Picker shows {} at its own size (the scene scales it by {}); control files are in the mesh's units",
                 o.name, o.scale
             );
         }
-        let ctx = self.ctx.clone();
-        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
-            self.pending = Some(Pending::EditInPicker(object, part, deformation));
+        let ctx = self.screen.ctx.clone();
+        if self.picker.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            self.shell.pending = Some(Pending::EditInPicker(object, part, deformation));
             return;
         }
         self.open_mesh_now(&ctx, &mesh);
-        if self.model.is_some() {
+        if self.picker.model.is_some() {
             self.open_controls(&controls);
             self.mode = Mode::Pick;
         }
@@ -759,8 +759,8 @@ impl StudioApp {
     /// Back from the Picker to the Composer: the scene is loaded again so a
     /// saved control file shows. Unsaved Picker changes are asked about.
     pub fn back_to_composer(&mut self) {
-        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
-            self.pending = Some(Pending::BackToComposer);
+        if self.picker.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            self.shell.pending = Some(Pending::BackToComposer);
             return;
         }
         if self.composer.is_some() {
@@ -832,7 +832,7 @@ impl StudioApp {
     fn export_scene(&mut self, what: &str) -> Option<Arc<Scene>> {
         let c = self.composer.as_ref()?;
         if c.export.is_some() {
-            self.status = "An export is running".into();
+            self.shell.status = "An export is running".into();
             return None;
         }
         match (&c.loaded.scene, c.doc.saveable()) {
@@ -869,7 +869,7 @@ impl StudioApp {
         let cancel = Arc::new(AtomicBool::new(false));
         let result = Arc::new(Mutex::new(None));
         let (d, t, k, r) = (done.clone(), total.clone(), cancel.clone(), result.clone());
-        let wake = self.ctx.clone();
+        let wake = self.screen.ctx.clone();
         let spawned = std::thread::Builder::new()
             .name("csrbf-export".into())
             .spawn(move || {
@@ -932,12 +932,12 @@ impl StudioApp {
         }
         match out {
             Ok(note) => {
-                self.status = format!("{note} in {secs:.2} s");
+                self.shell.status = format!("{note} in {secs:.2} s");
                 // In the log too: the export figures of issue 9 come from it.
-                eprintln!("csrbf-studio: {}", self.status);
+                eprintln!("csrbf-studio: {}", self.shell.status);
             }
             Err(_) if cancelled => {
-                self.status = format!(
+                self.shell.status = format!(
                     "{what} export cancelled; nothing was left at {}",
                     path.display()
                 )
@@ -976,7 +976,7 @@ impl StudioApp {
         // about 18 ms of both cores at 1280x800 (45 ms while egui filled
         // the panels): every 2 s keeps the export within a few % of
         // `csrbf animate`; every second cost 3-8 %.
-        ctx.request_repaint_after(if self.software {
+        ctx.request_repaint_after(if self.screen.software {
             Duration::from_secs(2)
         } else {
             Duration::from_millis(250)
@@ -1097,7 +1097,7 @@ impl StudioApp {
             let index = c.doc.key_times(object, track).iter().position(|&k| k == t);
             c.key = index.map(|i| (object, track, i));
             c.selected = Some(object);
-            self.status = format!("Key at {t:.3} s");
+            self.shell.status = format!("Key at {t:.3} s");
         }
     }
 
@@ -1137,7 +1137,7 @@ impl StudioApp {
             return;
         };
         let Some((object, track, index)) = c.key else {
-            self.status =
+            self.shell.status =
                 "Nothing copied: select a key first (on the timeline or in the viewport)".into();
             return;
         };
@@ -1183,7 +1183,7 @@ impl StudioApp {
             tcb,
         });
         let time = c.doc.key_times(object, track)[index];
-        self.status = format!(
+        self.shell.status = format!(
             "Copied the {kind} key at {time:.2} s of {:?}: Ctrl+V puts it at the playhead of the selected object",
             of.name
         );
@@ -1198,12 +1198,12 @@ impl StudioApp {
             return;
         };
         let Some(copied) = c.copied else {
-            self.status = "Nothing to paste: select a key and copy it with Ctrl+C".into();
+            self.shell.status = "Nothing to paste: select a key and copy it with Ctrl+C".into();
             return;
         };
         let object = c.selected.unwrap_or(copied.object);
         let Some(of) = c.doc.file.objects.get(object) else {
-            self.status = "Nothing pasted: the object the key came from is gone".into();
+            self.shell.status = "Nothing pasted: the object the key came from is gone".into();
             return;
         };
         let track = match copied.track {
@@ -1227,7 +1227,7 @@ impl StudioApp {
                 {
                     Some(t) => t,
                     None => {
-                        self.status = format!(
+                        self.shell.status = format!(
                             "Nothing pasted: {:?} has no deformation to take a phase key",
                             of.name
                         );
@@ -1252,7 +1252,7 @@ impl StudioApp {
                 .position(|&t| t == time);
             c.selected = Some(object);
             c.key = index.map(|i| (object, track, i));
-            self.status = format!("Pasted the key at {time:.2} s of {name:?}");
+            self.shell.status = format!("Pasted the key at {time:.2} s of {name:?}");
         }
     }
 
@@ -1345,7 +1345,7 @@ impl StudioApp {
         }
         for (k, axis) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
             if plain(k) {
-                self.axis = if self.axis == Some(axis) {
+                self.picker.axis = if self.picker.axis == Some(axis) {
                     None
                 } else {
                     Some(axis)
@@ -1377,7 +1377,7 @@ impl StudioApp {
                     path: c.doc.path.clone(),
                     scene: text.clone(),
                 }
-                .store(self.state.as_deref());
+                .store(self.shell.state.as_deref());
                 c.recovered_text = text;
             }
         }
@@ -1408,7 +1408,7 @@ impl StudioApp {
     /// pixels and its rectangle on screen.
     pub fn compose_camera(&self) -> Option<(Camera, [u32; 2], egui::Rect)> {
         let c = self.composer.as_ref()?;
-        let (_, rect, ppp) = self.viewport;
+        let (_, rect, ppp) = self.screen.viewport;
         let gate = self.scene_gate(rect);
         let size = [
             ((gate.width() * ppp).round() as u32).max(1),
@@ -1428,7 +1428,7 @@ impl StudioApp {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
         let ppp = ui.ctx().pixels_per_point();
-        self.viewport = (
+        self.screen.viewport = (
             [
                 ((rect.width() * ppp).round() as u32).max(1),
                 ((rect.height() * ppp).round() as u32).max(1),
@@ -1474,7 +1474,7 @@ impl StudioApp {
         let Some((cam, size, gate)) = self.compose_camera() else {
             return;
         };
-        let ppp = self.viewport.2;
+        let ppp = self.screen.viewport.2;
         let axis = self.axis_vector();
         let input = PointerInput::read(ui);
         let hovered = response.hovered() || response.dragged();
@@ -1511,7 +1511,7 @@ impl StudioApp {
                 Some(Released::Edit(edit)) => {
                     self.scene_edit(edit);
                 }
-                Some(Released::Refused(why)) => self.status = why.into(),
+                Some(Released::Refused(why)) => self.shell.status = why.into(),
                 Some(Released::Revert) => {
                     let file = c.doc.file.clone();
                     c.loaded.preview(file);
@@ -1525,7 +1525,7 @@ impl StudioApp {
         let Some((cam, size, gate)) = self.compose_camera() else {
             return;
         };
-        let ppp = self.viewport.2;
+        let ppp = self.screen.viewport.2;
         let Some(c) = self.composer.as_ref() else {
             return;
         };
@@ -1562,8 +1562,8 @@ impl StudioApp {
             .collect();
         let mut options = SceneOptions::default();
         options.camera = Some(cam);
-        options.draw.flat = self.view.flat;
-        options.draw.wireframe = self.view.wireframe;
+        options.draw.flat = self.picker.view.flat;
+        options.draw.wireframe = self.picker.view.wireframe;
         // What the picture shows, to draw it only when that changes.
         let stamp = picture_stamp(c, moving, &cam, &options, lines.iter().chain(&overlay));
         let paint = gpu::ScenePaint {
@@ -1590,7 +1590,7 @@ impl StudioApp {
         c.camera_marks(&painter, &to_screen);
         c.key_marks(&scene, &painter, &to_screen);
         c.time_label(&painter, gate);
-        if let Some(e) = self.gpu.as_ref().and_then(gpu::last_error) {
+        if let Some(e) = self.screen.gpu.as_ref().and_then(gpu::last_error) {
             painter.text(
                 gate.left_bottom() + egui::vec2(8.0, -8.0),
                 egui::Align2::LEFT_BOTTOM,

@@ -161,39 +161,59 @@ enum Pending {
     EditInPicker(usize, usize, usize),
 }
 
-/// `csrbf-studio`, the Picker.
-pub struct StudioApp {
-    model: Option<Model>,
-    tool: Tool,
-    axis: Option<usize>,
-    view: ViewSettings,
-    gesture: Gesture,
-    dialog: Option<FileDialog>,
-    message: Option<(String, String)>,
-    pending: Option<Pending>,
-    recovery_offer: Option<Recovery>,
-    status: String,
+/// What the window and the GPU give both rooms: the render state, the
+/// viewport's size and place, the last frame's time.
+struct Screen {
     gpu: Option<eframe::egui_wgpu::RenderState>,
     next_mesh_id: u64,
     frame_time: Duration,
     /// The viewport's size in physical pixels, and where it is on screen.
     viewport: ([u32; 2], egui::Rect, f32),
-    allow_close: bool,
+    /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
+    software: bool,
+    /// To wake the window from other threads.
+    ctx: egui::Context,
+}
+
+/// The shell around the rooms: file dialogs, messages, questions about
+/// unsaved changes, recovery offers, recent files, the title, the status
+/// line.
+struct Shell {
+    dialog: Option<FileDialog>,
+    message: Option<(String, String)>,
+    pending: Option<Pending>,
+    recovery_offer: Option<Recovery>,
+    scene_recovery_offer: Option<SceneRecovery>,
     recent: Vec<PathBuf>,
     /// Where recent files and the recovery file are kept.
     state: Option<PathBuf>,
+    /// The window's title as last set.
+    title: String,
+    allow_close: bool,
+    status: String,
+}
+
+/// The Picker's room: the model and the tool, axis hold, gesture, handle
+/// mode and view settings its panel and viewport work with.
+struct Picker {
+    model: Option<Model>,
+    tool: Tool,
+    axis: Option<usize>,
+    view: ViewSettings,
+    gesture: Gesture,
     handle_mode: crate::gizmo::HandleMode,
-    /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
-    software: bool,
+}
+
+/// `csrbf-studio`: the shell, the Picker, the Composer (when a scene is
+/// open) and the screen they share.
+pub struct StudioApp {
+    shell: Shell,
+    screen: Screen,
+    picker: Picker,
     /// Picker or Composer.
     mode: Mode,
     /// The Composer's scene, when one is open.
     composer: Option<composer::Composer>,
-    scene_recovery_offer: Option<SceneRecovery>,
-    /// To wake the window from other threads.
-    ctx: egui::Context,
-    /// The window's title as last set.
-    title: String,
 }
 
 impl StudioApp {
@@ -217,30 +237,36 @@ impl StudioApp {
             .as_ref()
             .is_none_or(|g| g.adapter.get_info().device_type == eframe::wgpu::DeviceType::Cpu);
         let mut app = StudioApp {
-            model: None,
-            tool: Tool::Place,
-            axis: None,
-            view: ViewSettings::default(),
-            gesture: Gesture::None,
-            dialog: None,
-            message: None,
-            pending: None,
-            recovery_offer: None,
-            status: "Open a mesh: File > Open mesh (Ctrl+O), or drop a file here".into(),
-            gpu,
-            next_mesh_id: 1,
-            frame_time: Duration::ZERO,
-            viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
-            allow_close: false,
-            recent: files::recent_files(state.as_deref()),
-            state,
-            handle_mode: crate::gizmo::HandleMode::default(),
-            software,
+            shell: Shell {
+                dialog: None,
+                message: None,
+                pending: None,
+                recovery_offer: None,
+                scene_recovery_offer: None,
+                recent: files::recent_files(state.as_deref()),
+                state,
+                title: String::new(),
+                allow_close: false,
+                status: "Open a mesh: File > Open mesh (Ctrl+O), or drop a file here".into(),
+            },
+            screen: Screen {
+                gpu,
+                next_mesh_id: 1,
+                frame_time: Duration::ZERO,
+                viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
+                software,
+                ctx: cc.egui_ctx.clone(),
+            },
+            picker: Picker {
+                model: None,
+                tool: Tool::Place,
+                axis: None,
+                view: ViewSettings::default(),
+                gesture: Gesture::None,
+                handle_mode: crate::gizmo::HandleMode::default(),
+            },
             mode: Mode::Pick,
             composer: None,
-            scene_recovery_offer: None,
-            ctx: cc.egui_ctx.clone(),
-            title: String::new(),
         };
         let ctx = cc.egui_ctx.clone();
         if let Some(scene) = args.mesh.as_ref().filter(|p| is_scene(p)) {
@@ -248,42 +274,42 @@ impl StudioApp {
         } else if let Some(mesh) = &args.mesh {
             app.open_mesh(&ctx, mesh);
             if let Some(c) = &args.controls
-                && app.model.is_some()
+                && app.picker.model.is_some()
             {
                 app.open_controls(c);
             }
-        } else if let Some(r) = SceneRecovery::load(app.state.as_deref()) {
-            app.scene_recovery_offer = Some(r);
-        } else if let Some(r) = Recovery::load(app.state.as_deref()) {
-            app.recovery_offer = Some(r);
+        } else if let Some(r) = SceneRecovery::load(app.shell.state.as_deref()) {
+            app.shell.scene_recovery_offer = Some(r);
+        } else if let Some(r) = Recovery::load(app.shell.state.as_deref()) {
+            app.shell.recovery_offer = Some(r);
         }
         app
     }
 
     /// The document, if a mesh is open (for tests and tools).
     pub fn document(&self) -> Option<&Document> {
-        self.model.as_ref().map(|m| &m.doc)
+        self.picker.model.as_ref().map(|m| &m.doc)
     }
 
     /// Steps that can be undone.
     pub fn undo_steps(&self) -> usize {
-        self.model.as_ref().map_or(0, |m| m.history.undo_steps())
+        self.picker.model.as_ref().map_or(0, |m| m.history.undo_steps())
     }
 
     /// The positions shown in the viewport.
     pub fn shown_positions(&self) -> Option<&[Vec3]> {
-        self.model.as_ref().map(|m| &m.shown[..])
+        self.picker.model.as_ref().map(|m| &m.shown[..])
     }
 
     /// The newest preview frame.
     pub fn preview_frame(&self) -> Option<&PreviewFrame> {
-        self.model.as_ref().and_then(|m| m.preview.latest())
+        self.picker.model.as_ref().and_then(|m| m.preview.latest())
     }
 
     /// Waits until the preview shows the document as it stands (tests,
     /// saving); false if it did not within `limit`.
     pub fn settle(&mut self, limit: Duration) -> bool {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return true;
         };
         let ok = m.preview.wait(limit);
@@ -295,43 +321,43 @@ impl StudioApp {
     /// pixels and where its top-left corner is in points, and the points per
     /// pixel: what a test needs to aim at the model.
     pub fn viewport_camera(&self) -> Option<(csrbf_anim::Camera, [u32; 2], egui::Pos2, f32)> {
-        let m = self.model.as_ref()?;
-        let (size, rect, ppp) = self.viewport;
+        let m = self.picker.model.as_ref()?;
+        let (size, rect, ppp) = self.screen.viewport;
         Some((m.orbit.camera(), size, rect.min, ppp))
     }
 
     /// The vertices chosen with the Vertices tool (box or brush).
     pub fn chosen_vertices(&self) -> &[u32] {
-        self.model.as_ref().map_or(&[], |m| &m.picked_vertices)
+        self.picker.model.as_ref().map_or(&[], |m| &m.picked_vertices)
     }
 
     /// The dialog message shown, if any (title, text).
     pub fn message(&self) -> Option<&(String, String)> {
-        self.message.as_ref()
+        self.shell.message.as_ref()
     }
 
     /// The line in the status bar.
     pub fn status(&self) -> &str {
-        &self.status
+        &self.shell.status
     }
 
     /// Where the control file was opened from or saved to.
     pub fn controls_path(&self) -> Option<&Path> {
-        self.model.as_ref()?.controls_path.as_deref()
+        self.picker.model.as_ref()?.controls_path.as_deref()
     }
 
     fn show_error(&mut self, title: &str, text: impl Into<String>) {
         let text = text.into();
-        self.status = format!("{title}: {text}");
-        self.message = Some((title.into(), text));
+        self.shell.status = format!("{title}: {text}");
+        self.shell.message = Some((title.into(), text));
     }
 
     /// Opens a mesh, replacing the document (after asking, if it has
     /// unsaved changes). A file that cannot be read leaves everything as it
     /// was and says why.
     pub fn open_mesh(&mut self, ctx: &egui::Context, path: &Path) {
-        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
-            self.pending = Some(Pending::Open(path.to_path_buf()));
+        if self.picker.model.as_ref().is_some_and(|m| m.doc.dirty) {
+            self.shell.pending = Some(Pending::Open(path.to_path_buf()));
             return;
         }
         self.open_mesh_now(ctx, path);
@@ -362,7 +388,7 @@ impl StudioApp {
                 ),
             );
         }
-        let size = self.viewport.0;
+        let size = self.screen.viewport.0;
         let scene = match csrbf_anim::still::mesh_scene(
             path,
             mesh.clone(),
@@ -373,14 +399,14 @@ impl StudioApp {
             Ok(s) => s,
             Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
         };
-        let id = self.next_mesh_id;
-        self.next_mesh_id += 1;
-        let model = Model::new(mesh, path, scene, (id, self.software), size, ctx);
+        let id = self.screen.next_mesh_id;
+        self.screen.next_mesh_id += 1;
+        let model = Model::new(mesh, path, scene, (id, self.screen.software), size, ctx);
         let up = model.up;
-        self.model = Some(model);
-        self.gesture = Gesture::None;
-        files::remember(self.state.as_deref(), path);
-        self.recent = files::recent_files(self.state.as_deref());
+        self.picker.model = Some(model);
+        self.picker.gesture = Gesture::None;
+        files::remember(self.shell.state.as_deref(), path);
+        self.shell.recent = files::recent_files(self.shell.state.as_deref());
         let mut note = format!(
             "Opened {} in {:.0} ms; up axis {} ({})",
             path.display(),
@@ -392,7 +418,7 @@ impl StudioApp {
             note.push_str("; ");
             note.push_str(w);
         }
-        self.status = note;
+        self.shell.status = note;
     }
 
     /// Opens a control file on the current mesh, in the CLI's format. A file
@@ -401,7 +427,7 @@ impl StudioApp {
         if is_scene(path) {
             return self.open_scene(path);
         }
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return self.show_error("No mesh", "open a mesh before its control file");
         };
         let text = match std::fs::read_to_string(path) {
@@ -450,19 +476,19 @@ impl StudioApp {
         m.hidden = vec![false; m.doc.controls.deformations.len()];
         m.controls_path = Some(path.to_path_buf());
         let warnings = file.warnings.join("; ");
-        self.status = if warnings.is_empty() {
+        self.shell.status = if warnings.is_empty() {
             format!("Opened {}", path.display())
         } else {
             format!("Opened {} (ignored: {warnings})", path.display())
         };
         self.refresh(true);
-        files::remember(self.state.as_deref(), path);
-        self.recent = files::recent_files(self.state.as_deref());
+        files::remember(self.shell.state.as_deref(), path);
+        self.shell.recent = files::recent_files(self.shell.state.as_deref());
     }
 
     /// Saves the control file (to where it came from, else asks where).
     pub fn save(&mut self) {
-        match self.model.as_ref().and_then(|m| m.controls_path.clone()) {
+        match self.picker.model.as_ref().and_then(|m| m.controls_path.clone()) {
             Some(p) => self.save_to(&p),
             None => self.ask(Purpose::SaveControls),
         }
@@ -471,7 +497,7 @@ impl StudioApp {
     /// Saves the control file to `path`, whole or not at all; a failure says
     /// so and keeps the document unsaved.
     pub fn save_to(&mut self, path: &Path) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let text = m.doc.to_text();
@@ -479,10 +505,10 @@ impl StudioApp {
             Ok(()) => {
                 m.doc.dirty = false;
                 m.controls_path = Some(path.to_path_buf());
-                Recovery::clear(self.state.as_deref());
-                self.status = format!("Saved {}", path.display());
-                files::remember(self.state.as_deref(), path);
-                self.recent = files::recent_files(self.state.as_deref());
+                Recovery::clear(self.shell.state.as_deref());
+                self.shell.status = format!("Saved {}", path.display());
+                files::remember(self.shell.state.as_deref(), path);
+                self.shell.recent = files::recent_files(self.shell.state.as_deref());
             }
             Err(e) => self.show_error("Cannot save", e.to_string()),
         }
@@ -491,21 +517,21 @@ impl StudioApp {
     /// Writes the deformed mesh as shown (any format the CLI writes).
     pub fn export_mesh(&mut self, path: &Path) {
         self.settle(Duration::from_secs(600));
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         let mut mesh: Mesh = (*m.doc.mesh).clone();
         mesh.positions = m.shown.to_vec();
         mesh.recompute_normals();
         match csrbf_mesh::write(path, &mesh) {
-            Ok(()) => self.status = format!("Exported {}", path.display()),
+            Ok(()) => self.shell.status = format!("Exported {}", path.display()),
             Err(e) => self.show_error("Cannot export the mesh", e.to_string()),
         }
     }
 
     /// Writes the fitted deformations as `.csrbf` (what `csrbf apply` reads).
     pub fn export_fitted(&mut self, path: &Path) {
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         let result = csrbf_anim::apply::fit_file(&m.doc.mesh, &m.doc.controls).and_then(|s| {
@@ -519,13 +545,13 @@ impl StudioApp {
             csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine)
         });
         match result {
-            Ok(()) => self.status = format!("Exported {}", path.display()),
+            Ok(()) => self.shell.status = format!("Exported {}", path.display()),
             Err(e) => self.show_error("Cannot export the fitted deformation", e.to_string()),
         }
     }
 
     fn ask(&mut self, purpose: Purpose) {
-        let near = self.model.as_ref().map(|m| match purpose {
+        let near = self.picker.model.as_ref().map(|m| match purpose {
             Purpose::SaveControls | Purpose::OpenControls => m
                 .controls_path
                 .clone()
@@ -554,12 +580,12 @@ impl StudioApp {
             }
             _ => near,
         };
-        self.dialog = Some(FileDialog::new(purpose, near.as_deref()));
+        self.shell.dialog = Some(FileDialog::new(purpose, near.as_deref()));
     }
 
     /// Applies an edit; `full`: refit and diagnose (else a drag step).
     fn edit(&mut self, command: Command, full: bool) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         match m.history.apply(&mut m.doc, command) {
@@ -567,39 +593,39 @@ impl StudioApp {
                 m.hidden.resize(m.doc.controls.deformations.len(), false);
                 self.refresh(full);
             }
-            Err(e) => self.status = format!("Not done: {e}"),
+            Err(e) => self.shell.status = format!("Not done: {e}"),
         }
     }
 
     fn undo(&mut self) {
-        if let Some(m) = self.model.as_mut() {
+        if let Some(m) = self.picker.model.as_mut() {
             match m.history.undo(&mut m.doc) {
                 Ok(()) => {
                     m.hidden.resize(m.doc.controls.deformations.len(), false);
-                    self.status = "Undone".into();
+                    self.shell.status = "Undone".into();
                     self.refresh(true);
                 }
-                Err(e) => self.status = e.to_string(),
+                Err(e) => self.shell.status = e.to_string(),
             }
         }
     }
 
     fn redo(&mut self) {
-        if let Some(m) = self.model.as_mut() {
+        if let Some(m) = self.picker.model.as_mut() {
             match m.history.redo(&mut m.doc) {
                 Ok(()) => {
                     m.hidden.resize(m.doc.controls.deformations.len(), false);
-                    self.status = "Redone".into();
+                    self.shell.status = "Redone".into();
                     self.refresh(true);
                 }
-                Err(e) => self.status = e.to_string(),
+                Err(e) => self.shell.status = e.to_string(),
             }
         }
     }
 
     /// Sends the document, as the preview should show it, to the worker.
     fn refresh(&mut self, full: bool) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         if m.hidden.iter().any(|&h| h) {
@@ -655,7 +681,7 @@ impl StudioApp {
         }
         for (k, axis) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
             if plain(k) {
-                self.set_axis(if self.axis == Some(axis) {
+                self.set_axis(if self.picker.axis == Some(axis) {
                     None
                 } else {
                     Some(axis)
@@ -666,26 +692,26 @@ impl StudioApp {
             self.mirror(0);
         }
         if plain(Key::P) {
-            self.tool = Tool::Place;
+            self.picker.tool = Tool::Place;
         }
         if plain(Key::S) {
-            self.tool = Tool::Select;
+            self.picker.tool = Tool::Select;
         }
         if plain(Key::V) {
-            self.tool = Tool::Vertices;
+            self.picker.tool = Tool::Vertices;
         }
         if plain(Key::Escape) {
-            if let Some(m) = self.model.as_mut() {
+            if let Some(m) = self.picker.model.as_mut() {
                 m.doc.selection.0.clear();
             }
-            self.gesture = Gesture::None;
-            self.view.stamp = None;
+            self.picker.gesture = Gesture::None;
+            self.picker.view.stamp = None;
         }
     }
 
     fn set_axis(&mut self, axis: Option<usize>) {
-        self.axis = axis;
-        self.status = match axis {
+        self.picker.axis = axis;
+        self.shell.status = match axis {
             Some(a) => format!(
                 "Moves held to the {} axis (press it again to free)",
                 ["X", "Y", "Z"][a]
@@ -696,7 +722,7 @@ impl StudioApp {
 
     /// Frames the selection (`selection`) or the whole model.
     fn frame_view(&mut self, selection: bool) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let mut pts: Vec<Vec3> = Vec::new();
@@ -716,13 +742,13 @@ impl StudioApp {
         }
         let lo = pts.iter().copied().fold(Vec3::INFINITY, Vec3::min);
         let hi = pts.iter().copied().fold(Vec3::NEG_INFINITY, Vec3::max);
-        let (size, _, _) = self.viewport;
+        let (size, _, _) = self.screen.viewport;
         m.orbit
             .frame(lo, hi, size[0].max(1) as f32 / size[1].max(1) as f32);
     }
 
     fn select_all(&mut self) {
-        if let Some(m) = self.model.as_mut() {
+        if let Some(m) = self.picker.model.as_mut() {
             let l = m.doc.active_layer;
             let n = m
                 .doc
@@ -735,7 +761,7 @@ impl StudioApp {
     }
 
     fn delete_selected(&mut self) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let mut sel = m.doc.selection.0.clone();
@@ -753,39 +779,39 @@ impl StudioApp {
         m.doc.selection.0.clear();
         let n = sel.len();
         self.edit(Command::Batch(batch), true);
-        self.status = format!("Deleted {n} control vector(s)");
+        self.shell.status = format!("Deleted {n} control vector(s)");
     }
 
     /// Copies the selected controls' displacements onto the next clicks
     /// on the surface (a stamp): the way to repeat an edit elsewhere.
     fn duplicate(&mut self) {
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         let Some(&(l, i)) = m.doc.selection.0.last() else {
-            self.status = "Select a control vector to duplicate".into();
+            self.shell.status = "Select a control vector to duplicate".into();
             return;
         };
         let s = &m.doc.controls.deformations[l];
         let d = s.targets[i] - s.starts[i];
-        self.gesture = Gesture::None;
-        self.view.stamp = Some(d);
-        self.tool = Tool::Place;
-        self.status = "Click on the surface to place a copy (Esc to stop)".into();
+        self.picker.gesture = Gesture::None;
+        self.picker.view.stamp = Some(d);
+        self.picker.tool = Tool::Place;
+        self.shell.status = "Click on the surface to place a copy (Esc to stop)".into();
     }
 
     /// Mirrors the selected controls (or all of the active layer) across the
     /// plane through the model's centre normal to `axis` (0 X, 1 Y, 2 Z).
     fn mirror(&mut self, axis: usize) {
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         let Some((batch, n)) = Command::mirror(&m.doc, axis) else {
-            self.status = "Nothing to mirror: every image is already there".into();
+            self.shell.status = "Nothing to mirror: every image is already there".into();
             return;
         };
         self.edit(batch, true);
-        self.status = format!(
+        self.shell.status = format!(
             "Mirrored {n} control vector(s) across the {} plane through the model's centre",
             ["YZ", "XZ", "XY"][axis]
         );
@@ -801,14 +827,14 @@ impl StudioApp {
     }
 
     fn file_dialog(&mut self, ctx: &egui::Context) {
-        let Some(d) = self.dialog.as_mut() else {
+        let Some(d) = self.shell.dialog.as_mut() else {
             return;
         };
         let Some(choice) = d.show(ctx) else {
             return;
         };
         let purpose = d.purpose;
-        self.dialog = None;
+        self.shell.dialog = None;
         // This frame was drawn with the dialog open: draw the result.
         ctx.request_repaint();
         let Choice::File(p) = choice else {
@@ -831,7 +857,7 @@ impl StudioApp {
     }
 
     fn message_modal(&mut self, ctx: &egui::Context) {
-        let Some((title, text)) = self.message.clone() else {
+        let Some((title, text)) = self.shell.message.clone() else {
             return;
         };
         let mut close = false;
@@ -846,13 +872,13 @@ impl StudioApp {
             }
         });
         if close {
-            self.message = None;
+            self.shell.message = None;
         }
     }
 
     /// Save, Discard or Cancel before what is pending (open, close, ...).
     fn unsaved_modal(&mut self, ctx: &egui::Context) {
-        let Some(pending) = self.pending.clone() else {
+        let Some(pending) = self.shell.pending.clone() else {
             return;
         };
         let scene = matches!(pending, Pending::NewScene | Pending::OpenScene(_))
@@ -860,7 +886,7 @@ impl StudioApp {
                 && self.composer.as_ref().is_some_and(|c| c.doc.dirty));
         match unsaved_question(ctx, scene) {
             Some(Answer::Save) => {
-                self.pending = None;
+                self.shell.pending = None;
                 if scene {
                     self.save_scene();
                 } else {
@@ -869,18 +895,18 @@ impl StudioApp {
                 let saved = if scene {
                     self.composer.as_ref().is_some_and(|c| !c.doc.dirty)
                 } else {
-                    self.model.as_ref().is_some_and(|m| !m.doc.dirty)
+                    self.picker.model.as_ref().is_some_and(|m| !m.doc.dirty)
                 };
                 if saved {
                     self.resume(ctx, pending);
                 }
             }
             Some(Answer::Discard) => {
-                self.pending = None;
+                self.shell.pending = None;
                 self.discard(scene);
                 self.resume(ctx, pending);
             }
-            Some(Answer::Cancel) => self.pending = None,
+            Some(Answer::Cancel) => self.shell.pending = None,
             None => {}
         }
     }
@@ -891,18 +917,18 @@ impl StudioApp {
             if let Some(c) = self.composer.as_mut() {
                 c.doc.dirty = false;
             }
-            SceneRecovery::clear(self.state.as_deref());
+            SceneRecovery::clear(self.shell.state.as_deref());
         } else {
-            if let Some(m) = self.model.as_mut() {
+            if let Some(m) = self.picker.model.as_mut() {
                 m.doc.dirty = false;
             }
-            Recovery::clear(self.state.as_deref());
+            Recovery::clear(self.shell.state.as_deref());
         }
     }
 
     /// What the recovery files kept from a session that closed unsaved.
     fn recovery_offers(&mut self, ctx: &egui::Context) {
-        if let Some(r) = self.scene_recovery_offer.clone() {
+        if let Some(r) = self.shell.scene_recovery_offer.clone() {
             let text = format!(
                 "The studio closed with unsaved changes to the scene {}.",
                 r.path
@@ -911,29 +937,29 @@ impl StudioApp {
             );
             match restore_question(ctx, "Restore the last scene?", &text) {
                 Some(true) => {
-                    self.scene_recovery_offer = None;
+                    self.shell.scene_recovery_offer = None;
                     self.restore_scene(&r);
                 }
                 Some(false) => {
-                    self.scene_recovery_offer = None;
-                    SceneRecovery::clear(self.state.as_deref());
+                    self.shell.scene_recovery_offer = None;
+                    SceneRecovery::clear(self.shell.state.as_deref());
                 }
                 None => {}
             }
         }
-        if let Some(r) = self.recovery_offer.clone() {
+        if let Some(r) = self.shell.recovery_offer.clone() {
             let text = format!(
                 "The studio closed with unsaved changes to the controls of {}.",
                 r.mesh.display()
             );
             match restore_question(ctx, "Restore the last session?", &text) {
                 Some(true) => {
-                    self.recovery_offer = None;
+                    self.shell.recovery_offer = None;
                     self.restore(ctx, &r);
                 }
                 Some(false) => {
-                    self.recovery_offer = None;
-                    Recovery::clear(self.state.as_deref());
+                    self.shell.recovery_offer = None;
+                    Recovery::clear(self.shell.state.as_deref());
                 }
                 None => {}
             }
@@ -947,14 +973,14 @@ impl StudioApp {
             Err(e) => return self.show_error("Cannot restore", e.to_string()),
         };
         self.open_mesh_now(ctx, &r.mesh);
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         m.doc.controls = file;
         m.doc.dirty = true;
         m.controls_path = r.controls_path.clone();
         m.hidden = vec![false; m.doc.controls.deformations.len()];
-        self.status = format!("Restored the unsaved session on {}", r.mesh.display());
+        self.shell.status = format!("Restored the unsaved session on {}", r.mesh.display());
         self.refresh(true);
     }
 
@@ -966,12 +992,12 @@ impl StudioApp {
                 let other = if self.composer.as_ref().is_some_and(|c| c.doc.dirty) {
                     true
                 } else {
-                    self.model.as_ref().is_some_and(|m| m.doc.dirty)
+                    self.picker.model.as_ref().is_some_and(|m| m.doc.dirty)
                 };
                 if other {
-                    self.pending = Some(Pending::Close);
+                    self.shell.pending = Some(Pending::Close);
                 } else {
-                    self.allow_close = true;
+                    self.shell.allow_close = true;
                     ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                 }
             }
@@ -1014,14 +1040,14 @@ impl StudioApp {
         if ui.button("Open mesh…  Ctrl+O").clicked() {
             self.ask(Purpose::OpenMesh);
         }
-        let has = self.model.is_some();
+        let has = self.picker.model.is_some();
         if ui
             .add_enabled(has, egui::Button::new("Open control file…"))
             .clicked()
         {
             self.ask(Purpose::OpenControls);
         }
-        if let Some(p) = files::recent_menu(ui, &self.recent) {
+        if let Some(p) = files::recent_menu(ui, &self.shell.recent) {
             let is_mesh = p
                 .extension()
                 .and_then(|e| e.to_str())
@@ -1108,7 +1134,7 @@ impl StudioApp {
                 ),
                 None => (String::new(), false),
             },
-            Mode::Pick => match self.model.as_ref() {
+            Mode::Pick => match self.picker.model.as_ref() {
                 Some(m) => (
                     m.controls_path
                         .as_deref()
@@ -1123,9 +1149,9 @@ impl StudioApp {
         } else {
             format!("csrbf studio: {what}{}", if dirty { " *" } else { "" })
         };
-        if title != self.title {
+        if title != self.shell.title {
             ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
-            self.title = title;
+            self.shell.title = title;
         }
     }
 }
@@ -1325,11 +1351,11 @@ impl StudioApp {
             .show(ui, |ui| self.viewport_ui(ui));
         self.dialogs(&ctx);
         self.write_recovery();
-        if self.model.as_ref().is_some_and(|m| m.doc.dirty) {
+        if self.picker.model.as_ref().is_some_and(|m| m.doc.dirty) {
             // Come back to write the recovery file even if nothing moves.
             ctx.request_repaint_after(Duration::from_secs(1));
         }
-        if self.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
+        if self.picker.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
             ctx.request_repaint_after(Duration::from_millis(30));
         }
     }
@@ -1337,7 +1363,7 @@ impl StudioApp {
     /// The recovery file, while there are unsaved changes: at most once a
     /// second, and only when something changed.
     fn write_recovery(&mut self) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         if !m.doc.dirty
@@ -1354,7 +1380,7 @@ impl StudioApp {
                 controls_path: m.controls_path.clone(),
                 controls: text.clone(),
             }
-            .store(self.state.as_deref());
+            .store(self.shell.state.as_deref());
             m.recovered_text = text;
         }
     }
@@ -1371,20 +1397,20 @@ impl eframe::App for StudioApp {
         let started = Instant::now();
         let ctx = ui.ctx().clone();
         self.set_title(&ctx);
-        if let Some(m) = self.model.as_mut() {
+        if let Some(m) = self.picker.model.as_mut() {
             take_frame(m);
         }
         self.dropped_files(&ctx);
         if ctx.input(|i| i.viewport().close_requested())
-            && !self.allow_close
-            && (self.model.as_ref().is_some_and(|m| m.doc.dirty)
+            && !self.shell.allow_close
+            && (self.picker.model.as_ref().is_some_and(|m| m.doc.dirty)
                 || self.composer.as_ref().is_some_and(|c| c.doc.dirty))
         {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            self.pending = Some(Pending::Close);
+            self.shell.pending = Some(Pending::Close);
         }
         let exporting = self.exporting();
-        if self.dialog.is_none() && self.message.is_none() && self.pending.is_none() && !exporting {
+        if self.shell.dialog.is_none() && self.shell.message.is_none() && self.shell.pending.is_none() && !exporting {
             if self.mode == Mode::Compose {
                 self.compose_keys(&ctx);
             } else {
@@ -1410,15 +1436,15 @@ impl eframe::App for StudioApp {
         } else {
             self.pick_frame(ui);
         }
-        self.frame_time = started.elapsed();
+        self.screen.frame_time = started.elapsed();
     }
 
     fn on_exit(&mut self) {
-        if self.model.as_ref().is_some_and(|m| !m.doc.dirty) {
-            Recovery::clear(self.state.as_deref());
+        if self.picker.model.as_ref().is_some_and(|m| !m.doc.dirty) {
+            Recovery::clear(self.shell.state.as_deref());
         }
         if self.composer.as_ref().is_some_and(|c| !c.doc.dirty) {
-            SceneRecovery::clear(self.state.as_deref());
+            SceneRecovery::clear(self.shell.state.as_deref());
         }
     }
 }

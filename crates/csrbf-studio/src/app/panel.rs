@@ -21,37 +21,37 @@ use crate::tools::VertexTarget;
 
 impl StudioApp {
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
-        let frame_ms = self.frame_time.as_secs_f64() * 1e3;
+        let frame_ms = self.screen.frame_time.as_secs_f64() * 1e3;
         let rate = self.playback_rate();
         ui.horizontal(|ui| {
             if self.mode == super::Mode::Compose
                 && let Some(c) = self.composer.as_ref()
             {
                 compose_status(ui, c, rate, frame_ms);
-            } else if let Some(m) = self.model.as_ref() {
+            } else if let Some(m) = self.picker.model.as_ref() {
                 pick_status(ui, m, frame_ms);
             }
-            if let Some(e) = self.gpu.as_ref().and_then(super::gpu::last_error) {
+            if let Some(e) = self.screen.gpu.as_ref().and_then(super::gpu::last_error) {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
             }
-            ui.label(&self.status);
+            ui.label(&self.shell.status);
         });
     }
 
     pub(super) fn side_panel(&mut self, ui: &mut egui::Ui) {
         ui.heading("Tool");
         ui.horizontal(|ui| {
-            ui.selectable_value(&mut self.tool, Tool::Place, "Place")
+            ui.selectable_value(&mut self.picker.tool, Tool::Place, "Place")
                 .on_hover_text("P: a click on the surface adds a control vector (a pin); drag to set its destination");
-            ui.selectable_value(&mut self.tool, Tool::Select, "Select")
+            ui.selectable_value(&mut self.picker.tool, Tool::Select, "Select")
                 .on_hover_text("S: click markers to select (Shift adds), drag a box on the background");
-            ui.selectable_value(&mut self.tool, Tool::Vertices, "Vertices")
+            ui.selectable_value(&mut self.picker.tool, Tool::Vertices, "Vertices")
                 .on_hover_text("V: drag a box on the surface to choose vertices for a handle, an anchor or a region");
         });
         ui.horizontal(|ui| {
             ui.label("Hold to axis:");
             for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
-                let on = self.axis == Some(a);
+                let on = self.picker.axis == Some(a);
                 if ui
                     .selectable_label(on, name)
                     .on_hover_text(format!("{name}: moves go along the {name} axis only"))
@@ -61,10 +61,10 @@ impl StudioApp {
                 }
             }
         });
-        if self.view.stamp.is_some() && ui.button("Stop stamping (Esc)").clicked() {
-            self.view.stamp = None;
+        if self.picker.view.stamp.is_some() && ui.button("Stop stamping (Esc)").clicked() {
+            self.picker.view.stamp = None;
         }
-        if self.model.is_none() {
+        if self.picker.model.is_none() {
             return;
         }
         ui.separator();
@@ -81,7 +81,7 @@ impl StudioApp {
 
     fn layers_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Layers");
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let n = m.doc.controls.deformations.len();
@@ -103,7 +103,7 @@ impl StudioApp {
         match command {
             Some(Some(c)) => {
                 self.edit(c, true);
-                if let Some(m) = self.model.as_mut() {
+                if let Some(m) = self.picker.model.as_mut() {
                     let last = m.doc.controls.deformations.len() - 1;
                     m.doc.active_layer = m.doc.active_layer.min(last);
                 }
@@ -111,7 +111,7 @@ impl StudioApp {
             Some(None) => self.refresh(true),
             None => {}
         }
-        if let Some(m) = self.model.as_mut()
+        if let Some(m) = self.picker.model.as_mut()
             && combine_ui(ui, m)
         {
             self.refresh(true);
@@ -119,7 +119,7 @@ impl StudioApp {
     }
 
     fn parameters_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let l = m.doc.active_layer;
@@ -131,7 +131,7 @@ impl StudioApp {
                 .unwrap_or_else(|| format!("Layer {}", l + 1))
         ));
         let r = radius_ui(ui, m, &spec);
-        self.view.all_spheres = r.dragged() || r.has_focus();
+        self.picker.view.all_spheres = r.dragged() || r.has_focus();
         let drag_stopped = r.drag_stopped();
         let mut commands: Vec<Command> = Vec::new();
         if let Some(radius) = r.radius {
@@ -151,13 +151,13 @@ impl StudioApp {
         if phase_changed {
             self.refresh(false);
         }
-        if drag_stopped && let Some(m) = self.model.as_mut() {
+        if drag_stopped && let Some(m) = self.picker.model.as_mut() {
             m.history.end_drag();
         }
     }
 
     fn selection_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         ui.heading("Selection");
@@ -209,8 +209,8 @@ impl StudioApp {
 
     fn vertices_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Handle");
-        let axis = self.axis;
-        let Some(m) = self.model.as_mut() else {
+        let axis = self.picker.axis;
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         ui.label("Vertices tool (V): drag a box, or Ctrl+drag a brush, on the surface; then:");
@@ -221,7 +221,7 @@ impl StudioApp {
         });
         ui.label(format!("{} vertices chosen", m.picked_vertices.len()));
         ui.add(
-            egui::Slider::new(&mut self.view.brush, 0.002..=0.3)
+            egui::Slider::new(&mut self.picker.view.brush, 0.002..=0.3)
                 .logarithmic(true)
                 .text("brush")
                 .custom_formatter(|v, _| format!("{:.1} %", v * 100.0)),
@@ -239,9 +239,9 @@ impl StudioApp {
                 l + 1
             ));
             ui.horizontal(|ui| {
-                ui.radio_value(&mut self.handle_mode, HandleMode::Rotate, "rotate");
-                ui.radio_value(&mut self.handle_mode, HandleMode::Scale, "scale");
-                ui.radio_value(&mut self.handle_mode, HandleMode::Move, "move");
+                ui.radio_value(&mut self.picker.handle_mode, HandleMode::Rotate, "rotate");
+                ui.radio_value(&mut self.picker.handle_mode, HandleMode::Scale, "scale");
+                ui.radio_value(&mut self.picker.handle_mode, HandleMode::Move, "move");
             });
             let view_axis = crate::gizmo::handle_axis(axis, &m.orbit.camera());
             if let Some(new) = handle_ui(ui, &h, view_axis, m.doc.diagonal()) {
@@ -263,7 +263,7 @@ impl StudioApp {
     }
 
     fn diagnostics_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         ui.heading("Diagnostics");

@@ -68,8 +68,8 @@ impl StudioApp {
                         c.frame_everything();
                     }
                 }
-                ui.checkbox(&mut self.view.flat, "Flat shading");
-                ui.checkbox(&mut self.view.wireframe, "Wireframe");
+                ui.checkbox(&mut self.picker.view.flat, "Flat shading");
+                ui.checkbox(&mut self.picker.view.wireframe, "Wireframe");
             });
         });
     }
@@ -82,7 +82,7 @@ impl StudioApp {
         if ui.button("Open scene…  Ctrl+O").clicked() {
             self.ask(Purpose::OpenScene);
         }
-        if let Some(p) = super::files::recent_menu(ui, &self.recent) {
+        if let Some(p) = super::files::recent_menu(ui, &self.shell.recent) {
             if super::is_scene(&p) {
                 self.open_scene(&p);
             } else {
@@ -153,7 +153,7 @@ impl StudioApp {
         };
         part.texture = Some(c.doc.name_of(path));
         if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
-            self.status = format!("Texture {}", path.display());
+            self.shell.status = format!("Texture {}", path.display());
         }
     }
 
@@ -188,7 +188,7 @@ impl StudioApp {
             easing: Easing::default(),
         });
         if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
-            self.status = format!(
+            self.shell.status = format!(
                 "Added {} (phase 1 throughout until it has phase keys)",
                 path.display()
             );

@@ -123,7 +123,7 @@ const TOLERANCE_POINTS: f32 = 9.0;
 
 impl StudioApp {
     pub(super) fn view_menu(&mut self, ui: &mut egui::Ui) {
-        let v = &mut self.view;
+        let v = &mut self.picker.view;
         ui.radio_value(&mut v.display, Display::Deformed, "Deformed");
         ui.radio_value(&mut v.display, Display::Rest, "Rest");
         ui.radio_value(&mut v.display, Display::Both, "Both (rest as ghost)");
@@ -141,7 +141,7 @@ impl StudioApp {
         if ui.button("Frame selection  F").clicked() {
             self.frame_view(true);
         }
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         for (name, p) in [
@@ -188,8 +188,8 @@ impl StudioApp {
             ((rect.width() * ppp).round() as u32).max(1),
             ((rect.height() * ppp).round() as u32).max(1),
         ];
-        self.viewport = (size, rect, ppp);
-        if self.model.is_none() {
+        self.screen.viewport = (size, rect, ppp);
+        if self.picker.model.is_none() {
             ui.painter()
                 .rect_filled(rect, 0.0, egui::Color32::from_gray(40));
             ui.painter().text(
@@ -203,7 +203,7 @@ impl StudioApp {
         }
         // The first picture of a mesh frames it for the viewport's real shape.
         // (the rest shape: the same picture whenever the preview arrives).
-        if let Some(m) = self.model.as_mut()
+        if let Some(m) = self.picker.model.as_mut()
             && !m.framed
             && size[0] > 1
             && size[1] > 1
@@ -222,7 +222,7 @@ impl StudioApp {
     }
 
     pub(super) fn axis_vector(&self) -> Option<DVec3> {
-        self.axis.map(|a| {
+        self.picker.axis.map(|a| {
             let mut v = DVec3::ZERO;
             v[a] = 1.0;
             v
@@ -254,7 +254,7 @@ impl StudioApp {
             && scroll != 0.0
             && let Some(pos) = pos
         {
-            let Some(m) = self.model.as_mut() else {
+            let Some(m) = self.picker.model.as_mut() else {
                 return;
             };
             let px = Self::pixel(pos, rect, ppp);
@@ -267,7 +267,7 @@ impl StudioApp {
         }
         // Orbit and pan: right or middle button, Shift to pan; Alt+left orbits.
         if hovered && (secondary || middle) && delta != egui::Vec2::ZERO {
-            let Some(m) = self.model.as_mut() else {
+            let Some(m) = self.picker.model.as_mut() else {
                 return;
             };
             if modifiers.shift || (middle && modifiers.ctrl) {
@@ -283,9 +283,9 @@ impl StudioApp {
         let px = Self::pixel(pos, rect, ppp);
         if pressed && rect.contains(pos) && response.hovered() {
             if modifiers.alt && modifiers.shift {
-                self.gesture = Gesture::Pan;
+                self.picker.gesture = Gesture::Pan;
             } else if modifiers.alt {
-                self.gesture = Gesture::Orbit;
+                self.picker.gesture = Gesture::Orbit;
             } else {
                 self.press(px, pos, modifiers, size, ppp);
             }
@@ -307,9 +307,9 @@ impl StudioApp {
         ppp: f32,
     ) {
         let axis = self.axis_vector();
-        let tool = self.tool;
-        let stamp = self.view.stamp;
-        let Some(m) = self.model.as_mut() else {
+        let tool = self.picker.tool;
+        let stamp = self.picker.view.stamp;
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
@@ -338,7 +338,7 @@ impl StudioApp {
                     pressed: px,
                     tool: DragTool::begin(&cam, size, px, pivot, axis),
                 };
-                self.gesture = Gesture::Handle {
+                self.picker.gesture = Gesture::Handle {
                     layer,
                     drag: Box::new(drag),
                 };
@@ -350,7 +350,7 @@ impl StudioApp {
             if !modifiers.shift {
                 m.picked_vertices.clear();
             }
-            self.gesture = Gesture::Brush;
+            self.picker.gesture = Gesture::Brush;
             self.brush(px, size);
             return;
         }
@@ -374,7 +374,7 @@ impl StudioApp {
                 End::Target => spec.targets[hit.index],
             };
             m.history.begin_drag();
-            self.gesture = Gesture::Marker {
+            self.picker.gesture = Gesture::Marker {
                 layer: hit.layer,
                 index: hit.index,
                 end: hit.end,
@@ -392,12 +392,12 @@ impl StudioApp {
                 let target = hit.rest + stamp.unwrap_or(DVec3::ZERO);
                 let index = m.doc.controls.deformations[layer].starts.len();
                 self.edit(Command::add(layer, hit.rest, target), true);
-                let m = self.model.as_mut().expect("still open");
+                let m = self.picker.model.as_mut().expect("still open");
                 if m.doc.controls.deformations[layer].starts.len() > index {
                     m.doc.selection.0 = vec![(layer, index)];
                     if stamp.is_none() {
                         m.history.begin_drag();
-                        self.gesture = Gesture::Marker {
+                        self.picker.gesture = Gesture::Marker {
                             layer,
                             index,
                             end: End::Target,
@@ -405,7 +405,7 @@ impl StudioApp {
                             moved: false,
                         };
                     }
-                    self.status = format!(
+                    self.shell.status = format!(
                         "Control {} of layer {} at ({:.4}, {:.4}, {:.4}), triangle {}: drag to set its destination",
                         index + 1,
                         layer + 1,
@@ -421,18 +421,18 @@ impl StudioApp {
         if !modifiers.shift && tool != Tool::Vertices {
             m.doc.selection.0.clear();
         }
-        self.gesture = Gesture::Box {
+        self.picker.gesture = Gesture::Box {
             from: pos,
             add: modifiers.shift,
         };
     }
 
     fn moved(&mut self, px: Vec2, pos: egui::Pos2, delta: egui::Vec2, size: [u32; 2], ppp: f32) {
-        let Some(m) = self.model.as_mut() else {
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
-        match self.gesture.clone() {
+        match self.picker.gesture.clone() {
             Gesture::Marker {
                 layer,
                 index,
@@ -465,14 +465,14 @@ impl StudioApp {
                         }
                     }
                 };
-                if let Gesture::Marker { moved, .. } = &mut self.gesture {
+                if let Gesture::Marker { moved, .. } = &mut self.picker.gesture {
                     *moved = true;
                 }
                 // A destination moving is a drag step; a start needs a refit.
                 self.edit(command, end == End::Start);
             }
             Gesture::Handle { layer, drag } => {
-                let h = drag.moved(self.handle_mode, self.axis, (&cam, size), px);
+                let h = drag.moved(self.picker.handle_mode, self.picker.axis, (&cam, size), px);
                 let mut spec = m.doc.controls.deformations[layer].clone();
                 spec.handle = Some(h);
                 let command = Command::ReplaceLayer {
@@ -493,8 +493,8 @@ impl StudioApp {
     /// Adds the vertices within the brush's radius of the surface point
     /// under `px` (as shown) to the chosen vertices.
     fn brush(&mut self, px: Vec2, size: [u32; 2]) {
-        let radius = self.view.brush * self.model.as_ref().map_or(0.0, |m| m.doc.diagonal()) as f32;
-        let Some(m) = self.model.as_mut() else {
+        let radius = self.picker.view.brush * self.picker.model.as_ref().map_or(0.0, |m| m.doc.diagonal()) as f32;
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
@@ -515,17 +515,17 @@ impl StudioApp {
             m.picked_vertices.sort_unstable();
             m.picked_vertices.dedup();
         }
-        self.status = format!(
+        self.shell.status = format!(
             "{} vertices chosen (brush {:.1} % of the diagonal)",
             m.picked_vertices.len(),
-            self.view.brush * 100.0
+            self.picker.view.brush * 100.0
         );
     }
 
     fn release(&mut self, pos: egui::Pos2, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
-        let gesture = std::mem::replace(&mut self.gesture, Gesture::None);
-        let tool = self.tool;
-        let Some(m) = self.model.as_mut() else {
+        let gesture = std::mem::replace(&mut self.picker.gesture, Gesture::None);
+        let tool = self.picker.tool;
+        let Some(m) = self.picker.model.as_mut() else {
             return;
         };
         match gesture {
@@ -567,7 +567,7 @@ impl StudioApp {
                     chosen.dedup();
                     let n = chosen.len();
                     m.picked_vertices = chosen;
-                    self.status = format!(
+                    self.shell.status = format!(
                         "{n} vertices chosen; apply them as a {} in the side panel",
                         match m.vertex_target {
                             VertexTarget::Handle => "handle",
@@ -588,15 +588,15 @@ impl StudioApp {
                         }
                     }
                 }
-                self.status = format!("{} selected", m.doc.selection.0.len());
+                self.shell.status = format!("{} selected", m.doc.selection.0.len());
             }
             Gesture::Orbit | Gesture::Pan | Gesture::Brush | Gesture::None => {}
         }
     }
 
     fn paint(&mut self, ui: &egui::Ui, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
-        let v = self.view.clone();
-        let Some(m) = self.model.as_ref() else {
+        let v = self.picker.view.clone();
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         let cam = m.orbit.camera();
@@ -624,9 +624,9 @@ impl StudioApp {
         let mut options = DrawOptions::default();
         options.flat = v.flat;
         options.wireframe = v.wireframe;
-        if self.gpu.is_some() {
+        if self.screen.gpu.is_some() {
             // A big mesh moving (a gesture, a fit under way) is drawn light.
-            let moving = !matches!(self.gesture, Gesture::None | Gesture::Box { .. })
+            let moving = !matches!(self.picker.gesture, Gesture::None | Gesture::Box { .. })
                 || !m.preview.is_settled()
                 || ui.input(|i| {
                     i.pointer.secondary_down()
@@ -672,7 +672,7 @@ impl StudioApp {
         rect: egui::Rect,
         (cam, size, ppp): (&Camera, [u32; 2], f32),
     ) {
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.picker.model.as_ref() else {
             return;
         };
         let painter = ui.painter_at(rect);
@@ -684,7 +684,7 @@ impl StudioApp {
                 painter.circle_filled(to_screen(q), 1.5, egui::Color32::from_rgb(255, 200, 40));
             }
         }
-        if let Gesture::Box { from, .. } = &self.gesture
+        if let Gesture::Box { from, .. } = &self.picker.gesture
             && let Some(pos) = ui.input(|i| i.pointer.interact_pos())
         {
             painter.rect_stroke(
@@ -694,7 +694,7 @@ impl StudioApp {
                 egui::StrokeKind::Inside,
             );
         }
-        if let Some(a) = self.axis {
+        if let Some(a) = self.picker.axis {
             painter.text(
                 rect.left_top() + egui::vec2(8.0, 8.0),
                 egui::Align2::LEFT_TOP,
