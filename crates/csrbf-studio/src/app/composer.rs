@@ -110,6 +110,8 @@ pub(super) struct Composer {
     pub ruler: egui::Rect,
     /// Where each track's row was drawn (same time scale as the ruler).
     pub rows: Vec<((usize, Track), egui::Rect)>,
+    /// The status line while the Composer is shown.
+    pub status: String,
 }
 
 impl Composer {
@@ -142,6 +144,7 @@ impl Composer {
             part_target: None,
             ruler: egui::Rect::NOTHING,
             rows: Vec::new(),
+            status: String::new(),
         }
     }
 
@@ -455,7 +458,7 @@ impl StudioApp {
         }
         self.composer = Some(Composer::new(SceneDoc::empty(), self.composer_samples()));
         self.mode = Mode::Compose;
-        self.shell.status = "New scene: add a mesh (Scene > Add object, or drop one here)".into();
+        *self.status_mut() = "New scene: add a mesh (Scene > Add object, or drop one here)".into();
     }
 
     /// Opens a scene file in the Composer. A file the CLI would refuse (or
@@ -499,8 +502,8 @@ impl StudioApp {
             .unwrap_or_default();
         self.composer = Some(c);
         self.mode = Mode::Compose;
-        self.picker.gesture = super::viewport::Gesture::None;
-        self.shell.status = format!(
+        self.picker.gesture = super::picker::Gesture::None;
+        *self.status_mut() = format!(
             "{note} in {:.0} ms{}",
             started.elapsed().as_secs_f64() * 1e3,
             if warnings.is_empty() {
@@ -509,7 +512,7 @@ impl StudioApp {
                 format!(" ({warnings})")
             }
         );
-        eprintln!("csrbf-studio: {}", self.shell.status);
+        eprintln!("csrbf-studio: {}", self.status());
     }
 
     /// Reopens the scene kept in the recovery file.
@@ -545,7 +548,7 @@ impl StudioApp {
         };
         let mut trial = c.doc.clone();
         if let Err(e) = edit.apply(&mut trial) {
-            self.shell.status = format!("Not done: {e}");
+            *self.status_mut() = format!("Not done: {e}");
             return false;
         }
         let structural = matches!(
@@ -559,7 +562,7 @@ impl StudioApp {
                     None => c.history.apply(&mut c.doc, &edit),
                 };
                 if let Err(e) = applied {
-                    self.shell.status = format!("Not done: {e}");
+                    *self.status_mut() = format!("Not done: {e}");
                     return false;
                 }
                 c.install(scene, structural, &mut self.screen.next_mesh_id);
@@ -583,14 +586,14 @@ impl StudioApp {
             c.history.undo(&mut c.doc)
         };
         if let Err(e) = r {
-            self.shell.status = e.to_string();
+            *self.status_mut() = e.to_string();
             return;
         }
         let file = c.doc.file.clone();
         match c.prepare(&file, false) {
             Ok(scene) => {
                 c.install(scene, false, &mut self.screen.next_mesh_id);
-                self.shell.status = if redo { "Redone" } else { "Undone" }.into();
+                *self.status_mut() = if redo { "Redone" } else { "Undone" }.into();
             }
             Err(e) => {
                 // A file changed on disk since: keep the document as it was.
@@ -648,7 +651,7 @@ impl StudioApp {
                     s.dir = c.doc.dir();
                 }
                 SceneRecovery::clear(self.shell.state.as_deref());
-                self.shell.status = format!("Saved {}", path.display());
+                *self.status_mut() = format!("Saved {}", path.display());
                 super::files::remember(self.shell.state.as_deref(), path);
                 self.shell.recent = super::files::recent_files(self.shell.state.as_deref());
             }
@@ -715,7 +718,7 @@ impl StudioApp {
                     c.framed = false;
                 }
             }
-            self.shell.status = format!("Added {} as {name:?}", path.display());
+            *self.status_mut() = format!("Added {} as {name:?}", path.display());
         }
     }
 
@@ -738,12 +741,12 @@ impl StudioApp {
         };
         let mesh = c.doc.resolve(&o.mesh);
         let controls = c.doc.resolve(&d.controls);
-        if o.scale != 1.0 {
-            self.shell.status = format!(
+        let scaled = (o.scale != 1.0).then(|| {
+            format!(
                 "The Picker shows {} at its own size (the scene scales it by {}); control files are in the mesh's units",
                 o.name, o.scale
-            );
-        }
+            )
+        });
         let ctx = self.screen.ctx.clone();
         if self.picker.model.as_ref().is_some_and(|m| m.doc.dirty) {
             self.shell.pending = Some(Pending::EditInPicker(object, part, deformation));
@@ -753,6 +756,9 @@ impl StudioApp {
         if self.picker.model.is_some() {
             self.open_controls(&controls);
             self.mode = Mode::Pick;
+            if let Some(note) = scaled {
+                self.picker.status = note;
+            }
         }
     }
 
@@ -832,7 +838,7 @@ impl StudioApp {
     fn export_scene(&mut self, what: &str) -> Option<Arc<Scene>> {
         let c = self.composer.as_ref()?;
         if c.export.is_some() {
-            self.shell.status = "An export is running".into();
+            *self.status_mut() = "An export is running".into();
             return None;
         }
         match (&c.loaded.scene, c.doc.saveable()) {
@@ -932,12 +938,12 @@ impl StudioApp {
         }
         match out {
             Ok(note) => {
-                self.shell.status = format!("{note} in {secs:.2} s");
+                *self.status_mut() = format!("{note} in {secs:.2} s");
                 // In the log too: the export figures of issue 9 come from it.
-                eprintln!("csrbf-studio: {}", self.shell.status);
+                eprintln!("csrbf-studio: {}", self.status());
             }
             Err(_) if cancelled => {
-                self.shell.status = format!(
+                *self.status_mut() = format!(
                     "{what} export cancelled; nothing was left at {}",
                     path.display()
                 )
@@ -1097,7 +1103,7 @@ impl StudioApp {
             let index = c.doc.key_times(object, track).iter().position(|&k| k == t);
             c.key = index.map(|i| (object, track, i));
             c.selected = Some(object);
-            self.shell.status = format!("Key at {t:.3} s");
+            *self.status_mut() = format!("Key at {t:.3} s");
         }
     }
 
@@ -1137,7 +1143,7 @@ impl StudioApp {
             return;
         };
         let Some((object, track, index)) = c.key else {
-            self.shell.status =
+            *self.status_mut() =
                 "Nothing copied: select a key first (on the timeline or in the viewport)".into();
             return;
         };
@@ -1183,7 +1189,7 @@ impl StudioApp {
             tcb,
         });
         let time = c.doc.key_times(object, track)[index];
-        self.shell.status = format!(
+        *self.status_mut() = format!(
             "Copied the {kind} key at {time:.2} s of {:?}: Ctrl+V puts it at the playhead of the selected object",
             of.name
         );
@@ -1198,12 +1204,12 @@ impl StudioApp {
             return;
         };
         let Some(copied) = c.copied else {
-            self.shell.status = "Nothing to paste: select a key and copy it with Ctrl+C".into();
+            *self.status_mut() = "Nothing to paste: select a key and copy it with Ctrl+C".into();
             return;
         };
         let object = c.selected.unwrap_or(copied.object);
         let Some(of) = c.doc.file.objects.get(object) else {
-            self.shell.status = "Nothing pasted: the object the key came from is gone".into();
+            *self.status_mut() = "Nothing pasted: the object the key came from is gone".into();
             return;
         };
         let track = match copied.track {
@@ -1227,7 +1233,7 @@ impl StudioApp {
                 {
                     Some(t) => t,
                     None => {
-                        self.shell.status = format!(
+                        *self.status_mut() = format!(
                             "Nothing pasted: {:?} has no deformation to take a phase key",
                             of.name
                         );
@@ -1252,7 +1258,7 @@ impl StudioApp {
                 .position(|&t| t == time);
             c.selected = Some(object);
             c.key = index.map(|i| (object, track, i));
-            self.shell.status = format!("Pasted the key at {time:.2} s of {name:?}");
+            *self.status_mut() = format!("Pasted the key at {time:.2} s of {name:?}");
         }
     }
 
@@ -1475,7 +1481,7 @@ impl StudioApp {
             return;
         };
         let ppp = self.screen.viewport.2;
-        let axis = self.axis_vector();
+        let axis = self.picker.axis_vector();
         let input = PointerInput::read(ui);
         let hovered = response.hovered() || response.dragged();
         let Some(c) = self.composer.as_mut() else {
@@ -1511,7 +1517,7 @@ impl StudioApp {
                 Some(Released::Edit(edit)) => {
                     self.scene_edit(edit);
                 }
-                Some(Released::Refused(why)) => self.shell.status = why.into(),
+                Some(Released::Refused(why)) => *self.status_mut() = why.into(),
                 Some(Released::Revert) => {
                     let file = c.doc.file.clone();
                     c.loaded.preview(file);

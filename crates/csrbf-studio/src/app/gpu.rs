@@ -6,12 +6,14 @@
 //! arrays, no copies); the GPU objects live in egui's callback resources.
 
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use csrbf::glam::Vec3;
 use csrbf_anim::{Camera, Frame, Scene};
 use csrbf_render::{
     DrawOptions, Line, Renderer, SceneOptions, SceneRenderer, View, default_lights,
 };
+use eframe::egui;
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor};
 use eframe::wgpu;
 
@@ -19,6 +21,20 @@ use eframe::wgpu;
 const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
 pub use crate::preview::BIG_MESH_TRIANGLES;
+
+/// What the window and the GPU give both rooms: the render state, the
+/// viewport's size and place, the last frame's time.
+pub(super) struct Screen {
+    pub(super) gpu: Option<eframe::egui_wgpu::RenderState>,
+    pub(super) next_mesh_id: u64,
+    pub(super) frame_time: Duration,
+    /// The viewport's size in physical pixels, and where it is on screen.
+    pub(super) viewport: ([u32; 2], egui::Rect, f32),
+    /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
+    pub(super) software: bool,
+    /// To wake the window from other threads.
+    pub(super) ctx: egui::Context,
+}
 
 /// A mesh newly opened: the GPU side prepares its parts once.
 pub struct NewMesh {
@@ -192,8 +208,6 @@ impl CallbackTrait for ViewportPaint {
         }
     }
 }
-
-use eframe::egui;
 
 impl ViewportGpu {
     /// The scene renderer of `id`, made by `make` on a renderer of this

@@ -8,27 +8,27 @@ mod files;
 mod gpu;
 mod key_drag;
 mod panel;
+mod picker;
 mod scene_panel;
 mod timeline;
 mod viewport;
 
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use csrbf::controls::ControlFile;
 use csrbf::glam::Vec3;
-use csrbf_mesh::{Bvh, Mesh};
+use csrbf_mesh::Mesh;
 use eframe::egui;
 
-use crate::{Command, Document, History, Orbit, Preview, PreviewFrame};
+use crate::{Command, Document, PreviewFrame};
 pub use composer::{KeyRef, Mode};
-use csrbf_mesh::StandIn;
 use files::SceneRecovery;
 use files::{Choice, FileDialog, Purpose};
 pub use files::{MESH_ENDINGS, Recovery, state_dir};
 pub use gpu::BIG_MESH_TRIANGLES;
-use viewport::{Gesture, ViewSettings};
+use gpu::Screen;
+use picker::{Gesture, Model, Picker, Tool, ViewSettings};
 
 /// What the command line asked to open.
 #[derive(Clone, Debug, Default)]
@@ -37,116 +37,6 @@ pub struct Args {
     pub mesh: Option<PathBuf>,
     /// A control file on it.
     pub controls: Option<PathBuf>,
-}
-
-/// What a pointer press in the viewport does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Tool {
-    /// A press on the surface adds a control vector there; dragging sets
-    /// its destination (a click without a drag is a pin). Markers are
-    /// dragged in any tool.
-    Place,
-    /// Presses select markers; a drag on the background draws a box.
-    Select,
-    /// A box on the surface selects vertices for a handle, a region or an
-    /// anchor; a drag from the pivot rotates, scales or moves the handle.
-    Vertices,
-}
-
-/// The loaded model and everything derived from it.
-struct Model {
-    doc: Document,
-    history: History,
-    preview: Preview,
-    /// Where the control file was opened from or last saved to.
-    controls_path: Option<PathBuf>,
-    /// Positions and normals drawn (the newest preview frame, else rest).
-    shown: Arc<Vec<Vec3>>,
-    shown_normals: Arc<Vec<Vec3>>,
-    rest_normals: Arc<Vec<Vec3>>,
-    rest_positions: Arc<Vec<Vec3>>,
-    /// The picking tree and whether it fits `shown`.
-    bvh: Bvh,
-    bvh_fresh: bool,
-    gpu_mesh: Arc<gpu::NewMesh>,
-    /// For a big mesh: what is drawn while it moves (vertex clustering).
-    stand_in: Option<Arc<StandIn>>,
-    orbit: Orbit,
-    /// The model's up axis and how it was found.
-    up: (Vec3, &'static str),
-    /// Layers hidden from the preview (their phase taken as 0).
-    hidden: Vec<bool>,
-    /// Vertices chosen with the vertex tool (for a handle, region or anchor).
-    picked_vertices: Vec<u32>,
-    /// What the last box of the vertex tool is for.
-    vertex_target: crate::tools::VertexTarget,
-    /// The generation whose preview is shown.
-    shown_generation: u64,
-    /// When the recovery file was last written.
-    recovery_at: Option<Instant>,
-    /// Whether the view was framed for the viewport's real size.
-    framed: bool,
-    /// The control file as last written to the recovery file.
-    recovered_text: String,
-}
-
-impl Model {
-    /// The model of `mesh` read from `path`: its document, the preview on a
-    /// worker (waking `ctx`), the picking tree, normals, a stand-in when it
-    /// is big, and a camera framing it for a viewport of `size`. `gpu`: the
-    /// mesh's GPU id and whether the rasteriser is software.
-    fn new(
-        mesh: Mesh,
-        path: &Path,
-        scene: csrbf_anim::Scene,
-        (id, software): (u64, bool),
-        size: [u32; 2],
-        ctx: &egui::Context,
-    ) -> Model {
-        let up = csrbf_mesh::guess_up(&mesh, path);
-        let (lo, hi) = mesh.bounds().unwrap_or_default();
-        let diagonal = mesh.diagonal() as f64;
-        let triangles = mesh.faces.triangles();
-        let bvh = Bvh::new(&mesh.positions, &triangles);
-        let rest_normals = Arc::new(csrbf_mesh::triangle_vertex_normals(
-            &mesh.positions,
-            &triangles,
-        ));
-        let shown = Arc::new(mesh.positions.clone());
-        let big = triangles.len() > gpu::BIG_MESH_TRIANGLES;
-        let stand_in = big.then(|| Arc::new(StandIn::new(&mesh.positions, &triangles)));
-        let doc = Document::new(mesh, path.to_path_buf(), (diagonal * 0.15).max(1e-9));
-        let wake = ctx.clone();
-        let preview = Preview::new(&doc, move || wake.request_repaint());
-        let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
-        Model {
-            hidden: vec![false; doc.controls.deformations.len()],
-            history: History::default(),
-            preview,
-            controls_path: None,
-            shown_normals: rest_normals.clone(),
-            rest_positions: shown.clone(),
-            rest_normals,
-            shown,
-            bvh,
-            bvh_fresh: true,
-            gpu_mesh: Arc::new(gpu::NewMesh {
-                id,
-                scene: Mutex::new(Some(scene)),
-                samples: if software || big { 1 } else { 4 },
-            }),
-            stand_in,
-            orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
-            up,
-            picked_vertices: Vec::new(),
-            vertex_target: crate::tools::VertexTarget::Handle,
-            shown_generation: 0,
-            recovery_at: None,
-            framed: false,
-            recovered_text: String::new(),
-            doc,
-        }
-    }
 }
 
 /// Something waiting for the person's answer about unsaved changes.
@@ -159,20 +49,6 @@ enum Pending {
     BackToComposer,
     /// Object, part, deformation.
     EditInPicker(usize, usize, usize),
-}
-
-/// What the window and the GPU give both rooms: the render state, the
-/// viewport's size and place, the last frame's time.
-struct Screen {
-    gpu: Option<eframe::egui_wgpu::RenderState>,
-    next_mesh_id: u64,
-    frame_time: Duration,
-    /// The viewport's size in physical pixels, and where it is on screen.
-    viewport: ([u32; 2], egui::Rect, f32),
-    /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
-    software: bool,
-    /// To wake the window from other threads.
-    ctx: egui::Context,
 }
 
 /// The shell around the rooms: file dialogs, messages, questions about
@@ -190,18 +66,6 @@ struct Shell {
     /// The window's title as last set.
     title: String,
     allow_close: bool,
-    status: String,
-}
-
-/// The Picker's room: the model and the tool, axis hold, gesture, handle
-/// mode and view settings its panel and viewport work with.
-struct Picker {
-    model: Option<Model>,
-    tool: Tool,
-    axis: Option<usize>,
-    view: ViewSettings,
-    gesture: Gesture,
-    handle_mode: crate::gizmo::HandleMode,
 }
 
 /// `csrbf-studio`: the shell, the Picker, the Composer (when a scene is
@@ -247,7 +111,6 @@ impl StudioApp {
                 state,
                 title: String::new(),
                 allow_close: false,
-                status: "Open a mesh: File > Open mesh (Ctrl+O), or drop a file here".into(),
             },
             screen: Screen {
                 gpu,
@@ -264,6 +127,7 @@ impl StudioApp {
                 view: ViewSettings::default(),
                 gesture: Gesture::None,
                 handle_mode: crate::gizmo::HandleMode::default(),
+                status: "Open a mesh: File > Open mesh (Ctrl+O), or drop a file here".into(),
             },
             mode: Mode::Pick,
             composer: None,
@@ -293,7 +157,10 @@ impl StudioApp {
 
     /// Steps that can be undone.
     pub fn undo_steps(&self) -> usize {
-        self.picker.model.as_ref().map_or(0, |m| m.history.undo_steps())
+        self.picker
+            .model
+            .as_ref()
+            .map_or(0, |m| m.history.undo_steps())
     }
 
     /// The positions shown in the viewport.
@@ -313,7 +180,7 @@ impl StudioApp {
             return true;
         };
         let ok = m.preview.wait(limit);
-        take_frame(m);
+        m.take_frame();
         ok
     }
 
@@ -328,7 +195,10 @@ impl StudioApp {
 
     /// The vertices chosen with the Vertices tool (box or brush).
     pub fn chosen_vertices(&self) -> &[u32] {
-        self.picker.model.as_ref().map_or(&[], |m| &m.picked_vertices)
+        self.picker
+            .model
+            .as_ref()
+            .map_or(&[], |m| &m.picked_vertices)
     }
 
     /// The dialog message shown, if any (title, text).
@@ -338,7 +208,18 @@ impl StudioApp {
 
     /// The line in the status bar.
     pub fn status(&self) -> &str {
-        &self.shell.status
+        match (self.mode, self.composer.as_ref()) {
+            (Mode::Compose, Some(c)) => &c.status,
+            _ => &self.picker.status,
+        }
+    }
+
+    /// The status line of the room shown.
+    fn status_mut(&mut self) -> &mut String {
+        match (self.mode, self.composer.as_mut()) {
+            (Mode::Compose, Some(c)) => &mut c.status,
+            _ => &mut self.picker.status,
+        }
     }
 
     /// Where the control file was opened from or saved to.
@@ -348,7 +229,7 @@ impl StudioApp {
 
     fn show_error(&mut self, title: &str, text: impl Into<String>) {
         let text = text.into();
-        self.shell.status = format!("{title}: {text}");
+        *self.status_mut() = format!("{title}: {text}");
         self.shell.message = Some((title.into(), text));
     }
 
@@ -418,7 +299,7 @@ impl StudioApp {
             note.push_str("; ");
             note.push_str(w);
         }
-        self.shell.status = note;
+        self.picker.status = note;
     }
 
     /// Opens a control file on the current mesh, in the CLI's format. A file
@@ -476,19 +357,24 @@ impl StudioApp {
         m.hidden = vec![false; m.doc.controls.deformations.len()];
         m.controls_path = Some(path.to_path_buf());
         let warnings = file.warnings.join("; ");
-        self.shell.status = if warnings.is_empty() {
+        self.picker.status = if warnings.is_empty() {
             format!("Opened {}", path.display())
         } else {
             format!("Opened {} (ignored: {warnings})", path.display())
         };
-        self.refresh(true);
+        self.picker.refresh(true);
         files::remember(self.shell.state.as_deref(), path);
         self.shell.recent = files::recent_files(self.shell.state.as_deref());
     }
 
     /// Saves the control file (to where it came from, else asks where).
     pub fn save(&mut self) {
-        match self.picker.model.as_ref().and_then(|m| m.controls_path.clone()) {
+        match self
+            .picker
+            .model
+            .as_ref()
+            .and_then(|m| m.controls_path.clone())
+        {
             Some(p) => self.save_to(&p),
             None => self.ask(Purpose::SaveControls),
         }
@@ -506,7 +392,7 @@ impl StudioApp {
                 m.doc.dirty = false;
                 m.controls_path = Some(path.to_path_buf());
                 Recovery::clear(self.shell.state.as_deref());
-                self.shell.status = format!("Saved {}", path.display());
+                self.picker.status = format!("Saved {}", path.display());
                 files::remember(self.shell.state.as_deref(), path);
                 self.shell.recent = files::recent_files(self.shell.state.as_deref());
             }
@@ -524,7 +410,7 @@ impl StudioApp {
         mesh.positions = m.shown.to_vec();
         mesh.recompute_normals();
         match csrbf_mesh::write(path, &mesh) {
-            Ok(()) => self.shell.status = format!("Exported {}", path.display()),
+            Ok(()) => self.picker.status = format!("Exported {}", path.display()),
             Err(e) => self.show_error("Cannot export the mesh", e.to_string()),
         }
     }
@@ -545,7 +431,7 @@ impl StudioApp {
             csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine)
         });
         match result {
-            Ok(()) => self.shell.status = format!("Exported {}", path.display()),
+            Ok(()) => self.picker.status = format!("Exported {}", path.display()),
             Err(e) => self.show_error("Cannot export the fitted deformation", e.to_string()),
         }
     }
@@ -583,64 +469,6 @@ impl StudioApp {
         self.shell.dialog = Some(FileDialog::new(purpose, near.as_deref()));
     }
 
-    /// Applies an edit; `full`: refit and diagnose (else a drag step).
-    fn edit(&mut self, command: Command, full: bool) {
-        let Some(m) = self.picker.model.as_mut() else {
-            return;
-        };
-        match m.history.apply(&mut m.doc, command) {
-            Ok(()) => {
-                m.hidden.resize(m.doc.controls.deformations.len(), false);
-                self.refresh(full);
-            }
-            Err(e) => self.shell.status = format!("Not done: {e}"),
-        }
-    }
-
-    fn undo(&mut self) {
-        if let Some(m) = self.picker.model.as_mut() {
-            match m.history.undo(&mut m.doc) {
-                Ok(()) => {
-                    m.hidden.resize(m.doc.controls.deformations.len(), false);
-                    self.shell.status = "Undone".into();
-                    self.refresh(true);
-                }
-                Err(e) => self.shell.status = e.to_string(),
-            }
-        }
-    }
-
-    fn redo(&mut self) {
-        if let Some(m) = self.picker.model.as_mut() {
-            match m.history.redo(&mut m.doc) {
-                Ok(()) => {
-                    m.hidden.resize(m.doc.controls.deformations.len(), false);
-                    self.shell.status = "Redone".into();
-                    self.refresh(true);
-                }
-                Err(e) => self.shell.status = e.to_string(),
-            }
-        }
-    }
-
-    /// Sends the document, as the preview should show it, to the worker.
-    fn refresh(&mut self, full: bool) {
-        let Some(m) = self.picker.model.as_mut() else {
-            return;
-        };
-        if m.hidden.iter().any(|&h| h) {
-            let mut shown = m.doc.clone();
-            for (spec, &h) in shown.controls.deformations.iter_mut().zip(&m.hidden) {
-                if h {
-                    spec.phase = 0.0;
-                }
-            }
-            m.preview.edit(&shown, full);
-        } else {
-            m.preview.edit(&m.doc, full);
-        }
-    }
-
     fn handle_keys(&mut self, ctx: &egui::Context) {
         if ctx.egui_wants_keyboard_input() {
             return;
@@ -650,8 +478,8 @@ impl StudioApp {
             ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
         };
         match undo_keys(ctx) {
-            Some(true) => self.redo(),
-            Some(false) => self.undo(),
+            Some(true) => self.picker.redo(),
+            Some(false) => self.picker.undo(),
             None => {}
         }
         if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
@@ -664,24 +492,24 @@ impl StudioApp {
             self.ask(Purpose::OpenMesh);
         }
         if shortcut(Modifiers::COMMAND, Key::D) {
-            self.duplicate();
+            self.picker.duplicate();
         }
         if shortcut(Modifiers::COMMAND, Key::A) {
-            self.select_all();
+            self.picker.select_all();
         }
         let plain = |k: Key| ctx.input_mut(|i| i.consume_key(Modifiers::NONE, k));
         if plain(Key::Delete) || plain(Key::Backspace) {
-            self.delete_selected();
+            self.picker.delete_selected();
         }
         if plain(Key::F) {
-            self.frame_view(true);
+            self.picker.frame_view(true, self.screen.viewport.0);
         }
         if ctx.input_mut(|i| i.consume_key(Modifiers::SHIFT, Key::F)) {
-            self.frame_view(false);
+            self.picker.frame_view(false, self.screen.viewport.0);
         }
         for (k, axis) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
             if plain(k) {
-                self.set_axis(if self.picker.axis == Some(axis) {
+                self.picker.set_axis(if self.picker.axis == Some(axis) {
                     None
                 } else {
                     Some(axis)
@@ -689,7 +517,7 @@ impl StudioApp {
             }
         }
         if plain(Key::M) {
-            self.mirror(0);
+            self.picker.mirror(0);
         }
         if plain(Key::P) {
             self.picker.tool = Tool::Place;
@@ -707,114 +535,6 @@ impl StudioApp {
             self.picker.gesture = Gesture::None;
             self.picker.view.stamp = None;
         }
-    }
-
-    fn set_axis(&mut self, axis: Option<usize>) {
-        self.picker.axis = axis;
-        self.shell.status = match axis {
-            Some(a) => format!(
-                "Moves held to the {} axis (press it again to free)",
-                ["X", "Y", "Z"][a]
-            ),
-            None => "Moves free on the plane facing the camera".into(),
-        };
-    }
-
-    /// Frames the selection (`selection`) or the whole model.
-    fn frame_view(&mut self, selection: bool) {
-        let Some(m) = self.picker.model.as_mut() else {
-            return;
-        };
-        let mut pts: Vec<Vec3> = Vec::new();
-        if selection {
-            for &(l, i) in &m.doc.selection.0 {
-                if let Some(s) = m.doc.controls.deformations.get(l) {
-                    let r = s.options.radius as f32;
-                    for p in [s.starts.get(i), s.targets.get(i)].into_iter().flatten() {
-                        pts.push(p.as_vec3() - Vec3::splat(r * 0.5));
-                        pts.push(p.as_vec3() + Vec3::splat(r * 0.5));
-                    }
-                }
-            }
-        }
-        if pts.is_empty() {
-            pts = m.shown.to_vec();
-        }
-        let lo = pts.iter().copied().fold(Vec3::INFINITY, Vec3::min);
-        let hi = pts.iter().copied().fold(Vec3::NEG_INFINITY, Vec3::max);
-        let (size, _, _) = self.screen.viewport;
-        m.orbit
-            .frame(lo, hi, size[0].max(1) as f32 / size[1].max(1) as f32);
-    }
-
-    fn select_all(&mut self) {
-        if let Some(m) = self.picker.model.as_mut() {
-            let l = m.doc.active_layer;
-            let n = m
-                .doc
-                .controls
-                .deformations
-                .get(l)
-                .map_or(0, |s| s.starts.len());
-            m.doc.selection.0 = (0..n).map(|i| (l, i)).collect();
-        }
-    }
-
-    fn delete_selected(&mut self) {
-        let Some(m) = self.picker.model.as_mut() else {
-            return;
-        };
-        let mut sel = m.doc.selection.0.clone();
-        if sel.is_empty() {
-            return;
-        }
-        // Highest index first, so the others keep theirs.
-        sel.sort_unstable();
-        sel.dedup();
-        let batch = sel
-            .iter()
-            .rev()
-            .map(|&(layer, index)| Command::Remove { layer, index })
-            .collect();
-        m.doc.selection.0.clear();
-        let n = sel.len();
-        self.edit(Command::Batch(batch), true);
-        self.shell.status = format!("Deleted {n} control vector(s)");
-    }
-
-    /// Copies the selected controls' displacements onto the next clicks
-    /// on the surface (a stamp): the way to repeat an edit elsewhere.
-    fn duplicate(&mut self) {
-        let Some(m) = self.picker.model.as_ref() else {
-            return;
-        };
-        let Some(&(l, i)) = m.doc.selection.0.last() else {
-            self.shell.status = "Select a control vector to duplicate".into();
-            return;
-        };
-        let s = &m.doc.controls.deformations[l];
-        let d = s.targets[i] - s.starts[i];
-        self.picker.gesture = Gesture::None;
-        self.picker.view.stamp = Some(d);
-        self.picker.tool = Tool::Place;
-        self.shell.status = "Click on the surface to place a copy (Esc to stop)".into();
-    }
-
-    /// Mirrors the selected controls (or all of the active layer) across the
-    /// plane through the model's centre normal to `axis` (0 X, 1 Y, 2 Z).
-    fn mirror(&mut self, axis: usize) {
-        let Some(m) = self.picker.model.as_ref() else {
-            return;
-        };
-        let Some((batch, n)) = Command::mirror(&m.doc, axis) else {
-            self.shell.status = "Nothing to mirror: every image is already there".into();
-            return;
-        };
-        self.edit(batch, true);
-        self.shell.status = format!(
-            "Mirrored {n} control vector(s) across the {} plane through the model's centre",
-            ["YZ", "XZ", "XY"][axis]
-        );
     }
 
     /// The open file dialog, message, unsaved-changes question and
@@ -980,8 +700,8 @@ impl StudioApp {
         m.doc.dirty = true;
         m.controls_path = r.controls_path.clone();
         m.hidden = vec![false; m.doc.controls.deformations.len()];
-        self.shell.status = format!("Restored the unsaved session on {}", r.mesh.display());
-        self.refresh(true);
+        self.picker.status = format!("Restored the unsaved session on {}", r.mesh.display());
+        self.picker.refresh(true);
     }
 
     fn resume(&mut self, ctx: &egui::Context, pending: Pending) {
@@ -1021,7 +741,9 @@ impl StudioApp {
             self.mode_switch(ui);
             ui.menu_button("File", |ui| self.file_menu(ui));
             ui.menu_button("Edit", |ui| self.edit_menu(ui));
-            ui.menu_button("View", |ui| self.view_menu(ui));
+            ui.menu_button("View", |ui| {
+                self.picker.view_menu(ui, self.screen.viewport.0)
+            });
         });
     }
 
@@ -1094,24 +816,24 @@ impl StudioApp {
     /// The Picker's Edit menu.
     fn edit_menu(&mut self, ui: &mut egui::Ui) {
         if ui.button("Undo  Ctrl+Z").clicked() {
-            self.undo();
+            self.picker.undo();
         }
         if ui.button("Redo  Ctrl+Shift+Z").clicked() {
-            self.redo();
+            self.picker.redo();
         }
         ui.separator();
         if ui.button("Delete selected  Del").clicked() {
-            self.delete_selected();
+            self.picker.delete_selected();
         }
         if ui.button("Duplicate (stamp)  Ctrl+D").clicked() {
-            self.duplicate();
+            self.picker.duplicate();
         }
         if ui.button("Select all in layer  Ctrl+A").clicked() {
-            self.select_all();
+            self.picker.select_all();
         }
         for (axis, name) in ["X  (M)", "Y", "Z"].into_iter().enumerate() {
             if ui.button(format!("Mirror across {name}")).clicked() {
-                self.mirror(axis);
+                self.picker.mirror(axis);
             }
         }
     }
@@ -1245,18 +967,6 @@ fn is_scene(path: &Path) -> bool {
         .is_some_and(|n| n.to_ascii_lowercase().ends_with(".scene.json"))
 }
 
-fn take_frame(m: &mut Model) {
-    m.preview.poll();
-    if let Some(f) = m.preview.latest()
-        && f.generation != m.shown_generation
-    {
-        m.shown_generation = f.generation;
-        m.shown = f.positions.clone();
-        m.shown_normals = f.normals.clone();
-        m.bvh_fresh = false;
-    }
-}
-
 /// A side, top or bottom panel's frame without its fill: the window is
 /// cleared to the panel colour instead ([`StudioApp::clear_color`]), which
 /// costs nothing, where egui's own fill is shaded pixel by pixel. On a
@@ -1278,6 +988,24 @@ fn side_panel(id: &'static str, ui: &egui::Ui) -> egui::Panel {
 }
 
 impl StudioApp {
+    fn status_bar(&mut self, ui: &mut egui::Ui) {
+        let frame_ms = self.screen.frame_time.as_secs_f64() * 1e3;
+        let rate = self.playback_rate();
+        ui.horizontal(|ui| {
+            if self.mode == Mode::Compose
+                && let Some(c) = self.composer.as_ref()
+            {
+                timeline::compose_status(ui, c, rate, frame_ms);
+            } else if let Some(m) = self.picker.model.as_ref() {
+                panel::pick_status(ui, m, frame_ms);
+            }
+            if let Some(e) = self.screen.gpu.as_ref().and_then(gpu::last_error) {
+                ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
+            }
+            ui.label(self.status());
+        });
+    }
+
     /// Files dropped on the window: each opened by what it is and the mode.
     fn dropped_files(&mut self, ctx: &egui::Context) {
         let dropped: Vec<PathBuf> = ctx.input(|i| {
@@ -1344,18 +1072,23 @@ impl StudioApp {
     fn pick_frame(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         side_panel("parameters", ui).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui));
+            egui::ScrollArea::vertical().show(ui, |ui| self.picker.side_panel(ui));
         });
         egui::CentralPanel::default()
             .frame(egui::Frame::NONE)
-            .show(ui, |ui| self.viewport_ui(ui));
+            .show(ui, |ui| self.picker.viewport_ui(ui, &mut self.screen));
         self.dialogs(&ctx);
         self.write_recovery();
         if self.picker.model.as_ref().is_some_and(|m| m.doc.dirty) {
             // Come back to write the recovery file even if nothing moves.
             ctx.request_repaint_after(Duration::from_secs(1));
         }
-        if self.picker.model.as_ref().is_some_and(|m| !m.preview.is_settled()) {
+        if self
+            .picker
+            .model
+            .as_ref()
+            .is_some_and(|m| !m.preview.is_settled())
+        {
             ctx.request_repaint_after(Duration::from_millis(30));
         }
     }
@@ -1398,7 +1131,7 @@ impl eframe::App for StudioApp {
         let ctx = ui.ctx().clone();
         self.set_title(&ctx);
         if let Some(m) = self.picker.model.as_mut() {
-            take_frame(m);
+            m.take_frame();
         }
         self.dropped_files(&ctx);
         if ctx.input(|i| i.viewport().close_requested())
@@ -1410,7 +1143,11 @@ impl eframe::App for StudioApp {
             self.shell.pending = Some(Pending::Close);
         }
         let exporting = self.exporting();
-        if self.shell.dialog.is_none() && self.shell.message.is_none() && self.shell.pending.is_none() && !exporting {
+        if self.shell.dialog.is_none()
+            && self.shell.message.is_none()
+            && self.shell.pending.is_none()
+            && !exporting
+        {
             if self.mode == Mode::Compose {
                 self.compose_keys(&ctx);
             } else {

@@ -5,8 +5,7 @@ use csrbf::glam::DVec3;
 use csrbf::{Handle, Kernel, Polynomial, Region};
 use eframe::egui;
 
-use super::composer::Composer;
-use super::{Model, StudioApp, Tool};
+use super::picker::{Model, Picker, Tool};
 use crate::Command;
 
 /// A button of the selection that is not one edit.
@@ -19,39 +18,21 @@ enum Action {
 use crate::gizmo::HandleMode;
 use crate::tools::VertexTarget;
 
-impl StudioApp {
-    pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
-        let frame_ms = self.screen.frame_time.as_secs_f64() * 1e3;
-        let rate = self.playback_rate();
-        ui.horizontal(|ui| {
-            if self.mode == super::Mode::Compose
-                && let Some(c) = self.composer.as_ref()
-            {
-                compose_status(ui, c, rate, frame_ms);
-            } else if let Some(m) = self.picker.model.as_ref() {
-                pick_status(ui, m, frame_ms);
-            }
-            if let Some(e) = self.screen.gpu.as_ref().and_then(super::gpu::last_error) {
-                ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
-            }
-            ui.label(&self.shell.status);
-        });
-    }
-
+impl Picker {
     pub(super) fn side_panel(&mut self, ui: &mut egui::Ui) {
         ui.heading("Tool");
         ui.horizontal(|ui| {
-            ui.selectable_value(&mut self.picker.tool, Tool::Place, "Place")
+            ui.selectable_value(&mut self.tool, Tool::Place, "Place")
                 .on_hover_text("P: a click on the surface adds a control vector (a pin); drag to set its destination");
-            ui.selectable_value(&mut self.picker.tool, Tool::Select, "Select")
+            ui.selectable_value(&mut self.tool, Tool::Select, "Select")
                 .on_hover_text("S: click markers to select (Shift adds), drag a box on the background");
-            ui.selectable_value(&mut self.picker.tool, Tool::Vertices, "Vertices")
+            ui.selectable_value(&mut self.tool, Tool::Vertices, "Vertices")
                 .on_hover_text("V: drag a box on the surface to choose vertices for a handle, an anchor or a region");
         });
         ui.horizontal(|ui| {
             ui.label("Hold to axis:");
             for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
-                let on = self.picker.axis == Some(a);
+                let on = self.axis == Some(a);
                 if ui
                     .selectable_label(on, name)
                     .on_hover_text(format!("{name}: moves go along the {name} axis only"))
@@ -61,10 +42,10 @@ impl StudioApp {
                 }
             }
         });
-        if self.picker.view.stamp.is_some() && ui.button("Stop stamping (Esc)").clicked() {
-            self.picker.view.stamp = None;
+        if self.view.stamp.is_some() && ui.button("Stop stamping (Esc)").clicked() {
+            self.view.stamp = None;
         }
-        if self.picker.model.is_none() {
+        if self.model.is_none() {
             return;
         }
         ui.separator();
@@ -81,7 +62,7 @@ impl StudioApp {
 
     fn layers_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Layers");
-        let Some(m) = self.picker.model.as_mut() else {
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         let n = m.doc.controls.deformations.len();
@@ -103,7 +84,7 @@ impl StudioApp {
         match command {
             Some(Some(c)) => {
                 self.edit(c, true);
-                if let Some(m) = self.picker.model.as_mut() {
+                if let Some(m) = self.model.as_mut() {
                     let last = m.doc.controls.deformations.len() - 1;
                     m.doc.active_layer = m.doc.active_layer.min(last);
                 }
@@ -111,7 +92,7 @@ impl StudioApp {
             Some(None) => self.refresh(true),
             None => {}
         }
-        if let Some(m) = self.picker.model.as_mut()
+        if let Some(m) = self.model.as_mut()
             && combine_ui(ui, m)
         {
             self.refresh(true);
@@ -119,7 +100,7 @@ impl StudioApp {
     }
 
     fn parameters_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(m) = self.picker.model.as_mut() else {
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         let l = m.doc.active_layer;
@@ -131,7 +112,7 @@ impl StudioApp {
                 .unwrap_or_else(|| format!("Layer {}", l + 1))
         ));
         let r = radius_ui(ui, m, &spec);
-        self.picker.view.all_spheres = r.dragged() || r.has_focus();
+        self.view.all_spheres = r.dragged() || r.has_focus();
         let drag_stopped = r.drag_stopped();
         let mut commands: Vec<Command> = Vec::new();
         if let Some(radius) = r.radius {
@@ -151,13 +132,13 @@ impl StudioApp {
         if phase_changed {
             self.refresh(false);
         }
-        if drag_stopped && let Some(m) = self.picker.model.as_mut() {
+        if drag_stopped && let Some(m) = self.model.as_mut() {
             m.history.end_drag();
         }
     }
 
     fn selection_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(m) = self.picker.model.as_mut() else {
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         ui.heading("Selection");
@@ -209,8 +190,8 @@ impl StudioApp {
 
     fn vertices_ui(&mut self, ui: &mut egui::Ui) {
         ui.heading("Handle");
-        let axis = self.picker.axis;
-        let Some(m) = self.picker.model.as_mut() else {
+        let axis = self.axis;
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         ui.label("Vertices tool (V): drag a box, or Ctrl+drag a brush, on the surface; then:");
@@ -221,7 +202,7 @@ impl StudioApp {
         });
         ui.label(format!("{} vertices chosen", m.picked_vertices.len()));
         ui.add(
-            egui::Slider::new(&mut self.picker.view.brush, 0.002..=0.3)
+            egui::Slider::new(&mut self.view.brush, 0.002..=0.3)
                 .logarithmic(true)
                 .text("brush")
                 .custom_formatter(|v, _| format!("{:.1} %", v * 100.0)),
@@ -239,9 +220,9 @@ impl StudioApp {
                 l + 1
             ));
             ui.horizontal(|ui| {
-                ui.radio_value(&mut self.picker.handle_mode, HandleMode::Rotate, "rotate");
-                ui.radio_value(&mut self.picker.handle_mode, HandleMode::Scale, "scale");
-                ui.radio_value(&mut self.picker.handle_mode, HandleMode::Move, "move");
+                ui.radio_value(&mut self.handle_mode, HandleMode::Rotate, "rotate");
+                ui.radio_value(&mut self.handle_mode, HandleMode::Scale, "scale");
+                ui.radio_value(&mut self.handle_mode, HandleMode::Move, "move");
             });
             let view_axis = crate::gizmo::handle_axis(axis, &m.orbit.camera());
             if let Some(new) = handle_ui(ui, &h, view_axis, m.doc.diagonal()) {
@@ -263,7 +244,7 @@ impl StudioApp {
     }
 
     fn diagnostics_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(m) = self.picker.model.as_ref() else {
+        let Some(m) = self.model.as_ref() else {
             return;
         };
         ui.heading("Diagnostics");
@@ -650,49 +631,9 @@ fn handle_ui(ui: &mut egui::Ui, h: &Handle, view_axis: DVec3, diagonal: f64) -> 
     (new != *h).then_some(new)
 }
 
-/// The Composer's status: the scene's size and timing, the playing rate
-/// and frames dropped, the frame's time, unsaved.
-fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame_ms: f64) {
-    let vertices: usize = c.loaded.scene.as_ref().map_or(0, |s| {
-        s.objects.iter().map(|o| o.mesh.positions.len()).sum()
-    });
-    ui.label(format!(
-        "{} objects · {} vertices · {} fps · {:.2} s",
-        c.doc.file.objects.len(),
-        vertices,
-        c.doc.file.fps,
-        c.doc.file.duration
-    ));
-    ui.separator();
-    if c.playback.playing {
-        ui.label(format!("playing at {rate:.1} fps"));
-        if c.every_frame {
-            ui.label("(every frame: slower than real time when it must)");
-        } else if c.playback.dropped > 0 {
-            ui.colored_label(
-                egui::Color32::from_rgb(240, 190, 90),
-                format!(
-                    "{} frames dropped: this machine draws slower than {} fps",
-                    c.playback.dropped, c.doc.file.fps
-                ),
-            );
-        }
-        ui.separator();
-    } else if c.playback.dropped > 0 {
-        ui.label(format!("last play dropped {} frames", c.playback.dropped));
-        ui.separator();
-    }
-    ui.label(format!("frame {frame_ms:.1} ms"));
-    if c.doc.dirty {
-        ui.separator();
-        ui.label("unsaved");
-    }
-    ui.separator();
-}
-
 /// The Picker's status: the model's size, the solver, the last fit, the
 /// frame's time, unsaved.
-fn pick_status(ui: &mut egui::Ui, m: &Model, frame_ms: f64) {
+pub(super) fn pick_status(ui: &mut egui::Ui, m: &Model, frame_ms: f64) {
     let controls: usize = m
         .doc
         .controls

@@ -153,7 +153,7 @@ impl StudioApp {
         };
         part.texture = Some(c.doc.name_of(path));
         if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
-            self.shell.status = format!("Texture {}", path.display());
+            *self.status_mut() = format!("Texture {}", path.display());
         }
     }
 
@@ -188,7 +188,7 @@ impl StudioApp {
             easing: Easing::default(),
         });
         if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
-            self.shell.status = format!(
+            *self.status_mut() = format!(
                 "Added {} (phase 1 throughout until it has phase keys)",
                 path.display()
             );

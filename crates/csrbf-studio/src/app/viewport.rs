@@ -7,57 +7,11 @@ use csrbf_anim::{Camera, ViewPreset};
 use csrbf_render::{DrawOptions, Line, axis_gizmo, circle_lines, control_lines};
 use eframe::egui;
 
-use super::{Model, StudioApp, Tool, gpu};
+use super::gpu::{self, Screen};
+use super::picker::{Display, Gesture, Model, Picker, Tool, ViewSettings};
 use crate::gizmo::{HandleDrag, RING_PIXELS, axis_rings, ring_under, world_per_pixel};
 use crate::tools::VertexTarget;
 use crate::{Command, DragTool, End, pick_marker, pick_surface_on};
-
-/// What is shown of the model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Display {
-    /// Deformed.
-    Deformed,
-    /// At rest.
-    Rest,
-    /// Deformed, with the rest shape's edges as a ghost.
-    Both,
-}
-
-/// The viewport's display settings.
-#[derive(Clone, Debug)]
-pub struct ViewSettings {
-    pub display: Display,
-    pub wireframe: bool,
-    pub flat: bool,
-    pub starts: bool,
-    pub arrows: bool,
-    /// Support spheres of the selection.
-    pub spheres: bool,
-    pub gizmo: bool,
-    /// Show every support sphere of the active layer (while the radius slider moves).
-    pub all_spheres: bool,
-    /// A displacement to stamp on the next clicks (Duplicate).
-    pub stamp: Option<DVec3>,
-    /// The vertex brush's radius, as a share of the model's diagonal.
-    pub brush: f32,
-}
-
-impl Default for ViewSettings {
-    fn default() -> Self {
-        ViewSettings {
-            display: Display::Deformed,
-            wireframe: false,
-            flat: false,
-            starts: true,
-            arrows: true,
-            spheres: true,
-            gizmo: true,
-            all_spheres: false,
-            stamp: None,
-            brush: 0.03,
-        }
-    }
-}
 
 /// The pointer's state this frame, as the viewports read it.
 pub(super) struct PointerInput {
@@ -89,41 +43,11 @@ impl PointerInput {
     }
 }
 
-/// A pointer gesture in progress.
-#[derive(Clone, Debug)]
-pub enum Gesture {
-    None,
-    /// Moving one end of a control vector.
-    Marker {
-        layer: usize,
-        index: usize,
-        end: End,
-        tool: DragTool,
-        moved: bool,
-    },
-    /// A selection box from this point (in points).
-    Box {
-        from: egui::Pos2,
-        add: bool,
-    },
-    /// Turning, scaling or moving a handle about its pivot.
-    /// A handle's gizmo dragged (a ring turned, or the pivot rotated,
-    /// scaled or moved).
-    Handle {
-        layer: usize,
-        drag: Box<HandleDrag>,
-    },
-    Orbit,
-    Pan,
-    /// Painting vertices under a brush (Vertices tool with Ctrl).
-    Brush,
-}
-
 const TOLERANCE_POINTS: f32 = 9.0;
 
-impl StudioApp {
-    pub(super) fn view_menu(&mut self, ui: &mut egui::Ui) {
-        let v = &mut self.picker.view;
+impl Picker {
+    pub(super) fn view_menu(&mut self, ui: &mut egui::Ui, size: [u32; 2]) {
+        let v = &mut self.view;
         ui.radio_value(&mut v.display, Display::Deformed, "Deformed");
         ui.radio_value(&mut v.display, Display::Rest, "Rest");
         ui.radio_value(&mut v.display, Display::Both, "Both (rest as ghost)");
@@ -136,12 +60,12 @@ impl StudioApp {
         ui.checkbox(&mut v.gizmo, "Axis gizmo");
         ui.separator();
         if ui.button("Frame all  Shift+F").clicked() {
-            self.frame_view(false);
+            self.frame_view(false, size);
         }
         if ui.button("Frame selection  F").clicked() {
-            self.frame_view(true);
+            self.frame_view(true, size);
         }
-        let Some(m) = self.picker.model.as_mut() else {
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         for (name, p) in [
@@ -180,7 +104,7 @@ impl StudioApp {
         });
     }
 
-    pub(super) fn viewport_ui(&mut self, ui: &mut egui::Ui) {
+    pub(super) fn viewport_ui(&mut self, ui: &mut egui::Ui, screen: &mut Screen) {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
         let ppp = ui.ctx().pixels_per_point();
@@ -188,8 +112,8 @@ impl StudioApp {
             ((rect.width() * ppp).round() as u32).max(1),
             ((rect.height() * ppp).round() as u32).max(1),
         ];
-        self.screen.viewport = (size, rect, ppp);
-        if self.picker.model.is_none() {
+        screen.viewport = (size, rect, ppp);
+        if self.model.is_none() {
             ui.painter()
                 .rect_filled(rect, 0.0, egui::Color32::from_gray(40));
             ui.painter().text(
@@ -203,7 +127,7 @@ impl StudioApp {
         }
         // The first picture of a mesh frames it for the viewport's real shape.
         // (the rest shape: the same picture whenever the preview arrives).
-        if let Some(m) = self.picker.model.as_mut()
+        if let Some(m) = self.model.as_mut()
             && !m.framed
             && size[0] > 1
             && size[1] > 1
@@ -213,7 +137,7 @@ impl StudioApp {
             m.framed = true;
         }
         self.pointer(ui, &response, rect, ppp, size);
-        self.paint(ui, rect, ppp, size);
+        self.paint(ui, rect, ppp, size, screen.gpu.is_some());
     }
 
     /// The pixel (physical, from the viewport's corner) of a screen position.
@@ -222,7 +146,7 @@ impl StudioApp {
     }
 
     pub(super) fn axis_vector(&self) -> Option<DVec3> {
-        self.picker.axis.map(|a| {
+        self.axis.map(|a| {
             let mut v = DVec3::ZERO;
             v[a] = 1.0;
             v
@@ -254,7 +178,7 @@ impl StudioApp {
             && scroll != 0.0
             && let Some(pos) = pos
         {
-            let Some(m) = self.picker.model.as_mut() else {
+            let Some(m) = self.model.as_mut() else {
                 return;
             };
             let px = Self::pixel(pos, rect, ppp);
@@ -267,7 +191,7 @@ impl StudioApp {
         }
         // Orbit and pan: right or middle button, Shift to pan; Alt+left orbits.
         if hovered && (secondary || middle) && delta != egui::Vec2::ZERO {
-            let Some(m) = self.picker.model.as_mut() else {
+            let Some(m) = self.model.as_mut() else {
                 return;
             };
             if modifiers.shift || (middle && modifiers.ctrl) {
@@ -283,9 +207,9 @@ impl StudioApp {
         let px = Self::pixel(pos, rect, ppp);
         if pressed && rect.contains(pos) && response.hovered() {
             if modifiers.alt && modifiers.shift {
-                self.picker.gesture = Gesture::Pan;
+                self.gesture = Gesture::Pan;
             } else if modifiers.alt {
-                self.picker.gesture = Gesture::Orbit;
+                self.gesture = Gesture::Orbit;
             } else {
                 self.press(px, pos, modifiers, size, ppp);
             }
@@ -307,9 +231,9 @@ impl StudioApp {
         ppp: f32,
     ) {
         let axis = self.axis_vector();
-        let tool = self.picker.tool;
-        let stamp = self.picker.view.stamp;
-        let Some(m) = self.picker.model.as_mut() else {
+        let tool = self.tool;
+        let stamp = self.view.stamp;
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
@@ -338,7 +262,7 @@ impl StudioApp {
                     pressed: px,
                     tool: DragTool::begin(&cam, size, px, pivot, axis),
                 };
-                self.picker.gesture = Gesture::Handle {
+                self.gesture = Gesture::Handle {
                     layer,
                     drag: Box::new(drag),
                 };
@@ -350,7 +274,7 @@ impl StudioApp {
             if !modifiers.shift {
                 m.picked_vertices.clear();
             }
-            self.picker.gesture = Gesture::Brush;
+            self.gesture = Gesture::Brush;
             self.brush(px, size);
             return;
         }
@@ -374,7 +298,7 @@ impl StudioApp {
                 End::Target => spec.targets[hit.index],
             };
             m.history.begin_drag();
-            self.picker.gesture = Gesture::Marker {
+            self.gesture = Gesture::Marker {
                 layer: hit.layer,
                 index: hit.index,
                 end: hit.end,
@@ -392,12 +316,12 @@ impl StudioApp {
                 let target = hit.rest + stamp.unwrap_or(DVec3::ZERO);
                 let index = m.doc.controls.deformations[layer].starts.len();
                 self.edit(Command::add(layer, hit.rest, target), true);
-                let m = self.picker.model.as_mut().expect("still open");
+                let m = self.model.as_mut().expect("still open");
                 if m.doc.controls.deformations[layer].starts.len() > index {
                     m.doc.selection.0 = vec![(layer, index)];
                     if stamp.is_none() {
                         m.history.begin_drag();
-                        self.picker.gesture = Gesture::Marker {
+                        self.gesture = Gesture::Marker {
                             layer,
                             index,
                             end: End::Target,
@@ -405,7 +329,7 @@ impl StudioApp {
                             moved: false,
                         };
                     }
-                    self.shell.status = format!(
+                    self.status = format!(
                         "Control {} of layer {} at ({:.4}, {:.4}, {:.4}), triangle {}: drag to set its destination",
                         index + 1,
                         layer + 1,
@@ -421,18 +345,18 @@ impl StudioApp {
         if !modifiers.shift && tool != Tool::Vertices {
             m.doc.selection.0.clear();
         }
-        self.picker.gesture = Gesture::Box {
+        self.gesture = Gesture::Box {
             from: pos,
             add: modifiers.shift,
         };
     }
 
     fn moved(&mut self, px: Vec2, pos: egui::Pos2, delta: egui::Vec2, size: [u32; 2], ppp: f32) {
-        let Some(m) = self.picker.model.as_mut() else {
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
-        match self.picker.gesture.clone() {
+        match self.gesture.clone() {
             Gesture::Marker {
                 layer,
                 index,
@@ -465,14 +389,14 @@ impl StudioApp {
                         }
                     }
                 };
-                if let Gesture::Marker { moved, .. } = &mut self.picker.gesture {
+                if let Gesture::Marker { moved, .. } = &mut self.gesture {
                     *moved = true;
                 }
                 // A destination moving is a drag step; a start needs a refit.
                 self.edit(command, end == End::Start);
             }
             Gesture::Handle { layer, drag } => {
-                let h = drag.moved(self.picker.handle_mode, self.picker.axis, (&cam, size), px);
+                let h = drag.moved(self.handle_mode, self.axis, (&cam, size), px);
                 let mut spec = m.doc.controls.deformations[layer].clone();
                 spec.handle = Some(h);
                 let command = Command::ReplaceLayer {
@@ -493,8 +417,8 @@ impl StudioApp {
     /// Adds the vertices within the brush's radius of the surface point
     /// under `px` (as shown) to the chosen vertices.
     fn brush(&mut self, px: Vec2, size: [u32; 2]) {
-        let radius = self.picker.view.brush * self.picker.model.as_ref().map_or(0.0, |m| m.doc.diagonal()) as f32;
-        let Some(m) = self.picker.model.as_mut() else {
+        let radius = self.view.brush * self.model.as_ref().map_or(0.0, |m| m.doc.diagonal()) as f32;
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
@@ -515,17 +439,17 @@ impl StudioApp {
             m.picked_vertices.sort_unstable();
             m.picked_vertices.dedup();
         }
-        self.shell.status = format!(
+        self.status = format!(
             "{} vertices chosen (brush {:.1} % of the diagonal)",
             m.picked_vertices.len(),
-            self.picker.view.brush * 100.0
+            self.view.brush * 100.0
         );
     }
 
     fn release(&mut self, pos: egui::Pos2, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
-        let gesture = std::mem::replace(&mut self.picker.gesture, Gesture::None);
-        let tool = self.picker.tool;
-        let Some(m) = self.picker.model.as_mut() else {
+        let gesture = std::mem::replace(&mut self.gesture, Gesture::None);
+        let tool = self.tool;
+        let Some(m) = self.model.as_mut() else {
             return;
         };
         match gesture {
@@ -567,7 +491,7 @@ impl StudioApp {
                     chosen.dedup();
                     let n = chosen.len();
                     m.picked_vertices = chosen;
-                    self.shell.status = format!(
+                    self.status = format!(
                         "{n} vertices chosen; apply them as a {} in the side panel",
                         match m.vertex_target {
                             VertexTarget::Handle => "handle",
@@ -588,15 +512,15 @@ impl StudioApp {
                         }
                     }
                 }
-                self.shell.status = format!("{} selected", m.doc.selection.0.len());
+                self.status = format!("{} selected", m.doc.selection.0.len());
             }
             Gesture::Orbit | Gesture::Pan | Gesture::Brush | Gesture::None => {}
         }
     }
 
-    fn paint(&mut self, ui: &egui::Ui, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
-        let v = self.picker.view.clone();
-        let Some(m) = self.picker.model.as_ref() else {
+    fn paint(&mut self, ui: &egui::Ui, rect: egui::Rect, ppp: f32, size: [u32; 2], gpu: bool) {
+        let v = self.view.clone();
+        let Some(m) = self.model.as_ref() else {
             return;
         };
         let cam = m.orbit.camera();
@@ -624,9 +548,9 @@ impl StudioApp {
         let mut options = DrawOptions::default();
         options.flat = v.flat;
         options.wireframe = v.wireframe;
-        if self.screen.gpu.is_some() {
+        if gpu {
             // A big mesh moving (a gesture, a fit under way) is drawn light.
-            let moving = !matches!(self.picker.gesture, Gesture::None | Gesture::Box { .. })
+            let moving = !matches!(self.gesture, Gesture::None | Gesture::Box { .. })
                 || !m.preview.is_settled()
                 || ui.input(|i| {
                     i.pointer.secondary_down()
@@ -672,7 +596,7 @@ impl StudioApp {
         rect: egui::Rect,
         (cam, size, ppp): (&Camera, [u32; 2], f32),
     ) {
-        let Some(m) = self.picker.model.as_ref() else {
+        let Some(m) = self.model.as_ref() else {
             return;
         };
         let painter = ui.painter_at(rect);
@@ -684,7 +608,7 @@ impl StudioApp {
                 painter.circle_filled(to_screen(q), 1.5, egui::Color32::from_rgb(255, 200, 40));
             }
         }
-        if let Gesture::Box { from, .. } = &self.picker.gesture
+        if let Gesture::Box { from, .. } = &self.gesture
             && let Some(pos) = ui.input(|i| i.pointer.interact_pos())
         {
             painter.rect_stroke(
@@ -694,7 +618,7 @@ impl StudioApp {
                 egui::StrokeKind::Inside,
             );
         }
-        if let Some(a) = self.picker.axis {
+        if let Some(a) = self.axis {
             painter.text(
                 rect.left_top() + egui::vec2(8.0, 8.0),
                 egui::Align2::LEFT_TOP,
