@@ -20,6 +20,7 @@ use eframe::egui;
 
 use super::files::{Purpose, SceneRecovery};
 use super::key_drag::{self, KeyDrag, Press, Released, Shown};
+use super::request::Outbox;
 use super::viewport::{PointerInput, polyline};
 use super::{Pending, StudioApp, gpu};
 use crate::Orbit;
@@ -112,6 +113,8 @@ pub(super) struct Composer {
     pub rows: Vec<((usize, Track), egui::Rect)>,
     /// The status line while the Composer is shown.
     pub status: String,
+    /// What the Composer asks of the shell.
+    pub outbox: Outbox,
 }
 
 impl Composer {
@@ -145,6 +148,7 @@ impl Composer {
             ruler: egui::Rect::NOTHING,
             rows: Vec::new(),
             status: String::new(),
+            outbox: Outbox::default(),
         }
     }
 
@@ -156,8 +160,8 @@ impl Composer {
 
     /// Installs a prepared scene; `structural`: the GPU prepares it again.
     /// A selection the scene no longer has is dropped.
-    fn install(&mut self, scene: Option<Scene>, structural: bool, next_id: &mut u64) {
-        self.loaded.install(scene, structural, next_id);
+    fn install(&mut self, scene: Option<Scene>, structural: bool) {
+        gpu::with_mesh_ids(|ids| self.loaded.install(scene, structural, ids));
         self.hidden.resize(self.doc.file.objects.len(), false);
         if self
             .selected
@@ -211,6 +215,339 @@ impl Composer {
 
 /// The Composer's viewport input: what the pointer does to its camera and,
 /// through [`key_drag`], to its keys.
+/// The Composer's edits, playback and keys.
+impl Composer {
+    /// Applies a scene edit: the scene it makes must load (a mesh that
+    /// cannot be read, a texture missing...), else nothing changes and the
+    /// reason is shown. One undo step.
+    pub(super) fn edit(&mut self, edit: SceneEdit) -> bool {
+        self.edit_merging(edit, None)
+    }
+
+    /// [`Composer::edit`], merged into the last step when it has the
+    /// same `tag` (the steps of one slider drag).
+    pub(super) fn edit_merging(&mut self, edit: SceneEdit, tag: Option<&'static str>) -> bool {
+        let mut trial = self.doc.clone();
+        if let Err(e) = edit.apply(&mut trial) {
+            self.status = format!("Not done: {e}");
+            return false;
+        }
+        let structural = matches!(
+            edit,
+            SceneEdit::AddObject(_) | SceneEdit::RemoveObject(_) | SceneEdit::ReplaceObject(..)
+        );
+        match self.prepare(&trial.file, structural) {
+            Ok(scene) => {
+                let applied = match tag {
+                    Some(tag) => self.history.apply_merging(&mut self.doc, &edit, tag),
+                    None => self.history.apply(&mut self.doc, &edit),
+                };
+                if let Err(e) = applied {
+                    self.status = format!("Not done: {e}");
+                    return false;
+                }
+                self.install(scene, structural);
+                true
+            }
+            Err(e) => {
+                self.outbox.error("Not done", e.to_string());
+                false
+            }
+        }
+    }
+
+    pub(super) fn undo(&mut self, redo: bool) {
+        let before = self.doc.clone();
+        let r = if redo {
+            self.history.redo(&mut self.doc)
+        } else {
+            self.history.undo(&mut self.doc)
+        };
+        if let Err(e) = r {
+            self.status = e.to_string();
+            return;
+        }
+        let file = self.doc.file.clone();
+        match self.prepare(&file, false) {
+            Ok(scene) => {
+                self.install(scene, false);
+                self.status = if redo { "Redone" } else { "Undone" }.into();
+            }
+            Err(e) => {
+                // A file changed on disk since: keep the document as it was.
+                self.doc = before;
+                self.outbox.error("Cannot undo", e.to_string());
+            }
+        }
+    }
+
+    /// Loads the scene again from the disk (after the Picker saved one of
+    /// its control files).
+    pub(super) fn reload(&mut self) {
+        self.loaded.forget_meshes();
+        let file = self.doc.file.clone();
+        match self.prepare(&file, true) {
+            Ok(scene) => self.install(scene, true),
+            Err(e) => {
+                self.loaded.problem = Some(e.to_string());
+                self.outbox
+                    .error("The scene no longer loads", e.to_string());
+            }
+        }
+    }
+
+    /// Plays: advances the playhead by the wall clock (or one frame a draw,
+    /// when every frame is asked for).
+    pub(super) fn tick(&mut self, ctx: &egui::Context, cpu: Option<f32>) {
+        let now = Instant::now();
+        if !self.playback.playing {
+            self.last_tick = None;
+            self.drawn.clear();
+            // A play ended (paused, or at the end): say how it went, for
+            // whoever reads the log (the figures of issue 9 come from it).
+            if let Some((from, frames, cpu)) = self.played.take() {
+                let secs = (now - from).as_secs_f64();
+                eprintln!(
+                    "csrbf-studio: played {frames} frames in {secs:.2} s = {:.1} fps ({} frames dropped; the scene runs at {} fps; {:.1} ms of CPU a frame in the app)",
+                    frames as f64 / secs.max(1e-9),
+                    self.playback.dropped,
+                    self.doc.file.fps,
+                    1e3 * cpu / frames.max(1) as f64
+                );
+            }
+            return;
+        }
+        let played = self.played.get_or_insert((now, 0, 0.0));
+        played.1 += 1;
+        played.2 += f64::from(cpu.unwrap_or(0.0));
+        let elapsed = self.last_tick.map_or(0.0, |t| (now - t).as_secs_f64());
+        self.last_tick = Some(now);
+        if self.every_frame {
+            let before = self.doc.playhead;
+            let frame = 1.0 / self.doc.file.fps;
+            self.playback.advance(&mut self.doc, frame);
+            if self.doc.playhead == before && !self.playback.playing {
+                self.last_tick = None;
+            }
+        } else {
+            self.playback.advance(&mut self.doc, elapsed);
+        }
+        self.drawn.push(now);
+        self.drawn.retain(|t| now - *t < Duration::from_secs(1));
+        ctx.request_repaint();
+    }
+
+    /// The rate frames were drawn at while playing, over the last second.
+    pub(super) fn playback_rate(&self) -> f64 {
+        match (self.drawn.first(), self.drawn.last()) {
+            (Some(a), Some(b)) if self.drawn.len() > 1 && b > a => {
+                (self.drawn.len() - 1) as f64 / (*b - *a).as_secs_f64()
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Starts or stops playing.
+    pub(super) fn toggle_play(&mut self) {
+        if self.playback.playing {
+            self.playback.pause();
+        } else {
+            self.playback.dropped = 0;
+            self.playback.play(&mut self.doc);
+        }
+    }
+
+    /// Plays (tests: `advance` then moves by the wall clock from now).
+    pub(super) fn play(&mut self) {
+        if !self.playback.playing {
+            self.playback.dropped = 0;
+            self.playback.play(&mut self.doc);
+        }
+    }
+
+    /// Moves the playhead (snapped to the scene's frames) and stops playing.
+    pub(super) fn set_playhead(&mut self, time: f64) {
+        let fps = self.doc.file.fps;
+        self.doc.playhead = ((time * fps).round() / fps).clamp(0.0, self.doc.file.duration);
+        self.playback.pause();
+    }
+
+    /// Adds a key on `track` of `object` at the playhead with the value the
+    /// scene has there now (then edited in the panel or the viewport).
+    pub(super) fn add_key(&mut self, object: usize, track: Track) {
+        let value = match self.value_now(object, track) {
+            Some(v) => v,
+            None => match track {
+                Track::Position => KeyValue::Position([0.0; 3]),
+                Track::Orientation => KeyValue::Orientation([0.0, 0.0, 0.0, 1.0]),
+                Track::Phase { .. } => KeyValue::Phase(1.0),
+            },
+        };
+        let t = self.doc.playhead;
+        if self.edit(SceneEdit::AddKey {
+            object,
+            track,
+            value,
+        }) {
+            let index = self
+                .doc
+                .key_times(object, track)
+                .iter()
+                .position(|&k| k == t);
+            self.key = index.map(|i| (object, track, i));
+            self.selected = Some(object);
+            self.status = format!("Key at {t:.3} s");
+        }
+    }
+
+    /// Deletes the selected key.
+    pub(super) fn delete_key(&mut self) {
+        let Some((object, track, index)) = self.key else {
+            return;
+        };
+        if self.edit(SceneEdit::DeleteKey {
+            object,
+            track,
+            index,
+        }) {
+            self.key = None;
+        }
+    }
+
+    /// Copies the selected key to the playhead.
+    pub(super) fn copy_key(&mut self) {
+        let Some((object, track, index)) = self.key else {
+            return;
+        };
+        self.edit(SceneEdit::CopyKey {
+            object,
+            track,
+            index,
+        });
+    }
+
+    /// Copies the selected key (Ctrl+C): its value and, for a position key,
+    /// its tension, continuity and bias. The key is also put on the system
+    /// clipboard as JSON (as the scene file writes it), which is also what
+    /// lets a window's Ctrl+V reach the app.
+    pub(super) fn copy_key_to_clipboard(&mut self, ctx: &egui::Context) {
+        let Some((object, track, index)) = self.key else {
+            self.status =
+                "Nothing copied: select a key first (on the timeline or in the viewport)".into();
+            return;
+        };
+        let Some(of) = self.doc.file.objects.get(object) else {
+            return;
+        };
+        let Some(value) = key_value(of, track, index) else {
+            return;
+        };
+        let (tcb, json, kind) = match track {
+            Track::Position => {
+                let k = of.trajectory.get(index);
+                (
+                    k.map(|k| [k.tension, k.continuity, k.bias]),
+                    k.and_then(|k| serde_json::to_string(k).ok()),
+                    "position",
+                )
+            }
+            Track::Orientation => (
+                None,
+                of.orientation
+                    .get(index)
+                    .and_then(|k| serde_json::to_string(k).ok()),
+                "orientation",
+            ),
+            Track::Phase { part, deformation } => (
+                None,
+                of.parts
+                    .get(part)
+                    .and_then(|p| p.deformations.get(deformation))
+                    .and_then(|d| d.phase.get(index))
+                    .and_then(|k| serde_json::to_string(k).ok()),
+                "phase",
+            ),
+        };
+        if let Some(json) = json {
+            ctx.copy_text(json);
+        }
+        self.copied = Some(CopiedKey {
+            object,
+            track,
+            value,
+            tcb,
+        });
+        let time = self.doc.key_times(object, track)[index];
+        self.status = format!(
+            "Copied the {kind} key at {time:.2} s of {:?}: Ctrl+V puts it at the playhead of the selected object",
+            of.name
+        );
+    }
+
+    /// Pastes the copied key at the playhead (Ctrl+V): onto the selected
+    /// object (else the one it came from), on its track of the same kind.
+    /// A phase key goes to the selected phase track of that object, else
+    /// the same part and deformation, else its first deformation.
+    pub(super) fn paste_key(&mut self) {
+        let Some(copied) = self.copied else {
+            self.status = "Nothing to paste: select a key and copy it with Ctrl+C".into();
+            return;
+        };
+        let object = self.selected.unwrap_or(copied.object);
+        let Some(of) = self.doc.file.objects.get(object) else {
+            self.status = "Nothing pasted: the object the key came from is gone".into();
+            return;
+        };
+        let track = match copied.track {
+            Track::Phase { .. } => {
+                let phases: Vec<Track> = of
+                    .parts
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(part, p)| {
+                        (0..p.deformations.len())
+                            .map(move |deformation| Track::Phase { part, deformation })
+                    })
+                    .collect();
+                let chosen = self
+                    .key
+                    .filter(|k| k.0 == object && matches!(k.1, Track::Phase { .. }))
+                    .map(|k| k.1);
+                match chosen
+                    .or_else(|| phases.contains(&copied.track).then_some(copied.track))
+                    .or_else(|| phases.first().copied())
+                {
+                    Some(t) => t,
+                    None => {
+                        self.status = format!(
+                            "Nothing pasted: {:?} has no deformation to take a phase key",
+                            of.name
+                        );
+                        return;
+                    }
+                }
+            }
+            other => other,
+        };
+        let (time, name) = (self.doc.playhead, of.name.clone());
+        if self.edit(SceneEdit::PasteKey {
+            object,
+            track,
+            value: copied.value,
+            tcb: copied.tcb,
+        }) {
+            let index = self
+                .doc
+                .key_times(object, track)
+                .iter()
+                .position(|&t| t == time);
+            self.selected = Some(object);
+            self.key = index.map(|i| (object, track, i));
+            self.status = format!("Pasted the key at {time:.2} s of {name:?}");
+        }
+    }
+}
+
 impl Composer {
     /// Orbit, pan and zoom leave the scene camera's view for the free one.
     fn leave_camera(&mut self) {
@@ -340,6 +677,90 @@ impl Composer {
 }
 
 impl StudioApp {
+    /// Applies a scene edit (see [`Composer::edit`]); false if it was
+    /// refused, with the reason shown.
+    pub fn scene_edit(&mut self, edit: SceneEdit) -> bool {
+        self.scene_edit_merging(edit, None)
+    }
+
+    pub(super) fn scene_edit_merging(
+        &mut self,
+        edit: SceneEdit,
+        tag: Option<&'static str>,
+    ) -> bool {
+        let done = self
+            .composer
+            .as_mut()
+            .is_some_and(|c| c.edit_merging(edit, tag));
+        self.serve();
+        done
+    }
+
+    /// Runs `f` on the Composer, if a scene is open, then does what it asked.
+    pub(super) fn with_composer(&mut self, f: impl FnOnce(&mut Composer)) {
+        if let Some(c) = self.composer.as_mut() {
+            f(c);
+        }
+        self.serve();
+    }
+
+    /// The rate frames were drawn at while playing, over the last second.
+    pub fn playback_rate(&self) -> f64 {
+        self.composer.as_ref().map_or(0.0, Composer::playback_rate)
+    }
+
+    /// Starts or stops playing.
+    pub fn toggle_play(&mut self) {
+        self.with_composer(Composer::toggle_play);
+    }
+
+    /// Plays (tests: `advance` then moves by the wall clock from now).
+    pub fn play(&mut self) {
+        self.with_composer(Composer::play);
+    }
+
+    /// Moves the playhead (snapped to the scene's frames) and stops playing.
+    pub fn set_playhead(&mut self, time: f64) {
+        self.with_composer(|c| c.set_playhead(time));
+    }
+
+    /// Adds a key on `track` of `object` at the playhead with the value the
+    /// scene has there now.
+    pub fn add_key(&mut self, object: usize, track: Track) {
+        self.with_composer(|c| c.add_key(object, track));
+    }
+
+    /// Deletes the selected key.
+    pub fn delete_key(&mut self) {
+        self.with_composer(Composer::delete_key);
+    }
+
+    /// Copies the selected key to the playhead.
+    pub fn copy_key(&mut self) {
+        self.with_composer(Composer::copy_key);
+    }
+
+    /// Copies the selected key (Ctrl+C), to the system clipboard too.
+    pub fn copy_key_to_clipboard(&mut self, ctx: &egui::Context) {
+        self.with_composer(|c| c.copy_key_to_clipboard(ctx));
+    }
+
+    /// Pastes the copied key at the playhead (Ctrl+V).
+    pub fn paste_key(&mut self) {
+        self.with_composer(Composer::paste_key);
+    }
+
+    pub(super) fn scene_undo(&mut self, redo: bool) {
+        self.with_composer(|c| c.undo(redo));
+    }
+
+    pub(super) fn reload_scene(&mut self) {
+        self.with_composer(Composer::reload);
+    }
+
+    pub(super) fn tick(&mut self, ctx: &egui::Context, cpu: Option<f32>) {
+        self.with_composer(|c| c.tick(ctx, cpu));
+    }
     /// The Composer's scene document, if one is open (for tests and tools).
     pub fn scene_doc(&self) -> Option<&SceneDoc> {
         self.composer.as_ref().map(|c| &c.doc)
@@ -493,7 +914,7 @@ impl StudioApp {
             Ok(s) => s,
             Err(e) => return self.show_error("Cannot open the scene", e.to_string()),
         };
-        c.install(scene, true, &mut self.screen.next_mesh_id);
+        c.install(scene, true);
         let warnings = c
             .loaded
             .scene
@@ -526,97 +947,6 @@ impl StudioApp {
         self.adopt_scene(doc, Instant::now(), "Restored the unsaved scene");
         if let Some(c) = self.composer.as_mut() {
             c.doc.dirty = true;
-        }
-    }
-
-    /// Applies a scene edit: the scene it makes must load (a mesh that
-    /// cannot be read, a texture missing...), else nothing changes and the
-    /// reason is shown. One undo step.
-    pub fn scene_edit(&mut self, edit: SceneEdit) -> bool {
-        self.scene_edit_merging(edit, None)
-    }
-
-    /// [`StudioApp::scene_edit`], merged into the last step when it has the
-    /// same `tag` (the steps of one slider drag).
-    pub(super) fn scene_edit_merging(
-        &mut self,
-        edit: SceneEdit,
-        tag: Option<&'static str>,
-    ) -> bool {
-        let Some(c) = self.composer.as_mut() else {
-            return false;
-        };
-        let mut trial = c.doc.clone();
-        if let Err(e) = edit.apply(&mut trial) {
-            *self.status_mut() = format!("Not done: {e}");
-            return false;
-        }
-        let structural = matches!(
-            edit,
-            SceneEdit::AddObject(_) | SceneEdit::RemoveObject(_) | SceneEdit::ReplaceObject(..)
-        );
-        match c.prepare(&trial.file, structural) {
-            Ok(scene) => {
-                let applied = match tag {
-                    Some(tag) => c.history.apply_merging(&mut c.doc, &edit, tag),
-                    None => c.history.apply(&mut c.doc, &edit),
-                };
-                if let Err(e) = applied {
-                    *self.status_mut() = format!("Not done: {e}");
-                    return false;
-                }
-                c.install(scene, structural, &mut self.screen.next_mesh_id);
-                true
-            }
-            Err(e) => {
-                self.show_error("Not done", e.to_string());
-                false
-            }
-        }
-    }
-
-    pub(super) fn scene_undo(&mut self, redo: bool) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
-        let before = c.doc.clone();
-        let r = if redo {
-            c.history.redo(&mut c.doc)
-        } else {
-            c.history.undo(&mut c.doc)
-        };
-        if let Err(e) = r {
-            *self.status_mut() = e.to_string();
-            return;
-        }
-        let file = c.doc.file.clone();
-        match c.prepare(&file, false) {
-            Ok(scene) => {
-                c.install(scene, false, &mut self.screen.next_mesh_id);
-                *self.status_mut() = if redo { "Redone" } else { "Undone" }.into();
-            }
-            Err(e) => {
-                // A file changed on disk since: keep the document as it was.
-                c.doc = before;
-                self.show_error("Cannot undo", e.to_string());
-            }
-        }
-    }
-
-    /// Loads the scene again from the disk (after the Picker saved one of
-    /// its control files).
-    pub(super) fn reload_scene(&mut self) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
-        c.loaded.forget_meshes();
-        let file = c.doc.file.clone();
-        match c.prepare(&file, true) {
-            Ok(scene) => c.install(scene, true, &mut self.screen.next_mesh_id),
-            Err(e) => {
-                c.loaded.problem = Some(e.to_string());
-                self.show_error("The scene no longer loads", e.to_string());
-            }
         }
     }
 
@@ -987,279 +1317,6 @@ impl StudioApp {
         } else {
             Duration::from_millis(250)
         });
-    }
-
-    /// Plays: advances the playhead by the wall clock (or one frame a draw,
-    /// when every frame is asked for).
-    pub(super) fn tick(&mut self, ctx: &egui::Context, cpu: Option<f32>) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
-        let now = Instant::now();
-        if !c.playback.playing {
-            c.last_tick = None;
-            c.drawn.clear();
-            // A play ended (paused, or at the end): say how it went, for
-            // whoever reads the log (the figures of issue 9 come from it).
-            if let Some((from, frames, cpu)) = c.played.take() {
-                let secs = (now - from).as_secs_f64();
-                eprintln!(
-                    "csrbf-studio: played {frames} frames in {secs:.2} s = {:.1} fps ({} frames dropped; the scene runs at {} fps; {:.1} ms of CPU a frame in the app)",
-                    frames as f64 / secs.max(1e-9),
-                    c.playback.dropped,
-                    c.doc.file.fps,
-                    1e3 * cpu / frames.max(1) as f64
-                );
-            }
-            return;
-        }
-        let played = c.played.get_or_insert((now, 0, 0.0));
-        played.1 += 1;
-        played.2 += f64::from(cpu.unwrap_or(0.0));
-        let elapsed = c.last_tick.map_or(0.0, |t| (now - t).as_secs_f64());
-        c.last_tick = Some(now);
-        if c.every_frame {
-            let before = c.doc.playhead;
-            let frame = 1.0 / c.doc.file.fps;
-            c.playback.advance(&mut c.doc, frame);
-            if c.doc.playhead == before && !c.playback.playing {
-                c.last_tick = None;
-            }
-        } else {
-            c.playback.advance(&mut c.doc, elapsed);
-        }
-        c.drawn.push(now);
-        c.drawn.retain(|t| now - *t < Duration::from_secs(1));
-        ctx.request_repaint();
-    }
-
-    /// The rate frames were drawn at while playing, over the last second.
-    pub fn playback_rate(&self) -> f64 {
-        let Some(c) = self.composer.as_ref() else {
-            return 0.0;
-        };
-        match (c.drawn.first(), c.drawn.last()) {
-            (Some(a), Some(b)) if c.drawn.len() > 1 && b > a => {
-                (c.drawn.len() - 1) as f64 / (*b - *a).as_secs_f64()
-            }
-            _ => 0.0,
-        }
-    }
-
-    /// Starts or stops playing.
-    pub fn toggle_play(&mut self) {
-        if let Some(c) = self.composer.as_mut() {
-            if c.playback.playing {
-                c.playback.pause();
-            } else {
-                c.playback.dropped = 0;
-                c.playback.play(&mut c.doc);
-            }
-        }
-    }
-
-    /// Plays (tests: `advance` then moves by the wall clock from now).
-    pub fn play(&mut self) {
-        if let Some(c) = self.composer.as_mut()
-            && !c.playback.playing
-        {
-            c.playback.dropped = 0;
-            c.playback.play(&mut c.doc);
-        }
-    }
-
-    /// Moves the playhead (snapped to the scene's frames) and stops playing.
-    pub fn set_playhead(&mut self, time: f64) {
-        if let Some(c) = self.composer.as_mut() {
-            let fps = c.doc.file.fps;
-            c.doc.playhead = ((time * fps).round() / fps).clamp(0.0, c.doc.file.duration);
-            c.playback.pause();
-        }
-    }
-
-    /// Adds a key on `track` of `object` at the playhead with the value the
-    /// scene has there now (then edited in the panel or the viewport).
-    pub fn add_key(&mut self, object: usize, track: Track) {
-        let Some(c) = self.composer.as_ref() else {
-            return;
-        };
-        let value = match c.value_now(object, track) {
-            Some(v) => v,
-            None => match track {
-                Track::Position => KeyValue::Position([0.0; 3]),
-                Track::Orientation => KeyValue::Orientation([0.0, 0.0, 0.0, 1.0]),
-                Track::Phase { .. } => KeyValue::Phase(1.0),
-            },
-        };
-        let t = c.doc.playhead;
-        if self.scene_edit(SceneEdit::AddKey {
-            object,
-            track,
-            value,
-        }) {
-            let Some(c) = self.composer.as_mut() else {
-                return;
-            };
-            let index = c.doc.key_times(object, track).iter().position(|&k| k == t);
-            c.key = index.map(|i| (object, track, i));
-            c.selected = Some(object);
-            *self.status_mut() = format!("Key at {t:.3} s");
-        }
-    }
-
-    /// Deletes the selected key.
-    pub fn delete_key(&mut self) {
-        let Some((object, track, index)) = self.composer.as_ref().and_then(|c| c.key) else {
-            return;
-        };
-        if self.scene_edit(SceneEdit::DeleteKey {
-            object,
-            track,
-            index,
-        }) && let Some(c) = self.composer.as_mut()
-        {
-            c.key = None;
-        }
-    }
-
-    /// Copies the selected key to the playhead.
-    pub fn copy_key(&mut self) {
-        let Some((object, track, index)) = self.composer.as_ref().and_then(|c| c.key) else {
-            return;
-        };
-        self.scene_edit(SceneEdit::CopyKey {
-            object,
-            track,
-            index,
-        });
-    }
-
-    /// Copies the selected key (Ctrl+C): its value and, for a position key,
-    /// its tension, continuity and bias. The key is also put on the system
-    /// clipboard as JSON (as the scene file writes it), which is also what
-    /// lets a window's Ctrl+V reach the app.
-    pub fn copy_key_to_clipboard(&mut self, ctx: &egui::Context) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
-        let Some((object, track, index)) = c.key else {
-            *self.status_mut() =
-                "Nothing copied: select a key first (on the timeline or in the viewport)".into();
-            return;
-        };
-        let Some(of) = c.doc.file.objects.get(object) else {
-            return;
-        };
-        let Some(value) = key_value(of, track, index) else {
-            return;
-        };
-        let (tcb, json, kind) = match track {
-            Track::Position => {
-                let k = of.trajectory.get(index);
-                (
-                    k.map(|k| [k.tension, k.continuity, k.bias]),
-                    k.and_then(|k| serde_json::to_string(k).ok()),
-                    "position",
-                )
-            }
-            Track::Orientation => (
-                None,
-                of.orientation
-                    .get(index)
-                    .and_then(|k| serde_json::to_string(k).ok()),
-                "orientation",
-            ),
-            Track::Phase { part, deformation } => (
-                None,
-                of.parts
-                    .get(part)
-                    .and_then(|p| p.deformations.get(deformation))
-                    .and_then(|d| d.phase.get(index))
-                    .and_then(|k| serde_json::to_string(k).ok()),
-                "phase",
-            ),
-        };
-        if let Some(json) = json {
-            ctx.copy_text(json);
-        }
-        c.copied = Some(CopiedKey {
-            object,
-            track,
-            value,
-            tcb,
-        });
-        let time = c.doc.key_times(object, track)[index];
-        *self.status_mut() = format!(
-            "Copied the {kind} key at {time:.2} s of {:?}: Ctrl+V puts it at the playhead of the selected object",
-            of.name
-        );
-    }
-
-    /// Pastes the copied key at the playhead (Ctrl+V): onto the selected
-    /// object (else the one it came from), on its track of the same kind.
-    /// A phase key goes to the selected phase track of that object, else
-    /// the same part and deformation, else its first deformation.
-    pub fn paste_key(&mut self) {
-        let Some(c) = self.composer.as_ref() else {
-            return;
-        };
-        let Some(copied) = c.copied else {
-            *self.status_mut() = "Nothing to paste: select a key and copy it with Ctrl+C".into();
-            return;
-        };
-        let object = c.selected.unwrap_or(copied.object);
-        let Some(of) = c.doc.file.objects.get(object) else {
-            *self.status_mut() = "Nothing pasted: the object the key came from is gone".into();
-            return;
-        };
-        let track = match copied.track {
-            Track::Phase { .. } => {
-                let phases: Vec<Track> = of
-                    .parts
-                    .iter()
-                    .enumerate()
-                    .flat_map(|(part, p)| {
-                        (0..p.deformations.len())
-                            .map(move |deformation| Track::Phase { part, deformation })
-                    })
-                    .collect();
-                let chosen = c
-                    .key
-                    .filter(|k| k.0 == object && matches!(k.1, Track::Phase { .. }))
-                    .map(|k| k.1);
-                match chosen
-                    .or_else(|| phases.contains(&copied.track).then_some(copied.track))
-                    .or_else(|| phases.first().copied())
-                {
-                    Some(t) => t,
-                    None => {
-                        *self.status_mut() = format!(
-                            "Nothing pasted: {:?} has no deformation to take a phase key",
-                            of.name
-                        );
-                        return;
-                    }
-                }
-            }
-            other => other,
-        };
-        let (time, name) = (c.doc.playhead, of.name.clone());
-        if self.scene_edit(SceneEdit::PasteKey {
-            object,
-            track,
-            value: copied.value,
-            tcb: copied.tcb,
-        }) && let Some(c) = self.composer.as_mut()
-        {
-            let index = c
-                .doc
-                .key_times(object, track)
-                .iter()
-                .position(|&t| t == time);
-            c.selected = Some(object);
-            c.key = index.map(|i| (object, track, i));
-            *self.status_mut() = format!("Pasted the key at {time:.2} s of {name:?}");
-        }
     }
 
     /// The Composer's keys.

@@ -5,6 +5,7 @@
 //! Everything the drawing needs travels in a [`ViewportPaint`] (shared
 //! arrays, no copies); the GPU objects live in egui's callback resources.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -26,7 +27,6 @@ pub use crate::preview::BIG_MESH_TRIANGLES;
 /// viewport's size and place, the last frame's time.
 pub(super) struct Screen {
     pub(super) gpu: Option<eframe::egui_wgpu::RenderState>,
-    pub(super) next_mesh_id: u64,
     pub(super) frame_time: Duration,
     /// The viewport's size in physical pixels, and where it is on screen.
     pub(super) viewport: ([u32; 2], egui::Rect, f32),
@@ -34,6 +34,27 @@ pub(super) struct Screen {
     pub(super) software: bool,
     /// To wake the window from other threads.
     pub(super) ctx: egui::Context,
+}
+
+/// The next id of a mesh for the GPU side (ids are never reused: a new one
+/// makes the GPU side prepare the mesh's parts again).
+static NEXT_MESH_ID: AtomicU64 = AtomicU64::new(1);
+
+/// Runs `f` with the next mesh id, which it advances by the ids it takes
+/// (the UI thread alone hands ids out).
+pub(super) fn with_mesh_ids<R>(f: impl FnOnce(&mut u64) -> R) -> R {
+    let mut next = NEXT_MESH_ID.load(Ordering::Relaxed);
+    let r = f(&mut next);
+    NEXT_MESH_ID.store(next, Ordering::Relaxed);
+    r
+}
+
+/// A new mesh id.
+pub(super) fn new_mesh_id() -> u64 {
+    with_mesh_ids(|next| {
+        *next += 1;
+        *next - 1
+    })
 }
 
 /// A mesh newly opened: the GPU side prepares its parts once.

@@ -9,6 +9,7 @@ mod gpu;
 mod key_drag;
 mod panel;
 mod picker;
+mod request;
 mod scene_panel;
 mod timeline;
 mod viewport;
@@ -29,6 +30,7 @@ pub use files::{MESH_ENDINGS, Recovery, state_dir};
 pub use gpu::BIG_MESH_TRIANGLES;
 use gpu::Screen;
 use picker::{Gesture, Model, Picker, Tool, ViewSettings};
+use request::Request;
 
 /// What the command line asked to open.
 #[derive(Clone, Debug, Default)]
@@ -114,7 +116,6 @@ impl StudioApp {
             },
             screen: Screen {
                 gpu,
-                next_mesh_id: 1,
                 frame_time: Duration::ZERO,
                 viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
                 software,
@@ -227,6 +228,48 @@ impl StudioApp {
         self.picker.model.as_ref()?.controls_path.as_deref()
     }
 
+    /// Does what the rooms asked for (see [`Request`]), including what
+    /// that asks in turn.
+    fn serve(&mut self) {
+        loop {
+            let requests = self
+                .composer
+                .as_mut()
+                .map(|c| c.outbox.take())
+                .unwrap_or_default();
+            if requests.is_empty() {
+                return;
+            }
+            for r in requests {
+                self.serve_one(r);
+            }
+        }
+    }
+
+    fn serve_one(&mut self, request: Request) {
+        match request {
+            Request::Ask(purpose) => self.ask(purpose),
+            Request::Error { title, text } => self.show_error(&title, text),
+            Request::EditInPicker(o, p, d) => self.edit_in_picker(o, p, d),
+        }
+    }
+
+    /// Opens `path` by what it is: a scene, a mesh or a control file.
+    fn open_path(&mut self, path: &Path) {
+        let is_mesh = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str()));
+        if is_scene(path) {
+            self.open_scene(path);
+        } else if is_mesh {
+            let ctx = self.screen.ctx.clone();
+            self.open_mesh(&ctx, path);
+        } else {
+            self.open_controls(path);
+        }
+    }
+
     fn show_error(&mut self, title: &str, text: impl Into<String>) {
         let text = text.into();
         *self.status_mut() = format!("{title}: {text}");
@@ -280,8 +323,7 @@ impl StudioApp {
             Ok(s) => s,
             Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
         };
-        let id = self.screen.next_mesh_id;
-        self.screen.next_mesh_id += 1;
+        let id = gpu::new_mesh_id();
         let model = Model::new(mesh, path, scene, (id, self.screen.software), size, ctx);
         let up = model.up;
         self.picker.model = Some(model);
@@ -569,8 +611,8 @@ impl StudioApp {
             Purpose::OpenScene => self.open_scene(&p),
             Purpose::SaveScene => self.save_scene_to(&p),
             Purpose::AddObject => self.add_object(&p),
-            Purpose::Texture => self.set_texture(&p),
-            Purpose::AddControls => self.add_deformation(&p),
+            Purpose::Texture => self.with_composer(|c| c.set_texture(&p)),
+            Purpose::AddControls => self.with_composer(|c| c.add_deformation(&p)),
             Purpose::ExportMovie => self.export_movie(&p),
             Purpose::ExportGltf => self.export_gltf(&p),
         }
@@ -747,6 +789,125 @@ impl StudioApp {
         });
     }
 
+    /// Picker | Composer.
+    pub(super) fn mode_switch(&mut self, ui: &mut egui::Ui) {
+        let has_scene = self.composer.is_some();
+        if ui
+            .selectable_label(self.mode == Mode::Pick, "Picker")
+            .on_hover_text("Control vectors on one mesh")
+            .clicked()
+            && self.mode != Mode::Pick
+        {
+            self.mode = Mode::Pick;
+        }
+        if ui
+            .selectable_label(self.mode == Mode::Compose, "Composer")
+            .on_hover_text("Scenes: objects, keys, timing, playback, export")
+            .clicked()
+            && self.mode != Mode::Compose
+        {
+            if has_scene {
+                self.back_to_composer();
+            } else {
+                self.new_scene();
+            }
+        }
+        ui.separator();
+    }
+
+    pub(super) fn compose_menu(&mut self, ui: &mut egui::Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            self.mode_switch(ui);
+            ui.menu_button("File", |ui| self.compose_file_menu(ui));
+            ui.menu_button("Edit", |ui| self.compose_edit_menu(ui));
+            ui.menu_button("Scene", |ui| {
+                if ui.button("Add object…").clicked() {
+                    self.ask(Purpose::AddObject);
+                }
+                if ui.button("Play / pause  Space").clicked() {
+                    self.toggle_play();
+                }
+            });
+            ui.menu_button("View", |ui| {
+                if let Some(c) = self.composer.as_mut() {
+                    ui.checkbox(&mut c.through_camera, "Look through the scene camera  C");
+                    if ui
+                        .button("Frame everything  F")
+                        .on_hover_text("The objects over the whole scene, and the scene camera")
+                        .clicked()
+                    {
+                        c.frame_everything();
+                    }
+                }
+                ui.checkbox(&mut self.picker.view.flat, "Flat shading");
+                ui.checkbox(&mut self.picker.view.wireframe, "Wireframe");
+            });
+        });
+    }
+
+    /// The Composer's File menu.
+    fn compose_file_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("New scene").clicked() {
+            self.new_scene();
+        }
+        if ui.button("Open scene…  Ctrl+O").clicked() {
+            self.ask(Purpose::OpenScene);
+        }
+        if let Some(p) = files::recent_menu(ui, &self.shell.recent) {
+            if is_scene(&p) {
+                self.open_scene(&p);
+            } else {
+                self.add_object(&p);
+            }
+        }
+        ui.separator();
+        if ui.button("Save scene  Ctrl+S").clicked() {
+            self.save_scene();
+        }
+        if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
+            self.ask(Purpose::SaveScene);
+        }
+        ui.separator();
+        if ui.button("Export movie…  Ctrl+E").clicked() {
+            self.ask(Purpose::ExportMovie);
+        }
+        if ui.button("Export glTF…  Ctrl+Shift+E").clicked() {
+            self.ask(Purpose::ExportGltf);
+        }
+        ui.separator();
+        if ui.button("Quit").clicked() {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+
+    /// The Composer's Edit menu.
+    fn compose_edit_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("Undo  Ctrl+Z").clicked() {
+            self.scene_undo(false);
+        }
+        if ui.button("Redo  Ctrl+Shift+Z").clicked() {
+            self.scene_undo(true);
+        }
+        ui.separator();
+        if ui.button("Delete key  Del").clicked() {
+            self.delete_key();
+        }
+        if ui.button("Copy key to the playhead  Ctrl+D").clicked() {
+            self.copy_key();
+        }
+        if ui.button("Copy key  Ctrl+C").clicked() {
+            let ctx = ui.ctx().clone();
+            self.copy_key_to_clipboard(&ctx);
+        }
+        if ui
+            .button("Paste key  Ctrl+V")
+            .on_hover_text("At the playhead, onto the selected object")
+            .clicked()
+        {
+            self.paste_key();
+        }
+    }
+
     /// The Picker's File menu.
     fn file_menu(&mut self, ui: &mut egui::Ui) {
         if self.composer.is_some() && ui.button("Back to the Composer").clicked() {
@@ -770,17 +931,7 @@ impl StudioApp {
             self.ask(Purpose::OpenControls);
         }
         if let Some(p) = files::recent_menu(ui, &self.shell.recent) {
-            let is_mesh = p
-                .extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str()));
-            if is_scene(&p) {
-                self.open_scene(&p);
-            } else if is_mesh {
-                self.open_mesh(&ui.ctx().clone(), &p);
-            } else {
-                self.open_controls(&p);
-            }
+            self.open_path(&p);
         }
         ui.separator();
         if ui
@@ -1030,7 +1181,7 @@ impl StudioApp {
             } else if MESH_ENDINGS.contains(&ext.as_str()) {
                 self.open_mesh(ctx, &p);
             } else if ext == "json" && compose {
-                self.add_deformation(&p);
+                self.with_composer(|c| c.add_deformation(&p));
             } else if ext == "json" {
                 self.open_controls(&p);
             } else {
@@ -1055,13 +1206,25 @@ impl StudioApp {
             .resizable(true)
             .default_size(230.0)
             .size_range(120.0..=600.0)
-            .show(ui, |ui| self.timeline_ui(ui));
+            .show(ui, |ui| match self.composer.as_mut() {
+                Some(c) => c.timeline_ui(ui),
+                None => {
+                    ui.label("No scene");
+                }
+            });
+        self.serve();
         side_panel("scene", ui).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| self.scene_panel(ui));
+            egui::ScrollArea::vertical().show(ui, |ui| match self.composer.as_mut() {
+                Some(c) => c.scene_panel(ui),
+                None => {
+                    ui.label("No scene: File > New scene or Open scene");
+                }
+            });
         });
         egui::CentralPanel::default()
             .frame(egui::Frame::NONE)
             .show(ui, |ui| self.compose_viewport(ui));
+        self.serve();
         self.dialogs(&ctx);
         self.export_ui(&ctx);
         self.scene_recovery(&ctx);

@@ -10,162 +10,36 @@ use csrbf::glam::{DQuat, DVec3, EulerRot};
 use csrbf_anim::{ContactFile, DeformationFile, Easing, Interpolation, LightFile, ObjectFile};
 use eframe::egui;
 
-use super::StudioApp;
 use super::composer::Composer;
-use super::composer::Mode;
 use super::files::Purpose;
 use super::panel::{region_ui, vec3_ui};
+use super::request::Request;
 use crate::compose::{KeyValue, SceneEdit, Track, key_value};
 
-impl StudioApp {
-    /// Picker | Composer.
-    pub(super) fn mode_switch(&mut self, ui: &mut egui::Ui) {
-        let has_scene = self.composer.is_some();
-        if ui
-            .selectable_label(self.mode == Mode::Pick, "Picker")
-            .on_hover_text("Control vectors on one mesh")
-            .clicked()
-            && self.mode != Mode::Pick
-        {
-            self.mode = Mode::Pick;
-        }
-        if ui
-            .selectable_label(self.mode == Mode::Compose, "Composer")
-            .on_hover_text("Scenes: objects, keys, timing, playback, export")
-            .clicked()
-            && self.mode != Mode::Compose
-        {
-            if has_scene {
-                self.back_to_composer();
-            } else {
-                self.new_scene();
-            }
-        }
-        ui.separator();
-    }
-
-    pub(super) fn compose_menu(&mut self, ui: &mut egui::Ui) {
-        egui::MenuBar::new().ui(ui, |ui| {
-            self.mode_switch(ui);
-            ui.menu_button("File", |ui| self.compose_file_menu(ui));
-            ui.menu_button("Edit", |ui| self.compose_edit_menu(ui));
-            ui.menu_button("Scene", |ui| {
-                if ui.button("Add object…").clicked() {
-                    self.ask(Purpose::AddObject);
-                }
-                if ui.button("Play / pause  Space").clicked() {
-                    self.toggle_play();
-                }
-            });
-            ui.menu_button("View", |ui| {
-                if let Some(c) = self.composer.as_mut() {
-                    ui.checkbox(&mut c.through_camera, "Look through the scene camera  C");
-                    if ui
-                        .button("Frame everything  F")
-                        .on_hover_text("The objects over the whole scene, and the scene camera")
-                        .clicked()
-                    {
-                        c.frame_everything();
-                    }
-                }
-                ui.checkbox(&mut self.picker.view.flat, "Flat shading");
-                ui.checkbox(&mut self.picker.view.wireframe, "Wireframe");
-            });
-        });
-    }
-
-    /// The Composer's File menu.
-    fn compose_file_menu(&mut self, ui: &mut egui::Ui) {
-        if ui.button("New scene").clicked() {
-            self.new_scene();
-        }
-        if ui.button("Open scene…  Ctrl+O").clicked() {
-            self.ask(Purpose::OpenScene);
-        }
-        if let Some(p) = super::files::recent_menu(ui, &self.shell.recent) {
-            if super::is_scene(&p) {
-                self.open_scene(&p);
-            } else {
-                self.add_object(&p);
-            }
-        }
-        ui.separator();
-        if ui.button("Save scene  Ctrl+S").clicked() {
-            self.save_scene();
-        }
-        if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
-            self.ask(Purpose::SaveScene);
-        }
-        ui.separator();
-        if ui.button("Export movie…  Ctrl+E").clicked() {
-            self.ask(Purpose::ExportMovie);
-        }
-        if ui.button("Export glTF…  Ctrl+Shift+E").clicked() {
-            self.ask(Purpose::ExportGltf);
-        }
-        ui.separator();
-        if ui.button("Quit").clicked() {
-            ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
-        }
-    }
-
-    /// The Composer's Edit menu.
-    fn compose_edit_menu(&mut self, ui: &mut egui::Ui) {
-        if ui.button("Undo  Ctrl+Z").clicked() {
-            self.scene_undo(false);
-        }
-        if ui.button("Redo  Ctrl+Shift+Z").clicked() {
-            self.scene_undo(true);
-        }
-        ui.separator();
-        if ui.button("Delete key  Del").clicked() {
-            self.delete_key();
-        }
-        if ui.button("Copy key to the playhead  Ctrl+D").clicked() {
-            self.copy_key();
-        }
-        if ui.button("Copy key  Ctrl+C").clicked() {
-            let ctx = ui.ctx().clone();
-            self.copy_key_to_clipboard(&ctx);
-        }
-        if ui
-            .button("Paste key  Ctrl+V")
-            .on_hover_text("At the playhead, onto the selected object")
-            .clicked()
-        {
-            self.paste_key();
-        }
-    }
-
+impl Composer {
     /// Sets the texture of the part chosen in the panel.
     pub(super) fn set_texture(&mut self, path: &Path) {
-        let Some(c) = self.composer.as_mut() else {
+        let Some((o, p)) = self.part_target.take() else {
             return;
         };
-        let Some((o, p)) = c.part_target.take() else {
-            return;
-        };
-        let Some(mut object) = c.doc.file.objects.get(o).cloned() else {
+        let Some(mut object) = self.doc.file.objects.get(o).cloned() else {
             return;
         };
         let Some(part) = object.parts.get_mut(p) else {
             return;
         };
-        part.texture = Some(c.doc.name_of(path));
-        if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
-            *self.status_mut() = format!("Texture {}", path.display());
+        part.texture = Some(self.doc.name_of(path));
+        if self.edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
+            self.status = format!("Texture {}", path.display());
         }
     }
 
     /// Adds a control file as a deformation of the part chosen in the panel
     /// (or the selected object's first part), phased in over the scene.
     pub(super) fn add_deformation(&mut self, path: &Path) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
-        let target = c.part_target.take().or(c.selected.map(|o| (o, 0)));
+        let target = self.part_target.take().or(self.selected.map(|o| (o, 0)));
         let Some((o, p)) = target else {
-            return self.show_error(
+            return self.outbox.error(
                 "No object chosen",
                 format!(
                     "{}: select the object whose deformation this is first",
@@ -173,7 +47,7 @@ impl StudioApp {
                 ),
             );
         };
-        let Some(mut object) = c.doc.file.objects.get(o).cloned() else {
+        let Some(mut object) = self.doc.file.objects.get(o).cloned() else {
             return;
         };
         if object.parts.is_empty() {
@@ -183,12 +57,12 @@ impl StudioApp {
             return;
         };
         part.deformations.push(DeformationFile {
-            controls: c.doc.name_of(path),
+            controls: self.doc.name_of(path),
             phase: Vec::new(),
             easing: Easing::default(),
         });
-        if self.scene_edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
-            *self.status_mut() = format!(
+        if self.edit(SceneEdit::ReplaceObject(o, Box::new(object))) {
+            self.status = format!(
                 "Added {} (phase 1 throughout until it has phase keys)",
                 path.display()
             );
@@ -197,49 +71,44 @@ impl StudioApp {
 
     /// The Composer's side panel.
     pub(super) fn scene_panel(&mut self, ui: &mut egui::Ui) {
-        let Some(c) = self.composer.as_mut() else {
-            ui.label("No scene: File > New scene or Open scene");
-            return;
-        };
         ui.heading("Scene");
         ui.label(
-            c.doc
+            self.doc
                 .path
                 .as_ref()
                 .map_or("(not saved yet)".into(), |p| p.display().to_string()),
         );
-        if let Some(p) = &c.loaded.problem {
+        if let Some(p) = &self.loaded.problem {
             ui.colored_label(egui::Color32::LIGHT_RED, p);
         }
-        let look = look_ui(ui, c);
+        let look = look_ui(ui, self);
         ui.separator();
         ui.heading("Camera");
-        let camera = camera_ui(ui, c);
+        let camera = camera_ui(ui, self);
         ui.separator();
-        let lights_edit = lights_ui(ui, &c.doc.file.lights, c.scene_camera());
+        let lights_edit = lights_ui(ui, &self.doc.file.lights, self.scene_camera());
         ui.separator();
         ui.heading("Objects");
-        let (add, remove) = objects_ui(ui, c);
-        let selected = c.selected;
+        let (add, remove) = objects_ui(ui, self);
+        let selected = self.selected;
         // Apply what was asked, one edit each.
         if let Some((size, background)) = look {
-            self.scene_edit_merging(SceneEdit::SetLook { size, background }, Some("look"));
+            self.edit_merging(SceneEdit::SetLook { size, background }, Some("look"));
         }
         if let Some(camera) = camera {
-            self.scene_edit_merging(SceneEdit::SetCamera(camera), Some("camera"));
+            self.edit_merging(SceneEdit::SetCamera(camera), Some("camera"));
         }
         if let Some(lights) = lights_edit {
-            self.scene_edit_merging(SceneEdit::SetLights(lights), Some("lights"));
+            self.edit_merging(SceneEdit::SetLights(lights), Some("lights"));
         }
         if add {
-            self.ask(Purpose::AddObject);
+            self.outbox.push(Request::Ask(Purpose::AddObject));
         }
         if let Some(k) = remove
-            && self.scene_edit(SceneEdit::RemoveObject(k))
-            && let Some(c) = self.composer.as_mut()
+            && self.edit(SceneEdit::RemoveObject(k))
         {
-            c.selected = None;
-            c.key = None;
+            self.selected = None;
+            self.key = None;
         }
         if let Some(o) = selected {
             ui.separator();
@@ -250,26 +119,23 @@ impl StudioApp {
     }
 
     fn object_ui(&mut self, ui: &mut egui::Ui, o: usize) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
-        let Some(original) = c.doc.file.objects.get(o).cloned() else {
+        let Some(original) = self.doc.file.objects.get(o).cloned() else {
             return;
         };
         let mut object = original.clone();
         ui.heading(format!("Object {:?}", object.name));
         let mut out = ObjectOut {
-            rename: name_ui(ui, c, o, &object.name),
+            rename: name_ui(ui, self, o, &object.name),
             ..ObjectOut::default()
         };
         ui.label(format!("Mesh {}", object.mesh));
         scale_ui(ui, &mut object, &mut out);
-        let others: Vec<String> = (c.doc.file.objects.iter().enumerate())
+        let others: Vec<String> = (self.doc.file.objects.iter().enumerate())
             .filter(|(k, _)| *k != o)
             .map(|(_, x)| x.name.clone())
             .collect();
         contact_ui(ui, &mut object, &others, &mut out);
-        let shape = part_shape(c, o);
+        let shape = part_shape(self, o);
         let parts = object.parts.len();
         for (pi, part) in object.parts.iter_mut().enumerate() {
             part_ui(ui, (pi, part), parts, shape.as_ref(), &mut out);
@@ -297,43 +163,37 @@ impl StudioApp {
         object: ObjectFile,
         out: ObjectOut,
     ) {
-        if let Some((pi, purpose)) = out.choose
-            && let Some(c) = self.composer.as_mut()
-        {
-            c.part_target = Some((o, pi));
-            self.ask(purpose);
+        if let Some((pi, purpose)) = out.choose {
+            self.part_target = Some((o, pi));
+            self.outbox.push(Request::Ask(purpose));
         }
         // A refused name goes back to the object's.
         if let Some(name) = out.rename
-            && !self.scene_edit(SceneEdit::RenameObject(o, name))
-            && let Some(c) = self.composer.as_mut()
+            && !self.edit(SceneEdit::RenameObject(o, name))
         {
-            c.renaming = None;
+            self.renaming = None;
         }
         if let Some(tag) = out.tag
             && object != *original
         {
             // A removed deformation shifts the phase tracks: a step of its own.
             let merge = (!matches!(tag, "deformations" | "contact" | "parts")).then_some(tag);
-            self.scene_edit_merging(SceneEdit::ReplaceObject(o, Box::new(object)), merge);
+            self.edit_merging(SceneEdit::ReplaceObject(o, Box::new(object)), merge);
         }
         if let Some((pi, di)) = out.picker {
-            self.edit_in_picker(o, pi, di);
+            self.outbox.push(Request::EditInPicker(o, pi, di));
         }
     }
 
     fn key_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(c) = self.composer.as_ref() else {
-            return;
-        };
-        let Some((o, track, i)) = c.key else {
+        let Some((o, track, i)) = self.key else {
             ui.label("Select a key on the timeline or in the viewport to edit it.");
             return;
         };
-        let Some(of) = c.doc.file.objects.get(o) else {
+        let Some(of) = self.doc.file.objects.get(o) else {
             return;
         };
-        let Some(time) = c.doc.key_times(o, track).get(i).copied() else {
+        let Some(time) = self.doc.key_times(o, track).get(i).copied() else {
             return;
         };
         ui.heading(format!("{} of {:?}", key_name(of, track), of.name));
@@ -342,8 +202,8 @@ impl StudioApp {
         ui.horizontal(|ui| {
             ui.label("Time");
             let drag = egui::DragValue::new(&mut t)
-                .speed(1.0 / c.doc.file.fps)
-                .range(0.0..=c.doc.file.duration)
+                .speed(1.0 / self.doc.file.fps)
+                .range(0.0..=self.doc.file.duration)
                 .suffix(" s")
                 .max_decimals(4);
             if ui.add(drag).changed() {
@@ -367,13 +227,12 @@ impl StudioApp {
                 SceneEdit::MoveKey { time, .. } => Some(*time),
                 _ => None,
             };
-            if self.scene_edit_merging(edit, Some(tag))
+            if self.edit_merging(edit, Some(tag))
                 && let Some(t) = moved
-                && let Some(c) = self.composer.as_mut()
             {
                 // Passing another key reorders: follow the key.
-                let index = c.doc.key_times(o, track).iter().position(|&k| k == t);
-                c.key = index.map(|k| (o, track, k));
+                let index = self.doc.key_times(o, track).iter().position(|&k| k == t);
+                self.key = index.map(|k| (o, track, k));
             }
         }
         if delete {

@@ -7,7 +7,6 @@
 
 use eframe::egui;
 
-use super::StudioApp;
 use super::composer::Composer;
 use crate::compose::{KeyRef, SceneEdit, Track};
 
@@ -16,12 +15,8 @@ const ROW: f32 = 18.0;
 /// Width of the track names.
 const NAMES: f32 = 190.0;
 
-impl StudioApp {
+impl Composer {
     pub(super) fn timeline_ui(&mut self, ui: &mut egui::Ui) {
-        if self.composer.is_none() {
-            ui.label("No scene");
-            return;
-        }
         self.transport_ui(ui);
         ui.separator();
         egui::ScrollArea::vertical()
@@ -30,66 +25,61 @@ impl StudioApp {
     }
 
     fn transport_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
         let mut action = None;
         let mut timing = None;
         ui.horizontal_wrapped(|ui| {
-            action = transport_buttons(ui, c.playback.playing);
-            playback_options(ui, c);
+            action = transport_buttons(ui, self.playback.playing);
+            playback_options(ui, self);
             ui.separator();
-            if playhead_ui(ui, c) {
+            if playhead_ui(ui, self) {
                 action = Some(Transport::Playhead);
             }
             ui.separator();
-            timing = timing_ui(ui, c);
+            timing = timing_ui(ui, self);
         });
         match action {
             Some(Transport::Start) => self.set_playhead(0.0),
             Some(step @ (Transport::Back | Transport::Next)) => {
-                if let Some(c) = self.composer.as_mut() {
-                    c.playback.pause();
-                    let by = if step == Transport::Back { -1 } else { 1 };
-                    c.playback.step(&mut c.doc, by);
-                }
+                self.playback.pause();
+                let by = if step == Transport::Back { -1 } else { 1 };
+                self.playback.step(&mut self.doc, by);
             }
             Some(Transport::Play) => self.toggle_play(),
             Some(Transport::End) => {
-                let d = self.scene_doc().map_or(0.0, |d| d.file.duration);
+                let d = self.doc.file.duration;
                 self.set_playhead(d);
             }
             Some(Transport::Playhead) => {
-                let t = self.scene_doc().map_or(0.0, |d| d.playhead);
+                let t = self.doc.playhead;
                 self.set_playhead(t);
             }
             None => {}
         }
         if let Some((fps, duration)) = timing {
-            self.scene_edit_merging(SceneEdit::SetTiming { fps, duration }, Some("timing"));
+            self.edit_merging(SceneEdit::SetTiming { fps, duration }, Some("timing"));
         }
     }
 
     fn tracks_ui(&mut self, ui: &mut egui::Ui) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
         let width = (ui.available_width() - NAMES - 80.0).max(80.0);
         let mut out = Rows {
-            scrub: ruler_ui(ui, c, width),
+            scrub: ruler_ui(ui, self, width),
             ..Rows::default()
         };
-        c.rows.clear();
-        let objects = c.doc.file.objects.clone();
+        self.rows.clear();
+        let objects = self.doc.file.objects.clone();
         for (o, of) in objects.iter().enumerate() {
             ui.horizontal(|ui| {
                 let name = egui::RichText::new(&of.name).strong();
-                if ui.selectable_label(c.selected == Some(o), name).clicked() {
+                if ui
+                    .selectable_label(self.selected == Some(o), name)
+                    .clicked()
+                {
                     out.select_object = Some(o);
                 }
             });
             for (track, name) in track_names(of) {
-                ui.horizontal(|ui| track_row(ui, c, (o, of), (track, &name), width, &mut out));
+                ui.horizontal(|ui| track_row(ui, self, (o, of), (track, &name), width, &mut out));
             }
             ui.add_space(4.0);
         }
@@ -98,15 +88,12 @@ impl StudioApp {
 
     /// What the rows asked for: selections, a scrub, a key added or moved.
     fn apply_rows(&mut self, out: Rows) {
-        let Some(c) = self.composer.as_mut() else {
-            return;
-        };
         if let Some(o) = out.select_object {
-            c.selected = Some(o);
+            self.selected = Some(o);
         }
         if let Some(k) = out.select_key {
-            c.key = Some(k);
-            c.selected = Some(k.0);
+            self.key = Some(k);
+            self.selected = Some(k.0);
         }
         if let Some(t) = out.scrub {
             self.set_playhead(t);
@@ -115,16 +102,15 @@ impl StudioApp {
             self.add_key(o, track);
         }
         if let Some(((o, track, index), time)) = out.moved
-            && self.scene_edit(SceneEdit::MoveKey {
+            && self.edit(SceneEdit::MoveKey {
                 object: o,
                 track,
                 index,
                 time,
             })
-            && let Some(c) = self.composer.as_mut()
         {
-            let i = c.doc.key_times(o, track).iter().position(|&k| k == time);
-            c.key = i.map(|i| (o, track, i));
+            let i = self.doc.key_times(o, track).iter().position(|&k| k == time);
+            self.key = i.map(|i| (o, track, i));
         }
     }
 }

@@ -1,0 +1,388 @@
+//! The Picker's room: the model being edited and the tool, axis hold,
+//! gesture and view settings its side panel ([`super::panel`]) and viewport
+//! ([`super::viewport`]) work with, and the edits that need no file or
+//! dialog (undo, redo, delete, duplicate, mirror, framing). The shell
+//! opens and saves files through its fields; nothing here reaches back.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use csrbf::glam::{DVec3, Vec3};
+use csrbf_mesh::{Bvh, Mesh, StandIn};
+use eframe::egui;
+
+use super::gpu;
+use crate::gizmo::HandleDrag;
+use crate::{Command, Document, DragTool, End, History, Orbit, Preview};
+
+/// What a pointer press in the viewport does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Tool {
+    /// A press on the surface adds a control vector there; dragging sets
+    /// its destination (a click without a drag is a pin). Markers are
+    /// dragged in any tool.
+    Place,
+    /// Presses select markers; a drag on the background draws a box.
+    Select,
+    /// A box on the surface selects vertices for a handle, a region or an
+    /// anchor; a drag from the pivot rotates, scales or moves the handle.
+    Vertices,
+}
+
+/// The loaded model and everything derived from it.
+pub(super) struct Model {
+    pub(super) doc: Document,
+    pub(super) history: History,
+    pub(super) preview: Preview,
+    /// Where the control file was opened from or last saved to.
+    pub(super) controls_path: Option<PathBuf>,
+    /// Positions and normals drawn (the newest preview frame, else rest).
+    pub(super) shown: Arc<Vec<Vec3>>,
+    pub(super) shown_normals: Arc<Vec<Vec3>>,
+    pub(super) rest_normals: Arc<Vec<Vec3>>,
+    pub(super) rest_positions: Arc<Vec<Vec3>>,
+    /// The picking tree and whether it fits `shown`.
+    pub(super) bvh: Bvh,
+    pub(super) bvh_fresh: bool,
+    pub(super) gpu_mesh: Arc<gpu::NewMesh>,
+    /// For a big mesh: what is drawn while it moves (vertex clustering).
+    pub(super) stand_in: Option<Arc<StandIn>>,
+    pub(super) orbit: Orbit,
+    /// The model's up axis and how it was found.
+    pub(super) up: (Vec3, &'static str),
+    /// Layers hidden from the preview (their phase taken as 0).
+    pub(super) hidden: Vec<bool>,
+    /// Vertices chosen with the vertex tool (for a handle, region or anchor).
+    pub(super) picked_vertices: Vec<u32>,
+    /// What the last box of the vertex tool is for.
+    pub(super) vertex_target: crate::tools::VertexTarget,
+    /// The generation whose preview is shown.
+    pub(super) shown_generation: u64,
+    /// When the recovery file was last written.
+    pub(super) recovery_at: Option<Instant>,
+    /// Whether the view was framed for the viewport's real size.
+    pub(super) framed: bool,
+    /// The control file as last written to the recovery file.
+    pub(super) recovered_text: String,
+}
+
+impl Model {
+    /// Shows the newest preview frame, if the worker made one.
+    pub(super) fn take_frame(&mut self) {
+        self.preview.poll();
+        if let Some(f) = self.preview.latest()
+            && f.generation != self.shown_generation
+        {
+            self.shown_generation = f.generation;
+            self.shown = f.positions.clone();
+            self.shown_normals = f.normals.clone();
+            self.bvh_fresh = false;
+        }
+    }
+
+    /// The model of `mesh` read from `path`: its document, the preview on a
+    /// worker (waking `ctx`), the picking tree, normals, a stand-in when it
+    /// is big, and a camera framing it for a viewport of `size`. `gpu`: the
+    /// mesh's GPU id and whether the rasteriser is software.
+    pub(super) fn new(
+        mesh: Mesh,
+        path: &Path,
+        scene: csrbf_anim::Scene,
+        (id, software): (u64, bool),
+        size: [u32; 2],
+        ctx: &egui::Context,
+    ) -> Model {
+        let up = csrbf_mesh::guess_up(&mesh, path);
+        let (lo, hi) = mesh.bounds().unwrap_or_default();
+        let diagonal = mesh.diagonal() as f64;
+        let triangles = mesh.faces.triangles();
+        let bvh = Bvh::new(&mesh.positions, &triangles);
+        let rest_normals = Arc::new(csrbf_mesh::triangle_vertex_normals(
+            &mesh.positions,
+            &triangles,
+        ));
+        let shown = Arc::new(mesh.positions.clone());
+        let big = triangles.len() > gpu::BIG_MESH_TRIANGLES;
+        let stand_in = big.then(|| Arc::new(StandIn::new(&mesh.positions, &triangles)));
+        let doc = Document::new(mesh, path.to_path_buf(), (diagonal * 0.15).max(1e-9));
+        let wake = ctx.clone();
+        let preview = Preview::new(&doc, move || wake.request_repaint());
+        let aspect = size[0].max(1) as f32 / size[1].max(1) as f32;
+        Model {
+            hidden: vec![false; doc.controls.deformations.len()],
+            history: History::default(),
+            preview,
+            controls_path: None,
+            shown_normals: rest_normals.clone(),
+            rest_positions: shown.clone(),
+            rest_normals,
+            shown,
+            bvh,
+            bvh_fresh: true,
+            gpu_mesh: Arc::new(gpu::NewMesh {
+                id,
+                scene: Mutex::new(Some(scene)),
+                samples: if software || big { 1 } else { 4 },
+            }),
+            stand_in,
+            orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
+            up,
+            picked_vertices: Vec::new(),
+            vertex_target: crate::tools::VertexTarget::Handle,
+            shown_generation: 0,
+            recovery_at: None,
+            framed: false,
+            recovered_text: String::new(),
+            doc,
+        }
+    }
+}
+
+/// The Picker's room: the model and the tool, axis hold, gesture, handle
+/// mode and view settings its panel and viewport work with.
+pub(super) struct Picker {
+    pub(super) model: Option<Model>,
+    pub(super) tool: Tool,
+    pub(super) axis: Option<usize>,
+    pub(super) view: ViewSettings,
+    pub(super) gesture: Gesture,
+    pub(super) handle_mode: crate::gizmo::HandleMode,
+    /// The status line while the Picker is shown.
+    pub(super) status: String,
+}
+
+/// What is shown of the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Display {
+    /// Deformed.
+    Deformed,
+    /// At rest.
+    Rest,
+    /// Deformed, with the rest shape's edges as a ghost.
+    Both,
+}
+
+/// The viewport's display settings.
+#[derive(Clone, Debug)]
+pub(super) struct ViewSettings {
+    pub display: Display,
+    pub wireframe: bool,
+    pub flat: bool,
+    pub starts: bool,
+    pub arrows: bool,
+    /// Support spheres of the selection.
+    pub spheres: bool,
+    pub gizmo: bool,
+    /// Show every support sphere of the active layer (while the radius slider moves).
+    pub all_spheres: bool,
+    /// A displacement to stamp on the next clicks (Duplicate).
+    pub stamp: Option<DVec3>,
+    /// The vertex brush's radius, as a share of the model's diagonal.
+    pub brush: f32,
+}
+
+impl Default for ViewSettings {
+    fn default() -> Self {
+        ViewSettings {
+            display: Display::Deformed,
+            wireframe: false,
+            flat: false,
+            starts: true,
+            arrows: true,
+            spheres: true,
+            gizmo: true,
+            all_spheres: false,
+            stamp: None,
+            brush: 0.03,
+        }
+    }
+}
+
+/// A pointer gesture in progress.
+#[derive(Clone, Debug)]
+pub(super) enum Gesture {
+    None,
+    /// Moving one end of a control vector.
+    Marker {
+        layer: usize,
+        index: usize,
+        end: End,
+        tool: DragTool,
+        moved: bool,
+    },
+    /// A selection box from this point (in points).
+    Box {
+        from: egui::Pos2,
+        add: bool,
+    },
+    /// Turning, scaling or moving a handle about its pivot.
+    /// A handle's gizmo dragged (a ring turned, or the pivot rotated,
+    /// scaled or moved).
+    Handle {
+        layer: usize,
+        drag: Box<HandleDrag>,
+    },
+    Orbit,
+    Pan,
+    /// Painting vertices under a brush (Vertices tool with Ctrl).
+    Brush,
+}
+
+impl Picker {
+    /// Applies an edit; `full`: refit and diagnose (else a drag step).
+    pub(super) fn edit(&mut self, command: Command, full: bool) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        match m.history.apply(&mut m.doc, command) {
+            Ok(()) => {
+                m.hidden.resize(m.doc.controls.deformations.len(), false);
+                self.refresh(full);
+            }
+            Err(e) => self.status = format!("Not done: {e}"),
+        }
+    }
+    pub(super) fn undo(&mut self) {
+        if let Some(m) = self.model.as_mut() {
+            match m.history.undo(&mut m.doc) {
+                Ok(()) => {
+                    m.hidden.resize(m.doc.controls.deformations.len(), false);
+                    self.status = "Undone".into();
+                    self.refresh(true);
+                }
+                Err(e) => self.status = e.to_string(),
+            }
+        }
+    }
+    pub(super) fn redo(&mut self) {
+        if let Some(m) = self.model.as_mut() {
+            match m.history.redo(&mut m.doc) {
+                Ok(()) => {
+                    m.hidden.resize(m.doc.controls.deformations.len(), false);
+                    self.status = "Redone".into();
+                    self.refresh(true);
+                }
+                Err(e) => self.status = e.to_string(),
+            }
+        }
+    }
+    /// Sends the document, as the preview should show it, to the worker.
+    pub(super) fn refresh(&mut self, full: bool) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        if m.hidden.iter().any(|&h| h) {
+            let mut shown = m.doc.clone();
+            for (spec, &h) in shown.controls.deformations.iter_mut().zip(&m.hidden) {
+                if h {
+                    spec.phase = 0.0;
+                }
+            }
+            m.preview.edit(&shown, full);
+        } else {
+            m.preview.edit(&m.doc, full);
+        }
+    }
+    pub(super) fn set_axis(&mut self, axis: Option<usize>) {
+        self.axis = axis;
+        self.status = match axis {
+            Some(a) => format!(
+                "Moves held to the {} axis (press it again to free)",
+                ["X", "Y", "Z"][a]
+            ),
+            None => "Moves free on the plane facing the camera".into(),
+        };
+    }
+    /// Frames the selection (`selection`) or the whole model.
+    pub(super) fn frame_view(&mut self, selection: bool, size: [u32; 2]) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let mut pts: Vec<Vec3> = Vec::new();
+        if selection {
+            for &(l, i) in &m.doc.selection.0 {
+                if let Some(s) = m.doc.controls.deformations.get(l) {
+                    let r = s.options.radius as f32;
+                    for p in [s.starts.get(i), s.targets.get(i)].into_iter().flatten() {
+                        pts.push(p.as_vec3() - Vec3::splat(r * 0.5));
+                        pts.push(p.as_vec3() + Vec3::splat(r * 0.5));
+                    }
+                }
+            }
+        }
+        if pts.is_empty() {
+            pts = m.shown.to_vec();
+        }
+        let lo = pts.iter().copied().fold(Vec3::INFINITY, Vec3::min);
+        let hi = pts.iter().copied().fold(Vec3::NEG_INFINITY, Vec3::max);
+        m.orbit
+            .frame(lo, hi, size[0].max(1) as f32 / size[1].max(1) as f32);
+    }
+    pub(super) fn select_all(&mut self) {
+        if let Some(m) = self.model.as_mut() {
+            let l = m.doc.active_layer;
+            let n = m
+                .doc
+                .controls
+                .deformations
+                .get(l)
+                .map_or(0, |s| s.starts.len());
+            m.doc.selection.0 = (0..n).map(|i| (l, i)).collect();
+        }
+    }
+    pub(super) fn delete_selected(&mut self) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let mut sel = m.doc.selection.0.clone();
+        if sel.is_empty() {
+            return;
+        }
+        // Highest index first, so the others keep theirs.
+        sel.sort_unstable();
+        sel.dedup();
+        let batch = sel
+            .iter()
+            .rev()
+            .map(|&(layer, index)| Command::Remove { layer, index })
+            .collect();
+        m.doc.selection.0.clear();
+        let n = sel.len();
+        self.edit(Command::Batch(batch), true);
+        self.status = format!("Deleted {n} control vector(s)");
+    }
+    /// Copies the selected controls' displacements onto the next clicks
+    /// on the surface (a stamp): the way to repeat an edit elsewhere.
+    pub(super) fn duplicate(&mut self) {
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
+        let Some(&(l, i)) = m.doc.selection.0.last() else {
+            self.status = "Select a control vector to duplicate".into();
+            return;
+        };
+        let s = &m.doc.controls.deformations[l];
+        let d = s.targets[i] - s.starts[i];
+        self.gesture = Gesture::None;
+        self.view.stamp = Some(d);
+        self.tool = Tool::Place;
+        self.status = "Click on the surface to place a copy (Esc to stop)".into();
+    }
+    /// Mirrors the selected controls (or all of the active layer) across the
+    /// plane through the model's centre normal to `axis` (0 X, 1 Y, 2 Z).
+    pub(super) fn mirror(&mut self, axis: usize) {
+        let Some(m) = self.model.as_ref() else {
+            return;
+        };
+        let Some((batch, n)) = Command::mirror(&m.doc, axis) else {
+            self.status = "Nothing to mirror: every image is already there".into();
+            return;
+        };
+        self.edit(batch, true);
+        self.status = format!(
+            "Mirrored {n} control vector(s) across the {} plane through the model's centre",
+            ["YZ", "XZ", "XY"][axis]
+        );
+    }
+}
