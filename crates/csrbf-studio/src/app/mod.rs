@@ -11,6 +11,7 @@ mod panel;
 mod picker;
 mod request;
 mod scene_panel;
+mod scene_view;
 mod timeline;
 mod viewport;
 
@@ -1223,7 +1224,12 @@ impl StudioApp {
         });
         egui::CentralPanel::default()
             .frame(egui::Frame::NONE)
-            .show(ui, |ui| self.compose_viewport(ui));
+            .show(ui, |ui| {
+                if let Some(c) = self.composer.as_mut() {
+                    let axis = self.picker.axis_vector();
+                    c.viewport_ui(ui, &mut self.screen, axis, &self.picker.view);
+                }
+            });
         self.serve();
         self.dialogs(&ctx);
         self.export_ui(&ctx);
