@@ -547,6 +547,46 @@ fn nice_step(duration: f64, width: f32) -> f64 {
         .unwrap_or(10.0 * p)
 }
 
+/// The Composer's status: the scene's size and timing, the playing rate
+/// and frames dropped, the frame's time, unsaved.
+pub(super) fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame_ms: f64) {
+    let vertices: usize = c.loaded.scene.as_ref().map_or(0, |s| {
+        s.objects.iter().map(|o| o.mesh.positions.len()).sum()
+    });
+    ui.label(format!(
+        "{} objects · {} vertices · {} fps · {:.2} s",
+        c.doc.file.objects.len(),
+        vertices,
+        c.doc.file.fps,
+        c.doc.file.duration
+    ));
+    ui.separator();
+    if c.playback.playing {
+        ui.label(format!("playing at {rate:.1} fps"));
+        if c.every_frame {
+            ui.label("(every frame: slower than real time when it must)");
+        } else if c.playback.dropped > 0 {
+            ui.colored_label(
+                egui::Color32::from_rgb(240, 190, 90),
+                format!(
+                    "{} frames dropped: this machine draws slower than {} fps",
+                    c.playback.dropped, c.doc.file.fps
+                ),
+            );
+        }
+        ui.separator();
+    } else if c.playback.dropped > 0 {
+        ui.label(format!("last play dropped {} frames", c.playback.dropped));
+        ui.separator();
+    }
+    ui.label(format!("frame {frame_ms:.1} ms"));
+    if c.doc.dirty {
+        ui.separator();
+        ui.label("unsaved");
+    }
+    ui.separator();
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -597,44 +637,4 @@ mod tests {
         let none = phase_curve(Vec::new(), Easing::Smooth, rect, 4.0);
         assert!(none.iter().all(|p| (p.y - y_of(1.0)).abs() < 1e-6));
     }
-}
-
-/// The Composer's status: the scene's size and timing, the playing rate
-/// and frames dropped, the frame's time, unsaved.
-pub(super) fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame_ms: f64) {
-    let vertices: usize = c.loaded.scene.as_ref().map_or(0, |s| {
-        s.objects.iter().map(|o| o.mesh.positions.len()).sum()
-    });
-    ui.label(format!(
-        "{} objects · {} vertices · {} fps · {:.2} s",
-        c.doc.file.objects.len(),
-        vertices,
-        c.doc.file.fps,
-        c.doc.file.duration
-    ));
-    ui.separator();
-    if c.playback.playing {
-        ui.label(format!("playing at {rate:.1} fps"));
-        if c.every_frame {
-            ui.label("(every frame: slower than real time when it must)");
-        } else if c.playback.dropped > 0 {
-            ui.colored_label(
-                egui::Color32::from_rgb(240, 190, 90),
-                format!(
-                    "{} frames dropped: this machine draws slower than {} fps",
-                    c.playback.dropped, c.doc.file.fps
-                ),
-            );
-        }
-        ui.separator();
-    } else if c.playback.dropped > 0 {
-        ui.label(format!("last play dropped {} frames", c.playback.dropped));
-        ui.separator();
-    }
-    ui.label(format!("frame {frame_ms:.1} ms"));
-    if c.doc.dirty {
-        ui.separator();
-        ui.label("unsaved");
-    }
-    ui.separator();
 }
