@@ -1,6 +1,6 @@
 //! The studio's window: the shell ([`StudioApp`], `studio.rs`) around two
 //! rooms, each a struct that owns its state and draws its own panels and
-//! viewport: the Picker (`picker.rs`, with `panel.rs` and `viewport.rs`)
+//! viewport: the Picker (`picker.rs`, with `panel.rs`, `viewport.rs` and `pick_press.rs`)
 //! and the Composer (`composer.rs`, with `scene_panel.rs`, `timeline.rs`,
 //! `scene_view.rs` and `key_drag.rs`). Rooms ask the shell for what only it
 //! can do through [`request`]; the screen they share (`gpu.rs`) and the
@@ -15,6 +15,7 @@ mod files;
 mod gpu;
 mod key_drag;
 mod panel;
+mod pick_press;
 mod picker;
 mod request;
 mod scene_files;

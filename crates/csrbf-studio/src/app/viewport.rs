@@ -8,10 +8,11 @@ use csrbf_render::{DrawOptions, Line, axis_gizmo, circle_lines, control_lines};
 use eframe::egui;
 
 use super::gpu::{self, Screen};
+use super::pick_press::{Begin, Press, begin};
 use super::picker::{Display, Gesture, Model, Picker, Tool, ViewSettings};
-use crate::gizmo::{HandleDrag, RING_PIXELS, axis_rings, ring_under, world_per_pixel};
+use crate::gizmo::{RING_PIXELS, axis_rings, world_per_pixel};
 use crate::tools::VertexTarget;
-use crate::{Command, DragTool, End, pick_marker, pick_surface_on};
+use crate::{Command, DragTool, End, MarkerHit, SurfacePoint, pick_surface_on};
 
 /// The pointer's state this frame, as the viewports read it.
 pub(super) struct PointerInput {
@@ -42,8 +43,6 @@ impl PointerInput {
         })
     }
 }
-
-const TOLERANCE_POINTS: f32 = 9.0;
 
 impl Picker {
     pub(super) fn view_menu(&mut self, ui: &mut egui::Ui, size: [u32; 2]) {
@@ -230,125 +229,109 @@ impl Picker {
         size: [u32; 2],
         ppp: f32,
     ) {
-        let axis = self.axis_vector();
-        let tool = self.tool;
+        let press = Press {
+            px,
+            tool: self.tool,
+            shift: modifiers.shift,
+            command: modifiers.command,
+            axis: self.axis_vector(),
+            size,
+            ppp,
+        };
         let stamp = self.view.stamp;
         let Some(m) = self.model.as_mut() else {
             return;
         };
         let cam = m.orbit.camera();
-        // A handle's pivot, grabbed in the vertex tool.
-        if tool == Tool::Vertices
-            && let Some((layer, handle, pivot)) = active_handle(m)
-            && let Some((pivot_px, _)) = cam.project(pivot.as_vec3(), size)
-        {
-            // An axis ring under the pointer turns about that axis; inside
-            // the outer ring, the panel's mode (rotate, scale, move) applies.
-            let ring = ring_under(
-                pivot.as_vec3(),
-                &cam,
-                size,
-                RING_PIXELS * ppp,
-                px,
-                7.0 * ppp,
-            )
-            .map(|a| a.as_dvec3());
-            if ring.is_some() || pivot_px.distance(px) < (RING_PIXELS + 8.0) * ppp {
+        let handle = active_handle(m);
+        // The picking tree is refitted to the shown positions only when a
+        // press asks for the surface.
+        let (bvh, fresh, shown, doc) = (&mut m.bvh, &mut m.bvh_fresh, &m.shown, &m.doc);
+        let surface = |px| {
+            if !*fresh {
+                bvh.refit(shown);
+                *fresh = true;
+            }
+            pick_surface_on(&cam, size, px, bvh, shown, &doc.mesh.positions)
+        };
+        match begin(press, &cam, doc, handle, surface) {
+            Begin::Handle { layer, drag } => {
                 m.history.begin_drag();
-                let drag = HandleDrag {
-                    start: handle,
-                    ring,
-                    pivot_px,
-                    pressed: px,
-                    tool: DragTool::begin(&cam, size, px, pivot, axis),
+                self.gesture = Gesture::Handle { layer, drag };
+            }
+            Begin::Brush { fresh } => {
+                if fresh {
+                    m.picked_vertices.clear();
+                }
+                self.gesture = Gesture::Brush;
+                self.brush(px, size);
+            }
+            Begin::Marker { hit, add, tool } => {
+                select_marker(&mut m.doc, hit, add);
+                m.history.begin_drag();
+                self.gesture = Gesture::Marker {
+                    layer: hit.layer,
+                    index: hit.index,
+                    end: hit.end,
+                    tool,
+                    moved: false,
                 };
-                self.gesture = Gesture::Handle {
-                    layer,
-                    drag: Box::new(drag),
-                };
-                return;
+            }
+            Begin::Place(hit) => self.place(hit, stamp, (&cam, size, px, press.axis)),
+            Begin::Box { add } => {
+                if !add && press.tool != Tool::Vertices {
+                    m.doc.selection.0.clear();
+                }
+                self.gesture = Gesture::Box { from: pos, add };
             }
         }
-        // A brush of vertices on the surface: Ctrl in the vertex tool.
-        if tool == Tool::Vertices && modifiers.command {
-            if !modifiers.shift {
-                m.picked_vertices.clear();
-            }
-            self.gesture = Gesture::Brush;
-            self.brush(px, size);
+    }
+
+    /// A control vector added at `hit` (its destination `stamp` away when
+    /// stamping, else dragged from there: `view` is where the press was).
+    fn place(
+        &mut self,
+        hit: SurfacePoint,
+        stamp: Option<DVec3>,
+        (cam, size, px, axis): (&Camera, [u32; 2], Vec2, Option<DVec3>),
+    ) {
+        let Some(layer) = self.model.as_ref().map(|m| m.doc.active_layer) else {
+            return;
+        };
+        let count = |p: &Picker| {
+            p.model
+                .as_ref()
+                .map_or(0, |m| m.doc.controls.deformations[layer].starts.len())
+        };
+        let index = count(self);
+        let target = hit.rest + stamp.unwrap_or(DVec3::ZERO);
+        self.edit(Command::add(layer, hit.rest, target), true);
+        if count(self) <= index {
             return;
         }
-        if tool != Tool::Vertices
-            && let Some(hit) = pick_marker(&cam, size, px, &m.doc, TOLERANCE_POINTS * ppp)
-        {
-            let key = (hit.layer, hit.index);
-            if modifiers.shift {
-                if let Some(k) = m.doc.selection.0.iter().position(|&s| s == key) {
-                    m.doc.selection.0.remove(k);
-                } else {
-                    m.doc.selection.0.push(key);
-                }
-            } else if !m.doc.selection.contains(hit.layer, hit.index) {
-                m.doc.selection.0 = vec![key];
-            }
-            m.doc.active_layer = hit.layer;
-            let spec = &m.doc.controls.deformations[hit.layer];
-            let origin = match hit.end {
-                End::Start => spec.starts[hit.index],
-                End::Target => spec.targets[hit.index],
-            };
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        m.doc.selection.0 = vec![(layer, index)];
+        if stamp.is_none() {
             m.history.begin_drag();
             self.gesture = Gesture::Marker {
-                layer: hit.layer,
-                index: hit.index,
-                end: hit.end,
-                tool: DragTool::begin(&cam, size, px, origin, axis),
+                layer,
+                index,
+                end: End::Target,
+                tool: DragTool::begin(cam, size, px, hit.rest, axis),
                 moved: false,
             };
-            return;
         }
-        if tool == Tool::Place {
-            fresh_bvh(m);
-            if let Some(hit) =
-                pick_surface_on(&cam, size, px, &m.bvh, &m.shown, &m.doc.mesh.positions)
-            {
-                let layer = m.doc.active_layer;
-                let target = hit.rest + stamp.unwrap_or(DVec3::ZERO);
-                let index = m.doc.controls.deformations[layer].starts.len();
-                self.edit(Command::add(layer, hit.rest, target), true);
-                let m = self.model.as_mut().expect("still open");
-                if m.doc.controls.deformations[layer].starts.len() > index {
-                    m.doc.selection.0 = vec![(layer, index)];
-                    if stamp.is_none() {
-                        m.history.begin_drag();
-                        self.gesture = Gesture::Marker {
-                            layer,
-                            index,
-                            end: End::Target,
-                            tool: DragTool::begin(&cam, size, px, hit.rest, axis),
-                            moved: false,
-                        };
-                    }
-                    self.status = format!(
-                        "Control {} of layer {} at ({:.4}, {:.4}, {:.4}), triangle {}: drag to set its destination",
-                        index + 1,
-                        layer + 1,
-                        hit.rest.x,
-                        hit.rest.y,
-                        hit.rest.z,
-                        hit.triangle
-                    );
-                }
-                return;
-            }
-        }
-        if !modifiers.shift && tool != Tool::Vertices {
-            m.doc.selection.0.clear();
-        }
-        self.gesture = Gesture::Box {
-            from: pos,
-            add: modifiers.shift,
-        };
+        self.status = format!(
+            "Control {} of layer {} at ({:.4}, {:.4}, {:.4}), triangle {}: drag to set its destination",
+            index + 1,
+            layer + 1,
+            hit.rest.x,
+            hit.rest.y,
+            hit.rest.z,
+            hit.triangle
+        );
     }
 
     fn moved(&mut self, px: Vec2, pos: egui::Pos2, delta: egui::Vec2, size: [u32; 2], ppp: f32) {
@@ -777,6 +760,23 @@ fn region_lines(region: &csrbf::Region, out: &mut Vec<Line>) {
 }
 
 /// Refits the picking tree to the shown positions if they changed since.
+/// A press on `hit`'s marker: Shift (`add`) toggles it in the selection;
+/// else it becomes the selection unless it is in it already (so a drag
+/// moves every selected control). Its layer becomes the active one.
+fn select_marker(doc: &mut crate::Document, hit: MarkerHit, add: bool) {
+    let key = (hit.layer, hit.index);
+    if add {
+        if let Some(k) = doc.selection.0.iter().position(|&s| s == key) {
+            doc.selection.0.remove(k);
+        } else {
+            doc.selection.0.push(key);
+        }
+    } else if !doc.selection.contains(hit.layer, hit.index) {
+        doc.selection.0 = vec![key];
+    }
+    doc.active_layer = hit.layer;
+}
+
 fn fresh_bvh(m: &mut Model) -> Option<()> {
     if !m.bvh_fresh {
         m.bvh.refit(&m.shown);
