@@ -48,6 +48,20 @@ pub(super) struct CopiedKey {
     pub tcb: Option<[f64; 3]>,
 }
 
+/// Why an export on a thread ended without its file.
+#[derive(Debug, thiserror::Error)]
+pub(super) enum ExportError {
+    /// The movie could not be drawn or written (or was cancelled there).
+    #[error(transparent)]
+    Render(#[from] csrbf_render::RenderError),
+    /// The glTF file could not be written.
+    #[error(transparent)]
+    Write(#[from] csrbf_mesh::MeshError),
+    /// Cancelled before the file was written.
+    #[error("cancelled")]
+    Cancelled,
+}
+
 /// An export running on a thread.
 pub(super) struct ExportJob {
     pub what: String,
@@ -55,7 +69,7 @@ pub(super) struct ExportJob {
     pub done: Arc<AtomicUsize>,
     pub total: Arc<AtomicUsize>,
     pub cancel: Arc<AtomicBool>,
-    pub result: Arc<Mutex<Option<Result<String, String>>>>,
+    pub result: Arc<Mutex<Option<Result<String, ExportError>>>>,
     pub started: Instant,
 }
 

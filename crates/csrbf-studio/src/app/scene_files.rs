@@ -12,7 +12,7 @@ use csrbf::glam::Vec3;
 use csrbf_anim::{Camera, Frame, ObjectFile, Scene, SceneFile};
 use eframe::egui;
 
-use super::composer::{Composer, ExportJob, KeyRef, Mode};
+use super::composer::{Composer, ExportError, ExportJob, KeyRef, Mode};
 use super::files::{Purpose, SceneRecovery};
 use super::studio::{Pending, StudioApp};
 use crate::compose::{Playback, SceneDoc, SceneEdit, Track, world_centre};
@@ -472,8 +472,7 @@ impl StudioApp {
         let path = path.to_path_buf();
         self.spawn_export("Movie", path.clone(), move |progress| {
             let options = csrbf_render::movie::MovieOptions::of(&scene);
-            let written = csrbf_render::movie::render_movie(&scene, &path, options, progress)
-                .map_err(|e| e.to_string())?;
+            let written = csrbf_render::movie::render_movie(&scene, &path, options, progress)?;
             Ok(format!(
                 "Wrote {} ({} frames{})",
                 written.path.display(),
@@ -501,9 +500,9 @@ impl StudioApp {
             progress(0, 1);
             let bytes = csrbf_anim::export_gltf(&scene, glb);
             if !progress(1, 1) {
-                return Err("cancelled".into());
+                return Err(ExportError::Cancelled);
             }
-            csrbf_mesh::write_atomic(&path, &bytes).map_err(|e| e.to_string())?;
+            csrbf_mesh::write_atomic(&path, &bytes)?;
             let notes = csrbf_anim::export_notes(&scene);
             Ok(format!(
                 "Wrote {} ({} KB){}",
@@ -546,7 +545,7 @@ impl StudioApp {
         &mut self,
         what: &str,
         path: PathBuf,
-        work: impl FnOnce(&mut dyn FnMut(usize, usize) -> bool) -> Result<String, String>
+        work: impl FnOnce(&mut dyn FnMut(usize, usize) -> bool) -> Result<String, ExportError>
         + Send
         + 'static,
     ) {
@@ -631,7 +630,7 @@ impl StudioApp {
                     path.display()
                 )
             }
-            Err(e) => self.show_error(&format!("Cannot export the {what}"), e),
+            Err(e) => self.show_error(&format!("Cannot export the {what}"), e.to_string()),
         }
     }
 
