@@ -26,6 +26,7 @@ impl StudioApp {
         }
         self.open_mesh_now(ctx, path);
     }
+
     pub(super) fn open_mesh_now(&mut self, ctx: &egui::Context, path: &Path) {
         let started = Instant::now();
         if is_scene(path) {
@@ -82,6 +83,7 @@ impl StudioApp {
         }
         self.picker.status = note;
     }
+
     /// Opens a control file on the current mesh, in the CLI's format. A file
     /// the CLI would refuse leaves the document as it was and says why.
     pub fn open_controls(&mut self, path: &Path) {
@@ -146,6 +148,7 @@ impl StudioApp {
         files::remember(self.shell.state.as_deref(), path);
         self.shell.recent = files::recent_files(self.shell.state.as_deref());
     }
+
     /// Saves the control file (to where it came from, else asks where).
     pub fn save(&mut self) {
         match self
@@ -158,6 +161,7 @@ impl StudioApp {
             None => self.ask(Purpose::SaveControls),
         }
     }
+
     /// Saves the control file to `path`, whole or not at all; a failure says
     /// so and keeps the document unsaved.
     pub fn save_to(&mut self, path: &Path) {
@@ -177,6 +181,7 @@ impl StudioApp {
             Err(e) => self.show_error("Cannot save", e.to_string()),
         }
     }
+
     /// Writes the deformed mesh as shown (any format the CLI writes).
     pub fn export_mesh(&mut self, path: &Path) {
         self.settle(Duration::from_secs(600));
@@ -191,6 +196,7 @@ impl StudioApp {
             Err(e) => self.show_error("Cannot export the mesh", e.to_string()),
         }
     }
+
     /// Writes the fitted deformations as `.csrbf` (what `csrbf apply` reads).
     pub fn export_fitted(&mut self, path: &Path) {
         let Some(m) = self.picker.model.as_ref() else {
@@ -211,6 +217,7 @@ impl StudioApp {
             Err(e) => self.show_error("Cannot export the fitted deformation", e.to_string()),
         }
     }
+
     /// Reopens a recovered session: its mesh and its unsaved controls.
     pub fn restore(&mut self, ctx: &egui::Context, r: &Recovery) {
         let file = match ControlFile::parse(&r.controls) {
@@ -228,6 +235,7 @@ impl StudioApp {
         self.picker.status = format!("Restored the unsaved session on {}", r.mesh.display());
         self.picker.refresh(true);
     }
+
     /// The recovery file, while there are unsaved changes: at most once a
     /// second, and only when something changed.
     pub(super) fn write_recovery(&mut self) {

@@ -243,30 +243,27 @@ impl Picker {
             Err(e) => self.status = format!("Not done: {e}"),
         }
     }
-    pub(super) fn undo(&mut self) {
-        if let Some(m) = self.model.as_mut() {
-            match m.history.undo(&mut m.doc) {
-                Ok(()) => {
-                    m.hidden.resize(m.doc.controls.deformations.len(), false);
-                    self.status = "Undone".into();
-                    self.refresh(true);
-                }
-                Err(e) => self.status = e.to_string(),
+
+    /// Undoes the last edit (`redo`: redoes the last undone).
+    pub(super) fn undo(&mut self, redo: bool) {
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let done = if redo {
+            m.history.redo(&mut m.doc)
+        } else {
+            m.history.undo(&mut m.doc)
+        };
+        match done {
+            Ok(()) => {
+                m.hidden.resize(m.doc.controls.deformations.len(), false);
+                self.status = if redo { "Redone" } else { "Undone" }.into();
+                self.refresh(true);
             }
+            Err(e) => self.status = e.to_string(),
         }
     }
-    pub(super) fn redo(&mut self) {
-        if let Some(m) = self.model.as_mut() {
-            match m.history.redo(&mut m.doc) {
-                Ok(()) => {
-                    m.hidden.resize(m.doc.controls.deformations.len(), false);
-                    self.status = "Redone".into();
-                    self.refresh(true);
-                }
-                Err(e) => self.status = e.to_string(),
-            }
-        }
-    }
+
     /// Sends the document, as the preview should show it, to the worker.
     pub(super) fn refresh(&mut self, full: bool) {
         let Some(m) = self.model.as_mut() else {
@@ -284,6 +281,7 @@ impl Picker {
             m.preview.edit(&m.doc, full);
         }
     }
+
     pub(super) fn set_axis(&mut self, axis: Option<usize>) {
         self.axis = axis;
         self.status = match axis {
@@ -294,6 +292,7 @@ impl Picker {
             None => "Moves free on the plane facing the camera".into(),
         };
     }
+
     /// Frames the selection (`selection`) or the whole model.
     pub(super) fn frame_view(&mut self, selection: bool, size: [u32; 2]) {
         let Some(m) = self.model.as_mut() else {
@@ -319,6 +318,7 @@ impl Picker {
         m.orbit
             .frame(lo, hi, size[0].max(1) as f32 / size[1].max(1) as f32);
     }
+
     pub(super) fn select_all(&mut self) {
         if let Some(m) = self.model.as_mut() {
             let l = m.doc.active_layer;
@@ -331,6 +331,7 @@ impl Picker {
             m.doc.selection.0 = (0..n).map(|i| (l, i)).collect();
         }
     }
+
     pub(super) fn delete_selected(&mut self) {
         let Some(m) = self.model.as_mut() else {
             return;
@@ -352,6 +353,7 @@ impl Picker {
         self.edit(Command::Batch(batch), true);
         self.status = format!("Deleted {n} control vector(s)");
     }
+
     /// Copies the selected controls' displacements onto the next clicks
     /// on the surface (a stamp): the way to repeat an edit elsewhere.
     pub(super) fn duplicate(&mut self) {
@@ -369,6 +371,7 @@ impl Picker {
         self.tool = Tool::Place;
         self.status = "Click on the surface to place a copy (Esc to stop)".into();
     }
+
     /// Mirrors the selected controls (or all of the active layer) across the
     /// plane through the model's centre normal to `axis` (0 X, 1 Y, 2 Z).
     pub(super) fn mirror(&mut self, axis: usize) {

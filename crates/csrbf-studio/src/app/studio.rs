@@ -307,8 +307,8 @@ impl StudioApp {
             ctx.input_mut(|i| i.consume_shortcut(&KeyboardShortcut::new(m, k)))
         };
         match undo_keys(ctx) {
-            Some(true) => self.picker.redo(),
-            Some(false) => self.picker.undo(),
+            Some(true) => self.picker.undo(true),
+            Some(false) => self.picker.undo(false),
             None => {}
         }
         if shortcut(Modifiers::COMMAND | Modifiers::SHIFT, Key::S) {
@@ -736,10 +736,10 @@ impl StudioApp {
     /// The Picker's Edit menu.
     pub(super) fn edit_menu(&mut self, ui: &mut egui::Ui) {
         if ui.button("Undo  Ctrl+Z").clicked() {
-            self.picker.undo();
+            self.picker.undo(false);
         }
         if ui.button("Redo  Ctrl+Shift+Z").clicked() {
-            self.picker.redo();
+            self.picker.undo(true);
         }
         ui.separator();
         if ui.button("Delete selected  Del").clicked() {
