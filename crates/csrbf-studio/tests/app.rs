@@ -285,6 +285,11 @@ fn what_the_studio_saves_the_cli_reads_back_to_the_same_document() {
         title.contains("Cannot save") && text.contains("no such folder"),
         "{title}: {text}"
     );
+    // Why, not only the path (issue 23, bug 7).
+    assert!(
+        text.contains("does not exist") || text.contains("os error"),
+        "{text}"
+    );
     assert!(!bad.exists());
 }
 
@@ -323,6 +328,14 @@ fn a_broken_file_is_refused_with_the_cli_message_and_the_document_kept() {
     assert!(text.contains("broken.off"), "{text}");
     let doc = h.state().document().expect("still open");
     assert!(doc.mesh_path.ends_with("cgal_head.off"));
+    // A mesh that is not there: the system's reason, not only the name.
+    h.state_mut().open_mesh(&ctx, &dir.join("nonexist.obj"));
+    h.run_steps(2);
+    let (_, text) = h.state().message().expect("a dialog").clone();
+    assert!(
+        text.contains("nonexist.obj") && text.contains("os error"),
+        "{text}"
+    );
 
     // A scene file goes to the Composer, which says what is wrong with it
     // (the CLI's message); the Picker's document is kept.

@@ -19,7 +19,7 @@ use eframe::egui;
 
 use super::gpu;
 use super::key_drag::KeyDrag;
-use super::request::Outbox;
+use super::request::{Outbox, reason};
 use crate::Orbit;
 use crate::compose::{
     KeyValue, Loaded, Playback, SceneDoc, SceneEdit, SceneHistory, Track, key_value, scene_bounds,
@@ -263,7 +263,7 @@ impl Composer {
                 true
             }
             Err(e) => {
-                self.outbox.error("Not done", e.to_string());
+                self.outbox.error("Not done", reason(&e));
                 false
             }
         }
@@ -289,7 +289,7 @@ impl Composer {
             Err(e) => {
                 // A file changed on disk since: keep the document as it was.
                 self.doc = before;
-                self.outbox.error("Cannot undo", e.to_string());
+                self.outbox.error("Cannot undo", reason(&e));
             }
         }
     }
@@ -302,9 +302,8 @@ impl Composer {
         match self.prepare(&file, true) {
             Ok(scene) => self.install(scene, true),
             Err(e) => {
-                self.loaded.problem = Some(e.to_string());
-                self.outbox
-                    .error("The scene no longer loads", e.to_string());
+                self.loaded.problem = Some(reason(&e));
+                self.outbox.error("The scene no longer loads", reason(&e));
             }
         }
     }

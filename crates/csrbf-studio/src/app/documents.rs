@@ -12,6 +12,7 @@ use eframe::egui;
 use super::files::{self, Purpose, Recovery};
 use super::gpu;
 use super::picker::{Gesture, Model};
+use super::request::reason;
 use super::studio::{Pending, StudioApp, is_scene};
 use crate::Command;
 
@@ -34,7 +35,7 @@ impl StudioApp {
         }
         let loaded = match csrbf_mesh::load(path) {
             Ok(l) => l,
-            Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
+            Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
         };
         let mesh = loaded.mesh;
         if mesh.bounds().is_none() {
@@ -61,7 +62,7 @@ impl StudioApp {
             [size[0].max(16), size[1].max(16)],
         ) {
             Ok(s) => s,
-            Err(e) => return self.show_error("Cannot open the mesh", e.to_string()),
+            Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
         };
         let id = gpu::new_mesh_id();
         let model = Model::new(mesh, path, scene, (id, self.screen.software), size, ctx);
@@ -130,7 +131,7 @@ impl StudioApp {
             batch.push(Command::RemoveLayer { layer: k });
         }
         if let Err(e) = m.history.apply(&mut m.doc, Command::Batch(batch)) {
-            return self.show_error("Cannot open the control file", e.to_string());
+            return self.show_error("Cannot open the control file", reason(&e));
         }
         m.doc.controls.combine = file.combine;
         m.doc.selection.0.clear();
@@ -178,7 +179,7 @@ impl StudioApp {
                 files::remember(self.shell.state.as_deref(), path);
                 self.shell.recent = files::recent_files(self.shell.state.as_deref());
             }
-            Err(e) => self.show_error("Cannot save", e.to_string()),
+            Err(e) => self.show_error("Cannot save", reason(&e)),
         }
     }
 
@@ -193,7 +194,7 @@ impl StudioApp {
         mesh.recompute_normals();
         match csrbf_mesh::write(path, &mesh) {
             Ok(()) => self.picker.status = format!("Exported {}", path.display()),
-            Err(e) => self.show_error("Cannot export the mesh", e.to_string()),
+            Err(e) => self.show_error("Cannot export the mesh", reason(&e)),
         }
     }
 
@@ -214,7 +215,7 @@ impl StudioApp {
         });
         match result {
             Ok(()) => self.picker.status = format!("Exported {}", path.display()),
-            Err(e) => self.show_error("Cannot export the fitted deformation", e.to_string()),
+            Err(e) => self.show_error("Cannot export the fitted deformation", reason(&e)),
         }
     }
 
@@ -222,7 +223,7 @@ impl StudioApp {
     pub fn restore(&mut self, ctx: &egui::Context, r: &Recovery) {
         let file = match ControlFile::parse(&r.controls) {
             Ok(f) => f,
-            Err(e) => return self.show_error("Cannot restore", e.to_string()),
+            Err(e) => return self.show_error("Cannot restore", reason(&e)),
         };
         self.open_mesh_now(ctx, &r.mesh);
         let Some(m) = self.picker.model.as_mut() else {

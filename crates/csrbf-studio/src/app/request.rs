@@ -41,3 +41,42 @@ impl Outbox {
         std::mem::take(&mut self.0)
     }
 }
+
+/// An error and its sources as one line, as the CLI prints them: "x.obj: No
+/// such file or directory (os error 2)", where `to_string` would keep only
+/// "x.obj". A source whose text the error already shows is not repeated.
+pub(super) fn reason(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = s.to_string();
+        if !text.contains(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reason_keeps_the_systems_error_once() {
+        let missing = std::path::Path::new("/no/such/dir/x.obj");
+        let e = csrbf_mesh::read(missing).expect_err("no such file");
+        let text = reason(&e);
+        assert!(text.starts_with("/no/such/dir/x.obj: "), "{text}");
+        let os = std::io::Error::from(std::io::ErrorKind::NotFound).to_string();
+        assert!(
+            text.contains("No such file") || text.contains(&os),
+            "{text}"
+        );
+        // An error whose message already holds its source says it once.
+        let parse = csrbf::controls::ControlFile::parse("{").expect_err("broken");
+        let text = reason(&parse);
+        assert_eq!(text.matches(&parse.to_string()).count(), 1, "{text}");
+    }
+}

@@ -14,6 +14,7 @@ use eframe::egui;
 
 use super::composer::{Composer, ExportError, ExportJob, KeyRef, Mode};
 use super::files::{Purpose, SceneRecovery};
+use super::request::reason;
 use super::studio::{Pending, StudioApp};
 use crate::compose::{Playback, SceneDoc, SceneEdit, Track, world_centre};
 use crate::gizmo::{RING_PIXELS, axis_rings};
@@ -250,7 +251,7 @@ impl StudioApp {
         let started = Instant::now();
         let doc = match SceneDoc::open(path) {
             Ok(d) => d,
-            Err(e) => return self.show_error("Cannot open the scene", e.to_string()),
+            Err(e) => return self.show_error("Cannot open the scene", reason(&e)),
         };
         self.adopt_scene(doc, started, &format!("Opened {}", path.display()));
         if self.composer.as_ref().is_some_and(|c| c.doc.path.is_some()) {
@@ -265,7 +266,7 @@ impl StudioApp {
         let file = c.doc.file.clone();
         let scene = match c.prepare(&file, true) {
             Ok(s) => s,
-            Err(e) => return self.show_error("Cannot open the scene", e.to_string()),
+            Err(e) => return self.show_error("Cannot open the scene", reason(&e)),
         };
         c.install(scene, true);
         let warnings = c
@@ -293,7 +294,7 @@ impl StudioApp {
     pub fn restore_scene(&mut self, r: &SceneRecovery) {
         let file = match SceneFile::parse(&r.scene) {
             Ok(f) => f,
-            Err(e) => return self.show_error("Cannot restore the scene", e.to_string()),
+            Err(e) => return self.show_error("Cannot restore the scene", reason(&e)),
         };
         let mut doc = SceneDoc::new(file, r.path.clone());
         doc.dirty = true;
@@ -319,7 +320,7 @@ impl StudioApp {
             return;
         };
         if let Err(e) = c.doc.saveable() {
-            return self.show_error("Cannot save the scene", e.to_string());
+            return self.show_error("Cannot save the scene", reason(&e));
         }
         let rebased = c.doc.rebased(path);
         match csrbf_mesh::write_atomic(path, rebased.to_json().as_bytes()) {
@@ -338,7 +339,7 @@ impl StudioApp {
                 super::files::remember(self.shell.state.as_deref(), path);
                 self.shell.recent = super::files::recent_files(self.shell.state.as_deref());
             }
-            Err(e) => self.show_error("Cannot save the scene", e.to_string()),
+            Err(e) => self.show_error("Cannot save the scene", reason(&e)),
         }
     }
 
@@ -467,7 +468,7 @@ impl StudioApp {
         };
         let format = match csrbf_render::movie::MovieFormat::of(path) {
             Ok(f) => f,
-            Err(e) => return self.show_error("Cannot export the movie", e.to_string()),
+            Err(e) => return self.show_error("Cannot export the movie", reason(&e)),
         };
         let path = path.to_path_buf();
         self.spawn_export("Movie", path.clone(), move |progress| {
@@ -526,7 +527,7 @@ impl StudioApp {
         match (&c.loaded.scene, c.doc.saveable()) {
             (Some(s), Ok(())) => Some(s.clone()),
             (_, Err(e)) => {
-                self.show_error(&format!("Cannot export the {what}"), e.to_string());
+                self.show_error(&format!("Cannot export the {what}"), reason(&e));
                 None
             }
             (None, Ok(())) => {
@@ -576,7 +577,7 @@ impl StudioApp {
                 wake.request_repaint();
             });
         if let Err(e) = spawned {
-            return self.show_error("Cannot export", e.to_string());
+            return self.show_error("Cannot export", reason(&e));
         }
         c.export = Some(ExportJob {
             what: what.into(),
@@ -630,7 +631,7 @@ impl StudioApp {
                     path.display()
                 )
             }
-            Err(e) => self.show_error(&format!("Cannot export the {what}"), e.to_string()),
+            Err(e) => self.show_error(&format!("Cannot export the {what}"), reason(&e)),
         }
     }
 
