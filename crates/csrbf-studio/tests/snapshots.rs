@@ -11,6 +11,7 @@ use std::time::Duration;
 use csrbf_studio::app::{Args, StudioApp};
 use eframe::egui;
 use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
 
 fn head() -> PathBuf {
     csrbf_testkit::model("cgal_head.off")
@@ -139,6 +140,31 @@ fn turned_over_faces_are_outlined_in_red() {
     let red = |p: [u8; 4]| p[0] > 200 && p[1] < 120 && p[2] < 120;
     assert!(count(&view, red) > 10, "the flipped faces are outlined");
     egui_kittest::image_snapshot(&view, "head_folded");
+}
+
+/// Issue 23, bug 2: after a scene was shown in the Composer, the Picker's
+/// viewport draws its mesh again (it was black: the Composer's picture took
+/// the one GPU slot, and the Picker's mesh had been handed over once).
+#[test]
+fn the_pickers_viewport_draws_its_mesh_again_after_the_composer() {
+    let (before, mut h) = viewport("picker-after-composer", None);
+    let scene = csrbf_testkit::root().join("assets/scenes/face.scene.json");
+    h.state_mut().open_scene(&scene);
+    h.run_steps(3);
+    assert_eq!(h.state().mode(), csrbf_studio::app::Mode::Compose);
+    // The Composer's picture is drawn (a harness draws only when asked).
+    h.render().expect("the Composer draws");
+    h.get_by_label("Picker").click();
+    h.run_steps(3);
+    assert_eq!(h.state().mode(), csrbf_studio::app::Mode::Pick);
+    let image = h.render().expect("the wgpu test renderer draws");
+    let (_, size, corner, ppp) = h.state().viewport_camera().expect("open");
+    let (x, y) = ((corner.x * ppp) as u32, (corner.y * ppp) as u32);
+    let after = image::imageops::crop_imm(&image, x, y, size[0], size[1]).to_image();
+    let centre = after.get_pixel(after.width() / 2, after.height() / 2).0;
+    assert!(centre[0] > 120, "the head is drawn, lit: {centre:?}");
+    let (mean, far) = difference(&before, &after, 0);
+    assert!(mean < 2.0 && far < 0.01, "the same picture: {mean} {far}");
 }
 
 /// Mean absolute difference of two pictures' RGB (0..255), and the share of

@@ -94,11 +94,22 @@ pub struct ViewportPaint {
     pub background: [f32; 3],
 }
 
+/// Whose scene renderer: each room keeps its own.
+#[derive(Clone, Copy)]
+enum Room {
+    Picker = 0,
+    Composer = 1,
+}
+
 /// The GPU objects of the viewport, kept between frames.
 struct ViewportGpu {
     blit: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
-    scene: Option<(u64, SceneRenderer)>,
+    /// The scene renderer of each room (the Picker's mesh, the Composer's
+    /// scene) with the id it was made for: each keeps its own, so a room
+    /// drawn again finds its parts prepared (the Picker's mesh is handed to
+    /// the GPU side once).
+    scenes: [Option<(u64, SceneRenderer)>; 2],
     target: Option<([u32; 2], wgpu::TextureView, wgpu::BindGroup)>,
     error: Option<String>,
     /// What the Composer's picture in `target` shows (see
@@ -170,7 +181,7 @@ pub fn install(state: &egui_wgpu::RenderState) {
         .insert(ViewportGpu {
             blit,
             layout,
-            scene: None,
+            scenes: [None, None],
             target: None,
             error: None,
             drawn: None,
@@ -231,27 +242,29 @@ impl CallbackTrait for ViewportPaint {
 }
 
 impl ViewportGpu {
-    /// The scene renderer of `id`, made by `make` on a renderer of this
-    /// device when `id` is new (None: nothing to draw yet), sized to `size`.
+    /// The scene renderer of `room` for `id`, made by `make` on a renderer
+    /// of this device when `id` is new (None: nothing to draw yet), sized to
+    /// `size`.
     fn scene_renderer(
         &mut self,
+        (room, id): (Room, u64),
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        id: u64,
         samples: u32,
         size: [u32; 2],
         make: impl FnOnce(Renderer) -> Option<csrbf_render::Result<SceneRenderer>>,
     ) -> csrbf_render::Result<Option<&mut SceneRenderer>> {
         let [w, h] = size;
-        if self.scene.as_ref().map(|(k, _)| *k) != Some(id) {
+        let slot = &mut self.scenes[room as usize];
+        if slot.as_ref().map(|(k, _)| *k) != Some(id) {
             let renderer =
                 Renderer::on_device(device.clone(), queue.clone(), FORMAT, w, h, samples)?;
             match make(renderer) {
-                Some(r) => self.scene = Some((id, r?)),
+                Some(r) => *slot = Some((id, r?)),
                 None => return Ok(None),
             }
         }
-        let Some((_, scene)) = self.scene.as_mut() else {
+        let Some((_, scene)) = slot.as_mut() else {
             return Ok(None);
         };
         scene.renderer_mut().resize(w, h)?;
@@ -323,9 +336,9 @@ impl ViewportPaint {
         // The Picker draws over the Composer's last picture.
         gpu.drawn = None;
         let made = gpu.scene_renderer(
+            (Room::Picker, self.mesh.id),
             device,
             queue,
-            self.mesh.id,
             self.mesh.samples,
             self.size,
             |renderer| {
@@ -412,13 +425,19 @@ impl CallbackTrait for ScenePaint {
         let key = self.stamp
             ^ self.id.rotate_left(17)
             ^ ((self.size[0] as u64) << 32 | self.size[1] as u64);
-        if gpu.drawn == Some(key) && gpu.scene.as_ref().is_some_and(|(id, _)| *id == self.id) {
+        let room = &gpu.scenes[Room::Composer as usize];
+        if gpu.drawn == Some(key) && room.as_ref().is_some_and(|(id, _)| *id == self.id) {
             return Vec::new();
         }
         let s = &self.scene;
-        let made = gpu.scene_renderer(device, queue, self.id, self.samples, self.size, |r| {
-            Some(SceneRenderer::on_renderer(s, r))
-        });
+        let made = gpu.scene_renderer(
+            (Room::Composer, self.id),
+            device,
+            queue,
+            self.samples,
+            self.size,
+            |r| Some(SceneRenderer::on_renderer(s, r)),
+        );
         match made {
             Ok(Some(r)) => {
                 let stand_ins: Vec<_> = self
