@@ -56,7 +56,8 @@ pub use orbit::Orbit;
 pub use preview::{Preview, PreviewFrame};
 pub use state::{Document, Selection};
 pub use tools::{
-    DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface, pick_surface_on, swept_angle,
+    DragTool, End, MarkerHit, SurfacePoint, pick_marker, pick_surface, pick_surface_on,
+    swept_angle, vertices_in_box,
 };
 
 /// An edit that cannot be made, and why.

@@ -242,6 +242,43 @@ pub fn swept_angle(
     }
 }
 
+/// The vertices of `positions` (with their `normals`) seen in the box from
+/// pixel `lo` to pixel `hi` of `camera`'s picture of `size`: those facing
+/// the camera, or every one in the box when `through` (X-ray: the far side
+/// and the sides of a limb too).
+pub fn vertices_in_box(
+    camera: &Camera,
+    size: [u32; 2],
+    (lo, hi): (Vec2, Vec2),
+    (positions, normals): (&[Vec3], &[Vec3]),
+    through: bool,
+) -> Vec<u32> {
+    let forward = camera.basis().2;
+    let perspective = matches!(
+        camera.projection,
+        csrbf_anim::Projection::Perspective { .. }
+    );
+    let facing = |p: Vec3, n: Vec3| {
+        if perspective {
+            n.dot(p - camera.eye) < 0.0
+        } else {
+            n.dot(forward) < 0.0
+        }
+    };
+    positions
+        .iter()
+        .zip(normals)
+        .enumerate()
+        .filter(|&(_, (&p, &n))| {
+            (through || facing(p, n))
+                && camera
+                    .project(p, size)
+                    .is_some_and(|(q, _)| q.cmpge(lo).all() && q.cmple(hi).all())
+        })
+        .map(|(i, _)| i as u32)
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -416,5 +453,29 @@ mod tests {
                 .moved_to(&cam, SIZE, Camera::centre_pixel(SIZE))
                 .is_none()
         );
+    }
+    #[test]
+    fn a_box_takes_the_vertices_facing_the_camera_or_all_of_them_through_the_model() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 12, 24);
+        let normals = csrbf_mesh::triangle_vertex_normals(&mesh.positions, &mesh.faces.triangles());
+        let cam = camera();
+        let whole = (Vec2::ZERO, Vec2::new(SIZE[0] as f32, SIZE[1] as f32));
+        let data = (&mesh.positions[..], &normals[..]);
+        let front = vertices_in_box(&cam, SIZE, whole, data, false);
+        let all = vertices_in_box(&cam, SIZE, whole, data, true);
+        // The front half faces the camera at z = 5; X-ray takes every vertex.
+        assert_eq!(all.len(), mesh.positions.len());
+        assert!(!front.is_empty() && front.len() < all.len());
+        for &i in &front {
+            assert!(mesh.positions[i as usize].z > -0.05, "{i}");
+        }
+        // A box over the right half only takes vertices with x > 0.
+        let right = (Vec2::new(SIZE[0] as f32 / 2.0 + 1.0, 0.0), whole.1);
+        for &i in &vertices_in_box(&cam, SIZE, right, data, true) {
+            assert!(mesh.positions[i as usize].x > 0.0, "{i}");
+        }
+        // A box off the model takes nothing.
+        let corner = (Vec2::ZERO, Vec2::new(5.0, 5.0));
+        assert!(vertices_in_box(&cam, SIZE, corner, data, true).is_empty());
     }
 }

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use csrbf::controls::ControlFile;
 use csrbf::glam::{Vec2, Vec3};
-use csrbf_studio::Live;
 use csrbf_studio::app::{Args, StudioApp};
+use csrbf_studio::{Live, vertices_in_box};
 use eframe::egui;
 use egui::accesskit::Role;
 use egui_kittest::Harness;
@@ -548,6 +548,52 @@ fn a_handle_turns_a_chosen_part_as_a_rotation() {
         3,
         "apply, angle, and the gizmo drag as one step"
     );
+}
+
+/// Issue 23, bug 3: in View > Rest, a box of the vertex tool takes the
+/// vertices where they are drawn (at rest), not where the edit moved them;
+/// with X-ray it takes those facing away too.
+#[test]
+fn a_box_in_the_rest_view_chooses_the_vertices_drawn_at_rest() {
+    let mut h = head("rest-box");
+    pull_nose(&mut h);
+    h.get_by_label("View").click();
+    h.run_steps(3);
+    h.get_by_label("Rest").click();
+    h.run_steps(1);
+    h.key_press(egui::Key::Escape);
+    h.run_steps(1);
+    h.get_by_label("Vertices").click();
+    h.run_steps(1);
+    let (px, _) = nose_pixel(&h);
+    let (a, b) = (px - Vec2::new(25.0, 25.0), px + Vec2::new(25.0, 25.0));
+    let drag_box = |h: &mut Harness<'_, StudioApp>| {
+        press(h, a, true);
+        move_to(h, (a + b) / 2.0);
+        move_to(h, b);
+        press(h, b, false);
+    };
+    drag_box(&mut h);
+    let app = h.state();
+    let doc = app.document().expect("open");
+    let (cam, size, _, _) = app.viewport_camera().expect("open");
+    let triangles = doc.mesh.faces.triangles();
+    let in_box = |positions: &[Vec3], through: bool| {
+        let normals = csrbf_mesh::triangle_vertex_normals(positions, &triangles);
+        vertices_in_box(&cam, size, (a, b), (positions, &normals), through)
+    };
+    let at_rest = in_box(&doc.mesh.positions, false);
+    let deformed = in_box(app.shown_positions().expect("shown"), false);
+    assert!(at_rest.len() > 5, "{}", app.status());
+    assert_ne!(at_rest, deformed, "the edit moved the nose out of the box");
+    assert_eq!(app.chosen_vertices(), &at_rest[..], "{}", app.status());
+    // X-ray: every vertex in the box, the far side of the head too.
+    h.get_by_label("select through the model (X-ray)").click();
+    h.run_steps(1);
+    drag_box(&mut h);
+    let through = in_box(&h.state().document().expect("open").mesh.positions, true);
+    assert!(through.len() > at_rest.len());
+    assert_eq!(h.state().chosen_vertices(), &through[..]);
 }
 
 #[test]

@@ -208,6 +208,8 @@ impl Picker {
                 .custom_formatter(|v, _| format!("{:.1} %", v * 100.0)),
         )
         .on_hover_text("Ctrl+drag on the surface paints vertices within this share of the diagonal (Shift adds)");
+        ui.checkbox(&mut self.view.xray, "select through the model (X-ray)")
+            .on_hover_text("A box takes every vertex in it, the far side and the sides of a limb too; else only those facing you");
         let l = m.doc.active_layer;
         let spec = m.doc.controls.deformations[l].clone();
         let mut commands = Vec::new();
@@ -644,7 +646,7 @@ pub(super) fn pick_status(ui: &mut egui::Ui, m: &Model, frame_ms: f64) {
     ui.label(format!(
         "{} vertices · {} triangles · {} controls",
         m.doc.mesh.positions.len(),
-        m.bvh.triangles().len(),
+        m.picking.bvh.triangles().len(),
         controls
     ));
     ui.separator();

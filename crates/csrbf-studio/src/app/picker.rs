@@ -42,9 +42,9 @@ pub(super) struct Model {
     pub(super) shown_normals: Arc<Vec<Vec3>>,
     pub(super) rest_normals: Arc<Vec<Vec3>>,
     pub(super) rest_positions: Arc<Vec<Vec3>>,
-    /// The picking tree and whether it fits `shown`.
-    pub(super) bvh: Bvh,
-    pub(super) bvh_fresh: bool,
+    /// The picking tree, fitted to what the viewport draws when a press
+    /// asks for the surface.
+    pub(super) picking: Picking,
     pub(super) gpu_mesh: Arc<gpu::NewMesh>,
     /// For a big mesh: what is drawn while it moves (vertex clustering).
     pub(super) stand_in: Option<Arc<StandIn>>,
@@ -68,6 +68,15 @@ pub(super) struct Model {
 }
 
 impl Model {
+    /// The positions and normals the viewport draws: at rest in View > Rest,
+    /// else the newest preview frame.
+    pub(super) fn drawn(&self, display: Display) -> (&Arc<Vec<Vec3>>, &Arc<Vec<Vec3>>) {
+        match display {
+            Display::Rest => (&self.rest_positions, &self.rest_normals),
+            Display::Deformed | Display::Both => (&self.shown, &self.shown_normals),
+        }
+    }
+
     /// Shows the newest preview frame, if the worker made one.
     pub(super) fn take_frame(&mut self) {
         self.preview.poll();
@@ -77,7 +86,9 @@ impl Model {
             self.shown_generation = f.generation;
             self.shown = f.positions.clone();
             self.shown_normals = f.normals.clone();
-            self.bvh_fresh = false;
+            if self.picking.fits == Fits::Shown {
+                self.picking.fits = Fits::Stale;
+            }
         }
     }
 
@@ -118,8 +129,10 @@ impl Model {
             rest_positions: shown.clone(),
             rest_normals,
             shown,
-            bvh,
-            bvh_fresh: true,
+            picking: Picking {
+                bvh,
+                fits: Fits::Shown,
+            },
             gpu_mesh: Arc::new(gpu::NewMesh {
                 id,
                 scene: Mutex::new(Some(scene)),
@@ -136,6 +149,40 @@ impl Model {
             recovered_text: String::new(),
             doc,
         }
+    }
+}
+
+/// What the picking tree is fitted to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Fits {
+    /// The preview frame shown.
+    Shown,
+    /// The rest positions (View > Rest).
+    Rest,
+    /// A preview frame since replaced.
+    Stale,
+}
+
+/// The picking tree of a model, refitted (not rebuilt) to what the viewport
+/// draws when a press needs the surface: a refit of a big mesh costs
+/// milliseconds, so it waits until then.
+pub(super) struct Picking {
+    pub(super) bvh: Bvh,
+    pub(super) fits: Fits,
+}
+
+impl Picking {
+    /// The tree fitted to `drawn`, which the viewport draws for `display`.
+    pub(super) fn fitted(&mut self, display: Display, drawn: &[Vec3]) -> &Bvh {
+        let want = match display {
+            Display::Rest => Fits::Rest,
+            Display::Deformed | Display::Both => Fits::Shown,
+        };
+        if self.fits != want {
+            self.bvh.refit(drawn);
+            self.fits = want;
+        }
+        &self.bvh
     }
 }
 
@@ -180,6 +227,9 @@ pub(super) struct ViewSettings {
     pub stamp: Option<DVec3>,
     /// The vertex brush's radius, as a share of the model's diagonal.
     pub brush: f32,
+    /// A box of the vertex tool takes every vertex in it, not only those
+    /// facing the camera (X-ray).
+    pub xray: bool,
 }
 
 impl Default for ViewSettings {
@@ -195,6 +245,7 @@ impl Default for ViewSettings {
             all_spheres: false,
             stamp: None,
             brush: 0.03,
+            xray: false,
         }
     }
 }

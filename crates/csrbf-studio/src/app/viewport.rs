@@ -12,7 +12,7 @@ use super::pick_press::{Begin, Press, begin};
 use super::picker::{Display, Gesture, Model, Picker, Tool, ViewSettings};
 use crate::gizmo::{RING_PIXELS, axis_rings, world_per_pixel};
 use crate::tools::VertexTarget;
-use crate::{Command, DragTool, End, MarkerHit, SurfacePoint, pick_surface_on};
+use crate::{Command, DragTool, End, MarkerHit, SurfacePoint, pick_surface_on, vertices_in_box};
 
 /// The pointer's state this frame, as the viewports read it.
 pub(super) struct PointerInput {
@@ -182,8 +182,10 @@ impl Picker {
             };
             let px = Self::pixel(pos, rect, ppp);
             let cam = m.orbit.camera();
-            let point = fresh_bvh(m)
-                .and_then(|_| m.bvh.cast(&m.shown, &cam.ray(px, size)))
+            let display = self.view.display;
+            let drawn = m.drawn(display).0.clone();
+            let point = (m.picking.fitted(display, &drawn))
+                .cast(&drawn, &cam.ray(px, size))
                 .map(|h| h.point)
                 .unwrap_or_else(|| m.orbit.point_on_target_plane(px, size));
             m.orbit.zoom_about((-scroll * 0.002).exp(), point);
@@ -244,15 +246,14 @@ impl Picker {
         };
         let cam = m.orbit.camera();
         let handle = active_handle(m);
-        // The picking tree is refitted to the shown positions only when a
-        // press asks for the surface.
-        let (bvh, fresh, shown, doc) = (&mut m.bvh, &mut m.bvh_fresh, &m.shown, &m.doc);
+        // The picking tree is refitted to what is drawn only when a press
+        // asks for the surface.
+        let display = self.view.display;
+        let drawn = m.drawn(display).0.clone();
+        let (picking, doc) = (&mut m.picking, &m.doc);
         let surface = |px| {
-            if !*fresh {
-                bvh.refit(shown);
-                *fresh = true;
-            }
-            pick_surface_on(&cam, size, px, bvh, shown, &doc.mesh.positions)
+            let bvh = picking.fitted(display, &drawn);
+            pick_surface_on(&cam, size, px, bvh, &drawn, &doc.mesh.positions)
         };
         match begin(press, &cam, doc, handle, surface) {
             Begin::Handle { layer, drag } => {
@@ -358,9 +359,11 @@ impl Picker {
                     },
                     End::Start => {
                         // A start stays on the surface when the pointer is on it.
-                        fresh_bvh(m);
+                        let display = self.view.display;
+                        let drawn = m.drawn(display).0.clone();
+                        let bvh = m.picking.fitted(display, &drawn);
                         let start = if tool.axis.is_none() {
-                            pick_surface_on(&cam, size, px, &m.bvh, &m.shown, &m.doc.mesh.positions)
+                            pick_surface_on(&cam, size, px, bvh, &drawn, &m.doc.mesh.positions)
                                 .map_or(p, |h| h.rest)
                         } else {
                             p
@@ -405,14 +408,15 @@ impl Picker {
             return;
         };
         let cam = m.orbit.camera();
-        fresh_bvh(m);
-        let Some(hit) = m.bvh.cast(&m.shown, &cam.ray(px, size)) else {
+        let display = self.view.display;
+        let drawn = m.drawn(display).0.clone();
+        let Some(hit) = (m.picking.fitted(display, &drawn)).cast(&drawn, &cam.ray(px, size)) else {
             return;
         };
         let r2 = radius * radius;
         let before = m.picked_vertices.len();
         m.picked_vertices.extend(
-            m.shown
+            drawn
                 .iter()
                 .enumerate()
                 .filter(|(_, p)| p.distance_squared(hit.point) <= r2)
@@ -431,7 +435,7 @@ impl Picker {
 
     fn release(&mut self, pos: egui::Pos2, rect: egui::Rect, ppp: f32, size: [u32; 2]) {
         let gesture = std::mem::replace(&mut self.gesture, Gesture::None);
-        let tool = self.tool;
+        let (tool, display, xray) = (self.tool, self.view.display, self.view.xray);
         let Some(m) = self.model.as_mut() else {
             return;
         };
@@ -450,25 +454,12 @@ impl Picker {
                 }
                 let cam = m.orbit.camera();
                 if tool == Tool::Vertices {
-                    // Vertices in the box facing the camera.
-                    let forward = cam.basis().2;
-                    let mut chosen: Vec<u32> = if add {
-                        m.picked_vertices.clone()
-                    } else {
-                        Vec::new()
-                    };
-                    for (i, (p, n)) in m.shown.iter().zip(m.shown_normals.iter()).enumerate() {
-                        let facing = match cam.projection {
-                            csrbf_anim::Projection::Perspective { .. } => n.dot(*p - cam.eye) < 0.0,
-                            _ => n.dot(forward) < 0.0,
-                        };
-                        if facing
-                            && let Some((q, _)) = cam.project(*p, size)
-                            && q.cmpge(lo).all()
-                            && q.cmple(hi).all()
-                        {
-                            chosen.push(i as u32);
-                        }
+                    // Vertices in the box as drawn (rest in View > Rest):
+                    // those facing the camera, or all with X-ray.
+                    let (p, n) = m.drawn(display);
+                    let mut chosen = vertices_in_box(&cam, size, (lo, hi), (p, n), xray);
+                    if add {
+                        chosen.extend_from_slice(&m.picked_vertices);
                     }
                     chosen.sort_unstable();
                     chosen.dedup();
@@ -665,7 +656,7 @@ fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
     let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref()) else {
         return;
     };
-    let tris = m.bvh.triangles();
+    let tris = m.picking.bvh.triangles();
     for &t in d.inside_out.iter().chain(&d.flipped).take(50_000) {
         let Some(t) = tris.get(t as usize) else {
             continue;
@@ -684,7 +675,7 @@ fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
 /// The rest shape's edges, faint (up to 300k edges).
 fn rest_edges(m: &Model, overlay: &mut Vec<Line>) {
     let rest = &m.doc.mesh.positions;
-    for t in m.bvh.triangles().iter().take(100_000) {
+    for t in m.picking.bvh.triangles().iter().take(100_000) {
         for (a, b) in [(0, 1), (1, 2), (2, 0)] {
             overlay.push(Line {
                 a: rest[t[a] as usize],
@@ -775,14 +766,6 @@ fn select_marker(doc: &mut crate::Document, hit: MarkerHit, add: bool) {
         doc.selection.0 = vec![key];
     }
     doc.active_layer = hit.layer;
-}
-
-fn fresh_bvh(m: &mut Model) -> Option<()> {
-    if !m.bvh_fresh {
-        m.bvh.refit(&m.shown);
-        m.bvh_fresh = true;
-    }
-    Some(())
 }
 
 /// The active layer's handle and its pivot (the rotation's own, else the
