@@ -211,6 +211,31 @@ fn pull_nose(h: &mut Harness<'_, StudioApp>) {
     settle(h);
 }
 
+/// Issue 23, bug 8: a file's radius far outside the slider's usual range
+/// is shown as it is (and used and saved as it is), not clamped.
+#[test]
+fn a_radius_beyond_the_sliders_range_is_shown_as_it_is() {
+    let dir = state_dir("far-radius-files");
+    let controls = dir.join("far.json");
+    std::fs::write(
+        &controls,
+        r#"{"radius": 3000, "controls": [{"from": [0, 0, 0], "to": [0, 0, 0]}]}"#,
+    )
+    .expect("write");
+    let mut h = open(
+        Args {
+            mesh: Some(model("cgal_head.off")),
+            controls: Some(controls),
+        },
+        "far-radius",
+    );
+    h.run_steps(2);
+    let shown = h.query_by_label_contains("R = 3000.0000 = ");
+    assert!(shown.is_some(), "the label shows the radius in use");
+    let doc = h.state().document().expect("open");
+    assert_eq!(doc.controls.deformations[0].options.radius, 3000.0);
+}
+
 #[test]
 fn the_radius_slider_refits_and_shows_its_share_of_the_diagonal() {
     let mut h = head("radius");

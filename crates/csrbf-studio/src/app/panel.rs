@@ -430,9 +430,12 @@ impl std::ops::Deref for RadiusEdit {
 fn radius_ui(ui: &mut egui::Ui, m: &mut Model, spec: &csrbf::controls::ControlSpec) -> RadiusEdit {
     let diag = m.doc.diagonal().max(1e-12);
     let mut radius = spec.options.radius;
+    // The range takes in the radius in use, however far out (a file's
+    // radius is never shown clamped to the slider's ends).
+    let range = (diag * 0.002).min(radius)..=(diag * 2.0).max(radius);
     let response = ui
         .add(
-            egui::Slider::new(&mut radius, diag * 0.002..=diag * 2.0)
+            egui::Slider::new(&mut radius, range)
                 .logarithmic(true)
                 .text("radius R")
                 .custom_formatter(|v, _| format!("{v:.4}")),
