@@ -360,6 +360,16 @@ impl Command {
                 new.region = csrbf::Region::All;
                 new.anchor = None;
                 new.handle = Some(csrbf::Handle::new(chosen));
+                // An active layer with nothing in it yet takes the handle;
+                // else the handle is a layer of its own (a second handle
+                // never replaces the first).
+                let active = doc.controls.deformations.get(doc.active_layer);
+                if active.is_some_and(|s| s.starts.is_empty() && s.handle.is_none()) {
+                    return Command::ReplaceLayer {
+                        layer: doc.active_layer,
+                        spec: Box::new(new),
+                    };
+                }
                 return Command::InsertLayer {
                     layer: doc.controls.deformations.len(),
                     spec: Box::new(new),
@@ -546,6 +556,35 @@ mod tests {
             };
             assert_eq!(got, Some(csrbf::Region::Vertices(vec![3])));
         }
+    }
+
+    #[test]
+    fn a_handle_takes_an_empty_layer_and_a_second_handle_adds_one() {
+        use crate::tools::VertexTarget;
+        let mut d = doc();
+        let mut h = History::default();
+        // The new document's empty Layer 1 becomes the handle: no empty
+        // layer is left behind to be saved.
+        let spec = d.controls.deformations[0].clone();
+        let c = Command::use_vertices(&d, &spec, vec![1, 2], VertexTarget::Handle);
+        h.apply(&mut d, c).unwrap();
+        assert_eq!(d.controls.deformations.len(), 1);
+        assert!(d.controls.deformations[0].handle.is_some());
+        // A second handle on that layer is a new layer; the first stays.
+        let spec = d.controls.deformations[0].clone();
+        let c = Command::use_vertices(&d, &spec, vec![5], VertexTarget::Handle);
+        h.apply(&mut d, c).unwrap();
+        assert_eq!(d.controls.deformations.len(), 2);
+        let selects: Vec<_> = (d.controls.deformations.iter())
+            .map(|s| s.handle.as_ref().map(|h| h.select.clone()))
+            .collect();
+        assert_eq!(
+            selects,
+            [
+                Some(csrbf::Region::Vertices(vec![1, 2])),
+                Some(csrbf::Region::Vertices(vec![5]))
+            ]
+        );
     }
 
     #[test]

@@ -353,6 +353,24 @@ fn a_broken_file_is_refused_with_the_cli_message_and_the_document_kept() {
     assert!(text.contains("broken.off"), "{text}");
     let doc = h.state().document().expect("still open");
     assert!(doc.mesh_path.ends_with("cgal_head.off"));
+    // A mesh of one point (zero extent) is refused, saying why: there is
+    // no surface to place on and no size to take a radius from.
+    let point = dir.join("point.off");
+    std::fs::write(&point, "OFF\n3 1 0\n1 1 1\n1 1 1\n1 1 1\n3 0 1 2\n").expect("write");
+    h.state_mut().open_mesh(&ctx, &point);
+    h.run_steps(2);
+    let (_, text) = h.state().message().expect("a dialog").clone();
+    assert!(
+        text.contains("point.off") && text.contains("no extent"),
+        "{text}"
+    );
+    assert!(
+        h.state()
+            .document()
+            .expect("kept")
+            .mesh_path
+            .ends_with("cgal_head.off")
+    );
     // A mesh that is not there: the system's reason, not only the name.
     h.state_mut().open_mesh(&ctx, &dir.join("nonexist.obj"));
     h.run_steps(2);

@@ -53,6 +53,17 @@ impl StudioApp {
                 ),
             );
         }
+        if !(mesh.diagonal() > 0.0) {
+            return self.show_error(
+                "Cannot open the mesh",
+                format!(
+                    "{}: the mesh has no extent (its {} vertices are all at one point): \
+                     nothing to place controls on, and no size to take a radius from",
+                    path.display(),
+                    mesh.positions.len()
+                ),
+            );
+        }
         let size = self.screen.viewport.0;
         let scene = match csrbf_anim::still::mesh_scene(
             path,
