@@ -996,3 +996,52 @@ fn a_part_is_added_carved_out_removed_and_saved() {
     let parts: Vec<usize> = cli.objects[0].parts.iter().map(|p| p.faces.len()).collect();
     assert_eq!(parts, split);
 }
+
+/// Issue 23, bug 4: a number typed into a field is applied on Enter (not
+/// at each keystroke, which applied 6 on the way to 60); a value the scene
+/// refuses leaves the one before and says why.
+#[test]
+fn a_typed_number_applies_on_enter_and_a_refused_one_keeps_the_value_before() {
+    let mut h = face("typed-fps");
+    let fps = |h: &Harness<'_, StudioApp>| h.state().scene_doc().expect("scene").file.fps;
+    let before = fps(&h);
+    let type_fps = |h: &mut Harness<'_, StudioApp>, text: &str| {
+        h.get_by_role_and_label(Role::SpinButton, "fps").focus();
+        h.run_steps(2);
+        for c in text.chars() {
+            h.event(egui::Event::Text(c.to_string()));
+            h.run_steps(1);
+        }
+    };
+    type_fps(&mut h, "60");
+    assert_eq!(fps(&h), before, "nothing applied while typing");
+    h.key_press(egui::Key::Enter);
+    h.run_steps(2);
+    assert_eq!(fps(&h), 60.0, "{}", h.state().status());
+    // The issue's case: an hour at 20 fps; 60 fps would be more frames than
+    // a scene may have: refused, the field goes back to 20 and says why.
+    assert!(
+        h.state_mut()
+            .scene_edit(csrbf_studio::compose::SceneEdit::SetTiming {
+                fps: 20.0,
+                duration: 3600.0
+            })
+    );
+    h.run_steps(2);
+    type_fps(&mut h, "60");
+    assert_eq!(fps(&h), 20.0, "6 is not applied on the way to 60");
+    h.key_press(egui::Key::Enter);
+    h.run_steps(2);
+    assert_eq!(fps(&h), 20.0);
+    assert!(
+        h.state().status().contains("Not done"),
+        "{}",
+        h.state().status()
+    );
+    let shown = h.get_by_role_and_label(Role::SpinButton, "fps").value();
+    assert_eq!(
+        shown.as_deref(),
+        Some("20.0 fps"),
+        "the field shows the value kept"
+    );
+}

@@ -120,8 +120,12 @@ impl Picker {
         }
         commands.extend(options_ui(ui, m, &spec));
         let mut global = m.doc.phase;
-        ui.add(egui::Slider::new(&mut global, 0.0..=1.0).text("phase (all layers)"))
-            .on_hover_text("0 shows the rest shape, 1 the full deformation");
+        ui.add(
+            egui::Slider::new(&mut global, 0.0..=1.0)
+                .update_while_editing(false)
+                .text("phase (all layers)"),
+        )
+        .on_hover_text("0 shows the rest shape, 1 the full deformation");
         let phase_changed = global != m.doc.phase;
         if phase_changed {
             m.doc.phase = global;
@@ -203,6 +207,7 @@ impl Picker {
         ui.label(format!("{} vertices chosen", m.picked_vertices.len()));
         ui.add(
             egui::Slider::new(&mut self.view.brush, 0.002..=0.3)
+.update_while_editing(false)
                 .logarithmic(true)
                 .text("brush")
                 .custom_formatter(|v, _| format!("{:.1} %", v * 100.0)),
@@ -436,6 +441,7 @@ fn radius_ui(ui: &mut egui::Ui, m: &mut Model, spec: &csrbf::controls::ControlSp
     let response = ui
         .add(
             egui::Slider::new(&mut radius, range)
+                .update_while_editing(false)
                 .logarithmic(true)
                 .text("radius R")
                 .custom_formatter(|v, _| format!("{v:.4}")),
@@ -489,7 +495,11 @@ fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec)
             "none: edits stay local; linear: affine maps reproduced, but the whole model may move",
         );
     let mut phase = spec.phase;
-    ui.add(egui::Slider::new(&mut phase, 0.0..=1.0).text("layer phase"));
+    ui.add(
+        egui::Slider::new(&mut phase, 0.0..=1.0)
+            .update_while_editing(false)
+            .text("layer phase"),
+    );
     let mut region = spec.region.clone();
     let bounds = m
         .doc
@@ -605,6 +615,7 @@ fn handle_ui(ui: &mut egui::Ui, h: &Handle, view_axis: DVec3, diagonal: f64) -> 
     let mut angle = rot.angle_deg;
     ui.add(
         egui::Slider::new(&mut angle, -180.0..=180.0)
+            .update_while_editing(false)
             .text("angle")
             .suffix("°"),
     )
@@ -614,6 +625,7 @@ fn handle_ui(ui: &mut egui::Ui, h: &Handle, view_axis: DVec3, diagonal: f64) -> 
     let mut scale = h.scale.unwrap_or(1.0);
     ui.add(
         egui::DragValue::new(&mut scale)
+            .update_while_editing(false)
             .speed(0.005)
             .range(0.01..=100.0)
             .prefix("scale "),
@@ -690,6 +702,7 @@ pub(super) fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64)
             changed |= ui
                 .add(
                     egui::DragValue::new(&mut v[k])
+                        .update_while_editing(false)
                         .speed(speed)
                         .max_decimals(5)
                         .prefix(["x ", "y ", "z "][k]),
@@ -758,6 +771,7 @@ pub(super) fn region_ui(
             vec3_ui(ui, "centre", center, diag * 1e-3);
             ui.add(
                 egui::DragValue::new(radius)
+                    .update_while_editing(false)
                     .speed(diag * 1e-3)
                     .range(diag * 1e-4..=diag * 10.0)
                     .prefix("radius "),

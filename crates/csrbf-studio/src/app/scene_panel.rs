@@ -202,6 +202,7 @@ impl Composer {
         ui.horizontal(|ui| {
             ui.label("Time");
             let drag = egui::DragValue::new(&mut t)
+                .update_while_editing(false)
                 .speed(1.0 / self.doc.file.fps)
                 .range(0.0..=self.doc.file.duration)
                 .suffix(" s")
@@ -284,7 +285,11 @@ fn key_value_ui(
             let mut changed = false;
             for (j, label) in ["Tension", "Continuity", "Bias"].into_iter().enumerate() {
                 changed |= ui
-                    .add(egui::Slider::new(&mut tcb[j], -1.0..=1.0).text(label))
+                    .add(
+                        egui::Slider::new(&mut tcb[j], -1.0..=1.0)
+                            .update_while_editing(false)
+                            .text(label),
+                    )
                     .changed();
             }
             if changed {
@@ -309,7 +314,11 @@ fn key_value_ui(
         Some(KeyValue::Phase(p)) => {
             let mut p = p;
             if ui
-                .add(egui::Slider::new(&mut p, 0.0..=1.0).text("Phase"))
+                .add(
+                    egui::Slider::new(&mut p, 0.0..=1.0)
+                        .update_while_editing(false)
+                        .text("Phase"),
+                )
                 .changed()
             {
                 edits.push((set(KeyValue::Phase(p)), "key value"));
@@ -347,6 +356,7 @@ fn lights_ui(
                 changed |= ui
                     .add(
                         egui::DragValue::new(&mut l.intensity)
+                            .update_while_editing(false)
                             .range(0.0..=10.0)
                             .speed(0.01)
                             .prefix("intensity "),
@@ -427,7 +437,10 @@ fn look_ui(ui: &mut egui::Ui, c: &Composer) -> Option<([u32; 2], [f32; 3])> {
 
 /// A picture side, in pixels.
 fn pixels(v: &mut u32) -> egui::DragValue<'_> {
-    egui::DragValue::new(v).range(16..=8192).suffix(" px")
+    egui::DragValue::new(v)
+        .update_while_editing(false)
+        .range(16..=8192)
+        .suffix(" px")
 }
 
 /// The scene camera: eye, target, field of view, set from the view, look
@@ -448,6 +461,7 @@ fn camera_ui(ui: &mut egui::Ui, c: &mut Composer) -> Option<csrbf_anim::CameraFi
     ui.horizontal(|ui| {
         ui.label("Field of view");
         let fov = egui::DragValue::new(&mut camera.fov)
+            .update_while_editing(false)
             .range(2.0..=178.0)
             .suffix("°");
         changed |= ui.add(fov).changed();
@@ -547,6 +561,7 @@ fn scale_ui(ui: &mut egui::Ui, object: &mut ObjectFile, out: &mut ObjectOut) {
     ui.horizontal(|ui| {
         ui.label("Scale");
         let scale = egui::DragValue::new(&mut object.scale)
+            .update_while_editing(false)
             .speed(0.01)
             .range(1e-6..=1e6);
         if ui.add(scale).changed() {
@@ -603,6 +618,7 @@ fn contact_ui(ui: &mut egui::Ui, object: &mut ObjectFile, others: &[String], out
             && ui
                 .add(
                     egui::DragValue::new(&mut x.reach)
+                        .update_while_editing(false)
                         .speed(0.01)
                         .range(0.1..=10.0)
                         .prefix("reach "),

@@ -170,6 +170,7 @@ fn playback_options(ui: &mut egui::Ui, c: &mut Composer) {
 /// A time in the scene, `[0, duration]` seconds.
 fn seconds(v: &mut f64, duration: f64) -> egui::DragValue<'_> {
     egui::DragValue::new(v)
+        .update_while_editing(false)
         .range(0.0..=duration)
         .speed(0.02)
         .suffix(" s")
@@ -181,6 +182,7 @@ fn playhead_ui(ui: &mut egui::Ui, c: &mut Composer) -> bool {
     let changed = ui
         .add(
             egui::DragValue::new(&mut t)
+                .update_while_editing(false)
                 .range(0.0..=c.doc.file.duration)
                 .speed(1.0 / c.doc.file.fps)
                 .suffix(" s")
@@ -200,6 +202,7 @@ fn timing_ui(ui: &mut egui::Ui, c: &Composer) -> Option<(f64, f64)> {
     let a = ui
         .add(
             egui::DragValue::new(&mut fps)
+                .update_while_editing(false)
                 .range(1.0..=240.0)
                 .speed(0.2)
                 .suffix(" fps"),
@@ -208,6 +211,7 @@ fn timing_ui(ui: &mut egui::Ui, c: &Composer) -> Option<(f64, f64)> {
     let b = ui
         .add(
             egui::DragValue::new(&mut duration)
+                .update_while_editing(false)
                 .range(0.04..=3600.0)
                 .speed(0.02)
                 .suffix(" s long"),
