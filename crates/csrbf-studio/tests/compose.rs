@@ -1045,3 +1045,59 @@ fn a_typed_number_applies_on_enter_and_a_refused_one_keeps_the_value_before() {
         "the field shows the value kept"
     );
 }
+
+/// Issue 23, bug 5: closing the window during an export asks what to do
+/// with it; cancelling leaves neither the movie nor a temporary file, and
+/// finishing writes the movie whole.
+#[test]
+fn closing_during_an_export_asks_and_never_leaves_a_temporary_file() {
+    let mut h = face("close-export");
+    let dir = temp("close-export-out");
+    let close = |h: &mut Harness<'_, StudioApp>| {
+        h.input_mut()
+            .viewports
+            .entry(egui::ViewportId::ROOT)
+            .or_default()
+            .events
+            .push(egui::ViewportEvent::Close);
+        h.run_steps(2);
+    };
+    let leftovers = |dir: &Path| {
+        std::fs::read_dir(dir)
+            .expect("the folder")
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+    };
+    // Few frames: a short movie.
+    let duration = h.state().scene_doc().expect("scene").file.duration;
+    assert!(
+        h.state_mut()
+            .scene_edit(csrbf_studio::compose::SceneEdit::SetTiming { fps: 6.0, duration }),
+        "{}",
+        h.state().status()
+    );
+    let gif = dir.join("face.gif");
+    h.state_mut().export_movie(&gif);
+    h.run_steps(1);
+    assert!(h.state().exporting());
+    close(&mut h);
+    h.get_by_label("Quit during the export?");
+    assert!(
+        h.state().exporting(),
+        "still running while the question waits"
+    );
+    h.get_by_label("Cancel it and quit").click();
+    h.run_steps(2);
+    assert!(!h.state().exporting());
+    assert_eq!(leftovers(&dir), Vec::<String>::new(), "nothing left behind");
+    // Finish, then quit: the movie is written whole.
+    h.state_mut().export_movie(&gif);
+    h.run_steps(1);
+    close(&mut h);
+    h.get_by_label("Finish, then quit").click();
+    h.run_steps(1);
+    assert!(h.state_mut().finish_export(Duration::from_secs(120)));
+    h.run_steps(2);
+    assert_eq!(leftovers(&dir), vec!["face.gif".to_string()]);
+}

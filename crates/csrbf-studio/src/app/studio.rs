@@ -57,6 +57,10 @@ pub(super) struct Shell {
     /// The window's title as last set.
     pub(super) title: String,
     pub(super) allow_close: bool,
+    /// The window was asked to close while an export runs: ask what to do.
+    pub(super) close_during_export: bool,
+    /// Quit once the running export has finished.
+    pub(super) quit_after_export: bool,
 }
 
 /// `csrbf-studio`: the shell, the Picker, the Composer (when a scene is
@@ -102,6 +106,8 @@ impl StudioApp {
                 state,
                 title: String::new(),
                 allow_close: false,
+                close_during_export: false,
+                quit_after_export: false,
             },
             screen: Screen {
                 gpu,
@@ -815,6 +821,14 @@ pub(super) fn undo_keys(ctx: &egui::Context) -> Option<bool> {
     }
 }
 
+/// The answer to "Quit during the export?".
+#[derive(Clone, Copy)]
+enum ExportClose {
+    Finish,
+    Cancel,
+    Stay,
+}
+
 /// The answer to "Unsaved changes".
 enum Answer {
     Save,
@@ -926,6 +940,73 @@ impl StudioApp {
         });
     }
 
+    /// The window's close button: while an export runs, ask what to do with
+    /// it; with unsaved changes, ask about them; else close.
+    fn close_requested(&mut self, ctx: &egui::Context) {
+        if self.shell.quit_after_export && !self.exporting() {
+            self.shell.quit_after_export = false;
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        if !ctx.input(|i| i.viewport().close_requested()) || self.shell.allow_close {
+            return;
+        }
+        let dirty = self.picker.model.as_ref().is_some_and(|m| m.doc.dirty)
+            || self.composer.as_ref().is_some_and(|c| c.doc.dirty);
+        if self.exporting() {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.shell.close_during_export = true;
+        } else if dirty {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.shell.pending = Some(Pending::Close);
+        }
+    }
+
+    /// "Quit during the export?": finish it then quit, cancel it and quit
+    /// (its temporary file removed), or keep working.
+    pub(super) fn close_during_export_modal(&mut self, ctx: &egui::Context) {
+        if !self.shell.close_during_export {
+            return;
+        }
+        let Some(job) = self.composer.as_ref().and_then(|c| c.export.as_ref()) else {
+            self.shell.close_during_export = false;
+            return;
+        };
+        let text = format!(
+            "The {} is being written to {}.",
+            job.what.to_lowercase(),
+            job.path.display()
+        );
+        let mut answer = None;
+        egui::Modal::new(egui::Id::unique("close during export")).show(ctx, |ui| {
+            ui.heading("Quit during the export?");
+            ui.label(text);
+            ui.horizontal(|ui| {
+                for (label, a) in [
+                    ("Finish, then quit", ExportClose::Finish),
+                    ("Cancel it and quit", ExportClose::Cancel),
+                    ("Keep working", ExportClose::Stay),
+                ] {
+                    if ui.button(label).clicked() {
+                        answer = Some(a);
+                    }
+                }
+            });
+        });
+        let Some(answer) = answer else {
+            return;
+        };
+        self.shell.close_during_export = false;
+        match answer {
+            ExportClose::Finish => self.shell.quit_after_export = true,
+            ExportClose::Cancel => {
+                job.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                self.finish_export(Duration::from_secs(30));
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            }
+            ExportClose::Stay => {}
+        }
+    }
+
     /// Files dropped on the window: each opened by what it is and the mode.
     pub(super) fn dropped_files(&mut self, ctx: &egui::Context) {
         let dropped: Vec<PathBuf> = ctx.input(|i| {
@@ -1001,6 +1082,7 @@ impl StudioApp {
         self.serve();
         self.dialogs(&ctx);
         self.export_ui(&ctx);
+        self.close_during_export_modal(&ctx);
         self.scene_recovery(&ctx);
     }
 
@@ -1046,14 +1128,7 @@ impl eframe::App for StudioApp {
             m.take_frame();
         }
         self.dropped_files(&ctx);
-        if ctx.input(|i| i.viewport().close_requested())
-            && !self.shell.allow_close
-            && (self.picker.model.as_ref().is_some_and(|m| m.doc.dirty)
-                || self.composer.as_ref().is_some_and(|c| c.doc.dirty))
-        {
-            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            self.shell.pending = Some(Pending::Close);
-        }
+        self.close_requested(&ctx);
         let exporting = self.exporting();
         if self.shell.dialog.is_none()
             && self.shell.message.is_none()
@@ -1089,6 +1164,14 @@ impl eframe::App for StudioApp {
     }
 
     fn on_exit(&mut self) {
+        // Never leave an export's temporary file: the export is cancelled
+        // and its thread removes what it wrote.
+        if self.exporting() {
+            if let Some(job) = self.composer.as_ref().and_then(|c| c.export.as_ref()) {
+                job.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+            self.finish_export(Duration::from_secs(30));
+        }
         if self.picker.model.as_ref().is_some_and(|m| !m.doc.dirty) {
             Recovery::clear(self.shell.state.as_deref());
         }
