@@ -178,7 +178,9 @@ pub fn remove_stale_temps(dir: &Path) -> usize {
 
 /// Writes `bytes` to a temporary file beside `path`, flushes it to disk,
 /// then renames it over `path`: a reader never sees a partial file, and a
-/// failure leaves any old file as it was.
+/// failure leaves any old file as it was. A file replaced keeps its
+/// permissions (a read-only file stays read-only; on Windows, where a
+/// read-only file cannot be replaced, the error says so).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let io = |source| MeshError::Io {
         path: path.to_owned(),
@@ -186,11 +188,15 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     };
     let tmp = temp_beside(path).map_err(io)?;
     track_temp(&tmp);
+    let kept = std::fs::metadata(path).ok().map(|m| m.permissions());
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
+        if let Some(permissions) = kept.filter(|_| cfg!(unix)) {
+            std::fs::set_permissions(&tmp, permissions)?;
+        }
         replace(&tmp, path)
     })();
     if result.is_err() {
@@ -206,7 +212,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 /// old file is kept, instead of the bare "Access is denied".
 pub fn replace(tmp: &Path, path: &Path) -> std::io::Result<()> {
     std::fs::rename(tmp, path).map_err(|e| {
-        if held_open(&e) && path.exists() {
+        let read_only = std::fs::metadata(path).is_ok_and(|m| m.permissions().readonly());
+        if cfg!(windows) && read_only {
+            std::io::Error::new(
+                e.kind(),
+                format!("it is read-only, so it cannot be replaced; the old file is kept ({e})"),
+            )
+        } else if held_open(&e) && path.exists() {
             std::io::Error::new(
                 e.kind(),
                 format!(

@@ -223,6 +223,42 @@ fn unknown_extension_lists_the_supported_ones() {
     ));
 }
 
+/// Issue 23, bug 6: a file replaced keeps its permissions (a read-only
+/// file stays read-only, a private one private).
+#[cfg(unix)]
+#[test]
+fn a_file_replaced_keeps_its_permissions() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = std::env::temp_dir().join(format!("csrbf-mesh-perm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    for mode in [0o444, 0o600, 0o640] {
+        let target = dir.join(format!("m{mode:o}.json"));
+        std::fs::write(&target, b"old").expect("write");
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(mode)).expect("chmod");
+        crate::write_atomic(&target, b"new").expect("replaced");
+        assert_eq!(std::fs::read(&target).expect("read"), b"new");
+        let now = std::fs::metadata(&target)
+            .expect("meta")
+            .permissions()
+            .mode()
+            & 0o777;
+        assert_eq!(now, mode, "{}", target.display());
+    }
+    // A new file gets the usual mode (not one left from before).
+    let fresh = dir.join("fresh.json");
+    crate::write_atomic(&fresh, b"x").expect("written");
+    assert!(
+        !std::fs::metadata(&fresh)
+            .expect("meta")
+            .permissions()
+            .readonly()
+    );
+    for e in std::fs::read_dir(&dir).expect("dir").flatten() {
+        let _ = std::fs::set_permissions(e.path(), std::fs::Permissions::from_mode(0o644));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn atomic_write_leaves_no_partial_file() {
     let dir = std::env::temp_dir().join(format!("csrbf-mesh-test-{}", std::process::id()));

@@ -328,10 +328,7 @@ impl FileDialog {
         let p = self.replace.clone()?;
         let mut choice = None;
         ui.horizontal(|ui| {
-            ui.colored_label(
-                egui::Color32::from_rgb(240, 190, 90),
-                format!("{} exists. Replace it?", p.display()),
-            );
+            ui.colored_label(egui::Color32::from_rgb(240, 190, 90), replace_question(&p));
             if ui.button("Replace").clicked() {
                 choice = Some(Choice::File(p.clone()));
             }
@@ -340,6 +337,20 @@ impl FileDialog {
             }
         });
         choice
+    }
+}
+
+/// "x exists. Replace it?", saying when it is read-only (replaced, it stays
+/// read-only).
+fn replace_question(p: &Path) -> String {
+    let read_only = std::fs::metadata(p).is_ok_and(|m| m.permissions().readonly());
+    if read_only {
+        format!(
+            "{} exists and is read-only. Replace it anyway (it stays read-only)?",
+            p.display()
+        )
+    } else {
+        format!("{} exists. Replace it?", p.display())
     }
 }
 
@@ -548,5 +559,20 @@ mod tests {
             without_verbatim(p("/home/a/face.json")),
             p("/home/a/face.json")
         );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn replacing_a_read_only_file_says_so() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("csrbf-studio-ro-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let p = dir.join("x.json");
+        std::fs::write(&p, "{}").expect("write");
+        assert!(!replace_question(&p).contains("read-only"));
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o444)).expect("chmod");
+        assert!(replace_question(&p).contains("is read-only"));
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o644)).expect("chmod");
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
