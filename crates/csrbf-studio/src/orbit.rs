@@ -6,6 +6,17 @@
 use csrbf::glam::Vec3;
 use csrbf_anim::{Camera, Projection, ViewPreset};
 
+/// The up axes a model may have, named as the View menu and the CLI's
+/// `--up` name them.
+pub const UP_AXES: [(&str, Vec3); 6] = [
+    ("+Y", Vec3::Y),
+    ("+Z", Vec3::Z),
+    ("+X", Vec3::X),
+    ("-Y", Vec3::NEG_Y),
+    ("-Z", Vec3::NEG_Z),
+    ("-X", Vec3::NEG_X),
+];
+
 /// An orbiting camera: a target, a distance, and two angles about the
 /// model's up axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,7 +196,10 @@ mod tests {
 
     #[test]
     fn presets_look_where_the_cli_looks_and_keep_the_model_upright() {
-        for up in [Vec3::Y, Vec3::Z, Vec3::NEG_Y, Vec3::X] {
+        // Every up axis the View menu offers, -Z and -X included (a horse
+        // scanned with -Z up stood on its head).
+        assert_eq!(UP_AXES.len(), 6);
+        for (_, up) in UP_AXES {
             let mut o = orbit(up);
             for p in [
                 ViewPreset::Front,

@@ -88,12 +88,7 @@ impl Picker {
             m.up.1
         ));
         ui.horizontal(|ui| {
-            for (name, up) in [
-                ("+Y", Vec3::Y),
-                ("+Z", Vec3::Z),
-                ("-Y", Vec3::NEG_Y),
-                ("+X", Vec3::X),
-            ] {
+            for (name, up) in crate::orbit::UP_AXES {
                 if ui.selectable_label(m.orbit.up == up, name).clicked() {
                     m.orbit.up = up;
                     m.up.1 = "chosen";
