@@ -821,3 +821,29 @@ fn closing_with_unsaved_changes_asks_first() {
     assert!(doc.dirty);
     assert_eq!(doc.controls.deformations[0].starts.len(), 1);
 }
+
+/// Issue 23: F1 (or ?) opens the keys and pointer gestures of the room
+/// shown, and closes them again; Help > Keys and mouse opens them too.
+#[test]
+fn f1_shows_the_keys_of_the_room_and_the_help_menu_opens_them() {
+    let mut h = head("help");
+    assert!(h.query_by_label("Keys and mouse").is_none());
+    h.key_press(egui::Key::F1);
+    h.run_steps(2);
+    h.get_by_label("Keys and mouse");
+    h.get_by_label("Ctrl+Z, Ctrl+Shift+Z or Ctrl+Y");
+    h.get_by_label("P, S, V");
+    h.key_press(egui::Key::F1);
+    h.run_steps(2);
+    assert!(h.query_by_label("P, S, V").is_none(), "F1 again closes it");
+    h.get_by_label("Help").click();
+    h.run_steps(3);
+    h.get_by_label("Keys and mouse  F1").click();
+    h.run_steps(2);
+    h.get_by_label("P, S, V");
+    // The Composer's own keys in the Composer.
+    h.state_mut().new_scene();
+    h.run_steps(2);
+    h.get_by_label("Space");
+    assert!(h.query_by_label("P, S, V").is_none());
+}

@@ -4,7 +4,8 @@
 //! and the Composer (`composer.rs`, with `scene_panel.rs`, `timeline.rs`,
 //! `scene_view.rs` and `key_drag.rs`). Rooms ask the shell for what only it
 //! can do through [`request`]; the screen they share (`gpu.rs`) and the
-//! file dialogs and recovery files (`files.rs`) are leaves. The shell's
+//! file dialogs and recovery files (`files.rs`) and the keys-and-mouse help
+//! (`help.rs`) are leaves. The shell's
 //! own work on files is in `documents.rs` (meshes and control files) and
 //! `scene_files.rs` (scenes and exports). No file below imports a file
 //! that imports it: see ARCHITECTURE.md for the arrows.
@@ -13,6 +14,7 @@ mod composer;
 mod documents;
 mod files;
 mod gpu;
+mod help;
 mod key_drag;
 mod panel;
 mod pick_press;

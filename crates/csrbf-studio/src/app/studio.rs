@@ -18,7 +18,7 @@ use super::files::{
 use super::gpu::{self, Screen};
 use super::picker::{Gesture, Picker, Tool, ViewSettings};
 use super::request::Request;
-use super::{panel, timeline};
+use super::{help, panel, timeline};
 use crate::{Document, PreviewFrame};
 
 /// What the command line asked to open.
@@ -61,6 +61,8 @@ pub(super) struct Shell {
     pub(super) close_during_export: bool,
     /// Quit once the running export has finished.
     pub(super) quit_after_export: bool,
+    /// The keys-and-mouse window is open (F1, ?, Help).
+    pub(super) help: bool,
 }
 
 /// `csrbf-studio`: the shell, the Picker, the Composer (when a scene is
@@ -108,6 +110,7 @@ impl StudioApp {
                 allow_close: false,
                 close_during_export: false,
                 quit_after_export: false,
+                help: false,
             },
             screen: Screen {
                 gpu,
@@ -561,6 +564,7 @@ impl StudioApp {
             ui.menu_button("View", |ui| {
                 self.picker.view_menu(ui, self.screen.viewport.0)
             });
+            ui.menu_button("Help", |ui| help::menu(ui, &mut self.shell.help));
         });
     }
 
@@ -617,6 +621,7 @@ impl StudioApp {
                 ui.checkbox(&mut self.picker.view.flat, "Flat shading");
                 ui.checkbox(&mut self.picker.view.wireframe, "Wireframe");
             });
+            ui.menu_button("Help", |ui| help::menu(ui, &mut self.shell.help));
         });
     }
 
@@ -1135,6 +1140,9 @@ impl eframe::App for StudioApp {
             && self.shell.pending.is_none()
             && !exporting
         {
+            if !ctx.egui_wants_keyboard_input() && help::toggled(&ctx) {
+                self.shell.help = !self.shell.help;
+            }
             if self.mode == Mode::Compose {
                 self.compose_keys(&ctx);
             } else {
@@ -1160,6 +1168,11 @@ impl eframe::App for StudioApp {
         } else {
             self.pick_frame(ui);
         }
+        let room = match self.mode {
+            Mode::Pick => help::Room::Picker,
+            Mode::Compose => help::Room::Composer,
+        };
+        help::window(&ctx, room, &mut self.shell.help);
         self.screen.frame_time = started.elapsed();
     }
 
