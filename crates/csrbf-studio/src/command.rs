@@ -400,7 +400,7 @@ impl Command {
 }
 
 /// Done and undone commands, each with its inverse.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct History {
     done: Vec<(Command, Command)>,
     undone: Vec<(Command, Command)>,
@@ -408,6 +408,22 @@ pub struct History {
     dragging: bool,
     /// Steps done before the drag began: a drag never merges into those.
     drag_base: usize,
+    /// How many steps were done when the document was last saved (None:
+    /// that state can no longer be reached by undo or redo). The document
+    /// is unsaved whenever the steps done are not those.
+    saved: Option<usize>,
+}
+
+impl Default for History {
+    fn default() -> Self {
+        History {
+            done: Vec::new(),
+            undone: Vec::new(),
+            dragging: false,
+            drag_base: 0,
+            saved: Some(0),
+        }
+    }
 }
 
 impl History {
@@ -441,12 +457,39 @@ impl History {
             && same_control(&command, last)
         {
             let first_inverse = self.done.pop().map(|(_, inv)| inv).unwrap_or(inverse);
+            // The step that was saved changes: the saved state is gone.
+            if self.saved == Some(self.done.len() + 1) {
+                self.saved = None;
+            }
             self.done.push((command, first_inverse));
         } else {
+            // A saved state among the undone steps is gone with them.
+            if self.saved.is_some_and(|s| s > self.done.len()) {
+                self.saved = None;
+            }
             self.done.push((command, inverse));
         }
         self.undone.clear();
+        self.mark(doc);
         Ok(())
+    }
+
+    /// The document as saved now (after a save, or a file opened).
+    pub fn mark_saved(&mut self, doc: &mut Document) {
+        self.saved = Some(self.done.len());
+        self.mark(doc);
+    }
+
+    /// The document as unsaved however it is undone (a session restored
+    /// from the recovery file, never saved).
+    pub fn mark_unsaved(&mut self, doc: &mut Document) {
+        self.saved = None;
+        self.mark(doc);
+    }
+
+    /// `doc.dirty`: whether the steps done differ from the saved ones.
+    fn mark(&self, doc: &mut Document) {
+        doc.dirty = self.saved != Some(self.done.len());
     }
 
     /// Starts merging moves of one control's destination or start (pointer
@@ -466,6 +509,7 @@ impl History {
         let (command, inverse) = self.done.pop().ok_or(EditError::Nothing("undo"))?;
         inverse.apply(doc)?;
         self.undone.push((command, inverse));
+        self.mark(doc);
         Ok(())
     }
 
@@ -474,6 +518,7 @@ impl History {
         let (command, _) = self.undone.pop().ok_or(EditError::Nothing("redo"))?;
         let inverse = command.apply(doc)?;
         self.done.push((command, inverse));
+        self.mark(doc);
         Ok(())
     }
 
@@ -585,6 +630,58 @@ mod tests {
                 Some(csrbf::Region::Vertices(vec![5]))
             ]
         );
+    }
+
+    #[test]
+    fn undoing_back_to_the_saved_state_is_saved_and_leaving_it_is_not() {
+        let mut d = doc();
+        let mut h = History::default();
+        h.apply(&mut d, Command::add(0, DVec3::Y, DVec3::Y * 1.2))
+            .unwrap();
+        assert!(d.dirty);
+        h.mark_saved(&mut d);
+        assert!(!d.dirty);
+        h.apply(&mut d, Command::add(0, DVec3::X, DVec3::X))
+            .unwrap();
+        assert!(d.dirty);
+        h.undo(&mut d).unwrap();
+        assert!(!d.dirty, "back at the saved state");
+        h.undo(&mut d).unwrap();
+        assert!(d.dirty, "before it");
+        h.redo(&mut d).unwrap();
+        assert!(!d.dirty);
+        // A drag that merges into the saved step changes it.
+        h.begin_drag();
+        h.apply(
+            &mut d,
+            Command::SetTarget {
+                layer: 0,
+                index: 0,
+                target: DVec3::Z,
+            },
+        )
+        .unwrap();
+        h.apply(
+            &mut d,
+            Command::SetTarget {
+                layer: 0,
+                index: 0,
+                target: DVec3::ZERO,
+            },
+        )
+        .unwrap();
+        h.end_drag();
+        h.undo(&mut d).unwrap();
+        assert!(!d.dirty, "the drag was one step after the saved one");
+        // A new edit after undoing below the saved state loses it.
+        h.undo(&mut d).unwrap();
+        h.apply(&mut d, Command::add(0, DVec3::Z, DVec3::Z))
+            .unwrap();
+        h.undo(&mut d).unwrap();
+        assert!(d.dirty, "the saved state is not reachable any more");
+        // A restored session is unsaved however far it is undone.
+        h.mark_unsaved(&mut d);
+        assert!(d.dirty);
     }
 
     #[test]

@@ -847,3 +847,29 @@ fn f1_shows_the_keys_of_the_room_and_the_help_menu_opens_them() {
     h.get_by_label("Space");
     assert!(h.query_by_label("P, S, V").is_none());
 }
+
+/// Issue 23, small: after a drag the status says what was made (not "drag
+/// to set its destination" any more); a click alone says it made a pin.
+#[test]
+fn after_a_drag_the_status_says_what_was_made() {
+    let mut h = head("drag-status");
+    let (px, _) = nose_pixel(&h);
+    press(&mut h, px, true);
+    assert!(h.state().status().contains("drag to set its destination"));
+    for k in 1..=3 {
+        move_to(&mut h, px - Vec2::new(10.0 * k as f32, 0.0));
+    }
+    press(&mut h, px - Vec2::new(30.0, 0.0), false);
+    let status = h.state().status().to_string();
+    assert!(
+        status.contains("destination set") && status.contains("% of R"),
+        "{status}"
+    );
+    assert!(!status.contains("drag to set"), "{status}");
+    let (_, size, _, _) = h.state().viewport_camera().expect("open");
+    let centre = Vec2::new(size[0] as f32 / 2.0, size[1] as f32 / 2.0);
+    press(&mut h, centre, true);
+    press(&mut h, centre, false);
+    let status = h.state().status();
+    assert!(status.contains("a pin"), "{status}");
+}

@@ -127,10 +127,15 @@ pub(super) struct Composer {
 }
 
 impl Composer {
-    pub(super) fn new(doc: SceneDoc, samples: u32) -> Composer {
+    pub(super) fn new(mut doc: SceneDoc, samples: u32) -> Composer {
+        // A scene opened (or new) is the saved state; a restored one is not.
+        let mut history = SceneHistory::default();
+        if !doc.dirty {
+            history.mark_saved(&mut doc);
+        }
         Composer {
             doc,
-            history: SceneHistory::default(),
+            history,
             loaded: Loaded::new(),
             samples,
             orbit: Orbit::new(Vec3::Y, Vec3::splat(-1.0), Vec3::splat(1.0), 1.6),

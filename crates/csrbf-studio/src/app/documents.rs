@@ -147,7 +147,7 @@ impl StudioApp {
         m.doc.controls.combine = file.combine;
         m.doc.selection.0.clear();
         m.doc.active_layer = 0;
-        m.doc.dirty = false;
+        m.history.mark_saved(&mut m.doc);
         m.hidden = vec![false; m.doc.controls.deformations.len()];
         m.controls_path = Some(path.to_path_buf());
         let warnings = file.warnings.join("; ");
@@ -183,7 +183,7 @@ impl StudioApp {
         let text = m.doc.to_text();
         match csrbf_mesh::write_atomic(path, text.as_bytes()) {
             Ok(()) => {
-                m.doc.dirty = false;
+                m.history.mark_saved(&mut m.doc);
                 m.controls_path = Some(path.to_path_buf());
                 Recovery::clear(self.shell.state.as_deref());
                 self.picker.status = format!("Saved {}", path.display());
@@ -241,7 +241,7 @@ impl StudioApp {
             return;
         };
         m.doc.controls = file;
-        m.doc.dirty = true;
+        m.history.mark_unsaved(&mut m.doc);
         m.controls_path = r.controls_path.clone();
         m.hidden = vec![false; m.doc.controls.deformations.len()];
         self.picker.status = format!("Restored the unsaved session on {}", r.mesh.display());

@@ -5,7 +5,7 @@ use csrbf::glam::DVec3;
 use csrbf::{Handle, Kernel, Polynomial, Region};
 use eframe::egui;
 
-use super::picker::{Model, Picker, Tool};
+use super::picker::{Model, Picker, Tool, count};
 use crate::Command;
 
 /// A button of the selection that is not one edit.
@@ -151,7 +151,10 @@ impl Picker {
             ui.label("Nothing selected: click a start (white cross) or a destination");
             return;
         }
-        ui.label(format!("{} control vector(s) selected", sel.len()));
+        ui.label(format!(
+            "{} selected",
+            count(sel.len(), "control vector", "control vectors")
+        ));
         let commands = match sel[..] {
             [one] => control_ui(ui, m, one),
             _ => Vec::new(),
@@ -204,7 +207,10 @@ impl Picker {
             ui.radio_value(&mut m.vertex_target, VertexTarget::Anchor, "anchor");
             ui.radio_value(&mut m.vertex_target, VertexTarget::Region, "region");
         });
-        ui.label(format!("{} vertices chosen", m.picked_vertices.len()));
+        ui.label(format!(
+            "{} chosen",
+            count(m.picked_vertices.len(), "vertex", "vertices")
+        ));
         ui.add(
             egui::Slider::new(&mut self.view.brush, 0.002..=0.3)
 .update_while_editing(false)
@@ -286,7 +292,10 @@ impl Picker {
         } else {
             ui.colored_label(
                 egui::Color32::from_rgb(255, 90, 90),
-                format!("{} faces turned over (outlined in red)", d.flipped.len()),
+                format!(
+                    "{} turned over (outlined in red)",
+                    count(d.flipped.len(), "face", "faces")
+                ),
             );
         }
         for w in &d.warnings {

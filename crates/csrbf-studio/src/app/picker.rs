@@ -402,7 +402,7 @@ impl Picker {
         m.doc.selection.0.clear();
         let n = sel.len();
         self.edit(Command::Batch(batch), true);
-        self.status = format!("Deleted {n} control vector(s)");
+        self.status = format!("Deleted {}", count(n, "control vector", "control vectors"));
     }
 
     /// Copies the selected controls' displacements onto the next clicks
@@ -435,8 +435,26 @@ impl Picker {
         };
         self.edit(batch, true);
         self.status = format!(
-            "Mirrored {n} control vector(s) across the {} plane through the model's centre",
+            "Mirrored {} across the {} plane through the model's centre",
+            count(n, "control vector", "control vectors"),
             ["YZ", "XZ", "XY"][axis]
         );
+    }
+}
+
+/// `n` things, named in the singular for one: "1 face", "2 faces".
+pub(super) fn count(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::count;
+
+    #[test]
+    fn one_thing_is_named_in_the_singular() {
+        assert_eq!(count(1, "face", "faces"), "1 face");
+        assert_eq!(count(0, "face", "faces"), "0 faces");
+        assert_eq!(count(2, "vertex", "vertices"), "2 vertices");
     }
 }

@@ -327,7 +327,7 @@ impl StudioApp {
             Ok(()) => {
                 c.doc.file = rebased;
                 c.doc.path = Some(path.to_path_buf());
-                c.doc.dirty = false;
+                c.history.mark_saved(&mut c.doc);
                 // Paths changed form, not meaning: the cache keys stay valid.
                 if let Some(s) = c.loaded.scene.as_mut() {
                     let s = Arc::make_mut(s);

@@ -9,7 +9,7 @@ use eframe::egui;
 
 use super::gpu::{self, Screen};
 use super::pick_press::{Begin, Press, begin};
-use super::picker::{Display, Gesture, Model, Picker, Tool, ViewSettings};
+use super::picker::{Display, Gesture, Model, Picker, Tool, ViewSettings, count};
 use crate::gizmo::{RING_PIXELS, axis_rings, world_per_pixel};
 use crate::tools::VertexTarget;
 use crate::{Command, DragTool, End, MarkerHit, SurfacePoint, pick_surface_on, vertices_in_box};
@@ -422,8 +422,8 @@ impl Picker {
             m.picked_vertices.dedup();
         }
         self.status = format!(
-            "{} vertices chosen (brush {:.1} % of the diagonal)",
-            m.picked_vertices.len(),
+            "{} chosen (brush {:.1} % of the diagonal)",
+            count(m.picked_vertices.len(), "vertex", "vertices"),
             self.view.brush * 100.0
         );
     }
@@ -435,9 +435,39 @@ impl Picker {
             return;
         };
         match gesture {
-            Gesture::Marker { .. } | Gesture::Handle { .. } => {
+            Gesture::Marker {
+                layer, index, end, ..
+            } => {
                 m.history.end_drag();
+                if let Some(s) = m.doc.controls.deformations.get(layer)
+                    && let (Some(a), Some(b)) = (s.starts.get(index), s.targets.get(index))
+                {
+                    let moved = if end == End::Start {
+                        "start"
+                    } else {
+                        "destination"
+                    };
+                    let length = (*b - *a).length();
+                    self.status = if length == 0.0 {
+                        format!(
+                            "Control {} of layer {}: a pin (its destination is its start)",
+                            index + 1,
+                            layer + 1
+                        )
+                    } else {
+                        format!(
+                            "Control {} of layer {}: {moved} set; it moves {length:.4} ({:.1} % of R)",
+                            index + 1,
+                            layer + 1,
+                            length / s.options.radius * 100.0
+                        )
+                    };
+                }
                 // The release diagnoses what the drag made.
+                self.refresh(true);
+            }
+            Gesture::Handle { .. } => {
+                m.history.end_drag();
                 self.refresh(true);
             }
             Gesture::Box { from, add } => {
@@ -461,7 +491,8 @@ impl Picker {
                     let n = chosen.len();
                     m.picked_vertices = chosen;
                     self.status = format!(
-                        "{n} vertices chosen; apply them as a {} in the side panel",
+                        "{} chosen; apply them as a {} in the side panel",
+                        count(n, "vertex", "vertices"),
                         match m.vertex_target {
                             VertexTarget::Handle => "handle",
                             VertexTarget::Anchor => "handle's anchor",

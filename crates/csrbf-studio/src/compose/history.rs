@@ -13,6 +13,9 @@ pub struct SceneHistory {
     undone: Vec<SceneFile>,
     /// The tag of the last edit, when it may take the next one in.
     merging: Option<&'static str>,
+    /// The scene as last saved (or opened): the document is unsaved
+    /// whenever it differs, so undoing back to it is saved again.
+    saved: Option<SceneFile>,
 }
 
 impl SceneHistory {
@@ -23,6 +26,7 @@ impl SceneHistory {
         self.done.push(before);
         self.undone.clear();
         self.merging = None;
+        self.mark(doc);
         Ok(())
     }
 
@@ -38,6 +42,7 @@ impl SceneHistory {
         if self.merging == Some(tag) && !self.done.is_empty() {
             edit.apply(doc)?;
             self.undone.clear();
+            self.mark(doc);
             return Ok(());
         }
         self.apply(doc, edit)?;
@@ -60,7 +65,7 @@ impl SceneHistory {
         let before = self.done.pop().ok_or(EditError::Nothing("undo"))?;
         self.merging = None;
         self.undone.push(std::mem::replace(&mut doc.file, before));
-        doc.dirty = true;
+        self.mark(doc);
         Ok(())
     }
 
@@ -68,7 +73,18 @@ impl SceneHistory {
     pub fn redo(&mut self, doc: &mut SceneDoc) -> Result<(), EditError> {
         let after = self.undone.pop().ok_or(EditError::Nothing("redo"))?;
         self.done.push(std::mem::replace(&mut doc.file, after));
-        doc.dirty = true;
+        self.mark(doc);
         Ok(())
+    }
+
+    /// The scene as saved now (after a save, or a file opened).
+    pub fn mark_saved(&mut self, doc: &mut SceneDoc) {
+        self.saved = Some(doc.file.clone());
+        doc.dirty = false;
+    }
+
+    /// `doc.dirty`: whether the scene differs from the one saved.
+    fn mark(&self, doc: &mut SceneDoc) {
+        doc.dirty = self.saved.as_ref() != Some(&doc.file);
     }
 }

@@ -275,3 +275,22 @@ fn a_saved_scene_reads_back_equal_and_the_cli_accepts_its_text() {
         .expect("quaternion");
     assert!((q[2] - 0.5f64.sqrt()).abs() < 1e-12, "normalised: {q:?}");
 }
+
+#[test]
+fn undoing_back_to_the_saved_scene_is_saved_again() {
+    let mut d = doc();
+    let mut h = SceneHistory::default();
+    h.mark_saved(&mut d);
+    let timing = |fps: f64| SceneEdit::SetTiming { fps, duration: 4.0 };
+    h.apply(&mut d, &timing(30.0)).expect("edit");
+    assert!(d.dirty);
+    h.undo(&mut d).expect("undo");
+    assert!(!d.dirty, "back at the saved scene");
+    h.redo(&mut d).expect("redo");
+    assert!(d.dirty);
+    // A slider's merged steps that end where they began are saved too.
+    h.undo(&mut d).expect("undo");
+    h.apply_merging(&mut d, &timing(26.0), "timing").expect("edit");
+    h.apply_merging(&mut d, &timing(25.0), "timing").expect("edit");
+    assert!(!d.dirty);
+}
