@@ -873,3 +873,22 @@ fn after_a_drag_the_status_says_what_was_made() {
     let status = h.state().status();
     assert!(status.contains("a pin"), "{status}");
 }
+
+/// Issue 23, small: Esc closes an open menu (the Picker's own Esc, which
+/// clears the selection, waits until no menu is open).
+#[test]
+fn esc_closes_the_edit_menu() {
+    let mut h = head("esc-menu");
+    pull_nose(&mut h);
+    h.get_by_label("Edit").click();
+    h.run_steps(3);
+    h.get_by_label("Undo  Ctrl+Z");
+    h.key_press(egui::Key::Escape);
+    h.run_steps(3);
+    assert!(
+        h.query_by_label("Undo  Ctrl+Z").is_none(),
+        "the menu closed"
+    );
+    let doc = h.state().document().expect("open");
+    assert_eq!(doc.selection.0.len(), 1, "the selection is kept");
+}

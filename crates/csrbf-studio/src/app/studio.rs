@@ -1139,6 +1139,8 @@ impl eframe::App for StudioApp {
             && self.shell.message.is_none()
             && self.shell.pending.is_none()
             && !exporting
+            // An open menu takes the keys (Esc closes it).
+            && !egui::Popup::is_any_open(&ctx)
         {
             if !ctx.egui_wants_keyboard_input() && help::toggled(&ctx) {
                 self.shell.help = !self.shell.help;

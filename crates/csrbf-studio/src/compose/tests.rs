@@ -290,7 +290,9 @@ fn undoing_back_to_the_saved_scene_is_saved_again() {
     assert!(d.dirty);
     // A slider's merged steps that end where they began are saved too.
     h.undo(&mut d).expect("undo");
-    h.apply_merging(&mut d, &timing(26.0), "timing").expect("edit");
-    h.apply_merging(&mut d, &timing(25.0), "timing").expect("edit");
+    h.apply_merging(&mut d, &timing(26.0), "timing")
+        .expect("edit");
+    h.apply_merging(&mut d, &timing(25.0), "timing")
+        .expect("edit");
     assert!(!d.dirty);
 }
