@@ -892,3 +892,39 @@ fn esc_closes_the_edit_menu() {
     let doc = h.state().document().expect("open");
     assert_eq!(doc.selection.0.len(), 1, "the selection is kept");
 }
+
+/// Issue 23, small: a drag whose press, moves and release all arrive in one
+/// frame (a slow frame on a big mesh) still places the control where it was
+/// pressed and drags its destination, instead of making a zero-length pin.
+#[test]
+fn a_drag_within_one_frame_is_a_drag_not_a_pin() {
+    let mut h = head("fast-drag");
+    let (px, _) = nose_pixel(&h);
+    let (from, to) = (screen(&h, px), screen(&h, px - Vec2::new(40.0, 0.0)));
+    let button = |pos, pressed| egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    };
+    h.event(egui::Event::PointerMoved(from));
+    h.step();
+    h.event(button(from, true));
+    h.event(egui::Event::PointerMoved(to));
+    h.event(button(to, false));
+    h.step();
+    h.run_steps(2);
+    let doc = h.state().document().expect("open");
+    let s = &doc.controls.deformations[0];
+    assert_eq!(s.starts.len(), 1, "{}", h.state().status());
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let start_px = cam.project(s.starts[0].as_vec3(), size).expect("in view").0;
+    assert!(
+        start_px.distance(px) < 2.0,
+        "placed where pressed: {start_px} vs {px}"
+    );
+    assert!(
+        (s.targets[0] - s.starts[0]).length() > 0.0,
+        "dragged, not a pin"
+    );
+}
