@@ -40,6 +40,18 @@ pub enum Command {
         /// The new destination.
         target: DVec3,
     },
+    /// Move a whole control vector: its start and its destination (a
+    /// start dragged carries its vector along).
+    MoveControl {
+        /// The layer.
+        layer: usize,
+        /// Which control.
+        index: usize,
+        /// The new start.
+        start: DVec3,
+        /// The new destination.
+        target: DVec3,
+    },
     /// Move a start (a refit).
     SetStart {
         /// The layer.
@@ -222,6 +234,34 @@ impl Command {
                     layer: *layer,
                     index: *index,
                     start: old,
+                }
+            }
+            Command::MoveControl {
+                layer,
+                index,
+                start,
+                target,
+            } => {
+                has_layer(doc, *layer)?;
+                finite(*start, "start")?;
+                finite(*target, "destination")?;
+                let s = &mut doc.controls.deformations[*layer];
+                let no = EditError::NoControl {
+                    layer: *layer,
+                    index: *index,
+                };
+                let (Some(&old_start), Some(&old_target)) =
+                    (s.starts.get(*index), s.targets.get(*index))
+                else {
+                    return Err(no);
+                };
+                s.starts[*index] = *start;
+                s.targets[*index] = *target;
+                Command::MoveControl {
+                    layer: *layer,
+                    index: *index,
+                    start: old_start,
+                    target: old_target,
                 }
             }
             Command::SetRadius { layer, radius } => {
@@ -442,6 +482,12 @@ impl History {
             | (
                 Command::SetStart { layer, index, .. },
                 Command::SetStart {
+                    layer: l, index: i, ..
+                },
+            )
+            | (
+                Command::MoveControl { layer, index, .. },
+                Command::MoveControl {
                     layer: l, index: i, ..
                 },
             ) => (layer, index) == (l, i),
@@ -706,6 +752,12 @@ mod tests {
                 layer: 0,
                 index: 0,
                 start: DVec3::NEG_Y,
+            },
+            Command::MoveControl {
+                layer: 0,
+                index: 1,
+                start: DVec3::X,
+                target: DVec3::X * 1.5,
             },
             Command::SetRadius {
                 layer: 0,

@@ -928,3 +928,47 @@ fn a_drag_within_one_frame_is_a_drag_not_a_pin() {
         "dragged, not a pin"
     );
 }
+
+/// Issue 23, bug 9: a start dragged carries its vector (the destination
+/// keeps its offset, so the move does not grow); with Ctrl the start moves
+/// alone. One undo step each.
+#[test]
+fn a_dragged_start_carries_its_vector_and_ctrl_moves_it_alone() {
+    let mut h = head("carry");
+    pull_nose(&mut h);
+    let control = |h: &Harness<'_, StudioApp>| {
+        let s = &h.state().document().expect("open").controls.deformations[0];
+        (s.starts[0], s.targets[0])
+    };
+    let (a0, b0) = control(&h);
+    let (px, _) = nose_pixel(&h);
+    let steps = h.state().undo_steps();
+    let drag = |h: &mut Harness<'_, StudioApp>, from: Vec2, to: Vec2, m: egui::Modifiers| {
+        h.event(egui::Event::ModifiersChanged(m));
+        press(h, from, true);
+        move_to(h, (from + to) / 2.0);
+        move_to(h, to);
+        press(h, to, false);
+        h.event(egui::Event::ModifiersChanged(egui::Modifiers::NONE));
+        settle(h);
+    };
+    drag(&mut h, px, px + Vec2::new(0.0, 12.0), egui::Modifiers::NONE);
+    let (a1, b1) = control(&h);
+    assert!(a1.distance(a0) > 1e-3, "the start moved: {a0} -> {a1}");
+    assert!(
+        ((b1 - a1) - (b0 - a0)).length() < 1e-9,
+        "the vector came along"
+    );
+    assert_eq!(h.state().undo_steps(), steps + 1);
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let at = cam.project(a1.as_vec3(), size).expect("in view").0;
+    drag(
+        &mut h,
+        at,
+        at + Vec2::new(0.0, 10.0),
+        egui::Modifiers::COMMAND,
+    );
+    let (a2, b2) = control(&h);
+    assert!(a2.distance(a1) > 1e-3, "the start moved");
+    assert_eq!(b2, b1, "the destination stayed");
+}

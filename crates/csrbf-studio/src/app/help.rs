@@ -19,7 +19,7 @@ const PICKER_POINTER: &[(&str, &str)] = &[
     ),
     (
         "Left drag on a start or a destination",
-        "move it (a start stays on the surface)",
+        "move it (a start stays on the surface and carries its vector; Ctrl: the start alone)",
     ),
     (
         "Shift+click a marker; left drag on the background",

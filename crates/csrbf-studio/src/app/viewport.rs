@@ -211,7 +211,7 @@ impl Picker {
             }
         }
         if down && delta != egui::Vec2::ZERO {
-            self.moved(px, pos, delta, size, ppp);
+            self.moved((px, pos, delta), size, ppp, modifiers.command);
         }
         if released {
             self.release(pos, rect, ppp, size);
@@ -330,7 +330,15 @@ impl Picker {
         );
     }
 
-    fn moved(&mut self, px: Vec2, pos: egui::Pos2, delta: egui::Vec2, size: [u32; 2], ppp: f32) {
+    /// The pointer moved to `px` with the button down (`alone`: Ctrl, a
+    /// start dragged without its vector).
+    fn moved(
+        &mut self,
+        (px, pos, delta): (Vec2, egui::Pos2, egui::Vec2),
+        size: [u32; 2],
+        ppp: f32,
+        alone: bool,
+    ) {
         let Some(m) = self.model.as_mut() else {
             return;
         };
@@ -363,10 +371,23 @@ impl Picker {
                         } else {
                             p
                         };
-                        Command::SetStart {
-                            layer,
-                            index,
-                            start,
+                        // The vector comes along (the destination keeps its
+                        // offset from the start); with Ctrl, the start alone.
+                        let s = &m.doc.controls.deformations[layer];
+                        let (from, to) = (s.starts[index], s.targets[index]);
+                        if alone {
+                            Command::SetStart {
+                                layer,
+                                index,
+                                start,
+                            }
+                        } else {
+                            Command::MoveControl {
+                                layer,
+                                index,
+                                start,
+                                target: to + (start - from),
+                            }
                         }
                     }
                 };
