@@ -347,13 +347,15 @@ impl Command {
     }
 
     /// The selected controls (or every control of the active layer when
-    /// none is selected) mirrored across the plane through the mesh's
-    /// centre normal to `axis` (0 X, 1 Y, 2 Z), as one step of new
-    /// controls; with how many. A start on the plane is its own image, and
-    /// an image already there is not added twice: None when nothing is left.
-    pub fn mirror(doc: &Document, axis: usize) -> Option<(Command, usize)> {
-        let (lo, hi) = doc.mesh.bounds()?;
-        let centre = ((lo + hi) * 0.5).as_dvec3();
+    /// none is selected) mirrored across the plane `p[axis] = plane` (axis
+    /// 0 X, 1 Y, 2 Z; [`crate::symmetry::symmetry_plane`] finds the model's
+    /// own), as one step of new controls; with how many. A start on the
+    /// plane is its own image, and an image already there is not added
+    /// twice: None when nothing is left.
+    pub fn mirror(doc: &Document, axis: usize, plane: f64) -> Option<(Command, usize)> {
+        if axis > 2 || !plane.is_finite() {
+            return None;
+        }
         let l = doc.active_layer;
         let sel: Vec<(usize, usize)> = if doc.selection.0.is_empty() {
             let n = doc.controls.deformations.get(l)?.starts.len();
@@ -363,7 +365,7 @@ impl Command {
         };
         let flip = |p: DVec3| {
             let mut q = p;
-            q[axis] = 2.0 * centre[axis] - p[axis];
+            q[axis] = 2.0 * plane - p[axis];
             q
         };
         let mut batch = Vec::new();
@@ -604,17 +606,24 @@ mod tests {
         h.apply(&mut d, Command::add(0, DVec3::new(0.0, 0.9, 0.1), DVec3::Y))
             .unwrap();
         // Across X: the first has an image, the second is on the plane.
-        let (c, n) = Command::mirror(&d, 0).expect("one image");
+        let (c, n) = Command::mirror(&d, 0, 0.0).expect("one image");
         assert_eq!(n, 1);
         h.apply(&mut d, c).unwrap();
         let s = &d.controls.deformations[0];
         assert_eq!(s.starts[2], DVec3::new(-0.5, 0.2, 0.0));
         assert_eq!(s.targets[2], DVec3::new(-0.6, 0.2, 0.0));
         // Mirrored again: every image is already there.
-        assert!(Command::mirror(&d, 0).is_none());
+        assert!(Command::mirror(&d, 0, 0.0).is_none());
         // Only the selection when there is one.
         d.selection.0 = vec![(0, 0)];
-        let (_, n) = Command::mirror(&d, 1).expect("image across Y");
+        let (_, n) = Command::mirror(&d, 1, 0.0).expect("image across Y");
+        // Across another plane: the image is there.
+        let (Command::Batch(b), _) = Command::mirror(&d, 0, 0.25).expect("image") else {
+            panic!("a batch");
+        };
+        assert!(
+            matches!(b[0], Command::Insert { start, .. } if start == DVec3::new(0.0, 0.2, 0.0))
+        );
         assert_eq!(n, 1);
     }
 

@@ -48,6 +48,7 @@ pub mod live;
 pub mod orbit;
 pub mod preview;
 pub mod state;
+pub mod symmetry;
 pub mod tools;
 
 pub use command::{Command, History};

@@ -172,18 +172,9 @@ impl Picker {
                 action = Some(Action::Stamp);
             }
         });
-        ui.horizontal(|ui| {
-            ui.label("Mirror across:");
-            for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
-                if ui
-                    .button(name)
-                    .on_hover_text("Adds the mirror images across the model's centre plane (M: X)")
-                    .clicked()
-                {
-                    action = Some(Action::Mirror(a));
-                }
-            }
-        });
+        if let Some(a) = mirror_ui(ui, m, sel[0]) {
+            action = Some(Action::Mirror(a));
+        }
         for c in commands {
             self.edit(c, true);
         }
@@ -550,6 +541,71 @@ fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec)
         });
     }
     commands
+}
+
+/// Mirror across X, Y or Z (the axis asked for), and, folded away, the
+/// three planes: the model's plane of symmetry until one is typed, or the
+/// plane through the `first` selected control's start.
+fn mirror_ui(ui: &mut egui::Ui, m: &mut Model, first: (usize, usize)) -> Option<usize> {
+    let mut asked = None;
+    ui.horizontal(|ui| {
+        ui.label("Mirror across:");
+        for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+            if ui
+                .button(name)
+                .on_hover_text(
+                    "Adds the mirror images across the mirror plane normal to this axis (M: X)",
+                )
+                .clicked()
+            {
+                asked = Some(a);
+            }
+        }
+    });
+    egui::CollapsingHeader::new("mirror planes").show(ui, |ui| planes_ui(ui, m, first));
+    asked
+}
+
+/// The mirror planes, one row each: found as the model's plane of
+/// symmetry; typed; or through the `first` selected control's start.
+fn planes_ui(ui: &mut egui::Ui, m: &mut Model, first: (usize, usize)) {
+    let start =
+        (m.doc.controls.deformations.get(first.0)).and_then(|s| s.starts.get(first.1).copied());
+    let diag = m.doc.diagonal();
+    for (a, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+        let Some(mut plane) = m.mirror_plane(a) else {
+            continue;
+        };
+        ui.horizontal(|ui| {
+            ui.label(format!("{name} ="));
+            ui.add(
+                egui::DragValue::new(&mut plane)
+                    .update_while_editing(false)
+                    .speed(diag * 1e-3)
+                    .max_decimals(5),
+            )
+            .on_hover_text("Found as the model's plane of symmetry; drag or type to move it");
+            if ui
+                .small_button("symmetry")
+                .on_hover_text("The model's own plane of symmetry, found from the mesh")
+                .clicked()
+            {
+                m.mirror_planes[a] = None;
+                plane = m.mirror_plane(a).unwrap_or(plane);
+            }
+            if let Some(p) = start
+                && ui
+                    .small_button("start")
+                    .on_hover_text("The plane through the selected control's start")
+                    .clicked()
+            {
+                plane = p[a];
+            }
+        });
+        if plane.is_finite() {
+            m.mirror_planes[a] = Some(plane);
+        }
+    }
 }
 
 /// The one selected control's start and destination, typed, and Make it

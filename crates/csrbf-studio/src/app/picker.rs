@@ -53,6 +53,9 @@ pub(super) struct Model {
     pub(super) up: (Vec3, &'static str),
     /// Layers hidden from the preview (their phase taken as 0).
     pub(super) hidden: Vec<bool>,
+    /// The planes Mirror reflects across, normal to X, Y and Z (the model's
+    /// plane of symmetry when first needed; set in the side panel).
+    pub(super) mirror_planes: [Option<f64>; 3],
     /// Vertices chosen with the vertex tool (for a handle, region or anchor).
     pub(super) picked_vertices: Vec<u32>,
     /// What the last box of the vertex tool is for.
@@ -75,6 +78,16 @@ impl Model {
             Display::Rest => (&self.rest_positions, &self.rest_normals),
             Display::Deformed | Display::Both => (&self.shown, &self.shown_normals),
         }
+    }
+
+    /// The plane Mirror reflects across, normal to `axis`: the one set, else
+    /// the model's plane of symmetry (found once).
+    pub(super) fn mirror_plane(&mut self, axis: usize) -> Option<f64> {
+        let slot = self.mirror_planes.get_mut(axis)?;
+        if slot.is_none() {
+            *slot = crate::symmetry::symmetry_plane(&self.doc.mesh.positions, axis);
+        }
+        *slot
     }
 
     /// Shows the newest preview frame, if the worker made one.
@@ -141,6 +154,7 @@ impl Model {
             stand_in,
             orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
             up,
+            mirror_planes: [None; 3],
             picked_vertices: Vec::new(),
             vertex_target: crate::tools::VertexTarget::Handle,
             shown_generation: 0,
@@ -423,21 +437,24 @@ impl Picker {
         self.status = "Click on the surface to place a copy (Esc to stop)".into();
     }
 
-    /// Mirrors the selected controls (or all of the active layer) across the
-    /// plane through the model's centre normal to `axis` (0 X, 1 Y, 2 Z).
+    /// Mirrors the selected controls (or all of the active layer) across
+    /// the mirror plane normal to `axis` (0 X, 1 Y, 2 Z).
     pub(super) fn mirror(&mut self, axis: usize) {
-        let Some(m) = self.model.as_ref() else {
+        let Some(m) = self.model.as_mut() else {
             return;
         };
-        let Some((batch, n)) = Command::mirror(&m.doc, axis) else {
+        let Some(plane) = m.mirror_plane(axis) else {
+            return;
+        };
+        let Some((batch, n)) = Command::mirror(&m.doc, axis, plane) else {
             self.status = "Nothing to mirror: every image is already there".into();
             return;
         };
         self.edit(batch, true);
         self.status = format!(
-            "Mirrored {} across the {} plane through the model's centre",
+            "Mirrored {} across the plane {} = {plane:.4}",
             count(n, "control vector", "control vectors"),
-            ["YZ", "XZ", "XY"][axis]
+            ["X", "Y", "Z"][axis]
         );
     }
 }
