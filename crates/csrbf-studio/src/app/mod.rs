@@ -3,7 +3,7 @@
 //! viewport: the Picker (`picker.rs`, with `panel.rs`, `viewport.rs` and `pick_press.rs`)
 //! and the Composer (`composer.rs`, with `scene_panel.rs`, `timeline.rs`,
 //! `scene_view.rs` and `key_drag.rs`). Rooms ask the shell for what only it
-//! can do through [`request`]; the screen they share (`gpu.rs`) and the
+//! can do through `request.rs`; the screen they share (`gpu.rs`) and the
 //! file dialogs and recovery files (`files.rs`) and the keys-and-mouse help
 //! (`help.rs`) are leaves. The shell's
 //! own work on files is in `documents.rs` (meshes and control files) and

@@ -31,7 +31,7 @@ impl StudioApp {
     pub fn compose_camera(&self) -> Option<(Camera, [u32; 2], egui::Rect)> {
         Some(self.composer.as_ref()?.camera(self.screen.viewport))
     }
-    /// Applies a scene edit (see [`Composer::edit`]); false if it was
+    /// Applies a scene edit (see `Composer::edit`); false if it was
     /// refused, with the reason shown.
     pub fn scene_edit(&mut self, edit: SceneEdit) -> bool {
         self.scene_edit_merging(edit, None)
