@@ -972,3 +972,48 @@ fn a_dragged_start_carries_its_vector_and_ctrl_moves_it_alone() {
     assert!(a2.distance(a1) > 1e-3, "the start moved");
     assert_eq!(b2, b1, "the destination stayed");
 }
+
+/// Issue 23 ("a handle's pivot"): a handle's pivot is picked on the surface
+/// (the shoulder, not the centre of the arm), kept in the control file's
+/// rotation, and the selection's centre is back with one button.
+#[test]
+fn a_handles_pivot_is_picked_on_the_surface() {
+    let mut h = open_sized(
+        Args {
+            mesh: Some(model("assimp_Suzanne_248.obj")),
+            controls: None,
+        },
+        "pivot",
+        [1280.0, 1400.0],
+    );
+    h.get_by_label("Vertices").click();
+    h.run_steps(1);
+    let (_, size, _, _) = h.state().viewport_camera().expect("open");
+    let centre = Vec2::new(size[0] as f32 / 2.0, size[1] as f32 / 2.0);
+    let (a, b) = (centre + Vec2::new(40.0, -40.0), centre + Vec2::new(140.0, 40.0));
+    press(&mut h, a, true);
+    move_to(&mut h, (a + b) * 0.5);
+    press(&mut h, b, false);
+    h.run_steps(1);
+    h.get_by_label("Apply the chosen vertices").click();
+    h.run_steps(2);
+    settle(&mut h);
+    let handle = |h: &Harness<'_, StudioApp>| {
+        let d = h.state().document().expect("open");
+        d.controls.deformations[d.active_layer].handle.clone().expect("a handle")
+    };
+    assert_eq!(handle(&h).rotate.and_then(|r| r.pivot), None);
+    h.get_by_label("pick on the surface").click();
+    h.run_steps(1);
+    press(&mut h, centre, true);
+    press(&mut h, centre, false);
+    settle(&mut h);
+    let pivot = handle(&h).rotate.and_then(|r| r.pivot).expect("a pivot");
+    // On the surface under the pointer, at rest.
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let at = cam.project(pivot.as_vec3(), size).expect("in view").0;
+    assert!(at.distance(centre) < 2.0, "{at} vs {centre}: {}", h.state().status());
+    h.get_by_label("selection's centre").click();
+    settle(&mut h);
+    assert_eq!(handle(&h).rotate.and_then(|r| r.pivot), None);
+}

@@ -229,7 +229,22 @@ impl Picker {
                 ui.radio_value(&mut self.handle_mode, HandleMode::Move, "move");
             });
             let view_axis = crate::gizmo::handle_axis(axis, &m.orbit.camera());
-            if let Some(new) = handle_ui(ui, &h, view_axis, m.doc.diagonal()) {
+            let centroid = {
+                let mut own = h.clone();
+                if let Some(r) = own.rotate.as_mut() {
+                    r.pivot = None;
+                }
+                let lookup = |n: &str| m.doc.mesh.part_vertices(n);
+                own.pivot(&m.doc.mesh.positions, &lookup).ok()
+            };
+            let (edited, pick) = pivot_ui(ui, &h, centroid, view_axis, m.doc.diagonal());
+            if pick {
+                self.pick_pivot = true;
+                self.status =
+                    "Click on the surface to put the handle's pivot there (Esc cancels)".into();
+            }
+            let h = edited.clone().unwrap_or(h);
+            if let Some(new) = handle_ui(ui, &h, view_axis, m.doc.diagonal()).or(edited) {
                 let mut s = spec.clone();
                 s.handle = Some(new);
                 commands.push(Command::ReplaceLayer {
@@ -668,6 +683,50 @@ fn apply_chosen(m: &mut Model, spec: &csrbf::controls::ControlSpec) -> Command {
         m.doc.active_layer = *layer;
     }
     command
+}
+
+/// A handle's pivot: its own (typed, or picked on the surface: `pick`), or
+/// the centre of its selection (`centroid`); the new handle when it changed.
+fn pivot_ui(
+    ui: &mut egui::Ui,
+    h: &Handle,
+    centroid: Option<DVec3>,
+    view_axis: DVec3,
+    diagonal: f64,
+) -> (Option<Handle>, bool) {
+    let own = h.rotate.and_then(|r| r.pivot);
+    let mut pick = false;
+    let mut new = None;
+    ui.horizontal(|ui| {
+        ui.label(match own {
+            Some(_) => "pivot: its own",
+            None => "pivot: the selection's centre",
+        });
+        if ui
+            .small_button("pick on the surface")
+            .on_hover_text("The next click on the model puts the pivot there (a shoulder, a hinge)")
+            .clicked()
+        {
+            pick = true;
+        }
+        if own.is_some() && ui.small_button("selection's centre").clicked() {
+            let mut h = h.clone();
+            if let Some(r) = h.rotate.as_mut() {
+                r.pivot = None;
+            }
+            new = Some(h);
+        }
+    });
+    let mut p = own.or(centroid).unwrap_or(DVec3::ZERO);
+    if vec3_ui(ui, "pivot", &mut p, diagonal * 1e-3) && p.is_finite() {
+        let mut h = h.clone();
+        let r = h
+            .rotate
+            .unwrap_or_else(|| csrbf::Rotation::new(view_axis, 0.0));
+        h.rotate = Some(r.with_pivot(p));
+        new = Some(h);
+    }
+    (new, pick)
 }
 
 /// A handle's angle, axis (`view_axis` until it has one), scale and move;

@@ -209,6 +209,8 @@ pub(super) struct Picker {
     pub(super) view: ViewSettings,
     pub(super) gesture: Gesture,
     pub(super) handle_mode: crate::gizmo::HandleMode,
+    /// The next press on the surface puts the active handle's pivot there.
+    pub(super) pick_pivot: bool,
     /// The status line while the Picker is shown.
     pub(super) status: String,
 }

@@ -126,6 +126,7 @@ impl StudioApp {
                 view: ViewSettings::default(),
                 gesture: Gesture::None,
                 handle_mode: crate::gizmo::HandleMode::default(),
+                pick_pivot: false,
                 status: "Open a mesh: File > Open mesh (Ctrl+O), or drop a file here".into(),
             },
             mode: Mode::Pick,
@@ -372,6 +373,7 @@ impl StudioApp {
             }
             self.picker.gesture = Gesture::None;
             self.picker.view.stamp = None;
+            self.picker.pick_pivot = false;
         }
     }
 

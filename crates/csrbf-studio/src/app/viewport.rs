@@ -236,6 +236,9 @@ impl Picker {
             ppp,
         };
         let stamp = self.view.stamp;
+        if self.pick_pivot {
+            return self.place_pivot(px, size);
+        }
         let Some(m) = self.model.as_mut() else {
             return;
         };
@@ -281,6 +284,47 @@ impl Picker {
                 self.gesture = Gesture::Box { from: pos, add };
             }
         }
+    }
+
+    /// The active handle's pivot put where the pointer meets the surface
+    /// (at rest), its rotation kept (about the view's axis if it had none).
+    fn place_pivot(&mut self, px: Vec2, size: [u32; 2]) {
+        self.pick_pivot = false;
+        let display = self.view.display;
+        let Some(m) = self.model.as_mut() else {
+            return;
+        };
+        let cam = m.orbit.camera();
+        let drawn = m.drawn(display).0.clone();
+        let bvh = m.picking.fitted(display, &drawn);
+        let Some(hit) = pick_surface_on(&cam, size, px, bvh, &drawn, &m.doc.mesh.positions) else {
+            self.status = "No surface there: the pivot is where it was".into();
+            return;
+        };
+        let layer = m.doc.active_layer;
+        let Some(mut spec) = m.doc.controls.deformations.get(layer).cloned() else {
+            return;
+        };
+        let Some(h) = spec.handle.as_mut() else {
+            return;
+        };
+        let axis = crate::gizmo::handle_axis(self.axis, &cam);
+        let rot = h.rotate.unwrap_or_else(|| csrbf::Rotation::new(axis, 0.0));
+        h.rotate = Some(rot.with_pivot(hit.rest));
+        self.edit(
+            Command::ReplaceLayer {
+                layer,
+                spec: Box::new(spec),
+            },
+            true,
+        );
+        self.status = format!(
+            "Pivot of layer {} at ({:.4}, {:.4}, {:.4})",
+            layer + 1,
+            hit.rest.x,
+            hit.rest.y,
+            hit.rest.z
+        );
     }
 
     /// A control vector added at `hit` (its destination `stamp` away when
@@ -815,14 +859,17 @@ fn select_marker(doc: &mut crate::Document, hit: MarkerHit, add: bool) {
     doc.active_layer = hit.layer;
 }
 
-/// The active layer's handle and its pivot (the rotation's own, else the
-/// centroid of its selection at rest: what the engine turns it about).
+/// The active layer's handle and where its gizmo is: its pivot (the
+/// rotation's own, else the centroid of its selection at rest: what the
+/// engine turns it about) carried by its move, so the rings stay on the
+/// part they turn.
 pub(super) fn active_handle(m: &Model) -> Option<(usize, csrbf::Handle, DVec3)> {
     let layer = m.doc.active_layer;
     let h = m.doc.controls.deformations.get(layer)?.handle.clone()?;
     let lookup = |n: &str| m.doc.mesh.part_vertices(n);
     let pivot = h.pivot(&m.doc.mesh.positions, &lookup).ok()?;
-    Some((layer, h, pivot))
+    let moved = pivot + h.translate.unwrap_or(DVec3::ZERO);
+    Some((layer, h, moved))
 }
 
 /// A circle of `radius` pixels about `centre` facing the camera.
