@@ -106,6 +106,17 @@ impl Orbit {
         self.pitch = (self.pitch + dy * 0.01).clamp(-PITCH_LIMIT, PITCH_LIMIT);
     }
 
+    /// [`Orbit::orbit`] about the point `p` instead of the target: `p` stays
+    /// where it is in the picture (orbit about the selection).
+    pub fn orbit_about(&mut self, dx: f32, dy: f32, p: Vec3) {
+        let (r0, u0, f0) = self.camera().basis();
+        let d = self.target - p;
+        let local = Vec3::new(d.dot(r0), d.dot(u0), d.dot(f0));
+        self.orbit(dx, dy);
+        let (r1, u1, f1) = self.camera().basis();
+        self.target = p + r1 * local.x + u1 * local.y + f1 * local.z;
+    }
+
     /// Slides the view so the point at the target's depth follows a pointer
     /// drag of `dx`, `dy` pixels in a viewport `height` pixels high.
     pub fn pan(&mut self, dx: f32, dy: f32, height: f32) {
@@ -274,5 +285,21 @@ mod tests {
         o.orthographic = true;
         let (at, _) = o.camera().project(o.target, SIZE).expect("in front");
         assert!(at.distance(Camera::centre_pixel(SIZE)) < 1e-3);
+    }
+
+    #[test]
+    fn orbiting_about_a_point_keeps_it_where_it_is_in_the_picture() {
+        for up in [Vec3::Y, Vec3::Z] {
+            let mut o = orbit(up);
+            o.orbit(20.0, -10.0);
+            let p = o.target + Vec3::new(0.3, -0.2, 0.25);
+            let size = [640, 480];
+            let before = o.camera().project(p, size).expect("in view").0;
+            let target = o.target;
+            o.orbit_about(35.0, 12.0, p);
+            let after = o.camera().project(p, size).expect("in view").0;
+            assert!(before.distance(after) < 1e-2, "{up}: {before} -> {after}");
+            assert!(o.target.distance(target) > 1e-3, "the view turned about p");
+        }
     }
 }

@@ -990,7 +990,10 @@ fn a_handles_pivot_is_picked_on_the_surface() {
     h.run_steps(1);
     let (_, size, _, _) = h.state().viewport_camera().expect("open");
     let centre = Vec2::new(size[0] as f32 / 2.0, size[1] as f32 / 2.0);
-    let (a, b) = (centre + Vec2::new(40.0, -40.0), centre + Vec2::new(140.0, 40.0));
+    let (a, b) = (
+        centre + Vec2::new(40.0, -40.0),
+        centre + Vec2::new(140.0, 40.0),
+    );
     press(&mut h, a, true);
     move_to(&mut h, (a + b) * 0.5);
     press(&mut h, b, false);
@@ -1000,7 +1003,10 @@ fn a_handles_pivot_is_picked_on_the_surface() {
     settle(&mut h);
     let handle = |h: &Harness<'_, StudioApp>| {
         let d = h.state().document().expect("open");
-        d.controls.deformations[d.active_layer].handle.clone().expect("a handle")
+        d.controls.deformations[d.active_layer]
+            .handle
+            .clone()
+            .expect("a handle")
     };
     assert_eq!(handle(&h).rotate.and_then(|r| r.pivot), None);
     h.get_by_label("pick on the surface").click();
@@ -1012,8 +1018,71 @@ fn a_handles_pivot_is_picked_on_the_surface() {
     // On the surface under the pointer, at rest.
     let (cam, size, _, _) = h.state().viewport_camera().expect("open");
     let at = cam.project(pivot.as_vec3(), size).expect("in view").0;
-    assert!(at.distance(centre) < 2.0, "{at} vs {centre}: {}", h.state().status());
+    assert!(
+        at.distance(centre) < 2.0,
+        "{at} vs {centre}: {}",
+        h.state().status()
+    );
     h.get_by_label("selection's centre").click();
     settle(&mut h);
     assert_eq!(handle(&h).rotate.and_then(|r| r.pivot), None);
+}
+
+/// Issue 23: "Orbit about the selection" turns the view about the selected
+/// start, which stays where it is on screen; without it the view turns
+/// about its target and the start moves.
+#[test]
+fn orbiting_about_the_selection_keeps_the_selected_start_in_place() {
+    let mut h = head("orbit-selection");
+    pull_nose(&mut h);
+    let start_px = |h: &Harness<'_, StudioApp>| {
+        let s = h.state().document().expect("open").controls.deformations[0].starts[0];
+        let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+        cam.project(s.as_vec3(), size).expect("in view").0
+    };
+    let orbit_drag = |h: &mut Harness<'_, StudioApp>| {
+        let (_, size, _, _) = h.state().viewport_camera().expect("open");
+        let from = screen(h, Vec2::new(size[0] as f32 * 0.6, size[1] as f32 * 0.6));
+        let to = from + egui::vec2(120.0, 10.0);
+        // Alt+left drag orbits (as a right drag does).
+        let button = |pos, pressed| egui::Event::PointerButton {
+            pos,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: egui::Modifiers::ALT,
+        };
+        h.event(egui::Event::ModifiersChanged(egui::Modifiers::ALT));
+        h.event(egui::Event::PointerMoved(from));
+        h.step();
+        h.event(button(from, true));
+        h.step();
+        h.event(egui::Event::PointerMoved(from + egui::vec2(15.0, 5.0)));
+        h.step();
+        h.event(egui::Event::PointerMoved(to));
+        h.step();
+        h.event(button(to, false));
+        h.event(egui::Event::ModifiersChanged(egui::Modifiers::NONE));
+        h.step();
+    };
+    let before = start_px(&h);
+    orbit_drag(&mut h);
+    assert!(
+        start_px(&h).distance(before) > 5.0,
+        "about the target, the start moves"
+    );
+    h.get_by_label("View").click();
+    h.run_steps(3);
+    h.get_by_label("Orbit about the selection").click();
+    h.run_steps(1);
+    // Closed by clicking its title again (Esc would also clear the
+    // selection once the menu is closed).
+    if h.query_by_label("Orbit about the selection").is_some() {
+        h.get_by_label("View").click();
+        h.run_steps(2);
+    }
+    assert_eq!(h.state().document().expect("open").selection.0.len(), 1);
+    let before = start_px(&h);
+    orbit_drag(&mut h);
+    let after = start_px(&h);
+    assert!(after.distance(before) < 1.0, "{before} -> {after}");
 }

@@ -90,6 +90,33 @@ impl Model {
         *slot
     }
 
+    /// The point to orbit about: the selected controls' starts' centre when
+    /// `selection` is asked for and there is one, else None (the target).
+    pub(super) fn orbit_pivot(&self, selection: bool) -> Option<Vec3> {
+        let starts: Vec<DVec3> = (self.doc.selection.0.iter())
+            .filter_map(|&(l, i)| {
+                self.doc
+                    .controls
+                    .deformations
+                    .get(l)?
+                    .starts
+                    .get(i)
+                    .copied()
+            })
+            .collect();
+        (selection && !starts.is_empty())
+            .then(|| (starts.iter().sum::<DVec3>() / starts.len() as f64).as_vec3())
+    }
+
+    /// Orbits the view by a pointer move of `delta`, about the selection
+    /// when `selection` says so (and there is one).
+    pub(super) fn orbit_by(&mut self, delta: egui::Vec2, selection: bool) {
+        match self.orbit_pivot(selection) {
+            Some(p) => self.orbit.orbit_about(delta.x, delta.y, p),
+            None => self.orbit.orbit(delta.x, delta.y),
+        }
+    }
+
     /// Shows the newest preview frame, if the worker made one.
     pub(super) fn take_frame(&mut self) {
         self.preview.poll();
@@ -246,6 +273,8 @@ pub(super) struct ViewSettings {
     /// A box of the vertex tool takes every vertex in it, not only those
     /// facing the camera (X-ray).
     pub xray: bool,
+    /// Orbit about the selected controls' starts, not the view's target.
+    pub orbit_selection: bool,
 }
 
 impl Default for ViewSettings {
@@ -262,6 +291,7 @@ impl Default for ViewSettings {
             stamp: None,
             brush: 0.03,
             xray: false,
+            orbit_selection: false,
         }
     }
 }

@@ -57,6 +57,8 @@ impl Picker {
         ui.checkbox(&mut v.arrows, "Arrows");
         ui.checkbox(&mut v.spheres, "Support spheres of the selection");
         ui.checkbox(&mut v.gizmo, "Axis gizmo");
+        ui.checkbox(&mut v.orbit_selection, "Orbit about the selection")
+            .on_hover_text("Orbiting turns about the selected controls' starts, which stay where they are in the view");
         ui.separator();
         if ui.button("Frame all  Shift+F").clicked() {
             self.frame_view(false, size);
@@ -193,7 +195,7 @@ impl Picker {
             if modifiers.shift || (middle && modifiers.ctrl) {
                 m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32);
             } else {
-                m.orbit.orbit(delta.x, delta.y);
+                m.orbit_by(delta, self.view.orbit_selection);
             }
             return;
         }
@@ -451,7 +453,7 @@ impl Picker {
                 };
                 self.edit(command, false);
             }
-            Gesture::Orbit => m.orbit.orbit(delta.x, delta.y),
+            Gesture::Orbit => m.orbit_by(delta, self.view.orbit_selection),
             Gesture::Pan => m.orbit.pan(delta.x * ppp, delta.y * ppp, size[1] as f32),
             Gesture::Brush => self.brush(px, size),
             Gesture::Box { .. } | Gesture::None => {
