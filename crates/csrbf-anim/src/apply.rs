@@ -35,13 +35,21 @@ pub enum ApplyError {
     },
 }
 
-/// Fits every deformation of `file` on `mesh` (handles sampled on it).
+/// Fits every deformation of `file` on `mesh` (handles sampled on it,
+/// connected regions measured along it).
 pub fn fit_file(mesh: &Mesh, file: &ControlFile) -> Result<Vec<FittedStage>, ApplyError> {
     let lookup = |n: &str| mesh.part_vertices(n);
+    let triangles = if file.deformations.iter().any(|s| s.region.needs_surface()) {
+        mesh.faces.triangles()
+    } else {
+        Vec::new()
+    };
     let mut out = Vec::with_capacity(file.deformations.len());
     for (index, spec) in file.deformations.iter().enumerate() {
         let engine = |source| ApplyError::Engine { index, source };
-        let spec = spec.resolve(&mesh.positions, &lookup).map_err(engine)?;
+        let spec = spec
+            .resolve_on(&mesh.positions, &triangles, &lookup)
+            .map_err(engine)?;
         out.extend(spec.fit().map_err(engine)?);
     }
     Ok(out)

@@ -155,8 +155,9 @@ fn stage_name(path: &Path, i: usize, count: usize) -> String {
     }
 }
 
-/// Turns every handle into control vectors on the mesh (which a handle
-/// needs); deformations without one are kept as they are.
+/// Turns every handle into control vectors and every connected region into
+/// vertex weights on the mesh (which they need); other deformations are
+/// kept as they are.
 pub fn resolve_all(
     specs: &[ControlSpec],
     path: &Path,
@@ -171,17 +172,37 @@ pub fn resolve_all(
         }
         let at = stage_name(path, i, specs.len());
         let Some(m) = mesh else {
-            bail!("{at}: handle: a handle is sampled on the mesh; give --mesh");
+            if s.handle.is_some() {
+                bail!("{at}: handle: a handle is sampled on the mesh; give --mesh");
+            }
+            bail!("{at}: region: a connected region is measured along the mesh; give --mesh");
         };
         let t = Instant::now();
+        let triangles = if s.region.needs_surface() {
+            m.faces.triangles()
+        } else {
+            Vec::new()
+        };
         let r = s
-            .resolve(&m.positions, &|n| m.part_vertices(n))
+            .resolve_on(&m.positions, &triangles, &|n| m.part_vertices(n))
             .with_context(|| at.clone())?;
-        progress.say(format_args!(
-            "{at}: handle made {} control vectors ({:.1} ms)",
-            r.starts.len() - s.starts.len(),
-            t.elapsed().as_secs_f64() * 1e3
-        ));
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        if s.handle.is_some() {
+            progress.say(format_args!(
+                "{at}: handle made {} control vectors",
+                r.starts.len() - s.starts.len(),
+            ));
+        }
+        if let csrbf::Region::Weights { vertices, weights } = &r.region
+            && s.region.needs_surface()
+        {
+            progress.say(format_args!(
+                "{at}: connected region: {} vertices ({} fully)",
+                vertices.len(),
+                weights.iter().filter(|&&w| w == 1.0).count()
+            ));
+        }
+        progress.say(format_args!("{at}: resolved on the mesh ({ms:.1} ms)"));
         out.push(r);
     }
     Ok(out)

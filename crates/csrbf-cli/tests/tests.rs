@@ -3,6 +3,7 @@
 mod aim;
 mod bad_input;
 mod commands;
+mod connected;
 mod limits;
 mod meaning;
 mod pictures;

@@ -17,7 +17,7 @@ use crate::handle::{Handle, Rotation};
 use crate::kernel::{Kernel, Polynomial};
 use crate::ordering::Ordering;
 use crate::pipeline::Combine;
-use crate::region::Region;
+use crate::region::{Origin, Region};
 use crate::solver::SolverChoice;
 use crate::sweep::{Path, Paths, Sweep, SweepOptions};
 use crate::system::{FitOptions, System};
@@ -61,17 +61,33 @@ pub struct ControlSpec {
 }
 
 impl ControlSpec {
-    /// Whether the control vectors depend on a mesh (a handle).
+    /// Whether the deformation depends on a mesh: a handle (its control
+    /// vectors) or a connected region (its weights).
     pub fn needs_mesh(&self) -> bool {
-        self.handle.is_some()
+        self.handle.is_some() || self.region.needs_surface()
     }
 
-    /// The same deformation with its handle turned into control vectors on
-    /// `points` (added after the file's own controls); `groups` resolves
-    /// part names. Without a handle, a copy.
+    /// [`ControlSpec::resolve_on`] without faces: a handle is sampled on
+    /// `points`, but a connected region is refused
+    /// ([`crate::RegionError::NeedsSurface`]).
     pub fn resolve(
         &self,
         points: &[Vec3],
+        groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    ) -> crate::Result<ControlSpec> {
+        self.resolve_on(points, &[], groups)
+    }
+
+    /// The same deformation made concrete on a mesh (`points`, its
+    /// `triangles`; `groups` resolves part names): its handle turned into
+    /// control vectors (added after the file's own controls) and a
+    /// connected region into the weights of the vertices it reaches along
+    /// the surface ([`Region::Weights`], by [`Region::on_surface`]), from the
+    /// handle's selection or from the moving starts. Without either, a copy.
+    pub fn resolve_on(
+        &self,
+        points: &[Vec3],
+        triangles: &[[u32; 3]],
         groups: &dyn Fn(&str) -> Option<Vec<u32>>,
     ) -> crate::Result<ControlSpec> {
         let mut out = self.clone();
@@ -88,6 +104,40 @@ impl ControlSpec {
             out.starts.extend(v.starts);
             out.targets.extend(v.targets);
         }
+        let Some(origin) = self.region.origin() else {
+            return Ok(out);
+        };
+        if triangles.is_empty() {
+            return Err(crate::RegionError::NeedsSurface.into());
+        }
+        let surface = crate::Surface::new(points, triangles)?;
+        let seeds = match origin {
+            Origin::Handle => {
+                let h = self.handle.as_ref().ok_or_else(|| {
+                    crate::Error::BadHandle(
+                        "the region is connected to the handle's selection, but there is no handle"
+                            .into(),
+                    )
+                })?;
+                h.select
+                    .select(points, groups)?
+                    .into_iter()
+                    .map(|v| (v, 0.0))
+                    .collect()
+            }
+            // Pins (and a handle's anchor samples) do not move: not a source.
+            Origin::Starts => {
+                let moving: Vec<DVec3> = out
+                    .starts
+                    .iter()
+                    .zip(&out.targets)
+                    .filter(|(s, t)| s != t)
+                    .map(|(s, _)| *s)
+                    .collect();
+                surface.seeds_at(&moving)
+            }
+        };
+        out.region = self.region.on_surface(&surface, &seeds)?;
         Ok(out)
     }
 
@@ -278,6 +328,12 @@ pub fn region_json(r: &Region) -> Value {
             let mut v = region_json(inner);
             v["falloff"] = (*width).into();
             v
+        }
+        Region::Connected { distance, from } => {
+            json!({ "connected": { "distance": distance, "from": from.name() } })
+        }
+        Region::Weights { vertices, weights } => {
+            json!({ "weights": { "vertices": vertices, "weights": weights } })
         }
     }
 }
@@ -508,7 +564,10 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
                 "an anchor needs a handle: give \"handle\" too",
             ));
         }
-        Some(r) => Some(parse_region(r, &at("anchor"))?),
+        Some(r) => Some(not_connected(
+            parse_region(r, &at("anchor"))?,
+            &at("anchor"),
+        )?),
     };
     let (starts, targets) = match obj.get("controls") {
         None if handle.is_some() => (Vec::new(), Vec::new()),
@@ -522,8 +581,22 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
     };
     let region = match obj.get("region") {
         None | Some(Value::Null) => Region::All,
-        Some(r) => parse_region(r, &at("region"))?,
+        Some(r) => {
+            // Measured from the handle when there is one, unless told.
+            let origin = if handle.is_some() {
+                Origin::Handle
+            } else {
+                Origin::Starts
+            };
+            parse_region_from(r, &at("region"), origin)?
+        }
     };
+    if region.origin() == Some(Origin::Handle) && handle.is_none() {
+        return Err(err(
+            &at("region.connected.from"),
+            "\"handle\" measures from the handle's selection, but this deformation has no \"handle\": give one, or \"from\": \"starts\"",
+        ));
+    }
     let options = FitOptions::new(radius)
         .with_kernel(kernel)
         .with_polynomial(polynomial)
@@ -652,9 +725,12 @@ fn parse_handle(v: &Value, at: &str, warnings: &mut Vec<String>) -> Result<Handl
         warnings,
     );
     let here = |k: &str| format!("{at}.{k}");
-    let select = parse_region(
-        obj.get("select")
-            .ok_or_else(|| err(&here("select"), "missing: give the region that moves"))?,
+    let select = not_connected(
+        parse_region(
+            obj.get("select")
+                .ok_or_else(|| err(&here("select"), "missing: give the region that moves"))?,
+            &here("select"),
+        )?,
         &here("select"),
     )?;
     let mut h = Handle::new(select);
@@ -739,14 +815,35 @@ fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
     Ok(DVec3::from_array(p))
 }
 
+/// Refuses a connected region where only a deformation's own region may be
+/// one (a handle's selection, an anchor).
+fn not_connected(r: Region, at: &str) -> Result<Region, ControlError> {
+    if r.needs_surface() {
+        return Err(err(
+            &join(at, "connected"),
+            "a connected region is measured from a deformation's starts or handle: it can only be a deformation's \"region\"",
+        ));
+    }
+    Ok(r)
+}
+
 /// A region as written in a control file (`{"sphere": ...}`, `{"box": ...}`,
-/// `{"vertices": [...]}` or `{"group": name}`); `at` is its JSON path, for errors.
+/// `{"vertices": [...]}`, `{"group": name}`, `{"connected": {"distance":
+/// d, "from": "starts" | "handle"}}` or `{"weights": {"vertices": [...],
+/// "weights": [...]}}`); `at` is its JSON path, for errors. A connected
+/// region without `"from"` measures from the starts.
 ///
 /// A `"falloff": width` beside the kind blends the region's edge smoothly
-/// over that width instead of cutting it (not wider than the region).
+/// over that width instead of cutting it (not wider than the region; along
+/// the surface for a connected region).
 pub fn parse_region(v: &Value, at: &str) -> Result<Region, ControlError> {
+    parse_region_from(v, at, Origin::Starts)
+}
+
+/// [`parse_region`], a connected region without `"from"` measuring from `origin`.
+fn parse_region_from(v: &Value, at: &str, origin: Origin) -> Result<Region, ControlError> {
     let Some(width) = v.as_object().and_then(|o| o.get("falloff")) else {
-        return parse_plain_region(v, at);
+        return parse_plain_region(v, at, origin);
     };
     let here = format!("{at}.falloff");
     let width = width
@@ -755,7 +852,10 @@ pub fn parse_region(v: &Value, at: &str) -> Result<Region, ControlError> {
         .ok_or_else(|| err(&here, format!("expected a width > 0, found {width}")))?;
     let mut plain = v.as_object().cloned().unwrap_or_default();
     plain.remove("falloff");
-    let inner = parse_plain_region(&Value::Object(plain), at)?;
+    let inner = parse_plain_region(&Value::Object(plain), at, origin)?;
+    if matches!(inner, Region::Weights { .. }) {
+        return Err(err(&here, "weights blend as they are: give no falloff"));
+    }
     if let Some(size) = inner.size()
         && width > size
     {
@@ -775,9 +875,9 @@ pub fn parse_region(v: &Value, at: &str) -> Result<Region, ControlError> {
     })
 }
 
-fn parse_plain_region(v: &Value, at: &str) -> Result<Region, ControlError> {
+fn parse_plain_region(v: &Value, at: &str, origin: Origin) -> Result<Region, ControlError> {
     let obj = v.as_object().filter(|o| o.len() == 1).ok_or_else(|| {
-        err(at, "expected one of {\"sphere\": {\"center\": [x,y,z], \"radius\": r}}, {\"box\": {\"min\": [..], \"max\": [..]}}, {\"vertices\": [i, ...]}, {\"group\": \"name\"}")
+        err(at, "expected one of {\"sphere\": {\"center\": [x,y,z], \"radius\": r}}, {\"box\": {\"min\": [..], \"max\": [..]}}, {\"vertices\": [i, ...]}, {\"group\": \"name\"}, {\"connected\": {\"distance\": d, \"from\": \"starts\"}}, {\"weights\": {\"vertices\": [i, ...], \"weights\": [w, ...]}}")
     })?;
     let (kind, body) = obj.iter().next().ok_or_else(|| err(at, "empty region"))?;
     let here = format!("{at}.{kind}");
@@ -805,24 +905,54 @@ fn parse_plain_region(v: &Value, at: &str) -> Result<Region, ControlError> {
             }
             Region::Box { min, max }
         }
-        "vertices" => {
-            let list = body
-                .as_array()
-                .ok_or_else(|| err(&here, "expected a list of vertex indices"))?;
-            let mut v = Vec::with_capacity(list.len());
+        "vertices" => Region::Vertices(indices(Some(body), &here)?),
+        "connected" => parse_connected(body, &here, origin)?,
+        "weights" => {
+            let o = body.as_object().ok_or_else(|| {
+                err(
+                    &here,
+                    "expected {\"vertices\": [i, ...], \"weights\": [w, ...]}",
+                )
+            })?;
+            if let Some(k) = o
+                .keys()
+                .find(|k| !["vertices", "weights"].contains(&k.as_str()))
+            {
+                return Err(err(
+                    &format!("{here}.{k}"),
+                    "unknown key: expected \"vertices\" and \"weights\"",
+                ));
+            }
+            let vertices = indices(o.get("vertices"), &format!("{here}.vertices"))?;
+            let wat = format!("{here}.weights");
+            let list = o
+                .get("weights")
+                .and_then(Value::as_array)
+                .ok_or_else(|| err(&wat, "expected a list of weights within [0, 1]"))?;
+            if list.len() != vertices.len() {
+                return Err(err(
+                    &wat,
+                    format!(
+                        "{} weights for {} vertices: give one each",
+                        list.len(),
+                        vertices.len()
+                    ),
+                ));
+            }
+            let mut weights = Vec::with_capacity(list.len());
             for (i, x) in list.iter().enumerate() {
-                let idx = x
-                    .as_u64()
-                    .filter(|&x| x <= u32::MAX as u64)
+                let w = x
+                    .as_f64()
+                    .filter(|w| (0.0..=1.0).contains(w))
                     .ok_or_else(|| {
                         err(
-                            &format!("{here}[{i}]"),
-                            format!("expected a vertex index, found {x}"),
+                            &format!("{wat}[{i}]"),
+                            format!("expected a weight within [0, 1], found {x}"),
                         )
                     })?;
-                v.push(idx as u32);
+                weights.push(w as f32);
             }
-            Region::Vertices(v)
+            Region::Weights { vertices, weights }
         }
         "group" => Region::Group(
             body.as_str()
@@ -832,10 +962,82 @@ fn parse_plain_region(v: &Value, at: &str) -> Result<Region, ControlError> {
         other => {
             return Err(err(
                 at,
-                format!("unknown region {other:?}: expected sphere, box, vertices or group"),
+                format!(
+                    "unknown region {other:?}: expected sphere, box, vertices, group, connected or weights"
+                ),
             ));
         }
     })
+}
+
+/// A list of vertex indices at `at`.
+fn indices(v: Option<&Value>, at: &str) -> Result<Vec<u32>, ControlError> {
+    let list = v
+        .and_then(Value::as_array)
+        .ok_or_else(|| err(at, "expected a list of vertex indices"))?;
+    let mut out = Vec::with_capacity(list.len());
+    for (i, x) in list.iter().enumerate() {
+        let idx = x
+            .as_u64()
+            .filter(|&x| x <= u32::MAX as u64)
+            .ok_or_else(|| {
+                err(
+                    &format!("{at}[{i}]"),
+                    format!("expected a vertex index, found {x}"),
+                )
+            })?;
+        out.push(idx as u32);
+    }
+    Ok(out)
+}
+
+/// `{"distance": d, "from": "starts" | "handle"}` (`from` defaults to `origin`).
+fn parse_connected(body: &Value, at: &str, origin: Origin) -> Result<Region, ControlError> {
+    let o = body.as_object().ok_or_else(|| {
+        err(
+            at,
+            "expected {\"distance\": d, \"from\": \"starts\" or \"handle\"}",
+        )
+    })?;
+    if let Some(k) = o
+        .keys()
+        .find(|k| !["distance", "from"].contains(&k.as_str()))
+    {
+        return Err(err(
+            &format!("{at}.{k}"),
+            "unknown key: expected \"distance\" and \"from\"",
+        ));
+    }
+    let dat = format!("{at}.distance");
+    let distance = match o.get("distance") {
+        None => {
+            return Err(err(
+                &dat,
+                "missing: how far along the surface, in the mesh's units",
+            ));
+        }
+        Some(d) => d
+            .as_f64()
+            .filter(|d| *d >= 0.0 && d.is_finite())
+            .ok_or_else(|| {
+                err(
+                    &dat,
+                    format!("expected a distance >= 0 along the surface, found {d}"),
+                )
+            })?,
+    };
+    let from = match o.get("from") {
+        None | Some(Value::Null) => origin,
+        Some(Value::String(f)) if f == "starts" => Origin::Starts,
+        Some(Value::String(f)) if f == "handle" => Origin::Handle,
+        Some(other) => {
+            return Err(err(
+                &format!("{at}.from"),
+                format!("expected \"starts\" or \"handle\", found {other}"),
+            ));
+        }
+    };
+    Ok(Region::Connected { distance, from })
 }
 
 #[cfg(test)]

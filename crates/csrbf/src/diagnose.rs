@@ -405,8 +405,13 @@ fn diagnose_with(
                 radius: def.radius(),
             });
         }
-        // A falloff blends smoothly: no seam to warn of.
-        if !all && !matches!(region, Region::Falloff { .. }) {
+        // A falloff (or weights that blend) is smooth: no seam to warn of.
+        let blends = match region {
+            Region::Falloff { .. } => true,
+            Region::Weights { weights, .. } => weights.iter().any(|&w| w < 1.0),
+            _ => false,
+        };
+        if !all && !blends {
             let mut is_in = vec![false; rest.len()];
             for &i in selected {
                 is_in[i as usize] = true;

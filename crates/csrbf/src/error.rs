@@ -291,6 +291,11 @@ pub enum RegionError {
     /// A region names a part the mesh does not have.
     #[error("region names part {0:?}, which the mesh does not have")]
     UnknownGroup(String),
+    /// A connected region used where no mesh surface resolves it.
+    #[error(
+        "region: a connected region is measured along the mesh's faces from the deformation's starts or handle: it needs a mesh with faces, and can only limit a deformation (its \"region\")"
+    )]
+    NeedsSurface,
     /// A vertex index in a region is out of range.
     #[error("region vertex {index} is out of range for {count} points")]
     Index {

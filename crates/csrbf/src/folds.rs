@@ -434,4 +434,72 @@ mod tests {
             folds(&rest, &tris, &[FittedStage::new(d)], Combine::Chain, &none).expect("folds");
         assert!(whole.triangles.is_empty());
     }
+
+    /// A connected region's weights go through the same path as any
+    /// region's: its inside-out triangles match central differences of the
+    /// weighted map x + t w(x) D(x), w the linear interpolant of the vertex
+    /// weights over the triangle's plane (issue 23).
+    #[test]
+    fn a_connected_region_folds_as_its_weighted_map() {
+        let (rest, tris) = grid(40);
+        let text = r#"{"radius": 0.3, "kernel": "c2",
+            "controls": [{"from": [0.5, 0.5, 0], "to": [0.75, 0.5, 0]}],
+            "region": {"connected": {"distance": 0.1}, "falloff": 0.12}}"#;
+        let spec = crate::controls::ControlFile::parse(text)
+            .expect("parse")
+            .deformations[0]
+            .resolve_on(&rest, &tris, &|_| None)
+            .expect("resolve");
+        let Region::Weights { vertices, weights } = &spec.region else {
+            panic!("not resolved");
+        };
+        let mut wv = vec![0.0f64; rest.len()];
+        for (&v, &w) in vertices.iter().zip(weights) {
+            wv[v as usize] = w as f64;
+        }
+        let stages = spec.fit().expect("fit");
+        let none = |_: &str| None;
+        let got = folds(&rest, &tris, &stages, Combine::Chain, &none).expect("folds");
+        let d = &stages[0].deformation;
+        let want: Vec<u32> = (0..tris.len() as u32)
+            .filter(|&f| {
+                let p = tris[f as usize].map(|v| rest[v as usize].as_dvec3());
+                let w = tris[f as usize].map(|v| wv[v as usize]);
+                let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                let weight = |x: DVec3| {
+                    // Barycentric coordinates of x's projection on the plane.
+                    let a = (p[1] - x).cross(p[2] - x).dot(n) / n.length_squared();
+                    let b = (p[2] - x).cross(p[0] - x).dot(n) / n.length_squared();
+                    a * w[0] + b * w[1] + (1.0 - a - b) * w[2]
+                };
+                let map = |x: DVec3| x + d.displacement_at(x) * weight(x);
+                let c = (p[0] + p[1] + p[2]) / 3.0;
+                let h = 1e-6;
+                let col = |k: usize| {
+                    (map(c + DVec3::AXES[k] * h) - map(c - DVec3::AXES[k] * h)) / (2.0 * h)
+                };
+                DMat3::from_cols(col(0), col(1), col(2)).determinant() <= 0.0
+            })
+            .collect();
+        assert!(!want.is_empty(), "the edit must fold in the blend");
+        let diff = got.triangles.iter().filter(|t| !want.contains(t)).count()
+            + want.iter().filter(|t| !got.triangles.contains(t)).count();
+        assert!(
+            diff <= 2,
+            "{} vs {} ({diff} differ)",
+            got.triangles.len(),
+            want.len()
+        );
+        // Without the region the same pull folds elsewhere or not at all:
+        // the region's own gradient is what folds here.
+        let whole = folds(
+            &rest,
+            &tris,
+            &[FittedStage::new(d.clone())],
+            Combine::Chain,
+            &none,
+        )
+        .expect("folds");
+        assert_ne!(whole.triangles, got.triangles);
+    }
 }

@@ -5,13 +5,15 @@
 //! Layout (all little-endian):
 //!
 //! ```text
-//! magic "CSRBF\0" | version u16 = 3 | combine u16 (0 chain, 1 add) | stages u32
+//! magic "CSRBF\0" | version u16 = 4 | combine u16 (0 chain, 1 add) | stages u32
 //! per stage:
 //!   kernel u8 | polynomial u8 | reserved u16 | radius f64 | phase f64 | n u32
 //!   starts 3n f64 | coefficients 3n f64
 //!   if linear: centre 3 f64 | scale f64 | coefficients 12 f64
 //!   order n u32
-//!   region: tag u8 (0 all, 1 sphere, 2 box, 3 vertices, 4 group, 5 falloff) and its data
+//!   region: tag u8 (0 all, 1 sphere, 2 box, 3 vertices, 4 group, 5 falloff,
+//!           6 weights: n u32, n vertices u32, n weights f32; 7 connected:
+//!           distance f64, from u8 (0 starts, 1 handle)) and its data
 //!   sweep: step u32 | steps u32 (0 0: not a sweep's step)
 //! checksum u64: FNV-1a of every byte before it
 //! ```
@@ -21,8 +23,8 @@
 //! starts and their coefficients alpha, the affine part (centre, scale and
 //! the 4 coefficient vectors of p(x)) when linear, the order the system was
 //! factored in (kept so a refit is bit-exact), the region, and which step
-//! of a fold-free sweep the stage is. Version 2 files (no sweep) and
-//! version 1 files (no combine, no phase: chained, every phase 1) still read.
+//! of a fold-free sweep the stage is. Version 3 files (no weights or
+//! connected regions), version 2 files (no sweep) and version 1 files (no combine, no phase: chained, every phase 1) still read.
 //!
 //! The checksum proves the bytes were not damaged; the values are checked
 //! too: a NaN or infinite start, coefficient, affine term or phase is refused.
@@ -34,12 +36,12 @@ use crate::error::{Error, FormatError, Result};
 use crate::kernel::{Kernel, Polynomial};
 use crate::pipeline::Combine;
 use crate::pipeline::{FittedStage, SweepStep};
-use crate::region::Region;
+use crate::region::{Origin, Region};
 
 /// The file's first bytes.
 pub const MAGIC: &[u8; 6] = b"CSRBF\0";
-/// The version this build writes (it reads this one and versions 1 and 2).
-pub const VERSION: u16 = 3;
+/// The version this build writes (it reads this one and versions 1 to 3).
+pub const VERSION: u16 = 4;
 
 /// What a `.csrbf` file holds: deformations with their regions and phases,
 /// and how they combine.
@@ -305,6 +307,24 @@ fn put_region(w: &mut Vec<u8>, region: &Region) {
             w.extend_from_slice(&width.to_le_bytes());
             put_region(w, inner);
         }
+        Region::Weights { vertices, weights } => {
+            w.push(6);
+            w.extend_from_slice(&(vertices.len() as u32).to_le_bytes());
+            for i in vertices {
+                w.extend_from_slice(&i.to_le_bytes());
+            }
+            for x in weights {
+                w.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        Region::Connected { distance, from } => {
+            w.push(7);
+            w.extend_from_slice(&distance.to_le_bytes());
+            w.push(match from {
+                Origin::Starts => 0,
+                Origin::Handle => 1,
+            });
+        }
     }
 }
 
@@ -339,13 +359,41 @@ fn get_region(r: &mut Reader) -> Result<Region> {
         5 => {
             let width = r.f64("region falloff")?;
             let inner = get_region(r)?;
-            if !(width > 0.0 && width.is_finite()) || matches!(inner, Region::Falloff { .. }) {
+            if !(width > 0.0 && width.is_finite())
+                || matches!(inner, Region::Falloff { .. } | Region::Weights { .. })
+            {
                 return Err(damaged(format!("region falloff {width} is not valid")));
             }
             Region::Falloff {
                 inner: Box::new(inner),
                 width,
             }
+        }
+        6 => {
+            let n = r.u32("region size")? as usize;
+            r.need(n.saturating_mul(8), "region weights")?;
+            let vertices = (0..n)
+                .map(|_| r.u32("region vertices"))
+                .collect::<Result<Vec<_>>>()?;
+            let weights = (0..n)
+                .map(|_| r.u32("region weights").map(f32::from_bits))
+                .collect::<Result<Vec<_>>>()?;
+            if let Some(w) = weights.iter().find(|w| !(0.0..=1.0).contains(*w)) {
+                return Err(damaged(format!("region weight {w} is not within [0, 1]")));
+            }
+            Region::Weights { vertices, weights }
+        }
+        7 => {
+            let distance = r.f64("region distance")?;
+            if !(distance >= 0.0 && distance.is_finite()) {
+                return Err(damaged(format!("region distance {distance} is not valid")));
+            }
+            let from = match r.u8("region origin")? {
+                0 => Origin::Starts,
+                1 => Origin::Handle,
+                o => return Err(damaged(format!("unknown region origin {o}"))),
+            };
+            Region::Connected { distance, from }
         }
         t => return Err(damaged(format!("unknown region tag {t}"))),
     })
@@ -496,5 +544,49 @@ mod tests {
             .expect_err("NaN start accepted")
             .to_string();
         assert!(e.contains("start 0 is not finite"), "{e}");
+    }
+
+    #[test]
+    fn weights_and_connected_regions_round_trip() {
+        let d = Deformation::from_parts(
+            Kernel::C2,
+            1.0,
+            vec![DVec3::ZERO],
+            vec![DVec3::X],
+            None,
+            vec![0],
+        );
+        let regions = [
+            Region::Weights {
+                vertices: vec![2, 5, 9],
+                weights: vec![1.0, 0.5, 0.125],
+            },
+            Region::Connected {
+                distance: 0.25,
+                from: Origin::Handle,
+            },
+            Region::Falloff {
+                inner: Box::new(Region::Connected {
+                    distance: 1.5,
+                    from: Origin::Starts,
+                }),
+                width: 0.5,
+            },
+        ];
+        let stages: Vec<FittedStage> = regions
+            .iter()
+            .map(|r| FittedStage::new(d.clone()).with_region(r.clone()))
+            .collect();
+        let back = decode(&encode(&stages, Combine::Chain)).expect("decode");
+        assert_eq!(back.stages, stages);
+        // A weight out of [0, 1] is damage, even under a good checksum.
+        let bad = FittedStage::new(d).with_region(Region::Weights {
+            vertices: vec![0],
+            weights: vec![2.0],
+        });
+        let e = decode(&encode(&[bad], Combine::Chain))
+            .expect_err("weight 2 accepted")
+            .to_string();
+        assert!(e.contains("region weight 2"), "{e}");
     }
 }

@@ -212,10 +212,13 @@ mod remedy;
 mod simd;
 pub mod skyline;
 mod solver;
+mod surface;
 mod sweep;
 pub mod synthetic;
 mod system;
 
+#[cfg(test)]
+mod connected_tests;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]
@@ -234,9 +237,10 @@ pub use ordering::Ordering;
 pub use pipeline::{
     Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,
 };
-pub use region::Region;
+pub use region::{Origin, Region};
 pub use remedy::{Remedies, remedies};
 pub use solver::SolverChoice;
+pub use surface::Surface;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};
 pub use system::{
     DEFAULT_MEMORY_LIMIT, Estimate, FitOptions, OrderingFigures, System, SystemStats, estimate,

@@ -3,6 +3,7 @@
 use glam::{DVec3, Vec3};
 
 use crate::error::{RegionError, Result};
+use crate::surface::Surface;
 
 /// Where a deformation applies; points outside do not move.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -42,6 +43,54 @@ pub enum Region {
         /// Width of the blend, in the mesh's units.
         width: f64,
     },
+    /// Points within `distance` along the mesh's surface of where the
+    /// deformation takes hold ([`Origin`]): a limb's edit then leaves the
+    /// torso beside it alone, however near in space, and other pieces of
+    /// the mesh never move. It needs the mesh's faces:
+    /// [`crate::controls::ControlSpec::resolve_on`] turns it into
+    /// [`Region::Weights`] (see [`Region::on_surface`]); in a
+    /// [`Region::Falloff`] the blend is measured along the surface too.
+    Connected {
+        /// How far along the surface, in the mesh's units (>= 0).
+        distance: f64,
+        /// Where distances are measured from.
+        from: Origin,
+    },
+    /// Points with a weight each in (0, 1]: what a connected region is on a
+    /// given mesh, or a painted weight map. Each listed point moves by its
+    /// weight times the displacement.
+    Weights {
+        /// Point indices.
+        vertices: Vec<u32>,
+        /// The weight of each, in [0, 1] (0 is the same as not listed).
+        weights: Vec<f32>,
+    },
+}
+
+/// Where a [`Region::Connected`] measures its distances from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+#[non_exhaustive]
+pub enum Origin {
+    /// The starts of the control vectors that move (pins do not count),
+    /// each entering the surface at its nearest vertex (default without a
+    /// handle).
+    #[default]
+    Starts,
+    /// Every vertex of the deformation's handle's selection (default with
+    /// a handle).
+    Handle,
+}
+
+impl Origin {
+    /// `starts` or `handle`, as a control file writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Origin::Starts => "starts",
+            Origin::Handle => "handle",
+        }
+    }
 }
 
 impl std::fmt::Display for Region {
@@ -57,6 +106,15 @@ impl std::fmt::Display for Region {
             Region::Vertices(v) => write!(f, "{} listed vertices", v.len()),
             Region::Group(name) => write!(f, "part {name:?}"),
             Region::Falloff { inner, width } => write!(f, "{inner}, blended over {width}"),
+            Region::Connected { distance, from } => write!(
+                f,
+                "within {distance} along the surface of the {}",
+                match from {
+                    Origin::Starts => "starts",
+                    Origin::Handle => "handle's selection",
+                }
+            ),
+            Region::Weights { vertices, .. } => write!(f, "{} weighted vertices", vertices.len()),
         }
     }
 }
@@ -97,6 +155,9 @@ impl Region {
                 if matches!(**inner, Region::Falloff { .. }) {
                     return bad("a falloff cannot wrap another falloff".into());
                 }
+                if matches!(**inner, Region::Weights { .. }) {
+                    return bad("a falloff cannot wrap weights: they blend as they are".into());
+                }
                 if !(*width > 0.0 && width.is_finite()) {
                     return bad(format!(
                         "falloff width must be a finite number > 0, got {width}"
@@ -104,9 +165,88 @@ impl Region {
                 }
                 inner.check()?;
             }
+            Region::Connected { distance, .. } => {
+                if !(*distance >= 0.0 && distance.is_finite()) {
+                    return bad(format!(
+                        "connected.distance must be a finite number >= 0, got {distance}"
+                    ));
+                }
+            }
+            Region::Weights { vertices, weights } => {
+                if vertices.len() != weights.len() {
+                    return bad(format!(
+                        "weights: {} vertices but {} weights",
+                        vertices.len(),
+                        weights.len()
+                    ));
+                }
+                if let Some(w) = weights.iter().find(|w| !(0.0..=1.0).contains(*w)) {
+                    return bad(format!("weights: each must be within [0, 1], got {w}"));
+                }
+            }
             Region::All | Region::Vertices(_) | Region::Group(_) => {}
         }
         Ok(())
+    }
+
+    /// Whether the region is measured along the mesh's surface (a connected
+    /// region, or a falloff around one): it must be resolved on the mesh
+    /// ([`Region::on_surface`]) before it can select points.
+    pub fn needs_surface(&self) -> bool {
+        match self {
+            Region::Connected { .. } => true,
+            Region::Falloff { inner, .. } => inner.needs_surface(),
+            _ => false,
+        }
+    }
+
+    /// Where a connected region (or a falloff around one) measures from.
+    pub fn origin(&self) -> Option<Origin> {
+        match self {
+            Region::Connected { from, .. } => Some(*from),
+            Region::Falloff { inner, .. } => inner.origin(),
+            _ => None,
+        }
+    }
+
+    /// A connected region (alone or in a falloff) on a mesh: the vertices of
+    /// `surface` within its distance along the surface of `seeds` (each a
+    /// vertex and the distance already travelled to it) weigh 1, those
+    /// within the falloff's width beyond it blend smoothly to 0, and nothing
+    /// else (another piece of the mesh, or farther) is listed. Any other
+    /// region is returned as it is.
+    pub fn on_surface(&self, surface: &Surface, seeds: &[(u32, f64)]) -> Result<Region> {
+        self.check()?;
+        let (distance, width) = match self {
+            Region::Connected { distance, .. } => (*distance, 0.0),
+            Region::Falloff { inner, width } => match **inner {
+                Region::Connected { distance, .. } => (distance, *width),
+                _ => return Ok(self.clone()),
+            },
+            _ => return Ok(self.clone()),
+        };
+        // Strictly beyond the distance with no falloff: weight 0.
+        let limit = distance + width;
+        let reached = if width > 0.0 {
+            surface.distances(seeds, limit)
+        } else {
+            let mut r = surface.distances(seeds, next_up(limit));
+            r.retain(|&(_, d)| d <= distance);
+            r
+        };
+        let (vertices, weights) = reached
+            .into_iter()
+            .map(|(v, d)| {
+                let w = if d <= distance {
+                    1.0
+                } else {
+                    blend(d - distance, width)
+                };
+                (v, w)
+            })
+            .filter(|&(_, w)| w > 0.0)
+            .unzip();
+        Ok(Region::Weights { vertices, weights })
     }
 
     /// The indices of the points in the region, ascending. `group` resolves a
@@ -149,7 +289,8 @@ impl Region {
                 v.dedup();
                 v
             }
-            Region::Falloff { .. } => self.weights(points, group)?.0,
+            Region::Falloff { .. } | Region::Weights { .. } => self.weights(points, group)?.0,
+            Region::Connected { .. } => return Err(RegionError::NeedsSurface.into()),
         })
     }
 
@@ -160,6 +301,29 @@ impl Region {
         points: &[Vec3],
         group: &dyn Fn(&str) -> Option<Vec<u32>>,
     ) -> Result<(Vec<u32>, Vec<f32>)> {
+        if let Region::Weights { vertices, weights } = self {
+            self.check()?;
+            let n = points.len();
+            let mut pairs: Vec<(u32, f32)> = vertices
+                .iter()
+                .copied()
+                .zip(weights.iter().copied())
+                .filter(|&(_, w)| w > 0.0)
+                .collect();
+            if let Some(&(bad, _)) = pairs.iter().find(|&&(i, _)| i as usize >= n) {
+                return Err(RegionError::Index {
+                    index: bad as usize,
+                    count: n,
+                }
+                .into());
+            }
+            pairs.sort_by_key(|&(i, _)| i);
+            pairs.dedup_by_key(|&mut (i, _)| i);
+            return Ok(pairs.into_iter().unzip());
+        }
+        if self.needs_surface() {
+            return Err(RegionError::NeedsSurface.into());
+        }
         let Region::Falloff { inner, width } = self else {
             let v = self.select(points, group)?;
             let w = vec![1.0; v.len()];
@@ -206,9 +370,8 @@ impl Region {
             }
             let d = outside_distance(p.as_dvec3());
             if d < width {
-                let s = 1.0 - d / width;
                 out.push(i as u32);
-                w.push((s * s * (3.0 - 2.0 * s)) as f32);
+                w.push(blend(d, width));
             }
         }
         Ok((out, w))
@@ -247,6 +410,28 @@ impl Region {
             },
             other => other.clone(),
         }
+    }
+}
+
+/// The weight at `d` past a region's edge in a blend `width` wide: smooth
+/// from 1 at the edge to 0 at the width (0 beyond; 1 for a zero width at 0).
+fn blend(d: f64, width: f64) -> f32 {
+    if d <= 0.0 {
+        return 1.0;
+    }
+    if !(d < width) {
+        return 0.0;
+    }
+    let s = 1.0 - d / width;
+    (s * s * (3.0 - 2.0 * s)) as f32
+}
+
+/// The least f64 above `x` (the limit that still reaches distance `x`).
+fn next_up(x: f64) -> f64 {
+    if x.is_finite() {
+        x + x.abs().max(f64::MIN_POSITIVE) * f64::EPSILON
+    } else {
+        x
     }
 }
 

@@ -412,12 +412,12 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
         bad[at] ^= 0x40;
         assert!(format::decode(&bad).is_err(), "flip at {at} accepted");
     }
-    let mut v4 = bytes.clone();
-    v4[6] = 4;
+    let mut v5 = bytes.clone();
+    v5[6] = 5;
     assert!(
-        format::decode(&v4)
+        format::decode(&v5)
             .err()
-            .is_some_and(|e| e.to_string().contains("version 4"))
+            .is_some_and(|e| e.to_string().contains("version 5"))
     );
 }
 

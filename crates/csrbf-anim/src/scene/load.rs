@@ -501,9 +501,15 @@ fn load_deformation(
         .map_err(|e| scene_err(at("controls"), e.to_string()))?;
     let mut stages = Vec::new();
     let lookup = |n: &str| mesh.part_vertices(n);
+    let triangles = if cf.deformations.iter().any(|s| s.region.needs_surface()) {
+        mesh.faces.triangles()
+    } else {
+        Vec::new()
+    };
     let fitted = |spec: &csrbf::controls::ControlSpec| {
-        // Handles become control vectors on the rest mesh.
-        let spec = spec.resolve(&mesh.positions, &lookup)?;
+        // Handles become control vectors on the rest mesh, connected regions
+        // weights along it.
+        let spec = spec.resolve_on(&mesh.positions, &triangles, &lookup)?;
         let steps = spec.fit()?;
         Ok::<_, csrbf::Error>((spec, steps))
     };

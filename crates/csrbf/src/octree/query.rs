@@ -18,6 +18,23 @@ impl Octree {
         );
     }
 
+    /// The point nearest `q` and its distance², None for an empty tree
+    /// (ties go to the one met first).
+    pub fn nearest(&self, q: DVec3) -> Option<(u32, f64)> {
+        let best = std::cell::Cell::new((u32::MAX, f64::INFINITY));
+        self.visit(
+            |min, max| box_distance2(q, min, max) < best.get().1,
+            |p, id| {
+                let d2 = p.distance_squared(q);
+                if d2 < best.get().1 {
+                    best.set((id, d2));
+                }
+            },
+        );
+        let (id, d2) = best.get();
+        (id != u32::MAX).then_some((id, d2))
+    }
+
     /// The indices of every point closer than `radius` to `q`, in no set order.
     #[cfg(test)]
     pub fn within(&self, q: DVec3, radius: f64) -> Vec<u32> {

@@ -69,3 +69,21 @@ fn degenerate_inputs() {
     let tree = Octree::new(&line);
     assert_eq!(tree.within(DVec3::new(10.0, 0.0, 0.0), 2.5).len(), 5);
 }
+
+#[test]
+fn nearest_matches_brute_force() {
+    let mut rng = Rng::new(11);
+    assert_eq!(Octree::new(&[]).nearest(DVec3::ZERO), None);
+    let points: Vec<DVec3> = (0..1500).map(|_| rng.vec3() * 2.0).collect();
+    let tree = Octree::new(&points);
+    for _ in 0..200 {
+        let q = rng.vec3() * 3.0 - 0.5;
+        let want = points
+            .iter()
+            .map(|p| p.distance_squared(q))
+            .fold(f64::INFINITY, f64::min);
+        let (i, d2) = tree.nearest(q).expect("a point");
+        assert_eq!(d2, want);
+        assert_eq!(points[i as usize].distance_squared(q), want);
+    }
+}
