@@ -90,8 +90,10 @@ impl Live {
         let mut stages = Vec::new();
         let mut layers = Vec::new();
         for (layer, spec) in doc.controls.deformations.iter().enumerate() {
+            // A connected region is measured along the surface: the
+            // triangles go with the points.
             let spec = spec
-                .resolve(&doc.mesh.positions, &lookup)
+                .resolve_on(&doc.mesh.positions, &self.triangles, &lookup)
                 .map_err(|source| LiveError { layer, source })?;
             if !spec.starts.is_empty() {
                 let stage = spec

@@ -1086,3 +1086,62 @@ fn orbiting_about_the_selection_keeps_the_selected_start_in_place() {
     let after = start_px(&h);
     assert!(after.distance(before) < 1.0, "{before} -> {after}");
 }
+
+/// Issue 23 ("edits that stay on the connected surface"): a layer whose
+/// region is "along the surface" previews in the studio (the region is
+/// measured on the mesh's triangles) and moves fewer vertices than the
+/// same edit over the whole mesh, the nose included.
+#[test]
+fn a_layer_along_the_surface_moves_only_what_it_reaches() {
+    let mesh = csrbf_mesh::read(&model("cgal_head.off")).expect("the head");
+    let tip = mesh
+        .positions
+        .iter()
+        .copied()
+        .min_by(|a, b| a.x.total_cmp(&b.x))
+        .expect("vertices");
+    let diag = mesh.diagonal() as f64;
+    let moved = |region: &str, test: &str| {
+        let dir = state_dir(&format!("{test}-files"));
+        let controls = dir.join("c.json");
+        std::fs::write(
+            &controls,
+            format!(
+                r#"{{"radius": {r}, {region} "controls": [{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}]}}"#,
+                tip.x,
+                tip.y,
+                tip.z,
+                tip.x as f64 - 0.05 * diag,
+                tip.y,
+                tip.z,
+                r = 0.5 * diag,
+            ),
+        )
+        .expect("write");
+        let mut h = open(
+            Args {
+                mesh: Some(model("cgal_head.off")),
+                controls: Some(controls),
+            },
+            test,
+        );
+        settle(&mut h);
+        let frame = h.state().preview_frame().expect("a frame");
+        assert!(frame.error.is_none(), "{:?}", frame.error);
+        let shown = h.state().shown_positions().expect("shown");
+        let k = mesh.positions.iter().position(|p| *p == tip).expect("tip");
+        assert!(shown[k].x < tip.x - 0.01 * diag as f32, "the nose moved");
+        (mesh.positions.iter().zip(shown))
+            .filter(|(a, b)| a.distance(**b) > 1e-6 * diag as f32)
+            .count()
+    };
+    let all = moved("", "surface-all");
+    let along = moved(
+        &format!(
+            r#""region": {{"connected": {{"distance": {}}}}},"#,
+            0.1 * diag
+        ),
+        "surface-along",
+    );
+    assert!(along * 2 < all, "{along} of {all}");
+}

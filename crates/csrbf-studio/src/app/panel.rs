@@ -528,7 +528,7 @@ fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec)
         "region",
         &mut region,
         bounds,
-        &groups,
+        (&groups, true),
         diag,
         "Where this layer acts; chosen vertices come from the Vertices tool",
     );
@@ -838,7 +838,8 @@ pub(super) fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64)
 }
 
 /// A region chooser: the whole mesh, a sphere or a box (with their
-/// numbers), or one of the mesh's `groups`; `bounds` and `diag` (the mesh's
+/// numbers), one of the mesh's `groups`, or (with `surface`) the vertices
+/// within a distance along the surface; `bounds` and `diag` (the mesh's
 /// box and diagonal) size a new sphere or box and the drag speeds. `label`
 /// names the combo box (and is its id within `ui`).
 pub(super) fn region_ui(
@@ -846,7 +847,7 @@ pub(super) fn region_ui(
     label: &str,
     region: &mut Region,
     (lo, hi): (DVec3, DVec3),
-    groups: &[&str],
+    (groups, surface): (&[&str], bool),
     diag: f64,
     hover: &str,
 ) {
@@ -856,6 +857,8 @@ pub(super) fn region_ui(
         Region::Box { .. } => "box",
         Region::Vertices(_) => "chosen vertices",
         Region::Group(_) => "part",
+        Region::Connected { .. } => "along the surface",
+        Region::Weights { .. } => "weights",
         _ => "other",
     };
     egui::ComboBox::from_label(label)
@@ -875,6 +878,20 @@ pub(super) fn region_ui(
             }
             if ui.selectable_label(kind == "box", "box").clicked() {
                 *region = Region::Box { min: lo, max: hi };
+            }
+            if surface
+                && ui
+                .selectable_label(kind == "along the surface", "along the surface")
+                .on_hover_text(
+                    "Connected only: the vertices within a distance along the mesh of the moving \
+                     starts (or the handle): a limb's edit leaves the torso beside it alone",
+                )
+                .clicked()
+            {
+                *region = Region::Connected {
+                    distance: diag * 0.15,
+                    from: csrbf::Origin::default(),
+                };
             }
             for &name in groups {
                 if ui
@@ -912,6 +929,24 @@ pub(super) fn region_ui(
         }
         Region::Vertices(v) => {
             ui.label(format!("{} vertices", v.len()));
+        }
+        Region::Connected { distance, from } => {
+            ui.add(
+                egui::DragValue::new(distance)
+                    .update_while_editing(false)
+                    .speed(diag * 1e-3)
+                    .range(0.0..=diag * 10.0)
+                    .prefix("distance "),
+            )
+            .on_hover_text("How far along the surface the edit reaches");
+            ui.horizontal(|ui| {
+                ui.label("from");
+                ui.radio_value(from, csrbf::Origin::Starts, "the moving starts");
+                ui.radio_value(from, csrbf::Origin::Handle, "the handle");
+            });
+        }
+        Region::Weights { vertices, .. } => {
+            ui.label(format!("{} weighted vertices", vertices.len()));
         }
         _ => {}
     }

@@ -756,7 +756,7 @@ fn faces_ui(
             "faces",
             &mut region,
             shape.bounds,
-            &names,
+            (&names, false),
             shape.diag,
             "Which faces this part has: the whole mesh, a group of it, or \
              the faces whose corners all lie in a sphere or box (in the \
