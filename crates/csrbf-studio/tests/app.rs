@@ -1145,3 +1145,34 @@ fn a_layer_along_the_surface_moves_only_what_it_reaches() {
     );
     assert!(along * 2 < all, "{along} of {all}");
 }
+
+/// Issue 23, bug 1: warnings number layers and controls as the panel does
+/// (layer 1, control 2), not as the file's JSON indices.
+#[test]
+fn warnings_number_layers_and_controls_as_the_panel_does() {
+    let dir = state_dir("warn-numbers-files");
+    let controls = dir.join("far.json");
+    std::fs::write(
+        &controls,
+        r#"{"radius": 0.5, "controls": [
+            {"from": [0, 0, 0], "to": [0, 0, 0]},
+            {"from": [900, 900, 900], "to": [901, 900, 900]}]}"#,
+    )
+    .expect("write");
+    let mut h = open(
+        Args {
+            mesh: Some(model("cgal_head.off")),
+            controls: Some(controls),
+        },
+        "warn-numbers",
+    );
+    settle(&mut h);
+    let shown = h.get_by_label_contains("start(s) lie farther than R");
+    let text = format!("{shown:?}");
+    // Both starts are off the head: the file would say "deformation 0" and
+    // "controls 0, 1".
+    assert!(
+        text.contains("layer 1: ") && text.contains("controls 1, 2"),
+        "{text}"
+    );
+}

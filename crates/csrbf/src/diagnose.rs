@@ -145,42 +145,91 @@ fn list(v: &[usize], count: usize) -> String {
 
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Warning::EmptyRegion { stage, region } => write!(
+        self.numbered(Numbering::File).fmt(f)
+    }
+}
+
+/// How a warning numbers deformations and controls: from 0 with the control
+/// file's words, as its JSON paths do (`deformation 0`, `controls 3`), or
+/// from 1 with an editor's (`layer 1`, `controls 4`, as the studio's panel
+/// names them). Mesh vertices and triangles are indices either way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Numbering {
+    /// `deformation 0`, controls from 0: the file's JSON indices.
+    File,
+    /// `layer 1`, controls from 1: what an editor shows.
+    Editor,
+}
+
+/// A warning as text in a [`Numbering`] ([`Warning::numbered`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Numbered<'a> {
+    warning: &'a Warning,
+    numbering: Numbering,
+}
+
+impl Warning {
+    /// The warning as text numbering deformations and controls as
+    /// `numbering` says (its `Display` is [`Numbering::File`]).
+    pub fn numbered(&self, numbering: Numbering) -> Numbered<'_> {
+        Numbered {
+            warning: self,
+            numbering,
+        }
+    }
+}
+
+impl fmt::Display for Numbered<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (first, word) = match self.numbering {
+            Numbering::File => (0, "deformation"),
+            Numbering::Editor => (1, "layer"),
+        };
+        let stage = |s: &usize| format!("{word} {}", s + first);
+        let controls = |v: &[usize], count: usize| {
+            list(&v.iter().map(|i| i + first).collect::<Vec<_>>(), count)
+        };
+        match self.warning {
+            Warning::EmptyRegion { stage: s, region } => write!(
                 f,
-                "deformation {stage}: its region ({region}) holds no vertex, so it moves nothing"
+                "{}: its region ({region}) holds no vertex, so it moves nothing",
+                stage(s)
             ),
             Warning::PastFoldFreeBound {
-                stage,
-                controls,
+                stage: s,
+                controls: c,
                 count,
                 longest,
                 bound,
                 kernel,
             } => write!(
                 f,
-                "deformation {stage}: {count} control vector(s) move farther from their neighbours than the fold-free bound of {kernel} ({:.3} R = {bound:.4}; worst {longest:.4}): controls {}; the surface may fold there: use a larger radius or shorter moves",
+                "{}: {count} control vector(s) move farther from their neighbours than the fold-free bound of {kernel} ({:.3} R = {bound:.4}; worst {longest:.4}): controls {}; the surface may fold there: use a larger radius or shorter moves",
+                stage(s),
                 kernel.fold_free_ratio(),
-                list(controls, *count)
+                controls(c, *count)
             ),
             Warning::StartsFarFromMesh {
-                stage,
-                controls,
+                stage: s,
+                controls: c,
                 count,
                 radius,
             } => write!(
                 f,
-                "deformation {stage}: {count} start(s) lie farther than R = {radius} from every vertex it acts on, so they move nothing: controls {}",
-                list(controls, *count)
+                "{}: {count} start(s) lie farther than R = {radius} from every vertex it acts on, so they move nothing: controls {}",
+                stage(s),
+                controls(c, *count)
             ),
             Warning::SupportCrossesRegion {
-                stage,
-                controls,
+                stage: s,
+                controls: c,
                 count,
             } => write!(
                 f,
-                "deformation {stage}: the support of {count} control(s) reaches past the region's edge, where the map is cut off (a seam may show): controls {}",
-                list(controls, *count)
+                "{}: the support of {count} control(s) reaches past the region's edge, where the map is cut off (a seam may show): controls {}",
+                stage(s),
+                controls(c, *count)
             ),
             Warning::PolynomialLeak {
                 vertices,
@@ -641,6 +690,34 @@ fn flipped_faces(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_warning_numbers_as_the_file_or_as_an_editor() {
+        let w = Warning::StartsFarFromMesh {
+            stage: 0,
+            controls: vec![2, 5],
+            count: 2,
+            radius: 0.5,
+        };
+        let file = w.to_string();
+        assert!(
+            file.starts_with("deformation 0: ") && file.ends_with("controls 2, 5"),
+            "{file}"
+        );
+        assert_eq!(w.numbered(Numbering::File).to_string(), file);
+        let editor = w.numbered(Numbering::Editor).to_string();
+        assert!(
+            editor.starts_with("layer 1: ") && editor.ends_with("controls 3, 6"),
+            "{editor}"
+        );
+        // Mesh indices are indices either way.
+        let t = Warning::InsideOut {
+            count: 1,
+            triangles: vec![7],
+            fold_phase: None,
+        };
+        assert_eq!(t.numbered(Numbering::Editor).to_string(), t.to_string());
+    }
+
     use super::*;
     use crate::{Combine, FitOptions, FittedStage, compose, compose_diagnosed};
 

@@ -226,7 +226,9 @@ mod tests;
 
 pub use binding::{Binding, frame};
 pub use deformation::{Affine, Deformation};
-pub use diagnose::{Diagnostics, Warning, compose_diagnosed, diagnose, vertices_within};
+pub use diagnose::{
+    Diagnostics, Numbered, Numbering, Warning, compose_diagnosed, diagnose, vertices_within,
+};
 pub use error::{Error, FitError, FormatError, NameError, RegionError, Result};
 pub use evaluate::{Point, Points, PointsMut};
 pub use folds::{Folds, folds};

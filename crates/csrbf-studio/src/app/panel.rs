@@ -305,7 +305,10 @@ impl Picker {
             );
         }
         for w in &d.warnings {
-            ui.colored_label(egui::Color32::from_rgb(255, 200, 80), format!("! {w}"));
+            ui.colored_label(
+                egui::Color32::from_rgb(255, 200, 80),
+                format!("! {}", w.numbered(csrbf::Numbering::Editor)),
+            );
         }
         let dense = m.doc.controls.deformations.iter().any(|s| {
             let n = s.starts.len() as f64;
