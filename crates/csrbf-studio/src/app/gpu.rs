@@ -27,7 +27,14 @@ pub use crate::preview::BIG_MESH_TRIANGLES;
 /// viewport's size and place, the last frame's time.
 pub(super) struct Screen {
     pub(super) gpu: Option<eframe::egui_wgpu::RenderState>,
+    /// The app's own part of the last frame (its update: layout, edits,
+    /// the paint callbacks queued).
     pub(super) frame_time: Duration,
+    /// When the last frame began, and the time from the frame before it to
+    /// that one: the whole frame as the person sees it (the app, the
+    /// rasteriser, the present) while frames follow each other.
+    pub(super) frame_start: Option<std::time::Instant>,
+    pub(super) frame_interval: Option<Duration>,
     /// The viewport's size in physical pixels, and where it is on screen.
     pub(super) viewport: ([u32; 2], egui::Rect, f32),
     /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
@@ -55,6 +62,33 @@ pub(super) fn new_mesh_id() -> u64 {
         *next += 1;
         *next - 1
     })
+}
+
+impl Screen {
+    /// A frame begins: the time since the one before is the whole frame
+    /// (kept only below a second: a longer gap is an idle window).
+    pub(super) fn frame_begins(&mut self, now: std::time::Instant) {
+        self.frame_interval = self
+            .frame_start
+            .map(|t| now - t)
+            .filter(|d| *d < Duration::from_secs(1));
+        self.frame_start = Some(now);
+    }
+
+    /// The status bar's frame figure: the whole frame and the app's part
+    /// of it ("frame 41 ms (app 3.0 ms)"), or the app's part alone while
+    /// the window is idle.
+    pub(super) fn frame_text(&self) -> String {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        match self.frame_interval {
+            Some(whole) => format!(
+                "frame {:.0} ms (app {:.1} ms)",
+                ms(whole),
+                ms(self.frame_time)
+            ),
+            None => format!("app {:.1} ms a frame", ms(self.frame_time)),
+        }
+    }
 }
 
 /// A mesh newly opened: the GPU side prepares its parts once.
@@ -490,4 +524,31 @@ pub fn last_error(state: &egui_wgpu::RenderState) -> Option<String> {
         .callback_resources
         .get::<ViewportGpu>()
         .and_then(|g| g.error.clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Instant;
+
+    #[test]
+    fn the_frame_figure_is_the_whole_frame_while_frames_follow_each_other() {
+        let mut s = Screen {
+            gpu: None,
+            frame_time: Duration::from_millis(3),
+            frame_start: None,
+            frame_interval: None,
+            viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
+            software: true,
+            ctx: egui::Context::default(),
+        };
+        let t0 = Instant::now();
+        s.frame_begins(t0);
+        assert_eq!(s.frame_text(), "app 3.0 ms a frame");
+        s.frame_begins(t0 + Duration::from_millis(270));
+        assert_eq!(s.frame_text(), "frame 270 ms (app 3.0 ms)");
+        // After an idle second the window was waiting, not drawing.
+        s.frame_begins(t0 + Duration::from_secs(5));
+        assert_eq!(s.frame_text(), "app 3.0 ms a frame");
+    }
 }

@@ -777,7 +777,7 @@ fn handle_ui(ui: &mut egui::Ui, h: &Handle, view_axis: DVec3, diagonal: f64) -> 
 
 /// The Picker's status: the model's size, the solver, the last fit, the
 /// frame's time, unsaved.
-pub(super) fn pick_status(ui: &mut egui::Ui, m: &Model, frame_ms: f64) {
+pub(super) fn pick_status(ui: &mut egui::Ui, m: &Model, frame: &str) {
     let controls: usize = m
         .doc
         .controls
@@ -813,7 +813,7 @@ pub(super) fn pick_status(ui: &mut egui::Ui, m: &Model, frame_ms: f64) {
         ui.label("fitting…");
     }
     ui.separator();
-    ui.label(format!("frame {frame_ms:.1} ms"));
+    ui.label(frame);
     if m.doc.dirty {
         ui.separator();
         ui.label("unsaved");

@@ -115,6 +115,8 @@ impl StudioApp {
             screen: Screen {
                 gpu,
                 frame_time: Duration::ZERO,
+                frame_start: None,
+                frame_interval: None,
                 viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
                 software,
                 ctx: cc.egui_ctx.clone(),
@@ -930,15 +932,15 @@ fn side_panel(id: &'static str, ui: &egui::Ui) -> egui::Panel {
 
 impl StudioApp {
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
-        let frame_ms = self.screen.frame_time.as_secs_f64() * 1e3;
+        let frame = self.screen.frame_text();
         let rate = self.playback_rate();
         ui.horizontal(|ui| {
             if self.mode == Mode::Compose
                 && let Some(c) = self.composer.as_ref()
             {
-                timeline::compose_status(ui, c, rate, frame_ms);
+                timeline::compose_status(ui, c, rate, &frame);
             } else if let Some(m) = self.picker.model.as_ref() {
-                panel::pick_status(ui, m, frame_ms);
+                panel::pick_status(ui, m, &frame);
             }
             if let Some(e) = self.screen.gpu.as_ref().and_then(gpu::last_error) {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
@@ -1129,6 +1131,7 @@ impl eframe::App for StudioApp {
 
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let started = Instant::now();
+        self.screen.frame_begins(started);
         let ctx = ui.ctx().clone();
         self.set_title(&ctx);
         if let Some(m) = self.picker.model.as_mut() {

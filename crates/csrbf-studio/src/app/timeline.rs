@@ -553,7 +553,7 @@ fn nice_step(duration: f64, width: f32) -> f64 {
 
 /// The Composer's status: the scene's size and timing, the playing rate
 /// and frames dropped, the frame's time, unsaved.
-pub(super) fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame_ms: f64) {
+pub(super) fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame: &str) {
     let vertices: usize = c.loaded.scene.as_ref().map_or(0, |s| {
         s.objects.iter().map(|o| o.mesh.positions.len()).sum()
     });
@@ -583,7 +583,7 @@ pub(super) fn compose_status(ui: &mut egui::Ui, c: &Composer, rate: f64, frame_m
         ui.label(format!("last play dropped {} frames", c.playback.dropped));
         ui.separator();
     }
-    ui.label(format!("frame {frame_ms:.1} ms"));
+    ui.label(frame);
     if c.doc.dirty {
         ui.separator();
         ui.label("unsaved");
