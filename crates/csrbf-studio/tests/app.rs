@@ -1176,3 +1176,51 @@ fn warnings_number_layers_and_controls_as_the_panel_does() {
         "{text}"
     );
 }
+
+/// Issue 23, bug 1: every way the Picker writes a file reads back to what it
+/// shows: the deformed mesh (OBJ, PLY, glTF) through the mesh reader, the
+/// fitted `.csrbf` through `csrbf apply`'s path, and a layer with no vector
+/// yet (work in progress) through the control file's parser.
+#[test]
+fn every_file_the_picker_writes_reads_back_to_what_it_shows() {
+    let mut h = head("writes");
+    pull_nose(&mut h);
+    let dir = state_dir("writes-out");
+    let shown = h.state().shown_positions().expect("open").to_vec();
+    let doc = h.state().document().expect("open").clone();
+    let diag = doc.diagonal() as f32;
+    for name in ["nose.obj", "nose.ply", "nose.glb"] {
+        let path = dir.join(name);
+        h.state_mut().export_mesh(&path);
+        h.run_steps(1);
+        assert!(h.state().message().is_none(), "{:?}", h.state().message());
+        let back = csrbf_mesh::read(&path).expect("the mesh reader takes it");
+        assert_eq!(back.positions.len(), shown.len(), "{name}");
+        for (a, b) in back.positions.iter().zip(&shown) {
+            assert!(a.distance(*b) <= 1e-6 * diag, "{name}: {a} vs {b}");
+        }
+    }
+    let fitted = dir.join("nose.csrbf");
+    h.state_mut().export_fitted(&fitted);
+    h.run_steps(1);
+    let replay = csrbf_anim::apply::load_replay(&fitted).expect("apply reads it");
+    let again = csrbf::compose(&doc.mesh.positions, &replay.stages, replay.combine).expect("apply");
+    for (a, b) in again.iter().zip(&shown) {
+        assert!(a.distance(*b) <= 1e-6 * diag, "csrbf: {a} vs {b}");
+    }
+    // A layer added and left empty is saved, read back, and moves nothing.
+    h.get_by_label("Add layer").click();
+    h.run_steps(2);
+    let controls = dir.join("wip.json");
+    h.state_mut().save_to(&controls);
+    h.run_steps(1);
+    let file = ControlFile::parse(&std::fs::read_to_string(&controls).expect("saved"))
+        .expect("the CLI's parser reads it");
+    assert_eq!(file.deformations.len(), 2);
+    assert!(file.deformations[1].starts.is_empty());
+    let mut mesh = (*doc.mesh).clone();
+    csrbf_anim::apply::deform_mesh(&mut mesh, &file, 1.0).expect("deform");
+    for (a, b) in mesh.positions.iter().zip(&shown) {
+        assert!(a.distance(*b) <= 1e-6 * diag, "wip: {a} vs {b}");
+    }
+}
