@@ -212,6 +212,7 @@ mod remedy;
 mod simd;
 pub mod skyline;
 mod solver;
+mod stretch;
 mod surface;
 mod sweep;
 pub mod synthetic;
@@ -226,7 +227,10 @@ mod tests;
 
 pub use binding::{Binding, frame};
 pub use deformation::{Affine, Deformation};
-pub use diagnose::{Diagnostics, Warning, compose_diagnosed, diagnose, vertices_within};
+pub use diagnose::{
+    DiagnoseOptions, Diagnostics, Warning, compose_diagnosed, compose_diagnosed_with, diagnose,
+    vertices_within,
+};
 pub use error::{Error, FitError, FormatError, NameError, RegionError, Result};
 pub use evaluate::{Point, Points, PointsMut};
 pub use folds::{Folds, folds};
@@ -240,6 +244,7 @@ pub use pipeline::{
 pub use region::{Origin, Region};
 pub use remedy::{Remedies, remedies};
 pub use solver::SolverChoice;
+pub use stretch::{STRETCH_LIMIT, face_stretches};
 pub use surface::Surface;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};
 pub use system::{
