@@ -7,8 +7,47 @@ use std::path::Path;
 
 use csrbf::controls::ControlFile;
 use csrbf::format::{self, Replay};
-use csrbf::{Diagnostics, FittedStage, compose_diagnosed};
+use csrbf::{Combine, DiagnoseOptions, Diagnostics, FittedStage, compose_diagnosed_with};
 use csrbf_mesh::Mesh;
+use glam::Vec3;
+
+/// What is checked of a deformed mesh beyond moves and folds.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[non_exhaustive]
+pub struct Checks {
+    /// The engine's options (the stretch limit; default 4).
+    pub diagnose: DiagnoseOptions,
+}
+
+impl Checks {
+    /// With this stretch limit (a finite number >= 1).
+    pub fn with_stretch_limit(mut self, limit: f64) -> Self {
+        self.diagnose = self.diagnose.with_stretch_limit(limit);
+        self
+    }
+}
+
+/// Deforms `mesh`'s positions by fitted `stages` (each at its own phase)
+/// and diagnoses the result (moves, folds, stretch) as `checks` says. The
+/// positions are returned; the mesh is not changed.
+pub fn compose_checked(
+    mesh: &Mesh,
+    stages: &[FittedStage],
+    combine: Combine,
+    checks: &Checks,
+) -> Result<(Vec<Vec3>, Diagnostics), csrbf::Error> {
+    let triangles = mesh.faces.triangles();
+    let lookup = |n: &str| mesh.part_vertices(n);
+    let (moved, report) = compose_diagnosed_with(
+        &mesh.positions,
+        stages,
+        combine,
+        &triangles,
+        &lookup,
+        &checks.diagnose,
+    )?;
+    Ok((moved, report))
+}
 
 /// What can go wrong in these calls.
 #[derive(Debug, thiserror::Error)]
@@ -57,11 +96,21 @@ pub fn fit_file(mesh: &Mesh, file: &ControlFile) -> Result<Vec<FittedStage>, App
 
 /// Deforms `mesh` in place by `file` at `phase` (each deformation at its own
 /// phase times this one), recomputes its normals, and says what moved and
-/// what may be wrong.
+/// what may be wrong ([`Checks::default`]).
 pub fn deform_mesh(
     mesh: &mut Mesh,
     file: &ControlFile,
     phase: f64,
+) -> Result<Diagnostics, ApplyError> {
+    deform_mesh_checked(mesh, file, phase, &Checks::default())
+}
+
+/// [`deform_mesh`], checked as `checks` says.
+pub fn deform_mesh_checked(
+    mesh: &mut Mesh,
+    file: &ControlFile,
+    phase: f64,
+    checks: &Checks,
 ) -> Result<Diagnostics, ApplyError> {
     let stages: Vec<_> = fit_file(mesh, file)?
         .into_iter()
@@ -70,11 +119,8 @@ pub fn deform_mesh(
             s.with_phase(scaled)
         })
         .collect();
-    let triangles = mesh.faces.triangles();
-    let lookup = |n: &str| mesh.part_vertices(n);
-    let (moved, report) =
-        compose_diagnosed(&mesh.positions, &stages, file.combine, &triangles, &lookup)
-            .map_err(|source| ApplyError::Engine { index: 0, source })?;
+    let (moved, report) = compose_checked(mesh, &stages, file.combine, checks)
+        .map_err(|source| ApplyError::Engine { index: 0, source })?;
     mesh.positions = moved;
     mesh.recompute_normals();
     Ok(report)

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use csrbf::format;
 
-use crate::common::{Progress, check_output, check_phase, read_mesh};
+use crate::common::{CheckArgs, Progress, check_output, check_phase, read_mesh};
 use crate::deform::move_and_write;
 
 pub fn apply(
@@ -14,10 +14,11 @@ pub fn apply(
     phase: f64,
     out: &Path,
     force: bool,
-    json: bool,
+    (json, check): (bool, &CheckArgs),
     progress: &Progress,
 ) -> Result<()> {
     check_phase(phase)?;
+    let checks = check.checks()?;
     check_output(out, &[mesh, deformation], force, true)?;
     let bytes = std::fs::read(deformation)
         .with_context(|| format!("cannot read {}", deformation.display()))?;
@@ -34,9 +35,8 @@ pub fn apply(
         &replay.stages,
         (None, replay.combine),
         phase,
-        mesh,
-        out,
-        json,
+        (mesh, out),
+        (json, &checks),
         progress,
     )
 }

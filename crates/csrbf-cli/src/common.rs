@@ -208,6 +208,23 @@ pub fn resolve_all(
     Ok(out)
 }
 
+/// What `deform` and `apply` check of the result beyond moves and folds.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CheckArgs {
+    /// List (and warn of) faces stretched more than this factor: the largest singular value of a face's rest-to-deformed map, a finite number >= 1.
+    #[arg(long, default_value_t = csrbf::STRETCH_LIMIT)]
+    pub stretch_limit: f64,
+}
+
+impl CheckArgs {
+    /// The checks these flags ask for; a bad stretch limit names its flag.
+    pub fn checks(&self) -> Result<csrbf_anim::apply::Checks> {
+        let checks = csrbf_anim::apply::Checks::default().with_stretch_limit(self.stretch_limit);
+        checks.diagnose.check().context("--stretch-limit")?;
+        Ok(checks)
+    }
+}
+
 /// Reads a mesh, with progress.
 pub fn read_mesh(path: &Path, progress: &Progress) -> Result<Mesh> {
     let t = Instant::now();

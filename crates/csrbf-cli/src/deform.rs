@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use csrbf::controls::ControlSpec;
-use csrbf::{Combine, FittedStage, compose_diagnosed};
+use csrbf::{Combine, Diagnostics, FittedStage};
 use csrbf_mesh::Mesh;
 
 use crate::common::{
-    Progress, check_output, check_phase, fit_all, read_controls, read_mesh, resolve_all,
+    CheckArgs, Progress, check_output, check_phase, fit_all, read_controls, read_mesh, resolve_all,
 };
 
 /// Options of `deform`.
@@ -36,12 +36,15 @@ pub struct DeformArgs {
     /// Fit even a system estimated past the memory limit (4 GB).
     #[arg(long)]
     pub allow_large: bool,
+    #[command(flatten)]
+    pub check: CheckArgs,
 }
 
 pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
     let (mesh, controls, phase, out) = (&a.mesh, &a.controls, a.phase, &a.out);
     let (force, json, allow_large) = (a.force, a.json, a.allow_large);
     check_phase(phase)?;
+    let checks = a.check.checks()?;
     check_output(out, &[mesh.as_path(), controls.as_path()], force, true)?;
     let file = read_controls(controls, progress)?;
     let mut m = read_mesh(mesh, progress)?;
@@ -53,9 +56,8 @@ pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
         &stages,
         (Some(&specs), file.combine),
         phase,
-        mesh,
-        out,
-        json,
+        (mesh, out),
+        (json, &checks),
         progress,
     )
 }
@@ -117,19 +119,17 @@ pub(crate) fn move_and_write(
     stages: &[FittedStage],
     (specs, combine): (Option<&[ControlSpec]>, Combine),
     phase: f64,
-    mesh_path: &Path,
-    out: &Path,
-    json: bool,
+    (mesh_path, out): (&Path, &Path),
+    (json, checks): (bool, &csrbf_anim::apply::Checks),
     progress: &Progress,
 ) -> Result<()> {
     let t = Instant::now();
-    let lookup = |name: &str| m.part_vertices(name);
     let triangles = m.faces.triangles();
     let stages: Vec<FittedStage> = stages
         .iter()
         .map(|s| s.clone().with_phase(s.phase * phase))
         .collect();
-    let (moved, report) = compose_diagnosed(&m.positions, &stages, combine, &triangles, &lookup)
+    let (moved, report) = csrbf_anim::apply::compose_checked(m, &stages, combine, checks)
         .with_context(|| mesh_path.display().to_string())?;
     let deform_ms = t.elapsed().as_secs_f64() * 1e3;
     let (remedy, remedy_json) = match specs {
@@ -145,7 +145,7 @@ pub(crate) fn move_and_write(
     // The stages' phases were scaled by `phase`: the fold phase is a share of it.
     let fold_phase = report.fold_phase.map(|s| s * phase);
     progress.say(format_args!(
-        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) inside out{}",
+        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) inside out{}, {}",
         m.positions.len(),
         report.moved,
         report.largest_move,
@@ -157,6 +157,7 @@ pub(crate) fn move_and_write(
         fold_phase
             .map(|p| format!(", folds from phase {p:.2} on"))
             .unwrap_or_default(),
+        stretch_said(&report),
     ));
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -181,6 +182,12 @@ pub(crate) fn move_and_write(
             "fold_phase": fold_phase,
             "flipped_faces": report.flipped.len(),
             "flipped": report.flipped.iter().take(1000).collect::<Vec<_>>(),
+            "largest_stretch": report.largest_stretch,
+            "largest_stretch_face": report.largest_stretch_face,
+            "stretch_limit": report.stretch_limit,
+            "stretched_faces": report.stretched.len(),
+            "stretched": report.stretched.iter().take(1000).collect::<Vec<_>>(),
+
             "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
             "deform_ms": deform_ms,
             "remedies": remedy_json,
@@ -188,4 +195,17 @@ pub(crate) fn move_and_write(
         println!("{}", serde_json::to_string_pretty(&value)?);
     }
     Ok(())
+}
+
+/// "largest stretch 1.32x (face 7), 0 face(s) over 4x".
+fn stretch_said(r: &Diagnostics) -> String {
+    format!(
+        "largest stretch {:.2}x{}, {} face(s) over {}x",
+        r.largest_stretch,
+        r.largest_stretch_face
+            .map(|f| format!(" (face {f})"))
+            .unwrap_or_default(),
+        r.stretched.len(),
+        r.stretch_limit
+    )
 }

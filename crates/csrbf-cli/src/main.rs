@@ -73,6 +73,8 @@ enum Command {
         /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        check: common::CheckArgs,
     },
     /// Describe a mesh, a control file (system size, band, memory) or a deformation file.
     Info {
@@ -189,7 +191,16 @@ fn main() -> ExitCode {
             out,
             force,
             json,
-        } => apply::apply(&mesh, &deformation, phase, &out, force, json, &progress),
+            check,
+        } => apply::apply(
+            &mesh,
+            &deformation,
+            phase,
+            &out,
+            force,
+            (json, &check),
+            &progress,
+        ),
         Command::Info {
             mesh,
             controls,

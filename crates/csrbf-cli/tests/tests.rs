@@ -7,4 +7,5 @@ mod connected;
 mod limits;
 mod meaning;
 mod pictures;
+mod stretch;
 mod support;

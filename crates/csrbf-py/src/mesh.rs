@@ -309,6 +309,18 @@ pub struct PyReport {
     /// None when none does.
     #[pyo3(get)]
     fold_phase: Option<f64>,
+    /// The largest stretch of a triangle: the largest singular value of the
+    /// map from its rest shape to its deformed one, in its plane (1 when
+    /// none grew).
+    #[pyo3(get)]
+    largest_stretch: f64,
+    /// The triangle stretched most, or None.
+    #[pyo3(get)]
+    largest_stretch_face: Option<u32>,
+    /// The limit `stretched` was judged by (`stretch_limit=`).
+    #[pyo3(get)]
+    stretch_limit: f64,
+    stretched: Vec<u32>,
     /// What to worry about, one sentence each (past the fold-free bound,
     /// starts out of reach, empty regions, seams, a polynomial that moved
     /// the whole model).
@@ -316,7 +328,8 @@ pub struct PyReport {
     warnings: Vec<String>,
     /// A stable name for each warning, in the same order, to filter on:
     /// "empty_region", "past_fold_free_bound", "starts_far_from_mesh",
-    /// "support_crosses_region", "polynomial_leak", "flipped_faces".
+    /// "support_crosses_region", "polynomial_leak", "flipped_faces",
+    /// "inside_out", "stretched".
     #[pyo3(get)]
     warning_kinds: Vec<&'static str>,
 }
@@ -349,6 +362,19 @@ impl PyReport {
         self.flipped.len()
     }
 
+    /// Triangles stretched more than `stretch_limit` (indices into
+    /// `Mesh.triangles`), uint32.
+    #[getter]
+    fn stretched<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        PyArray1::from_slice(py, &self.stretched)
+    }
+
+    /// How many triangles are stretched more than `stretch_limit`.
+    #[getter]
+    fn stretched_faces(&self) -> usize {
+        self.stretched.len()
+    }
+
     /// The figures as `csrbf deform --json` prints them (without the output
     /// path and the time).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -368,13 +394,21 @@ impl PyReport {
             "flipped",
             self.flipped.iter().take(1000).collect::<Vec<_>>(),
         )?;
+        d.set_item("largest_stretch", self.largest_stretch)?;
+        d.set_item("largest_stretch_face", self.largest_stretch_face)?;
+        d.set_item("stretch_limit", self.stretch_limit)?;
+        d.set_item("stretched_faces", self.stretched.len())?;
+        d.set_item(
+            "stretched",
+            self.stretched.iter().take(1000).collect::<Vec<_>>(),
+        )?;
         d.set_item("warnings", &self.warnings)?;
         Ok(d)
     }
 
     fn __repr__(&self) -> String {
         format!(
-            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) inside out{}, {} warning(s))",
+            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) inside out{}, largest stretch {:.2}x, {} warning(s))",
             self.vertices,
             self.moved,
             self.largest_move,
@@ -385,6 +419,7 @@ impl PyReport {
             self.fold_phase
                 .map(|p| format!(", folds from phase {p:.2} on"))
                 .unwrap_or_default(),
+            self.largest_stretch,
             self.warnings.len()
         )
     }
@@ -402,6 +437,10 @@ impl PyReport {
             largest_move: d.largest_move,
             largest_move_vertex: d.largest_move_vertex,
             flipped: d.flipped,
+            largest_stretch: d.largest_stretch,
+            largest_stretch_face: d.largest_stretch_face,
+            stretch_limit: d.stretch_limit,
+            stretched: d.stretched,
             warnings: d.warnings.iter().map(ToString::to_string).collect(),
             warning_kinds: d.warnings.iter().map(|w| w.kind()).collect(),
         }
@@ -441,22 +480,30 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
 ///         ({"radius": 0.3, "controls": [{"from": [..], "to": [..]}]}).
 ///     phase: in [0, 1], times each deformation's own phase.
 ///     allow_large: fit even systems estimated past the 4 GB limit.
+///     stretch_limit: triangles stretched more than this (a finite number
+///         >= 1) are listed in `Report.stretched` and warned of.
 ///
 /// Returns:
-///     (the deformed Mesh, a Report: moved, largest_move, flipped,
-///     warnings); the input mesh is not changed.
+///     (the deformed Mesh, a Report: moved, largest_move, inside_out,
+///     largest_stretch, stretched, warnings); the input mesh is not changed.
 ///
 /// >>> out, report = csrbf.deform_mesh(mesh, "smile.json", phase=1.0)
 /// >>> report.moved, report.warnings
 #[pyfunction]
-#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false))]
+#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false, stretch_limit = csrbf::STRETCH_LIMIT))]
 pub fn deform_mesh(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
     controls: &Bound<'_, PyAny>,
     phase: f64,
     allow_large: bool,
+    stretch_limit: f64,
 ) -> PyResult<(PyMesh, PyReport)> {
+    let checks = csrbf_anim::apply::Checks::default().with_stretch_limit(stretch_limit);
+    checks
+        .diagnose
+        .check()
+        .map_err(|e| PyValueError::new_err(format!("stretch_limit: {e}")))?;
     let mut m = match mesh.cast::<PyMesh>() {
         Ok(m) => m.borrow().inner.clone(),
         Err(_) => {
@@ -473,7 +520,7 @@ pub fn deform_mesh(
         }
     }
     let report = py
-        .detach(|| csrbf_anim::apply::deform_mesh(&mut m, &file, phase))
+        .detach(|| csrbf_anim::apply::deform_mesh_checked(&mut m, &file, phase, &checks))
         .map_err(|e| error(&e))?;
     let n = m.positions.len();
     Ok((PyMesh { inner: m }, PyReport::new(n, report, phase)))

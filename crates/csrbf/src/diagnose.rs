@@ -110,6 +110,17 @@ pub enum Warning {
         /// The first few, by triangle index.
         triangles: Vec<u32>,
     },
+    /// Faces stretched more than the limit (see [`Diagnostics::stretched`]).
+    Stretched {
+        /// How many.
+        count: usize,
+        /// The first few, by triangle index.
+        triangles: Vec<u32>,
+        /// The largest stretch.
+        largest: f64,
+        /// The limit.
+        limit: f64,
+    },
 }
 
 impl Warning {
@@ -117,7 +128,7 @@ impl Warning {
     /// or act on kinds (the Python package's `Report.warning_kinds`, the
     /// Blender extension): `empty_region`, `past_fold_free_bound`,
     /// `starts_far_from_mesh`, `support_crosses_region`, `polynomial_leak`,
-    /// `flipped_faces`.
+    /// `flipped_faces`, `inside_out`, `stretched`.
     pub fn kind(&self) -> &'static str {
         match self {
             Warning::EmptyRegion { .. } => "empty_region",
@@ -127,6 +138,7 @@ impl Warning {
             Warning::PolynomialLeak { .. } => "polynomial_leak",
             Warning::FlippedFaces { .. } => "flipped_faces",
             Warning::InsideOut { .. } => "inside_out",
+            Warning::Stretched { .. } => "stretched",
         }
     }
 }
@@ -260,6 +272,19 @@ impl fmt::Display for Numbered<'_> {
                 ),
                 fold_phase.map_or(String::new(), |p| format!(" from phase {p:.2} on"))
             ),
+            Warning::Stretched {
+                count,
+                triangles,
+                largest,
+                limit,
+            } => write!(
+                f,
+                "{count} face(s) stretched more than {limit}x (up to {largest:.2}x; triangles {}): the texture and shading smear there; use a larger radius or more controls",
+                list(
+                    &triangles.iter().map(|&t| t as usize).collect::<Vec<_>>(),
+                    *count
+                )
+            ),
         }
     }
 }
@@ -285,8 +310,51 @@ pub struct Diagnostics {
     /// The first phase in (0, 1] (a share of the phases given) at which
     /// some triangle folds; None when none does.
     pub fold_phase: Option<f64>,
+    /// The largest stretch of a triangle: the largest singular value of the
+    /// map from its rest shape to its deformed one, in its plane (see
+    /// [`crate::face_stretches`]); 1 when no triangle grew.
+    pub largest_stretch: f64,
+    /// The triangle stretched most (None when none grew).
+    pub largest_stretch_face: Option<u32>,
+    /// Triangles stretched more than [`Diagnostics::stretch_limit`], ascending.
+    pub stretched: Vec<u32>,
+    /// The limit `stretched` was judged by ([`DiagnoseOptions::stretch_limit`]).
+    pub stretch_limit: f64,
     /// Everything worth a warning, in the order found.
     pub warnings: Vec<Warning>,
+}
+
+/// What the diagnostics judge by.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct DiagnoseOptions {
+    /// Triangles stretched more than this (a finite number >= 1) are listed
+    /// and warned of; default [`crate::STRETCH_LIMIT`] (4).
+    pub stretch_limit: f64,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        DiagnoseOptions {
+            stretch_limit: crate::stretch::STRETCH_LIMIT,
+        }
+    }
+}
+
+impl DiagnoseOptions {
+    /// With this stretch limit.
+    pub fn with_stretch_limit(mut self, limit: f64) -> Self {
+        self.stretch_limit = limit;
+        self
+    }
+
+    /// Refuses a stretch limit that is not a finite number >= 1.
+    pub fn check(&self) -> Result<()> {
+        if !(self.stretch_limit >= 1.0 && self.stretch_limit.is_finite()) {
+            return Err(Error::BadStretchLimit(self.stretch_limit));
+        }
+        Ok(())
+    }
 }
 
 /// Diagnoses a deformed mesh: `rest` and `moved` positions, its `triangles`
@@ -303,7 +371,15 @@ pub fn diagnose(
     combine: crate::Combine,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<Diagnostics> {
-    diagnose_with(rest, moved, triangles, stages, combine, groups, None)
+    diagnose_with(
+        rest,
+        moved,
+        (triangles, &DiagnoseOptions::default()),
+        stages,
+        combine,
+        groups,
+        None,
+    )
 }
 
 /// [`crate::compose`] and [`diagnose`] in one: the reach of every start is
@@ -316,12 +392,32 @@ pub fn compose_diagnosed(
     triangles: &[[u32; 3]],
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
 ) -> Result<(Vec<Vec3>, Diagnostics)> {
+    compose_diagnosed_with(
+        rest,
+        stages,
+        combine,
+        triangles,
+        groups,
+        &DiagnoseOptions::default(),
+    )
+}
+
+/// [`compose_diagnosed`] judged by `options` (the stretch limit).
+pub fn compose_diagnosed_with(
+    rest: &[Vec3],
+    stages: &[crate::FittedStage],
+    combine: crate::Combine,
+    triangles: &[[u32; 3]],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+    options: &DiagnoseOptions,
+) -> Result<(Vec<Vec3>, Diagnostics)> {
+    options.check()?;
     let mut traced = Vec::with_capacity(stages.len());
     let moved = crate::pipeline::compose_traced(rest, stages, combine, groups, Some(&mut traced))?;
     let report = diagnose_with(
         rest,
         &moved,
-        triangles,
+        (triangles, options),
         stages,
         combine,
         groups,
@@ -344,7 +440,7 @@ pub(crate) struct StageReach {
 fn diagnose_with(
     rest: &[Vec3],
     moved: &[Vec3],
-    triangles: &[[u32; 3]],
+    (triangles, options): (&[[u32; 3]], &DiagnoseOptions),
     stages: &[crate::FittedStage],
     combine: crate::Combine,
     groups: &dyn Fn(&str) -> Option<Vec<u32>>,
@@ -523,7 +619,20 @@ fn diagnose_with(
             triangles: creases.iter().copied().take(LISTED).collect(),
         });
     }
+    let stretch = crate::stretch::summary(rest, moved, triangles, options.stretch_limit);
+    if !stretch.over.is_empty() {
+        warnings.push(Warning::Stretched {
+            count: stretch.over.len(),
+            triangles: stretch.over.iter().copied().take(LISTED).collect(),
+            largest: stretch.largest,
+            limit: options.stretch_limit,
+        });
+    }
     Ok(Diagnostics {
+        largest_stretch: stretch.largest,
+        largest_stretch_face: stretch.face,
+        stretched: stretch.over,
+        stretch_limit: options.stretch_limit,
         moved: moved_count,
         largest_move: largest.map(|m| *m.1).unwrap_or(0.0),
         largest_move_vertex: largest.map(|m| m.0 as u32),

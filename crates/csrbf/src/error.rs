@@ -28,6 +28,9 @@ pub enum Error {
     /// The phase is outside [0, 1].
     #[error("phase must be within [0, 1], got {0}")]
     BadPhase(f64),
+    /// A stretch limit that is not a finite number >= 1.
+    #[error("stretch limit must be a finite number >= 1, got {0}")]
+    BadStretchLimit(f64),
     /// A buffer or region was used with the wrong number of points.
     #[error("{what}: expected {expected} points, got {got}")]
     PointCount {

@@ -212,6 +212,7 @@ mod remedy;
 mod simd;
 pub mod skyline;
 mod solver;
+mod stretch;
 mod surface;
 mod sweep;
 pub mod synthetic;
@@ -227,7 +228,8 @@ mod tests;
 pub use binding::{Binding, frame};
 pub use deformation::{Affine, Deformation};
 pub use diagnose::{
-    Diagnostics, Numbered, Numbering, Warning, compose_diagnosed, diagnose, vertices_within,
+    DiagnoseOptions, Diagnostics, Numbered, Numbering, Warning, compose_diagnosed,
+    compose_diagnosed_with, diagnose, vertices_within,
 };
 pub use error::{Error, FitError, FormatError, NameError, RegionError, Result};
 pub use evaluate::{Point, Points, PointsMut};
@@ -242,6 +244,7 @@ pub use pipeline::{
 pub use region::{Origin, Region};
 pub use remedy::{Remedies, remedies};
 pub use solver::SolverChoice;
+pub use stretch::{STRETCH_LIMIT, face_stretches};
 pub use surface::Surface;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};
 pub use system::{
