@@ -1224,3 +1224,53 @@ fn every_file_the_picker_writes_reads_back_to_what_it_shows() {
         assert!(a.distance(*b) <= 1e-6 * diag, "wip: {a} vs {b}");
     }
 }
+
+/// Issue 23 (diagnostics beyond folds): a nose pulled far with a small
+/// radius is reported as stretched in the panel (the faces past the limit
+/// outlined in magenta), with its largest stretch.
+#[test]
+fn a_long_pull_is_reported_as_stretched() {
+    let mesh = csrbf_mesh::read(&model("cgal_head.off")).expect("the head");
+    let tip = mesh
+        .positions
+        .iter()
+        .copied()
+        .min_by(|a, b| a.x.total_cmp(&b.x))
+        .expect("vertices");
+    let diag = mesh.diagonal() as f64;
+    let dir = state_dir("stretch-files");
+    let controls = dir.join("pull.json");
+    std::fs::write(
+        &controls,
+        format!(
+            r#"{{"radius": {}, "controls": [{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}]}}"#,
+            0.08 * diag,
+            tip.x,
+            tip.y,
+            tip.z,
+            tip.x as f64 - 0.3 * diag,
+            tip.y,
+            tip.z
+        ),
+    )
+    .expect("write");
+    let mut h = open(
+        Args {
+            mesh: Some(model("cgal_head.off")),
+            controls: Some(controls),
+        },
+        "stretch",
+    );
+    settle(&mut h);
+    let d = h
+        .state()
+        .preview_frame()
+        .and_then(|f| f.diagnostics.clone())
+        .expect("diagnosed");
+    assert!(
+        !d.stretched.is_empty() && d.largest_stretch > d.stretch_limit,
+        "{d:?}"
+    );
+    h.get_by_label_contains("(outlined in magenta)");
+    h.get_by_label_contains(&format!("largest stretch {:.2}x", d.largest_stretch));
+}

@@ -286,8 +286,8 @@ impl Picker {
             ui.colored_label(
                 egui::Color32::from_rgb(255, 90, 90),
                 format!(
-                    "{} faces inside out (outlined in red){}",
-                    d.inside_out.len(),
+                    "{} inside out (outlined in red){}",
+                    count(d.inside_out.len(), "face", "faces"),
                     d.fold_phase
                         .map(|p| format!(", from phase {p:.2} on"))
                         .unwrap_or_default()
@@ -304,6 +304,7 @@ impl Picker {
                 ),
             );
         }
+        stretch_ui(ui, d);
         for w in &d.warnings {
             ui.colored_label(
                 egui::Color32::from_rgb(255, 200, 80),
@@ -773,6 +774,30 @@ fn handle_ui(ui: &mut egui::Ui, h: &Handle, view_axis: DVec3, diagonal: f64) -> 
         new.translate = Some(t);
     }
     (new != *h).then_some(new)
+}
+
+/// The largest stretch of a face and the faces stretched past the limit
+/// (outlined in magenta in the viewport).
+fn stretch_ui(ui: &mut egui::Ui, d: &csrbf::Diagnostics) {
+    let text = format!(
+        "largest stretch {:.2}x{}",
+        d.largest_stretch,
+        d.largest_stretch_face
+            .map(|t| format!(" (triangle {t})"))
+            .unwrap_or_default()
+    );
+    if d.stretched.is_empty() {
+        ui.label(format!("{text}; none past {}x", d.stretch_limit));
+    } else {
+        ui.colored_label(
+            egui::Color32::from_rgb(230, 110, 230),
+            format!(
+                "{text}; {} past {}x (outlined in magenta)",
+                count(d.stretched.len(), "face", "faces"),
+                d.stretch_limit
+            ),
+        );
+    }
 }
 
 /// The Picker's status: the model's size, the solver, the last fit, the

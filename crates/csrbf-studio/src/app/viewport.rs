@@ -744,13 +744,18 @@ fn control_overlay(m: &Model, v: &ViewSettings, overlay: &mut Vec<Line>) {
     }
 }
 
-/// Faces inside out and creases, in red over the surface at `positions`.
+/// Faces inside out and creases in red, faces stretched past the limit in
+/// magenta, over the surface at `positions`.
 fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
     let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref()) else {
         return;
     };
     let tris = m.picking.bvh.triangles();
-    for &t in d.inside_out.iter().chain(&d.flipped).take(50_000) {
+    let red = [1.0, 0.1, 0.1, 1.0];
+    let magenta = [0.85, 0.25, 0.85, 1.0];
+    let folded = d.inside_out.iter().chain(&d.flipped).map(|&t| (t, red));
+    let stretched = d.stretched.iter().map(|&t| (t, magenta));
+    for (t, color) in folded.chain(stretched).take(50_000) {
         let Some(t) = tris.get(t as usize) else {
             continue;
         };
@@ -759,7 +764,7 @@ fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
             lines.push(Line {
                 a: p(a),
                 b: p(b),
-                color: [1.0, 0.1, 0.1, 1.0],
+                color,
             });
         }
     }
