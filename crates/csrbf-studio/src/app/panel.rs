@@ -865,6 +865,54 @@ pub(super) fn vec3_ui(ui: &mut egui::Ui, label: &str, v: &mut DVec3, speed: f64)
     changed && v.is_finite()
 }
 
+/// The numbers of a region of the kind it is (a sphere's centre and
+/// radius, a box's corners, a connected region's distance and origin).
+fn region_fields_ui(ui: &mut egui::Ui, region: &mut Region, diag: f64) {
+    match region {
+        Region::Sphere { center, radius } => {
+            vec3_ui(ui, "centre", center, diag * 1e-3);
+            ui.add(
+                egui::DragValue::new(radius)
+                    .update_while_editing(false)
+                    .speed(diag * 1e-3)
+                    .range(diag * 1e-4..=diag * 10.0)
+                    .prefix("radius "),
+            );
+        }
+        Region::Box { min, max } => {
+            let (mut a, mut b) = (*min, *max);
+            vec3_ui(ui, "min", &mut a, diag * 1e-3);
+            vec3_ui(ui, "max", &mut b, diag * 1e-3);
+            if a.cmple(b).all() {
+                *min = a;
+                *max = b;
+            }
+        }
+        Region::Vertices(v) => {
+            ui.label(format!("{} vertices", v.len()));
+        }
+        Region::Connected { distance, from } => {
+            ui.add(
+                egui::DragValue::new(distance)
+                    .update_while_editing(false)
+                    .speed(diag * 1e-3)
+                    .range(0.0..=diag * 10.0)
+                    .prefix("distance "),
+            )
+            .on_hover_text("How far along the surface the edit reaches");
+            ui.horizontal(|ui| {
+                ui.label("from");
+                ui.radio_value(from, csrbf::Origin::Starts, "the moving starts");
+                ui.radio_value(from, csrbf::Origin::Handle, "the handle");
+            });
+        }
+        Region::Weights { vertices, .. } => {
+            ui.label(format!("{} weighted vertices", vertices.len()));
+        }
+        _ => {}
+    }
+}
+
 /// A region chooser: the whole mesh, a sphere or a box (with their
 /// numbers), one of the mesh's `groups`, or (with `surface`) the vertices
 /// within a distance along the surface; `bounds` and `diag` (the mesh's
@@ -935,47 +983,5 @@ pub(super) fn region_ui(
         })
         .response
         .on_hover_text(hover);
-    match region {
-        Region::Sphere { center, radius } => {
-            vec3_ui(ui, "centre", center, diag * 1e-3);
-            ui.add(
-                egui::DragValue::new(radius)
-                    .update_while_editing(false)
-                    .speed(diag * 1e-3)
-                    .range(diag * 1e-4..=diag * 10.0)
-                    .prefix("radius "),
-            );
-        }
-        Region::Box { min, max } => {
-            let (mut a, mut b) = (*min, *max);
-            vec3_ui(ui, "min", &mut a, diag * 1e-3);
-            vec3_ui(ui, "max", &mut b, diag * 1e-3);
-            if a.cmple(b).all() {
-                *min = a;
-                *max = b;
-            }
-        }
-        Region::Vertices(v) => {
-            ui.label(format!("{} vertices", v.len()));
-        }
-        Region::Connected { distance, from } => {
-            ui.add(
-                egui::DragValue::new(distance)
-                    .update_while_editing(false)
-                    .speed(diag * 1e-3)
-                    .range(0.0..=diag * 10.0)
-                    .prefix("distance "),
-            )
-            .on_hover_text("How far along the surface the edit reaches");
-            ui.horizontal(|ui| {
-                ui.label("from");
-                ui.radio_value(from, csrbf::Origin::Starts, "the moving starts");
-                ui.radio_value(from, csrbf::Origin::Handle, "the handle");
-            });
-        }
-        Region::Weights { vertices, .. } => {
-            ui.label(format!("{} weighted vertices", vertices.len()));
-        }
-        _ => {}
-    }
+    region_fields_ui(ui, region, diag);
 }

@@ -407,34 +407,14 @@ impl Picker {
                         target: p,
                     },
                     End::Start => {
-                        // A start stays on the surface when the pointer is on it.
                         let display = self.view.display;
-                        let drawn = m.drawn(display).0.clone();
-                        let bvh = m.picking.fitted(display, &drawn);
-                        let start = if tool.axis.is_none() {
-                            pick_surface_on(&cam, size, px, bvh, &drawn, &m.doc.mesh.positions)
-                                .map_or(p, |h| h.rest)
-                        } else {
-                            p
-                        };
-                        // The vector comes along (the destination keeps its
-                        // offset from the start); with Ctrl, the start alone.
-                        let s = &m.doc.controls.deformations[layer];
-                        let (from, to) = (s.starts[index], s.targets[index]);
-                        if alone {
-                            Command::SetStart {
-                                layer,
-                                index,
-                                start,
-                            }
-                        } else {
-                            Command::MoveControl {
-                                layer,
-                                index,
-                                start,
-                                target: to + (start - from),
-                            }
-                        }
+                        start_moved(
+                            m,
+                            (layer, index),
+                            (&cam, size, px),
+                            (&tool, p, display),
+                            alone,
+                        )
                     }
                 };
                 if let Gesture::Marker { moved, .. } = &mut self.gesture {
@@ -506,30 +486,7 @@ impl Picker {
                 layer, index, end, ..
             } => {
                 m.history.end_drag();
-                if let Some(s) = m.doc.controls.deformations.get(layer)
-                    && let (Some(a), Some(b)) = (s.starts.get(index), s.targets.get(index))
-                {
-                    let moved = if end == End::Start {
-                        "start"
-                    } else {
-                        "destination"
-                    };
-                    let length = (*b - *a).length();
-                    self.status = if length == 0.0 {
-                        format!(
-                            "Control {} of layer {}: a pin (its destination is its start)",
-                            index + 1,
-                            layer + 1
-                        )
-                    } else {
-                        format!(
-                            "Control {} of layer {}: {moved} set; it moves {length:.4} ({:.1} % of R)",
-                            index + 1,
-                            layer + 1,
-                            length / s.options.radius * 100.0
-                        )
-                    };
-                }
+                self.status = made_status(m, (layer, index), end);
                 // The release diagnoses what the drag made.
                 self.refresh(true);
             }
@@ -849,6 +806,72 @@ fn region_lines(region: &csrbf::Region, out: &mut Vec<Line>) {
 }
 
 /// Refits the picking tree to the shown positions if they changed since.
+/// The command a start dragged to `p` makes: on the surface under the
+/// pointer when it meets it (unless held to an axis), its vector carried
+/// along, or (`alone`, Ctrl) the start alone.
+fn start_moved(
+    m: &mut Model,
+    (layer, index): (usize, usize),
+    (cam, size, px): (&Camera, [u32; 2], Vec2),
+    (tool, p, display): (&DragTool, DVec3, Display),
+    alone: bool,
+) -> Command {
+    let drawn = m.drawn(display).0.clone();
+    let bvh = m.picking.fitted(display, &drawn);
+    let start = if tool.axis.is_none() {
+        pick_surface_on(cam, size, px, bvh, &drawn, &m.doc.mesh.positions).map_or(p, |h| h.rest)
+    } else {
+        p
+    };
+    if alone {
+        return Command::SetStart {
+            layer,
+            index,
+            start,
+        };
+    }
+    // The destination keeps its offset from the start.
+    let s = &m.doc.controls.deformations[layer];
+    let (from, to) = (s.starts[index], s.targets[index]);
+    Command::MoveControl {
+        layer,
+        index,
+        start,
+        target: to + (start - from),
+    }
+}
+
+/// What a drag of control `index` of `layer` made (its `end` moved): its
+/// length and share of R, or a pin.
+fn made_status(m: &Model, (layer, index): (usize, usize), end: End) -> String {
+    let Some(s) = m.doc.controls.deformations.get(layer) else {
+        return String::new();
+    };
+    let (Some(a), Some(b)) = (s.starts.get(index), s.targets.get(index)) else {
+        return String::new();
+    };
+    let moved = if end == End::Start {
+        "start"
+    } else {
+        "destination"
+    };
+    let length = (*b - *a).length();
+    if length == 0.0 {
+        format!(
+            "Control {} of layer {}: a pin (its destination is its start)",
+            index + 1,
+            layer + 1
+        )
+    } else {
+        format!(
+            "Control {} of layer {}: {moved} set; it moves {length:.4} ({:.1} % of R)",
+            index + 1,
+            layer + 1,
+            length / s.options.radius * 100.0
+        )
+    }
+}
+
 /// A press on `hit`'s marker: Shift (`add`) toggles it in the selection;
 /// else it becomes the selection unless it is in it already (so a drag
 /// moves every selected control). Its layer becomes the active one.
