@@ -1094,47 +1094,18 @@ fn orbiting_about_the_selection_keeps_the_selected_start_in_place() {
 #[test]
 fn a_layer_along_the_surface_moves_only_what_it_reaches() {
     let mesh = csrbf_mesh::read(&model("cgal_head.off")).expect("the head");
-    let tip = mesh
-        .positions
-        .iter()
-        .copied()
-        .min_by(|a, b| a.x.total_cmp(&b.x))
-        .expect("vertices");
-    let diag = mesh.diagonal() as f64;
     let moved = |region: &str, test: &str| {
-        let dir = state_dir(&format!("{test}-files"));
-        let controls = dir.join("c.json");
-        std::fs::write(
-            &controls,
-            format!(
-                r#"{{"radius": {r}, {region} "controls": [{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}]}}"#,
-                tip.x,
-                tip.y,
-                tip.z,
-                tip.x as f64 - 0.05 * diag,
-                tip.y,
-                tip.z,
-                r = 0.5 * diag,
-            ),
-        )
-        .expect("write");
-        let mut h = open(
-            Args {
-                mesh: Some(model("cgal_head.off")),
-                controls: Some(controls),
-            },
-            test,
-        );
-        settle(&mut h);
+        let (h, tip, diag) = head_pulled(test, (0.5, 0.05), region);
         let frame = h.state().preview_frame().expect("a frame");
         assert!(frame.error.is_none(), "{:?}", frame.error);
-        let shown = h.state().shown_positions().expect("shown");
+        let shown = h.state().shown_positions().expect("shown").to_vec();
         let k = mesh.positions.iter().position(|p| *p == tip).expect("tip");
         assert!(shown[k].x < tip.x - 0.01 * diag as f32, "the nose moved");
-        (mesh.positions.iter().zip(shown))
+        (mesh.positions.iter().zip(&shown))
             .filter(|(a, b)| a.distance(**b) > 1e-6 * diag as f32)
             .count()
     };
+    let diag = mesh.diagonal() as f64;
     let all = moved("", "surface-all");
     let along = moved(
         &format!(
@@ -1230,38 +1201,7 @@ fn every_file_the_picker_writes_reads_back_to_what_it_shows() {
 /// outlined in magenta), with its largest stretch.
 #[test]
 fn a_long_pull_is_reported_as_stretched() {
-    let mesh = csrbf_mesh::read(&model("cgal_head.off")).expect("the head");
-    let tip = mesh
-        .positions
-        .iter()
-        .copied()
-        .min_by(|a, b| a.x.total_cmp(&b.x))
-        .expect("vertices");
-    let diag = mesh.diagonal() as f64;
-    let dir = state_dir("stretch-files");
-    let controls = dir.join("pull.json");
-    std::fs::write(
-        &controls,
-        format!(
-            r#"{{"radius": {}, "controls": [{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}]}}"#,
-            0.08 * diag,
-            tip.x,
-            tip.y,
-            tip.z,
-            tip.x as f64 - 0.3 * diag,
-            tip.y,
-            tip.z
-        ),
-    )
-    .expect("write");
-    let mut h = open(
-        Args {
-            mesh: Some(model("cgal_head.off")),
-            controls: Some(controls),
-        },
-        "stretch",
-    );
-    settle(&mut h);
+    let (h, _, _) = head_pulled("stretch", (0.08, 0.3), "");
     let d = h
         .state()
         .preview_frame()
@@ -1273,4 +1213,47 @@ fn a_long_pull_is_reported_as_stretched() {
     );
     h.get_by_label_contains("(outlined in magenta)");
     h.get_by_label_contains(&format!("largest stretch {:.2}x", d.largest_stretch));
+}
+
+/// The head opened with one control vector from its nose tip pulled along
+/// -X by `pull` of its diagonal, a radius of `radius` of its diagonal and
+/// `extra` keys (`"region": ...,`) in the control file; with the tip and the
+/// diagonal.
+fn head_pulled(
+    test: &str,
+    (radius, pull): (f64, f64),
+    extra: &str,
+) -> (Harness<'static, StudioApp>, Vec3, f64) {
+    let mesh = csrbf_mesh::read(&model("cgal_head.off")).expect("the head");
+    let tip = mesh
+        .positions
+        .iter()
+        .copied()
+        .min_by(|a, b| a.x.total_cmp(&b.x))
+        .expect("vertices");
+    let diag = mesh.diagonal() as f64;
+    let controls = state_dir(&format!("{test}-files")).join("pull.json");
+    std::fs::write(
+        &controls,
+        format!(
+            r#"{{"radius": {}, {extra} "controls": [{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}]}}"#,
+            radius * diag,
+            tip.x,
+            tip.y,
+            tip.z,
+            tip.x as f64 - pull * diag,
+            tip.y,
+            tip.z
+        ),
+    )
+    .expect("write");
+    let mut h = open(
+        Args {
+            mesh: Some(model("cgal_head.off")),
+            controls: Some(controls),
+        },
+        test,
+    );
+    settle(&mut h);
+    (h, tip, diag)
 }
