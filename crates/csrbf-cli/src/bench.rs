@@ -179,6 +179,8 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         Ok((sys, def))
     })?;
     let (evaluate_ms, disp) = time(runs, || Ok(def.displacements_f32(&s.points)))?;
+    // What the evaluation did, counted in a pass of its own (not timed).
+    let counts = def.evaluation_counts(&s.points);
     let (fit_evaluate_ms, _) = time(runs, || {
         let d = System::new(&s.starts, s.options)?.solve(&s.targets)?;
         Ok(d.displacements_f32(&s.points))
@@ -220,6 +222,15 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         "fit_ms": fit_ms,
         "bind_ms": bind_ms,
         "evaluate_ms": evaluate_ms,
+        "evaluation": {
+            "points": counts.points,
+            "cells": counts.cells,
+            "candidates": counts.candidates,
+            "kernel_evaluations": counts.kernel_evaluations,
+            "hits": counts.hits,
+            "candidates_per_s": counts.candidates as f64 / (evaluate_ms * 1e-3),
+            "kernel_evaluations_per_s": counts.kernel_evaluations as f64 / (evaluate_ms * 1e-3),
+        },
         "fit_evaluate_ms": fit_evaluate_ms,
         "refit_ms": refit_ms,
         "frame_ms": frame_ms,

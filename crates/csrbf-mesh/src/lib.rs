@@ -32,6 +32,7 @@ mod error;
 pub mod formats;
 mod geometry;
 mod io;
+mod normals;
 pub mod shapes;
 mod stand_in;
 
@@ -46,6 +47,7 @@ pub use io::{
     Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, replace, temp_beside,
     track_temp, untrack_temp, write, write_atomic,
 };
+pub use normals::{NormalsScratch, VertexNormals};
 pub use stand_in::StandIn;
 
 use glam::{Vec2, Vec3};

@@ -25,9 +25,27 @@ fn main() -> Result<(), csrbf::Error> {
         std::hint::black_box(out);
     }
     times.sort_by(f64::total_cmp);
+    let c = d.evaluation_counts(&s.points);
     println!(
-        "evaluate median {:.4} ms ({v} points, {n} starts, R {r:.4})",
-        times[times.len() / 2]
+        "evaluate median {:.4} ms ({v} points, {n} starts, R {r:.4}; {} cells, {} candidates, {} kernel evaluations, {} hits)",
+        times[times.len() / 2],
+        c.cells,
+        c.candidates,
+        c.kernel_evaluations,
+        c.hits
+    );
+    // The f32 path against the f64 one: largest difference, absolute and
+    // relative to the largest displacement.
+    let (f32s, f64s) = (d.displacements_f32(&s.points), d.displacements(&s.points));
+    let worst = f32s
+        .iter()
+        .zip(&f64s)
+        .map(|(a, b)| (a.as_dvec3() - *b).length())
+        .fold(0.0, f64::max);
+    let largest = f64s.iter().map(|d| d.length()).fold(0.0, f64::max);
+    println!(
+        "f32 against f64: largest difference {worst:.3e} ({:.3e} of the largest displacement {largest:.3e})",
+        worst / largest
     );
     Ok(())
 }

@@ -235,6 +235,11 @@ impl Candidates {
         self.cpu = crate::simd::Avx2Fma::detect();
     }
 
+    /// Candidates gathered.
+    pub(crate) fn len(&self) -> usize {
+        self.id.len()
+    }
+
     /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
     #[inline]
     pub(crate) fn for_each_weight(
@@ -317,6 +322,16 @@ pub(crate) fn for_each_cell<T: Send>(
     parallel: bool,
     work: impl Fn((usize, usize), &mut [T], &mut Candidates) + Sync + Send,
 ) {
+    for_each_cell_with(blocks, out, parallel, work);
+}
+
+/// [`for_each_cell`] with scratch of any kind (one per thread).
+pub(crate) fn for_each_cell_with<T: Send, S: Default>(
+    blocks: &Blocks,
+    out: &mut [T],
+    parallel: bool,
+    work: impl Fn((usize, usize), &mut [T], &mut S) + Sync + Send,
+) {
     let slices = blocks.split(out);
     if parallel {
         blocks
@@ -324,13 +339,11 @@ pub(crate) fn for_each_cell<T: Send>(
             .par_iter()
             .zip(slices)
             .with_min_len(2)
-            .for_each_init(Candidates::default, |cand, (cell, out)| {
-                work(*cell, out, cand)
-            });
+            .for_each_init(S::default, |scratch, (cell, out)| work(*cell, out, scratch));
     } else {
-        let mut cand = Candidates::default();
+        let mut scratch = S::default();
         for (cell, out) in blocks.cells.iter().zip(slices) {
-            work(*cell, out, &mut cand);
+            work(*cell, out, &mut scratch);
         }
     }
 }

@@ -204,6 +204,7 @@ mod jacobian;
 #[cfg(feature = "serde")]
 pub mod json;
 mod kernel;
+mod lanes;
 mod octree;
 pub mod ordering;
 mod pipeline;
@@ -237,6 +238,7 @@ pub use folds::{Folds, folds};
 pub use handle::{Handle, HandleControls, Rotation};
 pub use jacobian::{det_cubic, fold_phase};
 pub use kernel::{Kernel, Polynomial};
+pub use lanes::EvaluationCounts;
 pub use ordering::Ordering;
 pub use pipeline::{
     Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,

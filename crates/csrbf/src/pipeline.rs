@@ -843,18 +843,18 @@ pub(crate) fn compose_traced(
             active.iter().map(|&i| from[i as usize]).collect()
         };
         let input = if all { from } else { &sub[..] };
-        let d = match trace.as_deref_mut() {
-            None => def.displacements_f32(input),
-            Some(trace) => {
-                let (d, near, touched) = def.displacements_reach(input);
-                trace.push(StageReach {
-                    selected: active.clone(),
-                    near,
-                    touched,
-                });
-                d
-            }
-        };
+        // The values from the f32 path either way, so that a diagnosed
+        // composition moves points exactly as a plain one; the reach from a
+        // pass of its own.
+        let d = def.displacements_f32(input);
+        if let Some(trace) = trace.as_deref_mut() {
+            let (_, near, touched) = def.displacements_reach(input);
+            trace.push(StageReach {
+                selected: active.clone(),
+                near,
+                touched,
+            });
+        }
         if all {
             for (p, d) in points.iter_mut().zip(d) {
                 *p += d * t;

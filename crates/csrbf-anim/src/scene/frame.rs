@@ -53,12 +53,9 @@ impl Scene {
                 self.contact(oi, c, time, local, controls);
             }
             let (rot, shift) = obj.transform(time);
-            let (rot32, shift32) = (rot.as_quat(), shift.as_vec3());
-            csrbf_mesh::triangle_vertex_normals_into(local, &obj.triangles, &mut out.normals);
-            for (p, n) in local.iter_mut().zip(out.normals.iter_mut()) {
-                *p = rot32 * *p + shift32;
-                *n = rot32 * *n;
-            }
+            let (rot32, shift32) = (glam::Mat3::from_quat(rot.as_quat()), shift.as_vec3());
+            obj.normals
+                .moved_into(local, rot32, shift32, &mut out.scratch, &mut out.normals);
             for (s, p, g, _) in controls.iter_mut() {
                 *s = rot32 * *s + shift32;
                 *p = rot32 * *p + shift32;

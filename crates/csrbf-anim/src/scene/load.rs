@@ -222,6 +222,7 @@ pub(super) fn load_object(
         }
     }
     let (trajectory, orientation) = object_tracks(of, at, warnings)?;
+    let triangles = mesh.faces.triangles();
     Ok(Object {
         name: of.name.clone(),
         center,
@@ -231,7 +232,8 @@ pub(super) fn load_object(
         orientation,
         deformations,
         contact: None,
-        triangles: mesh.faces.triangles(),
+        normals: csrbf_mesh::VertexNormals::new(&triangles, mesh.positions.len()),
+        triangles,
         mesh,
     })
 }

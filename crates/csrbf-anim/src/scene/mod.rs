@@ -164,6 +164,9 @@ pub struct Object {
     pub contact: Option<Contact>,
     /// The mesh's faces as triangles, for the normals of every frame.
     pub triangles: Vec<[u32; 3]>,
+    /// The triangles around each vertex, prepared once: a frame's normals
+    /// without the scatter of the plain function (the same values).
+    pub normals: csrbf_mesh::VertexNormals,
 }
 
 impl Object {
@@ -296,6 +299,8 @@ pub struct FrameObject {
     pub normals: Vec<Vec3>,
     /// Control vectors in world space: start, where it is at this phase, destination, R.
     pub controls: Vec<(Vec3, Vec3, Vec3, f32)>,
+    /// The normals' buffers, kept between frames.
+    scratch: csrbf_mesh::NormalsScratch,
 }
 
 /// Every object at one time.

@@ -1,0 +1,532 @@
+//! Vertex normals of one triangle list, prepared once for many frames.
+//!
+//! [`crate::triangle_vertex_normals_into`] scatters each triangle's area
+//! vector into its three vertices: about 90 instructions a triangle. A
+//! [`VertexNormals`] keeps the triangles' corners by column and, for every
+//! eight vertices, their triangles in a table eight wide, so that a frame is
+//! three passes over plain arrays: the area vectors eight triangles at a
+//! time, their sums eight vertices at a time, and the rigid motion of points
+//! and normals. With AVX2 (checked at run time) the first two gather eight
+//! values an instruction; without it the same passes run one lane at a time.
+//! Each vertex's sum runs over the same triangles in the same order as the
+//! plain function's, so the normals are bit for bit its own.
+
+use glam::{Mat3, Vec3};
+
+/// Lanes of a pass (eight f32 in an AVX2 register).
+const LANES: usize = 8;
+
+/// The triangles around every vertex of one mesh, for its normals frame
+/// after frame ([`VertexNormals::compute_into`], or
+/// [`VertexNormals::moved_into`] with a rigid motion).
+///
+/// ```
+/// use csrbf_mesh::{NormalsScratch, VertexNormals};
+/// use glam::Vec3;
+///
+/// let normals = VertexNormals::new(&[[0, 1, 2]], 3);
+/// let (mut scratch, mut out) = (NormalsScratch::default(), Vec::new());
+/// normals.compute_into(&[Vec3::ZERO, Vec3::X, Vec3::Y], &mut scratch, &mut out);
+/// assert_eq!(out, vec![Vec3::Z; 3]);
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct VertexNormals {
+    vertices: usize,
+    /// The triangles whose corners are all below `vertices`, in their order.
+    triangles: Vec<[u32; 3]>,
+    /// Their corners by column, padded with vertex 0 to a multiple of eight.
+    corners: [Vec<u32>; 3],
+    /// Per eight vertices: where its rows start in `table` and how many.
+    groups: Vec<(u32, u32)>,
+    /// Row-major, eight wide: row `r` of a group holds the `r`-th triangle
+    /// of each of its vertices (ascending; a triangle naming a vertex twice
+    /// is there twice, as the scatter adds it twice), or `dummy()`, whose
+    /// area vector is -0 (x + -0 = x for every x, so padding changes no bit).
+    table: Vec<u32>,
+}
+
+/// Buffers a frame's normals use, kept between frames so that a frame
+/// allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub struct NormalsScratch {
+    /// Points by coordinate.
+    xyz: [Vec<f32>; 3],
+    /// Area vectors by coordinate (and the dummy's -0 at the end).
+    area: [Vec<f32>; 3],
+    /// Normals by coordinate.
+    normal: [Vec<f32>; 3],
+}
+
+impl VertexNormals {
+    /// The triangles around each of `vertices` vertices; triangles with an
+    /// index out of range are dropped (as the plain function skips them).
+    pub fn new(triangles: &[[u32; 3]], vertices: usize) -> VertexNormals {
+        let triangles: Vec<[u32; 3]> = triangles
+            .iter()
+            .filter(|t| t.iter().all(|&i| (i as usize) < vertices))
+            .copied()
+            .collect();
+        let padded = triangles.len().next_multiple_of(LANES);
+        let corners = [0, 1, 2].map(|c| {
+            let mut v: Vec<u32> = triangles.iter().map(|t| t[c]).collect();
+            v.resize(padded, 0);
+            v
+        });
+        let mut around = vec![Vec::new(); vertices];
+        for (k, t) in triangles.iter().enumerate() {
+            for &i in t {
+                around[i as usize].push(k as u32);
+            }
+        }
+        let dummy = padded as u32;
+        let (mut groups, mut table) = (Vec::new(), Vec::new());
+        for group in around.chunks(LANES) {
+            let width = group.iter().map(Vec::len).max().unwrap_or(0);
+            groups.push((table.len() as u32, width as u32));
+            for r in 0..width {
+                for lane in 0..LANES {
+                    let t = group.get(lane).and_then(|a| a.get(r)).copied();
+                    table.push(t.unwrap_or(dummy));
+                }
+            }
+        }
+        VertexNormals {
+            vertices,
+            triangles,
+            corners,
+            groups,
+            table,
+        }
+    }
+
+    /// Number of vertices it was made for.
+    pub fn vertices(&self) -> usize {
+        self.vertices
+    }
+
+    /// Area-weighted normals of `positions` into `out` (vertices on no
+    /// triangle get +Z), bit for bit those of
+    /// [`crate::triangle_vertex_normals_into`]. Positions of another length
+    /// than [`VertexNormals::vertices`] are handed to the plain function,
+    /// with the triangles kept.
+    pub fn compute_into(
+        &self,
+        positions: &[Vec3],
+        scratch: &mut NormalsScratch,
+        out: &mut Vec<Vec3>,
+    ) {
+        if positions.len() != self.vertices {
+            crate::triangle_vertex_normals_into(positions, &self.triangles, out);
+            return;
+        }
+        self.normals_by_coordinate(positions, scratch, avx2());
+        let [x, y, z] = &scratch.normal;
+        out.clear();
+        out.extend((0..self.vertices).map(|v| Vec3::new(x[v], y[v], z[v])));
+    }
+
+    /// The normals of `positions` and a rigid motion in one pass:
+    /// `positions[i]` becomes `rotation * positions[i] + shift` and
+    /// `normals[i]` the normal before the motion turned by `rotation` (an
+    /// orthonormal matrix turns area vectors as it turns points).
+    /// Positions of another length than [`VertexNormals::vertices`] are
+    /// handed to the plain function, with the triangles kept.
+    pub fn moved_into(
+        &self,
+        positions: &mut [Vec3],
+        rotation: Mat3,
+        shift: Vec3,
+        scratch: &mut NormalsScratch,
+        normals: &mut Vec<Vec3>,
+    ) {
+        if positions.len() != self.vertices {
+            crate::triangle_vertex_normals_into(positions, &self.triangles, normals);
+            for (p, n) in positions.iter_mut().zip(normals.iter_mut()) {
+                *p = rotation * *p + shift;
+                *n = rotation * *n;
+            }
+            return;
+        }
+        let cpu = avx2();
+        self.normals_by_coordinate(positions, scratch, cpu);
+        let m = rotation.to_cols_array();
+        turn(cpu, &mut scratch.normal, &m, None);
+        turn(cpu, &mut scratch.xyz, &m, Some(shift.to_array()));
+        let [nx, ny, nz] = &scratch.normal;
+        normals.clear();
+        normals.extend(
+            nx.iter()
+                .zip(ny)
+                .zip(nz)
+                .take(self.vertices)
+                .map(|((&x, &y), &z)| Vec3::new(x, y, z)),
+        );
+        let [xs, ys, zs] = &scratch.xyz;
+        for (p, ((&x, &y), &z)) in positions.iter_mut().zip(xs.iter().zip(ys).zip(zs)) {
+            *p = Vec3::new(x, y, z);
+        }
+    }
+
+    /// The three passes, into `scratch.normal`.
+    fn normals_by_coordinate(&self, positions: &[Vec3], s: &mut NormalsScratch, cpu: Option<Avx2>) {
+        let padded_vertices = self.groups.len() * LANES;
+        for xyz in &mut s.xyz {
+            xyz.resize(padded_vertices.max(1), 0.0);
+        }
+        let [xs, ys, zs] = &mut s.xyz;
+        for (p, ((x, y), z)) in positions
+            .iter()
+            .zip(xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()))
+        {
+            (*x, *y, *z) = (p.x, p.y, p.z);
+        }
+        let padded = self.corners[0].len();
+        for c in 0..3 {
+            s.area[c].resize(padded + 1, 0.0);
+            s.area[c][padded] = -0.0; // the dummy
+            s.normal[c].resize(padded_vertices, 0.0);
+        }
+        match cpu {
+            #[cfg(target_arch = "x86_64")]
+            Some(Avx2(())) => {
+                // SAFETY: an `Avx2` exists only when the CPU has AVX2; the
+                // indices are checked by the callee's contract: `new` kept
+                // only corners below `vertices` (padding is vertex 0, and a
+                // padded triangle exists only with a real one, so
+                // `vertices > 0`), `xyz` holds `vertices` or more values, and
+                // `table` names triangles below `padded` or the dummy at
+                // `padded`, which `area` holds.
+                #[allow(unsafe_code)]
+                unsafe {
+                    areas_avx2(&self.corners, &s.xyz, &mut s.area);
+                    sums_avx2(&self.groups, &self.table, &s.area, &mut s.normal);
+                }
+            }
+            _ => {
+                areas_plain(&self.corners, &s.xyz, &mut s.area);
+                sums_plain(&self.groups, &self.table, &s.area, &mut s.normal);
+            }
+        }
+    }
+}
+
+/// Proof that this CPU has AVX2: only [`avx2`] makes one.
+#[derive(Clone, Copy, Debug)]
+struct Avx2(());
+
+/// The proof, when the CPU has AVX2 (checked once, then cached by std).
+fn avx2() -> Option<Avx2> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        return Some(Avx2(()));
+    }
+    None
+}
+
+/// One lane of the area pass: (b - a) x (c - a), as glam's `Vec3::cross`
+/// multiplies and subtracts.
+#[inline(always)]
+fn cross_of(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [f32; 3] {
+    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    [
+        e1[1] * e2[2] - e2[1] * e1[2],
+        e1[2] * e2[0] - e2[2] * e1[0],
+        e1[0] * e2[1] - e2[0] * e1[1],
+    ]
+}
+
+/// One lane of the normalisation, as the plain function does it in `Vec3`:
+/// ((x x + y y) + z z), then times 1 / sqrt; +Z for a zero (or NaN) sum.
+#[inline(always)]
+fn unit(v: [f32; 3]) -> [f32; 3] {
+    let len2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if len2 > 0.0 {
+        let r = len2.sqrt().recip();
+        [v[0] * r, v[1] * r, v[2] * r]
+    } else {
+        [0.0, 0.0, 1.0]
+    }
+}
+
+/// `m * v (+ shift)` for every column vector, as glam's `Mat3 * Vec3`
+/// computes it (x y z columns in turn, no fused multiply-add), so the
+/// result is bit for bit the plain code's. Plain loops over columns: the
+/// compiler vectorises them, eight wide in the AVX2 copy.
+#[inline(always)]
+fn turn_body(cols: &mut [Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>) {
+    let [xs, ys, zs] = cols;
+    let s = shift.unwrap_or_default();
+    for ((x, y), z) in xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()) {
+        let (a, b, c) = (*x, *y, *z);
+        let r = [
+            (m[0] * a + m[3] * b) + m[6] * c,
+            (m[1] * a + m[4] * b) + m[7] * c,
+            (m[2] * a + m[5] * b) + m[8] * c,
+        ];
+        // Adding no shift, not +0 (which would turn -0 into +0).
+        (*x, *y, *z) = match shift {
+            Some(_) => (r[0] + s[0], r[1] + s[1], r[2] + s[2]),
+            None => (r[0], r[1], r[2]),
+        };
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn turn_avx2(cols: &mut [Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>) {
+    turn_body(cols, m, shift);
+}
+
+/// [`turn_body`], compiled for AVX2 when the proof is given.
+fn turn(cpu: Option<Avx2>, cols: &mut [Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(Avx2(())) = cpu {
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2.
+        #[allow(unsafe_code)]
+        unsafe {
+            return turn_avx2(cols, m, shift);
+        }
+    }
+    let _ = cpu;
+    turn_body(cols, m, shift);
+}
+
+/// The area pass one lane at a time (the reference of the AVX2 pass).
+fn areas_plain(corners: &[Vec<u32>; 3], xyz: &[Vec<f32>; 3], area: &mut [Vec<f32>; 3]) {
+    let p = |i: u32| [0, 1, 2].map(|c| xyz[c][i as usize]);
+    for k in 0..corners[0].len() {
+        let a = cross_of(p(corners[0][k]), p(corners[1][k]), p(corners[2][k]));
+        for c in 0..3 {
+            area[c][k] = a[c];
+        }
+    }
+}
+
+/// The sum-and-normalise pass one lane at a time.
+fn sums_plain(
+    groups: &[(u32, u32)],
+    table: &[u32],
+    area: &[Vec<f32>; 3],
+    normal: &mut [Vec<f32>; 3],
+) {
+    for (g, &(start, width)) in groups.iter().enumerate() {
+        for lane in 0..LANES {
+            let mut sum = [0.0f32; 3];
+            for r in 0..width as usize {
+                let t = table[start as usize + r * LANES + lane] as usize;
+                for c in 0..3 {
+                    sum[c] += area[c][t];
+                }
+            }
+            let n = unit(sum);
+            for c in 0..3 {
+                normal[c][g * LANES + lane] = n[c];
+            }
+        }
+    }
+}
+
+/// The area pass, eight triangles at a time.
+///
+/// # Safety
+/// The CPU has AVX2; every corner indexes each of `xyz`; the three corner
+/// columns and the three area columns hold at least as many values as the
+/// first corner column, a multiple of eight.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2")]
+unsafe fn areas_avx2(corners: &[Vec<u32>; 3], xyz: &[Vec<f32>; 3], area: &mut [Vec<f32>; 3]) {
+    use std::arch::x86_64::*;
+    let n = corners[0].len();
+    // SAFETY: the caller's contract (indices in range, lengths as said).
+    unsafe {
+        let load =
+            |c: usize, k: usize| _mm256_loadu_si256(corners[c].as_ptr().add(k).cast::<__m256i>());
+        let gather = |c: usize, i: __m256i| _mm256_i32gather_ps::<4>(xyz[c].as_ptr(), i);
+        for k in (0..n).step_by(LANES) {
+            let (ia, ib, ic) = (load(0, k), load(1, k), load(2, k));
+            let (ax, ay, az) = (gather(0, ia), gather(1, ia), gather(2, ia));
+            let e1 = [
+                _mm256_sub_ps(gather(0, ib), ax),
+                _mm256_sub_ps(gather(1, ib), ay),
+                _mm256_sub_ps(gather(2, ib), az),
+            ];
+            let e2 = [
+                _mm256_sub_ps(gather(0, ic), ax),
+                _mm256_sub_ps(gather(1, ic), ay),
+                _mm256_sub_ps(gather(2, ic), az),
+            ];
+            let cross = |i: usize, j: usize| {
+                _mm256_sub_ps(_mm256_mul_ps(e1[i], e2[j]), _mm256_mul_ps(e2[i], e1[j]))
+            };
+            _mm256_storeu_ps(area[0].as_mut_ptr().add(k), cross(1, 2));
+            _mm256_storeu_ps(area[1].as_mut_ptr().add(k), cross(2, 0));
+            _mm256_storeu_ps(area[2].as_mut_ptr().add(k), cross(0, 1));
+        }
+    }
+}
+
+/// The sum-and-normalise pass, eight vertices at a time.
+///
+/// # Safety
+/// The CPU has AVX2; every entry of `table` indexes each of `area`; each
+/// group's rows lie in `table`; each `normal` column holds eight values per
+/// group.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2")]
+unsafe fn sums_avx2(
+    groups: &[(u32, u32)],
+    table: &[u32],
+    area: &[Vec<f32>; 3],
+    normal: &mut [Vec<f32>; 3],
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract (indices in range, lengths as said).
+    unsafe {
+        let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
+        for (g, &(start, width)) in groups.iter().enumerate() {
+            let mut sum = [zero; 3];
+            for r in 0..width as usize {
+                let at = table.as_ptr().add(start as usize + r * LANES);
+                let t = _mm256_loadu_si256(at.cast::<__m256i>());
+                for c in 0..3 {
+                    let a = _mm256_i32gather_ps::<4>(area[c].as_ptr(), t);
+                    sum[c] = _mm256_add_ps(sum[c], a);
+                }
+            }
+            // No fused multiply-add: the plain function rounds each product.
+            let len2 = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(sum[0], sum[0]), _mm256_mul_ps(sum[1], sum[1])),
+                _mm256_mul_ps(sum[2], sum[2]),
+            );
+            let r = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
+            let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, zero);
+            let unit = [
+                _mm256_and_ps(positive, _mm256_mul_ps(sum[0], r)),
+                _mm256_and_ps(positive, _mm256_mul_ps(sum[1], r)),
+                _mm256_blendv_ps(one, _mm256_mul_ps(sum[2], r), positive),
+            ];
+            for c in 0..3 {
+                _mm256_storeu_ps(normal[c].as_mut_ptr().add(g * LANES), unit[c]);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Seeded xorshift in [0, 1).
+    fn rng(mut s: u64) -> impl FnMut() -> f32 {
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    fn bits(v: &[Vec3]) -> Vec<[u32; 3]> {
+        v.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    }
+
+    /// Random triangle lists with repeated corners, out-of-range indices,
+    /// unused vertices and coincident points (zero normals); counts that are
+    /// and are not multiples of eight, and empty ones.
+    fn cases() -> Vec<(Vec<Vec3>, Vec<[u32; 3]>)> {
+        let mut r = rng(0x9e37_79b9_7f4a_7c15);
+        let mut out = Vec::new();
+        for (n, m) in [
+            (0, 0),
+            (1, 0),
+            (3, 1),
+            (8, 8),
+            (10, 0),
+            (50, 80),
+            (701, 1403),
+        ] {
+            let mut positions: Vec<Vec3> = (0..n).map(|_| Vec3::new(r(), r(), r())).collect();
+            let mut tris: Vec<[u32; 3]> = (0..m)
+                .map(|_| {
+                    let i = |x: f32| (x * (n as f32 + 2.0)) as u32; // sometimes out of range
+                    [i(r()), i(r()), i(r())]
+                })
+                .collect();
+            if n > 4 {
+                positions[3] = positions[2];
+                tris.push([2, 3, 2]); // zero area, a corner twice
+                tris.push([1, 1, 4]);
+                positions[0] = -positions[0]; // signs of every kind
+            }
+            out.push((positions, tris));
+        }
+        out
+    }
+
+    /// Both passes (AVX2 where the CPU has it, and one lane at a time) give
+    /// the plain function's normals bit for bit, also after the points moved.
+    #[test]
+    fn agrees_bit_for_bit_with_the_plain_function() {
+        let mut r = rng(7);
+        for (mut positions, tris) in cases() {
+            let normals = VertexNormals::new(&tris, positions.len());
+            assert_eq!(normals.vertices(), positions.len());
+            let mut scratch = NormalsScratch::default();
+            for _ in 0..2 {
+                let want = bits(&crate::triangle_vertex_normals(&positions, &tris));
+                for cpu in [None, avx2()] {
+                    normals.normals_by_coordinate(&positions, &mut scratch, cpu);
+                    let [x, y, z] = &scratch.normal;
+                    let got: Vec<Vec3> = (0..positions.len())
+                        .map(|v| Vec3::new(x[v], y[v], z[v]))
+                        .collect();
+                    assert_eq!(bits(&got), want, "{} points, {cpu:?}", positions.len());
+                }
+                let mut out = vec![Vec3::X; 3];
+                normals.compute_into(&positions, &mut scratch, &mut out);
+                assert_eq!(bits(&out), want);
+                for p in &mut positions {
+                    *p += Vec3::new(r(), r(), r()) * 0.1;
+                }
+            }
+        }
+    }
+
+    /// The rigid motion turns points and normals as the plain code would.
+    #[test]
+    fn a_rigid_motion_turns_points_and_normals() {
+        let rotation = Mat3::from_quat(glam::Quat::from_rotation_y(0.7));
+        let shift = Vec3::new(1.0, -2.0, 0.5);
+        for (positions, tris) in cases() {
+            let normals = VertexNormals::new(&tris, positions.len());
+            let want_n: Vec<Vec3> = crate::triangle_vertex_normals(&positions, &tris)
+                .iter()
+                .map(|n| rotation * *n)
+                .collect();
+            let want_p: Vec<Vec3> = positions.iter().map(|p| rotation * *p + shift).collect();
+            let (mut moved, mut got) = (positions.clone(), Vec::new());
+            let mut scratch = NormalsScratch::default();
+            normals.moved_into(&mut moved, rotation, shift, &mut scratch, &mut got);
+            assert_eq!((moved, got), (want_p, want_n));
+        }
+    }
+
+    /// Positions of another length go to the plain function, over the
+    /// triangles kept.
+    #[test]
+    fn another_length_falls_back_to_the_plain_function() {
+        let tris = [[0, 1, 2], [2, 3, 4]];
+        let normals = VertexNormals::new(&tris, 3);
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
+        let (mut scratch, mut got) = (NormalsScratch::default(), Vec::new());
+        normals.compute_into(&p, &mut scratch, &mut got);
+        assert_eq!(got, crate::triangle_vertex_normals(&p, &tris[..1]));
+        let mut moved = p;
+        normals.moved_into(&mut moved, Mat3::IDENTITY, Vec3::X, &mut scratch, &mut got);
+        assert_eq!(moved[4], Vec3::ONE + Vec3::X);
+    }
+}

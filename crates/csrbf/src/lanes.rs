@@ -1,0 +1,512 @@
+//! The f32 kernel sum of the vertex-buffer evaluation, eight candidates at
+//! a time.
+//!
+//! A cell's candidate starts are kept by coordinate, relative to the cell's
+//! centre and in units of R (so every value is about 1 and f32 loses
+//! nothing to the model's offset), with their coefficients, and padded to a
+//! multiple of eight with far starts of zero coefficient. A point then
+//! costs one pass over plain arrays with no branch and no gather:
+//!
+//! ```text
+//! d = c - x (3 sub), r^2 (mul + 2 fma), r = sqrt, t = max(1 - r, 0),
+//! phi(t, r) (C2: 4 ops), sum += phi * alpha (3 fma)
+//! ```
+//!
+//! about 16 vector operations per eight candidates, where a hit test and a
+//! scalar kernel per hit cost about 40 instructions per hit. `t = max(1 - r,
+//! 0)` makes phi zero beyond R (every Wendland function is (1 - r)_+^k times
+//! a polynomial), so misses cost the same lanes and need no mask.
+//!
+//! [`sum_plain`] is the reference: the same arithmetic one lane at a time
+//! (without fused multiply-adds), used where the CPU has no AVX2 and FMA.
+
+use glam::{DVec3, Vec3};
+
+use crate::deformation::Deformation;
+use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, for_each_cell_with};
+use crate::kernel::Kernel;
+use crate::octree::Octree;
+use crate::simd::Avx2Fma;
+
+/// Candidates per vector.
+pub(crate) const LANES: usize = 8;
+
+/// Where padding starts sit, in units of R from the cell's centre: far
+/// beyond the support, and small enough that r^2 and phi's polynomial stay
+/// finite for every kernel (so 0 * poly is 0, not NaN).
+const FAR: f32 = 1.0e3;
+
+/// One cell's candidates by coordinate (units of R about `centre`) and
+/// their coefficients, padded to a multiple of [`LANES`].
+#[derive(Debug, Default)]
+pub(crate) struct Lanes {
+    xyz: [Vec<f32>; 3],
+    alpha: [Vec<f32>; 3],
+    /// Candidates before padding.
+    real: usize,
+    centre: DVec3,
+    inv_radius: f64,
+}
+
+impl Lanes {
+    /// The starts within `radius` of the box `lo..hi`, with their
+    /// coefficients, about the box's centre.
+    pub(crate) fn gather(
+        &mut self,
+        octree: &Octree,
+        coefficients: &[DVec3],
+        (lo, hi): (DVec3, DVec3),
+        radius: f64,
+    ) {
+        for v in self.xyz.iter_mut().chain(&mut self.alpha) {
+            v.clear();
+        }
+        self.centre = (lo + hi) * 0.5;
+        self.inv_radius = 1.0 / radius;
+        let (centre, inv) = (self.centre, self.inv_radius);
+        octree.for_each_near_box(lo, hi, radius, |i, p| {
+            let u = (p - centre) * inv;
+            let a = coefficients[i as usize];
+            for c in 0..3 {
+                self.xyz[c].push(u[c] as f32);
+                self.alpha[c].push(a[c] as f32);
+            }
+        });
+        self.real = self.xyz[0].len();
+        let padded = self.real.next_multiple_of(LANES);
+        for c in 0..3 {
+            self.xyz[c].resize(padded, FAR);
+            self.alpha[c].resize(padded, 0.0);
+        }
+    }
+
+    /// Candidates gathered (before padding).
+    pub(crate) fn candidates(&self) -> usize {
+        self.real
+    }
+
+    /// Lanes a point computes (candidates padded to a multiple of eight).
+    pub(crate) fn lanes(&self) -> usize {
+        self.xyz[0].len()
+    }
+
+    /// x in the lanes' frame (units of R about the centre).
+    pub(crate) fn local(&self, x: DVec3) -> [f32; 3] {
+        ((x - self.centre) * self.inv_radius).as_vec3().to_array()
+    }
+
+    /// sum_j alpha_j phi(|x - s_j| / R) over the candidates, `x` given by
+    /// [`Lanes::local`]; with AVX2 and FMA when the proof is given.
+    pub(crate) fn sum(&self, cpu: Option<Avx2Fma>, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = cpu {
+            return sum_avx2(cpu, self, kernel, x);
+        }
+        let _ = cpu;
+        sum_plain(self, kernel, x)
+    }
+}
+
+/// The widest cell, in R, whose kernel sum runs in f32 about its centre
+/// (cells are about R/2 wide when there are enough starts to sort points;
+/// with few starts points run in their own order, a cell may span the
+/// model, and f32 coordinates about its centre would lose digits).
+const LANES_CELL: f64 = 4.0;
+
+/// The finite bounds of a cell's points (an empty box when none is finite).
+fn bounds<P: Point>(points: &[P], idx: &[u32]) -> (DVec3, DVec3) {
+    idx.iter()
+        .map(|&i| points[i as usize].to_dvec3())
+        .filter(|x| x.is_finite())
+        .fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(p), hi.max(p)),
+        )
+}
+
+/// Whether a cell's kernel sum runs in f32 lanes.
+fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
+    (hi - lo).max_element() <= LANES_CELL * radius
+}
+
+/// [`Deformation::displacements_f32`]: by cells, each narrow cell's kernel
+/// sum eight candidates at a time in f32, a wide one's in f64 as
+/// [`Deformation::displacements`] does; the polynomial part in f64.
+pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [Vec3]) {
+    let blocks = Blocks::for_starts(points, d.radius(), d.starts().len());
+    let mut buffer = Vec::new();
+    let sorted = if blocks.identity {
+        &mut *out
+    } else {
+        buffer.resize(points.len(), Vec3::ZERO);
+        &mut buffer[..]
+    };
+    let (kernel, radius, alpha) = (d.kernel(), d.radius(), d.coefficients());
+    let cpu = Avx2Fma::detect();
+    for_each_cell_with(
+        &blocks,
+        sorted,
+        points.len() >= PARALLEL_POINTS,
+        |(s, e), out, (lanes, cand): &mut (Lanes, Candidates)| {
+            let idx = &blocks.order[s..e];
+            let cell = bounds(points, idx);
+            let narrow = narrow(cell, radius);
+            if narrow {
+                lanes.gather(d.octree(), alpha, cell, radius);
+            } else {
+                let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
+                cand.gather(d.octree(), xs, radius);
+            }
+            for (o, &i) in out.iter_mut().zip(idx) {
+                let x = points[i as usize].to_dvec3();
+                if !x.is_finite() {
+                    *o = Vec3::NAN;
+                    continue;
+                }
+                let mut v = d.affine().map_or(DVec3::ZERO, |a| a.eval(x));
+                if narrow {
+                    let sum = lanes.sum(cpu, kernel, lanes.local(x));
+                    v += DVec3::from_array(sum.map(f64::from));
+                } else {
+                    cand.for_each_weight(x, kernel, radius, |j, w| v += alpha[j as usize] * w);
+                }
+                *o = v.as_vec3();
+            }
+        },
+    );
+    if !blocks.identity {
+        for (k, &i) in blocks.order.iter().enumerate() {
+            out[i as usize] = buffer[k];
+        }
+    }
+}
+
+/// What [`Deformation::displacements_f32`] does at some points, counted
+/// ([`Deformation::evaluation_counts`]): the figures a reader needs to set
+/// its time against the machine's arithmetic rate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct EvaluationCounts {
+    /// Points with finite coordinates.
+    pub points: u64,
+    /// Cells, each one octree query for its candidate starts.
+    pub cells: u64,
+    /// Point-candidate pairs visited: every point against every start its
+    /// cell gathered (within R of the cell's bounds).
+    pub candidates: u64,
+    /// Kernel evaluations computed: in f32 lanes, each point's candidates
+    /// rounded up to a multiple of eight; in the f64 path of a wide cell,
+    /// one per hit.
+    pub kernel_evaluations: u64,
+    /// Pairs within R: the nonzero terms of the sums.
+    pub hits: u64,
+}
+
+impl Deformation {
+    /// Counts what [`Deformation::displacements_f32`] does at `points` (the
+    /// same cells, the same candidates), without evaluating: cells,
+    /// candidates visited, kernel evaluations and hits. A separate pass, so
+    /// the evaluation itself carries no counters.
+    pub fn evaluation_counts<P: Point>(&self, points: &[P]) -> EvaluationCounts {
+        let blocks = Blocks::for_starts(points, self.radius(), self.starts().len());
+        let radius = self.radius();
+        let mut counts = vec![EvaluationCounts::default(); blocks.cells.len()];
+        let one_each = Blocks {
+            order: Vec::new(),
+            cells: (0..counts.len()).map(|c| (c, c + 1)).collect(),
+            identity: false,
+        };
+        let parallel = points.len() >= PARALLEL_POINTS;
+        for_each_cell_with(
+            &one_each,
+            &mut counts,
+            parallel,
+            |(c, _), out, (lanes, cand): &mut (Lanes, Candidates)| {
+                let (s, e) = blocks.cells[c];
+                let idx = &blocks.order[s..e];
+                let cell = bounds(points, idx);
+                let narrow = narrow(cell, radius);
+                let (gathered, computed) = if narrow {
+                    lanes.gather(self.octree(), self.coefficients(), cell, radius);
+                    (lanes.candidates(), lanes.lanes())
+                } else {
+                    let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
+                    cand.gather(self.octree(), xs, radius);
+                    (cand.len(), 0)
+                };
+                let n = &mut out[0];
+                n.cells = 1;
+                for &i in idx {
+                    let x = points[i as usize].to_dvec3();
+                    if !x.is_finite() {
+                        continue;
+                    }
+                    let mut hits = 0;
+                    self.octree().for_each_within(x, radius, |_, _| hits += 1);
+                    n.points += 1;
+                    n.candidates += gathered as u64;
+                    n.hits += hits;
+                    n.kernel_evaluations += if narrow { computed as u64 } else { hits };
+                }
+            },
+        );
+        counts
+            .iter()
+            .fold(EvaluationCounts::default(), |a, b| EvaluationCounts {
+                points: a.points + b.points,
+                cells: a.cells + b.cells,
+                candidates: a.candidates + b.candidates,
+                kernel_evaluations: a.kernel_evaluations + b.kernel_evaluations,
+                hits: a.hits + b.hits,
+            })
+    }
+}
+
+/// phi as a function of t = max(1 - r, 0) and r, in f32 (the formulas of
+/// [`Kernel::eval`]).
+#[inline(always)]
+fn phi<const K: u8>(t: f32, r: f32) -> f32 {
+    let fma = |a: f32, b: f32, c: f32| a * b + c;
+    let t2 = t * t;
+    match K {
+        0 => t2,
+        2 => t2 * t2 * fma(4.0, r, 1.0),
+        4 => t2 * t2 * t2 * fma(fma(35.0, r, 18.0), r, 3.0),
+        _ => {
+            let t4 = t2 * t2;
+            t4 * t4 * fma(fma(fma(32.0, r, 25.0), r, 8.0), r, 1.0)
+        }
+    }
+}
+
+/// The sum, eight lanes of accumulators over the padded arrays, in the
+/// order [`sum_avx2_fma`] computes it (which fuses the multiply-adds).
+fn sum_body<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
+    let fma = |a: f32, b: f32, c: f32| a * b + c;
+    let mut acc = [[0.0f32; LANES]; 3];
+    let [xs, ys, zs] = &l.xyz;
+    let [ax, ay, az] = &l.alpha;
+    let chunks = xs
+        .chunks_exact(LANES)
+        .zip(ys.chunks_exact(LANES))
+        .zip(zs.chunks_exact(LANES))
+        .zip(ax.chunks_exact(LANES))
+        .zip(ay.chunks_exact(LANES))
+        .zip(az.chunks_exact(LANES));
+    for (((((cx, cy), cz), ax), ay), az) in chunks {
+        for k in 0..LANES {
+            let (dx, dy, dz) = (cx[k] - x[0], cy[k] - x[1], cz[k] - x[2]);
+            let r = fma(dz, dz, fma(dy, dy, dx * dx)).sqrt();
+            let t = 1.0 - r;
+            let t = if t > 0.0 { t } else { 0.0 };
+            let w = phi::<K>(t, r);
+            acc[0][k] = fma(w, ax[k], acc[0][k]);
+            acc[1][k] = fma(w, ay[k], acc[1][k]);
+            acc[2][k] = fma(w, az[k], acc[2][k]);
+        }
+    }
+    acc.map(|a| ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7])))
+}
+
+/// The reference: [`sum_body`] for the kernel.
+pub(crate) fn sum_plain(l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
+    match kernel {
+        Kernel::C0 => sum_body::<0>(l, x),
+        Kernel::C2 => sum_body::<2>(l, x),
+        Kernel::C4 => sum_body::<4>(l, x),
+        Kernel::C6 => sum_body::<6>(l, x),
+    }
+}
+
+/// [`sum_body`] in AVX2 and FMA intrinsics: eight lanes a register, the
+/// same operations in the same order per lane.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
+    use std::arch::x86_64::*;
+    let [xs, ys, zs] = &l.xyz;
+    let [ax, ay, az] = &l.alpha;
+    let n = [xs, ys, zs, ax, ay, az]
+        .map(|v| v.len())
+        .into_iter()
+        .min()
+        .unwrap_or(0);
+    let n = n - n % LANES;
+    let (px, py, pz) = (
+        _mm256_set1_ps(x[0]),
+        _mm256_set1_ps(x[1]),
+        _mm256_set1_ps(x[2]),
+    );
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let c = _mm256_set1_ps;
+    let mut acc = [zero; 3];
+    for k in (0..n).step_by(LANES) {
+        // SAFETY: k + 8 <= n <= the length of every array.
+        #[allow(unsafe_code)]
+        let [cx, cy, cz, wx, wy, wz] =
+            unsafe { [xs, ys, zs, ax, ay, az].map(|v| _mm256_loadu_ps(v.as_ptr().add(k))) };
+        let (dx, dy, dz) = (
+            _mm256_sub_ps(cx, px),
+            _mm256_sub_ps(cy, py),
+            _mm256_sub_ps(cz, pz),
+        );
+        let r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
+        let r = _mm256_sqrt_ps(r2);
+        let t = _mm256_max_ps(_mm256_sub_ps(one, r), zero);
+        let t2 = _mm256_mul_ps(t, t);
+        let w = match K {
+            0 => t2,
+            2 => _mm256_mul_ps(_mm256_mul_ps(t2, t2), _mm256_fmadd_ps(c(4.0), r, one)),
+            4 => {
+                let p = _mm256_fmadd_ps(_mm256_fmadd_ps(c(35.0), r, c(18.0)), r, c(3.0));
+                _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(t2, t2), t2), p)
+            }
+            _ => {
+                let t4 = _mm256_mul_ps(t2, t2);
+                let p = _mm256_fmadd_ps(c(32.0), r, c(25.0));
+                let p = _mm256_fmadd_ps(_mm256_fmadd_ps(p, r, c(8.0)), r, one);
+                _mm256_mul_ps(_mm256_mul_ps(t4, t4), p)
+            }
+        };
+        acc = [
+            _mm256_fmadd_ps(w, wx, acc[0]),
+            _mm256_fmadd_ps(w, wy, acc[1]),
+            _mm256_fmadd_ps(w, wz, acc[2]),
+        ];
+    }
+    acc.map(|a| {
+        let mut v = [0.0f32; LANES];
+        // SAFETY: `v` holds eight f32.
+        #[allow(unsafe_code)]
+        unsafe {
+            _mm256_storeu_ps(v.as_mut_ptr(), a)
+        };
+        ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]))
+    })
+}
+
+/// [`sum_avx2_fma`] for the kernel, behind the proof.
+#[cfg(target_arch = "x86_64")]
+fn sum_avx2(cpu: Avx2Fma, l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
+    let _ = cpu;
+    // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+    #[allow(unsafe_code)]
+    unsafe {
+        match kernel {
+            Kernel::C0 => sum_avx2_fma::<0>(l, x),
+            Kernel::C2 => sum_avx2_fma::<2>(l, x),
+            Kernel::C4 => sum_avx2_fma::<4>(l, x),
+            Kernel::C6 => sum_avx2_fma::<6>(l, x),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic::Rng;
+
+    /// The plain f64 sum over every start within R of `x`.
+    fn reference(starts: &[DVec3], alpha: &[DVec3], kernel: Kernel, r: f64, x: DVec3) -> DVec3 {
+        starts
+            .iter()
+            .zip(alpha)
+            .map(|(s, a)| *a * kernel.eval(s.distance(x) / r))
+            .sum()
+    }
+
+    /// Both copies agree with the f64 sum to f32 accuracy (relative to the
+    /// sum of |alpha_j| within R, the scale of the rounding), for every kernel,
+    /// candidate counts that are and are not multiples of eight (and none),
+    /// starts far from the origin, and the AVX2 copy with the plain
+    /// one (where the CPU has it; elsewhere the plain one is checked alone).
+    #[test]
+    fn agrees_with_the_f64_sum_with_and_without_avx2() {
+        let mut rng = Rng::new(18);
+        for kernel in [Kernel::C0, Kernel::C2, Kernel::C4, Kernel::C6] {
+            for n in [0, 1, 7, 8, 9, 30, 64, 203] {
+                let r = 0.05 + 0.2 * rng.f64();
+                let offset = DVec3::new(3.0, -2.0, 0.5); // far from the origin
+                let starts: Vec<DVec3> = (0..n).map(|_| offset + rng.vec3() * 0.3).collect();
+                let alpha: Vec<DVec3> = (0..n).map(|_| rng.vec3() * 4.0 - 2.0).collect();
+                let octree = Octree::new(&starts);
+                let (lo, hi) = (offset + 0.1, offset + 0.1 + r * 0.5);
+                let mut lanes = Lanes::default();
+                lanes.gather(&octree, &alpha, (lo, hi), r);
+                assert_eq!(lanes.lanes() % LANES, 0);
+                assert!(lanes.candidates() <= n && lanes.lanes() < lanes.candidates() + LANES);
+                for _ in 0..20 {
+                    let x = lo + (hi - lo) * rng.vec3();
+                    let want = reference(&starts, &alpha, kernel, r, x);
+                    // f32 rounds r and phi by about 1e-7 (phi and its slope
+                    // are at most a few): the error scales with the
+                    // coefficients in reach.
+                    let scale: f64 = starts
+                        .iter()
+                        .zip(&alpha)
+                        .filter(|(s, _)| s.distance(x) < r)
+                        .map(|(_, a)| a.length())
+                        .sum::<f64>()
+                        + 1e-30;
+                    let plain =
+                        DVec3::from_array(sum_plain(&lanes, kernel, lanes.local(x)).map(f64::from));
+                    let fast = DVec3::from_array(
+                        lanes
+                            .sum(Avx2Fma::detect(), kernel, lanes.local(x))
+                            .map(f64::from),
+                    );
+                    for (got, what) in [(plain, "plain"), (fast, "fast")] {
+                        let err = (got - want).length() / scale;
+                        assert!(err < 2e-6, "{kernel:?} n {n} {what}: error {err:e}");
+                    }
+                    assert!((fast - plain).length() / scale < 2e-6);
+                }
+            }
+        }
+    }
+
+    /// `displacements_f32` (cells, f32 lanes) against `displacements` (f64)
+    /// on scenes with enough starts to sort points into cells, with and
+    /// without the polynomial part, a point count that is no multiple of
+    /// eight, a non-finite point; and its counts against brute force.
+    #[test]
+    fn the_f32_evaluation_agrees_with_the_f64_one_and_is_counted() {
+        use crate::{Deformation, Polynomial};
+        for poly in [Polynomial::None, Polynomial::Linear] {
+            let s = crate::synthetic::scene_of("t", 3001, 300, None);
+            let options = s.options.with_polynomial(poly);
+            let d = Deformation::fit(&s.starts, &s.targets, options).expect("fit");
+            let mut points = s.points.clone();
+            points[17].x = f32::NAN;
+            let (got, want) = (d.displacements_f32(&points), d.displacements(&points));
+            let radius = d.radius();
+            let mut pairs = 0;
+            for (k, p) in points.iter().enumerate() {
+                if k == 17 {
+                    assert!(got[k].is_nan() && want[k].is_nan());
+                    continue;
+                }
+                let p = p.as_dvec3();
+                let near = d.starts().iter().zip(d.coefficients());
+                let near = near.filter(|(s, _)| s.distance(p) < radius);
+                let scale: f64 = near.map(|(_, a)| a.length()).sum::<f64>() + 1e-30;
+                pairs += d.starts().iter().filter(|s| s.distance(p) < radius).count() as u64;
+                let err = (got[k].as_dvec3() - want[k]).length();
+                assert!(
+                    err <= 2e-6 * scale + 1e-7 * want[k].length(),
+                    "{k}: {err:e}"
+                );
+            }
+            let c = d.evaluation_counts(&points);
+            assert_eq!(c.points, points.len() as u64 - 1);
+            assert_eq!(c.hits, pairs);
+            assert!(c.cells > 1 && c.candidates >= c.hits);
+            assert!(c.kernel_evaluations >= c.candidates);
+            assert!(c.kernel_evaluations < c.candidates + LANES as u64 * c.points);
+        }
+    }
+}
