@@ -126,11 +126,28 @@ fn displacements_into(
     out: &mut OutData<'_>,
 ) -> csrbf::Result<()> {
     match (points, out) {
-        (View::F32(p), OutData::F32(o)) => d.displacements_f32_into(p, o),
+        (View::F32(p), OutData::F32(o)) => rounded(o, |wide| d.displacements_into(p, wide)),
         (View::F64(p), OutData::F64(o)) => d.displacements_into(p, o),
-        (View::F64(p), OutData::F32(o)) => d.displacements_f32_into(p, o),
+        (View::F64(p), OutData::F32(o)) => rounded(o, |wide| d.displacements_into(p, wide)),
         (View::F32(p), OutData::F64(o)) => d.displacements_into(p, o),
     }
+}
+
+/// D evaluated in f64 (by `fill`) and rounded once into `out`: the package
+/// gives the values it always has, to f32's last bit. The engine's faster
+/// f32 lanes (`Deformation::displacements_f32`) agree only to about 1e-7 of
+/// the sum of |alpha| within R, which is more than a binding and a
+/// deformation may differ by here (1e-6 of the move).
+fn rounded(
+    out: &mut [Vec3],
+    fill: impl FnOnce(&mut [DVec3]) -> csrbf::Result<()>,
+) -> csrbf::Result<()> {
+    let mut wide = vec![DVec3::ZERO; out.len()];
+    fill(&mut wide)?;
+    for (o, w) in out.iter_mut().zip(&wide) {
+        *o = w.as_vec3();
+    }
+    Ok(())
 }
 
 /// An output buffer seen as vectors.
