@@ -11,12 +11,22 @@ use csrbf::{Combine, DiagnoseOptions, Diagnostics, FittedStage, compose_diagnose
 use csrbf_mesh::Mesh;
 use glam::Vec3;
 
+/// Meshes of at most this many triangles are searched for faces passing
+/// through each other unless told otherwise ([`Checks::self_intersections`]).
+/// See the README's figures for what the search costs.
+pub const SELF_INTERSECTION_TRIANGLES: usize = 2_000_000;
+
 /// What is checked of a deformed mesh beyond moves and folds.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[non_exhaustive]
 pub struct Checks {
     /// The engine's options (the stretch limit; default 4).
     pub diagnose: DiagnoseOptions,
+    /// Whether to look for faces passing through each other that did not
+    /// at rest: `None` (default) for meshes of at most
+    /// [`SELF_INTERSECTION_TRIANGLES`] triangles, `Some(true)` always,
+    /// `Some(false)` never.
+    pub self_intersections: Option<bool>,
 }
 
 impl Checks {
@@ -25,11 +35,25 @@ impl Checks {
         self.diagnose = self.diagnose.with_stretch_limit(limit);
         self
     }
+
+    /// Self-intersections always (`Some(true)`), never, or by size (`None`).
+    pub fn with_self_intersections(mut self, check: Option<bool>) -> Self {
+        self.self_intersections = check;
+        self
+    }
+
+    /// Whether a mesh of `triangles` triangles is searched.
+    pub fn searches(&self, triangles: usize) -> bool {
+        self.self_intersections
+            .unwrap_or(triangles <= SELF_INTERSECTION_TRIANGLES)
+    }
 }
 
 /// Deforms `mesh`'s positions by fitted `stages` (each at its own phase)
-/// and diagnoses the result (moves, folds, stretch) as `checks` says. The
-/// positions are returned; the mesh is not changed.
+/// and diagnoses the result: the engine's figures (moves, folds, stretch)
+/// and, as `checks` says, the faces that pass through each other in the
+/// deformed mesh but not at rest (`csrbf_mesh::intersect`). The positions
+/// are returned; the mesh is not changed.
 pub fn compose_checked(
     mesh: &Mesh,
     stages: &[FittedStage],
@@ -38,7 +62,7 @@ pub fn compose_checked(
 ) -> Result<(Vec<Vec3>, Diagnostics), csrbf::Error> {
     let triangles = mesh.faces.triangles();
     let lookup = |n: &str| mesh.part_vertices(n);
-    let (moved, report) = compose_diagnosed_with(
+    let (moved, mut report) = compose_diagnosed_with(
         &mesh.positions,
         stages,
         combine,
@@ -46,6 +70,13 @@ pub fn compose_checked(
         &lookup,
         &checks.diagnose,
     )?;
+    if checks.searches(triangles.len()) {
+        report.set_self_intersections(csrbf_mesh::intersect::new_self_intersections(
+            &mesh.positions,
+            &moved,
+            &triangles,
+        ));
+    }
     Ok((moved, report))
 }
 

@@ -214,12 +214,21 @@ pub struct CheckArgs {
     /// List (and warn of) faces stretched more than this factor: the largest singular value of a face's rest-to-deformed map, a finite number >= 1.
     #[arg(long, default_value_t = csrbf::STRETCH_LIMIT)]
     pub stretch_limit: f64,
+    /// Look for faces that pass through each other in the result but not at rest: auto (meshes of at most 2M triangles), on or off.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "on", "off"])]
+    pub self_intersections: String,
 }
 
 impl CheckArgs {
     /// The checks these flags ask for; a bad stretch limit names its flag.
     pub fn checks(&self) -> Result<csrbf_anim::apply::Checks> {
-        let checks = csrbf_anim::apply::Checks::default().with_stretch_limit(self.stretch_limit);
+        let checks = csrbf_anim::apply::Checks::default()
+            .with_stretch_limit(self.stretch_limit)
+            .with_self_intersections(match self.self_intersections.as_str() {
+                "on" => Some(true),
+                "off" => Some(false),
+                _ => None,
+            });
         checks.diagnose.check().context("--stretch-limit")?;
         Ok(checks)
     }

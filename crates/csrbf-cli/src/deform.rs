@@ -145,7 +145,7 @@ pub(crate) fn move_and_write(
     // The stages' phases were scaled by `phase`: the fold phase is a share of it.
     let fold_phase = report.fold_phase.map(|s| s * phase);
     progress.say(format_args!(
-        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) inside out{}, {}",
+        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) inside out{}, {}, {}",
         m.positions.len(),
         report.moved,
         report.largest_move,
@@ -158,6 +158,7 @@ pub(crate) fn move_and_write(
             .map(|p| format!(", folds from phase {p:.2} on"))
             .unwrap_or_default(),
         stretch_said(&report),
+        intersections_said(&report),
     ));
     for w in &report.warnings {
         eprintln!("warning: {w}");
@@ -187,6 +188,11 @@ pub(crate) fn move_and_write(
             "stretch_limit": report.stretch_limit,
             "stretched_faces": report.stretched.len(),
             "stretched": report.stretched.iter().take(1000).collect::<Vec<_>>(),
+            "self_intersections": report.self_intersections.as_ref().map(Vec::len),
+            "self_intersecting": report
+                .self_intersections
+                .as_ref()
+                .map(|p| p.iter().take(1000).collect::<Vec<_>>()),
 
             "warnings": report.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
             "deform_ms": deform_ms,
@@ -208,4 +214,12 @@ fn stretch_said(r: &Diagnostics) -> String {
         r.stretched.len(),
         r.stretch_limit
     )
+}
+
+/// "2 pair(s) of faces newly intersecting", or that it was not looked for.
+fn intersections_said(r: &Diagnostics) -> String {
+    match &r.self_intersections {
+        Some(p) => format!("{} pair(s) of faces newly intersecting", p.len()),
+        None => "self-intersections not checked".into(),
+    }
 }

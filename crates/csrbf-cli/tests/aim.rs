@@ -129,11 +129,12 @@ fn a_handle_turns_suzannes_ear_as_a_rigid_body_folding_only_in_the_bend() {
     if !inside_out.is_empty() {
         assert!(v["fold_phase"].as_f64().expect("fold phase") > 0.75, "{v}");
     }
+    // The folded bend also passes through itself (issue 23): the only other warning.
     let warnings = v["warnings"].as_array().expect("warnings");
     assert!(
-        warnings
-            .iter()
-            .all(|w| w.as_str().is_some_and(|w| w.contains("inside out"))),
+        warnings.iter().all(|w| w
+            .as_str()
+            .is_some_and(|w| w.contains("inside out") || w.contains("pass through each other"))),
         "{v}"
     );
     let b = csrbf_mesh::read(&out).expect("out");

@@ -13,22 +13,7 @@ fn stretched_faces_are_listed_and_the_limit_is_checked() {
         r#"{"radius": 3, "controls": [{"from": [2.15, 10.18, 4.42], "to": [2.15, 10.18, 12.0]}]}"#,
     );
     let out = dir.path("out.ply");
-    let run = |limit: &str| {
-        let json = ok(&[
-            "deform",
-            "-q",
-            "--mesh",
-            arg(&head),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&out),
-            "--json",
-            "--stretch-limit",
-            limit,
-        ]);
-        serde_json::from_str::<serde_json::Value>(&json).expect("json")
-    };
+    let run = |limit: &str| deform_json(&head, &c, &out, &["--stretch-limit", limit]);
     let four = run("4");
     let two = run("2");
     let largest = four["largest_stretch"].as_f64().expect("largest_stretch");

@@ -279,6 +279,34 @@ impl Bvh {
     }
 }
 
+impl Bvh {
+    /// Calls `f` with the triangles of every leaf whose box overlaps the box
+    /// `[lo, hi]` (touching counts): every triangle that can meet that box,
+    /// and a few more.
+    pub fn for_each_overlap(&self, lo: Vec3, hi: Vec3, mut f: impl FnMut(u32)) {
+        if self.order.is_empty() {
+            return;
+        }
+        let overlaps = |n: &Node| n.lo.cmple(hi).all() && n.hi.cmpge(lo).all();
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n];
+            if !overlaps(node) {
+                continue;
+            }
+            if node.is_leaf() {
+                let range = node.first as usize..(node.first + node.count) as usize;
+                for &t in &self.order[range] {
+                    f(t);
+                }
+            } else {
+                stack.push(node.first as usize);
+                stack.push(node.first as usize + 1);
+            }
+        }
+    }
+}
+
 /// Entry distance of the ray into the box, if it enters before `limit`.
 fn slab(node: &Node, origin: Vec3, inv: Vec3, limit: f32) -> Option<f32> {
     let t0 = (node.lo - origin) * inv;
@@ -346,11 +374,11 @@ pub fn cast_brute_force(positions: &[Vec3], triangles: &[[u32; 3]], ray: &Ray) -
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A seeded generator (xorshift), enough for test inputs.
-    struct Rng(u64);
+    pub(crate) struct Rng(pub(crate) u64);
     impl Rng {
         fn next(&mut self) -> f32 {
             self.0 ^= self.0 << 13;
@@ -358,7 +386,8 @@ mod tests {
             self.0 ^= self.0 << 17;
             (self.0 >> 40) as f32 / (1u64 << 24) as f32
         }
-        fn v(&mut self) -> Vec3 {
+        /// A point in [-1, 1]^3.
+        pub(crate) fn v(&mut self) -> Vec3 {
             Vec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0
         }
     }

@@ -31,6 +31,7 @@ mod error;
 /// The file formats.
 pub mod formats;
 mod geometry;
+pub mod intersect;
 mod io;
 mod normals;
 pub mod shapes;

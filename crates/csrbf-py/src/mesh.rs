@@ -321,6 +321,7 @@ pub struct PyReport {
     #[pyo3(get)]
     stretch_limit: f64,
     stretched: Vec<u32>,
+    self_intersections: Option<Vec<[u32; 2]>>,
     /// What to worry about, one sentence each (past the fold-free bound,
     /// starts out of reach, empty regions, seams, a polynomial that moved
     /// the whole model).
@@ -329,7 +330,7 @@ pub struct PyReport {
     /// A stable name for each warning, in the same order, to filter on:
     /// "empty_region", "past_fold_free_bound", "starts_far_from_mesh",
     /// "support_crosses_region", "polynomial_leak", "flipped_faces",
-    /// "inside_out", "stretched".
+    /// "inside_out", "stretched", "self_intersecting".
     #[pyo3(get)]
     warning_kinds: Vec<&'static str>,
 }
@@ -375,6 +376,23 @@ impl PyReport {
         self.stretched.len()
     }
 
+    /// Pairs of triangles (indices into `Mesh.triangles`, one pair a row,
+    /// uint32 of shape (n, 2)) that pass through each other in the deformed
+    /// mesh but not at rest; None when not looked for (`self_intersections=`).
+    #[getter]
+    fn self_intersections<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<u32>>> {
+        self.self_intersections.as_ref().map(|p| {
+            let a = PyArray2::<u32>::zeros(py, [p.len(), 2], false);
+            {
+                let mut w = a.readwrite();
+                for (o, pair) in arrays::data_mut(&mut w).chunks_mut(2).zip(p) {
+                    o.copy_from_slice(pair);
+                }
+            }
+            a
+        })
+    }
+
     /// The figures as `csrbf deform --json` prints them (without the output
     /// path and the time).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -401,6 +419,16 @@ impl PyReport {
         d.set_item(
             "stretched",
             self.stretched.iter().take(1000).collect::<Vec<_>>(),
+        )?;
+        d.set_item(
+            "self_intersections",
+            self.self_intersections.as_ref().map(Vec::len),
+        )?;
+        d.set_item(
+            "self_intersecting",
+            self.self_intersections
+                .as_ref()
+                .map(|p| p.iter().take(1000).map(|x| x.to_vec()).collect::<Vec<_>>()),
         )?;
         d.set_item("warnings", &self.warnings)?;
         Ok(d)
@@ -441,6 +469,7 @@ impl PyReport {
             largest_stretch_face: d.largest_stretch_face,
             stretch_limit: d.stretch_limit,
             stretched: d.stretched,
+            self_intersections: d.self_intersections,
             warnings: d.warnings.iter().map(ToString::to_string).collect(),
             warning_kinds: d.warnings.iter().map(|w| w.kind()).collect(),
         }
@@ -482,15 +511,19 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
 ///     allow_large: fit even systems estimated past the 4 GB limit.
 ///     stretch_limit: triangles stretched more than this (a finite number
 ///         >= 1) are listed in `Report.stretched` and warned of.
+///     self_intersections: look for faces passing through each other that
+///         did not at rest: None (meshes of at most 2M triangles), True or
+///         False.
 ///
 /// Returns:
 ///     (the deformed Mesh, a Report: moved, largest_move, inside_out,
-///     largest_stretch, stretched, warnings); the input mesh is not changed.
+///     largest_stretch, stretched, self_intersections, warnings); the
+///     input mesh is not changed.
 ///
 /// >>> out, report = csrbf.deform_mesh(mesh, "smile.json", phase=1.0)
 /// >>> report.moved, report.warnings
 #[pyfunction]
-#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false, stretch_limit = csrbf::STRETCH_LIMIT))]
+#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false, stretch_limit = csrbf::STRETCH_LIMIT, self_intersections = None))]
 pub fn deform_mesh(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
@@ -498,8 +531,11 @@ pub fn deform_mesh(
     phase: f64,
     allow_large: bool,
     stretch_limit: f64,
+    self_intersections: Option<bool>,
 ) -> PyResult<(PyMesh, PyReport)> {
-    let checks = csrbf_anim::apply::Checks::default().with_stretch_limit(stretch_limit);
+    let checks = csrbf_anim::apply::Checks::default()
+        .with_stretch_limit(stretch_limit)
+        .with_self_intersections(self_intersections);
     checks
         .diagnose
         .check()

@@ -45,3 +45,20 @@ def test_a_bad_stretch_limit_is_named():
     for bad in [0.5, float("nan"), float("inf")]:
         with pytest.raises(ValueError, match="stretch_limit"):
             csrbf.deform_mesh(mesh, PULL, stretch_limit=bad)
+
+
+def test_faces_pushed_through_each_other_are_reported():
+    from test_regions import hairpin
+
+    mesh, _ = hairpin()
+    push = {"radius": 0.5, "controls": [{"from": [0.2, -1.5, 0.5], "to": [-0.15, -1.5, 0.5]}]}
+    _, report = csrbf.deform_mesh(mesh, push)
+    pairs = report.self_intersections
+    assert pairs is not None and pairs.dtype == np.uint32 and pairs.shape[1] == 2 and len(pairs) > 0
+    assert (pairs[:, 0] < pairs[:, 1]).all()
+    assert "self_intersecting" in report.warning_kinds
+    assert report.to_dict()["self_intersections"] == len(pairs)
+    _, off = csrbf.deform_mesh(mesh, push, self_intersections=False)
+    assert off.self_intersections is None
+    _, small = csrbf.deform_mesh(mesh, {**push, "controls": [{"from": [0.2, -1.5, 0.5], "to": [0.25, -1.5, 0.5]}]})
+    assert small.self_intersections.shape == (0, 2)

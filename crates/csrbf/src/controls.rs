@@ -908,21 +908,12 @@ fn parse_plain_region(v: &Value, at: &str, origin: Origin) -> Result<Region, Con
         "vertices" => Region::Vertices(indices(Some(body), &here)?),
         "connected" => parse_connected(body, &here, origin)?,
         "weights" => {
-            let o = body.as_object().ok_or_else(|| {
-                err(
-                    &here,
-                    "expected {\"vertices\": [i, ...], \"weights\": [w, ...]}",
-                )
-            })?;
-            if let Some(k) = o
-                .keys()
-                .find(|k| !["vertices", "weights"].contains(&k.as_str()))
-            {
-                return Err(err(
-                    &format!("{here}.{k}"),
-                    "unknown key: expected \"vertices\" and \"weights\"",
-                ));
-            }
+            let o = object_of(
+                body,
+                &here,
+                &["vertices", "weights"],
+                "{\"vertices\": [i, ...], \"weights\": [w, ...]}",
+            )?;
             let vertices = indices(o.get("vertices"), &format!("{here}.vertices"))?;
             let wat = format!("{here}.weights");
             let list = o
@@ -991,23 +982,34 @@ fn indices(v: Option<&Value>, at: &str) -> Result<Vec<u32>, ControlError> {
     Ok(out)
 }
 
-/// `{"distance": d, "from": "starts" | "handle"}` (`from` defaults to `origin`).
-fn parse_connected(body: &Value, at: &str, origin: Origin) -> Result<Region, ControlError> {
-    let o = body.as_object().ok_or_else(|| {
-        err(
-            at,
-            "expected {\"distance\": d, \"from\": \"starts\" or \"handle\"}",
-        )
-    })?;
-    if let Some(k) = o
-        .keys()
-        .find(|k| !["distance", "from"].contains(&k.as_str()))
-    {
+/// The object at `at` (shaped like `shape`), refusing keys not in `keys`.
+fn object_of<'a>(
+    v: &'a Value,
+    at: &str,
+    keys: &[&str],
+    shape: &str,
+) -> Result<&'a Map<String, Value>, ControlError> {
+    let o = v
+        .as_object()
+        .ok_or_else(|| err(at, format!("expected {shape}")))?;
+    if let Some(k) = o.keys().find(|k| !keys.contains(&k.as_str())) {
+        let names: Vec<String> = keys.iter().map(|k| format!("{k:?}")).collect();
         return Err(err(
             &format!("{at}.{k}"),
-            "unknown key: expected \"distance\" and \"from\"",
+            format!("unknown key: expected {}", names.join(" and ")),
         ));
     }
+    Ok(o)
+}
+
+/// `{"distance": d, "from": "starts" | "handle"}` (`from` defaults to `origin`).
+fn parse_connected(body: &Value, at: &str, origin: Origin) -> Result<Region, ControlError> {
+    let o = object_of(
+        body,
+        at,
+        &["distance", "from"],
+        "{\"distance\": d, \"from\": \"starts\" or \"handle\"}",
+    )?;
     let dat = format!("{at}.distance");
     let distance = match o.get("distance") {
         None => {

@@ -121,6 +121,14 @@ pub enum Warning {
         /// The limit.
         limit: f64,
     },
+    /// Faces that pass through each other where at rest they did not (see
+    /// [`Diagnostics::self_intersections`]).
+    SelfIntersecting {
+        /// How many pairs.
+        count: usize,
+        /// The first few pairs, by triangle index.
+        pairs: Vec<[u32; 2]>,
+    },
 }
 
 impl Warning {
@@ -128,7 +136,7 @@ impl Warning {
     /// or act on kinds (the Python package's `Report.warning_kinds`, the
     /// Blender extension): `empty_region`, `past_fold_free_bound`,
     /// `starts_far_from_mesh`, `support_crosses_region`, `polynomial_leak`,
-    /// `flipped_faces`, `inside_out`, `stretched`.
+    /// `flipped_faces`, `inside_out`, `stretched`, `self_intersecting`.
     pub fn kind(&self) -> &'static str {
         match self {
             Warning::EmptyRegion { .. } => "empty_region",
@@ -139,6 +147,7 @@ impl Warning {
             Warning::FlippedFaces { .. } => "flipped_faces",
             Warning::InsideOut { .. } => "inside_out",
             Warning::Stretched { .. } => "stretched",
+            Warning::SelfIntersecting { .. } => "self_intersecting",
         }
     }
 }
@@ -285,6 +294,19 @@ impl fmt::Display for Numbered<'_> {
                     *count
                 )
             ),
+            Warning::SelfIntersecting { count, pairs } => {
+                let shown: Vec<String> = pairs.iter().map(|[a, b]| format!("{a}/{b}")).collect();
+                write!(
+                    f,
+                    "{count} pair(s) of faces pass through each other where at rest they did not (triangles {}{}): the surface runs into itself",
+                    shown.join(", "),
+                    if *count > pairs.len() {
+                        format!(" and {} more", count - pairs.len())
+                    } else {
+                        String::new()
+                    }
+                )
+            }
         }
     }
 }
@@ -320,8 +342,31 @@ pub struct Diagnostics {
     pub stretched: Vec<u32>,
     /// The limit `stretched` was judged by ([`DiagnoseOptions::stretch_limit`]).
     pub stretch_limit: f64,
+    /// Pairs of triangles `[i, j]` (i < j, ascending) that pass through each
+    /// other in the deformed mesh but not at rest; None when not checked.
+    /// The engine does not look (it knows no mesh structure to search
+    /// with): `csrbf_mesh::intersect` does, and the callers that hold a mesh
+    /// (`csrbf_anim::apply`, so the CLI and the Python package) set it with
+    /// [`Diagnostics::set_self_intersections`].
+    pub self_intersections: Option<Vec<[u32; 2]>>,
     /// Everything worth a warning, in the order found.
     pub warnings: Vec<Warning>,
+}
+
+impl Diagnostics {
+    /// Records the pairs of triangles that pass through each other in the
+    /// deformed mesh but not at rest, with a warning when there are any.
+    pub fn set_self_intersections(&mut self, pairs: Vec<[u32; 2]>) {
+        self.warnings
+            .retain(|w| !matches!(w, Warning::SelfIntersecting { .. }));
+        if !pairs.is_empty() {
+            self.warnings.push(Warning::SelfIntersecting {
+                count: pairs.len(),
+                pairs: pairs.iter().copied().take(LISTED).collect(),
+            });
+        }
+        self.self_intersections = Some(pairs);
+    }
 }
 
 /// What the diagnostics judge by.
@@ -633,6 +678,7 @@ fn diagnose_with(
         largest_stretch_face: stretch.face,
         stretched: stretch.over,
         stretch_limit: options.stretch_limit,
+        self_intersections: None,
         moved: moved_count,
         largest_move: largest.map(|m| *m.1).unwrap_or(0.0),
         largest_move_vertex: largest.map(|m| m.0 as u32),
