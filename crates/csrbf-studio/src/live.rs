@@ -74,6 +74,16 @@ impl Live {
             &lookup,
         )
         .map_err(|source| LiveError { layer, source })?;
+        let mut report = report;
+        // Faces the edit made pass through each other (as `csrbf deform`
+        // checks them: up to its limit of triangles).
+        if self.triangles.len() <= csrbf_anim::apply::SELF_INTERSECTION_TRIANGLES {
+            report.set_self_intersections(csrbf_mesh::intersect::new_self_intersections(
+                &doc.mesh.positions,
+                &self.positions,
+                &self.triangles,
+            ));
+        }
         self.diagnostics = Some(report);
         if let Some(b) = self.bvh.as_mut() {
             b.refit(&self.positions);

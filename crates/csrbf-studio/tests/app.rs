@@ -1257,3 +1257,19 @@ fn head_pulled(
     settle(&mut h);
     (h, tip, diag)
 }
+
+/// Issue 23 (diagnostics beyond folds): the preview checks the faces an
+/// edit made pass through each other, as `csrbf deform` does; a gentle pull
+/// makes none, and the panel says so.
+#[test]
+fn the_preview_checks_for_faces_passing_through_each_other() {
+    let mut h = head("crossing");
+    pull_nose(&mut h);
+    let d = h
+        .state()
+        .preview_frame()
+        .and_then(|f| f.diagnostics.clone())
+        .expect("diagnosed");
+    assert_eq!(d.self_intersections.as_deref(), Some(&[][..]));
+    h.get_by_label("no face passes through another");
+}

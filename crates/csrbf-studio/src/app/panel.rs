@@ -305,6 +305,23 @@ impl Picker {
             );
         }
         stretch_ui(ui, d);
+        match d.self_intersections.as_deref() {
+            Some([]) => {
+                ui.label("no face passes through another");
+            }
+            Some(pairs) => {
+                ui.colored_label(
+                    egui::Color32::from_rgb(255, 160, 40),
+                    format!(
+                        "{} through each other (outlined in orange)",
+                        count(pairs.len(), "pair of faces passes", "pairs of faces pass")
+                    ),
+                );
+            }
+            None => {
+                ui.label("self-intersections not checked (a mesh this big)");
+            }
+        }
         for w in &d.warnings {
             ui.colored_label(
                 egui::Color32::from_rgb(255, 200, 80),

@@ -702,7 +702,8 @@ fn control_overlay(m: &Model, v: &ViewSettings, overlay: &mut Vec<Line>) {
 }
 
 /// Faces inside out and creases in red, faces stretched past the limit in
-/// magenta, over the surface at `positions`.
+/// magenta, faces passing through each other in orange, over the surface
+/// at `positions`.
 fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
     let Some(d) = m.preview.latest().and_then(|f| f.diagnostics.as_ref()) else {
         return;
@@ -712,7 +713,9 @@ fn fold_lines(m: &Model, positions: &[Vec3], lines: &mut Vec<Line>) {
     let magenta = [0.85, 0.25, 0.85, 1.0];
     let folded = d.inside_out.iter().chain(&d.flipped).map(|&t| (t, red));
     let stretched = d.stretched.iter().map(|&t| (t, magenta));
-    for (t, color) in folded.chain(stretched).take(50_000) {
+    let orange = [1.0, 0.6, 0.1, 1.0];
+    let crossing = (d.self_intersections.iter().flatten()).flat_map(|p| p.map(|t| (t, orange)));
+    for (t, color) in folded.chain(stretched).chain(crossing).take(50_000) {
         let Some(t) = tris.get(t as usize) else {
             continue;
         };
