@@ -461,15 +461,7 @@ fn the_recovery_file_brings_back_an_unsaved_session() {
 fn a_handle_turns_a_chosen_part_as_a_rotation() {
     // The wing of the bundled airplane... a long thin part; the head's
     // nose is too short. Use Suzanne's left ear.
-    // Tall enough for the side panel's handle section without scrolling.
-    let mut h = open_sized(
-        Args {
-            mesh: Some(model("assimp_Suzanne_248.obj")),
-            controls: None,
-        },
-        "handle",
-        [1280.0, 1400.0],
-    );
+    let mut h = suzanne_tall("handle");
     let doc = h.state().document().expect("open").clone();
     let (lo, hi) = doc.mesh.bounds().expect("bounds");
     // The ear: vertices beyond 75 % of the half-width on +X.
@@ -978,14 +970,7 @@ fn a_dragged_start_carries_its_vector_and_ctrl_moves_it_alone() {
 /// rotation, and the selection's centre is back with one button.
 #[test]
 fn a_handles_pivot_is_picked_on_the_surface() {
-    let mut h = open_sized(
-        Args {
-            mesh: Some(model("assimp_Suzanne_248.obj")),
-            controls: None,
-        },
-        "pivot",
-        [1280.0, 1400.0],
-    );
+    let mut h = suzanne_tall("pivot");
     h.get_by_label("Vertices").click();
     h.run_steps(1);
     let (_, size, _, _) = h.state().viewport_camera().expect("open");
@@ -1272,4 +1257,17 @@ fn the_preview_checks_for_faces_passing_through_each_other() {
         .expect("diagnosed");
     assert_eq!(d.self_intersections.as_deref(), Some(&[][..]));
     h.get_by_label("no face passes through another");
+}
+
+/// The bundled Suzanne in a window tall enough for the side panel's handle
+/// section without scrolling.
+fn suzanne_tall(test: &str) -> Harness<'static, StudioApp> {
+    open_sized(
+        Args {
+            mesh: Some(model("assimp_Suzanne_248.obj")),
+            controls: None,
+        },
+        test,
+        [1280.0, 1400.0],
+    )
 }
