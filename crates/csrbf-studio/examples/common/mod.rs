@@ -16,7 +16,8 @@ pub fn ms(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
 
-/// A texture of the picture's size to draw into.
+/// A texture of the picture's size to draw into (not every example draws).
+#[allow(dead_code)]
 pub fn target(sr: &SceneRenderer) -> wgpu::TextureView {
     let r = sr.renderer();
     let (w, h) = r.size();
