@@ -9,6 +9,7 @@
 //! with diagnostics.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -54,7 +55,18 @@ pub struct Preview {
     worker: Option<JoinHandle<()>>,
     generation: u64,
     latest: Option<PreviewFrame>,
+    /// Whether the newest request is a drag step (positions only).
+    step_sent: bool,
+    /// The worker's time on the last drag step it answered.
+    step_took: Option<Duration>,
+    /// Set while the UI waits for an answer ([`Preview::catch_up`]): the
+    /// worker then does not wake the window for another frame.
+    waiting: Arc<AtomicBool>,
 }
+
+/// The longest a frame waits for the worker's answer to a drag step it
+/// sent ([`Preview::catch_up`]).
+pub const CATCH_UP: Duration = Duration::from_millis(12);
 
 impl Preview {
     /// Starts a worker on `doc`; `wake` is called after each frame it sends
@@ -62,6 +74,17 @@ impl Preview {
     pub fn new(doc: &Document, wake: impl Fn() + Send + 'static) -> Preview {
         let (requests, inbox) = channel::<Request>();
         let (outbox, frames) = channel::<PreviewFrame>();
+        let waiting = Arc::new(AtomicBool::new(false));
+        let ui_waits = waiting.clone();
+        // A frame the UI waits for is drawn by the frame waiting; a wake
+        // would ask for one more (40-60 ms on a software rasteriser) that
+        // the next pointer move waits behind. A frame sent just as the wait
+        // gives up is drawn by the repaint the app asks while unsettled.
+        let wake = move || {
+            if !ui_waits.load(Ordering::Acquire) {
+                wake();
+            }
+        };
         let worker = std::thread::Builder::new()
             .name("csrbf-preview".into())
             .spawn(move || work(inbox, outbox, wake))
@@ -72,6 +95,9 @@ impl Preview {
             worker,
             generation: 0,
             latest: None,
+            step_sent: false,
+            step_took: None,
+            waiting,
         };
         p.open(doc);
         p
@@ -80,6 +106,7 @@ impl Preview {
     /// A new document, replacing the old one.
     pub fn open(&mut self, doc: &Document) -> u64 {
         self.generation += 1;
+        self.step_sent = false;
         self.send(Request::Open(Box::new(doc.clone()), self.generation));
         self.generation
     }
@@ -88,6 +115,7 @@ impl Preview {
     /// superseding any request not yet started.
     pub fn edit(&mut self, doc: &Document, full: bool) -> u64 {
         self.generation += 1;
+        self.step_sent = !full;
         self.send(Request::Edit(Box::new(doc.clone()), self.generation, full));
         self.generation
     }
@@ -114,6 +142,9 @@ impl Preview {
     /// Keeps `f` as the latest frame; a drag step has no diagnostics of its
     /// own, so the last ones stay shown until the release brings new ones.
     fn take(&mut self, mut f: PreviewFrame) {
+        if f.diagnostics.is_none() && f.error.is_none() {
+            self.step_took = Some(f.took);
+        }
         if f.diagnostics.is_none()
             && let Some(old) = &self.latest
         {
@@ -137,6 +168,22 @@ impl Preview {
         self.latest
             .as_ref()
             .is_some_and(|f| f.generation == self.generation)
+    }
+
+    /// A frame that sent a drag step waits for its answer when the worker's
+    /// last drag step took at most half of [`CATCH_UP`], so the frame shows
+    /// the pointer's new place instead of the one before (a whole frame
+    /// sooner: 40-60 ms on a software rasteriser). Returns the time waited.
+    pub fn catch_up(&mut self) -> Duration {
+        if !self.step_sent || self.is_settled() || self.step_took.is_some_and(|t| t > CATCH_UP / 2)
+        {
+            return Duration::ZERO;
+        }
+        let started = Instant::now();
+        self.waiting.store(true, Ordering::Release);
+        self.wait(CATCH_UP);
+        self.waiting.store(false, Ordering::Release);
+        started.elapsed()
     }
 
     /// Waits (up to `limit`) until the newest request is answered; for tests
@@ -336,5 +383,52 @@ mod tests {
         let error = frame.error.as_deref().expect("refused");
         assert!(error.starts_with("layer 1"), "{error}");
         assert_eq!(&frame.positions[..], live.positions());
+    }
+
+    #[test]
+    fn a_frame_waits_for_a_quick_drag_step_only() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 24, 48);
+        let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.7);
+        let mut preview = Preview::new(&doc, || {});
+        let mut history = History::default();
+        history
+            .apply(&mut doc, Command::add(0, DVec3::Y, DVec3::Y))
+            .expect("add");
+        // A full edit (a new start: a fit) is never waited for.
+        preview.edit(&doc, true);
+        assert_eq!(preview.catch_up(), Duration::ZERO);
+        assert!(preview.wait(Duration::from_secs(20)));
+        history.begin_drag();
+        let mut step = |preview: &mut Preview, k: usize| {
+            history
+                .apply(
+                    &mut doc,
+                    Command::SetTarget {
+                        layer: 0,
+                        index: 0,
+                        target: DVec3::Y * (1.0 + 0.01 * k as f64),
+                    },
+                )
+                .expect("drag");
+            preview.edit(&doc, false);
+        };
+        // The first step has no time to go by: it is waited for, up to the
+        // limit; so is every step after a quick one.
+        for k in 1..=5 {
+            step(&mut preview, k);
+            let waited = preview.catch_up();
+            assert!(
+                preview.is_settled() || waited >= CATCH_UP,
+                "step {k}: neither answered nor waited the limit ({waited:?})"
+            );
+            assert!(preview.wait(Duration::from_secs(20)));
+        }
+        // After a slow step, the next is drawn when it comes.
+        preview.step_took = Some(CATCH_UP);
+        step(&mut preview, 6);
+        assert_eq!(preview.catch_up(), Duration::ZERO);
+        // An answered request is not waited for.
+        assert!(preview.wait(Duration::from_secs(20)));
+        assert_eq!(preview.catch_up(), Duration::ZERO);
     }
 }

@@ -23,6 +23,9 @@ const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
 pub use crate::preview::BIG_MESH_TRIANGLES;
 
+/// How many frames [`Screen::frame_cost`] looks back on.
+const RECENT_FRAMES: usize = 4;
+
 /// What the window and the GPU give both rooms: the render state, the
 /// viewport's size and place, the last frame's time.
 pub(super) struct Screen {
@@ -35,6 +38,13 @@ pub(super) struct Screen {
     /// rasteriser, the present) while frames follow each other.
     pub(super) frame_start: Option<std::time::Instant>,
     pub(super) frame_interval: Option<Duration>,
+    /// The last few whole frames, newest last ([`Screen::frame_cost`]).
+    pub(super) recent_frames: Vec<Duration>,
+    /// How long this frame waited for the preview's worker (a drag step
+    /// drawn in the frame that sent it).
+    pub(super) waited: Duration,
+    /// `CSRBF_STUDIO_TRACE` set: each frame's times on stderr.
+    pub(super) trace: bool,
     /// The viewport's size in physical pixels, and where it is on screen.
     pub(super) viewport: ([u32; 2], egui::Rect, f32),
     /// Whether wgpu runs on the CPU (lavapipe, llvmpipe).
@@ -73,6 +83,56 @@ impl Screen {
             .map(|t| now - t)
             .filter(|d| *d < Duration::from_secs(1));
         self.frame_start = Some(now);
+        if let Some(d) = self.frame_interval {
+            if self.recent_frames.len() == RECENT_FRAMES {
+                self.recent_frames.remove(0);
+            }
+            self.recent_frames.push(d);
+        }
+    }
+
+    /// What a frame costs on this machine: the shortest of the last
+    /// [`RECENT_FRAMES`] whole frames (a longer one is the window waiting
+    /// for input; egui draws at least two frames back to back for each
+    /// pointer move), None until that many were timed.
+    pub(super) fn frame_cost(&self) -> Option<Duration> {
+        (self.recent_frames.len() == RECENT_FRAMES)
+            .then(|| self.recent_frames.iter().copied().min())
+            .flatten()
+    }
+
+    /// With `CSRBF_STUDIO_TRACE` set, one line on stderr for the frame now
+    /// ending: the whole frame before it, the app's part of this one, the
+    /// wait for the worker in it, the CPU time of the last viewport picture
+    /// (upload, commands, submission), and the worker's time on the frame
+    /// shown. What the whole frame has beyond these is egui's drawing, the
+    /// rasteriser and the present.
+    pub(super) fn trace(&self, worker: Option<Duration>) {
+        if !self.trace {
+            return;
+        }
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let prepared = self.gpu.as_ref().and_then(|g| {
+            g.renderer
+                .read()
+                .callback_resources
+                .get::<ViewportGpu>()
+                .map(|v| (v.prepared, v.light, v.drawn_size))
+        });
+        eprintln!(
+            "trace: frame {:.1} ms, app {:.1} ms (waited {:.1} ms for the worker), viewport draw {:.1} ms ({}{}), worker {:.1} ms",
+            self.frame_interval.map_or(0.0, ms),
+            ms(self.frame_time),
+            ms(self.waited),
+            prepared.map_or(0.0, |p| ms(p.0)),
+            prepared.map_or(String::new(), |p| format!("{}x{}", p.2[0], p.2[1])),
+            if prepared.is_some_and(|p| p.1) {
+                ", stand-in"
+            } else {
+                ""
+            },
+            worker.map_or(0.0, ms),
+        );
     }
 
     /// The status bar's frame figure: the whole frame and the app's part
@@ -146,6 +206,12 @@ struct ViewportGpu {
     scenes: [Option<(u64, SceneRenderer)>; 2],
     target: Option<([u32; 2], wgpu::TextureView, wgpu::BindGroup)>,
     error: Option<String>,
+    /// The CPU time of the last picture's preparation (the upload, the
+    /// commands, their submission), for `CSRBF_STUDIO_TRACE`.
+    prepared: Duration,
+    /// Whether that picture was of a stand-in, and its size, for the same.
+    light: bool,
+    drawn_size: [u32; 2],
     /// What the Composer's picture in `target` shows (see
     /// [`ScenePaint::stamp`]): the same stamp is not drawn again.
     drawn: Option<u64>,
@@ -219,6 +285,9 @@ pub fn install(state: &egui_wgpu::RenderState) {
             target: None,
             error: None,
             drawn: None,
+            prepared: Duration::ZERO,
+            light: false,
+            drawn_size: [0, 0],
             raw,
         });
 }
@@ -257,9 +326,13 @@ impl CallbackTrait for ViewportPaint {
         let Some(gpu) = resources.get_mut::<ViewportGpu>() else {
             return Vec::new();
         };
+        let started = std::time::Instant::now();
         if let Err(e) = self.draw(gpu, device, queue) {
             gpu.error = Some(e.to_string());
         }
+        gpu.prepared = started.elapsed();
+        gpu.light = self.stand_in.is_some();
+        gpu.drawn_size = self.size;
         Vec::new()
     }
 
@@ -538,6 +611,9 @@ mod tests {
             frame_time: Duration::from_millis(3),
             frame_start: None,
             frame_interval: None,
+            recent_frames: Vec::new(),
+            waited: Duration::ZERO,
+            trace: false,
             viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
             software: true,
             ctx: egui::Context::default(),
@@ -550,5 +626,42 @@ mod tests {
         // After an idle second the window was waiting, not drawing.
         s.frame_begins(t0 + Duration::from_secs(5));
         assert_eq!(s.frame_text(), "app 3.0 ms a frame");
+    }
+
+    #[test]
+    fn a_frame_costs_the_shortest_of_the_last_few() {
+        let mut s = Screen {
+            gpu: None,
+            frame_time: Duration::ZERO,
+            frame_start: None,
+            frame_interval: None,
+            recent_frames: Vec::new(),
+            waited: Duration::ZERO,
+            trace: false,
+            viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
+            software: true,
+            ctx: egui::Context::default(),
+        };
+        let mut t = Instant::now();
+        // A pointer held still for 600 ms, then frames 40 ms apart.
+        for gap in [600, 40, 40] {
+            s.frame_begins(t);
+            t += Duration::from_millis(gap);
+        }
+        s.frame_begins(t);
+        assert_eq!(s.frame_cost(), None, "four frames not timed yet");
+        t += Duration::from_millis(600);
+        s.frame_begins(t);
+        assert_eq!(
+            s.frame_cost(),
+            Some(Duration::from_millis(40)),
+            "quick frames"
+        );
+        // Only slow frames: slow.
+        for _ in 0..4 {
+            t += Duration::from_millis(110);
+            s.frame_begins(t);
+        }
+        assert_eq!(s.frame_cost(), Some(Duration::from_millis(110)));
     }
 }

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use csrbf::glam::{DVec3, Vec3};
 use csrbf_mesh::{Bvh, Mesh, StandIn};
@@ -48,6 +48,9 @@ pub(super) struct Model {
     pub(super) gpu_mesh: Arc<gpu::NewMesh>,
     /// For a big mesh: what is drawn while it moves (vertex clustering).
     pub(super) stand_in: Option<Arc<StandIn>>,
+    /// Its frames were slow while it moved: moving pictures are drawn at
+    /// half resolution ([`Model::moved_in`]).
+    pub(super) light_while_moving: bool,
     pub(super) orbit: Orbit,
     /// The model's up axis and how it was found.
     pub(super) up: (Vec3, &'static str),
@@ -179,6 +182,7 @@ impl Model {
                 samples: if software || big { 1 } else { 4 },
             }),
             stand_in,
+            light_while_moving: false,
             orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
             up,
             mirror_planes: [None; 3],
@@ -189,6 +193,33 @@ impl Model {
             framed: false,
             recovered_text: String::new(),
             doc,
+        }
+    }
+}
+
+/// A mesh of more triangles than this is drawn by a stand-in while it moves
+/// once its frames are slow ([`Model::moved_in`]); below, a stand-in (about
+/// 50k triangles) would save little.
+pub(super) const STAND_IN_FROM: usize = 100_000;
+
+/// A whole frame slower than this while the model moves (under 20 fps).
+pub(super) const SLOW_FRAME: Duration = Duration::from_millis(50);
+
+impl Model {
+    /// The model moved while frames cost `frame` (the whole frame, as the
+    /// person sees it: [`gpu::Screen::frame_cost`]). At the first slow one, its moving
+    /// pictures are drawn light from then on: at half resolution, and by a
+    /// stand-in if it has over [`STAND_IN_FROM`] triangles (on lavapipe at
+    /// 1280x800 an 84k-vertex sphere took 110 ms a frame, 50 ms light; a
+    /// GPU never gets there).
+    pub(super) fn moved_in(&mut self, frame: Option<Duration>) {
+        if self.light_while_moving || frame.is_none_or(|f| f <= SLOW_FRAME) {
+            return;
+        }
+        self.light_while_moving = true;
+        if self.stand_in.is_none() && self.doc.mesh.faces.triangle_count() > STAND_IN_FROM {
+            let triangles = self.doc.mesh.faces.triangles();
+            self.stand_in = Some(Arc::new(StandIn::new(&self.doc.mesh.positions, &triangles)));
         }
     }
 }
@@ -498,7 +529,46 @@ pub(super) fn count(n: usize, one: &str, many: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::count;
+    use super::*;
+
+    /// A model of a sphere of about `triangles` triangles.
+    fn sphere_model(triangles: usize) -> Model {
+        let rings = ((triangles / 4) as f64).sqrt().round() as u32;
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, rings, 2 * rings);
+        let path = Path::new("sphere.ply");
+        let scene = csrbf_anim::still::mesh_scene(path, mesh.clone(), None, 1.0, [64, 48])
+            .expect("a scene");
+        Model::new(
+            mesh,
+            path,
+            scene,
+            (1, true),
+            [64, 48],
+            &egui::Context::default(),
+        )
+    }
+
+    #[test]
+    fn slow_frames_while_moving_make_the_moving_pictures_light() {
+        let mut small = sphere_model(20_000);
+        small.moved_in(None);
+        small.moved_in(Some(SLOW_FRAME));
+        assert!(!small.light_while_moving, "not slow yet");
+        small.moved_in(Some(SLOW_FRAME * 2));
+        assert!(small.light_while_moving);
+        assert!(small.stand_in.is_none(), "too small to need a stand-in");
+
+        let mut big = sphere_model(STAND_IN_FROM + 20_000);
+        assert!(big.doc.mesh.faces.triangle_count() > STAND_IN_FROM);
+        assert!(
+            big.stand_in.is_none(),
+            "not big enough to have one from the start"
+        );
+        big.moved_in(Some(SLOW_FRAME * 2));
+        assert!(big.light_while_moving);
+        let light = big.stand_in.as_ref().expect("a stand-in once slow");
+        assert!(light.indices.len() / 3 < big.doc.mesh.faces.triangle_count() / 2);
+    }
 
     #[test]
     fn one_thing_is_named_in_the_singular() {

@@ -117,6 +117,9 @@ impl StudioApp {
                 frame_time: Duration::ZERO,
                 frame_start: None,
                 frame_interval: None,
+                recent_frames: Vec::new(),
+                waited: Duration::ZERO,
+                trace: std::env::var_os("CSRBF_STUDIO_TRACE").is_some(),
                 viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
                 software,
                 ctx: cc.egui_ctx.clone(),
@@ -1181,6 +1184,14 @@ impl eframe::App for StudioApp {
         };
         help::window(&ctx, room, &mut self.shell.help);
         self.screen.frame_time = started.elapsed();
+        let worker = match self.mode {
+            Mode::Pick => self.picker.model.as_ref(),
+            Mode::Compose => None,
+        }
+        .and_then(|m| m.preview.latest())
+        .map(|f| f.took);
+        self.screen.trace(worker);
+        self.screen.waited = Duration::ZERO;
     }
 
     fn on_exit(&mut self) {

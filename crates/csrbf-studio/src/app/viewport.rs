@@ -133,6 +133,18 @@ impl Picker {
             m.framed = true;
         }
         self.pointer(ui, &response, rect, ppp, size);
+        // A drag step sent just now is drawn now when the worker answers
+        // quickly (else the next frame shows it, as any slower answer).
+        if let Some(m) = self.model.as_mut() {
+            screen.waited = m.preview.catch_up();
+            m.take_frame();
+        }
+        // A model whose frames are slow while it moves is drawn light.
+        if !matches!(self.gesture, Gesture::None | Gesture::Box { .. })
+            && let Some(m) = self.model.as_mut()
+        {
+            m.moved_in(screen.frame_cost());
+        }
         self.paint(ui, rect, ppp, size, screen.gpu.is_some());
     }
 
@@ -573,7 +585,8 @@ impl Picker {
         options.flat = v.flat;
         options.wireframe = v.wireframe;
         if gpu {
-            // A big mesh moving (a gesture, a fit under way) is drawn light.
+            // A model moving (a gesture, a fit under way) is drawn light
+            // when it is big or its frames were slow.
             let moving = !matches!(self.gesture, Gesture::None | Gesture::Box { .. })
                 || !m.preview.is_settled()
                 || ui.input(|i| {
@@ -587,12 +600,19 @@ impl Picker {
                 positions = std::sync::Arc::new(p);
                 normals = std::sync::Arc::new(n);
                 stand_in = Some(light.clone());
-                // Come back for the full mesh once the pointer rests.
+            }
+            if moving && (stand_in.is_some() || m.light_while_moving) {
+                // Come back for the full picture once the pointer rests.
                 ui.ctx()
                     .request_repaint_after(std::time::Duration::from_millis(150));
             }
             let paint = gpu::ViewportPaint {
-                size,
+                // Slow frames while moving: a quarter of the pixels to fill.
+                size: if moving && m.light_while_moving {
+                    size.map(|n| n.div_ceil(2))
+                } else {
+                    size
+                },
                 mesh: m.gpu_mesh.clone(),
                 stand_in,
                 positions,
