@@ -9,6 +9,7 @@
 //! ```sh
 //! cargo run --release -p csrbf-studio --example drag_frame -- assets/models/cgal_head.off
 //! cargo run --release -p csrbf-studio --example drag_frame -- sphere:1000000
+//! CONNECTED=0.1 cargo run --release -p csrbf-studio --example drag_frame -- sphere:100000
 //! WRITE=sphere1m.ply cargo run --release -p csrbf-studio --example drag_frame -- sphere:1000000 1
 //! ```
 
@@ -112,6 +113,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     .ok_or("the centre of the view misses the model")?;
     let mut history = History::default();
     history.apply(&mut doc, Command::add(0, hit.rest, hit.rest))?;
+    // CONNECTED=F: the layer's region follows the surface for F times the
+    // diagonal from the start (the walk along the surface is cached).
+    if let Some(f) = std::env::var("CONNECTED")
+        .ok()
+        .and_then(|f| f.parse::<f64>().ok())
+    {
+        doc.controls.deformations[0].region = csrbf::Region::Connected {
+            distance: diag * f,
+            from: csrbf::Origin::Starts,
+        };
+        println!("region: along the surface, {:.3} from the start", diag * f);
+    }
     let t = Instant::now();
     live.update(&doc)?;
     println!(

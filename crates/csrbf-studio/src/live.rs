@@ -7,6 +7,7 @@
 //! new start or radius rebuilds only that layer's system. The tree is built
 //! once and refitted to the moved positions.
 
+use csrbf::controls::SurfaceCache;
 use csrbf::glam::Vec3;
 use csrbf::{Diagnostics, Pipeline, Stage, diagnose};
 use csrbf_mesh::Bvh;
@@ -24,6 +25,10 @@ pub struct Live {
     positions: Vec<Vec3>,
     diagnostics: Option<Diagnostics>,
     bvh: Option<Bvh>,
+    /// The surface's graph and the connected regions resolved lately: a
+    /// drag step that moves destinations only walks the surface again for
+    /// none of them.
+    surface: SurfaceCache,
 }
 
 impl Live {
@@ -45,6 +50,7 @@ impl Live {
             pipeline: Pipeline::new(Vec::new()),
             layers: Vec::new(),
             earlier_systems: 0,
+            surface: SurfaceCache::default(),
             triangles,
             positions: doc.mesh.positions.clone(),
             diagnostics: None,
@@ -103,7 +109,12 @@ impl Live {
             // A connected region is measured along the surface: the
             // triangles go with the points.
             let spec = spec
-                .resolve_on(&doc.mesh.positions, &self.triangles, &lookup)
+                .resolve_cached(
+                    &doc.mesh.positions,
+                    &self.triangles,
+                    &lookup,
+                    &mut self.surface,
+                )
                 .map_err(|source| LiveError { layer, source })?;
             if !spec.starts.is_empty() {
                 let stage = spec

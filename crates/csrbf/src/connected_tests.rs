@@ -227,3 +227,45 @@ fn weights_select_sorted_and_in_range() {
     };
     assert!(out.weights(&points, &none).is_err());
 }
+
+#[test]
+fn a_cached_resolution_walks_the_surface_again_only_when_its_seeds_change() {
+    let (points, tris, _) = hairpin(0.2, 2.0);
+    let file = ControlFile::parse(&arm_pull(
+        r#"{"connected": {"distance": 0.5}, "falloff": 0.3}"#,
+    ))
+    .expect("parse");
+    let mut spec = file.deformations[0].clone();
+    let mut cache = crate::controls::SurfaceCache::default();
+    let resolve = |spec: &crate::controls::ControlSpec,
+                   cache: &mut crate::controls::SurfaceCache| {
+        let cached = spec
+            .resolve_cached(&points, &tris, &|_| None, cache)
+            .expect("resolve cached");
+        let fresh = spec.resolve_on(&points, &tris, &|_| None).expect("resolve");
+        assert_eq!(cached, fresh, "the cache changes nothing");
+    };
+    resolve(&spec, &mut cache);
+    assert_eq!(cache.walks(), 1);
+    // A drag: the destination moves, the region grows from the same start.
+    for k in 1..=3 {
+        spec.targets[0].x += 0.01 * k as f64;
+        resolve(&spec, &mut cache);
+    }
+    assert_eq!(cache.walks(), 1, "a moved destination walked again");
+    // A moved start grows the region from elsewhere.
+    spec.starts[0].y += 0.3;
+    resolve(&spec, &mut cache);
+    assert_eq!(cache.walks(), 2);
+    // So does a wider region.
+    spec.region = Region::Connected {
+        distance: 0.8,
+        from: Origin::Starts,
+    };
+    resolve(&spec, &mut cache);
+    assert_eq!(cache.walks(), 3);
+    // A pin that becomes a moving start is a new seed.
+    spec.targets[1].z += 0.05;
+    resolve(&spec, &mut cache);
+    assert_eq!(cache.walks(), 4);
+}

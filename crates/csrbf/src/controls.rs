@@ -60,6 +60,82 @@ pub struct ControlSpec {
     pub paths: Paths,
 }
 
+/// What [`ControlSpec::resolve_cached`] keeps between resolutions on one
+/// mesh: the surface's graph, and the last few connected regions with the
+/// vertices they grew from.
+#[derive(Default)]
+pub struct SurfaceCache {
+    surface: Option<crate::Surface>,
+    regions: Vec<Resolved>,
+    walks: usize,
+}
+
+/// A connected region, the vertices it grew from (with their distances),
+/// and what it became on the surface.
+struct Resolved {
+    region: Region,
+    seeds: Vec<(u32, f64)>,
+    weights: Region,
+}
+
+impl SurfaceCache {
+    /// How many regions are kept (one per layer of a studio document, say).
+    const REGIONS: usize = 8;
+
+    /// The surface of `points` and `triangles`, made on first use (or when
+    /// the number of points changed: another mesh).
+    fn surface(
+        &mut self,
+        points: &[Vec3],
+        triangles: &[[u32; 3]],
+    ) -> crate::Result<&crate::Surface> {
+        if self
+            .surface
+            .as_ref()
+            .is_none_or(|s| s.len() != points.len())
+        {
+            self.regions.clear();
+            self.surface = Some(crate::Surface::new(points, triangles)?);
+        }
+        self.surface
+            .as_ref()
+            .ok_or_else(|| crate::RegionError::NeedsSurface.into())
+    }
+
+    /// `region` grown from `seeds` on the surface, or the same resolved
+    /// before.
+    fn region(&mut self, region: &Region, seeds: Vec<(u32, f64)>) -> crate::Result<Region> {
+        if let Some(r) = self
+            .regions
+            .iter()
+            .find(|r| r.region == *region && r.seeds == seeds)
+        {
+            return Ok(r.weights.clone());
+        }
+        let surface = self
+            .surface
+            .as_ref()
+            .ok_or(crate::RegionError::NeedsSurface)?;
+        let done = region.on_surface(surface, &seeds)?;
+        self.walks += 1;
+        if self.regions.len() == Self::REGIONS {
+            self.regions.remove(0);
+        }
+        self.regions.push(Resolved {
+            region: region.clone(),
+            seeds,
+            weights: done.clone(),
+        });
+        Ok(done)
+    }
+
+    /// How many regions were resolved by walking the surface (the others
+    /// came from the cache).
+    pub fn walks(&self) -> usize {
+        self.walks
+    }
+}
+
 impl ControlSpec {
     /// Whether the deformation depends on a mesh: a handle (its control
     /// vectors) or a connected region (its weights).
@@ -90,6 +166,21 @@ impl ControlSpec {
         triangles: &[[u32; 3]],
         groups: &dyn Fn(&str) -> Option<Vec<u32>>,
     ) -> crate::Result<ControlSpec> {
+        self.resolve_cached(points, triangles, groups, &mut SurfaceCache::default())
+    }
+
+    /// [`ControlSpec::resolve_on`] on one mesh again and again (the
+    /// studio's drag, where destinations move): `cache` keeps the surface's
+    /// graph and the regions resolved lately, reused while a region and
+    /// the vertices it grows from are the same (the graph and the walk
+    /// along the surface are most of a resolution).
+    pub fn resolve_cached(
+        &self,
+        points: &[Vec3],
+        triangles: &[[u32; 3]],
+        groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+        cache: &mut SurfaceCache,
+    ) -> crate::Result<ControlSpec> {
         let mut out = self.clone();
         if let Some(h) = out.handle.take() {
             let v = h.controls(
@@ -110,7 +201,7 @@ impl ControlSpec {
         if triangles.is_empty() {
             return Err(crate::RegionError::NeedsSurface.into());
         }
-        let surface = crate::Surface::new(points, triangles)?;
+        let surface = cache.surface(points, triangles)?;
         let seeds = match origin {
             Origin::Handle => {
                 let h = self.handle.as_ref().ok_or_else(|| {
@@ -137,7 +228,7 @@ impl ControlSpec {
                 surface.seeds_at(&moving)
             }
         };
-        out.region = self.region.on_surface(&surface, &seeds)?;
+        out.region = cache.region(&self.region, seeds)?;
         Ok(out)
     }
 
