@@ -539,7 +539,6 @@ fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec)
     let mut region = spec.region.clone();
     let bounds = m
         .doc
-        .mesh
         .bounds()
         .map(|(a, b)| (a.as_dvec3(), b.as_dvec3()))
         .unwrap_or((DVec3::ZERO, DVec3::ONE));

@@ -127,7 +127,7 @@ impl Picker {
             && !m.framed
             && size[0] > 1
             && size[1] > 1
-            && let Some((lo, hi)) = m.doc.mesh.bounds()
+            && let Some((lo, hi)) = m.doc.bounds()
         {
             m.orbit.frame(lo, hi, size[0] as f32 / size[1] as f32);
             m.framed = true;
