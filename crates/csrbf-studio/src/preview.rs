@@ -334,29 +334,41 @@ mod tests {
     use csrbf::glam::DVec3;
     use std::path::PathBuf;
 
-    #[test]
-    fn the_newest_edit_wins_and_matches_a_fresh_update() {
+    /// A sphere with one control vector (a pin at its top), its preview and
+    /// history.
+    fn sphere_with_a_start() -> (Document, Preview, History) {
         let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 24, 48);
         let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.7);
-        let mut preview = Preview::new(&doc, || {});
+        let preview = Preview::new(&doc, || {});
         let mut history = History::default();
         history
             .apply(&mut doc, Command::add(0, DVec3::Y, DVec3::Y))
             .expect("add");
+        (doc, preview, history)
+    }
+
+    /// Drag step `k`: the start's destination k hundredths above it, sent.
+    fn drag_step(history: &mut History, doc: &mut Document, preview: &mut Preview, k: usize) {
+        history
+            .apply(
+                doc,
+                Command::SetTarget {
+                    layer: 0,
+                    index: 0,
+                    target: DVec3::Y * (1.0 + 0.01 * k as f64),
+                },
+            )
+            .expect("drag");
+        preview.edit(doc, false);
+    }
+
+    #[test]
+    fn the_newest_edit_wins_and_matches_a_fresh_update() {
+        let (mut doc, mut preview, mut history) = sphere_with_a_start();
         preview.edit(&doc, true);
         history.begin_drag();
         for k in 1..=40 {
-            history
-                .apply(
-                    &mut doc,
-                    Command::SetTarget {
-                        layer: 0,
-                        index: 0,
-                        target: DVec3::Y * (1.0 + 0.01 * k as f64),
-                    },
-                )
-                .expect("drag");
-            preview.edit(&doc, false);
+            drag_step(&mut history, &mut doc, &mut preview, k);
         }
         history.end_drag();
         let last = preview.edit(&doc, true);
@@ -387,31 +399,14 @@ mod tests {
 
     #[test]
     fn a_frame_waits_for_a_quick_drag_step_only() {
-        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 24, 48);
-        let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.7);
-        let mut preview = Preview::new(&doc, || {});
-        let mut history = History::default();
-        history
-            .apply(&mut doc, Command::add(0, DVec3::Y, DVec3::Y))
-            .expect("add");
+        let (mut doc, mut preview, mut history) = sphere_with_a_start();
         // A full edit (a new start: a fit) is never waited for.
         preview.edit(&doc, true);
         assert_eq!(preview.catch_up(), Duration::ZERO);
         assert!(preview.wait(Duration::from_secs(20)));
         history.begin_drag();
-        let mut step = |preview: &mut Preview, k: usize| {
-            history
-                .apply(
-                    &mut doc,
-                    Command::SetTarget {
-                        layer: 0,
-                        index: 0,
-                        target: DVec3::Y * (1.0 + 0.01 * k as f64),
-                    },
-                )
-                .expect("drag");
-            preview.edit(&doc, false);
-        };
+        let mut step =
+            |preview: &mut Preview, k: usize| drag_step(&mut history, &mut doc, preview, k);
         // The first step has no time to go by: it is waited for, up to the
         // limit; so is every step after a quick one.
         for k in 1..=5 {

@@ -604,11 +604,11 @@ mod tests {
     use super::*;
     use std::time::Instant;
 
-    #[test]
-    fn the_frame_figure_is_the_whole_frame_while_frames_follow_each_other() {
-        let mut s = Screen {
+    /// A screen without a GPU, no frame timed yet.
+    fn screen() -> Screen {
+        Screen {
             gpu: None,
-            frame_time: Duration::from_millis(3),
+            frame_time: Duration::ZERO,
             frame_start: None,
             frame_interval: None,
             recent_frames: Vec::new(),
@@ -617,7 +617,13 @@ mod tests {
             viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
             software: true,
             ctx: egui::Context::default(),
-        };
+        }
+    }
+
+    #[test]
+    fn the_frame_figure_is_the_whole_frame_while_frames_follow_each_other() {
+        let mut s = screen();
+        s.frame_time = Duration::from_millis(3);
         let t0 = Instant::now();
         s.frame_begins(t0);
         assert_eq!(s.frame_text(), "app 3.0 ms a frame");
@@ -630,18 +636,7 @@ mod tests {
 
     #[test]
     fn a_frame_costs_the_shortest_of_the_last_few() {
-        let mut s = Screen {
-            gpu: None,
-            frame_time: Duration::ZERO,
-            frame_start: None,
-            frame_interval: None,
-            recent_frames: Vec::new(),
-            waited: Duration::ZERO,
-            trace: false,
-            viewport: ([1, 1], egui::Rect::NOTHING, 1.0),
-            software: true,
-            ctx: egui::Context::default(),
-        };
+        let mut s = screen();
         let mut t = Instant::now();
         // A pointer held still for 600 ms, then frames 40 ms apart.
         for gap in [600, 40, 40] {
