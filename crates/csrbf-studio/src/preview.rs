@@ -64,9 +64,22 @@ pub struct Preview {
     waiting: Arc<AtomicBool>,
 }
 
-/// The longest a frame waits for the worker's answer to a drag step it
-/// sent ([`Preview::catch_up`]).
+/// How long a frame may wait for the worker's answer to a drag step it
+/// sent ([`Preview::catch_up`]): this, or more where frames are slow.
 pub const CATCH_UP: Duration = Duration::from_millis(12);
+
+/// The longest wait, however slow the frames.
+pub const MAX_CATCH_UP: Duration = Duration::from_millis(50);
+
+/// What a frame may wait for a drag step's answer when frames cost `frame`:
+/// [`CATCH_UP`], or up to 60 % of a slow frame (a picture that waits 25 ms
+/// for a 1M-vertex step shows the pointer's place one 70 ms frame sooner),
+/// at most [`MAX_CATCH_UP`].
+pub fn catch_up_budget(frame: Option<Duration>) -> Duration {
+    frame
+        .map_or(CATCH_UP, |f| f.mul_f64(0.6))
+        .clamp(CATCH_UP, MAX_CATCH_UP)
+}
 
 impl Preview {
     /// Starts a worker on `doc`; `wake` is called after each frame it sends
@@ -171,17 +184,17 @@ impl Preview {
     }
 
     /// A frame that sent a drag step waits for its answer when the worker's
-    /// last drag step took at most half of [`CATCH_UP`], so the frame shows
-    /// the pointer's new place instead of the one before (a whole frame
-    /// sooner: 40-60 ms on a software rasteriser). Returns the time waited.
-    pub fn catch_up(&mut self) -> Duration {
-        if !self.step_sent || self.is_settled() || self.step_took.is_some_and(|t| t > CATCH_UP / 2)
-        {
+    /// last drag step took at most `budget` ([`catch_up_budget`]), so the
+    /// frame shows the pointer's new place instead of the one before (a
+    /// whole frame sooner: 40-60 ms on a software rasteriser). Waits at
+    /// most `budget`; returns the time waited.
+    pub fn catch_up(&mut self, budget: Duration) -> Duration {
+        if !self.step_sent || self.is_settled() || self.step_took.is_some_and(|t| t > budget) {
             return Duration::ZERO;
         }
         let started = Instant::now();
         self.waiting.store(true, Ordering::Release);
-        self.wait(CATCH_UP);
+        self.wait(budget);
         self.waiting.store(false, Ordering::Release);
         started.elapsed()
     }
@@ -398,11 +411,20 @@ mod tests {
     }
 
     #[test]
+    fn a_slow_frame_may_wait_longer_but_never_long() {
+        let ms = Duration::from_millis;
+        assert_eq!(catch_up_budget(None), CATCH_UP);
+        assert_eq!(catch_up_budget(Some(ms(5))), CATCH_UP);
+        assert_eq!(catch_up_budget(Some(ms(70))), ms(42));
+        assert_eq!(catch_up_budget(Some(ms(500))), MAX_CATCH_UP);
+    }
+
+    #[test]
     fn a_frame_waits_for_a_quick_drag_step_only() {
         let (mut doc, mut preview, mut history) = sphere_with_a_start();
         // A full edit (a new start: a fit) is never waited for.
         preview.edit(&doc, true);
-        assert_eq!(preview.catch_up(), Duration::ZERO);
+        assert_eq!(preview.catch_up(CATCH_UP), Duration::ZERO);
         assert!(preview.wait(Duration::from_secs(20)));
         history.begin_drag();
         let mut step =
@@ -411,7 +433,7 @@ mod tests {
         // limit; so is every step after a quick one.
         for k in 1..=5 {
             step(&mut preview, k);
-            let waited = preview.catch_up();
+            let waited = preview.catch_up(CATCH_UP);
             assert!(
                 preview.is_settled() || waited >= CATCH_UP,
                 "step {k}: neither answered nor waited the limit ({waited:?})"
@@ -419,11 +441,11 @@ mod tests {
             assert!(preview.wait(Duration::from_secs(20)));
         }
         // After a slow step, the next is drawn when it comes.
-        preview.step_took = Some(CATCH_UP);
+        preview.step_took = Some(CATCH_UP + Duration::from_millis(1));
         step(&mut preview, 6);
-        assert_eq!(preview.catch_up(), Duration::ZERO);
+        assert_eq!(preview.catch_up(CATCH_UP), Duration::ZERO);
         // An answered request is not waited for.
         assert!(preview.wait(Duration::from_secs(20)));
-        assert_eq!(preview.catch_up(), Duration::ZERO);
+        assert_eq!(preview.catch_up(CATCH_UP), Duration::ZERO);
     }
 }

@@ -134,9 +134,11 @@ impl Picker {
         }
         self.pointer(ui, &response, rect, ppp, size);
         // A drag step sent just now is drawn now when the worker answers
-        // quickly (else the next frame shows it, as any slower answer).
+        // in good time for a frame (else the next frame shows it).
         if let Some(m) = self.model.as_mut() {
-            screen.waited = m.preview.catch_up();
+            screen.waited = m
+                .preview
+                .catch_up(crate::preview::catch_up_budget(screen.frame_cost()));
             m.take_frame();
         }
         // A model whose frames are slow while it moves is drawn light.
