@@ -965,6 +965,49 @@ fn a_dragged_start_carries_its_vector_and_ctrl_moves_it_alone() {
     assert_eq!(b2, b1, "the destination stayed");
 }
 
+/// Issue 23, the trial after it: a start dragged in the deformed view lands
+/// where the pointer is on the surface as drawn when the drag began,
+/// whatever the path; it drifted with the shape its own move deformed (one
+/// move and six moves to the same pixel ended 0.16 apart on the hand).
+#[test]
+fn a_dragged_start_lands_under_the_pointer_whatever_the_path() {
+    let mut h = head("start-path");
+    pull_nose(&mut h);
+    let start = |h: &Harness<'_, StudioApp>| {
+        h.state().document().expect("open").controls.deformations[0].starts[0]
+    };
+    let before = start(&h);
+    let (cam, size, _, _) = h.state().viewport_camera().expect("open");
+    let from = cam.project(before.as_vec3(), size).expect("in view").0;
+    let to = from + Vec2::new(-6.0, 14.0);
+    // In one move.
+    press(&mut h, from, true);
+    move_to(&mut h, to);
+    press(&mut h, to, false);
+    settle(&mut h);
+    let one = start(&h);
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    settle(&mut h);
+    assert_eq!(start(&h), before, "undone");
+    // In seven, the preview answering each (the shape drawn changes).
+    press(&mut h, from, true);
+    for k in 1..=7 {
+        move_to(&mut h, from + (to - from) * (k as f32 / 7.0));
+        settle(&mut h);
+    }
+    press(&mut h, to, false);
+    settle(&mut h);
+    let seven = start(&h);
+    let r = h.state().document().expect("open").controls.deformations[0]
+        .options
+        .radius;
+    assert!(
+        seven.distance(one) < 1e-6 * r,
+        "one move {one}, seven moves {seven}"
+    );
+    assert!(one.distance(before) > 1e-3 * r, "the start moved");
+}
+
 /// Issue 23 ("a handle's pivot"): a handle's pivot is picked on the surface
 /// (the shoulder, not the centre of the arm), kept in the control file's
 /// rotation, and the selection's centre is back with one button.

@@ -175,6 +175,7 @@ impl Model {
             picking: Picking {
                 bvh,
                 fits: Fits::Shown,
+                held: None,
             },
             gpu_mesh: Arc::new(gpu::NewMesh {
                 id,
@@ -233,6 +234,10 @@ pub(super) enum Fits {
     Rest,
     /// A preview frame since replaced.
     Stale,
+    /// The shape drawn when a start's drag began, held while the start
+    /// moves: the surface under the pointer must not be the one the move
+    /// itself deforms (the start drifted off the pointer, path by path).
+    Held,
 }
 
 /// The picking tree of a model, refitted (not rebuilt) to what the viewport
@@ -241,6 +246,8 @@ pub(super) enum Fits {
 pub(super) struct Picking {
     pub(super) bvh: Bvh,
     pub(super) fits: Fits,
+    /// The positions of [`Fits::Held`].
+    pub(super) held: Option<Arc<Vec<Vec3>>>,
 }
 
 impl Picking {
@@ -255,6 +262,30 @@ impl Picking {
             self.fits = want;
         }
         &self.bvh
+    }
+
+    /// Fits the tree to `drawn` (what `display` draws now) and holds it
+    /// there until [`Picking::let_go`].
+    pub(super) fn hold(&mut self, display: Display, drawn: &Arc<Vec<Vec3>>) {
+        self.fitted(display, drawn);
+        self.fits = Fits::Held;
+        self.held = Some(drawn.clone());
+    }
+
+    /// The held tree and its positions, if the tree is held.
+    pub(super) fn held(&self) -> Option<(&Bvh, &[Vec3])> {
+        match (&self.held, self.fits) {
+            (Some(p), Fits::Held) => Some((&self.bvh, p)),
+            _ => None,
+        }
+    }
+
+    /// Lets the held tree go: the next pick refits it to what is drawn.
+    pub(super) fn let_go(&mut self) {
+        if self.fits == Fits::Held {
+            self.fits = Fits::Stale;
+        }
+        self.held = None;
     }
 }
 

@@ -284,6 +284,10 @@ impl Picker {
             Begin::Marker { hit, add, tool } => {
                 select_marker(&mut m.doc, hit, add);
                 m.history.begin_drag();
+                if hit.end == End::Start {
+                    let drawn = m.drawn(display).0.clone();
+                    m.picking.hold(display, &drawn);
+                }
                 self.gesture = Gesture::Marker {
                     layer: hit.layer,
                     index: hit.index,
@@ -499,6 +503,7 @@ impl Picker {
             Gesture::Marker {
                 layer, index, end, ..
             } => {
+                m.picking.let_go();
                 m.history.end_drag();
                 self.status = made_status(m, (layer, index), end);
                 // The release diagnoses what the drag made.
@@ -841,12 +846,15 @@ fn start_moved(
     (tool, p, display): (&DragTool, DVec3, Display),
     alone: bool,
 ) -> Command {
-    let drawn = m.drawn(display).0.clone();
-    let bvh = m.picking.fitted(display, &drawn);
-    let start = if tool.axis.is_none() {
-        pick_surface_on(cam, size, px, bvh, &drawn, &m.doc.mesh.positions).map_or(p, |h| h.rest)
-    } else {
+    let start = if tool.axis.is_some() {
         p
+    } else if let Some((bvh, held)) = m.picking.held() {
+        // The surface as it was drawn when the drag began.
+        pick_surface_on(cam, size, px, bvh, held, &m.doc.mesh.positions).map_or(p, |h| h.rest)
+    } else {
+        let drawn = m.drawn(display).0.clone();
+        let bvh = m.picking.fitted(display, &drawn);
+        pick_surface_on(cam, size, px, bvh, &drawn, &m.doc.mesh.positions).map_or(p, |h| h.rest)
     };
     if alone {
         return Command::SetStart {
