@@ -866,6 +866,38 @@ fn after_a_drag_the_status_says_what_was_made() {
     assert!(status.contains("a pin"), "{status}");
 }
 
+/// Issue 23, the trial after it: "Save" in the unsaved-changes question
+/// before opening another mesh, on controls never saved, asks where (a
+/// file dialog), saves there, and then opens the mesh (the open was lost).
+#[test]
+fn saving_first_then_opens_the_mesh_asked_for() {
+    let dir = state_dir("save-then-open");
+    let mut h = head("save-then-open");
+    pull_nose(&mut h);
+    assert!(h.state().document().expect("open").dirty);
+    let ctx = h.ctx.clone();
+    let other = model("assimp_Suzanne_248.obj");
+    h.state_mut().open_mesh(&ctx, &other);
+    h.run_steps(2);
+    h.get_by_label("Save").click();
+    let saved = dir.join("first.json");
+    support::choose(&mut h, &saved, "Save");
+    settle(&mut h);
+    let text = std::fs::read_to_string(&saved).expect("saved");
+    assert_eq!(
+        ControlFile::parse(&text).expect("parse").deformations[0]
+            .starts
+            .len(),
+        1
+    );
+    let doc = h.state().document().expect("a mesh");
+    assert!(
+        doc.mesh_path.ends_with("assimp_Suzanne_248.obj"),
+        "then opened: {}",
+        doc.mesh_path.display()
+    );
+}
+
 /// Issue 23, small: Esc closes an open menu (the Picker's own Esc, which
 /// clears the selection, waits until no menu is open).
 #[test]

@@ -74,16 +74,6 @@ fn ball(test: &str) -> Harness<'static, StudioApp> {
     )
 }
 
-/// Answers the open file dialog with `path` (typed into its focused name
-/// field, then its Open or Save button).
-fn choose(h: &mut Harness<'_, StudioApp>, path: &Path, verb: &str) {
-    h.run_steps(2);
-    h.event(egui::Event::Text(path.display().to_string()));
-    h.run_steps(1);
-    h.get_by_label(verb).click();
-    h.run_steps(3);
-}
-
 /// Clicks the timeline's ruler at `time`.
 fn scrub(h: &mut Harness<'_, StudioApp>, time: f64) {
     let r = h.state().timeline_ruler().expect("the timeline is drawn");
@@ -147,7 +137,7 @@ fn a_two_object_scene_built_by_clicks_saves_what_the_cli_loads_frame_for_frame()
     assert_eq!(h.state().mode(), Mode::Compose);
     for mesh in ["models/cgal_head.off", "models/pybullet_duck.obj"] {
         h.get_by_label("Add object…").click();
-        choose(&mut h, &assets().join(mesh), "Open");
+        support::choose(&mut h, &assets().join(mesh), "Open");
     }
     let doc = h.state().scene_doc().expect("a scene");
     assert_eq!(doc.file.objects.len(), 2, "{:?}", h.state().message());
@@ -160,7 +150,7 @@ fn a_two_object_scene_built_by_clicks_saves_what_the_cli_loads_frame_for_frame()
         .click();
     h.run_steps(2);
     h.get_by_label("Add deformation…").click();
-    choose(&mut h, &assets().join("controls/head_smile.json"), "Open");
+    support::choose(&mut h, &assets().join("controls/head_smile.json"), "Open");
     scrub(&mut h, 0.0);
     key_button(&mut h, 0);
     scrub(&mut h, 2.0);
@@ -235,7 +225,7 @@ fn a_two_object_scene_built_by_clicks_saves_what_the_cli_loads_frame_for_frame()
     std::fs::create_dir_all(saved.parent().expect("folder")).expect("folder");
     h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::S);
     h.run_steps(2);
-    choose(&mut h, &saved, "Save");
+    support::choose(&mut h, &saved, "Save");
     assert!(
         !h.state().scene_doc().expect("scene").dirty,
         "{:?}",
@@ -355,7 +345,7 @@ fn the_export_menu_writes_a_glb_the_khronos_validator_passes_and_a_cancelled_mov
     h.get_by_label("File").click();
     h.run_steps(3);
     h.get_by_label("Export glTF…  Ctrl+Shift+E").click();
-    choose(&mut h, &glb, "Save");
+    support::choose(&mut h, &glb, "Save");
     assert!(h.state_mut().finish_export(Duration::from_secs(120)));
     h.run_steps(2);
     assert!(
@@ -713,7 +703,7 @@ fn saving_over_a_file_that_exists_asks_first() {
         egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
         egui::Key::S,
     );
-    choose(&mut h, &path, "Save");
+    support::choose(&mut h, &path, "Save");
     // Not yet: the dialog asks.
     assert_eq!(std::fs::read_to_string(&path).expect("read"), "kept");
     h.get_by_label_contains("exists. Replace it?");
@@ -819,7 +809,7 @@ fn lights_are_added_removed_undone_and_saved() {
         egui::Key::S,
     );
     h.run_steps(2);
-    choose(&mut h, &saved, "Save");
+    support::choose(&mut h, &saved, "Save");
     let file = SceneFile::parse(&std::fs::read_to_string(&saved).expect("saved"))
         .expect("the CLI's parser reads it");
     assert_eq!(file.lights, lights);
@@ -993,7 +983,7 @@ fn a_part_is_added_carved_out_removed_and_saved() {
         egui::Key::S,
     );
     h.run_steps(2);
-    choose(&mut h, &saved, "Save");
+    support::choose(&mut h, &saved, "Save");
     let cli = Scene::load(&saved).expect("the CLI's loader reads it");
     let parts: Vec<usize> = cli.objects[0].parts.iter().map(|p| p.faces.len()).collect();
     assert_eq!(parts, split);

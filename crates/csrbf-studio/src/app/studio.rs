@@ -63,6 +63,9 @@ pub(super) struct Shell {
     pub(super) quit_after_export: bool,
     /// The keys-and-mouse window is open (F1, ?, Help).
     pub(super) help: bool,
+    /// What "Save" in the unsaved-changes question was asked before, when
+    /// the save went to a file dialog: done once that save succeeds.
+    pub(super) after_save: Option<Pending>,
 }
 
 /// `csrbf-studio`: the shell, the Picker, the Composer (when a scene is
@@ -111,6 +114,7 @@ impl StudioApp {
                 close_during_export: false,
                 quit_after_export: false,
                 help: false,
+                after_save: None,
             },
             screen: Screen {
                 gpu,
@@ -402,6 +406,7 @@ impl StudioApp {
         self.shell.dialog = None;
         // This frame was drawn with the dialog open: draw the result.
         ctx.request_repaint();
+        let after_save = self.shell.after_save.take();
         let Choice::File(p) = choice else {
             return;
         };
@@ -418,6 +423,13 @@ impl StudioApp {
             Purpose::AddControls => self.with_composer(|c| c.add_deformation(&p)),
             Purpose::ExportMovie => self.export_movie(&p),
             Purpose::ExportGltf => self.export_gltf(&p),
+        }
+        // What the unsaved-changes question held back, once saved.
+        if let Some(pending) = after_save {
+            let scene = purpose == Purpose::SaveScene;
+            if matches!(purpose, Purpose::SaveControls | Purpose::SaveScene) && self.saved(scene) {
+                self.resume(ctx, pending);
+            }
         }
     }
 
@@ -457,13 +469,11 @@ impl StudioApp {
                 } else {
                     self.save();
                 }
-                let saved = if scene {
-                    self.composer.as_ref().is_some_and(|c| !c.doc.dirty)
-                } else {
-                    self.picker.model.as_ref().is_some_and(|m| !m.doc.dirty)
-                };
-                if saved {
+                if self.saved(scene) {
                     self.resume(ctx, pending);
+                } else if self.shell.dialog.is_some() {
+                    // A file never saved: the dialog asks where first.
+                    self.shell.after_save = Some(pending);
                 }
             }
             Some(Answer::Discard) => {
@@ -473,6 +483,15 @@ impl StudioApp {
             }
             Some(Answer::Cancel) => self.shell.pending = None,
             None => {}
+        }
+    }
+
+    /// Whether the scene (`scene`) or the controls have no unsaved changes.
+    fn saved(&self, scene: bool) -> bool {
+        if scene {
+            self.composer.as_ref().is_some_and(|c| !c.doc.dirty)
+        } else {
+            self.picker.model.as_ref().is_some_and(|m| !m.doc.dirty)
         }
     }
 
