@@ -499,6 +499,30 @@ impl History {
             }
             _ => false,
         };
+        // A control placed and dragged out in one gesture is one step: the
+        // insert, with the destination where the drag left it.
+        if self.dragging
+            && self.done.len() > self.drag_base
+            && let Some((
+                Command::Insert { layer, target, .. },
+                Command::Remove { layer: l, index: i },
+            )) = self.done.last_mut()
+            && let Command::SetTarget {
+                layer: cl,
+                index: ci,
+                target: new,
+            } = &command
+            && (*layer, *l, *i) == (*cl, *cl, *ci)
+        {
+            *target = *new;
+            // The step that was saved changes: the saved state is gone.
+            if self.saved == Some(self.done.len()) {
+                self.saved = None;
+            }
+            self.undone.clear();
+            self.mark(doc);
+            return Ok(());
+        }
         if self.dragging
             && self.done.len() > self.drag_base
             && let Some((last, _)) = self.done.last()
@@ -804,6 +828,45 @@ mod tests {
             h.redo(&mut d).expect("redo");
             assert_eq!(&d.controls, want);
         }
+    }
+
+    #[test]
+    fn a_control_placed_and_dragged_out_in_one_gesture_is_one_step() {
+        let mut d = doc();
+        let before = d.controls.clone();
+        let mut h = History::default();
+        h.begin_drag();
+        h.apply(&mut d, Command::add(0, DVec3::Y, DVec3::Y))
+            .expect("add");
+        for k in 1..=5 {
+            let target = DVec3::Y * (1.0 + 0.1 * k as f64);
+            let set = Command::SetTarget {
+                layer: 0,
+                index: 0,
+                target,
+            };
+            h.apply(&mut d, set).expect("drag");
+        }
+        h.end_drag();
+        assert_eq!(h.undo_steps(), 1);
+        let placed = d.controls.clone();
+        assert_eq!(placed.deformations[0].targets[0], DVec3::Y * 1.5);
+        h.undo(&mut d).expect("undo");
+        assert_eq!(d.controls, before, "the control is gone");
+        h.redo(&mut d).expect("redo");
+        assert_eq!(d.controls, placed, "back where the drag left it");
+        // Placed without a drag (a click, then a later drag): two steps.
+        h.apply(&mut d, Command::add(0, DVec3::X, DVec3::X))
+            .expect("add");
+        h.begin_drag();
+        let set = Command::SetTarget {
+            layer: 0,
+            index: 1,
+            target: DVec3::X * 2.0,
+        };
+        h.apply(&mut d, set).expect("drag");
+        h.end_drag();
+        assert_eq!(h.undo_steps(), 3);
     }
 
     #[test]

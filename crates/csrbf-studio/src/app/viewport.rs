@@ -365,16 +365,24 @@ impl Picker {
         };
         let index = count(self);
         let target = hit.rest + stamp.unwrap_or(DVec3::ZERO);
-        self.edit(Command::add(layer, hit.rest, target), true);
-        if count(self) <= index {
-            return;
+        // A drag from the press sets the destination: the insert and the
+        // drag are one undo step.
+        if stamp.is_none()
+            && let Some(m) = self.model.as_mut()
+        {
+            m.history.begin_drag();
         }
+        self.edit(Command::add(layer, hit.rest, target), true);
+        let added = count(self) > index;
         let Some(m) = self.model.as_mut() else {
             return;
         };
+        if !added {
+            m.history.end_drag();
+            return;
+        }
         m.doc.selection.0 = vec![(layer, index)];
         if stamp.is_none() {
-            m.history.begin_drag();
             self.gesture = Gesture::Marker {
                 layer,
                 index,
