@@ -71,6 +71,20 @@ pub const CATCH_UP: Duration = Duration::from_millis(12);
 /// The longest wait, however slow the frames.
 pub const MAX_CATCH_UP: Duration = Duration::from_millis(50);
 
+/// Whether a frame waits for the answer to request `sent` when the worker
+/// has answered up to `answered` and took `step_took` on its last drag step:
+/// not when it answered already, not when it is still on an earlier request
+/// (a fit after a new start: the step waits behind it), not when its steps
+/// take longer than `budget`.
+fn worth_waiting(
+    answered: Option<u64>,
+    sent: u64,
+    step_took: Option<Duration>,
+    budget: Duration,
+) -> bool {
+    answered.is_some_and(|a| a + 1 == sent) && step_took.is_none_or(|t| t <= budget)
+}
+
 /// What a frame may wait for a drag step's answer when frames cost `frame`:
 /// [`CATCH_UP`], or up to 60 % of a slow frame (a picture that waits 25 ms
 /// for a 1M-vertex step shows the pointer's place one 70 ms frame sooner),
@@ -183,13 +197,16 @@ impl Preview {
             .is_some_and(|f| f.generation == self.generation)
     }
 
-    /// A frame that sent a drag step waits for its answer when the worker's
-    /// last drag step took at most `budget` ([`catch_up_budget`]), so the
+    /// A frame that sent a drag step waits for its answer when the worker
+    /// has answered every request before it and its last drag step took at
+    /// most `budget` ([`catch_up_budget`]), so the
     /// frame shows the pointer's new place instead of the one before (a
     /// whole frame sooner: 40-60 ms on a software rasteriser). Waits at
     /// most `budget`; returns the time waited.
     pub fn catch_up(&mut self, budget: Duration) -> Duration {
-        if !self.step_sent || self.is_settled() || self.step_took.is_some_and(|t| t > budget) {
+        self.poll();
+        let answered = self.latest.as_ref().map(|f| f.generation);
+        if !self.step_sent || !worth_waiting(answered, self.generation, self.step_took, budget) {
             return Duration::ZERO;
         }
         let started = Instant::now();
@@ -411,6 +428,26 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_waits_only_for_a_worker_free_to_answer_in_time() {
+        let ms = Duration::from_millis;
+        assert!(worth_waiting(Some(4), 5, None, CATCH_UP), "the first step");
+        assert!(worth_waiting(Some(4), 5, Some(ms(3)), CATCH_UP));
+        assert!(
+            !worth_waiting(Some(5), 5, Some(ms(3)), CATCH_UP),
+            "answered"
+        );
+        assert!(
+            !worth_waiting(Some(3), 5, Some(ms(3)), CATCH_UP),
+            "on a fit"
+        );
+        assert!(!worth_waiting(None, 2, None, CATCH_UP), "on the first fit");
+        assert!(
+            !worth_waiting(Some(4), 5, Some(ms(13)), CATCH_UP),
+            "slow steps"
+        );
+    }
+
+    #[test]
     fn a_slow_frame_may_wait_longer_but_never_long() {
         let ms = Duration::from_millis;
         assert_eq!(catch_up_budget(None), CATCH_UP);
@@ -422,7 +459,8 @@ mod tests {
     #[test]
     fn a_frame_waits_for_a_quick_drag_step_only() {
         let (mut doc, mut preview, mut history) = sphere_with_a_start();
-        // A full edit (a new start: a fit) is never waited for.
+        // A full edit (a new start: a fit) is never waited for, nor a step
+        // sent before the worker answered it (it is still fitting).
         preview.edit(&doc, true);
         assert_eq!(preview.catch_up(CATCH_UP), Duration::ZERO);
         assert!(preview.wait(Duration::from_secs(20)));
