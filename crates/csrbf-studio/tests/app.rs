@@ -816,7 +816,8 @@ fn closing_with_unsaved_changes_asks_first() {
 }
 
 /// Issue 23: F1 (or ?) opens the keys and pointer gestures of the room
-/// shown, and closes them again; Help > Keys and mouse opens them too.
+/// shown, and closes them again (so does Esc); Help > Keys and mouse opens
+/// them too.
 #[test]
 fn f1_shows_the_keys_of_the_room_and_the_help_menu_opens_them() {
     let mut h = head("help");
@@ -834,6 +835,24 @@ fn f1_shows_the_keys_of_the_room_and_the_help_menu_opens_them() {
     h.get_by_label("Keys and mouse  F1").click();
     h.run_steps(2);
     h.get_by_label("P, S, V");
+    // Esc closes it too, and only it (the selection stays).
+    h.key_press(egui::Key::F1);
+    h.run_steps(2);
+    pull_nose(&mut h);
+    h.key_press(egui::Key::F1);
+    h.run_steps(2);
+    h.get_by_label("P, S, V");
+    let doc = h.state().document().expect("open");
+    assert_eq!(doc.selection.0.len(), 1, "the pulled control is selected");
+    h.key_press(egui::Key::Escape);
+    h.run_steps(2);
+    assert!(h.query_by_label("P, S, V").is_none(), "Esc closes it");
+    let doc = h.state().document().expect("open");
+    assert_eq!(doc.selection.0.len(), 1, "the selection is kept");
+    h.get_by_label("Help").click();
+    h.run_steps(3);
+    h.get_by_label("Keys and mouse  F1").click();
+    h.run_steps(2);
     // The Composer's own keys in the Composer.
     h.state_mut().new_scene();
     h.run_steps(2);

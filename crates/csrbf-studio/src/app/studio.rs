@@ -1172,6 +1172,12 @@ impl eframe::App for StudioApp {
             if !ctx.egui_wants_keyboard_input() && help::toggled(&ctx) {
                 self.shell.help = !self.shell.help;
             }
+            // Esc closes the help window first (before the room's Esc).
+            if self.shell.help
+                && ctx.input_mut(|i| i.consume_key(egui::Modifiers::NONE, egui::Key::Escape))
+            {
+                self.shell.help = false;
+            }
             if self.mode == Mode::Compose {
                 self.compose_keys(&ctx);
             } else {
