@@ -133,7 +133,7 @@ unsafe fn block_avx2(
     let r2 = _mm256_set1_pd(r2);
     let mut d2 = [_mm256_setzero_pd(); 2];
     let mut bits = 0;
-    for h in 0..2 {
+    for (h, d2) in d2.iter_mut().enumerate() {
         // SAFETY: each of the three slices holds eight f64 (sliced above).
         let (sx, sy, sz) = unsafe {
             (
@@ -149,8 +149,8 @@ unsafe fn block_avx2(
         );
         // (dx dx + dy dy) + dz dz, as the plain code rounds it.
         let xy = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
-        d2[h] = _mm256_add_pd(xy, _mm256_mul_pd(dz, dz));
-        bits |= _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(d2[h], r2)) << (4 * h);
+        *d2 = _mm256_add_pd(xy, _mm256_mul_pd(dz, dz));
+        bits |= _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(*d2, r2)) << (4 * h);
     }
     (d2, bits as u8)
 }
