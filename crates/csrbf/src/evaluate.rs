@@ -240,6 +240,38 @@ impl Candidates {
         self.id.len()
     }
 
+    /// The candidates' start indices, in the order of every other view.
+    pub(crate) fn ids(&self) -> &[u32] {
+        &self.id
+    }
+
+    /// Start `k` of the candidates.
+    #[inline]
+    pub(crate) fn start(&self, k: usize) -> DVec3 {
+        DVec3::new(self.xs[k], self.ys[k], self.zs[k])
+    }
+
+    /// Calls `f(base, bits)` for every 64 candidates from `base`: bit `k`
+    /// of `bits` is set when candidate `base + k` is closer than `radius`
+    /// to `x` (the test of [`Candidates::for_each_offset`]).
+    #[inline(always)]
+    pub(crate) fn for_each_hit_mask(&self, x: DVec3, radius: f64, mut f: impl FnMut(usize, u64)) {
+        let r2 = radius * radius;
+        let n = self.xs.len();
+        for base in (0..n).step_by(64) {
+            let end = (base + 64).min(n);
+            let (xs, ys, zs) = (
+                &self.xs[base..end],
+                &self.ys[base..end],
+                &self.zs[base..end],
+            );
+            f(
+                base,
+                crate::simd::hit_mask(self.cpu, xs, ys, zs, x.to_array(), r2),
+            );
+        }
+    }
+
     /// Calls `f(start index, phi)` for every candidate within `radius` of `x`.
     #[inline]
     pub(crate) fn for_each_weight(
@@ -277,28 +309,19 @@ impl Candidates {
     /// `radius` to `x`.
     #[inline(always)]
     pub(crate) fn for_each_offset(&mut self, x: DVec3, radius: f64, mut f: impl FnMut(u32, DVec3)) {
-        let r2 = radius * radius;
-        let n = self.xs.len();
         // A bit mask of the hits per 64 candidates, then only the hits: no
         // branch per candidate (about half are hits, which a branch would
         // mispredict half the time).
-        for base in (0..n).step_by(64) {
-            let end = (base + 64).min(n);
-            let (xs, ys, zs) = (
-                &self.xs[base..end],
-                &self.ys[base..end],
-                &self.zs[base..end],
-            );
-            let mut bits = crate::simd::hit_mask(self.cpu, xs, ys, zs, x.to_array(), r2);
+        self.for_each_hit_mask(x, radius, |base, mut bits| {
             while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
+                let k = base + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 f(
-                    self.id[base + k],
-                    DVec3::new(x.x - xs[k], x.y - ys[k], x.z - zs[k]),
+                    self.id[k],
+                    DVec3::new(x.x - self.xs[k], x.y - self.ys[k], x.z - self.zs[k]),
                 );
             }
-        }
+        });
     }
 
     #[inline(always)]

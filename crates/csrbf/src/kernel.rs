@@ -31,11 +31,10 @@ impl Kernel {
     /// phi(r) for r >= 0: the kernel's value at distance r * R.
     #[inline]
     pub fn eval(self, r: f64) -> f64 {
-        if r >= 1.0 {
-            return 0.0;
-        }
         let s = 1.0 - r;
-        match self {
+        // The polynomial first and the cut-off as a select, not a branch:
+        // a loop over candidates then vectorises (a binding's weights).
+        let v = match self {
             Kernel::C0 => s * s,
             Kernel::C2 => {
                 let s2 = s * s;
@@ -50,7 +49,8 @@ impl Kernel {
                 let s4 = s2 * s2;
                 s4 * s4 * (((32.0 * r + 25.0) * r + 8.0) * r + 1.0)
             }
-        }
+        };
+        if r >= 1.0 { 0.0 } else { v }
     }
 
     /// dphi/dr for r >= 0 (zero for r >= 1).

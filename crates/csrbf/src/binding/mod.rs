@@ -1,13 +1,22 @@
 //! A deformation's starts bound to a fixed set of points: each point's
 //! neighbouring starts and kernel weights, found once, so that new
 //! destinations update every point with one sparse product.
+//!
+//! `build` makes a binding (two parallel passes over the cells of points:
+//! count, then fill) with `weights` (a point's hits and kernel weights,
+//! eight candidates at a time); `product` is the sum a new deformation
+//! costs.
+
+mod build;
+mod product;
+mod weights;
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::deformation::Deformation;
 use crate::error::{Error, Result};
-use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, for_each_cell};
+use crate::evaluate::{PARALLEL_POINTS, Point};
 use crate::kernel::Kernel;
 use crate::octree::Octree;
 use crate::system::Shared;
@@ -19,12 +28,15 @@ use crate::system::Shared;
 /// the starts. When only the phase changes (playback), compute the
 /// displacement once and call [`frame`] instead.
 ///
-/// Weights are kept in f32 to halve the memory (about 8 bytes per
-/// point-start pair); a displacement through a binding agrees with
-/// [`Deformation::displacements`] to about 1e-7 relative (6e-8 of the
-/// displacement's size was the largest difference seen on the bundled
-/// models), so a [`crate::Pipeline`], which binds, and [`crate::compose`],
-/// which does not, differ by that much.
+/// Points are grouped in cells about R/2 wide, and the points of a cell
+/// share one list of candidate starts (those within R of the cell). A point
+/// keeps one bit per candidate (whether the start is within R) and the f32
+/// kernel weights of the starts that are, so a point-start pair costs about
+/// 4.2 bytes. The weights are those of the f64 kernel rounded to f32; a
+/// displacement through a binding agrees with [`Deformation::displacements`]
+/// to about 1e-7 relative (6e-8 of the displacement's size was the largest
+/// difference seen on the bundled models), so a [`crate::Pipeline`], which
+/// binds, and [`crate::compose`], which does not, differ by that much.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation
@@ -36,8 +48,51 @@ pub struct Binding {
     radius: f64,
     starts: usize,
     fingerprint: u64,
+    /// The cells, in the order their points are stored.
+    cells: Vec<Cell>,
+    /// Each cell's candidate starts, padded to a multiple of eight.
+    ids: Vec<u32>,
+    /// The points in cell order (the polynomial part needs them).
+    rest: Rest,
+    /// Where point `i` sits in cell order; `None` when cell order is the
+    /// points' own order.
+    slot: Option<Vec<u32>>,
+    /// Per point, one byte per eight candidates of its cell: bit `k` of byte
+    /// `b` is set when candidate `8 b + k` is within R.
+    masks: Vec<u8>,
+    /// The weights of the set bits, point after point, then zeros (eight
+    /// per mask byte of the longest row, and eight more), so that eight
+    /// weights can be read for every byte of a row from its first weight.
+    weights: Vec<f32>,
+    /// Weights before the zeros.
+    pairs: usize,
+}
+
+/// Candidates per mask byte.
+const BLOCK: usize = 8;
+
+/// One cell of points: where its rows start in each array.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cell {
+    /// First point (cell order).
+    point: usize,
+    /// Points.
     points: usize,
-    chunks: Vec<Chunk>,
+    /// First candidate in `ids`.
+    id: usize,
+    /// Mask bytes per point (candidates / 8, rounded up).
+    blocks: usize,
+    /// First mask byte.
+    mask: usize,
+    /// First weight.
+    weight: usize,
+}
+
+/// The bound points, of the kind they were given in.
+#[derive(Clone, Debug)]
+enum Rest {
+    F32(Vec<Vec3>),
+    F64(Vec<DVec3>),
 }
 
 /// What a binding is made from: the starts' octree, kernel, radius and
@@ -48,19 +103,6 @@ struct Support<'a> {
     radius: f64,
     starts: usize,
     fingerprint: u64,
-}
-
-/// The rows of one cell of points.
-#[derive(Clone, Debug, Default)]
-struct Chunk {
-    /// Point indices of the rows.
-    rows: Vec<u32>,
-    /// The points, for the polynomial part.
-    positions: Vec<DVec3>,
-    /// Row `r` spans `offsets[r]..offsets[r + 1]` of `ids`/`weights`.
-    offsets: Vec<u32>,
-    ids: Vec<u32>,
-    weights: Vec<f32>,
 }
 
 impl Binding {
@@ -76,7 +118,7 @@ impl Binding {
             starts: deformation.starts().len(),
             fingerprint: deformation.fingerprint(),
         };
-        Binding::dispatch(&support, points)
+        build::dispatch(&support, points)
     }
 
     /// Binds to a system's starts ([`crate::System::bind`]).
@@ -88,95 +130,39 @@ impl Binding {
             starts: shared.starts.len(),
             fingerprint: shared.fingerprint,
         };
-        Binding::dispatch(&support, points)
-    }
-
-    fn dispatch<P: Point>(support: &Support<'_>, points: &[P]) -> Binding {
-        match P::slice(points) {
-            Points::F32(p) => Binding::of_f32(support, p),
-            Points::F64(p) => Binding::of_f64(support, p),
-        }
-    }
-
-    // The hot loop, compiled here (not in the caller's crate) for each kind.
-    #[inline(never)]
-    fn of_f32(support: &Support<'_>, points: &[Vec3]) -> Binding {
-        Binding::build(support, points)
-    }
-
-    #[inline(never)]
-    fn of_f64(support: &Support<'_>, points: &[DVec3]) -> Binding {
-        Binding::build(support, points)
-    }
-
-    fn build<P: Point>(support: &Support<'_>, points: &[P]) -> Binding {
-        let blocks = Blocks::for_starts(points, support.radius, support.starts);
-        let mut chunks = vec![Chunk::default(); blocks.cells.len()];
-        let (kernel, radius) = (support.kernel, support.radius);
-        let parallel = points.len() >= PARALLEL_POINTS;
-        // One chunk per cell: split `chunks` like a per-point buffer of length 1 per cell.
-        let one_each = Blocks {
-            order: Vec::new(),
-            cells: (0..chunks.len()).map(|c| (c, c + 1)).collect(),
-            identity: false,
-        };
-        for_each_cell(&one_each, &mut chunks, parallel, |(c, _), out, cand| {
-            let (s, e) = blocks.cells[c];
-            let idx = &blocks.order[s..e];
-            cand.gather(
-                support.octree,
-                idx.iter().map(|&i| points[i as usize].to_dvec3()),
-                radius,
-            );
-            let chunk = &mut out[0];
-            chunk.rows = idx.to_vec();
-            chunk.offsets.reserve(idx.len() + 1);
-            chunk.offsets.push(0);
-            for &i in idx {
-                let x = points[i as usize].to_dvec3();
-                chunk.positions.push(x);
-                if x.is_finite() {
-                    cand.for_each_weight(x, kernel, radius, |j, w| {
-                        chunk.ids.push(j);
-                        chunk.weights.push(w as f32);
-                    });
-                }
-                chunk.offsets.push(chunk.ids.len() as u32);
-            }
-        });
-        Binding {
-            kernel,
-            radius,
-            starts: support.starts,
-            fingerprint: support.fingerprint,
-            points: points.len(),
-            chunks,
-        }
+        build::dispatch(&support, points)
     }
 
     /// Number of points bound.
     pub fn len(&self) -> usize {
-        self.points
+        match &self.rest {
+            Rest::F32(p) => p.len(),
+            Rest::F64(p) => p.len(),
+        }
     }
 
     /// Whether no point is bound.
     pub fn is_empty(&self) -> bool {
-        self.points == 0
+        self.len() == 0
     }
 
     /// Stored point-start pairs.
     pub fn pairs(&self) -> usize {
-        self.chunks.iter().map(|c| c.ids.len()).sum()
+        self.pairs
     }
 
     /// Bytes the binding holds.
     pub fn bytes(&self) -> usize {
-        self.chunks
-            .iter()
-            .map(|c| {
-                4 * c.rows.len() + 24 * c.positions.len() + 4 * c.offsets.len() + 8 * c.ids.len()
-            })
-            .sum()
+        let rest = match &self.rest {
+            Rest::F32(p) => size_of_val(p.as_slice()),
+            Rest::F64(p) => size_of_val(p.as_slice()),
+        };
+        size_of_val(self.cells.as_slice())
+            + size_of_val(self.ids.as_slice())
+            + rest
+            + self.slot.as_ref().map_or(0, |s| size_of_val(s.as_slice()))
+            + self.masks.len()
+            + size_of_val(self.weights.as_slice())
     }
 
     /// Writes D of `deformation` at every bound point into `out` (point order).
@@ -196,39 +182,33 @@ impl Binding {
                 radius: deformation.radius(),
             });
         }
-        if out.len() != self.points {
+        if out.len() != self.len() {
             return Err(Error::PointCount {
                 what: "displacement buffer",
-                expected: self.points,
+                expected: self.len(),
                 got: out.len(),
             });
         }
-        let alpha = deformation.coefficients();
-        let affine = deformation.affine();
-        let eval = |chunk: &Chunk| -> Vec<Vec3> {
-            (0..chunk.rows.len())
-                .map(|r| {
-                    let (s, e) = (chunk.offsets[r] as usize, chunk.offsets[r + 1] as usize);
-                    let x = chunk.positions[r];
-                    if !x.is_finite() {
-                        return Vec3::NAN;
+        match &self.slot {
+            None => product::displacements(self, deformation, out),
+            Some(slot) => {
+                let mut sorted = vec![Vec3::ZERO; out.len()];
+                product::displacements(self, deformation, &mut sorted);
+
+                let parallel = out.len() >= PARALLEL_POINTS;
+                let fill = |(o, s): (&mut [Vec3], &[u32])| {
+                    for (o, &k) in o.iter_mut().zip(s) {
+                        *o = sorted[k as usize];
                     }
-                    let mut d = affine.map_or(DVec3::ZERO, |a| a.eval(x));
-                    for (&j, &w) in chunk.ids[s..e].iter().zip(&chunk.weights[s..e]) {
-                        d += alpha[j as usize] * w as f64;
-                    }
-                    d.as_vec3()
-                })
-                .collect()
-        };
-        let values: Vec<Vec<Vec3>> = if self.points >= PARALLEL_POINTS {
-            self.chunks.par_iter().map(eval).collect()
-        } else {
-            self.chunks.iter().map(eval).collect()
-        };
-        for (chunk, v) in self.chunks.iter().zip(values) {
-            for (&i, d) in chunk.rows.iter().zip(v) {
-                out[i as usize] = d;
+                };
+                const CHUNK: usize = 1 << 14;
+                if parallel {
+                    out.par_chunks_mut(CHUNK)
+                        .zip(slot.par_chunks(CHUNK))
+                        .for_each(fill);
+                } else {
+                    fill((out, slot));
+                }
             }
         }
         Ok(())
@@ -236,7 +216,7 @@ impl Binding {
 
     /// D of `deformation` at every bound point (point order).
     pub fn displacements(&self, deformation: &Deformation) -> Result<Vec<Vec3>> {
-        let mut out = vec![Vec3::ZERO; self.points];
+        let mut out = vec![Vec3::ZERO; self.len()];
         self.displacements_into(deformation, &mut out)?;
         Ok(out)
     }
@@ -247,7 +227,7 @@ impl Binding {
     /// deformations run in parallel; each is checked as
     /// [`Binding::displacements_into`] checks it.
     pub fn displacements_many(&self, deformations: &[Deformation], out: &mut [Vec3]) -> Result<()> {
-        let n = self.points;
+        let n = self.len();
         if out.len() != n * deformations.len() {
             return Err(Error::PointCount {
                 what: "displacement buffer (points x deformations)",
@@ -290,3 +270,6 @@ pub fn frame(rest: &[Vec3], displacement: &[Vec3], phase: f64, out: &mut [Vec3])
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,82 @@
+//! Times binding and refitting alone on a synthetic scene, for profiling:
+//! `cargo run --release --example bind -p csrbf [-- SCENE REPEATS]` (SCENE:
+//! one of `csrbf::synthetic::SCENES`, default 1m). Prints the medians of
+//! bind, solve, refit through the binding (without the solve) and evaluate,
+//! the binding's size, and the largest difference between the binding and
+//! the f64 evaluation.
+
+use csrbf::synthetic::scene;
+use csrbf::{Binding, System};
+use glam::{DVec3, Vec3};
+
+fn median<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..reps.max(1) {
+        let t = std::time::Instant::now();
+        last = Some(f());
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], last.expect("one run"))
+}
+
+fn main() -> Result<(), csrbf::Error> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let name = args.first().map_or("1m", String::as_str);
+    let reps = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(5);
+    // "VERTICES/STARTS" for a scene of that size.
+    let custom = name.split_once('/').and_then(|(v, n)| {
+        Some(csrbf::synthetic::scene_of(
+            "custom",
+            v.parse().ok()?,
+            n.parse().ok()?,
+            None,
+        ))
+    });
+    let Some(s) = custom.or_else(|| scene(name)) else {
+        eprintln!("unknown scene {name}");
+        return Ok(());
+    };
+    let sys = System::new(&s.starts, s.options)?;
+    let d = sys.solve(&s.targets)?;
+    if std::env::var_os("BIND_ONLY").is_some() {
+        let (ms, b) = median(reps, || Binding::new(&d, &s.points));
+        println!("bind {ms:.2} ms, {} pairs", b.pairs());
+        return Ok(());
+    }
+    let (bind_ms, binding) = median(reps.min(3), || Binding::new(&d, &s.points));
+    if std::env::var_os("REFIT_ONLY").is_some() {
+        let mut out = vec![Vec3::ZERO; s.points.len()];
+        let (ms, _) = median(50, || binding.displacements_into(&d, &mut out));
+        println!("refit {ms:.2} ms");
+        return Ok(());
+    }
+    let moved: Vec<DVec3> = s
+        .targets
+        .iter()
+        .map(|t| *t + DVec3::Z * 0.01 * s.options.radius)
+        .collect();
+    let (solve_ms, d2) = median(reps, || sys.solve(&moved));
+    let d2 = d2?;
+    let mut out = vec![Vec3::ZERO; s.points.len()];
+    let (refit_ms, r) = median(reps, || binding.displacements_into(&d2, &mut out));
+    r?;
+    let (evaluate_ms, _) = median(reps, || d2.displacements_f32(&s.points));
+    println!(
+        "{name}: bind {bind_ms:.2} ms | solve {solve_ms:.2} ms | refit (product) {refit_ms:.2} ms | evaluate {evaluate_ms:.2} ms | {:.2} MB, {} pairs",
+        binding.bytes() as f64 / 1e6,
+        binding.pairs()
+    );
+    let want = d2.displacements(&s.points);
+    let worst = out
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| (a.as_dvec3() - *b).length())
+        .fold(0.0, f64::max);
+    let largest = want.iter().map(|d| d.length()).fold(0.0, f64::max);
+    println!(
+        "binding against f64: largest difference {worst:.3e} (largest displacement {largest:.3e})"
+    );
+    Ok(())
+}

@@ -1,0 +1,146 @@
+//! The binding's vector code against its plain references, and the
+//! binding against the f64 evaluation (issue 18: masks and f32 weights in
+//! place of per-pair indices).
+
+use glam::{DVec3, Vec3};
+
+use super::product::{cell_plain, cell_sums};
+use super::weights::{Lanes, count_plain, count_row, fill_plain, fill_row};
+use super::{BLOCK, Binding};
+use crate::evaluate::Candidates;
+use crate::kernel::Kernel;
+use crate::octree::Octree;
+use crate::simd::Avx2Fma;
+use crate::synthetic::Rng;
+use crate::{Deformation, FitOptions, Polynomial};
+
+/// Both copies find the same hits and store the same weights, bit for bit,
+/// and those are `Kernel::eval` of the distance rounded to f32, in
+/// candidate order: for every kernel, candidate counts that are and are
+/// not multiples of eight, and none.
+#[test]
+fn weights_with_and_without_avx2_are_the_same_bits() {
+    let mut rng = Rng::new(18);
+    for kernel in Kernel::ALL {
+        for n in [0, 1, 7, 8, 9, 30, 64, 203] {
+            let radius = 0.05 + 0.2 * rng.f64();
+            let offset = DVec3::new(3.0, -2.0, 0.5);
+            let starts: Vec<DVec3> = (0..n).map(|_| offset + rng.vec3() * 0.3).collect();
+            let octree = Octree::new(&starts);
+            let (lo, hi) = (offset + 0.1, offset + 0.1 + radius * 0.5);
+            let mut cand = Candidates::default();
+            cand.gather(&octree, [lo, hi].into_iter(), radius);
+            let mut lanes = Lanes::default();
+            lanes.pad(&cand);
+            let blocks = cand.len().div_ceil(BLOCK);
+            for _ in 0..20 {
+                let x = lo + (hi - lo) * rng.vec3();
+                let want: Vec<f32> = (0..cand.len())
+                    .map(|k| x.distance(cand.start(k)))
+                    .filter(|&d| d * d < radius * radius)
+                    .map(|d| kernel.eval(d / radius) as f32)
+                    .collect();
+                let count = count_plain(&lanes, x, radius);
+                assert_eq!(count, want.len(), "{kernel:?} n {n}");
+                assert_eq!(count_row(Avx2Fma::detect(), &lanes, x, radius), count);
+                // Room for the vector stores, and exactly the hits (so the
+                // last blocks take the one-at-a-time store).
+                for room in [count + 4 * BLOCK, count] {
+                    let (mut m1, mut w1) = (vec![0u8; blocks], vec![9.0f32; room]);
+                    let (mut m2, mut w2) = (vec![0u8; blocks], vec![9.0f32; room]);
+                    let h1 = fill_plain(&lanes, x, kernel, radius, &mut m1, &mut w1);
+                    let cpu = Avx2Fma::detect();
+                    let h2 = fill_row(cpu, &lanes, x, kernel, radius, &mut m2, &mut w2);
+                    assert_eq!((h1, h2), (count, count));
+                    assert_eq!(m1, m2);
+                    assert_eq!(&w1[..count], &want[..], "{kernel:?} n {n}");
+                    assert_eq!(&w2[..count], &want[..], "{kernel:?} n {n}");
+                    let ones: u32 = m1.iter().map(|m| m.count_ones()).sum();
+                    assert_eq!(ones as usize, count);
+                }
+            }
+        }
+    }
+}
+
+/// The vector sum agrees with the plain one (to rounding: the order of the
+/// additions differs), and with too few weights for its loads it falls
+/// back to the plain sum.
+#[test]
+fn sums_with_and_without_avx2_agree() {
+    let mut rng = Rng::new(19);
+    for blocks in [1, 2, 3, 10, 17] {
+        let points = 13;
+        let rows: Vec<u8> = (0..points * blocks)
+            .map(|_| (rng.f64() * 256.0) as u8)
+            .collect();
+        let hits: usize = rows.iter().map(|m| m.count_ones() as usize).sum();
+        let table: Vec<f64> = (0..blocks * 3 * BLOCK)
+            .map(|_| rng.f64() * 2.0 - 1.0)
+            .collect();
+        for room in [BLOCK * (blocks + 1), 0] {
+            let weights: Vec<f32> = (0..hits + room).map(|_| rng.f64() as f32).collect();
+            let mut want = vec![DVec3::ZERO; points];
+            cell_plain(&rows, blocks, &weights, &table, &mut want);
+            let mut got = vec![DVec3::ZERO; points];
+            cell_sums(Avx2Fma::detect(), &rows, blocks, &weights, &table, &mut got);
+            for (g, w) in got.iter().zip(&want) {
+                assert!((*g - *w).length() <= 1e-12 * (1.0 + w.length()), "{g} {w}");
+            }
+        }
+    }
+}
+
+/// A binding gives the f64 evaluation's displacements to the rounding of
+/// its f32 weights: with cells (many starts) and without (few), f32 and
+/// f64 points, a point that is not finite, points out of every start's
+/// reach, every kernel, with and without the polynomial part; and it counts
+/// every pair within R once.
+#[test]
+fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
+    let mut rng = Rng::new(20);
+    for (starts, radius) in [(30, 0.5), (400, 0.2)] {
+        for kernel in Kernel::ALL {
+            for poly in [Polynomial::None, Polynomial::Linear] {
+                let s: Vec<DVec3> = (0..starts).map(|_| rng.vec3()).collect();
+                let t: Vec<DVec3> = s.iter().map(|p| *p + rng.vec3() * 0.02).collect();
+                let options = FitOptions::new(radius)
+                    .with_kernel(kernel)
+                    .with_polynomial(poly);
+                let d = Deformation::fit(&s, &t, options).expect("fit");
+                // Points over a box wider than the starts' (some out of reach).
+                let mut points: Vec<DVec3> = (0..3000).map(|_| rng.vec3() * 1.6 - 0.3).collect();
+                points[7] = DVec3::new(f64::NAN, 0.5, 0.5);
+                points[8] = DVec3::splat(40.0);
+                let want = d.displacements(&points);
+                let f64s = Binding::new(&d, &points).displacements(&d).expect("f64");
+                let p32: Vec<Vec3> = points.iter().map(|p| p.as_vec3()).collect();
+                let want32 = d.displacements(&p32);
+                let binding = Binding::new(&d, &p32);
+                let f32s = binding.displacements(&d).expect("f32");
+                assert_eq!(binding.len(), points.len());
+                let mut pairs = 0;
+                for (k, p) in points.iter().enumerate() {
+                    if k == 7 {
+                        assert!(f64s[k].is_nan() && f32s[k].is_nan());
+                        continue;
+                    }
+                    let near = d.starts().iter().zip(d.coefficients());
+                    let near: Vec<f64> = near
+                        .filter(|(s, _)| s.distance(*p) < radius)
+                        .map(|(s, a)| a.length() * kernel.eval(s.distance(*p) / radius))
+                        .collect();
+                    pairs += near.len();
+                    // f32 weights (6e-8 relative each) and the f32 result.
+                    let scale: f64 = near.iter().sum();
+                    for (got, want) in [(f64s[k], want[k]), (f32s[k], want32[k])] {
+                        let err = (got.as_dvec3() - want).length();
+                        let tol = 1e-7 * scale + 1e-7 * want.length() + 1e-12;
+                        assert!(err <= tol, "{kernel:?} {poly:?} {k}: {err:e} > {tol:e}");
+                    }
+                }
+                assert_eq!(binding.pairs(), pairs);
+            }
+        }
+    }
+}

@@ -1,0 +1,361 @@
+//! A point's hits and kernel weights against its cell's candidates, eight
+//! candidates (one mask byte) at a time, in f64: the hit test of the
+//! evaluation (`|x - s|^2 < R^2`, the operations of [`crate::simd`]'s mask)
+//! and phi(|x - s| / R) as [`Kernel::eval`] computes it, for all eight
+//! lanes, so that the loops vectorise; the hits' weights are then stored in
+//! order, rounded to f32.
+//!
+//! Counting (the first pass) and filling (the second) share the hit test,
+//! so they find the same hits. The plain bodies are compiled twice: as they
+//! are (the reference, and the path without AVX2) and for AVX2, where the
+//! store of the hits' weights is one permutation and one unaligned store
+//! per block (`COMPRESS`). Neither uses fused multiply-adds: both give the
+//! weights `Kernel::eval` gives.
+
+use glam::DVec3;
+
+use super::BLOCK;
+use crate::evaluate::Candidates;
+use crate::kernel::Kernel;
+use crate::simd::Avx2Fma;
+
+/// A cell's candidates by coordinate, padded to a multiple of eight with
+/// infinite coordinates (|x - s|^2 is infinite, never below R^2: the
+/// padding lanes are never hits).
+#[derive(Default)]
+pub(super) struct Lanes {
+    xyz: [Vec<f64>; 3],
+}
+
+impl Lanes {
+    /// The candidates of `cand`, padded.
+    pub(super) fn pad(&mut self, cand: &Candidates) {
+        let real = cand.len();
+        let padded = real.next_multiple_of(BLOCK);
+        for (axis, v) in self.xyz.iter_mut().enumerate() {
+            v.clear();
+            v.extend((0..real).map(|k| cand.start(k)[axis]));
+            v.resize(padded, f64::INFINITY);
+        }
+    }
+
+    /// Blocks of eight candidates.
+    fn blocks(&self) -> usize {
+        self.xyz[0].len() / BLOCK
+    }
+
+    /// Squared distances from `x` to the candidates of block `b`, and the
+    /// block's hit bits.
+    #[inline(always)]
+    fn block(&self, b: usize, x: DVec3, r2: f64) -> ([f64; BLOCK], u8) {
+        let [xs, ys, zs] = &self.xyz;
+        let range = b * BLOCK..(b + 1) * BLOCK;
+        let (cx, cy, cz) = (&xs[range.clone()], &ys[range.clone()], &zs[range]);
+        let mut d2 = [0.0f64; BLOCK];
+        for k in 0..BLOCK {
+            let (dx, dy, dz) = (x.x - cx[k], x.y - cy[k], x.z - cz[k]);
+            d2[k] = dx * dx + dy * dy + dz * dz;
+        }
+        let mut bits = 0u8;
+        for (k, d) in d2.iter().enumerate() {
+            bits |= u8::from(*d < r2) << k;
+        }
+        (d2, bits)
+    }
+}
+
+/// The candidates within `radius` of `x`.
+pub(super) fn count_row(cpu: Option<Avx2Fma>, lanes: &Lanes, x: DVec3, radius: f64) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(cpu) = cpu {
+        let _ = cpu;
+        // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+        #[allow(unsafe_code)]
+        return unsafe { count_avx2(lanes, x, radius) };
+    }
+    let _ = cpu;
+    count_plain(lanes, x, radius)
+}
+
+/// The reference count.
+#[inline(always)]
+pub(super) fn count_plain(lanes: &Lanes, x: DVec3, radius: f64) -> usize {
+    let r2 = radius * radius;
+    let mut hits = 0;
+    for b in 0..lanes.blocks() {
+        hits += ONES[lanes.block(b, x, r2).1 as usize] as usize;
+    }
+    hits
+}
+
+/// [`count_plain`] with AVX2: the hit test of a block in two vectors.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn count_avx2(lanes: &Lanes, x: DVec3, radius: f64) -> usize {
+    let mut hits = 0;
+    for b in 0..lanes.blocks() {
+        // SAFETY: b is below `lanes.blocks()`; the CPU has AVX2 (our caller's promise).
+        let (_, bits) = unsafe { block_avx2(lanes, b, x, radius * radius) };
+        hits += ONES[bits as usize] as usize;
+    }
+    hits
+}
+
+/// [`Lanes::block`] with AVX2: the squared distances of block `b` in two
+/// vectors of four, and its hit bits. (No closures in the vector code:
+/// a closure does not inherit `target_feature`, so it would not inline.)
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn block_avx2(
+    lanes: &Lanes,
+    b: usize,
+    x: DVec3,
+    r2: f64,
+) -> ([std::arch::x86_64::__m256d; 2], u8) {
+    use std::arch::x86_64::*;
+    let range = b * BLOCK..(b + 1) * BLOCK;
+    let [xs, ys, zs] = &lanes.xyz;
+    let (cx, cy, cz) = (&xs[range.clone()], &ys[range.clone()], &zs[range]);
+    let (px, py, pz) = (
+        _mm256_set1_pd(x.x),
+        _mm256_set1_pd(x.y),
+        _mm256_set1_pd(x.z),
+    );
+    let r2 = _mm256_set1_pd(r2);
+    let mut d2 = [_mm256_setzero_pd(); 2];
+    let mut bits = 0;
+    for (h, d2) in d2.iter_mut().enumerate() {
+        // SAFETY: each of the three slices holds eight f64 (sliced above).
+        let (sx, sy, sz) = unsafe {
+            (
+                _mm256_loadu_pd(cx.as_ptr().add(4 * h)),
+                _mm256_loadu_pd(cy.as_ptr().add(4 * h)),
+                _mm256_loadu_pd(cz.as_ptr().add(4 * h)),
+            )
+        };
+        let (dx, dy, dz) = (
+            _mm256_sub_pd(px, sx),
+            _mm256_sub_pd(py, sy),
+            _mm256_sub_pd(pz, sz),
+        );
+        // (dx dx + dy dy) + dz dz, as the plain code rounds it.
+        let xy = _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy));
+        *d2 = _mm256_add_pd(xy, _mm256_mul_pd(dz, dz));
+        bits |= _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(*d2, r2)) << (4 * h);
+    }
+    (d2, bits as u8)
+}
+
+/// phi(r) of four lanes: [`Kernel::eval`]'s operations in its order.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn phi_avx2(kernel: Kernel, r: std::arch::x86_64::__m256d) -> std::arch::x86_64::__m256d {
+    use std::arch::x86_64::*;
+    let one = _mm256_set1_pd(1.0);
+    let s = _mm256_sub_pd(one, r);
+    let s2 = _mm256_mul_pd(s, s);
+    let v = match kernel {
+        Kernel::C0 => s2,
+        Kernel::C2 => {
+            let p = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(4.0), r), one);
+            _mm256_mul_pd(_mm256_mul_pd(s2, s2), p)
+        }
+        Kernel::C4 => {
+            let p = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(35.0), r), _mm256_set1_pd(18.0));
+            let p = _mm256_add_pd(_mm256_mul_pd(p, r), _mm256_set1_pd(3.0));
+            _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(s2, s2), s2), p)
+        }
+        Kernel::C6 => {
+            let s4 = _mm256_mul_pd(s2, s2);
+            let p = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(32.0), r), _mm256_set1_pd(25.0));
+            let p = _mm256_add_pd(_mm256_mul_pd(p, r), _mm256_set1_pd(8.0));
+            let p = _mm256_add_pd(_mm256_mul_pd(p, r), one);
+            _mm256_mul_pd(_mm256_mul_pd(s4, s4), p)
+        }
+    };
+    _mm256_blendv_pd(v, _mm256_setzero_pd(), _mm256_cmp_pd::<_CMP_GE_OQ>(r, one))
+}
+
+/// Writes one point's mask bytes into `row` and the weights of its hits
+/// into `weights` (from the first); returns the hits.
+pub(super) fn fill_row(
+    cpu: Option<Avx2Fma>,
+    lanes: &Lanes,
+    x: DVec3,
+    kernel: Kernel,
+    radius: f64,
+    row: &mut [u8],
+    weights: &mut [f32],
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(cpu) = cpu {
+        let _ = cpu;
+        // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+        #[allow(unsafe_code)]
+        return unsafe { fill_avx2(lanes, x, kernel, radius, row, weights) };
+    }
+    let _ = cpu;
+    fill_plain(lanes, x, kernel, radius, row, weights)
+}
+
+/// The reference: the hits' weights stored one at a time.
+pub(super) fn fill_plain(
+    lanes: &Lanes,
+    x: DVec3,
+    kernel: Kernel,
+    radius: f64,
+    row: &mut [u8],
+    weights: &mut [f32],
+) -> usize {
+    match kernel {
+        Kernel::C0 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C0.eval(r)),
+        Kernel::C2 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C2.eval(r)),
+        Kernel::C4 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C4.eval(r)),
+        Kernel::C6 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C6.eval(r)),
+    }
+}
+
+/// [`fill_plain`] with AVX2: the hit test and phi of a block in two
+/// vectors of four, its hits' weights stored by one permutation.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn fill_avx2(
+    lanes: &Lanes,
+    x: DVec3,
+    kernel: Kernel,
+    radius: f64,
+    row: &mut [u8],
+    weights: &mut [f32],
+) -> usize {
+    use std::arch::x86_64::*;
+    let (inv, r2) = (_mm256_set1_pd(1.0 / radius), radius * radius);
+    let mut w = 0;
+    for (b, r) in row.iter_mut().enumerate().take(lanes.blocks()) {
+        // SAFETY: b is below `lanes.blocks()`; the CPU has AVX2 (our caller's promise).
+        let (d2, bits) = unsafe { block_avx2(lanes, b, x, r2) };
+        *r = bits;
+        if bits == 0 {
+            continue;
+        }
+        // SAFETY: as above.
+        let (lo, hi) = unsafe {
+            (
+                phi_avx2(kernel, _mm256_mul_pd(_mm256_sqrt_pd(d2[0]), inv)),
+                phi_avx2(kernel, _mm256_mul_pd(_mm256_sqrt_pd(d2[1]), inv)),
+            )
+        };
+        let (lo, hi) = (_mm256_cvtpd_ps(lo), _mm256_cvtpd_ps(hi));
+        let packed = _mm256_set_m128(hi, lo);
+        match weights.get_mut(w..w + BLOCK) {
+            Some(out) => {
+                // SAFETY: COMPRESS holds eight i32 for every byte, `out` eight f32.
+                unsafe {
+                    let idx = _mm256_loadu_si256(COMPRESS[bits as usize].as_ptr().cast());
+                    let v = _mm256_permutevar8x32_ps(packed, idx);
+                    _mm256_storeu_ps(out.as_mut_ptr(), v);
+                }
+                w += ONES[bits as usize] as usize;
+            }
+            None => {
+                let mut v = [0.0f32; BLOCK];
+                // SAFETY: `v` holds eight f32.
+                unsafe { _mm256_storeu_ps(v.as_mut_ptr(), packed) };
+                let phi = v.map(f64::from);
+                w = store_plain(&phi, bits, weights, w);
+            }
+        }
+    }
+    w
+}
+
+#[inline(always)]
+fn fill_body(
+    lanes: &Lanes,
+    x: DVec3,
+    radius: f64,
+    row: &mut [u8],
+    weights: &mut [f32],
+    phi: impl Fn(f64) -> f64,
+) -> usize {
+    let (inv, r2) = (1.0 / radius, radius * radius);
+    let mut w = 0;
+    for (b, r) in row.iter_mut().enumerate().take(lanes.blocks()) {
+        let (d2, bits) = lanes.block(b, x, r2);
+        *r = bits;
+        if bits == 0 {
+            continue;
+        }
+        let mut phis = [0.0f64; BLOCK];
+        for k in 0..BLOCK {
+            phis[k] = phi(d2[k].sqrt() * inv);
+        }
+        w = store_plain(&phis, bits, weights, w);
+    }
+    w
+}
+
+/// Stores the weights of the set bits of `bits` from `weights[w]`; returns
+/// the next free index.
+#[inline(always)]
+fn store_plain(phi: &[f64; BLOCK], mut bits: u8, weights: &mut [f32], mut w: usize) -> usize {
+    while bits != 0 {
+        let k = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        weights[w] = phi[k] as f32;
+        w += 1;
+    }
+    w
+}
+
+/// For each byte, the lanes of its set bits in order (lane j of the
+/// result takes the j-th set bit's lane), then zeros.
+static COMPRESS: [[i32; BLOCK]; 256] = compress_table();
+
+/// The set bits of each byte (the baseline x86-64 this crate compiles for
+/// has no `popcnt` instruction).
+pub(super) static ONES: [u8; 256] = ones_table();
+
+const fn compress_table() -> [[i32; BLOCK]; 256] {
+    let mut t = [[0; BLOCK]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut k, mut j) = (0, 0);
+        while k < BLOCK {
+            if (m >> k) & 1 == 1 {
+                t[m][j] = k as i32;
+                j += 1;
+            }
+            k += 1;
+        }
+        m += 1;
+    }
+    t
+}
+
+const fn ones_table() -> [u8; 256] {
+    let mut t = [0; 256];
+    let mut m = 0;
+    while m < 256 {
+        t[m] = (m as u8).count_ones() as u8;
+        m += 1;
+    }
+    t
+}
