@@ -25,6 +25,8 @@ pub struct Live {
     positions: Vec<Vec3>,
     diagnostics: Option<Diagnostics>,
     bvh: Option<Bvh>,
+    /// Control vectors in use: the file's and those its handles make.
+    controls: usize,
     /// The surface's graph and the connected regions resolved lately: a
     /// drag step that moves destinations only walks the surface again for
     /// none of them.
@@ -50,6 +52,7 @@ impl Live {
             pipeline: Pipeline::new(Vec::new()),
             layers: Vec::new(),
             earlier_systems: 0,
+            controls: 0,
             surface: SurfaceCache::default(),
             triangles,
             positions: doc.mesh.positions.clone(),
@@ -105,6 +108,7 @@ impl Live {
         let lookup = |n: &str| doc.mesh.part_vertices(n);
         let mut stages = Vec::new();
         let mut layers = Vec::new();
+        let mut controls = 0;
         for (layer, spec) in doc.controls.deformations.iter().enumerate() {
             // A connected region is measured along the surface: the
             // triangles go with the points.
@@ -116,6 +120,7 @@ impl Live {
                     &mut self.surface,
                 )
                 .map_err(|source| LiveError { layer, source })?;
+            controls += spec.starts.len();
             if !spec.starts.is_empty() {
                 let stage = spec
                     .to_stage()
@@ -124,6 +129,7 @@ impl Live {
                 layers.push(layer);
             }
         }
+        self.controls = controls;
         self.sync(doc, stages, layers);
         for (k, &layer) in self.layers.iter().enumerate() {
             self.pipeline
@@ -219,6 +225,12 @@ impl Live {
     /// What the last update found (folds, starts out of reach), if any.
     pub fn diagnostics(&self) -> Option<&Diagnostics> {
         self.diagnostics.as_ref()
+    }
+
+    /// How many control vectors the last update used: the file's, and those
+    /// its handles made on the mesh.
+    pub fn controls(&self) -> usize {
+        self.controls
     }
 
     /// How many systems were factored so far (a drag should not add any).
@@ -370,5 +382,21 @@ mod tests {
             live.diagnostics().expect("diagnosed").inside_out.len(),
             folded
         );
+    }
+
+    #[test]
+    fn a_handle_layer_counts_the_controls_it_makes() {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 16, 32);
+        let mut doc = Document::new(mesh, PathBuf::from("s.obj"), 0.6);
+        let top: Vec<u32> = (0..doc.mesh.positions.len() as u32)
+            .filter(|&v| doc.mesh.positions[v as usize].y > 0.8)
+            .collect();
+        let spec = doc.controls.deformations[0].clone();
+        let handle = Command::use_vertices(&doc, &spec, top, crate::tools::VertexTarget::Handle);
+        History::default().apply(&mut doc, handle).expect("handle");
+        assert!(doc.controls.deformations[0].starts.is_empty());
+        let mut live = Live::new(&doc);
+        live.update(&doc).expect("update");
+        assert!(live.controls() > 0, "the handle's vectors count");
     }
 }

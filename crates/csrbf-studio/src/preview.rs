@@ -39,6 +39,8 @@ pub struct PreviewFrame {
     pub took: Duration,
     /// Systems factored so far.
     pub factorisations: usize,
+    /// Control vectors in use ([`Live::controls`]: handles' included).
+    pub controls: usize,
 }
 
 enum Request {
@@ -349,6 +351,7 @@ fn serve(
             error,
             took: started.elapsed(),
             factorisations: l.factorisations(),
+            controls: l.controls(),
         };
         if outbox.send(frame).is_err() {
             return;

@@ -1081,6 +1081,11 @@ fn a_handles_pivot_is_picked_on_the_surface() {
     h.get_by_label("Apply the chosen vertices").click();
     h.run_steps(2);
     settle(&mut h);
+    // The status says what was made, and the status bar counts the
+    // handle's vectors (the trial saw "0 controls").
+    let status = h.state().status().to_string();
+    assert!(status.contains("is a handle of"), "{status}");
+    h.get_by_label_contains("from handles)");
     let handle = |h: &Harness<'_, StudioApp>| {
         let d = h.state().document().expect("open");
         d.controls.deformations[d.active_layer]
@@ -1106,6 +1111,8 @@ fn a_handles_pivot_is_picked_on_the_surface() {
     h.get_by_label("selection's centre").click();
     settle(&mut h);
     assert_eq!(handle(&h).rotate.and_then(|r| r.pivot), None);
+    let status = h.state().status().to_string();
+    assert!(status.contains("selection's centre again"), "{status}");
 }
 
 /// Issue 23: "Orbit about the selection" turns the view about the selected

@@ -215,8 +215,18 @@ impl Picker {
         let l = m.doc.active_layer;
         let spec = m.doc.controls.deformations[l].clone();
         let mut commands = Vec::new();
+        let mut said = None;
         if !m.picked_vertices.is_empty() && ui.button("Apply the chosen vertices").clicked() {
+            let (n, target) = (m.picked_vertices.len(), m.vertex_target);
             commands.push(apply_chosen(m, &spec));
+            said = Some(match target {
+                VertexTarget::Handle => format!(
+                    "Layer {} is a handle of {n} vertices: turn it with its rings (Vertices tool)",
+                    m.doc.active_layer + 1
+                ),
+                VertexTarget::Anchor => format!("{n} vertices anchor layer {}", l + 1),
+                VertexTarget::Region => format!("Layer {} acts on {n} vertices", l + 1),
+            });
         }
         if let Some(h) = spec.handle.clone() {
             ui.label(format!(
@@ -238,6 +248,15 @@ impl Picker {
                 own.pivot(&m.doc.mesh.positions, &lookup).ok()
             };
             let (edited, pick) = pivot_ui(ui, &h, centroid, view_axis, m.doc.diagonal());
+            if let Some(e) = &edited
+                && e.rotate.and_then(|r| r.pivot).is_none()
+                && h.rotate.and_then(|r| r.pivot).is_some()
+            {
+                said = Some(format!(
+                    "Layer {}'s handle turns about its selection's centre again",
+                    l + 1
+                ));
+            }
             if pick {
                 self.pick_pivot = true;
                 self.status =
@@ -259,6 +278,9 @@ impl Picker {
         }
         for c in commands {
             self.edit(c, true);
+        }
+        if let Some(s) = said {
+            self.status = s;
         }
     }
 
@@ -826,11 +848,23 @@ pub(super) fn pick_status(ui: &mut egui::Ui, m: &Model, frame: &str) {
         .iter()
         .map(|s| s.starts.len())
         .sum();
+    // A handle's vectors are made on the mesh: counted as the fit used them.
+    let made = m.preview.latest().map_or(0, |f| f.controls);
+    let handles = m
+        .doc
+        .controls
+        .deformations
+        .iter()
+        .any(|s| s.handle.is_some());
+    let controls = if handles && made > controls {
+        format!("{made} controls ({} from handles)", made - controls)
+    } else {
+        format!("{controls} controls")
+    };
     ui.label(format!(
-        "{} vertices · {} triangles · {} controls",
+        "{} vertices · {} triangles · {controls}",
         m.doc.mesh.positions.len(),
         m.picking.bvh.triangles().len(),
-        controls
     ));
     ui.separator();
     let solver = m
