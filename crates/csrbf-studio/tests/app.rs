@@ -1204,6 +1204,51 @@ fn a_layer_along_the_surface_moves_only_what_it_reaches() {
     assert!(along * 2 < all, "{along} of {all}");
 }
 
+/// The trial after issue 23: a region's falloff is shown and edited in the
+/// studio (a file's falloff opened as "other", and an edge without one
+/// tears: the elephant's leg stretched 5.95x at the seam).
+#[test]
+fn a_regions_falloff_is_shown_and_edited() {
+    let (mut h, _, diag) = head_pulled(
+        "falloff",
+        (0.5, 0.05),
+        r#""region": {"connected": {"distance": 0.2}, "falloff": 0.05},"#,
+    );
+    let region = |h: &Harness<'_, StudioApp>| {
+        h.state().document().expect("open").controls.deformations[0]
+            .region
+            .clone()
+    };
+    let kind = h.get_by_role_and_label(Role::ComboBox, "region").value();
+    assert_eq!(kind.as_deref(), Some("along the surface"));
+    let shown = h.get_by_role_and_label(Role::SpinButton, "falloff").value();
+    assert_eq!(
+        shown.as_deref().and_then(|v| v.parse::<f64>().ok()),
+        Some(0.05)
+    );
+    // 0: a hard cut, the region alone.
+    h.get_by_role_and_label(Role::SpinButton, "falloff")
+        .set_value_accesskit(0.0);
+    settle(&mut h);
+    assert!(
+        matches!(region(&h), csrbf::Region::Connected { .. }),
+        "{}",
+        region(&h)
+    );
+    // A width: a falloff about the same region.
+    let width = (0.02 * diag * 1e4).round() / 1e4;
+    h.get_by_role_and_label(Role::SpinButton, "falloff")
+        .set_value_accesskit(width);
+    settle(&mut h);
+    match region(&h) {
+        csrbf::Region::Falloff { inner, width: w } => {
+            assert!(matches!(*inner, csrbf::Region::Connected { .. }));
+            assert!((w - width).abs() < 1e-9, "{w} vs {width}");
+        }
+        other => panic!("no falloff: {other}"),
+    }
+}
+
 /// Issue 23, bug 1: warnings number layers and controls as the panel does
 /// (layer 1, control 2), not as the file's JSON indices.
 #[test]

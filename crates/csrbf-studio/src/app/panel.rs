@@ -964,11 +964,66 @@ fn region_fields_ui(ui: &mut egui::Ui, region: &mut Region, diag: f64) {
 }
 
 /// A region chooser: the whole mesh, a sphere or a box (with their
-/// numbers), one of the mesh's `groups`, or (with `surface`) the vertices
-/// within a distance along the surface; `bounds` and `diag` (the mesh's
+/// numbers), one of the mesh's `groups`, or (with `surface`: a
+/// deformation's region) the vertices within a distance along the surface,
+/// and a falloff at its edge; `bounds` and `diag` (the mesh's
 /// box and diagonal) size a new sphere or box and the drag speeds. `label`
 /// names the combo box (and is its id within `ui`).
 pub(super) fn region_ui(
+    ui: &mut egui::Ui,
+    label: &str,
+    region: &mut Region,
+    (lo, hi): (DVec3, DVec3),
+    (groups, surface): (&[&str], bool),
+    diag: f64,
+    hover: &str,
+) {
+    // A falloff is its region with a blend at the edge: the chooser works on
+    // the region inside, the blend is a field of its own.
+    let (mut inner, mut width) = match &*region {
+        Region::Falloff { inner, width } => ((**inner).clone(), *width),
+        other => (other.clone(), 0.0),
+    };
+    region_kind_ui(
+        ui,
+        label,
+        &mut inner,
+        (lo, hi),
+        (groups, surface),
+        diag,
+        hover,
+    );
+    if surface && inner != Region::All {
+        ui.horizontal(|ui| {
+            let name = ui.label("falloff");
+            ui.add(
+                egui::DragValue::new(&mut width)
+                    .update_while_editing(false)
+                    .speed(diag * 1e-3)
+                    .range(0.0..=diag * 10.0),
+            )
+            .labelled_by(name.id)
+            .on_hover_text(
+                "A blend this wide at the region's edge: the edit fades out instead of stopping \
+                 at a seam that stretches (0: a hard cut)",
+            );
+        });
+    }
+    let new = if surface && width > 0.0 && inner != Region::All {
+        Region::Falloff {
+            inner: Box::new(inner),
+            width,
+        }
+    } else {
+        inner
+    };
+    if new != *region {
+        *region = new;
+    }
+}
+
+/// [`region_ui`]'s chooser and fields for a region that is not a falloff.
+fn region_kind_ui(
     ui: &mut egui::Ui,
     label: &str,
     region: &mut Region,
