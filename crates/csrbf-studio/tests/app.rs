@@ -1113,6 +1113,16 @@ fn a_handles_pivot_is_picked_on_the_surface() {
     assert_eq!(handle(&h).rotate.and_then(|r| r.pivot), None);
     let status = h.state().status().to_string();
     assert!(status.contains("selection's centre again"), "{status}");
+    // Along the surface on a handle's layer measures from the handle, as a
+    // file without "from" reads (the trial found the moving starts).
+    h.get_by_role_and_label(Role::ComboBox, "region").click();
+    h.run_steps(3);
+    h.get_by_label("along the surface").click();
+    h.run_steps(2);
+    settle(&mut h);
+    let d = h.state().document().expect("open");
+    let region = &d.controls.deformations[d.active_layer].region;
+    assert_eq!(region.origin(), Some(csrbf::Origin::Handle), "{region}");
 }
 
 /// Issue 23: "Orbit about the selection" turns the view about the selected

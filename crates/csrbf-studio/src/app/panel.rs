@@ -574,6 +574,11 @@ fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec)
         diag,
         "Where this layer acts; chosen vertices come from the Vertices tool",
     );
+    // Newly along the surface on a handle's layer: from the handle, as a
+    // file without "from" reads.
+    if spec.handle.is_some() && region.origin().is_some() && spec.region.origin().is_none() {
+        region = from_handle(region);
+    }
     let mut sweep = spec.sweep.is_some();
     ui.checkbox(&mut sweep, "fold-free sweep").on_hover_text(
         "Take the layer as a chain of small steps along each control's path, each certified not to fold: \
@@ -960,6 +965,22 @@ fn region_fields_ui(ui: &mut egui::Ui, region: &mut Region, diag: f64) {
             ui.label(format!("{} weighted vertices", vertices.len()));
         }
         _ => {}
+    }
+}
+
+/// `region` (along the surface, maybe in a falloff) measured from the
+/// handle's selection.
+fn from_handle(region: Region) -> Region {
+    match region {
+        Region::Connected { distance, .. } => Region::Connected {
+            distance,
+            from: csrbf::Origin::Handle,
+        },
+        Region::Falloff { inner, width } => Region::Falloff {
+            inner: Box::new(from_handle(*inner)),
+            width,
+        },
+        other => other,
     }
 }
 
