@@ -4,7 +4,8 @@
 //! is waited for: a slight overestimate of what the window shows). For big
 //! meshes the same with the stand-in the studio draws while the model moves.
 //! Also: opening the file to the first frame, and the longest frame the UI
-//! draws while a full refit runs on the worker.
+//! draws while a full refit runs on the worker. The whole path in the real
+//! window (the event loop, egui, the present) is `pointer_to_picture`'s.
 //!
 //! ```sh
 //! cargo run --release -p csrbf-studio --example drag_frame -- assets/models/cgal_head.off
