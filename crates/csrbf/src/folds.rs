@@ -188,6 +188,33 @@ fn added(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -
     }
 }
 
+/// A chained stage's weight at triangle `f` and the gradient of its
+/// weighted displacement there: w lives on the rest surface, so its
+/// gradient where the stage acts is the rest one carried by `jac`, the
+/// stages before it.
+fn chained_gradient(
+    weights: &FaceWeights,
+    f: usize,
+    jac: &DMat3,
+    d: DVec3,
+    g: DMat3,
+) -> (f64, DMat3) {
+    let (w, gw_rest) = weight_at(weights, f);
+    let gw = if gw_rest == DVec3::ZERO {
+        gw_rest
+    } else {
+        jac.inverse().transpose() * gw_rest
+    };
+    (w, stage_gradient(w, gw, d, g))
+}
+
+/// Moves a centroid `x` (and its Jacobian `jac`) by a stage of weight `w`,
+/// gradient `m` and displacement `d` at phase `t`.
+fn advance(x: &mut DVec3, jac: &mut DMat3, (w, m, d): (f64, DMat3, DVec3), t: f64) {
+    *jac = (DMat3::IDENTITY + m * t) * *jac;
+    *x += d * (w * t);
+}
+
 /// det J of the chain at every centroid in `faces`, every phase scaled by `s`.
 fn chain_dets(
     centroids: &[DVec3],
@@ -202,17 +229,8 @@ fn chain_dets(
         let t = stage.phase_at(s);
         let dg = stage.deformation.displacements_and_gradients(&x);
         for (i, (d, g)) in dg.into_iter().enumerate() {
-            let (w, gw_rest) = weight_at(&weights[k], faces[i]);
-            // w lives on the rest surface: its gradient where this stage
-            // acts is the rest one carried by the stages before it.
-            let gw = if gw_rest == DVec3::ZERO {
-                gw_rest
-            } else {
-                jac[i].inverse().transpose() * gw_rest
-            };
-            let jk = DMat3::IDENTITY + stage_gradient(w, gw, d, g) * t;
-            jac[i] = jk * jac[i];
-            x[i] += d * (w * t);
+            let (w, m) = chained_gradient(&weights[k], faces[i], &jac[i], d, g);
+            advance(&mut x[i], &mut jac[i], (w, m, d), t);
         }
     }
     jac.iter().map(|j| j.determinant()).collect()
@@ -277,23 +295,14 @@ fn swept(centroids: &[DVec3], stages: &[FittedStage], weights: &[FaceWeights]) -
         let dg = stage.deformation.displacements_and_gradients(&x);
         let mut first_here: Option<f64> = None;
         for (i, (d, g)) in dg.into_iter().enumerate() {
-            let (w, gw_rest) = weight_at(&weights[k], i);
-            // As in chain_dets: w's gradient carried by the steps before.
-            let gw = if gw_rest == DVec3::ZERO {
-                gw_rest
-            } else {
-                jac[i].inverse().transpose() * gw_rest
-            };
-            let m = stage_gradient(w, gw, d, g);
+            let (w, m) = chained_gradient(&weights[k], i, &jac[i], d, g);
             if fold_phase.is_none()
                 && let Some(t) = crate::fold_phase(m)
                 && t <= t_end
             {
                 first_here = Some(first_here.map_or(t, |f: f64| f.min(t)));
             }
-            let jk = DMat3::IDENTITY + m * t_end;
-            jac[i] = jk * jac[i];
-            x[i] += d * (w * t_end);
+            advance(&mut x[i], &mut jac[i], (w, m, d), t_end);
         }
         if let Some(t) = first_here {
             fold_phase = Some((k as f64 + t) / scale);
