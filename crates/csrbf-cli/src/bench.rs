@@ -220,6 +220,7 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         "binding_mb": binding.bytes() as f64 / 1e6,
         "pairs": binding.pairs(),
         "fit_ms": fit_ms,
+        "fit_phases_ms": fit_phases(&sys),
         "bind_ms": bind_ms,
         "evaluate_ms": evaluate_ms,
         "evaluation": {
@@ -238,6 +239,22 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         "runs": runs,
         "threads": rayon::current_num_threads(),
     }))
+}
+
+/// Where one build of the system spent its time (the last run's; the
+/// fit's median above also holds the solve).
+fn fit_phases(sys: &System) -> serde_json::Value {
+    let p = sys.stats().phases;
+    json!({
+        "checks": p.checks_ms,
+        "graph": p.graph_ms,
+        "ordering": p.ordering_ms,
+        "assembly": p.assembly_ms,
+        "symbolic": p.symbolic_ms,
+        "numeric": p.numeric_ms,
+        "polynomial": p.polynomial_ms,
+        "total": p.total_ms(),
+    })
 }
 
 fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {

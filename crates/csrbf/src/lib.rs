@@ -250,5 +250,6 @@ pub use stretch::{STRETCH_LIMIT, face_stretches};
 pub use surface::Surface;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};
 pub use system::{
-    DEFAULT_MEMORY_LIMIT, Estimate, FitOptions, OrderingFigures, System, SystemStats, estimate,
+    DEFAULT_MEMORY_LIMIT, Estimate, FitOptions, FitPhases, OrderingFigures, System, SystemStats,
+    estimate,
 };

@@ -2,21 +2,22 @@
 
 use glam::DVec3;
 
-use super::FitOptions;
+use super::{Clock, FitOptions, FitPhases};
 use crate::error::Result;
-use crate::ordering::{self, Band, Graph};
+use crate::ordering::{self, Graph};
 use crate::skyline::{Envelope, Profile};
 use crate::solver::{Factor, LowerCsc, SolverChoice};
 
-/// Chooses and runs the factorisation.
+/// Chooses and runs the factorisation, timing its phases into `phases`.
 pub(super) fn factor(
     starts: &[DVec3],
     graph: &Graph,
     perm: Vec<u32>,
     envelope: Envelope,
     options: &FitOptions,
-    _band: Band,
+    phases: &mut FitPhases,
 ) -> Result<Factor, crate::error::FitError> {
+    let mut clock = Clock::start();
     let kernel = options.kernel;
     let inv_r = 1.0 / options.radius;
     let phi = |i: usize, j: usize| kernel.eval(starts[i].distance(starts[j]) * inv_r);
@@ -33,26 +34,31 @@ pub(super) fn factor(
         }
         c => c,
     };
+    let skyline = |envelope, phases: &mut FitPhases, mut clock: Clock| {
+        let profile = assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0));
+        phases.assembly_ms += clock.lap();
+        let factor = Factor::skyline(profile, perm.clone());
+        phases.numeric_ms = clock.lap();
+        factor
+    };
     if choice == SolverChoice::Supernodal {
         let a = lower_csc(graph, &phi, kernel.eval(0.0));
+        phases.assembly_ms = clock.lap();
         let symbolic = Factor::supernodal_symbolic(&a)?;
+        phases.symbolic_ms = clock.lap();
         // The supernodal work is about sum over columns of count^2; the
         // profile's is its flops. Take the profile when it is not worse.
         let nnz_l = symbolic.len_val() as f64;
         let n = starts.len() as f64;
         let supernodal_flops = nnz_l * nnz_l / n * 0.5 + 2e5;
         if options.solver == SolverChoice::Auto && skyline_flops <= supernodal_flops {
-            return Factor::skyline(
-                assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)),
-                perm,
-            );
+            return skyline(envelope, phases, clock);
         }
-        return Factor::supernodal(symbolic, &a);
+        let factor = Factor::supernodal(symbolic, &a);
+        phases.numeric_ms = clock.lap();
+        return factor;
     }
-    Factor::skyline(
-        assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0)),
-        perm,
-    )
+    skyline(envelope, phases, clock)
 }
 
 fn assemble_profile(

@@ -28,7 +28,7 @@ use crate::skyline::Envelope;
 use crate::solver::Factor;
 
 pub use estimate::{Estimate, estimate};
-pub use options::{DEFAULT_MEMORY_LIMIT, FitOptions, OrderingFigures, SystemStats};
+pub use options::{DEFAULT_MEMORY_LIMIT, FitOptions, FitPhases, OrderingFigures, SystemStats};
 pub(crate) use poly::prow;
 
 use assemble::factor;
@@ -90,6 +90,8 @@ impl System {
     }
 
     fn build(starts: Vec<DVec3>, options: FitOptions) -> Result<System, FitError> {
+        let mut clock = Clock::start();
+        let mut phases = FitPhases::default();
         validate(&starts, &options)?;
         let radius = options.radius;
         // A nearly dense system is refused before its graph is built.
@@ -107,7 +109,9 @@ impl System {
             }
         }
         let octree = Octree::new(&starts);
+        phases.checks_ms = clock.lap();
         let (graph, close, near) = neighbour_graph(&starts, &octree, radius, options.kernel);
+        phases.graph_ms = clock.lap();
         if let Some(c) = close {
             return Err(if c.d2 == 0.0 {
                 FitError::DuplicateStart {
@@ -130,6 +134,7 @@ impl System {
         let (perm, after, used) = (chosen.perm, chosen.band, chosen.ordering);
         let envelope = Envelope::new(&graph, &perm);
         let skyline_flops = envelope.factor_flops();
+        phases.ordering_ms = clock.lap();
 
         let mut stats = SystemStats {
             controls: n,
@@ -155,13 +160,16 @@ impl System {
         };
         neighbour_counts(&graph, &mut stats);
 
-        let factor = factor(&starts, &graph, perm.clone(), envelope, &options, after)?;
+        let factor = factor(&starts, &graph, perm.clone(), envelope, &options, &mut phases)?;
+        clock.lap();
         stats.solver = factor.choice().name().to_owned();
         stats.factor_bytes = factor.value_bytes();
         let poly = match options.polynomial {
             Polynomial::None => None,
             Polynomial::Linear => Some(poly_block(&starts, &factor)?),
         };
+        phases.polynomial_ms = clock.lap();
+        stats.phases = phases;
         let fingerprint = crate::deformation::fingerprint(options.kernel, radius, &starts);
         Ok(System {
             options,
@@ -319,6 +327,22 @@ impl System {
     /// The ordering used (`order[new] = start index`).
     pub fn order(&self) -> &[u32] {
         &self.shared.order
+    }
+}
+
+/// A stopwatch for the phases of a build.
+pub(crate) struct Clock(std::time::Instant);
+
+impl Clock {
+    pub(crate) fn start() -> Clock {
+        Clock(std::time::Instant::now())
+    }
+    /// Milliseconds since the start or the last lap; starts the next lap.
+    pub(crate) fn lap(&mut self) -> f64 {
+        let now = std::time::Instant::now();
+        let ms = (now - self.0).as_secs_f64() * 1e3;
+        self.0 = now;
+        ms
     }
 }
 

@@ -135,6 +135,43 @@ pub struct SystemStats {
     pub skyline_flops: f64,
     /// Bytes the factor's f64 values take.
     pub factor_bytes: usize,
+    /// Where building the system spent its time.
+    pub phases: FitPhases,
+}
+
+/// Where [`crate::System::new`] spent its time, in milliseconds, phase by
+/// phase (wall clock of this build; `csrbf bench --json` reports them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+pub struct FitPhases {
+    /// Checking the starts, the size estimate and the octree.
+    pub checks_ms: f64,
+    /// The neighbour graph (starts within R of each other).
+    pub graph_ms: f64,
+    /// The band-reducing orderings tried and the envelope.
+    pub ordering_ms: f64,
+    /// Kernel values into the profile or the compressed columns.
+    pub assembly_ms: f64,
+    /// The supernodal solver's symbolic analysis (its own ordering, its
+    /// elimination tree); zero for the profile solver.
+    pub symbolic_ms: f64,
+    /// The numeric Cholesky factorisation.
+    pub numeric_ms: f64,
+    /// The polynomial block (a solve with four right-hand sides).
+    pub polynomial_ms: f64,
+}
+
+impl FitPhases {
+    /// The sum of the phases.
+    pub fn total_ms(&self) -> f64 {
+        self.checks_ms
+            + self.graph_ms
+            + self.ordering_ms
+            + self.assembly_ms
+            + self.symbolic_ms
+            + self.numeric_ms
+            + self.polynomial_ms
+    }
 }
 
 /// The band one ordering gives.
