@@ -1,14 +1,18 @@
 //! Making a [`Binding`]: the points are sorted into cells about R/2 wide (as
-//! the evaluation sorts them) and each cell gathers its candidate starts
-//! once. A first parallel pass counts every cell's candidates and hits; the
-//! arrays are then allocated whole, and a second pass fills each cell's own
-//! slices of them (no per-cell vectors to join).
+//! the evaluation sorts them), the cells cut into groups of consecutive
+//! cells about equal in points, and each group built whole by one task into
+//! arrays of its own: each cell gathers its candidate starts once, and each
+//! point's mask and weights follow the previous point's. One pass, and no
+//! copy of the weights to join the groups (the product reads each cell from
+//! its group).
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::weights::{Lanes, count_row, fill_row};
-use super::{BLOCK, Binding, Cell, Rest, Support};
+use std::ops::Range;
+
+use super::weights::{Lanes, fill_row};
+use super::{BLOCK, Binding, Cell, Group, Rest, Support};
 use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Points};
 use crate::simd::Avx2Fma;
 
@@ -33,14 +37,6 @@ fn of_f64(support: &Support<'_>, points: &[DVec3]) -> Binding {
     build(support, points, Rest::F64)
 }
 
-/// One cell's slices of the binding's arrays, filled by the second pass.
-struct Slices<'a> {
-    cell: Cell,
-    ids: &'a mut [u32],
-    masks: &'a mut [u8],
-    weights: &'a mut [f32],
-}
-
 fn build<P: Point>(
     support: &Support<'_>,
     points: &[P],
@@ -48,154 +44,164 @@ fn build<P: Point>(
 ) -> Binding {
     let blocks = Blocks::for_starts(points, support.radius, support.starts);
     let parallel = points.len() >= PARALLEL_POINTS;
-    let radius = support.radius;
+    let tasks = if parallel {
+        GROUPS_PER_THREAD * rayon::current_num_threads()
+    } else {
+        1
+    };
+    let ranges = group_ranges(&blocks.cells, tasks);
+    let make = |scratch: &mut (Candidates, Lanes), (k, range): (usize, Range<usize>)| {
+        group(support, points, &blocks, k, range, scratch)
+    };
+    let made: Vec<(Group, Vec<Cell>, usize)> = if parallel {
+        ranges
+            .into_par_iter()
+            .enumerate()
+            .map_init(Default::default, make)
+            .collect()
+    } else {
+        let mut scratch = Default::default();
+        ranges
+            .into_iter()
+            .enumerate()
+            .map(|r| make(&mut scratch, r))
+            .collect()
+    };
+    let mut cells = Vec::with_capacity(blocks.cells.len());
+    let mut groups = Vec::with_capacity(made.len());
+    let mut pairs = 0;
+    for (g, c, hits) in made {
+        groups.push(g);
+        cells.extend(c);
+        pairs += hits;
+    }
+    let nonfinite = blocks
+        .order
+        .iter()
+        .enumerate()
+        .filter(|&(_, &i)| !points[i as usize].to_dvec3().is_finite())
+        .map(|(k, _)| k as u32)
+        .collect();
+    let (rest, order) = if blocks.identity {
+        (points.to_vec(), None)
+    } else {
+        let rest = blocks.order.iter().map(|&i| points[i as usize]).collect();
+        (rest, Some(blocks.order))
+    };
+    Binding {
+        kernel: support.kernel,
+        radius: support.radius,
+        starts: support.starts,
+        fingerprint: support.fingerprint,
+        cells,
+        groups,
+        rest: kind(rest),
+        order,
+        nonfinite,
+        pairs,
+    }
+}
+
+/// Groups a thread's share of the cells is cut into (so that a thread that
+/// finishes early takes another).
+const GROUPS_PER_THREAD: usize = 8;
+
+/// Consecutive runs of cells, about `tasks` of them, about equal in points.
+fn group_ranges(cells: &[(usize, usize)], tasks: usize) -> Vec<Range<usize>> {
+    let total = cells.last().map_or(0, |c| c.1) - cells.first().map_or(0, |c| c.0);
+    let share = total.div_ceil(tasks.max(1)).max(1);
+    let mut out = Vec::with_capacity(tasks + 1);
+    let (mut from, mut points) = (0, 0);
+    for (k, &(s, e)) in cells.iter().enumerate() {
+        points += e - s;
+        if points >= share {
+            out.push(from..k + 1);
+            (from, points) = (k + 1, 0);
+        }
+    }
+    if from < cells.len() {
+        out.push(from..cells.len());
+    }
+    out
+}
+
+/// Builds group `k` (the cells `range`) whole: each cell's candidates
+/// gathered once, each point's mask and weights written straight after
+/// the previous point's. Returns the group, its cells and its hits.
+fn group<P: Point>(
+    support: &Support<'_>,
+    points: &[P],
+    blocks: &Blocks,
+    k: usize,
+    range: Range<usize>,
+    (cand, lanes): &mut (Candidates, Lanes),
+) -> (Group, Vec<Cell>, usize) {
     let cpu = Avx2Fma::detect();
     let cell_points = |(s, e): (usize, usize)| {
         blocks.order[s..e]
             .iter()
             .map(|&i| points[i as usize].to_dvec3())
     };
-    // First pass: each cell's candidates and hits.
-    let count = |(cand, lanes): &mut (Candidates, Lanes), &(s, e): &(usize, usize)| {
+    let mut g = Group::default();
+    let mut cells = Vec::with_capacity(range.len());
+    let group_points: usize = blocks.cells[range.clone()].iter().map(|c| c.1 - c.0).sum();
+    for (n, &(s, e)) in blocks.cells[range].iter().enumerate() {
         gather(support, cand, cell_points((s, e)));
         lanes.pad(cand);
-        let hits: usize = cell_points((s, e))
-            .filter(|x| x.is_finite())
-            .map(|x| count_row(cpu, lanes, x, radius))
-            .sum();
-        (cand.len(), hits)
-    };
-    let counts: Vec<(usize, usize)> = if parallel {
-        blocks
-            .cells
-            .par_iter()
-            .with_min_len(2)
-            .map_init(Default::default, count)
-            .collect()
-    } else {
-        let mut scratch = Default::default();
-        blocks
-            .cells
-            .iter()
-            .map(|c| count(&mut scratch, c))
-            .collect()
-    };
-    let cells = layout(&blocks.cells, &counts);
-    let last = cells.last().copied().unwrap_or_default();
-    let mut ids = vec![PADDING; last.id + last.blocks * BLOCK];
-    let mut masks = vec![0u8; last.mask + last.points * last.blocks];
-    let total: usize = counts.iter().map(|c| c.1).sum();
-    let longest = cells.iter().map(|c| c.blocks).max().unwrap_or(0);
-    let mut weights = vec![0.0f32; total + BLOCK * (longest + 1)];
-    // Second pass: the same candidates again, each cell into its slices.
-    let fill = |(cand, lanes): &mut (Candidates, Lanes), s: Slices<'_>| {
-        let c = s.cell;
-        gather(support, cand, cell_points((c.point, c.point + c.points)));
-        s.ids[..cand.len()].copy_from_slice(cand.ids());
-        lanes.pad(cand);
+        let nb = cand.len().div_ceil(BLOCK);
+        let cell = Cell {
+            point: s,
+            points: e - s,
+            group: k,
+            id: g.ids.len(),
+            blocks: nb,
+            mask: g.masks.len(),
+            weight: g.weights.len(),
+        };
+        g.ids.extend_from_slice(cand.ids());
+        g.ids.resize(cell.id + nb * BLOCK, PADDING);
+        g.masks.resize(cell.mask + cell.points * nb, 0);
+        // Room for every candidate of every point (and one block more for
+        // the vector stores), written without zeroing first.
+        let room = cell.points * nb * BLOCK + BLOCK;
+        if n == 0 {
+            // The first cell's candidates as the group's guess: one
+            // allocation for the group's weights, most of the time.
+            g.weights
+                .reserve(group_points * (nb * BLOCK * 3 / 4) + room);
+        }
+        g.weights.reserve(room);
+        let spare = &mut g.weights.spare_capacity_mut()[..room];
+        let rows = g.masks[cell.mask..].chunks_exact_mut(nb.max(1));
         let mut w = 0;
-        let rows = s.masks.chunks_exact_mut(c.blocks.max(1));
-        for (x, row) in cell_points((c.point, c.point + c.points)).zip(rows) {
+        for (x, row) in cell_points((s, e)).zip(rows) {
             if x.is_finite() {
-                w += fill_row(
-                    cpu,
-                    lanes,
-                    x,
-                    support.kernel,
-                    radius,
-                    row,
-                    &mut s.weights[w..],
-                );
+                let weights = &mut spare[w..];
+                w += fill_row(cpu, lanes, x, support.kernel, support.radius, row, weights);
             }
         }
-    };
-    let slices = split(&cells, &mut ids, &mut masks, &mut weights[..total]);
-    if parallel {
-        slices
-            .into_par_iter()
-            .with_min_len(2)
-            .for_each_init(Default::default, fill);
-    } else {
-        let mut scratch = Default::default();
-        slices.into_iter().for_each(|s| fill(&mut scratch, s));
+        // SAFETY: each point's `fill_row` initialised its hits' weights
+        // from where the previous point's ended: the first `w` elements of
+        // the spare capacity (and `w <= room`, the capacity reserved).
+        #[allow(unsafe_code)]
+        unsafe {
+            g.weights.set_len(cell.weight + w)
+        };
+        cells.push(cell);
     }
-    let (rest, slot) = if blocks.identity {
-        (points.to_vec(), None)
-    } else {
-        let mut slot = vec![0u32; points.len()];
-        for (k, &i) in blocks.order.iter().enumerate() {
-            slot[i as usize] = k as u32;
-        }
-        let rest = blocks.order.iter().map(|&i| points[i as usize]).collect();
-        (rest, Some(slot))
-    };
-    Binding {
-        kernel: support.kernel,
-        radius,
-        starts: support.starts,
-        fingerprint: support.fingerprint,
-        cells,
-        ids,
-        rest: kind(rest),
-        slot,
-        masks,
-        weights,
-        pairs: total,
-    }
+    let hits = g.weights.len();
+    // The product reads eight weights for every byte of a row from the
+    // row's first: zeros after the last.
+    let longest = cells.iter().map(|c| c.blocks).max().unwrap_or(0);
+    g.weights.resize(hits + BLOCK * (longest + 1), 0.0);
+    g.weights.shrink_to_fit();
+    g.masks.shrink_to_fit();
+    g.ids.shrink_to_fit();
+    (g, cells, hits)
 }
 
 /// The starts within R of the finite ones of a cell's points.
 fn gather(support: &Support<'_>, cand: &mut Candidates, points: impl Iterator<Item = DVec3>) {
     let finite = points.filter(|x| x.is_finite());
     cand.gather(support.octree, finite, support.radius);
-}
-
-/// Where each cell's rows start, from its (candidates, hits).
-fn layout(cells: &[(usize, usize)], counts: &[(usize, usize)]) -> Vec<Cell> {
-    let (mut id, mut mask, mut weight) = (0, 0, 0);
-    cells
-        .iter()
-        .zip(counts)
-        .map(|(&(s, e), &(candidates, hits))| {
-            let blocks = candidates.div_ceil(BLOCK);
-            let cell = Cell {
-                point: s,
-                points: e - s,
-                id,
-                blocks,
-                mask,
-                weight,
-            };
-            id += blocks * BLOCK;
-            mask += (e - s) * blocks;
-            weight += hits;
-            cell
-        })
-        .collect()
-}
-
-/// Cuts the arrays into each cell's slices.
-fn split<'a>(
-    cells: &[Cell],
-    mut ids: &'a mut [u32],
-    mut masks: &'a mut [u8],
-    mut weights: &'a mut [f32],
-) -> Vec<Slices<'a>> {
-    let mut out = Vec::with_capacity(cells.len());
-    for (k, c) in cells.iter().enumerate() {
-        let hits = cells
-            .get(k + 1)
-            .map_or(weights.len(), |n| n.weight - c.weight);
-        let (i, rest) = std::mem::take(&mut ids).split_at_mut(c.blocks * BLOCK);
-        let (m, rest_m) = std::mem::take(&mut masks).split_at_mut(c.points * c.blocks);
-        let (w, rest_w) = std::mem::take(&mut weights).split_at_mut(hits);
-        (ids, masks, weights) = (rest, rest_m, rest_w);
-        out.push(Slices {
-            cell: *c,
-            ids: i,
-            masks: m,
-            weights: w,
-        });
-    }
-    out
 }

@@ -2,8 +2,8 @@
 //! neighbouring starts and kernel weights, found once, so that new
 //! destinations update every point with one sparse product.
 //!
-//! `build` makes a binding (two parallel passes over the cells of points:
-//! count, then fill) with `weights` (a point's hits and kernel weights,
+//! `build` makes a binding (one parallel pass over groups of cells, each
+//! group into arrays of its own) with `weights` (a point's hits and kernel weights,
 //! eight candidates at a time); `product` is the sum a new deformation
 //! costs.
 
@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::deformation::Deformation;
 use crate::error::{Error, Result};
-use crate::evaluate::{PARALLEL_POINTS, Point};
+use crate::evaluate::Point;
 use crate::kernel::Kernel;
 use crate::octree::Octree;
 use crate::system::Shared;
@@ -50,20 +50,16 @@ pub struct Binding {
     fingerprint: u64,
     /// The cells, in the order their points are stored.
     cells: Vec<Cell>,
-    /// Each cell's candidate starts, padded to a multiple of eight.
-    ids: Vec<u32>,
+    /// The arrays of each group of consecutive cells (one task made each).
+    groups: Vec<Group>,
     /// The points in cell order (the polynomial part needs them).
     rest: Rest,
-    /// Where point `i` sits in cell order; `None` when cell order is the
-    /// points' own order.
-    slot: Option<Vec<u32>>,
-    /// Per point, one byte per eight candidates of its cell: bit `k` of byte
-    /// `b` is set when candidate `8 b + k` is within R.
-    masks: Vec<u8>,
-    /// The weights of the set bits, point after point, then zeros (eight
-    /// per mask byte of the longest row, and eight more), so that eight
-    /// weights can be read for every byte of a row from its first weight.
-    weights: Vec<f32>,
+    /// The point at each place of cell order (a permutation); `None` when
+    /// cell order is the points' own order.
+    order: Option<Vec<u32>>,
+    /// The places (cell order) of the points with a non-finite coordinate,
+    /// ascending: they have no hits, and get NaN.
+    nonfinite: Vec<u32>,
     /// Weights before the zeros.
     pairs: usize,
 }
@@ -71,13 +67,30 @@ pub struct Binding {
 /// Candidates per mask byte.
 const BLOCK: usize = 8;
 
-/// One cell of points: where its rows start in each array.
+/// The arrays of a group of consecutive cells.
+#[derive(Clone, Debug, Default)]
+struct Group {
+    /// Each cell's candidate starts, padded to a multiple of eight.
+    ids: Vec<u32>,
+    /// Per point, one byte per eight candidates of its cell: bit `k` of byte
+    /// `b` is set when candidate `8 b + k` is within R.
+    masks: Vec<u8>,
+    /// The weights of the set bits, point after point, then zeros (eight
+    /// per mask byte of the longest row, and eight more), so that eight
+    /// weights can be read for every byte of a row from its first weight.
+    weights: Vec<f32>,
+}
+
+/// One cell of points: its group, and where its rows start in the group's
+/// arrays.
 #[derive(Clone, Copy, Debug, Default)]
 struct Cell {
     /// First point (cell order).
     point: usize,
     /// Points.
     points: usize,
+    /// Its group.
+    group: usize,
     /// First candidate in `ids`.
     id: usize,
     /// Mask bytes per point (candidates / 8, rounded up).
@@ -157,12 +170,18 @@ impl Binding {
             Rest::F32(p) => size_of_val(p.as_slice()),
             Rest::F64(p) => size_of_val(p.as_slice()),
         };
+        let groups: usize = self
+            .groups
+            .iter()
+            .map(|g| {
+                size_of_val(g.ids.as_slice()) + g.masks.len() + size_of_val(g.weights.as_slice())
+            })
+            .sum();
         size_of_val(self.cells.as_slice())
-            + size_of_val(self.ids.as_slice())
+            + groups
             + rest
-            + self.slot.as_ref().map_or(0, |s| size_of_val(s.as_slice()))
-            + self.masks.len()
-            + size_of_val(self.weights.as_slice())
+            + self.order.as_ref().map_or(0, |s| size_of_val(s.as_slice()))
+            + size_of_val(self.nonfinite.as_slice())
     }
 
     /// Writes D of `deformation` at every bound point into `out` (point order).
@@ -189,28 +208,7 @@ impl Binding {
                 got: out.len(),
             });
         }
-        match &self.slot {
-            None => product::displacements(self, deformation, out),
-            Some(slot) => {
-                let mut sorted = vec![Vec3::ZERO; out.len()];
-                product::displacements(self, deformation, &mut sorted);
-
-                let parallel = out.len() >= PARALLEL_POINTS;
-                let fill = |(o, s): (&mut [Vec3], &[u32])| {
-                    for (o, &k) in o.iter_mut().zip(s) {
-                        *o = sorted[k as usize];
-                    }
-                };
-                const CHUNK: usize = 1 << 14;
-                if parallel {
-                    out.par_chunks_mut(CHUNK)
-                        .zip(slot.par_chunks(CHUNK))
-                        .for_each(fill);
-                } else {
-                    fill((out, slot));
-                }
-            }
-        }
+        product::displacements(self, deformation, out);
         Ok(())
     }
 

@@ -1,18 +1,25 @@
 //! The product a new deformation costs: per cell, the coefficients of its
-//! candidates in a small table (f64, eight candidates a block, by
+//! candidates in a small table (f32, eight candidates a block, by
 //! coordinate); per point, the sum over its mask's set bits of weight times
-//! coefficient, in f64.
+//! coefficient.
 //!
 //! With AVX2 and FMA a block of eight candidates is one unaligned load of
 //! eight weights, spread to the lanes of the set bits by one permutation
-//! (`EXPAND`, the unset lanes zeroed), and six fused multiply-adds in f64.
-//! No block is skipped: whether a block is empty is as hard to predict as a
-//! coin, and a mispredicted branch cost more than the block (refit 68 ms
-//! with the branch, 26 ms without, at 1M points). [`cell_plain`] is the same
-//! sum one hit at a time: the reference of the tests and the path without
-//! AVX2.
+//! (`EXPAND`, the unset lanes zeroed), and three fused multiply-adds in f32
+//! lanes (as [`crate::Deformation::displacements_f32`] sums); a point's
+//! eight lanes are added by pairs in f32, the pairs in f64. No block is skipped: whether a block is empty is
+//! as hard to predict as a coin, and a mispredicted branch cost more than
+//! the block (refit 68 ms with the branch, 26 ms without, at 1M points).
+//! [`cell_plain`] is the same sum one hit at a time in f64: the reference of
+//! the tests and the path without AVX2.
+//!
+//! Each cell writes its points' displacements straight to their places in
+//! the caller's buffer (the binding's `order`), so a refit allocates
+//! nothing and makes one pass.
 
-use glam::{DVec3, Vec3};
+use std::marker::PhantomData;
+
+use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::weights::ONES;
@@ -21,36 +28,68 @@ use crate::deformation::Deformation;
 use crate::evaluate::PARALLEL_POINTS;
 use crate::simd::Avx2Fma;
 
-/// f64 values per block of the coefficient table: x, y, z of eight candidates.
+/// f32 values per block of the coefficient table: x, y, z of eight candidates.
 const TABLE: usize = 3 * BLOCK;
 
 /// Per-thread scratch: the cell's coefficient table and its points' sums.
 #[derive(Default)]
 struct Scratch {
-    table: Vec<f64>,
+    table: Vec<f32>,
     sums: Vec<DVec3>,
 }
 
-/// Writes D of `d` at every bound point into `out`, in cell order.
+/// The caller's buffer, written by every cell's task at its own points'
+/// places.
+struct Out<'a> {
+    ptr: *mut Vec3,
+    len: usize,
+    _buffer: PhantomData<&'a mut [Vec3]>,
+}
+
+// SAFETY: the tasks write disjoint elements (see `Out::write`).
+#[allow(unsafe_code)]
+unsafe impl Send for Out<'_> {}
+// SAFETY: as above.
+#[allow(unsafe_code)]
+unsafe impl Sync for Out<'_> {}
+
+impl Out<'_> {
+    /// Writes element `i`.
+    ///
+    /// # Safety
+    /// No other task reads or writes element `i` while the buffer is shared:
+    /// the binding's `order` is a permutation (made by the counting sort of
+    /// [`crate::evaluate::Blocks`]) and its cells do not overlap, so each
+    /// index is written by one cell once.
+    #[allow(unsafe_code)]
+    #[inline]
+    unsafe fn write(&self, i: usize, v: Vec3) {
+        assert!(i < self.len, "a bound point's place is within the buffer");
+        // SAFETY: in bounds (checked above); no other access (the caller's promise).
+        unsafe { self.ptr.add(i).write(v) }
+    }
+}
+
+/// Writes D of `d` at every bound point into `out` (point order; `out`
+/// holds one vector per bound point).
 pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
+    assert_eq!(out.len(), b.len(), "one displacement per bound point");
     let cpu = Avx2Fma::detect();
     let parallel = out.len() >= PARALLEL_POINTS;
-    let mut parts = Vec::with_capacity(b.cells.len());
-    let mut rest = out;
-    for c in &b.cells {
-        let (head, tail) = std::mem::take(&mut rest).split_at_mut(c.points);
-        parts.push((*c, head));
-        rest = tail;
-    }
-    let work = |s: &mut Scratch, (c, out): (Cell, &mut [Vec3])| cell(b, d, cpu, c, s, out);
+    let out = Out {
+        ptr: out.as_mut_ptr(),
+        len: out.len(),
+        _buffer: PhantomData,
+    };
+    let work = |s: &mut Scratch, c: &Cell| cell(b, d, cpu, *c, s, &out);
     if parallel {
-        parts
-            .into_par_iter()
+        b.cells
+            .par_iter()
             .with_min_len(2)
             .for_each_init(Scratch::default, work);
     } else {
         let mut scratch = Scratch::default();
-        parts.into_iter().for_each(|p| work(&mut scratch, p));
+        b.cells.iter().for_each(|c| work(&mut scratch, c));
     }
 }
 
@@ -61,48 +100,72 @@ fn cell(
     cpu: Option<Avx2Fma>,
     c: Cell,
     s: &mut Scratch,
-    out: &mut [Vec3],
+    out: &Out<'_>,
 ) {
     let alpha = d.coefficients();
     s.table.clear();
-    for block in b.ids[c.id..c.id + c.blocks * BLOCK].chunks_exact(BLOCK) {
+    let g = &b.groups[c.group];
+    for block in g.ids[c.id..c.id + c.blocks * BLOCK].chunks_exact(BLOCK) {
         for axis in 0..3 {
             let a = block
                 .iter()
-                .map(|&j| alpha.get(j as usize).map_or(0.0, |a| a[axis]));
+                .map(|&j| alpha.get(j as usize).map_or(0.0, |a| a[axis] as f32));
             s.table.extend(a);
         }
     }
     s.sums.clear();
     s.sums.resize(c.points, DVec3::ZERO);
-    let rows = &b.masks[c.mask..c.mask + c.points * c.blocks];
+    let rows = &g.masks[c.mask..c.mask + c.points * c.blocks];
     cell_sums(
         cpu,
         rows,
         c.blocks,
-        &b.weights[c.weight..],
+        &g.weights[c.weight..],
         &s.table,
         &mut s.sums,
     );
-    let affine = d.affine();
-    for (k, (o, sum)) in out.iter_mut().zip(&s.sums).enumerate() {
-        let x = b.rest.at(c.point + k);
-        *o = if x.is_finite() {
-            (affine.map_or(DVec3::ZERO, |a| a.eval(x)) + *sum).as_vec3()
-        } else {
-            Vec3::NAN
-        };
-    }
-}
-
-impl super::Rest {
-    /// Point `k` in cell order, in f64.
-    #[inline]
-    fn at(&self, k: usize) -> DVec3 {
-        match self {
-            super::Rest::F32(p) => p[k].as_dvec3(),
-            super::Rest::F64(p) => p[k],
+    let base = c.point;
+    let place = |k: usize| b.order.as_ref().map_or(base + k, |o| o[base + k] as usize);
+    let put = |k: usize, v: Vec3| {
+        // SAFETY: place `base + k` belongs to this cell alone, and `order`
+        // maps places to points one to one (see `Out::write`).
+        #[allow(unsafe_code)]
+        unsafe {
+            out.write(place(k), v)
         }
+    };
+    // The polynomial part as c0 + M (x - centre): no division a point.
+    let linear = d.affine().map(|a| {
+        let c = &a.coefficients;
+        let m = DMat3::from_cols(c[1], c[2], c[3]) * (1.0 / a.scale);
+        (a.center, c[0], m)
+    });
+    let sums = &s.sums;
+    match (&b.rest, linear) {
+        (_, None) => {
+            for (k, sum) in sums.iter().enumerate() {
+                put(k, sum.as_vec3());
+            }
+        }
+        (super::Rest::F32(p), Some((centre, c0, m))) => {
+            for (k, (sum, x)) in sums.iter().zip(&p[base..]).enumerate() {
+                put(k, (c0 + m * (x.as_dvec3() - centre) + *sum).as_vec3());
+            }
+        }
+        (super::Rest::F64(p), Some((centre, c0, m))) => {
+            for (k, (sum, x)) in sums.iter().zip(&p[base..]).enumerate() {
+                put(k, (c0 + m * (*x - centre) + *sum).as_vec3());
+            }
+        }
+    }
+    // Points with a non-finite coordinate (no hits; rare) get NaN.
+    let last = base + c.points;
+    let from = b.nonfinite.partition_point(|&k| (k as usize) < base);
+    for &k in b.nonfinite[from..]
+        .iter()
+        .take_while(|&&k| (k as usize) < last)
+    {
+        put(k as usize - base, Vec3::NAN);
     }
 }
 
@@ -114,7 +177,7 @@ pub(super) fn cell_sums(
     rows: &[u8],
     blocks: usize,
     weights: &[f32],
-    table: &[f64],
+    table: &[f32],
     sums: &mut [DVec3],
 ) {
     #[cfg(target_arch = "x86_64")]
@@ -130,12 +193,12 @@ pub(super) fn cell_sums(
     cell_plain(rows, blocks, weights, table, sums);
 }
 
-/// The reference: one hit at a time, in candidate order.
+/// The reference: one hit at a time, in candidate order, in f64.
 pub(super) fn cell_plain(
     rows: &[u8],
     blocks: usize,
     weights: &[f32],
-    table: &[f64],
+    table: &[f32],
     sums: &mut [DVec3],
 ) {
     let mut p = 0;
@@ -147,7 +210,7 @@ pub(super) fn cell_plain(
             while bits != 0 {
                 let k = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                let a = DVec3::new(t[k], t[BLOCK + k], t[2 * BLOCK + k]);
+                let a = DVec3::new(t[k].into(), t[BLOCK + k].into(), t[2 * BLOCK + k].into());
                 *sum += a * f64::from(weights[p]);
                 p += 1;
             }
@@ -179,7 +242,7 @@ const fn expand_table() -> [[i32; BLOCK]; 256] {
 
 /// [`cell_plain`] with AVX2 and FMA: per block, eight weights loaded from
 /// the row's next unused one, spread to the lanes of the set bits, and
-/// summed with the coefficients in f64. Returns false, having written
+/// summed with the coefficients in f32 lanes; the lanes added in f64. Returns false, having written
 /// nothing trustworthy, when a row's loads would leave `weights` or `table`
 /// (a binding always leaves room; the caller then takes the plain sum).
 ///
@@ -192,10 +255,9 @@ unsafe fn cell_avx2(
     rows: &[u8],
     blocks: usize,
     weights: &[f32],
-    table: &[f64],
+    table: &[f32],
     sums: &mut [DVec3],
 ) -> bool {
-    use std::arch::x86_64::*;
     if blocks == 0 || table.len() < blocks * TABLE {
         return blocks == 0;
     }
@@ -205,88 +267,92 @@ unsafe fn cell_avx2(
         if p + BLOCK * (blocks + 1) > weights.len() {
             return false;
         }
-        // Two sets of accumulators, for even and odd blocks: with one, each
-        // block waited for the previous block's fused multiply-adds.
-        let (mut even, mut odd) = ([_mm256_setzero_pd(); 6], [_mm256_setzero_pd(); 6]);
-        let mut pairs = row.chunks_exact(2);
-        let mut b = 0;
-        for two in &mut pairs {
-            // SAFETY: as for `block` (b and b + 1 are below `blocks`).
-            unsafe {
-                p = block(two[0], b, p, weights, table, &mut even);
-                p = block(two[1], b + 1, p, weights, table, &mut odd);
-            }
-            b += 2;
-        }
-        if let [m] = pairs.remainder() {
-            // SAFETY: as for `block` (b is below `blocks`).
-            p = unsafe { block(*m, b, p, weights, table, &mut even) };
-        }
-        let mut acc = even;
-        for k in 0..6 {
-            acc[k] = _mm256_add_pd(even[k], odd[k]);
-        }
-        // SAFETY: the CPU has AVX2 (our caller's promise).
-        *sum = unsafe {
-            DVec3::new(
-                total(acc[0], acc[1]),
-                total(acc[2], acc[3]),
-                total(acc[4], acc[5]),
-            )
-        };
+        // SAFETY: the row's blocks lie in `table` (checked above), its loads
+        // of weights within `weights` (checked above); the CPU has AVX2 and
+        // FMA (our caller's promise).
+        let (total, used) = unsafe { row_avx2(row, weights.as_ptr().add(p), table.as_ptr()) };
+        *sum = total;
+        p += used;
     }
     true
 }
 
-/// Adds block `b` of a row (mask byte `m`, weights from `p`) to `acc`;
-/// returns the next unused weight.
+/// One row's sums: for each block (mask byte), eight weights from `w`
+/// spread to the lanes of the set bits (`EXPAND`, the other lanes zeroed)
+/// and multiplied into the block's coefficients (`t`, 24 f32 a block). Two
+/// sets of accumulators, for even and odd blocks: with one, each block
+/// waited for the previous block's fused multiply-adds. Returns the sums
+/// and the weights used. Pointers advance by block (no index arithmetic,
+/// no bounds checks in the loop: the caller checked the row's extent).
 ///
 /// # Safety
-/// The CPU has AVX2 and FMA; `p + 8 <= weights.len()` and
-/// `(b + 1) * 24 <= table.len()`.
+/// The CPU has AVX2 and FMA; `t` points at `24 * row.len()` f32, and `w`
+/// at as many f32 as the row's set bits plus eight.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+unsafe fn row_avx2(row: &[u8], mut w: *const f32, mut t: *const f32) -> (DVec3, usize) {
+    use std::arch::x86_64::*;
+    let first = w;
+    let (mut even, mut odd) = ([_mm256_setzero_ps(); 3], [_mm256_setzero_ps(); 3]);
+    let mut pairs = row.chunks_exact(2);
+    for two in &mut pairs {
+        // SAFETY: the caller's promise covers every block of the row.
+        unsafe {
+            w = block(two[0], w, t, &mut even);
+            w = block(two[1], w, t.add(TABLE), &mut odd);
+            t = t.add(2 * TABLE);
+        }
+    }
+    if let [m] = pairs.remainder() {
+        // SAFETY: as above.
+        w = unsafe { block(*m, w, t, &mut even) };
+    }
+    // SAFETY: the CPU has AVX2; `w` advanced from `first` within one array.
+    unsafe {
+        (
+            totals(
+                _mm256_add_ps(even[0], odd[0]),
+                _mm256_add_ps(even[1], odd[1]),
+                _mm256_add_ps(even[2], odd[2]),
+            ),
+            w.offset_from(first) as usize,
+        )
+    }
+}
+
+/// Adds a block (mask byte `m`, weights from `w`, coefficients at `t`) to
+/// `acc`; returns the next unused weight.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA; `w` points at eight f32 and `t` at 24.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn block(
     m: u8,
-    b: usize,
-    p: usize,
-    weights: &[f32],
-    table: &[f64],
-    acc: &mut [std::arch::x86_64::__m256d; 6],
-) -> usize {
+    w: *const f32,
+    t: *const f32,
+    acc: &mut [std::arch::x86_64::__m256; 3],
+) -> *const f32 {
     use std::arch::x86_64::*;
-    // SAFETY: the eight weights from p and the 24 values of block b lie
-    // within their arrays (the caller's promise); EXPAND has eight lanes
-    // for every byte.
-    let (v, idx, a) = unsafe {
-        let t = table.as_ptr().add(b * TABLE);
-        (
-            _mm256_loadu_ps(weights.as_ptr().add(p)),
-            _mm256_loadu_si256(EXPAND[m as usize].as_ptr().cast()),
-            [
-                _mm256_loadu_pd(t),
-                _mm256_loadu_pd(t.add(4)),
-                _mm256_loadu_pd(t.add(8)),
-                _mm256_loadu_pd(t.add(12)),
-                _mm256_loadu_pd(t.add(16)),
-                _mm256_loadu_pd(t.add(20)),
-            ],
-        )
-    };
-    let spread = _mm256_permutevar8x32_ps(v, idx);
-    let e = _mm256_blendv_ps(spread, _mm256_setzero_ps(), _mm256_castsi256_ps(idx));
-    let lo = _mm256_cvtps_pd(_mm256_castps256_ps128(e));
-    let hi = _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(e));
-    for c in 0..3 {
-        acc[2 * c] = _mm256_fmadd_pd(lo, a[2 * c], acc[2 * c]);
-        acc[2 * c + 1] = _mm256_fmadd_pd(hi, a[2 * c + 1], acc[2 * c + 1]);
+    // SAFETY: the eight weights at w and the 24 coefficients at t are the
+    // caller's promise; EXPAND has eight lanes for every byte.
+    unsafe {
+        let idx = _mm256_loadu_si256(EXPAND[m as usize].as_ptr().cast());
+        let spread = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w), idx);
+        let e = _mm256_blendv_ps(spread, _mm256_setzero_ps(), _mm256_castsi256_ps(idx));
+        acc[0] = _mm256_fmadd_ps(e, _mm256_loadu_ps(t), acc[0]);
+        acc[1] = _mm256_fmadd_ps(e, _mm256_loadu_ps(t.add(BLOCK)), acc[1]);
+        acc[2] = _mm256_fmadd_ps(e, _mm256_loadu_ps(t.add(2 * BLOCK)), acc[2]);
+        w.add(ONES[m as usize] as usize)
     }
-    p + ONES[m as usize] as usize
 }
 
-/// The sum of the eight lanes of `lo` and `hi`.
+/// The sums of the eight lanes of `x`, `y` and `z`: neighbouring lanes
+/// added in f32, the four pair sums in f64.
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA.
@@ -294,9 +360,26 @@ unsafe fn block(
 #[allow(unsafe_code)]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn total(lo: std::arch::x86_64::__m256d, hi: std::arch::x86_64::__m256d) -> f64 {
+unsafe fn totals(
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) -> DVec3 {
     use std::arch::x86_64::*;
-    let s = _mm256_add_pd(lo, hi);
-    let h = _mm_add_pd(_mm256_castpd256_pd128(s), _mm256_extractf128_pd::<1>(s));
-    _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)))
+    // [x01 x23 y01 y23 | x45 x67 y45 y67] and [z01 z23 z01 z23 | z45 z67 ..].
+    let (xy, zz) = (_mm256_hadd_ps(x, y), _mm256_hadd_ps(z, z));
+    // [x0145 x2367 y0145 y2367] and [z0145 z2367 ..], then [x z y z].
+    let a = _mm256_add_pd(
+        _mm256_cvtps_pd(_mm256_castps256_ps128(xy)),
+        _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(xy)),
+    );
+    let b = _mm256_add_pd(
+        _mm256_cvtps_pd(_mm256_castps256_ps128(zz)),
+        _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(zz)),
+    );
+    let t = _mm256_hadd_pd(a, b);
+    let mut v = [0.0f64; 4];
+    // SAFETY: `v` holds four f64.
+    unsafe { _mm256_storeu_pd(v.as_mut_ptr(), t) };
+    DVec3::new(v[0], v[2], v[1])
 }

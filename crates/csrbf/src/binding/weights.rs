@@ -5,12 +5,13 @@
 //! lanes, so that the loops vectorise; the hits' weights are then stored in
 //! order, rounded to f32.
 //!
-//! Counting (the first pass) and filling (the second) share the hit test,
-//! so they find the same hits. The plain bodies are compiled twice: as they
+//! The plain bodies are compiled twice: as they
 //! are (the reference, and the path without AVX2) and for AVX2, where the
 //! store of the hits' weights is one permutation and one unaligned store
 //! per block (`COMPRESS`). Neither uses fused multiply-adds: both give the
 //! weights `Kernel::eval` gives.
+
+use std::mem::MaybeUninit;
 
 use glam::DVec3;
 
@@ -62,47 +63,6 @@ impl Lanes {
         }
         (d2, bits)
     }
-}
-
-/// The candidates within `radius` of `x`.
-pub(super) fn count_row(cpu: Option<Avx2Fma>, lanes: &Lanes, x: DVec3, radius: f64) -> usize {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(cpu) = cpu {
-        let _ = cpu;
-        // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
-        #[allow(unsafe_code)]
-        return unsafe { count_avx2(lanes, x, radius) };
-    }
-    let _ = cpu;
-    count_plain(lanes, x, radius)
-}
-
-/// The reference count.
-#[inline(always)]
-pub(super) fn count_plain(lanes: &Lanes, x: DVec3, radius: f64) -> usize {
-    let r2 = radius * radius;
-    let mut hits = 0;
-    for b in 0..lanes.blocks() {
-        hits += ONES[lanes.block(b, x, r2).1 as usize] as usize;
-    }
-    hits
-}
-
-/// [`count_plain`] with AVX2: the hit test of a block in two vectors.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn count_avx2(lanes: &Lanes, x: DVec3, radius: f64) -> usize {
-    let mut hits = 0;
-    for b in 0..lanes.blocks() {
-        // SAFETY: b is below `lanes.blocks()`; the CPU has AVX2 (our caller's promise).
-        let (_, bits) = unsafe { block_avx2(lanes, b, x, radius * radius) };
-        hits += ONES[bits as usize] as usize;
-    }
-    hits
 }
 
 /// [`Lanes::block`] with AVX2: the squared distances of block `b` in two
@@ -191,7 +151,9 @@ unsafe fn phi_avx2(kernel: Kernel, r: std::arch::x86_64::__m256d) -> std::arch::
 }
 
 /// Writes one point's mask bytes into `row` and the weights of its hits
-/// into `weights` (from the first); returns the hits.
+/// into `weights` (from the first); returns the hits. The first `hits`
+/// elements of `weights` are then initialised (a vector store may write
+/// up to eight more).
 pub(super) fn fill_row(
     cpu: Option<Avx2Fma>,
     lanes: &Lanes,
@@ -199,7 +161,7 @@ pub(super) fn fill_row(
     kernel: Kernel,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [f32],
+    weights: &mut [MaybeUninit<f32>],
 ) -> usize {
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
@@ -219,7 +181,7 @@ pub(super) fn fill_plain(
     kernel: Kernel,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [f32],
+    weights: &mut [MaybeUninit<f32>],
 ) -> usize {
     match kernel {
         Kernel::C0 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C0.eval(r)),
@@ -243,7 +205,7 @@ unsafe fn fill_avx2(
     kernel: Kernel,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [f32],
+    weights: &mut [MaybeUninit<f32>],
 ) -> usize {
     use std::arch::x86_64::*;
     let (inv, r2) = (_mm256_set1_pd(1.0 / radius), radius * radius);
@@ -270,7 +232,7 @@ unsafe fn fill_avx2(
                 unsafe {
                     let idx = _mm256_loadu_si256(COMPRESS[bits as usize].as_ptr().cast());
                     let v = _mm256_permutevar8x32_ps(packed, idx);
-                    _mm256_storeu_ps(out.as_mut_ptr(), v);
+                    _mm256_storeu_ps(out.as_mut_ptr().cast(), v);
                 }
                 w += ONES[bits as usize] as usize;
             }
@@ -292,7 +254,7 @@ fn fill_body(
     x: DVec3,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [f32],
+    weights: &mut [MaybeUninit<f32>],
     phi: impl Fn(f64) -> f64,
 ) -> usize {
     let (inv, r2) = (1.0 / radius, radius * radius);
@@ -315,11 +277,16 @@ fn fill_body(
 /// Stores the weights of the set bits of `bits` from `weights[w]`; returns
 /// the next free index.
 #[inline(always)]
-fn store_plain(phi: &[f64; BLOCK], mut bits: u8, weights: &mut [f32], mut w: usize) -> usize {
+fn store_plain(
+    phi: &[f64; BLOCK],
+    mut bits: u8,
+    weights: &mut [MaybeUninit<f32>],
+    mut w: usize,
+) -> usize {
     while bits != 0 {
         let k = bits.trailing_zeros() as usize;
         bits &= bits - 1;
-        weights[w] = phi[k] as f32;
+        weights[w] = MaybeUninit::new(phi[k] as f32);
         w += 1;
     }
     w

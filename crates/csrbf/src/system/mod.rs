@@ -160,7 +160,14 @@ impl System {
         };
         neighbour_counts(&graph, &mut stats);
 
-        let factor = factor(&starts, &graph, perm.clone(), envelope, &options, &mut phases)?;
+        let factor = factor(
+            &starts,
+            &graph,
+            perm.clone(),
+            envelope,
+            &options,
+            &mut phases,
+        )?;
         clock.lap();
         stats.solver = factor.choice().name().to_owned();
         stats.factor_bytes = factor.value_bytes();
