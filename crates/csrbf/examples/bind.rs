@@ -3,7 +3,8 @@
 //! one of `csrbf::synthetic::SCENES`, default 1m). Prints the medians of
 //! bind, solve, refit through the binding (without the solve) and evaluate,
 //! the binding's size, and the largest difference between the binding and
-//! the f64 evaluation.
+//! the f64 evaluation. `BIND_ONLY`, `REFIT_ONLY` or `EVALUATE_ONLY` set: that
+//! phase alone.
 
 use csrbf::synthetic::scene;
 use csrbf::{Binding, System};
@@ -40,6 +41,11 @@ fn main() -> Result<(), csrbf::Error> {
     };
     let sys = System::new(&s.starts, s.options)?;
     let d = sys.solve(&s.targets)?;
+    if std::env::var_os("EVALUATE_ONLY").is_some() {
+        let (ms, _) = median(reps, || d.displacements_f32(&s.points));
+        println!("evaluate {ms:.2} ms");
+        return Ok(());
+    }
     if std::env::var_os("BIND_ONLY").is_some() {
         let (ms, b) = median(reps, || Binding::new(&d, &s.points));
         println!("bind {ms:.2} ms, {} pairs", b.pairs());

@@ -31,6 +31,33 @@ impl Affine {
         let c = &self.coefficients;
         c[0] * p.x + c[1] * p.y + c[2] * p.z + c[3] * p.w
     }
+
+    /// The same map as c0 + M (x - center), M = [c1 c2 c3] / scale: no
+    /// division a point (the loops over many points use it).
+    pub(crate) fn linear(&self) -> Linear {
+        let c = &self.coefficients;
+        Linear {
+            center: self.center,
+            c0: c[0],
+            m: glam::DMat3::from_cols(c[1], c[2], c[3]) * (1.0 / self.scale),
+        }
+    }
+}
+
+/// [`Affine`] as c0 + M (x - center) ([`Affine::linear`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Linear {
+    center: DVec3,
+    c0: DVec3,
+    m: glam::DMat3,
+}
+
+impl Linear {
+    /// p(x).
+    #[inline]
+    pub(crate) fn eval(&self, x: DVec3) -> DVec3 {
+        self.c0 + self.m * (x - self.center)
+    }
 }
 
 /// A deformation: everything needed to replay it (kernel, R, starts,

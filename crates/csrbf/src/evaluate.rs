@@ -81,9 +81,54 @@ pub(crate) struct Blocks {
     pub(crate) identity: bool,
 }
 
+/// A buffer written by parallel tasks at scattered places, each place by
+/// one task (a cell writes its points' values where the caller's order
+/// puts them: no sorted copy and no second pass).
+pub(crate) struct Scatter<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _buffer: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: the tasks write disjoint elements (see `Scatter::write`).
+#[allow(unsafe_code)]
+unsafe impl<T: Send> Send for Scatter<'_, T> {}
+// SAFETY: as above.
+#[allow(unsafe_code)]
+unsafe impl<T: Send> Sync for Scatter<'_, T> {}
+
+impl<'a, T> Scatter<'a, T> {
+    /// Shares `out` for the time of the borrow.
+    pub(crate) fn new(out: &'a mut [T]) -> Scatter<'a, T> {
+        Scatter {
+            ptr: out.as_mut_ptr(),
+            len: out.len(),
+            _buffer: std::marker::PhantomData,
+        }
+    }
+
+    /// Writes element `i` (a bounds-checked index).
+    ///
+    /// # Safety
+    /// No other task reads or writes element `i` while the buffer is shared:
+    /// callers write place `k` of a cell's range in [`Blocks::order`] at
+    /// `order[k]`; `order` is a permutation and cells do not overlap, so
+    /// each index is written once, by one task.
+    #[allow(unsafe_code)]
+    #[inline]
+    pub(crate) unsafe fn write(&self, i: usize, v: T) {
+        assert!(i < self.len, "a point's place is within the buffer");
+        // SAFETY: in bounds (checked above); no other access (the caller's promise).
+        unsafe { self.ptr.add(i).write(v) }
+    }
+}
+
 /// With this many starts or fewer, every start is a candidate for every
 /// point: sorting points into cells would cost more than it saves.
 const FEW_STARTS: usize = 48;
+
+/// Points below this count are sorted into cells on one thread.
+const PARALLEL_SORT: usize = 1 << 15;
 
 /// Points below this count are evaluated on one thread.
 pub(crate) const PARALLEL_POINTS: usize = 512;
@@ -117,13 +162,20 @@ impl Blocks {
                 identity: true,
             };
         }
-        let (lo, hi) = points.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| {
-                let p = p.to_dvec3();
-                (lo.min(p), hi.max(p))
-            },
-        );
+        let parallel = n >= PARALLEL_SORT;
+        let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let widen = |(lo, hi): (DVec3, DVec3), p: &P| {
+            let p = p.to_dvec3();
+            (lo.min(p), hi.max(p))
+        };
+        let (lo, hi) = if parallel {
+            points
+                .par_iter()
+                .fold(|| empty, widen)
+                .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+        } else {
+            points.iter().fold(empty, widen)
+        };
         let extent = (hi - lo).max(DVec3::ZERO);
         let cap = (4 * n).clamp(64, 1 << 23) as f64;
         let mut h = if cell > 0.0 && cell.is_finite() {
@@ -143,15 +195,25 @@ impl Blocks {
             dims = dims_of(h);
         }
         let d = [dims.x as usize, dims.y as usize, dims.z as usize];
+        // A multiplication a point, not three divisions (a point on a
+        // cell's face may land in its neighbour: either is right).
+        let inv_h = 1.0 / h;
         let key = |p: DVec3| -> usize {
-            let c = (p - lo) / h;
+            let c = (p - lo) * inv_h;
             // `as` saturates: NaN goes to 0, overflow to the last cell.
             let ix = (c.x as usize).min(d[0] - 1);
             let iy = (c.y as usize).min(d[1] - 1);
             let iz = (c.z as usize).min(d[2] - 1);
             ix + d[0] * (iy + d[1] * iz)
         };
-        let keys: Vec<u32> = points.iter().map(|p| key(p.to_dvec3()) as u32).collect();
+        let keys: Vec<u32> = if parallel {
+            points
+                .par_iter()
+                .map(|p| key(p.to_dvec3()) as u32)
+                .collect()
+        } else {
+            points.iter().map(|p| key(p.to_dvec3()) as u32).collect()
+        };
         let mut counts = vec![0u32; d[0] * d[1] * d[2] + 1];
         for &k in &keys {
             counts[k as usize + 1] += 1;
@@ -159,22 +221,18 @@ impl Blocks {
         for c in 1..counts.len() {
             counts[c] += counts[c - 1];
         }
+        // The non-empty buckets, from the running counts (no pass over the
+        // sorted points).
+        let cells = counts
+            .windows(2)
+            .filter(|w| w[1] > w[0])
+            .map(|w| (w[0] as usize, w[1] as usize))
+            .collect();
         let mut next = counts;
         let mut order = vec![0u32; n];
         for (i, &k) in keys.iter().enumerate() {
             order[next[k as usize] as usize] = i as u32;
             next[k as usize] += 1;
-        }
-        let mut cells = Vec::new();
-        let mut s = 0;
-        while s < n {
-            let k = keys[order[s] as usize];
-            let mut e = s + 1;
-            while e < n && keys[order[e] as usize] == k {
-                e += 1;
-            }
-            cells.push((s, e));
-            s = e;
         }
         Blocks {
             order,

@@ -23,7 +23,9 @@
 use glam::{DVec3, Vec3};
 
 use crate::deformation::Deformation;
-use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, for_each_cell_with};
+use rayon::prelude::*;
+
+use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Scatter, for_each_cell_with};
 use crate::kernel::Kernel;
 use crate::octree::Octree;
 use crate::simd::Avx2Fma;
@@ -134,50 +136,51 @@ fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
 /// [`Deformation::displacements`] does; the polynomial part in f64.
 pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [Vec3]) {
     let blocks = Blocks::for_starts(points, d.radius(), d.starts().len());
-    let mut buffer = Vec::new();
-    let sorted = if blocks.identity {
-        &mut *out
-    } else {
-        buffer.resize(points.len(), Vec3::ZERO);
-        &mut buffer[..]
-    };
     let (kernel, radius, alpha) = (d.kernel(), d.radius(), d.coefficients());
+    let linear = d.affine().map(|a| a.linear());
     let cpu = Avx2Fma::detect();
-    for_each_cell_with(
-        &blocks,
-        sorted,
-        points.len() >= PARALLEL_POINTS,
-        |(s, e), out, (lanes, cand): &mut (Lanes, Candidates)| {
-            let idx = &blocks.order[s..e];
-            let cell = bounds(points, idx);
-            let narrow = narrow(cell, radius);
-            if narrow {
-                lanes.gather(d.octree(), alpha, cell, radius);
+    let out = Scatter::new(out);
+    let cell = |(lanes, cand): &mut (Lanes, Candidates), &(s, e): &(usize, usize)| {
+        let idx = &blocks.order[s..e];
+        let cell = bounds(points, idx);
+        let narrow = narrow(cell, radius);
+        if narrow {
+            lanes.gather(d.octree(), alpha, cell, radius);
+        } else {
+            let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
+            cand.gather(d.octree(), xs, radius);
+        }
+        for &i in idx {
+            let x = points[i as usize].to_dvec3();
+            let v = if !x.is_finite() {
+                Vec3::NAN
             } else {
-                let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
-                cand.gather(d.octree(), xs, radius);
-            }
-            for (o, &i) in out.iter_mut().zip(idx) {
-                let x = points[i as usize].to_dvec3();
-                if !x.is_finite() {
-                    *o = Vec3::NAN;
-                    continue;
-                }
-                let mut v = d.affine().map_or(DVec3::ZERO, |a| a.eval(x));
+                let mut v = linear.map_or(DVec3::ZERO, |l| l.eval(x));
                 if narrow {
                     let sum = lanes.sum(cpu, kernel, lanes.local(x));
                     v += DVec3::from_array(sum.map(f64::from));
                 } else {
                     cand.for_each_weight(x, kernel, radius, |j, w| v += alpha[j as usize] * w);
                 }
-                *o = v.as_vec3();
-            }
-        },
-    );
-    if !blocks.identity {
-        for (k, &i) in blocks.order.iter().enumerate() {
-            out[i as usize] = buffer[k];
+                v.as_vec3()
+            };
+            // SAFETY: `i` is this cell's own point (`Blocks::order` is a
+            // permutation and the cells do not overlap).
+            #[allow(unsafe_code)]
+            unsafe {
+                out.write(i as usize, v)
+            };
         }
+    };
+    if points.len() >= PARALLEL_POINTS {
+        blocks
+            .cells
+            .par_iter()
+            .with_min_len(2)
+            .for_each_init(Default::default, cell);
+    } else {
+        let mut scratch = Default::default();
+        blocks.cells.iter().for_each(|c| cell(&mut scratch, c));
     }
 }
 

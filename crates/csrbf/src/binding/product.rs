@@ -17,15 +17,13 @@
 //! the caller's buffer (the binding's `order`), so a refit allocates
 //! nothing and makes one pass.
 
-use std::marker::PhantomData;
-
-use glam::{DMat3, DVec3, Vec3};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::weights::ONES;
 use super::{BLOCK, Binding, Cell};
 use crate::deformation::Deformation;
-use crate::evaluate::PARALLEL_POINTS;
+use crate::evaluate::{PARALLEL_POINTS, Scatter};
 use crate::simd::Avx2Fma;
 
 /// f32 values per block of the coefficient table: x, y, z of eight candidates.
@@ -38,49 +36,13 @@ struct Scratch {
     sums: Vec<DVec3>,
 }
 
-/// The caller's buffer, written by every cell's task at its own points'
-/// places.
-struct Out<'a> {
-    ptr: *mut Vec3,
-    len: usize,
-    _buffer: PhantomData<&'a mut [Vec3]>,
-}
-
-// SAFETY: the tasks write disjoint elements (see `Out::write`).
-#[allow(unsafe_code)]
-unsafe impl Send for Out<'_> {}
-// SAFETY: as above.
-#[allow(unsafe_code)]
-unsafe impl Sync for Out<'_> {}
-
-impl Out<'_> {
-    /// Writes element `i`.
-    ///
-    /// # Safety
-    /// No other task reads or writes element `i` while the buffer is shared:
-    /// the binding's `order` is a permutation (made by the counting sort of
-    /// [`crate::evaluate::Blocks`]) and its cells do not overlap, so each
-    /// index is written by one cell once.
-    #[allow(unsafe_code)]
-    #[inline]
-    unsafe fn write(&self, i: usize, v: Vec3) {
-        assert!(i < self.len, "a bound point's place is within the buffer");
-        // SAFETY: in bounds (checked above); no other access (the caller's promise).
-        unsafe { self.ptr.add(i).write(v) }
-    }
-}
-
 /// Writes D of `d` at every bound point into `out` (point order; `out`
 /// holds one vector per bound point).
 pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
     assert_eq!(out.len(), b.len(), "one displacement per bound point");
     let cpu = Avx2Fma::detect();
     let parallel = out.len() >= PARALLEL_POINTS;
-    let out = Out {
-        ptr: out.as_mut_ptr(),
-        len: out.len(),
-        _buffer: PhantomData,
-    };
+    let out = Scatter::new(out);
     let work = |s: &mut Scratch, c: &Cell| cell(b, d, cpu, *c, s, &out);
     if parallel {
         b.cells
@@ -100,7 +62,7 @@ fn cell(
     cpu: Option<Avx2Fma>,
     c: Cell,
     s: &mut Scratch,
-    out: &Out<'_>,
+    out: &Scatter<'_, Vec3>,
 ) {
     let alpha = d.coefficients();
     s.table.clear();
@@ -128,18 +90,13 @@ fn cell(
     let place = |k: usize| b.order.as_ref().map_or(base + k, |o| o[base + k] as usize);
     let put = |k: usize, v: Vec3| {
         // SAFETY: place `base + k` belongs to this cell alone, and `order`
-        // maps places to points one to one (see `Out::write`).
+        // maps places to points one to one (a permutation, see `Blocks`).
         #[allow(unsafe_code)]
         unsafe {
             out.write(place(k), v)
         }
     };
-    // The polynomial part as c0 + M (x - centre): no division a point.
-    let linear = d.affine().map(|a| {
-        let c = &a.coefficients;
-        let m = DMat3::from_cols(c[1], c[2], c[3]) * (1.0 / a.scale);
-        (a.center, c[0], m)
-    });
+    let linear = d.affine().map(|a| a.linear());
     let sums = &s.sums;
     match (&b.rest, linear) {
         (_, None) => {
@@ -147,14 +104,14 @@ fn cell(
                 put(k, sum.as_vec3());
             }
         }
-        (super::Rest::F32(p), Some((centre, c0, m))) => {
+        (super::Rest::F32(p), Some(l)) => {
             for (k, (sum, x)) in sums.iter().zip(&p[base..]).enumerate() {
-                put(k, (c0 + m * (x.as_dvec3() - centre) + *sum).as_vec3());
+                put(k, (l.eval(x.as_dvec3()) + *sum).as_vec3());
             }
         }
-        (super::Rest::F64(p), Some((centre, c0, m))) => {
+        (super::Rest::F64(p), Some(l)) => {
             for (k, (sum, x)) in sums.iter().zip(&p[base..]).enumerate() {
-                put(k, (c0 + m * (*x - centre) + *sum).as_vec3());
+                put(k, (l.eval(*x) + *sum).as_vec3());
             }
         }
     }
