@@ -160,7 +160,14 @@ impl System {
         };
         neighbour_counts(&graph, &mut stats);
 
-        let factor = factor(&starts, &graph, perm.clone(), envelope, &options, &mut phases)?;
+        let factor = factor(
+            &starts,
+            &graph,
+            perm.clone(),
+            envelope,
+            &options,
+            &mut phases,
+        )?;
         clock.lap();
         stats.solver = factor.choice().name().to_owned();
         stats.factor_bytes = factor.value_bytes();
@@ -343,18 +350,5 @@ impl Clock {
         let ms = (now - self.0).as_secs_f64() * 1e3;
         self.0 = now;
         ms
-    }
-}
-
-/// `(0..n).map(f)`, in parallel when `n` is large enough to pay for it.
-pub(crate) fn maybe_par_map<T: Send>(
-    n: usize,
-    threshold: usize,
-    f: impl Fn(usize) -> T + Sync + Send,
-) -> Vec<T> {
-    if n >= threshold {
-        (0..n).into_par_iter().map(f).collect()
-    } else {
-        (0..n).map(f).collect()
     }
 }
