@@ -44,7 +44,8 @@ pub(super) fn factor(
     if choice == SolverChoice::Supernodal {
         let a = lower_csc(graph, &phi, kernel.eval(0.0));
         phases.assembly_ms = clock.lap();
-        let symbolic = Factor::supernodal_symbolic(&a)?;
+        let order = ordering::geometric_dissection(graph, starts);
+        let symbolic = Factor::supernodal_symbolic(&a, Some(&order))?;
         phases.symbolic_ms = clock.lap();
         // The supernodal work is about sum over columns of count^2; the
         // profile's is its flops. Take the profile when it is not worse.
