@@ -195,7 +195,12 @@ impl Factor {
             Factor::Supernodal { symbolic, values } => {
                 let n = symbolic.nrows();
                 let mut m = Mat::<f64>::from_fn(n, T::LANES, |i, k| b[i].lane(k));
-                let par = parallelism(values.len() as f64 * T::LANES as f64);
+                // One thread: the triangular solves with a few right-hand
+                // sides read L once each way and are bound by memory; at 1m
+                // (27 MB of L, 4 right-hand sides) rayon took 8.1-14.3 ms
+                // where one thread took 6.9-11.2 ms, and `solve_many`
+                // already runs its solves in parallel.
+                let par = Par::Seq;
                 let mut mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(T::LANES, par));
                 LltRef::new(symbolic, values).solve_in_place_with_conj(
                     Conj::No,
