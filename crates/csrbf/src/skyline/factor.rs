@@ -96,7 +96,10 @@ impl Profile {
             let mut j = fi;
             while j + 4 <= i {
                 // Row t of the block is j + t; its products run over k0[t]..j + t.
-                let k0: [usize; 4] = std::array::from_fn(|t| fi.max(self.envelope.first(j + t)));
+                // (Arrays written out: `array::from_fn` was left uninlined
+                // in this hot loop.)
+                let first = |t: usize| fi.max(self.envelope.first(j + t));
+                let k0 = [first(0), first(1), first(2), first(3)];
                 let kc = k0.iter().copied().max().unwrap_or(j).min(j);
                 let (off, env) = (&self.off, &self.envelope);
                 // Row t's stored entry for column k.
@@ -108,7 +111,8 @@ impl Profile {
                 // nothing is shared (nor is column kc stored in that row).
                 let common = if kc < j {
                     let a = &off[ri.start + (kc - fi)..ri.start + (j - fi)];
-                    dot4::<FMA>(a, std::array::from_fn(|t| &off[at(t, kc)..at(t, j)]))
+                    let row = |t: usize| &off[at(t, kc)..at(t, j)];
+                    dot4::<FMA>(a, [row(0), row(1), row(2), row(3)])
                 } else {
                     [0.0; 4]
                 };

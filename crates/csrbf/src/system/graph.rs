@@ -113,7 +113,7 @@ fn neighbour_graph_with(
 ) -> (Graph, Option<ClosePair>, Vec<(u32, u32)>) {
     let n = starts.len();
     let leaves: Vec<_> = octree.leaves().collect();
-    let rows = |leaves: &[Leaf<'_>]| rows_of_leaves(leaves, octree, radius, kernel);
+    let rows = |leaves: &[Leaf<'_>]| rows_of_leaves(starts, leaves, octree, radius, kernel);
     let parts: Vec<Rows> = if n < parallel_starts {
         vec![rows(&leaves)]
     } else {
@@ -164,24 +164,32 @@ struct Rows {
     near: Vec<(u32, u32)>,
 }
 
-fn rows_of_leaves(leaves: &[Leaf<'_>], octree: &Octree, radius: f64, kernel: Kernel) -> Rows {
+fn rows_of_leaves(
+    starts: &[DVec3],
+    leaves: &[Leaf<'_>],
+    octree: &Octree,
+    radius: f64,
+    kernel: Kernel,
+) -> Rows {
     let phi0 = kernel.eval(0.0);
     let r2 = radius * radius;
     let near2 = (NEAR_FRACTION * radius).powi(2);
     let cpu = crate::simd::Avx2Fma::detect();
     let mut out = Rows::default();
-    let mut cand: Vec<(u32, DVec3)> = Vec::new();
+    let mut cand: Vec<u32> = Vec::new();
     let (mut xs, mut ys, mut zs) = (Vec::new(), Vec::new(), Vec::new());
     for &(ids, points, min, max) in leaves {
         cand.clear();
-        octree.for_each_near_box(min, max, radius, |j, p| cand.push((j, p)));
-        cand.sort_unstable_by_key(|c| c.0);
+        // The octree's points are the starts: sort bare indices, then
+        // look the coordinates up.
+        octree.for_each_near_box(min, max, radius, |j, _| cand.push(j));
+        cand.sort_unstable();
         xs.clear();
         ys.clear();
         zs.clear();
-        xs.extend(cand.iter().map(|c| c.1.x));
-        ys.extend(cand.iter().map(|c| c.1.y));
-        zs.extend(cand.iter().map(|c| c.1.z));
+        xs.extend(cand.iter().map(|&j| starts[j as usize].x));
+        ys.extend(cand.iter().map(|&j| starts[j as usize].y));
+        zs.extend(cand.iter().map(|&j| starts[j as usize].z));
         for (&i, &q) in ids.iter().zip(points) {
             let begin = out.neighbours.len() as u32;
             for c0 in (0..cand.len()).step_by(64) {
@@ -195,7 +203,8 @@ fn rows_of_leaves(leaves: &[Leaf<'_>], octree: &Octree, radius: f64, kernel: Ker
                     r2,
                 );
                 while bits != 0 {
-                    let (j, p) = cand[c0 + bits.trailing_zeros() as usize];
+                    let j = cand[c0 + bits.trailing_zeros() as usize];
+                    let p = starts[j as usize];
                     bits &= bits - 1;
                     if j == i {
                         continue;
