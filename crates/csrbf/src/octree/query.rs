@@ -63,6 +63,15 @@ impl Octree {
         );
     }
 
+    /// Every leaf: its points' indices, the points, and its tight bounds.
+    /// Together the leaves hold each point once.
+    pub(crate) fn leaves(&self) -> impl Iterator<Item = (&[u32], &[DVec3], DVec3, DVec3)> {
+        self.nodes.iter().filter(|n| n.children == 0).map(|n| {
+            let r = n.start as usize..n.end as usize;
+            (&self.ids[r.clone()], &self.points[r], n.min, n.max)
+        })
+    }
+
     /// Depth-first walk: descends into nodes whose bounds pass `keep`, and
     /// hands every point of a kept leaf to `point`.
     #[inline]

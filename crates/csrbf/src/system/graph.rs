@@ -2,7 +2,9 @@
 
 use glam::{DMat3, DVec3};
 
-use super::{FitOptions, SystemStats, maybe_par_map};
+use rayon::prelude::*;
+
+use super::{FitOptions, SystemStats};
 use crate::error::FitError;
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
@@ -78,57 +80,163 @@ pub(super) struct ClosePair {
 /// (see [`crate::FitError::ConflictingStarts`]).
 pub const NEAR_FRACTION: f64 = 0.01;
 
+/// Below this many starts the neighbour graph is built on one thread: the
+/// whole graph then takes well under a millisecond, less than handing work
+/// to rayon's workers and gathering their results.
+const PARALLEL_STARTS: usize = 4096;
+
+/// Octree leaves handed to one rayon task on the parallel path.
+const CHUNK_LEAVES: usize = 32;
+
 /// Neighbour lists within R (no self), the first pair of starts too close
 /// to tell apart, and every near pair (closer than [`NEAR_FRACTION`] R).
+///
+/// Works by octree leaf: the candidates near a leaf's box are found once,
+/// sorted by index, and tested against each of the leaf's starts, so each
+/// start's neighbours come out in increasing order without a sort.
 pub(super) fn neighbour_graph(
     starts: &[DVec3],
     octree: &Octree,
     radius: f64,
     kernel: Kernel,
 ) -> (Graph, Option<ClosePair>, Vec<(u32, u32)>) {
-    let phi0 = kernel.eval(0.0);
-    let near2 = (NEAR_FRACTION * radius).powi(2);
-    type Row = (Vec<u32>, Option<ClosePair>, Vec<(u32, u32)>);
-    let lists: Vec<Row> = maybe_par_map(starts.len(), 256, |i| {
-        let mut l = Vec::new();
-        let mut close: Option<ClosePair> = None;
-        let mut near = Vec::new();
-        octree.for_each_within(starts[i], radius, |j, d2| {
-            let j = j as usize;
-            if j == i {
-                return;
-            }
-            if j < i && d2 < near2 {
-                near.push((j as u32, i as u32));
-            }
-            if j < i
-                && phi0 - kernel.eval(d2.sqrt() / radius) <= 1e-10 * phi0
-                && close.is_none_or(|c| j < c.first)
-            {
-                close = Some(ClosePair {
-                    first: j,
-                    second: i,
-                    d2,
-                });
-            }
-            l.push(j as u32);
-        });
-        l.sort_unstable();
-        (l, close, near)
-    });
-    let close = lists.iter().find_map(|(_, c, _)| *c);
-    let near: Vec<(u32, u32)> = lists
-        .iter()
-        .flat_map(|(_, _, n)| n.iter().copied())
-        .collect();
-    let mut offsets = Vec::with_capacity(starts.len() + 1);
-    offsets.push(0);
-    let mut flat = Vec::with_capacity(lists.iter().map(|(l, _, _)| l.len()).sum());
-    for (l, _, _) in &lists {
-        flat.extend_from_slice(l);
-        offsets.push(flat.len());
+    neighbour_graph_with(starts, octree, radius, kernel, PARALLEL_STARTS)
+}
+
+/// [`neighbour_graph`], in parallel from `parallel_starts` starts on.
+fn neighbour_graph_with(
+    starts: &[DVec3],
+    octree: &Octree,
+    radius: f64,
+    kernel: Kernel,
+    parallel_starts: usize,
+) -> (Graph, Option<ClosePair>, Vec<(u32, u32)>) {
+    let n = starts.len();
+    let leaves: Vec<_> = octree.leaves().collect();
+    let rows = |leaves: &[Leaf<'_>]| rows_of_leaves(starts, leaves, octree, radius, kernel);
+    let parts: Vec<Rows> = if n < parallel_starts {
+        vec![rows(&leaves)]
+    } else {
+        leaves.par_chunks(CHUNK_LEAVES).map(rows).collect()
+    };
+    // Scatter the rows, found leaf by leaf, into the starts' order.
+    let mut offsets = vec![0usize; n + 1];
+    for p in &parts {
+        for &(i, b, e) in &p.rows {
+            offsets[i as usize + 1] = (e - b) as usize;
+        }
     }
-    (Graph::from_parts(offsets, flat), close, near)
+    for i in 0..n {
+        offsets[i + 1] += offsets[i];
+    }
+    let mut neighbours = vec![0u32; offsets[n]];
+    let mut near = Vec::new();
+    let mut close: Option<ClosePair> = None;
+    for p in &parts {
+        for &(i, b, e) in &p.rows {
+            let o = offsets[i as usize];
+            neighbours[o..o + (e - b) as usize]
+                .copy_from_slice(&p.neighbours[b as usize..e as usize]);
+        }
+        near.extend_from_slice(&p.near);
+        if let Some(c) = p.close
+            && close.is_none_or(|k| (c.second, c.first) < (k.second, k.first))
+        {
+            close = Some(c);
+        }
+    }
+    // By the later start, then the earlier: the order of the rows.
+    near.sort_unstable_by_key(|&(j, i)| (i, j));
+    (Graph::from_parts(offsets, neighbours), close, near)
+}
+
+/// One octree leaf: its starts' indices, the starts and its tight bounds.
+type Leaf<'a> = (&'a [u32], &'a [DVec3], DVec3, DVec3);
+
+/// The neighbour lists of the starts of some leaves, each row
+/// `(start, begin, end)` a range of `neighbours`; the close pair with the
+/// lowest (later start, earlier start) and the near pairs among them.
+#[derive(Default)]
+struct Rows {
+    rows: Vec<(u32, u32, u32)>,
+    neighbours: Vec<u32>,
+    close: Option<ClosePair>,
+    near: Vec<(u32, u32)>,
+}
+
+fn rows_of_leaves(
+    starts: &[DVec3],
+    leaves: &[Leaf<'_>],
+    octree: &Octree,
+    radius: f64,
+    kernel: Kernel,
+) -> Rows {
+    let phi0 = kernel.eval(0.0);
+    let r2 = radius * radius;
+    let near2 = (NEAR_FRACTION * radius).powi(2);
+    let cpu = crate::simd::Avx2Fma::detect();
+    let mut out = Rows::default();
+    let mut cand: Vec<u32> = Vec::new();
+    let (mut xs, mut ys, mut zs) = (Vec::new(), Vec::new(), Vec::new());
+    for &(ids, points, min, max) in leaves {
+        cand.clear();
+        // The octree's points are the starts: sort bare indices, then
+        // look the coordinates up.
+        octree.for_each_near_box(min, max, radius, |j, _| cand.push(j));
+        cand.sort_unstable();
+        xs.clear();
+        ys.clear();
+        zs.clear();
+        xs.extend(cand.iter().map(|&j| starts[j as usize].x));
+        ys.extend(cand.iter().map(|&j| starts[j as usize].y));
+        zs.extend(cand.iter().map(|&j| starts[j as usize].z));
+        for (&i, &q) in ids.iter().zip(points) {
+            let begin = out.neighbours.len() as u32;
+            for c0 in (0..cand.len()).step_by(64) {
+                let c1 = (c0 + 64).min(cand.len());
+                let mut bits = crate::simd::hit_mask(
+                    cpu,
+                    &xs[c0..c1],
+                    &ys[c0..c1],
+                    &zs[c0..c1],
+                    [q.x, q.y, q.z],
+                    r2,
+                );
+                while bits != 0 {
+                    let j = cand[c0 + bits.trailing_zeros() as usize];
+                    let p = starts[j as usize];
+                    bits &= bits - 1;
+                    if j == i {
+                        continue;
+                    }
+                    // The same squared distance as the mask's, term by term.
+                    let d = p - q;
+                    let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+                    // A pair too close to tell apart is always a near pair
+                    // (every kernel falls by far more than 1e-10 phi(0)
+                    // within 1 % of R: `close_pairs_are_near_pairs`), so
+                    // only near pairs need the kernel.
+                    if j < i && d2 < near2 {
+                        out.near.push((j, i));
+                        if phi0 - kernel.eval(d2.sqrt() / radius) <= 1e-10 * phi0
+                            && out
+                                .close
+                                .is_none_or(|c| (i, j) < (c.second as u32, c.first as u32))
+                        {
+                            out.close = Some(ClosePair {
+                                first: j as usize,
+                                second: i as usize,
+                                d2,
+                            });
+                        }
+                    }
+                    out.neighbours.push(j);
+                }
+            }
+            out.rows.push((i, begin, out.neighbours.len() as u32));
+        }
+    }
+    out
 }
 
 pub(super) fn neighbour_counts(graph: &Graph, stats: &mut SystemStats) {
@@ -136,4 +244,71 @@ pub(super) fn neighbour_counts(graph: &Graph, stats: &mut SystemStats) {
     stats.neighbours_min = (0..graph.len()).map(|i| graph.degree(i)).min().unwrap_or(0);
     stats.neighbours_max = (0..graph.len()).map(|i| graph.degree(i)).max().unwrap_or(0);
     stats.neighbours_mean = graph.edge_entries() as f64 / n as f64;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::Rng;
+
+    /// Random starts in a cube with a few pairs nearly on top of each other.
+    fn starts_with_near_pairs(n: usize, seed: u64) -> Vec<DVec3> {
+        let mut rng = Rng::new(seed);
+        let mut s: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
+        for k in (0..n).step_by(97).skip(1) {
+            let j = rng.below(k);
+            s[k] = s[j] + DVec3::new(1e-4, 0.0, 0.0) * rng.f64();
+        }
+        s
+    }
+
+    #[test]
+    fn one_thread_and_parallel_paths_give_the_same_graph() {
+        let starts = starts_with_near_pairs(1500, 3);
+        let octree = Octree::new(&starts);
+        let (radius, kernel) = (0.15, Kernel::C2);
+        let (g1, c1, n1) = neighbour_graph_with(&starts, &octree, radius, kernel, usize::MAX);
+        let (g2, c2, n2) = neighbour_graph_with(&starts, &octree, radius, kernel, 0);
+        assert_eq!(g1, g2);
+        assert_eq!(n1, n2);
+        assert_eq!(
+            c1.map(|c| (c.first, c.second)),
+            c2.map(|c| (c.first, c.second))
+        );
+        assert!(!n1.is_empty());
+        // Against brute force: every pair within R, no self, sorted rows.
+        for i in 0..starts.len() {
+            let want: Vec<u32> = (0..starts.len())
+                .filter(|&j| j != i && starts[i].distance_squared(starts[j]) < radius * radius)
+                .map(|j| j as u32)
+                .collect();
+            assert_eq!(g1.neighbours(i), &want[..], "row {i}");
+        }
+    }
+
+    #[test]
+    fn a_duplicate_is_found_on_both_paths() {
+        let mut starts = starts_with_near_pairs(1200, 4);
+        starts[900] = starts[17];
+        let octree = Octree::new(&starts);
+        for parallel in [usize::MAX, 0] {
+            let (_, close, _) = neighbour_graph_with(&starts, &octree, 0.1, Kernel::C0, parallel);
+            let c = close.expect("the duplicate");
+            assert_eq!((c.first, c.second, c.d2), (17, 900, 0.0));
+        }
+    }
+
+    /// The graph asks the kernel whether a pair is too close only for near
+    /// pairs: that is right only while every kernel falls by more than
+    /// 1e-10 phi(0) within [`NEAR_FRACTION`] R.
+    #[test]
+    fn close_pairs_are_near_pairs() {
+        for kernel in Kernel::ALL {
+            let phi0 = kernel.eval(0.0);
+            assert!(
+                phi0 - kernel.eval(NEAR_FRACTION) > 1e-6 * phi0,
+                "{kernel:?}"
+            );
+        }
+    }
 }

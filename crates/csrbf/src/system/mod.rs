@@ -352,16 +352,3 @@ impl Clock {
         ms
     }
 }
-
-/// `(0..n).map(f)`, in parallel when `n` is large enough to pay for it.
-pub(crate) fn maybe_par_map<T: Send>(
-    n: usize,
-    threshold: usize,
-    f: impl Fn(usize) -> T + Sync + Send,
-) -> Vec<T> {
-    if n >= threshold {
-        (0..n).into_par_iter().map(f).collect()
-    } else {
-        (0..n).map(f).collect()
-    }
-}
