@@ -303,11 +303,6 @@ impl Candidates {
         &self.id
     }
 
-    /// The bounds of the points they were gathered for.
-    pub(crate) fn bounds(&self) -> (DVec3, DVec3) {
-        (self.lo, self.hi)
-    }
-
     /// Start `k` of the candidates.
     #[inline]
     pub(crate) fn start(&self, k: usize) -> DVec3 {

@@ -36,7 +36,7 @@ pub(crate) const LANES: usize = 8;
 /// Where padding starts sit, in units of R from the cell's centre: far
 /// beyond the support, and small enough that r^2 and phi's polynomial stay
 /// finite for every kernel (so 0 * poly is 0, not NaN).
-pub(crate) const FAR: f32 = 1.0e3;
+const FAR: f32 = 1.0e3;
 
 /// One cell's candidates by coordinate (units of R about `centre`) and
 /// their coefficients, padded to a multiple of [`LANES`].
@@ -127,7 +127,7 @@ fn bounds<P: Point>(points: &[P], idx: &[u32]) -> (DVec3, DVec3) {
 }
 
 /// Whether a cell's kernel sum runs in f32 lanes.
-pub(crate) fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
+fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
     (hi - lo).max_element() <= LANES_CELL * radius
 }
 
@@ -268,7 +268,7 @@ impl Deformation {
 /// phi as a function of t = max(1 - r, 0) and r, in f32 (the formulas of
 /// [`Kernel::eval`]).
 #[inline(always)]
-pub(crate) fn phi<const K: u8>(t: f32, r: f32) -> f32 {
+fn phi<const K: u8>(t: f32, r: f32) -> f32 {
     let fma = |a: f32, b: f32, c: f32| a * b + c;
     let t2 = t * t;
     match K {
@@ -345,6 +345,7 @@ unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
         _mm256_set1_ps(x[2]),
     );
     let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let c = _mm256_set1_ps;
     let mut acc = [zero; 3];
     for k in (0..n).step_by(LANES) {
         // SAFETY: k + 8 <= n <= the length of every array.
@@ -359,8 +360,21 @@ unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
         let r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
         let r = _mm256_sqrt_ps(r2);
         let t = _mm256_max_ps(_mm256_sub_ps(one, r), zero);
-        // SAFETY: the CPU has AVX2 and FMA (our caller's promise).
-        let w = unsafe { phi_avx2::<K>(t, r) };
+        let t2 = _mm256_mul_ps(t, t);
+        let w = match K {
+            0 => t2,
+            2 => _mm256_mul_ps(_mm256_mul_ps(t2, t2), _mm256_fmadd_ps(c(4.0), r, one)),
+            4 => {
+                let p = _mm256_fmadd_ps(_mm256_fmadd_ps(c(35.0), r, c(18.0)), r, c(3.0));
+                _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(t2, t2), t2), p)
+            }
+            _ => {
+                let t4 = _mm256_mul_ps(t2, t2);
+                let p = _mm256_fmadd_ps(c(32.0), r, c(25.0));
+                let p = _mm256_fmadd_ps(_mm256_fmadd_ps(p, r, c(8.0)), r, one);
+                _mm256_mul_ps(_mm256_mul_ps(t4, t4), p)
+            }
+        };
         acc = [
             _mm256_fmadd_ps(w, wx, acc[0]),
             _mm256_fmadd_ps(w, wy, acc[1]),
@@ -376,37 +390,6 @@ unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
         };
         ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]))
     })
-}
-
-/// [`phi`] of eight lanes, fused multiply-adds where [`phi`] writes `fma`.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-#[target_feature(enable = "avx2,fma")]
-#[inline]
-pub(crate) unsafe fn phi_avx2<const K: u8>(
-    t: std::arch::x86_64::__m256,
-    r: std::arch::x86_64::__m256,
-) -> std::arch::x86_64::__m256 {
-    use std::arch::x86_64::*;
-    let (one, c) = (_mm256_set1_ps(1.0), _mm256_set1_ps);
-    let t2 = _mm256_mul_ps(t, t);
-    match K {
-        0 => t2,
-        2 => _mm256_mul_ps(_mm256_mul_ps(t2, t2), _mm256_fmadd_ps(c(4.0), r, one)),
-        4 => {
-            let p = _mm256_fmadd_ps(_mm256_fmadd_ps(c(35.0), r, c(18.0)), r, c(3.0));
-            _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(t2, t2), t2), p)
-        }
-        _ => {
-            let t4 = _mm256_mul_ps(t2, t2);
-            let p = _mm256_fmadd_ps(c(32.0), r, c(25.0));
-            let p = _mm256_fmadd_ps(_mm256_fmadd_ps(p, r, c(8.0)), r, one);
-            _mm256_mul_ps(_mm256_mul_ps(t4, t4), p)
-        }
-    }
 }
 
 /// [`sum_avx2_fma`] for the kernel, behind the proof.

@@ -11,7 +11,6 @@ use rayon::prelude::*;
 
 use std::ops::Range;
 
-use super::local::{Local, fill_local};
 use super::weights::{Lanes, fill_row};
 use super::{BLOCK, Binding, Cell, Group, Rest, Support};
 use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Points};
@@ -51,7 +50,7 @@ fn build<P: Point>(
         1
     };
     let ranges = group_ranges(&blocks.cells, tasks);
-    let make = |scratch: &mut Scratch, (k, range): (usize, Range<usize>)| {
+    let make = |scratch: &mut (Candidates, Lanes), (k, range): (usize, Range<usize>)| {
         group(support, points, &blocks, k, range, scratch)
     };
     let made: Vec<(Group, Vec<Cell>, usize)> = if parallel {
@@ -103,10 +102,6 @@ fn build<P: Point>(
     }
 }
 
-/// A task's scratch: the cell's candidates, in f64 lanes (a wide cell) or
-/// in f32 about the cell's centre (a narrow one).
-type Scratch = (Candidates, Lanes, Local);
-
 /// Groups a thread's share of the cells is cut into (so that a thread that
 /// finishes early takes another).
 const GROUPS_PER_THREAD: usize = 8;
@@ -139,7 +134,7 @@ fn group<P: Point>(
     blocks: &Blocks,
     k: usize,
     range: Range<usize>,
-    (cand, lanes, local): &mut Scratch,
+    (cand, lanes): &mut (Candidates, Lanes),
 ) -> (Group, Vec<Cell>, usize) {
     let cpu = Avx2Fma::detect();
     let cell_points = |(s, e): (usize, usize)| {
@@ -152,12 +147,7 @@ fn group<P: Point>(
     let group_points: usize = blocks.cells[range.clone()].iter().map(|c| c.1 - c.0).sum();
     for (n, &(s, e)) in blocks.cells[range].iter().enumerate() {
         gather(support, cand, cell_points((s, e)));
-        let narrow = crate::lanes::narrow(cand.bounds(), support.radius);
-        if narrow {
-            local.pad(cand, cand.bounds(), support.radius);
-        } else {
-            lanes.pad(cand);
-        }
+        lanes.pad(cand);
         let nb = cand.len().div_ceil(BLOCK);
         let cell = Cell {
             point: s,
@@ -175,8 +165,8 @@ fn group<P: Point>(
         // the vector stores), written without zeroing first.
         let room = cell.points * nb * BLOCK + BLOCK;
         if n == 0 {
-            // The first cell as the group's guess (a quarter more): one
-            // allocation for the group's arrays, most of the time.
+            // The first cell as the group's guess: one allocation for the
+            // group's arrays, most of the time (a copy when they grow).
             g.masks.reserve(group_points * nb * 5 / 4);
             g.weights.reserve(group_points * nb * BLOCK * 3 / 4 + room);
         }
@@ -185,15 +175,10 @@ fn group<P: Point>(
         let rows = g.masks[cell.mask..].chunks_exact_mut(nb.max(1));
         let mut w = 0;
         for (x, row) in cell_points((s, e)).zip(rows) {
-            if !x.is_finite() {
-                continue;
+            if x.is_finite() {
+                let weights = &mut spare[w..];
+                w += fill_row(cpu, lanes, x, support.kernel, support.radius, row, weights);
             }
-            let weights = &mut spare[w..];
-            w += if narrow {
-                fill_local(cpu, local, support.kernel, local.local(x), row, weights)
-            } else {
-                fill_row(cpu, lanes, x, support.kernel, support.radius, row, weights)
-            };
         }
         // SAFETY: each point's `fill_row` initialised its hits' weights
         // from where the previous point's ended: the first `w` elements of

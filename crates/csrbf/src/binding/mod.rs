@@ -8,7 +8,6 @@
 //! costs.
 
 mod build;
-mod local;
 mod product;
 mod weights;
 
@@ -33,14 +32,11 @@ use crate::system::Shared;
 /// share one list of candidate starts (those within R of the cell). A point
 /// keeps one bit per candidate (whether the start is within R) and the f32
 /// kernel weights of the starts that are, so a point-start pair costs about
-/// 4.2 bytes. The weights are those [`Deformation::displacements_f32`]
-/// computes (f32 about each cell's centre, in units of R; f64 rounded to
-/// f32 in a cell too wide for that), and the product sums them in f32
-/// lanes as it does: a displacement through a binding agrees with the f64
-/// [`Deformation::displacements`] as the f32 evaluation does (to about 1e-7
-/// of the displacement's size: 7.6e-8 on the 1M-point synthetic scene), so
-/// a [`crate::Pipeline`], which binds, and [`crate::compose`], which does
-/// not, differ by that much.
+/// 4.2 bytes. The weights are those of the f64 kernel rounded to f32; a
+/// displacement through a binding agrees with [`Deformation::displacements`]
+/// to about 1e-7 relative (6e-8 of the displacement's size was the largest
+/// difference seen on the bundled models), so a [`crate::Pipeline`], which
+/// binds, and [`crate::compose`], which does not, differ by that much.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation

@@ -294,7 +294,7 @@ fn store_plain(
 
 /// For each byte, the lanes of its set bits in order (lane j of the
 /// result takes the j-th set bit's lane), then zeros.
-pub(super) static COMPRESS: [[i32; BLOCK]; 256] = compress_table();
+static COMPRESS: [[i32; BLOCK]; 256] = compress_table();
 
 /// The set bits of each byte (the baseline x86-64 this crate compiles for
 /// has no `popcnt` instruction).
