@@ -144,45 +144,86 @@ impl VertexNormals {
     ) {
         let cpu = avx2();
         if positions.len() != self.vertices || cpu.is_none() {
-            crate::triangle_vertex_normals_into(positions, &self.triangles, normals);
-            for (p, n) in positions.iter_mut().zip(normals.iter_mut()) {
-                *p = rotation * *p + shift;
-                *n = rotation * *n;
-            }
+            plain_moved(positions, &self.triangles, rotation, shift, normals);
             return;
         }
-        self.normals_by_coordinate(positions, scratch, cpu);
-        let m = rotation.to_cols_array();
-        turn(cpu, &mut scratch.normal, &m, None);
-        turn(cpu, &mut scratch.xyz, &m, Some(shift.to_array()));
-        let [nx, ny, nz] = &scratch.normal;
-        normals.clear();
-        normals.extend(
-            nx.iter()
-                .zip(ny)
-                .zip(nz)
-                .take(self.vertices)
-                .map(|((&x, &y), &z)| Vec3::new(x, y, z)),
-        );
-        let [xs, ys, zs] = &scratch.xyz;
-        for (p, ((&x, &y), &z)) in positions.iter_mut().zip(xs.iter().zip(ys).zip(zs)) {
-            *p = Vec3::new(x, y, z);
-        }
-    }
-
-    /// The three passes, into `scratch.normal`.
-    fn normals_by_coordinate(&self, positions: &[Vec3], s: &mut NormalsScratch, cpu: Option<Avx2>) {
-        let padded_vertices = self.groups.len() * LANES;
-        for xyz in &mut s.xyz {
-            xyz.resize(padded_vertices.max(1), 0.0);
-        }
-        let [xs, ys, zs] = &mut s.xyz;
+        let [xs, ys, zs] = scratch.points_mut(self);
         for (p, ((x, y), z)) in positions
             .iter()
             .zip(xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()))
         {
             (*x, *y, *z) = (p.x, p.y, p.z);
         }
+        self.moved_lanes(cpu, rotation, shift, scratch, normals);
+        let [xs, ys, zs] = &scratch.xyz;
+        for (p, ((&x, &y), &z)) in positions.iter_mut().zip(xs.iter().zip(ys).zip(zs)) {
+            *p = Vec3::new(x, y, z);
+        }
+    }
+
+    /// [`VertexNormals::moved_into`] for points the caller wrote by
+    /// coordinate into [`NormalsScratch::points_mut`]: no pass of its own
+    /// to take them apart. `positions` and `normals` are replaced by the
+    /// moved points and their turned normals, bit for bit what
+    /// [`VertexNormals::moved_into`] gives for the same points.
+    pub fn moved_from_lanes(
+        &self,
+        rotation: Mat3,
+        shift: Vec3,
+        scratch: &mut NormalsScratch,
+        positions: &mut Vec<Vec3>,
+        normals: &mut Vec<Vec3>,
+    ) {
+        let cpu = avx2();
+        if cpu.is_none() {
+            let [xs, ys, zs] = scratch.points_mut(self);
+            positions.clear();
+            positions.extend(lanes_to_points(xs, ys, zs));
+            plain_moved(positions, &self.triangles, rotation, shift, normals);
+            return;
+        }
+        self.moved_lanes(cpu, rotation, shift, scratch, normals);
+        let [xs, ys, zs] = &scratch.xyz;
+        positions.clear();
+        positions.extend(lanes_to_points(xs, ys, zs).take(self.vertices));
+    }
+
+    /// The normals of the points in `scratch.xyz` turned by `rotation` into
+    /// `normals`, and the points moved in their lanes.
+    fn moved_lanes(
+        &self,
+        cpu: Option<Avx2>,
+        rotation: Mat3,
+        shift: Vec3,
+        scratch: &mut NormalsScratch,
+        normals: &mut Vec<Vec3>,
+    ) {
+        self.normals_of_lanes(scratch, cpu);
+        let m = rotation.to_cols_array();
+        turn(cpu, &mut scratch.normal, &m, None);
+        turn(cpu, &mut scratch.xyz, &m, Some(shift.to_array()));
+        let [nx, ny, nz] = &scratch.normal;
+        normals.clear();
+        normals.extend(lanes_to_points(nx, ny, nz).take(self.vertices));
+    }
+
+    /// The three passes over `positions`, into `scratch.normal`.
+    fn normals_by_coordinate(&self, positions: &[Vec3], s: &mut NormalsScratch, cpu: Option<Avx2>) {
+        let [xs, ys, zs] = s.points_mut(self);
+        for (p, ((x, y), z)) in positions
+            .iter()
+            .zip(xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()))
+        {
+            (*x, *y, *z) = (p.x, p.y, p.z);
+        }
+        self.normals_of_lanes(s, cpu);
+    }
+
+    /// The area and sum passes over the points in `s.xyz`, into `s.normal`.
+    fn normals_of_lanes(&self, s: &mut NormalsScratch, cpu: Option<Avx2>) {
+        // Sized here whoever filled them: the gathers below rely on it.
+        s.points_mut(self);
+        let padded_vertices = self.groups.len() * LANES;
         let padded = self.corners[0].len();
         for c in 0..3 {
             s.area[c].resize(padded + 1, 0.0);
@@ -210,6 +251,78 @@ impl VertexNormals {
                 sums_plain(&self.groups, &self.table, &s.area, &mut s.normal);
             }
         }
+    }
+}
+
+impl NormalsScratch {
+    /// The lanes of the points by coordinate, [`VertexNormals::vertices`]
+    /// of `normals` long each, for a caller that builds a frame's points
+    /// there before [`VertexNormals::moved_from_lanes`] (they hold what the
+    /// last frame left).
+    pub fn points_mut(&mut self, normals: &VertexNormals) -> [&mut [f32]; 3] {
+        // The sum pass moves eight vertices at a time: padded to its groups.
+        let padded = (normals.groups.len() * LANES).max(1);
+        for xyz in &mut self.xyz {
+            xyz.resize(padded, 0.0);
+        }
+        let n = normals.vertices;
+        let [x, y, z] = &mut self.xyz;
+        [&mut x[..n], &mut y[..n], &mut z[..n]]
+    }
+}
+
+/// `lanes[i] += d[i] * t` for every `i` of both (the product rounded, then
+/// the sum: no fused multiply-add, so each lane is bit for bit the `Vec3`
+/// code's `p += d * t`), eight lanes at a time where the CPU has AVX2: a
+/// frame's displacements added in [`NormalsScratch::points_mut`].
+pub fn add_scaled(lanes: &mut [f32], d: &[f32], t: f32) {
+    #[inline(always)]
+    fn body(lanes: &mut [f32], d: &[f32], t: f32) {
+        for (x, d) in lanes.iter_mut().zip(d) {
+            *x += *d * t;
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn body_avx2(lanes: &mut [f32], d: &[f32], t: f32) {
+        body(lanes, d, t);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if let Some(Avx2(())) = avx2() {
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2.
+        #[allow(unsafe_code)]
+        unsafe {
+            return body_avx2(lanes, d, t);
+        }
+    }
+    body(lanes, d, t);
+}
+
+/// Points (or normals) from their lanes by coordinate.
+fn lanes_to_points<'a>(
+    x: &'a [f32],
+    y: &'a [f32],
+    z: &'a [f32],
+) -> impl Iterator<Item = Vec3> + 'a {
+    x.iter()
+        .zip(y)
+        .zip(z)
+        .map(|((&x, &y), &z)| Vec3::new(x, y, z))
+}
+
+/// The normals of the plain function and the rigid motion, one vertex at a
+/// time (positions of another length, or no AVX2).
+fn plain_moved(
+    positions: &mut [Vec3],
+    triangles: &[[u32; 3]],
+    rotation: Mat3,
+    shift: Vec3,
+    normals: &mut Vec<Vec3>,
+) {
+    crate::triangle_vertex_normals_into(positions, triangles, normals);
+    for (p, n) in positions.iter_mut().zip(normals.iter_mut()) {
+        *p = rotation * *p + shift;
+        *n = rotation * *n;
     }
 }
 
@@ -532,6 +645,70 @@ mod tests {
             let mut scratch = NormalsScratch::default();
             normals.moved_into(&mut moved, rotation, shift, &mut scratch, &mut got);
             assert_eq!((moved, got), (want_p, want_n));
+        }
+    }
+
+    /// Points written by coordinate give what the same points given as
+    /// `Vec3`s give, bit for bit, and displacements added lane by lane
+    /// what `p += d * t` gives (signed zeros, NaN and infinities among them).
+    #[test]
+    fn points_by_coordinate_move_as_points_do() {
+        let rotation = Mat3::from_quat(glam::Quat::from_rotation_z(2.3));
+        let shift = Vec3::new(-0.5, 3.0, 0.25);
+        let mut r = rng(11);
+        for (positions, tris) in cases() {
+            let normals = VertexNormals::new(&tris, positions.len());
+            let d: Vec<Vec3> = positions
+                .iter()
+                .map(|_| Vec3::new(r() - 0.5, -0.0, r()))
+                .collect();
+            let t = r();
+            let mut want_p: Vec<Vec3> =
+                positions.iter().zip(&d).map(|(p, d)| *p + *d * t).collect();
+            let mut want_n = Vec::new();
+            let mut scratch = NormalsScratch::default();
+            normals.moved_into(&mut want_p, rotation, shift, &mut scratch, &mut want_n);
+            // A scratch used for a bigger mesh before, and a fresh one.
+            let (big, big_tris) = cases().pop().unwrap_or_default();
+            VertexNormals::new(&big_tris, big.len()).compute_into(
+                &big,
+                &mut scratch,
+                &mut Vec::new(),
+            );
+            for mut scratch in [scratch, NormalsScratch::default()] {
+                let lanes = scratch.points_mut(&normals);
+                for (c, lane) in lanes.into_iter().enumerate() {
+                    for (x, p) in lane.iter_mut().zip(&positions) {
+                        *x = p[c];
+                    }
+                    let dc: Vec<f32> = d.iter().map(|d| d[c]).collect();
+                    add_scaled(lane, &dc, t);
+                }
+                let (mut got_p, mut got_n) = (vec![Vec3::X], Vec::new());
+                normals.moved_from_lanes(rotation, shift, &mut scratch, &mut got_p, &mut got_n);
+                assert_eq!(bits(&got_p), bits(&want_p), "{} points", positions.len());
+                assert_eq!(bits(&got_n), bits(&want_n), "{} points", positions.len());
+            }
+        }
+        let x = [
+            0.0,
+            -0.0,
+            1.5,
+            f32::NAN,
+            f32::INFINITY,
+            -3.25,
+            7.0,
+            -0.0,
+            0.5,
+            1e30,
+        ];
+        let d = [-0.0, -0.0, 0.1, 1.0, -1.0, 0.0, f32::NAN, 0.0, 1e-30, 1e30];
+        for t in [0.0, 0.3, 1.0, -0.0, -0.7] {
+            let mut got = x;
+            add_scaled(&mut got, &d, t);
+            for ((g, x), d) in got.iter().zip(x).zip(d) {
+                assert_eq!(g.to_bits(), (x + d * t).to_bits(), "{x} + {d} * {t}");
+            }
         }
     }
 
