@@ -154,11 +154,7 @@ impl VertexNormals {
         {
             (*x, *y, *z) = (p.x, p.y, p.z);
         }
-        self.moved_lanes(cpu, rotation, shift, scratch, normals);
-        let [xs, ys, zs] = &scratch.xyz;
-        for (p, ((&x, &y), &z)) in positions.iter_mut().zip(xs.iter().zip(ys).zip(zs)) {
-            *p = Vec3::new(x, y, z);
-        }
+        self.moved_lanes(cpu, rotation, shift, scratch, positions, normals);
     }
 
     /// [`VertexNormals::moved_into`] for points the caller wrote by
@@ -182,29 +178,28 @@ impl VertexNormals {
             plain_moved(positions, &self.triangles, rotation, shift, normals);
             return;
         }
-        self.moved_lanes(cpu, rotation, shift, scratch, normals);
-        let [xs, ys, zs] = &scratch.xyz;
-        positions.clear();
-        positions.extend(lanes_to_points(xs, ys, zs).take(self.vertices));
+        positions.resize(self.vertices, Vec3::ZERO);
+        self.moved_lanes(cpu, rotation, shift, scratch, positions, normals);
     }
 
     /// The normals of the points in `scratch.xyz` turned by `rotation` into
-    /// `normals`, and the points moved in their lanes.
+    /// `normals`, and the points moved into `positions` (as long as
+    /// [`VertexNormals::vertices`]).
     fn moved_lanes(
         &self,
         cpu: Option<Avx2>,
         rotation: Mat3,
         shift: Vec3,
         scratch: &mut NormalsScratch,
+        positions: &mut [Vec3],
         normals: &mut Vec<Vec3>,
     ) {
         self.normals_of_lanes(scratch, cpu);
         let m = rotation.to_cols_array();
-        turn(cpu, &mut scratch.normal, &m, None);
-        turn(cpu, &mut scratch.xyz, &m, Some(shift.to_array()));
-        let [nx, ny, nz] = &scratch.normal;
-        normals.clear();
-        normals.extend(lanes_to_points(nx, ny, nz).take(self.vertices));
+        // Every value is written below: no clearing pass.
+        normals.resize(self.vertices, Vec3::ZERO);
+        turn_into(cpu, &scratch.normal, &m, None, normals);
+        turn_into(cpu, &scratch.xyz, &m, Some(shift.to_array()), positions);
     }
 
     /// The three passes over `positions`, into `scratch.normal`.
@@ -365,47 +360,124 @@ fn unit(v: [f32; 3]) -> [f32; 3] {
     }
 }
 
-/// `m * v (+ shift)` for every column vector, as glam's `Mat3 * Vec3`
-/// computes it (x y z columns in turn, no fused multiply-add), so the
-/// result is bit for bit the plain code's. Plain loops over columns: the
-/// compiler vectorises them, eight wide in the AVX2 copy.
+/// One column vector turned as glam's `Mat3 * Vec3` computes it (x y z
+/// columns in turn, no fused multiply-add), then shifted: bit for bit the
+/// plain code's.
 #[inline(always)]
-fn turn_body(cols: &mut [Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>) {
-    let [xs, ys, zs] = cols;
-    let s = shift.unwrap_or_default();
-    for ((x, y), z) in xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()) {
-        let (a, b, c) = (*x, *y, *z);
-        let r = [
-            (m[0] * a + m[3] * b) + m[6] * c,
-            (m[1] * a + m[4] * b) + m[7] * c,
-            (m[2] * a + m[5] * b) + m[8] * c,
-        ];
-        // Adding no shift, not +0 (which would turn -0 into +0).
-        (*x, *y, *z) = match shift {
-            Some(_) => (r[0] + s[0], r[1] + s[1], r[2] + s[2]),
-            None => (r[0], r[1], r[2]),
-        };
+fn turn_one(m: &[f32; 9], shift: Option<[f32; 3]>, a: f32, b: f32, c: f32) -> Vec3 {
+    let r = [
+        (m[0] * a + m[3] * b) + m[6] * c,
+        (m[1] * a + m[4] * b) + m[7] * c,
+        (m[2] * a + m[5] * b) + m[8] * c,
+    ];
+    // Adding no shift, not +0 (which would turn -0 into +0).
+    match shift {
+        Some(s) => Vec3::new(r[0] + s[0], r[1] + s[1], r[2] + s[2]),
+        None => Vec3::new(r[0], r[1], r[2]),
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn turn_avx2(cols: &mut [Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>) {
-    turn_body(cols, m, shift);
-}
-
-/// [`turn_body`], compiled for AVX2 when the proof is given.
-fn turn(cpu: Option<Avx2>, cols: &mut [Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>) {
+/// `m * v (+ shift)` for the first `out.len()` column vectors of `cols`,
+/// as `Vec3`s into `out` ([`turn_one`] each): the rigid motion and the
+/// way back from lanes in one pass, eight vectors at a time with AVX2.
+fn turn_into(
+    cpu: Option<Avx2>,
+    cols: &[Vec<f32>; 3],
+    m: &[f32; 9],
+    shift: Option<[f32; 3]>,
+    out: &mut [Vec3],
+) {
+    assert!(cols.iter().all(|c| c.len() >= out.len()), "lanes too short");
     #[cfg(target_arch = "x86_64")]
     if let Some(Avx2(())) = cpu {
-        // SAFETY: an `Avx2` exists only when the CPU has AVX2.
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2; the columns
+        // were just checked to be long enough.
         #[allow(unsafe_code)]
         unsafe {
-            return turn_avx2(cols, m, shift);
+            return turn_into_avx2(cols, m, shift, out);
         }
     }
     let _ = cpu;
-    turn_body(cols, m, shift);
+    turn_plain(cols, m, shift, out);
+}
+
+/// [`turn_into`] one vector at a time (the reference of the AVX2 pass).
+fn turn_plain(cols: &[Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>, out: &mut [Vec3]) {
+    let [xs, ys, zs] = cols;
+    for (o, ((&a, &b), &c)) in out.iter_mut().zip(xs.iter().zip(ys).zip(zs)) {
+        *o = turn_one(m, shift, a, b, c);
+    }
+}
+
+/// [`turn_into`] eight vectors at a time: the products and sums of
+/// [`turn_one`] lane by lane, then eight x, y and z interleaved into 24
+/// floats by permutes and blends (moves only: no value changes).
+///
+/// # Safety
+/// The CPU has AVX2; each of `cols` holds at least `out.len()` values.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2")]
+unsafe fn turn_into_avx2(
+    cols: &[Vec<f32>; 3],
+    m: &[f32; 9],
+    shift: Option<[f32; 3]>,
+    out: &mut [Vec3],
+) {
+    use std::arch::x86_64::*;
+    let n = out.len();
+    let whole = n - n % LANES;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats.
+    unsafe {
+        let mm = m.map(|v| _mm256_set1_ps(v));
+        let shift = shift.map(|s| s.map(|v| _mm256_set1_ps(v)));
+        // Which vector each float of the three stores comes from: the
+        // stores hold x0 y0 z0 x1 y1 z1 x2 y2 | z2 x3 y3 z3 x4 y4 z4 x5 |
+        // y5 z5 x6 y6 z6 x7 y7 z7.
+        let from = [
+            _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2),
+            _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
+            _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7),
+        ];
+        let dst = out.as_mut_ptr().cast::<f32>();
+        for k in (0..whole).step_by(LANES) {
+            let a = _mm256_loadu_ps(cols[0].as_ptr().add(k));
+            let b = _mm256_loadu_ps(cols[1].as_ptr().add(k));
+            let c = _mm256_loadu_ps(cols[2].as_ptr().add(k));
+            let row = |i: usize| {
+                let r = _mm256_add_ps(
+                    _mm256_add_ps(_mm256_mul_ps(mm[i], a), _mm256_mul_ps(mm[i + 3], b)),
+                    _mm256_mul_ps(mm[i + 6], c),
+                );
+                match shift {
+                    Some(s) => _mm256_add_ps(r, s[i]),
+                    None => r,
+                }
+            };
+            let (x, y, z) = (row(0), row(1), row(2));
+            let pick = |j: usize| {
+                (
+                    _mm256_permutevar8x32_ps(x, from[j]),
+                    _mm256_permutevar8x32_ps(y, from[j]),
+                    _mm256_permutevar8x32_ps(z, from[j]),
+                )
+            };
+            // Blend masks: bit i set takes float i from the second operand.
+            let (px, py, pz) = pick(0);
+            let o0 = _mm256_blend_ps::<0x24>(_mm256_blend_ps::<0x92>(px, py), pz);
+            let (px, py, pz) = pick(1);
+            let o1 = _mm256_blend_ps::<0x49>(_mm256_blend_ps::<0x24>(px, py), pz);
+            let (px, py, pz) = pick(2);
+            let o2 = _mm256_blend_ps::<0x92>(_mm256_blend_ps::<0x49>(px, py), pz);
+            _mm256_storeu_ps(dst.add(3 * k), o0);
+            _mm256_storeu_ps(dst.add(3 * k + 8), o1);
+            _mm256_storeu_ps(dst.add(3 * k + 16), o2);
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate().skip(whole) {
+        *o = turn_one(m, shift, cols[0][i], cols[1][i], cols[2][i]);
+    }
 }
 
 /// The area pass one lane at a time (the reference of the AVX2 pass).
@@ -618,7 +690,7 @@ mod tests {
     fn a_rigid_motion_turns_points_and_normals() {
         let m = Mat3::from_quat(glam::Quat::from_rotation_x(-1.1)).to_cols_array();
         for cpu in [None, avx2()] {
-            let mut cols = [
+            let cols = [
                 vec![1.0, -0.0, 3.5],
                 vec![0.25, 2.0, -0.0],
                 vec![-7.0, 0.5, 0.0],
@@ -626,10 +698,8 @@ mod tests {
             let want: Vec<Vec3> = (0..3)
                 .map(|k| Mat3::from_cols_array(&m) * Vec3::new(cols[0][k], cols[1][k], cols[2][k]))
                 .collect();
-            turn(cpu, &mut cols, &m, None);
-            let got: Vec<Vec3> = (0..3)
-                .map(|k| Vec3::new(cols[0][k], cols[1][k], cols[2][k]))
-                .collect();
+            let mut got = vec![Vec3::NAN; 3];
+            turn_into(cpu, &cols, &m, None, &mut got);
             assert_eq!(bits(&got), bits(&want), "{cpu:?}");
         }
         let rotation = Mat3::from_quat(glam::Quat::from_rotation_y(0.7));
@@ -708,6 +778,34 @@ mod tests {
             add_scaled(&mut got, &d, t);
             for ((g, x), d) in got.iter().zip(x).zip(d) {
                 assert_eq!(g.to_bits(), (x + d * t).to_bits(), "{x} + {d} * {t}");
+            }
+        }
+    }
+
+    /// The AVX2 turn (eight at a time, interleaved by permutes) writes what
+    /// the plain one writes, for every count up to a few blocks and a tail.
+    #[test]
+    fn the_turn_into_vec3s_is_the_plain_one() {
+        let mut r = rng(3);
+        let m = Mat3::from_quat(glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -1.2, 2.0))
+            .to_cols_array();
+        for n in 0..=27 {
+            let cols = [0, 1, 2].map(|c| {
+                let mut v: Vec<f32> = (0..n).map(|_| r() - 0.5).collect();
+                if n > c {
+                    v[c] = -0.0;
+                }
+                v.resize(n.next_multiple_of(LANES), f32::NAN); // padding never read
+                v
+            });
+            for shift in [None, Some([0.5, -0.0, -2.0])] {
+                let mut want = vec![Vec3::ZERO; n];
+                turn_plain(&cols, &m, shift, &mut want);
+                for cpu in [None, avx2()] {
+                    let mut got = vec![Vec3::NAN; n];
+                    turn_into(cpu, &cols, &m, shift, &mut got);
+                    assert_eq!(bits(&got), bits(&want), "{n} vectors, {shift:?}, {cpu:?}");
+                }
             }
         }
     }
