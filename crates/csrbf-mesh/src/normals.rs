@@ -293,6 +293,31 @@ pub fn add_scaled(lanes: &mut [f32], d: &[f32], t: f32) {
     body(lanes, d, t);
 }
 
+/// `out[i] = base[i] + d[i] * t` for every `i` of the three: what
+/// [`add_scaled`] leaves in a copy of `base`, without the copy.
+pub fn scaled_sum_into(out: &mut [f32], base: &[f32], d: &[f32], t: f32) {
+    #[inline(always)]
+    fn body(out: &mut [f32], base: &[f32], d: &[f32], t: f32) {
+        for (o, (b, d)) in out.iter_mut().zip(base.iter().zip(d)) {
+            *o = *b + *d * t;
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn body_avx2(out: &mut [f32], base: &[f32], d: &[f32], t: f32) {
+        body(out, base, d, t);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if let Some(Avx2(())) = avx2() {
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2.
+        #[allow(unsafe_code)]
+        unsafe {
+            return body_avx2(out, base, d, t);
+        }
+    }
+    body(out, base, d, t);
+}
+
 /// Points (or normals) from their lanes by coordinate.
 fn lanes_to_points<'a>(
     x: &'a [f32],
@@ -776,8 +801,11 @@ mod tests {
         for t in [0.0, 0.3, 1.0, -0.0, -0.7] {
             let mut got = x;
             add_scaled(&mut got, &d, t);
-            for ((g, x), d) in got.iter().zip(x).zip(d) {
+            let mut sum = [f32::NAN; 10];
+            scaled_sum_into(&mut sum, &x, &d, t);
+            for (((g, s), x), d) in got.iter().zip(sum).zip(x).zip(d) {
                 assert_eq!(g.to_bits(), (x + d * t).to_bits(), "{x} + {d} * {t}");
+                assert_eq!(s.to_bits(), g.to_bits(), "{x} + {d} * {t}");
             }
         }
     }

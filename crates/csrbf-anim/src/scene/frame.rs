@@ -152,9 +152,10 @@ impl Scene {
     /// order and with the arithmetic of the `Vec3` path (`p += d * t`).
     fn lanes_frame(obj: &Object, time: f64, out: &mut FrameObject) {
         let [x, y, z] = out.scratch.points_mut(&obj.normals);
-        for (lane, rest) in [&mut *x, &mut *y, &mut *z].into_iter().zip(&obj.lanes.rest) {
-            lane.copy_from_slice(rest);
-        }
+        let rest = &obj.lanes.rest;
+        // The lanes hold the rest points from the first stage on: the first
+        // wide stage adds to them as it copies them.
+        let mut started = false;
         let mut dense = obj.lanes.dense.iter();
         for anim in &obj.deformations {
             let t = anim.track.phase(time) as f32;
@@ -162,11 +163,22 @@ impl Scene {
                 match d {
                     // -0 * t is -0 only for t not negative (and finite).
                     Some(d) if t.is_finite() && t.is_sign_positive() => {
-                        for (lane, d) in [&mut *x, &mut *y, &mut *z].into_iter().zip(d) {
-                            csrbf_mesh::add_scaled(lane, d, t);
+                        for ((lane, d), r) in
+                            [&mut *x, &mut *y, &mut *z].into_iter().zip(d).zip(rest)
+                        {
+                            if started {
+                                csrbf_mesh::add_scaled(lane, d, t);
+                            } else {
+                                csrbf_mesh::scaled_sum_into(lane, r, d, t);
+                            }
                         }
                     }
                     _ => {
+                        if !started {
+                            for (lane, r) in [&mut *x, &mut *y, &mut *z].into_iter().zip(rest) {
+                                lane.copy_from_slice(r);
+                            }
+                        }
                         for (&v, d) in st.vertices.iter().zip(&st.displacement) {
                             let (v, d) = (v as usize, *d * t);
                             x[v] += d.x;
@@ -175,6 +187,12 @@ impl Scene {
                         }
                     }
                 }
+                started = true;
+            }
+        }
+        if !started {
+            for (lane, r) in [x, y, z].into_iter().zip(rest) {
+                lane.copy_from_slice(r);
             }
         }
     }
