@@ -12,6 +12,12 @@
 //! reference of the AVX2 passes in the tests).
 //! Each vertex's sum runs over the same triangles in the same order as the
 //! plain function's, so the normals are bit for bit its own.
+//!
+//! A caller that builds its points by coordinate (a frame: rest points plus
+//! displacements, [`NormalsScratch::points_mut`], [`add_scaled`]) hands them
+//! over with no pass to take `Vec3`s apart
+//! ([`VertexNormals::moved_from_lanes`]); the rigid motion writes the moved
+//! points and turned normals as `Vec3`s straight from the lanes.
 
 use glam::{Mat3, Vec3};
 
