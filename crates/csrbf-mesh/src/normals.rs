@@ -615,29 +615,30 @@ unsafe fn sums_avx2(
         let zero = _mm256_setzero_ps();
         let one = _mm256_set1_ps(1.0);
         for (g, &(start, width)) in groups.iter().enumerate() {
-            let mut sum = [zero; 3];
+            // Lanes j and j + 4 summed as x y z 0 in the halves of acc[j]:
+            // a triangle's area vector in one load, each lane's sum the
+            // same additions in the same order; one transpose a group.
+            let mut acc = [zero; 4];
             for r in 0..width as usize {
                 let at = table.as_ptr().add(start as usize + r * LANES);
-                // Each lane's x y z 0 in one load, then an 8 x 4 transpose
-                // (moves only): on the machines measured, faster than three
-                // gathers.
                 let l = |j: usize| _mm_loadu_ps(area.as_ptr().add(4 * *at.add(j) as usize));
-                let r04 = _mm256_set_m128(l(4), l(0));
-                let r15 = _mm256_set_m128(l(5), l(1));
-                let r26 = _mm256_set_m128(l(6), l(2));
-                let r37 = _mm256_set_m128(l(7), l(3));
-                let (t0, t1) = (_mm256_unpacklo_ps(r04, r15), _mm256_unpacklo_ps(r26, r37));
-                let t2 = _mm256_unpackhi_ps(r04, r15);
-                let t3 = _mm256_unpackhi_ps(r26, r37);
-                let a = [
-                    _mm256_shuffle_ps::<0x44>(t0, t1),
-                    _mm256_shuffle_ps::<0xEE>(t0, t1),
-                    _mm256_shuffle_ps::<0x44>(t2, t3),
-                ];
-                for c in 0..3 {
-                    sum[c] = _mm256_add_ps(sum[c], a[c]);
+                for (j, acc) in acc.iter_mut().enumerate() {
+                    *acc = _mm256_add_ps(*acc, _mm256_set_m128(l(j + 4), l(j)));
                 }
             }
+            let (t0, t1) = (
+                _mm256_unpacklo_ps(acc[0], acc[1]),
+                _mm256_unpacklo_ps(acc[2], acc[3]),
+            );
+            let (t2, t3) = (
+                _mm256_unpackhi_ps(acc[0], acc[1]),
+                _mm256_unpackhi_ps(acc[2], acc[3]),
+            );
+            let sum = [
+                _mm256_shuffle_ps::<0x44>(t0, t1),
+                _mm256_shuffle_ps::<0xEE>(t0, t1),
+                _mm256_shuffle_ps::<0x44>(t2, t3),
+            ];
             // No fused multiply-add: the plain function rounds each product.
             let len2 = _mm256_add_ps(
                 _mm256_add_ps(_mm256_mul_ps(sum[0], sum[0]), _mm256_mul_ps(sum[1], sum[1])),
