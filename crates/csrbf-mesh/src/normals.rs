@@ -6,8 +6,10 @@
 //! eight vertices, their triangles in a table eight wide, so that a frame is
 //! three passes over plain arrays: the area vectors eight triangles at a
 //! time, their sums eight vertices at a time, and the rigid motion of points
-//! and normals. With AVX2 (checked at run time) the first two gather eight
-//! values an instruction; without it a frame takes the plain function (the
+//! and normals. With AVX2 (checked at run time) the area pass gathers eight
+//! corners' coordinates an instruction and writes each area vector as
+//! x y z 0, which the sum pass loads whole (three gathers a row were
+//! slower); without it a frame takes the plain function (the
 //! same passes one lane at a time were 4x slower than it: they stay as the
 //! reference of the AVX2 passes in the tests).
 //! Each vertex's sum runs over the same triangles in the same order as the
