@@ -43,8 +43,8 @@ pub use file::*;
 pub use rotation::{Interpolation, Orientation, OrientationKey};
 pub use scene::{
     Animated, AssetError, Assets, BoundStage, Contact, DEFAULT_PART_COLOR, Frame, FrameObject,
-    MAX_FPS, MAX_FRAMES, MAX_SIDE, Object, Part, Scene, Texture, TextureError, decode_texture,
-    frame_count, load_texture,
+    MAX_FPS, MAX_FRAMES, MAX_SIDE, Object, Part, RestLanes, Scene, Texture, TextureError,
+    decode_texture, frame_count, load_texture,
 };
 pub use spline::{PositionKey, Trajectory};
 pub use track::{Easing, PhaseTrack};

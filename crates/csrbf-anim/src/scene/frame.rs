@@ -1,10 +1,78 @@
 //! A time to positions: deformations blended by their phase tracks (chains
 //! evaluated), contact, the rigid motion, normals.
+//!
+//! An object with no chain of several stages and no contact takes the short
+//! way: its points are built by coordinate straight into the normals' lanes
+//! from its [`RestLanes`] (rest points, then each stage's displacement times
+//! its phase, stage after stage as the `Vec3` code adds them), so a frame
+//! makes no pass to take `Vec3`s apart and allocates nothing. The others add
+//! their displacements to `Vec3`s, as they did, and the normals take them
+//! apart.
 
 use glam::Vec3;
 
-use super::{Animated, Frame, FrameObject, Scene};
+use super::{Animated, ChainScratch, Frame, FrameObject, Object, RestLanes, Scene};
 use csrbf::Combine;
+
+/// Below this share of the vertices (one in eight) a stage's displacement
+/// is scattered to its vertices; at or above it a pass over every lane,
+/// eight at a time, costs less.
+const DENSE_SHARE: usize = 8;
+
+impl RestLanes {
+    /// The rest points of `positions` by coordinate and, for each stage of
+    /// `deformations` in order that moves one vertex in eight or more, its
+    /// displacement over every vertex (-0 where it moves none).
+    pub fn new(positions: &[Vec3], deformations: &[Animated]) -> RestLanes {
+        let n = positions.len();
+        let rest = [0, 1, 2].map(|c| positions.iter().map(|p| p[c]).collect());
+        let mut dense = Vec::new();
+        for anim in deformations {
+            for st in &anim.stages {
+                let mut seen = vec![false; n];
+                let unique = st
+                    .vertices
+                    .iter()
+                    .all(|&v| (v as usize) < n && !std::mem::replace(&mut seen[v as usize], true));
+                let wide = st.vertices.len() * DENSE_SHARE >= n;
+                dense.push(
+                    (unique && wide && st.vertices.len() == st.displacement.len()).then(|| {
+                        [0, 1, 2].map(|c| {
+                            // -0: x + -0 * t is x for every x when t is not
+                            // negative (+0 would turn a -0 into +0).
+                            let mut d = vec![-0.0f32; n];
+                            for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
+                                d[v as usize] = dv[c];
+                            }
+                            d
+                        })
+                    }),
+                );
+            }
+        }
+        RestLanes { rest, dense }
+    }
+
+    /// Whether `obj`'s frames can be built in the lanes: prepared for its
+    /// mesh and stages, no chain of several stages, no contact (both need
+    /// the points as `Vec3`s mid-frame).
+    fn fits(&self, obj: &Object) -> bool {
+        let n = obj.mesh.positions.len();
+        obj.contact.is_none()
+            && self.rest.iter().all(|r| r.len() == n)
+            && obj.normals.vertices() == n
+            && self.dense.len()
+                == obj
+                    .deformations
+                    .iter()
+                    .map(|a| a.stages.len())
+                    .sum::<usize>()
+            && obj
+                .deformations
+                .iter()
+                .all(|a| a.combine != Combine::Chain || a.stages.len() <= 1)
+    }
+}
 
 impl Scene {
     /// Every object's world vertices, normals and control vectors at `time`.
@@ -27,36 +95,51 @@ impl Scene {
             .zip(frame.objects.iter_mut())
             .enumerate()
         {
-            let local = &mut out.positions;
-            local.clear();
-            local.extend_from_slice(&obj.mesh.positions);
             let controls = &mut out.controls;
             controls.clear();
             for anim in &obj.deformations {
                 let t = anim.track.phase(time) as f32;
-                if anim.combine == Combine::Chain && anim.stages.len() > 1 {
-                    Self::chain_frame(&obj.mesh.positions, anim, t, local);
-                }
                 for st in &anim.stages {
-                    if anim.combine == Combine::Add || anim.stages.len() == 1 {
-                        for (&v, d) in st.vertices.iter().zip(&st.displacement) {
-                            local[v as usize] += *d * t;
-                        }
-                    }
                     for (s, g) in st.deformation.starts().iter().zip(&st.targets) {
                         let (s, g) = (s.as_vec3(), g.as_vec3());
                         controls.push((s, s + (g - s) * t, g, st.deformation.radius() as f32));
                     }
                 }
             }
-            if let Some(c) = &obj.contact {
-                self.contact(oi, c, time, local, controls);
-            }
             let (rot, shift) = obj.transform(time);
             let (rot32, shift32) = (glam::Mat3::from_quat(rot.as_quat()), shift.as_vec3());
-            obj.normals
-                .moved_into(local, rot32, shift32, &mut out.scratch, &mut out.normals);
-            for (s, p, g, _) in controls.iter_mut() {
+            if obj.lanes.fits(obj) {
+                Self::lanes_frame(obj, time, out);
+                obj.normals.moved_from_lanes(
+                    rot32,
+                    shift32,
+                    &mut out.scratch,
+                    &mut out.positions,
+                    &mut out.normals,
+                );
+            } else {
+                let local = &mut out.positions;
+                local.clear();
+                local.extend_from_slice(&obj.mesh.positions);
+                for anim in &obj.deformations {
+                    let t = anim.track.phase(time) as f32;
+                    if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+                        Self::chain_frame(&obj.mesh.positions, anim, t, &mut out.chain, local);
+                    } else {
+                        for st in &anim.stages {
+                            for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                                local[v as usize] += *d * t;
+                            }
+                        }
+                    }
+                }
+                if let Some(c) = &obj.contact {
+                    self.contact(oi, c, time, local, &mut out.controls);
+                }
+                obj.normals
+                    .moved_into(local, rot32, shift32, &mut out.scratch, &mut out.normals);
+            }
+            for (s, p, g, _) in out.controls.iter_mut() {
                 *s = rot32 * *s + shift32;
                 *p = rot32 * *p + shift32;
                 *g = rot32 * *g + shift32;
@@ -64,23 +147,86 @@ impl Scene {
         }
     }
 
+    /// The object's local points at `time` built in the normals' lanes:
+    /// rest, then each stage's displacement times its track's phase, in the
+    /// order and with the arithmetic of the `Vec3` path (`p += d * t`).
+    fn lanes_frame(obj: &Object, time: f64, out: &mut FrameObject) {
+        let [x, y, z] = out.scratch.points_mut(&obj.normals);
+        let rest = &obj.lanes.rest;
+        // The lanes hold the rest points from the first stage on: the first
+        // wide stage adds to them as it copies them.
+        let mut started = false;
+        let mut dense = obj.lanes.dense.iter();
+        for anim in &obj.deformations {
+            let t = anim.track.phase(time) as f32;
+            for (st, d) in anim.stages.iter().zip(dense.by_ref()) {
+                match d {
+                    // -0 * t is -0 only for t not negative (and finite).
+                    Some(d) if t.is_finite() && t.is_sign_positive() => {
+                        for ((lane, d), r) in
+                            [&mut *x, &mut *y, &mut *z].into_iter().zip(d).zip(rest)
+                        {
+                            if started {
+                                csrbf_mesh::add_scaled(lane, d, t);
+                            } else {
+                                csrbf_mesh::scaled_sum_into(lane, r, d, t);
+                            }
+                        }
+                    }
+                    _ => {
+                        if !started {
+                            for (lane, r) in [&mut *x, &mut *y, &mut *z].into_iter().zip(rest) {
+                                lane.copy_from_slice(r);
+                            }
+                        }
+                        for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                            let (v, d) = (v as usize, *d * t);
+                            x[v] += d.x;
+                            y[v] += d.y;
+                            z[v] += d.z;
+                        }
+                    }
+                }
+                started = true;
+            }
+        }
+        if !started {
+            for (lane, r) in [x, y, z].into_iter().zip(rest) {
+                lane.copy_from_slice(r);
+            }
+        }
+    }
+
     /// Adds what a chained control file does at track phase `t`: each stage after
     /// the first is evaluated at the points this file's stages before it moved
     /// (other files of the part add, as blend shapes do).
-    fn chain_frame(rest: &[Vec3], anim: &Animated, t: f32, local: &mut [Vec3]) {
-        for (l, d) in local.iter_mut().zip(Self::chain_at(rest, anim, t)) {
-            *l += d;
+    fn chain_frame(
+        rest: &[Vec3],
+        anim: &Animated,
+        t: f32,
+        scratch: &mut ChainScratch,
+        local: &mut [Vec3],
+    ) {
+        Self::chain_at(rest, anim, t, scratch);
+        for (l, d) in local.iter_mut().zip(&scratch.x) {
+            *l += *d;
         }
     }
 
     /// The displacement of every vertex by a chained control file at full
     /// track phase (each stage at its own phase in the file).
     pub fn chained_displacement(rest: &[Vec3], anim: &Animated) -> Vec<Vec3> {
-        Self::chain_at(rest, anim, 1.0)
+        let mut scratch = ChainScratch::default();
+        Self::chain_at(rest, anim, 1.0, &mut scratch);
+        scratch.x
     }
 
-    fn chain_at(rest: &[Vec3], anim: &Animated, t: f32) -> Vec<Vec3> {
-        let mut x = rest.to_vec();
+    /// The chain's displacement at track phase `t` into `scratch.x`, in
+    /// buffers kept between frames.
+    fn chain_at(rest: &[Vec3], anim: &Animated, t: f32, scratch: &mut ChainScratch) {
+        let ChainScratch { x, pts, d } = scratch;
+        x.clear();
+        x.extend_from_slice(rest);
         for (si, st) in anim.stages.iter().enumerate() {
             if si == 0 {
                 let f = st.displacement_factor(t);
@@ -92,16 +238,172 @@ impl Scene {
                 if f == 0.0 {
                     continue; // a sweep's step not begun yet
                 }
-                let pts: Vec<Vec3> = st.region.iter().map(|&v| x[v as usize]).collect();
-                let d = st.deformation.displacements_f32(&pts);
-                for ((&v, d), w) in st.region.iter().zip(d).zip(&st.weights) {
-                    x[v as usize] += d * (f * w);
+                pts.clear();
+                pts.extend(st.region.iter().map(|&v| x[v as usize]));
+                d.clear();
+                d.resize(pts.len(), Vec3::ZERO);
+                if st.deformation.displacements_f32_into(pts, d).is_err() {
+                    continue; // cannot fail: the lengths were just made equal
+                }
+                for ((&v, d), w) in st.region.iter().zip(d.iter()).zip(&st.weights) {
+                    x[v as usize] += *d * (f * w);
                 }
             }
         }
         for (x, r) in x.iter_mut().zip(rest) {
             *x -= *r;
         }
-        x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use csrbf::controls::ControlFile;
+
+    /// The frame as it was computed before the lanes: rest `Vec3`s, each
+    /// stage scattered (a chain evaluated in fresh buffers), contact, then
+    /// the plain normals function and the rigid motion, one vertex at a time.
+    fn reference(scene: &Scene, time: f64) -> Vec<(Vec<Vec3>, Vec<Vec3>)> {
+        let mut out = Vec::new();
+        for (oi, obj) in scene.objects.iter().enumerate() {
+            let rest = &obj.mesh.positions;
+            let mut local = rest.clone();
+            for anim in &obj.deformations {
+                let t = anim.track.phase(time) as f32;
+                if anim.combine == Combine::Chain && anim.stages.len() > 1 {
+                    let mut x = rest.clone();
+                    for (si, st) in anim.stages.iter().enumerate() {
+                        if si == 0 {
+                            let f = st.displacement_factor(t);
+                            for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                                x[v as usize] += *d * f;
+                            }
+                        } else {
+                            let f = st.phase_at(t);
+                            if f == 0.0 {
+                                continue;
+                            }
+                            let pts: Vec<Vec3> = st.region.iter().map(|&v| x[v as usize]).collect();
+                            let d = st.deformation.displacements_f32(&pts);
+                            for ((&v, d), w) in st.region.iter().zip(d).zip(&st.weights) {
+                                x[v as usize] += d * (f * w);
+                            }
+                        }
+                    }
+                    for ((l, x), r) in local.iter_mut().zip(&x).zip(rest) {
+                        *l += *x - *r;
+                    }
+                } else {
+                    for st in &anim.stages {
+                        for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                            local[v as usize] += *d * t;
+                        }
+                    }
+                }
+            }
+            if let Some(c) = &obj.contact {
+                scene.contact(oi, c, time, &mut local, &mut Vec::new());
+            }
+            let (rot, shift) = obj.transform(time);
+            let (rot, shift) = (glam::Mat3::from_quat(rot.as_quat()), shift.as_vec3());
+            let normals = csrbf_mesh::triangle_vertex_normals(&local, &obj.triangles);
+            out.push((
+                local.iter().map(|p| rot * *p + shift).collect(),
+                normals.iter().map(|n| rot * *n).collect(),
+            ));
+        }
+        out
+    }
+
+    fn bits(v: &[Vec3]) -> Vec<[u32; 3]> {
+        v.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    }
+
+    /// The demos, and the fish with a chained control file of two stages
+    /// and an added one of two.
+    fn scenes(dir: &std::path::Path) -> Vec<(String, Scene)> {
+        let mut out = Vec::new();
+        for name in crate::demos::DEMOS.iter().copied().chain(["fish-chained"]) {
+            let Some(mut demo) = crate::demos::demo(name.trim_end_matches("-chained")) else {
+                continue;
+            };
+            if name == "fish-chained" {
+                let file = |rel: &str| {
+                    let (_, bytes) = demo.files.iter().find(|(r, _)| r == rel).expect("file");
+                    ControlFile::parse(std::str::from_utf8(bytes).expect("utf-8")).expect("parse")
+                };
+                let (beak, tail, wings) = (
+                    file("controls/beak.json"),
+                    file("controls/tail.json"),
+                    file("controls/wings.json"),
+                );
+                let two = |a: &ControlFile, b: &ControlFile, combine| {
+                    let specs = a.deformations.iter().chain(&b.deformations).cloned();
+                    ControlFile::new(specs.collect(), combine)
+                        .to_text()
+                        .into_bytes()
+                };
+                let chained = two(&beak, &tail, Combine::Chain);
+                let added = two(&wings, &tail, Combine::Add);
+                for (rel, bytes) in &mut demo.files {
+                    match rel.as_str() {
+                        "controls/beak.json" => *bytes = chained.clone(),
+                        "controls/wings.json" => *bytes = added.clone(),
+                        _ => {}
+                    }
+                }
+            }
+            let path = demo.write(&dir.join(name), name).expect("write demo");
+            out.push((name.to_string(), Scene::load(&path).expect("load demo")));
+        }
+        out
+    }
+
+    /// Issue 18: frames built in the normals' lanes (dense stages added lane
+    /// by lane, sparse ones scattered) and frames of chains and contact are
+    /// bit for bit the plain computation's, one `Frame` reused for all.
+    #[test]
+    fn frames_are_the_plain_computation_bit_for_bit() {
+        let dir = std::env::temp_dir().join(format!("csrbf-frame-lanes-{}", std::process::id()));
+        let mut frame = Frame::default();
+        let mut kinds = (0, 0, 0, 0); // lanes, dense stages, contact, chains
+        for (name, mut scene) in scenes(&dir) {
+            for sparse in [false, true] {
+                if sparse {
+                    // Every stage scattered into the lanes instead.
+                    for obj in &mut scene.objects {
+                        obj.lanes.dense.iter_mut().for_each(|d| *d = None);
+                    }
+                }
+                for obj in &scene.objects {
+                    kinds.0 += obj.lanes.fits(obj) as usize;
+                    kinds.1 += obj.lanes.dense.iter().flatten().count();
+                    kinds.2 += obj.contact.is_some() as usize;
+                    kinds.3 += obj
+                        .deformations
+                        .iter()
+                        .filter(|a| a.combine == Combine::Chain && a.stages.len() > 1)
+                        .count();
+                }
+                let frames = scene.frame_count();
+                for k in [0, 1, frames / 7, frames / 3, frames / 2, frames - 1] {
+                    let time = k as f64 / scene.file.fps;
+                    scene.frame_into(time, &mut frame);
+                    let want = reference(&scene, time);
+                    assert_eq!(frame.objects.len(), want.len());
+                    for (oi, (got, (p, n))) in frame.objects.iter().zip(&want).enumerate() {
+                        let at = format!("{name} object {oi} at {time} s (sparse: {sparse})");
+                        assert_eq!(bits(&got.positions), bits(p), "positions of {at}");
+                        assert_eq!(bits(&got.normals), bits(n), "normals of {at}");
+                    }
+                }
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(
+            kinds.0 > 0 && kinds.1 > 0 && kinds.2 > 0 && kinds.3 > 0,
+            "every kind of frame compared: {kinds:?}"
+        );
     }
 }

@@ -223,6 +223,7 @@ pub(super) fn load_object(
     }
     let (trajectory, orientation) = object_tracks(of, at, warnings)?;
     let triangles = mesh.faces.triangles();
+    let lanes = super::RestLanes::new(&mesh.positions, &deformations);
     Ok(Object {
         name: of.name.clone(),
         center,
@@ -233,6 +234,7 @@ pub(super) fn load_object(
         deformations,
         contact: None,
         normals: csrbf_mesh::VertexNormals::new(&triangles, mesh.positions.len()),
+        lanes,
         triangles,
         mesh,
     })

@@ -167,6 +167,23 @@ pub struct Object {
     /// The triangles around each vertex, prepared once: a frame's normals
     /// without the scatter of the plain function (the same values).
     pub normals: csrbf_mesh::VertexNormals,
+    /// The rest mesh and the stages' displacements by coordinate, prepared
+    /// once from `mesh` and `deformations` (rebuild it with
+    /// [`RestLanes::new`] if they change): a frame builds its points in the
+    /// normals' lanes from them (the same values).
+    pub lanes: RestLanes,
+}
+
+/// An object's rest points by coordinate and, for each of its stages that
+/// moves many vertices, its displacement over all of them: what a frame
+/// adds in the lanes its normals read ([`RestLanes::new`]).
+#[derive(Clone, Debug, Default)]
+pub struct RestLanes {
+    /// Rest positions by coordinate.
+    rest: [Vec<f32>; 3],
+    /// Per stage of every deformation, in order: its displacement at every
+    /// vertex by coordinate, or None where it is scattered to its vertices.
+    dense: Vec<Option<[Vec<f32>; 3]>>,
 }
 
 impl Object {
@@ -301,6 +318,17 @@ pub struct FrameObject {
     pub controls: Vec<(Vec3, Vec3, Vec3, f32)>,
     /// The normals' buffers, kept between frames.
     scratch: csrbf_mesh::NormalsScratch,
+    /// A chained control file's buffers, kept between frames.
+    chain: ChainScratch,
+}
+
+/// Buffers of a chained control file's frame: the points as its stages
+/// move them (then its displacement), one stage's points and displacements.
+#[derive(Clone, Debug, Default)]
+struct ChainScratch {
+    x: Vec<Vec3>,
+    pts: Vec<Vec3>,
+    d: Vec<Vec3>,
 }
 
 /// Every object at one time.
