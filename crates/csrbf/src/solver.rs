@@ -86,8 +86,18 @@ pub(crate) struct LowerCsc {
     pub(crate) values: Vec<f64>,
 }
 
+/// faer's parallelism for a numeric factorisation of this much work: its
+/// own threads only on a machine with more than two. On this project's
+/// two-core machine the parallel factorisation was slower at every size
+/// measured (`--example fit`, quiet, medians of 3: 10k controls 92 -> 47 ms
+/// on one thread, 40k 475 -> 345 ms); beyond two cores it is left to faer
+/// (not measured here).
 fn parallelism(work: f64) -> Par {
-    if work > 2e6 { Par::rayon(0) } else { Par::Seq }
+    if work > 2e6 && rayon::current_num_threads() > 2 {
+        Par::rayon(0)
+    } else {
+        Par::Seq
+    }
 }
 
 impl Factor {
