@@ -7,9 +7,10 @@
 //! eight weights, spread to the lanes of the set bits by one permutation
 //! (`EXPAND`, the unset lanes zeroed), and three fused multiply-adds in f32
 //! lanes (as [`crate::Deformation::displacements_f32`] sums); a point's
-//! eight lanes are added by pairs in f32, the pairs in f64. No block is skipped: whether a block is empty is
-//! as hard to predict as a coin, and a mispredicted branch cost more than
-//! the block (refit 68 ms with the branch, 26 ms without, at 1M points).
+//! eight lanes are added by pairs in f32, the pairs in f64. No block is
+//! skipped: whether a block is empty is as hard to predict as a coin, and a
+//! mispredicted branch cost more than the block (refit 68 ms with the
+//! branch, 26 ms without, at 1M points).
 //! [`cell_plain`] is the same sum one hit at a time in f64: the reference of
 //! the tests and the path without AVX2.
 //!
@@ -199,9 +200,10 @@ const fn expand_table() -> [[i32; BLOCK]; 256] {
 
 /// [`cell_plain`] with AVX2 and FMA: per block, eight weights loaded from
 /// the row's next unused one, spread to the lanes of the set bits, and
-/// summed with the coefficients in f32 lanes; the lanes added in f64. Returns false, having written
-/// nothing trustworthy, when a row's loads would leave `weights` or `table`
-/// (a binding always leaves room; the caller then takes the plain sum).
+/// summed with the coefficients in f32 lanes ([`row_avx2`]). Returns false,
+/// having written nothing trustworthy, when a row's loads would leave
+/// `weights` or `table` (a binding always leaves room; the caller then takes
+/// the plain sum).
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA.
