@@ -102,9 +102,13 @@ fn build<P: Point>(
     }
 }
 
-/// Groups a thread's share of the cells is cut into (so that a thread that
-/// finishes early takes another).
-const GROUPS_PER_THREAD: usize = 8;
+/// Groups a thread's share of the cells is cut into. Few and large: at 1M
+/// points a group's weights (about 44 MB) stay above glibc's largest mmap
+/// threshold (32 MB), so a dropped binding's memory goes back to the
+/// system; with eight a thread (11 MB each) glibc kept them in its arenas
+/// and `bench --scene 1m`, which holds two bindings at once, peaked 70 MB
+/// higher. Two a thread bind as fast (measured: 115-120 ms either way).
+const GROUPS_PER_THREAD: usize = 2;
 
 /// Consecutive runs of cells, about `tasks` of them, about equal in points.
 fn group_ranges(cells: &[(usize, usize)], tasks: usize) -> Vec<Range<usize>> {
