@@ -161,3 +161,26 @@ fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
         }
     }
 }
+
+/// No points, and points beyond every start's reach (cells with no hit),
+/// bind and give empty or zero displacements.
+#[test]
+fn bindings_of_no_points_and_of_points_out_of_reach() {
+    let mut rng = Rng::new(22);
+    let s: Vec<DVec3> = (0..200).map(|_| rng.vec3()).collect();
+    let t: Vec<DVec3> = s.iter().map(|p| *p + rng.vec3() * 0.01).collect();
+    let d = Deformation::fit(&s, &t, FitOptions::new(0.2)).expect("fit");
+    let none: [Vec3; 0] = [];
+    let empty = Binding::new(&d, &none);
+    assert!(empty.is_empty() && empty.pairs() == 0);
+    assert_eq!(empty.displacements(&d).expect("empty"), Vec::<Vec3>::new());
+    let far: Vec<Vec3> = (0..2000).map(|_| (rng.vec3() + 5.0).as_vec3()).collect();
+    let b = Binding::new(&d, &far);
+    assert_eq!(b.pairs(), 0);
+    assert!(
+        b.displacements(&d)
+            .expect("far")
+            .iter()
+            .all(|v| *v == Vec3::ZERO)
+    );
+}
