@@ -16,7 +16,12 @@
 //!
 //! Each cell writes its points' displacements straight to their places in
 //! the caller's buffer (the binding's `order`), so a refit allocates
-//! nothing and makes one pass.
+//! nothing and makes one pass. Those places are scattered when the
+//! caller's order is not the cells' (a point a cache line), so a cell sums
+//! its points sixteen at a time and asks for the next sixteen places' lines
+//! meanwhile (at 1M points on a sphere: product 24 -> 21 ms). The
+//! coefficient table sits on 32-byte boundaries: no load of it straddles
+//! two cache lines.
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -30,10 +35,32 @@ use crate::simd::Avx2Fma;
 /// f32 values per block of the coefficient table: x, y, z of eight candidates.
 const TABLE: usize = 3 * BLOCK;
 
-/// Per-thread scratch: the cell's coefficient table and its points' sums.
+/// Eight f32 lanes on a 32-byte boundary: the coefficient table is made of
+/// them, so that no load of a block's coefficients straddles two cache lines.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(32))]
+struct Lanes([f32; BLOCK]);
+
+/// The table's f32, block after block.
+fn flat(table: &[Lanes]) -> &[f32] {
+    // SAFETY: `Lanes` is `repr(C)`, eight f32 and 32 bytes (no padding), so
+    // `table.len()` of them are `8 * table.len()` f32 in a row.
+    #[allow(unsafe_code)]
+    unsafe {
+        std::slice::from_raw_parts(table.as_ptr().cast::<f32>(), table.len() * BLOCK)
+    }
+}
+
+/// Points summed at a time: the places of the next chunk's points are
+/// fetched into the cache while a chunk sums, so that writing a point where
+/// the caller's order puts it (a cache line of its own, when the caller's
+/// order is not the cells') does not wait for memory.
+const CHUNK: usize = 16;
+
+/// Per-thread scratch: the cell's coefficient table and a chunk's sums.
 #[derive(Default)]
 struct Scratch {
-    table: Vec<f32>,
+    table: Vec<Lanes>,
     sums: Vec<DVec3>,
 }
 
@@ -70,23 +97,13 @@ fn cell(
     let g = &b.groups[c.group];
     for block in g.ids[c.id..c.id + c.blocks * BLOCK].chunks_exact(BLOCK) {
         for axis in 0..3 {
-            let a = block
-                .iter()
-                .map(|&j| alpha.get(j as usize).map_or(0.0, |a| a[axis] as f32));
-            s.table.extend(a);
+            let mut lanes = Lanes::default();
+            for (l, &j) in lanes.0.iter_mut().zip(block) {
+                *l = alpha.get(j as usize).map_or(0.0, |a| a[axis] as f32);
+            }
+            s.table.push(lanes);
         }
     }
-    s.sums.clear();
-    s.sums.resize(c.points, DVec3::ZERO);
-    let rows = &g.masks[c.mask..c.mask + c.points * c.blocks];
-    cell_sums(
-        cpu,
-        rows,
-        c.blocks,
-        &g.weights[c.weight..],
-        &s.table,
-        &mut s.sums,
-    );
     let base = c.point;
     let place = |k: usize| b.order.as_ref().map_or(base + k, |o| o[base + k] as usize);
     let put = |k: usize, v: Vec3| {
@@ -98,21 +115,35 @@ fn cell(
         }
     };
     let linear = d.affine().map(|a| a.linear());
-    let sums = &s.sums;
-    match (&b.rest, linear) {
-        (_, None) => {
-            for (k, sum) in sums.iter().enumerate() {
-                put(k, sum.as_vec3());
-            }
+    let mut used = 0;
+    for k in 0..CHUNK.min(c.points) {
+        out.prefetch(place(k));
+    }
+    for first in (0..c.points).step_by(CHUNK) {
+        let n = CHUNK.min(c.points - first);
+        // The next chunk's places are fetched while this one sums.
+        for k in first + CHUNK..(first + 2 * CHUNK).min(c.points) {
+            out.prefetch(place(k));
         }
-        (super::Rest::F32(p), Some(l)) => {
-            for (k, (sum, x)) in sums.iter().zip(&p[base..]).enumerate() {
-                put(k, (l.eval(x.as_dvec3()) + *sum).as_vec3());
+        s.sums.clear();
+        s.sums.resize(n, DVec3::ZERO);
+        let rows = &g.masks[c.mask + first * c.blocks..c.mask + (first + n) * c.blocks];
+        used += cell_sums(
+            cpu,
+            rows,
+            c.blocks,
+            &g.weights[c.weight + used..],
+            flat(&s.table),
+            &mut s.sums,
+        );
+        let sums = s.sums.iter().enumerate().map(|(k, v)| (first + k, *v));
+        match (&b.rest, linear) {
+            (_, None) => sums.for_each(|(k, sum)| put(k, sum.as_vec3())),
+            (super::Rest::F32(p), Some(l)) => {
+                sums.for_each(|(k, sum)| put(k, (l.eval(p[base + k].as_dvec3()) + sum).as_vec3()));
             }
-        }
-        (super::Rest::F64(p), Some(l)) => {
-            for (k, (sum, x)) in sums.iter().zip(&p[base..]).enumerate() {
-                put(k, (l.eval(*x) + *sum).as_vec3());
+            (super::Rest::F64(p), Some(l)) => {
+                sums.for_each(|(k, sum)| put(k, (l.eval(p[base + k]) + sum).as_vec3()));
             }
         }
     }
@@ -129,7 +160,7 @@ fn cell(
 
 /// Each row's sum over the set bits of its `blocks` mask bytes of weight
 /// times coefficient, into `sums`: [`cell_avx2`] where the CPU has it, else
-/// [`cell_plain`].
+/// [`cell_plain`]. Returns the weights used (the rows' set bits).
 pub(super) fn cell_sums(
     cpu: Option<Avx2Fma>,
     rows: &[u8],
@@ -137,28 +168,29 @@ pub(super) fn cell_sums(
     weights: &[f32],
     table: &[f32],
     sums: &mut [DVec3],
-) {
+) -> usize {
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
         let _ = cpu;
         // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
         #[allow(unsafe_code)]
-        if unsafe { cell_avx2(rows, blocks, weights, table, sums) } {
-            return;
+        if let Some(used) = unsafe { cell_avx2(rows, blocks, weights, table, sums) } {
+            return used;
         }
     }
     let _ = cpu;
-    cell_plain(rows, blocks, weights, table, sums);
+    cell_plain(rows, blocks, weights, table, sums)
 }
 
-/// The reference: one hit at a time, in candidate order, in f64.
+/// The reference: one hit at a time, in candidate order, in f64. Returns
+/// the weights used.
 pub(super) fn cell_plain(
     rows: &[u8],
     blocks: usize,
     weights: &[f32],
     table: &[f32],
     sums: &mut [DVec3],
-) {
+) -> usize {
     let mut p = 0;
     for (row, sum) in rows.chunks_exact(blocks.max(1)).zip(sums) {
         *sum = DVec3::ZERO;
@@ -174,6 +206,7 @@ pub(super) fn cell_plain(
             }
         }
     }
+    p
 }
 
 /// For each mask byte, the lane each of the eight lanes takes its weight
@@ -200,10 +233,10 @@ const fn expand_table() -> [[i32; BLOCK]; 256] {
 
 /// [`cell_plain`] with AVX2 and FMA: per block, eight weights loaded from
 /// the row's next unused one, spread to the lanes of the set bits, and
-/// summed with the coefficients in f32 lanes ([`row_avx2`]). Returns false,
-/// having written nothing trustworthy, when a row's loads would leave
-/// `weights` or `table` (a binding always leaves room; the caller then takes
-/// the plain sum).
+/// summed with the coefficients in f32 lanes ([`row_avx2`]). Returns the
+/// weights used, or `None`, having written nothing trustworthy, when a row's
+/// loads would leave `weights` or `table` (a binding always leaves room; the
+/// caller then takes the plain sum).
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA.
@@ -216,15 +249,15 @@ unsafe fn cell_avx2(
     weights: &[f32],
     table: &[f32],
     sums: &mut [DVec3],
-) -> bool {
+) -> Option<usize> {
     if blocks == 0 || table.len() < blocks * TABLE {
-        return blocks == 0;
+        return (blocks == 0).then_some(0);
     }
     let mut p = 0;
     for (row, sum) in rows.chunks_exact(blocks).zip(sums) {
         // A row reads at most eight weights past its first for each byte.
         if p + BLOCK * (blocks + 1) > weights.len() {
-            return false;
+            return None;
         }
         // SAFETY: the row's blocks lie in `table` (checked above), its loads
         // of weights within `weights` (checked above); the CPU has AVX2 and
@@ -233,7 +266,7 @@ unsafe fn cell_avx2(
         *sum = total;
         p += used;
     }
-    true
+    Some(p)
 }
 
 /// One row's sums: for each block (mask byte), eight weights from `w`

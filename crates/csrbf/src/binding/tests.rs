@@ -90,9 +90,10 @@ fn sums_with_and_without_avx2_agree() {
         for room in [BLOCK * (blocks + 1), 0] {
             let weights: Vec<f32> = (0..hits + room).map(|_| rng.f64() as f32).collect();
             let mut want = vec![DVec3::ZERO; points];
-            cell_plain(&rows, blocks, &weights, &table, &mut want);
+            assert_eq!(cell_plain(&rows, blocks, &weights, &table, &mut want), hits);
             let mut got = vec![DVec3::ZERO; points];
-            cell_sums(Avx2Fma::detect(), &rows, blocks, &weights, &table, &mut got);
+            let used = cell_sums(Avx2Fma::detect(), &rows, blocks, &weights, &table, &mut got);
+            assert_eq!(used, hits, "weights used: the rows' set bits");
             // The terms are at most 1 each: f32 sums of a few of them round
             // by a few units of 6e-8 of the row's total size.
             let size = (BLOCK * blocks) as f64;
@@ -111,12 +112,14 @@ fn sums_with_and_without_avx2_agree() {
 /// A binding gives the f64 evaluation's displacements to the rounding of
 /// its f32 weights: with cells (many starts) and without (few), f32 and
 /// f64 points, a point that is not finite, points out of every start's
-/// reach, every kernel, with and without the polynomial part; and it counts
+/// reach, cells of hundreds of points, every kernel, with and without the polynomial part; and it counts
 /// every pair within R once.
 #[test]
 fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
     let mut rng = Rng::new(20);
-    for (starts, radius) in [(30, 0.5), (400, 0.2)] {
+    // The last: 3000 points in a few cells (hundreds a cell: a cell's points
+    // are summed in chunks).
+    for (starts, radius, spread) in [(30, 0.5, 1.6), (400, 0.2, 1.6), (60, 0.5, 0.3)] {
         for kernel in Kernel::ALL {
             for poly in [Polynomial::None, Polynomial::Linear] {
                 let s: Vec<DVec3> = (0..starts).map(|_| rng.vec3()).collect();
@@ -126,7 +129,9 @@ fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
                     .with_polynomial(poly);
                 let d = Deformation::fit(&s, &t, options).expect("fit");
                 // Points over a box wider than the starts' (some out of reach).
-                let mut points: Vec<DVec3> = (0..3000).map(|_| rng.vec3() * 1.6 - 0.3).collect();
+                let mut points: Vec<DVec3> = (0..3000)
+                    .map(|_| rng.vec3() * spread + (0.5 - spread / 2.0))
+                    .collect();
                 points[7] = DVec3::new(f64::NAN, 0.5, 0.5);
                 points[8] = DVec3::splat(40.0);
                 let want = d.displacements(&points);
