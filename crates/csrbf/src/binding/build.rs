@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 
 use super::weights::{Lanes, fill_row};
-use super::{BLOCK, Binding, Cell, Group, Rest, Support};
+use super::{BLOCK, Binding, Cell, Group, LEVEL_BYTES, LEVEL_TAIL, Rest, Support};
 use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Points};
 use crate::simd::Avx2Fma;
 
@@ -103,7 +103,7 @@ fn build<P: Point>(
 }
 
 /// Groups a thread's share of the cells is cut into. Few and large: at 1M
-/// points a group's weights (about 44 MB) stay above glibc's largest mmap
+/// points a group's levels (about 33 MB) stay above glibc's largest mmap
 /// threshold (32 MB), so a dropped binding's memory goes back to the
 /// system; with eight a thread (11 MB each) glibc kept them in its arenas
 /// and `bench --scene 1m`, which holds two bindings at once, peaked 70 MB
@@ -148,6 +148,7 @@ fn group<P: Point>(
     };
     let mut g = Group::default();
     let mut cells = Vec::with_capacity(range.len());
+    let mut hits = 0;
     let group_points: usize = blocks.cells[range.clone()].iter().map(|c| c.1 - c.0).sum();
     for (n, &(s, e)) in blocks.cells[range].iter().enumerate() {
         gather(support, cand, cell_points((s, e)));
@@ -160,45 +161,48 @@ fn group<P: Point>(
             id: g.ids.len(),
             blocks: nb,
             mask: g.masks.len(),
-            weight: g.weights.len(),
+            level: g.levels.len(),
         };
         g.ids.extend_from_slice(cand.ids());
         g.ids.resize(cell.id + nb * BLOCK, PADDING);
         g.masks.resize(cell.mask + cell.points * nb, 0);
-        // Room for every candidate of every point (and one block more for
-        // the vector stores), written without zeroing first.
-        let room = cell.points * nb * BLOCK + BLOCK;
+        // Room for every candidate of every point (and the vector stores'
+        // tail), written without zeroing first.
+        let room = LEVEL_BYTES * cell.points * nb * BLOCK + LEVEL_TAIL;
         if n == 0 {
             // The first cell as the group's guess: one allocation for the
             // group's arrays, most of the time (a copy when they grow).
             g.masks.reserve(group_points * nb * 5 / 4);
-            g.weights.reserve(group_points * nb * BLOCK * 3 / 4 + room);
+            g.levels
+                .reserve(LEVEL_BYTES * group_points * nb * BLOCK * 3 / 4 + room);
         }
-        g.weights.reserve(room);
-        let spare = &mut g.weights.spare_capacity_mut()[..room];
+        g.levels.reserve(room);
+        let spare = &mut g.levels.spare_capacity_mut()[..room];
         let rows = g.masks[cell.mask..].chunks_exact_mut(nb.max(1));
         let mut w = 0;
         for (x, row) in cell_points((s, e)).zip(rows) {
             if x.is_finite() {
-                let weights = &mut spare[w..];
-                w += fill_row(cpu, lanes, x, support.kernel, support.radius, row, weights);
+                let levels = &mut spare[LEVEL_BYTES * w..];
+                w += fill_row(cpu, lanes, x, support.kernel, support.radius, row, levels);
             }
         }
-        // SAFETY: each point's `fill_row` initialised its hits' weights
-        // from where the previous point's ended: the first `w` elements of
-        // the spare capacity (and `w <= room`, the capacity reserved).
+        // SAFETY: each point's `fill_row` initialised its hits' levels from
+        // where the previous point's ended: the first `3 w` bytes of the
+        // spare capacity (and `3 w <= room`, the capacity reserved).
         #[allow(unsafe_code)]
         unsafe {
-            g.weights.set_len(cell.weight + w)
+            g.levels.set_len(cell.level + LEVEL_BYTES * w)
         };
+        hits += w;
         cells.push(cell);
     }
-    let hits = g.weights.len();
-    // The product reads eight weights for every byte of a row from the
-    // row's first: zeros after the last.
+    // The product's loads reach up to eight levels for every byte of a
+    // row, and the tail, past the row's first level: zeros after the last.
     let longest = cells.iter().map(|c| c.blocks).max().unwrap_or(0);
-    g.weights.resize(hits + BLOCK * (longest + 1), 0.0);
-    g.weights.shrink_to_fit();
+    let end = g.levels.len();
+    g.levels
+        .resize(end + LEVEL_BYTES * BLOCK * longest + LEVEL_TAIL, 0);
+    g.levels.shrink_to_fit();
     g.masks.shrink_to_fit();
     g.ids.shrink_to_fit();
     (g, cells, hits)

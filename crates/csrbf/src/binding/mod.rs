@@ -30,13 +30,15 @@ use crate::system::Shared;
 ///
 /// Points are grouped in cells about R/2 wide, and the points of a cell
 /// share one list of candidate starts (those within R of the cell). A point
-/// keeps one bit per candidate (whether the start is within R) and the f32
-/// kernel weights of the starts that are, so a point-start pair costs about
-/// 4.2 bytes. The weights are those of the f64 kernel rounded to f32; a
-/// displacement through a binding agrees with [`Deformation::displacements`]
-/// to about 1e-7 relative (6e-8 of the displacement's size was the largest
-/// difference seen on the bundled models), so a [`crate::Pipeline`], which
-/// binds, and [`crate::compose`], which does not, differ by that much.
+/// keeps one bit per candidate (whether the start is within R) and the
+/// kernel weights of the starts that are, each in three bytes, so a
+/// point-start pair costs about 3.2 bytes. A weight is stored as its level,
+/// phi / phi(0) in 24-bit fixed point (the f64 kernel rounded to the
+/// nearest of 2^24 - 1 steps), so every weight is within 3e-8 of phi(0) of
+/// the kernel's value, as f32 weights were for the largest. A displacement through
+/// a binding agrees with [`Deformation::displacements`] to about 1e-7
+/// relative, so a [`crate::Pipeline`], which binds, and [`crate::compose`],
+/// which does not, differ by that much.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation
@@ -67,6 +69,35 @@ pub struct Binding {
 /// Candidates per mask byte.
 const BLOCK: usize = 8;
 
+/// Bytes a stored weight (a level) takes.
+const LEVEL_BYTES: usize = 3;
+
+/// Bytes past a row's last level that its vector loads and stores may
+/// touch (a 32-byte access starting within the row).
+const LEVEL_TAIL: usize = 32;
+
+/// How a kernel's weights are stored: `phi * per_weight`, rounded to the
+/// nearest integer (ties to even), is a level between 0 and 2^24 - 1 (phi
+/// is largest at 0); a level times `per_level` is the weight again, within
+/// half a step (`per_level / 2`, 3e-8 of phi(0)).
+#[derive(Clone, Copy, Debug)]
+struct Levels {
+    per_weight: f64,
+    per_level: f64,
+}
+
+impl Levels {
+    const STEPS: f64 = ((1u32 << 24) - 1) as f64;
+
+    fn of(kernel: Kernel) -> Levels {
+        let top = kernel.eval(0.0);
+        Levels {
+            per_weight: Self::STEPS / top,
+            per_level: top / Self::STEPS,
+        }
+    }
+}
+
 /// The arrays of a group of consecutive cells.
 #[derive(Clone, Debug, Default)]
 struct Group {
@@ -75,10 +106,10 @@ struct Group {
     /// Per point, one byte per eight candidates of its cell: bit `k` of byte
     /// `b` is set when candidate `8 b + k` is within R.
     masks: Vec<u8>,
-    /// The weights of the set bits, point after point, then zeros (eight
-    /// per mask byte of the longest row, and eight more), so that eight
-    /// weights can be read for every byte of a row from its first weight.
-    weights: Vec<f32>,
+    /// The levels of the set bits' weights, three bytes each, point after
+    /// point, then zeros (eight levels per mask byte of the longest row, and
+    /// [`LEVEL_TAIL`] bytes), so that a row's vector loads stay inside.
+    levels: Vec<u8>,
 }
 
 /// One cell of points: its group, and where its rows start in the group's
@@ -97,8 +128,8 @@ struct Cell {
     blocks: usize,
     /// First mask byte.
     mask: usize,
-    /// First weight.
-    weight: usize,
+    /// First byte of its levels.
+    level: usize,
 }
 
 /// The bound points, of the kind they were given in.
@@ -173,9 +204,7 @@ impl Binding {
         let groups: usize = self
             .groups
             .iter()
-            .map(|g| {
-                size_of_val(g.ids.as_slice()) + g.masks.len() + size_of_val(g.weights.as_slice())
-            })
+            .map(|g| size_of_val(g.ids.as_slice()) + g.masks.len() + g.levels.len())
             .sum();
         size_of_val(self.cells.as_slice())
             + groups

@@ -3,10 +3,14 @@
 //! coordinate); per point, the sum over its mask's set bits of weight times
 //! coefficient.
 //!
-//! With AVX2 and FMA a block of eight candidates is one unaligned load of
-//! eight weights, spread to the lanes of the set bits by one permutation
-//! (`EXPAND`, the unset lanes zeroed), and three fused multiply-adds in f32
-//! lanes (as [`crate::Deformation::displacements_f32`] sums); a point's
+//! The table's coefficients are scaled by the levels' step, so a stored
+//! level (an integer below 2^24, exact in f32) multiplies them as it is.
+//! With AVX2 and FMA a block of eight candidates is two 16-byte loads of
+//! levels (the second from where the block's upper half's levels begin),
+//! one byte shuffle that spreads the levels of the set bits to their lanes
+//! and zeroes the others (`DECODE`), a conversion to f32, and three fused
+//! multiply-adds in f32 lanes (as
+//! [`crate::Deformation::displacements_f32`] sums); a point's
 //! eight lanes are added by pairs in f32, the pairs in f64. No block is
 //! skipped: whether a block is empty is as hard to predict as a coin, and a
 //! mispredicted branch cost more than the block (refit 68 ms with the
@@ -26,8 +30,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::weights::ONES;
-use super::{BLOCK, Binding, Cell};
+use super::{BLOCK, Binding, Cell, LEVEL_BYTES, LEVEL_TAIL, Levels};
 use crate::deformation::Deformation;
 use crate::evaluate::{PARALLEL_POINTS, Scatter};
 use crate::simd::Avx2Fma;
@@ -93,13 +96,16 @@ fn cell(
     out: &Scatter<'_, Vec3>,
 ) {
     let alpha = d.coefficients();
+    let step = Levels::of(b.kernel).per_level;
     s.table.clear();
     let g = &b.groups[c.group];
     for block in g.ids[c.id..c.id + c.blocks * BLOCK].chunks_exact(BLOCK) {
         for axis in 0..3 {
             let mut lanes = Lanes::default();
             for (l, &j) in lanes.0.iter_mut().zip(block) {
-                *l = alpha.get(j as usize).map_or(0.0, |a| a[axis] as f32);
+                *l = alpha
+                    .get(j as usize)
+                    .map_or(0.0, |a| (a[axis] * step) as f32);
             }
             s.table.push(lanes);
         }
@@ -132,7 +138,7 @@ fn cell(
             cpu,
             rows,
             c.blocks,
-            &g.weights[c.weight + used..],
+            &g.levels[c.level + LEVEL_BYTES * used..],
             flat(&s.table),
             &mut s.sums,
         );
@@ -158,14 +164,14 @@ fn cell(
     }
 }
 
-/// Each row's sum over the set bits of its `blocks` mask bytes of weight
-/// times coefficient, into `sums`: [`cell_avx2`] where the CPU has it, else
-/// [`cell_plain`]. Returns the weights used (the rows' set bits).
+/// Each row's sum over the set bits of its `blocks` mask bytes of level
+/// times (scaled) coefficient, into `sums`: [`cell_avx2`] where the CPU has
+/// it, else [`cell_plain`]. Returns the levels used (the rows' set bits).
 pub(super) fn cell_sums(
     cpu: Option<Avx2Fma>,
     rows: &[u8],
     blocks: usize,
-    weights: &[f32],
+    levels: &[u8],
     table: &[f32],
     sums: &mut [DVec3],
 ) -> usize {
@@ -174,20 +180,26 @@ pub(super) fn cell_sums(
         let _ = cpu;
         // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
         #[allow(unsafe_code)]
-        if let Some(used) = unsafe { cell_avx2(rows, blocks, weights, table, sums) } {
+        if let Some(used) = unsafe { cell_avx2(rows, blocks, levels, table, sums) } {
             return used;
         }
     }
     let _ = cpu;
-    cell_plain(rows, blocks, weights, table, sums)
+    cell_plain(rows, blocks, levels, table, sums)
+}
+
+/// Level `k` of `levels` (three bytes, little-endian).
+pub(super) fn level(levels: &[u8], k: usize) -> u32 {
+    let b = &levels[LEVEL_BYTES * k..LEVEL_BYTES * (k + 1)];
+    u32::from_le_bytes([b[0], b[1], b[2], 0])
 }
 
 /// The reference: one hit at a time, in candidate order, in f64. Returns
-/// the weights used.
+/// the levels used.
 pub(super) fn cell_plain(
     rows: &[u8],
     blocks: usize,
-    weights: &[f32],
+    levels: &[u8],
     table: &[f32],
     sums: &mut [DVec3],
 ) -> usize {
@@ -201,7 +213,7 @@ pub(super) fn cell_plain(
                 let k = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let a = DVec3::new(t[k].into(), t[BLOCK + k].into(), t[2 * BLOCK + k].into());
-                *sum += a * f64::from(weights[p]);
+                *sum += a * f64::from(level(levels, p));
                 p += 1;
             }
         }
@@ -209,34 +221,63 @@ pub(super) fn cell_plain(
     p
 }
 
-/// For each mask byte, the lane each of the eight lanes takes its weight
-/// from (the count of set bits below it), and -1 (sign bit set: zeroed)
-/// for the lanes of unset bits.
-static EXPAND: [[i32; BLOCK]; 256] = expand_table();
+/// For each mask byte, the byte shuffle that spreads its set bits' levels
+/// to their lanes: in each half (four lanes, 16 bytes), lane `k`, when bit
+/// `k` is set, takes the three bytes of its level (the count of set bits
+/// below it in its half, from the half's first level) and a zero; the
+/// other lanes' bytes are 0x80 (zeroed). The lower half reads from the
+/// block's first level, the upper from its first level past the lower
+/// half's ([`STEPS`]).
+static DECODE: [[u8; 32]; 256] = decode_table();
 
-const fn expand_table() -> [[i32; BLOCK]; 256] {
-    let mut t = [[-1; BLOCK]; 256];
+/// For each mask byte, the bytes from a block's first level to its upper
+/// half's first (three times the set bits of the low four), and to the
+/// next block's first (three times all its set bits).
+static STEPS: [[u8; 2]; 256] = steps_table();
+
+const fn decode_table() -> [[u8; 32]; 256] {
+    let mut t = [[0x80; 32]; 256];
     let mut m = 0;
     while m < 256 {
-        let (mut k, mut c) = (0, 0);
-        while k < BLOCK {
-            if (m >> k) & 1 == 1 {
-                t[m][k] = c;
-                c += 1;
+        let mut half = 0;
+        while half < 2 {
+            let mut c = 0;
+            let mut k = 0;
+            while k < 4 {
+                if (m >> (4 * half + k)) & 1 == 1 {
+                    let mut byte = 0;
+                    while byte < LEVEL_BYTES {
+                        t[m][16 * half + 4 * k + byte] = (LEVEL_BYTES * c + byte) as u8;
+                        byte += 1;
+                    }
+                    c += 1;
+                }
+                k += 1;
             }
-            k += 1;
+            half += 1;
         }
         m += 1;
     }
     t
 }
 
-/// [`cell_plain`] with AVX2 and FMA: per block, eight weights loaded from
-/// the row's next unused one, spread to the lanes of the set bits, and
-/// summed with the coefficients in f32 lanes ([`row_avx2`]). Returns the
-/// weights used, or `None`, having written nothing trustworthy, when a row's
-/// loads would leave `weights` or `table` (a binding always leaves room; the
-/// caller then takes the plain sum).
+const fn steps_table() -> [[u8; 2]; 256] {
+    let mut t = [[0; 2]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let low = (m as u8 & 15).count_ones() as usize;
+        let all = (m as u8).count_ones() as usize;
+        t[m] = [(LEVEL_BYTES * low) as u8, (LEVEL_BYTES * all) as u8];
+        m += 1;
+    }
+    t
+}
+
+/// [`cell_plain`] with AVX2 and FMA: per block, the levels of its set bits
+/// spread to their lanes and summed with the coefficients in f32 lanes
+/// ([`row_avx2`]). Returns the levels used, or `None`, having written
+/// nothing trustworthy, when a row's loads would leave `levels` or `table`
+/// (a binding always leaves room; the caller then takes the plain sum).
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA.
@@ -246,7 +287,7 @@ const fn expand_table() -> [[i32; BLOCK]; 256] {
 unsafe fn cell_avx2(
     rows: &[u8],
     blocks: usize,
-    weights: &[f32],
+    levels: &[u8],
     table: &[f32],
     sums: &mut [DVec3],
 ) -> Option<usize> {
@@ -255,36 +296,38 @@ unsafe fn cell_avx2(
     }
     let mut p = 0;
     for (row, sum) in rows.chunks_exact(blocks).zip(sums) {
-        // A row reads at most eight weights past its first for each byte.
-        if p + BLOCK * (blocks + 1) > weights.len() {
+        // A row's loads reach at most eight levels a byte, and the tail,
+        // past its first.
+        if p + LEVEL_BYTES * BLOCK * blocks + LEVEL_TAIL > levels.len() {
             return None;
         }
         // SAFETY: the row's blocks lie in `table` (checked above), its loads
-        // of weights within `weights` (checked above); the CPU has AVX2 and
+        // of levels within `levels` (checked above); the CPU has AVX2 and
         // FMA (our caller's promise).
-        let (total, used) = unsafe { row_avx2(row, weights.as_ptr().add(p), table.as_ptr()) };
+        let (total, used) = unsafe { row_avx2(row, levels.as_ptr().add(p), table.as_ptr()) };
         *sum = total;
         p += used;
     }
-    Some(p)
+    Some(p / LEVEL_BYTES)
 }
 
-/// One row's sums: for each block (mask byte), eight weights from `w`
-/// spread to the lanes of the set bits (`EXPAND`, the other lanes zeroed)
-/// and multiplied into the block's coefficients (`t`, 24 f32 a block). Two
+/// One row's sums: for each block (mask byte), the levels of its set bits
+/// from `w` spread to their lanes (`DECODE`, the other lanes zeroed) and
+/// multiplied into the block's coefficients (`t`, 24 f32 a block). Two
 /// sets of accumulators, for even and odd blocks: with one, each block
 /// waited for the previous block's fused multiply-adds. Returns the sums
-/// and the weights used. Pointers advance by block (no index arithmetic,
-/// no bounds checks in the loop: the caller checked the row's extent).
+/// and the bytes of levels used. Pointers advance by block (no index
+/// arithmetic, no bounds checks in the loop: the caller checked the row's
+/// extent).
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA; `t` points at `24 * row.len()` f32, and `w`
-/// at as many f32 as the row's set bits plus eight.
+/// at three bytes for each of the row's set bits plus [`LEVEL_TAIL`].
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-unsafe fn row_avx2(row: &[u8], mut w: *const f32, mut t: *const f32) -> (DVec3, usize) {
+unsafe fn row_avx2(row: &[u8], mut w: *const u8, mut t: *const f32) -> (DVec3, usize) {
     use std::arch::x86_64::*;
     let first = w;
     let (mut even, mut odd) = ([_mm256_setzero_ps(); 3], [_mm256_setzero_ps(); 3]);
@@ -314,32 +357,34 @@ unsafe fn row_avx2(row: &[u8], mut w: *const f32, mut t: *const f32) -> (DVec3, 
     }
 }
 
-/// Adds a block (mask byte `m`, weights from `w`, coefficients at `t`) to
-/// `acc`; returns the next unused weight.
+/// Adds a block (mask byte `m`, levels from `w`, coefficients at `t`) to
+/// `acc`; returns the next block's first level.
 ///
 /// # Safety
-/// The CPU has AVX2 and FMA; `w` points at eight f32 and `t` at 24.
+/// The CPU has AVX2 and FMA; `w` points at 28 readable bytes (the block's
+/// levels lie in them) and `t` at 24 f32.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
 unsafe fn block(
     m: u8,
-    w: *const f32,
+    w: *const u8,
     t: *const f32,
     acc: &mut [std::arch::x86_64::__m256; 3],
-) -> *const f32 {
+) -> *const u8 {
     use std::arch::x86_64::*;
-    // SAFETY: the eight weights at w and the 24 coefficients at t are the
-    // caller's promise; EXPAND has eight lanes for every byte.
+    let [upper, next] = STEPS[m as usize];
+    // SAFETY: the 16 bytes at w and at w + upper (at most 12) are within
+    // the caller's 28; DECODE has 32 bytes for every byte, t 24 f32.
     unsafe {
-        let idx = _mm256_loadu_si256(EXPAND[m as usize].as_ptr().cast());
-        let spread = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w), idx);
-        let e = _mm256_blendv_ps(spread, _mm256_setzero_ps(), _mm256_castsi256_ps(idx));
+        let halves = _mm256_loadu2_m128i(w.add(upper as usize).cast(), w.cast());
+        let spread = _mm256_loadu_si256(DECODE[m as usize].as_ptr().cast());
+        let e = _mm256_cvtepi32_ps(_mm256_shuffle_epi8(halves, spread));
         acc[0] = _mm256_fmadd_ps(e, _mm256_loadu_ps(t), acc[0]);
         acc[1] = _mm256_fmadd_ps(e, _mm256_loadu_ps(t.add(BLOCK)), acc[1]);
         acc[2] = _mm256_fmadd_ps(e, _mm256_loadu_ps(t.add(2 * BLOCK)), acc[2]);
-        w.add(ONES[m as usize] as usize)
+        w.add(next as usize)
     }
 }
 

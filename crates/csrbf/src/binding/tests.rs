@@ -1,14 +1,14 @@
 //! The binding's vector code against its plain references, and the
-//! binding against the f64 evaluation (issue 18: masks and f32 weights in
+//! binding against the f64 evaluation (issue 18: masks and 24-bit levels in
 //! place of per-pair indices).
 
 use std::mem::MaybeUninit;
 
 use glam::{DVec3, Vec3};
 
-use super::product::{cell_plain, cell_sums};
+use super::product::{cell_plain, cell_sums, level};
 use super::weights::{Lanes, fill_plain, fill_row};
-use super::{BLOCK, Binding};
+use super::{BLOCK, Binding, LEVEL_BYTES, LEVEL_TAIL, Levels};
 use crate::evaluate::Candidates;
 use crate::kernel::Kernel;
 use crate::octree::Octree;
@@ -16,14 +16,16 @@ use crate::simd::Avx2Fma;
 use crate::synthetic::Rng;
 use crate::{Deformation, FitOptions, Polynomial};
 
-/// Both copies find the same hits and store the same weights, bit for bit,
-/// and those are `Kernel::eval` of the distance rounded to f32, in
-/// candidate order: for every kernel, candidate counts that are and are
-/// not multiples of eight, and none.
+/// Both copies find the same hits and store the same levels, byte for
+/// byte, and those are `Kernel::eval` of the distance times the kernel's
+/// scale, rounded to the nearest integer, in candidate order: for every
+/// kernel, candidate counts that are and are not multiples of eight, and
+/// none. A level times the step is the weight within half a step.
 #[test]
 fn weights_with_and_without_avx2_are_the_same_bits() {
     let mut rng = Rng::new(18);
     for kernel in Kernel::ALL {
+        let scale = Levels::of(kernel);
         for n in [0, 1, 7, 8, 9, 30, 64, 203] {
             let radius = 0.05 + 0.2 * rng.f64();
             let offset = DVec3::new(3.0, -2.0, 0.5);
@@ -37,16 +39,25 @@ fn weights_with_and_without_avx2_are_the_same_bits() {
             let blocks = cand.len().div_ceil(BLOCK);
             for _ in 0..20 {
                 let x = lo + (hi - lo) * rng.vec3();
-                let want: Vec<f32> = (0..cand.len())
+                let phis: Vec<f64> = (0..cand.len())
                     .map(|k| x.distance(cand.start(k)))
                     .filter(|&d| d * d < radius * radius)
-                    .map(|d| kernel.eval(d / radius) as f32)
+                    .map(|d| kernel.eval(d / radius))
                     .collect();
+                let want: Vec<u32> = phis
+                    .iter()
+                    .map(|phi| (phi * scale.per_weight).round_ties_even() as u32)
+                    .collect();
+                for (phi, level) in phis.iter().zip(&want) {
+                    let back = f64::from(*level) * scale.per_level;
+                    assert!((back - phi).abs() <= 0.5 * scale.per_level * (1.0 + 1e-9));
+                    assert!(*level < 1 << 24);
+                }
                 let count = want.len();
                 // Room for the vector stores, and exactly the hits (so the
                 // last blocks take the one-at-a-time store).
-                for room in [count + 4 * BLOCK, count] {
-                    let nine = MaybeUninit::new(9.0f32);
+                for room in [LEVEL_BYTES * count + LEVEL_TAIL, LEVEL_BYTES * count] {
+                    let nine = MaybeUninit::new(9u8);
                     let (mut m1, mut w1) = (vec![0u8; blocks], vec![nine; room]);
                     let (mut m2, mut w2) = (vec![0u8; blocks], vec![nine; room]);
                     let h1 = fill_plain(&lanes, x, kernel, radius, &mut m1, &mut w1);
@@ -54,8 +65,8 @@ fn weights_with_and_without_avx2_are_the_same_bits() {
                     let h2 = fill_row(cpu, &lanes, x, kernel, radius, &mut m2, &mut w2);
                     assert_eq!((h1, h2), (count, count));
                     assert_eq!(m1, m2);
-                    assert_eq!(read(&w1[..count]), want, "{kernel:?} n {n}");
-                    assert_eq!(read(&w2[..count]), want, "{kernel:?} n {n}");
+                    assert_eq!(read(&w1, count), want, "{kernel:?} n {n}");
+                    assert_eq!(read(&w2, count), want, "{kernel:?} n {n}");
                     let ones: u32 = m1.iter().map(|m| m.count_ones()).sum();
                     assert_eq!(ones as usize, count);
                 }
@@ -64,12 +75,13 @@ fn weights_with_and_without_avx2_are_the_same_bits() {
     }
 }
 
-/// The values of elements that were all initialised (with 9, then maybe
-/// written).
-fn read(w: &[MaybeUninit<f32>]) -> Vec<f32> {
+/// The first `count` levels of bytes that were all initialised (with 9,
+/// then maybe written).
+fn read(w: &[MaybeUninit<u8>], count: usize) -> Vec<u32> {
     // SAFETY: the tests make these buffers from initialised values.
     #[allow(unsafe_code)]
-    w.iter().map(|v| unsafe { v.assume_init() }).collect()
+    let bytes: Vec<u8> = w.iter().map(|v| unsafe { v.assume_init() }).collect();
+    (0..count).map(|k| level(&bytes, k)).collect()
 }
 
 /// The vector sum (f32 lanes) agrees with the plain one (f64) to f32
@@ -84,16 +96,19 @@ fn sums_with_and_without_avx2_agree() {
             .map(|_| (rng.f64() * 256.0) as u8)
             .collect();
         let hits: usize = rows.iter().map(|m| m.count_ones() as usize).sum();
+        // Coefficients scaled by a step of 2^-24, as a binding scales them.
         let table: Vec<f32> = (0..blocks * 3 * BLOCK)
-            .map(|_| (rng.f64() * 2.0 - 1.0) as f32)
+            .map(|_| ((rng.f64() * 2.0 - 1.0) / f64::from(1 << 24)) as f32)
             .collect();
-        for room in [BLOCK * (blocks + 1), 0] {
-            let weights: Vec<f32> = (0..hits + room).map(|_| rng.f64() as f32).collect();
+        for room in [LEVEL_BYTES * BLOCK * blocks + LEVEL_TAIL, 0] {
+            let levels: Vec<u8> = (0..LEVEL_BYTES * hits + room)
+                .map(|_| (rng.f64() * 256.0) as u8)
+                .collect();
             let mut want = vec![DVec3::ZERO; points];
-            assert_eq!(cell_plain(&rows, blocks, &weights, &table, &mut want), hits);
+            assert_eq!(cell_plain(&rows, blocks, &levels, &table, &mut want), hits);
             let mut got = vec![DVec3::ZERO; points];
-            let used = cell_sums(Avx2Fma::detect(), &rows, blocks, &weights, &table, &mut got);
-            assert_eq!(used, hits, "weights used: the rows' set bits");
+            let used = cell_sums(Avx2Fma::detect(), &rows, blocks, &levels, &table, &mut got);
+            assert_eq!(used, hits, "levels used: the rows' set bits");
             // The terms are at most 1 each: f32 sums of a few of them round
             // by a few units of 6e-8 of the row's total size.
             let size = (BLOCK * blocks) as f64;
@@ -110,10 +125,11 @@ fn sums_with_and_without_avx2_agree() {
 }
 
 /// A binding gives the f64 evaluation's displacements to the rounding of
-/// its f32 weights: with cells (many starts) and without (few), f32 and
-/// f64 points, a point that is not finite, points out of every start's
-/// reach, cells of hundreds of points, every kernel, with and without the polynomial part; and it counts
-/// every pair within R once.
+/// its weights (half a level's step each) and its f32 sums: with cells
+/// (many starts) and without (few), f32 and f64 points, a point that is not
+/// finite, points out of every start's reach, cells of hundreds of points,
+/// every kernel, with and without the polynomial part; and it counts every
+/// pair within R once.
 #[test]
 fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
     let mut rng = Rng::new(20);
@@ -148,16 +164,21 @@ fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
                         continue;
                     }
                     let near = d.starts().iter().zip(d.coefficients());
-                    let near: Vec<f64> = near
+                    let near: Vec<(f64, f64)> = near
                         .filter(|(s, _)| s.distance(*p) < radius)
-                        .map(|(s, a)| a.length() * kernel.eval(s.distance(*p) / radius))
+                        .map(|(s, a)| (a.length(), kernel.eval(s.distance(*p) / radius)))
                         .collect();
                     pairs += near.len();
-                    // f32 weights (6e-8 relative each) and the f32 result.
-                    let scale: f64 = near.iter().sum();
+                    // Levels (half a step each: 3e-8 of phi(0) times the
+                    // coefficient), f32 coefficients and sums (6e-8 relative
+                    // each), and the f32 result.
+                    let terms: f64 = near.iter().map(|(a, phi)| a * phi).sum();
+                    let coefficients: f64 = near.iter().map(|(a, _)| a).sum();
+                    let step = Levels::of(kernel).per_level;
                     for (got, want) in [(f64s[k], want[k]), (f32s[k], want32[k])] {
                         let err = (got.as_dvec3() - want).length();
-                        let tol = 1e-7 * scale + 1e-7 * want.length() + 1e-12;
+                        let tol =
+                            0.5 * step * coefficients + 1e-7 * terms + 1e-7 * want.length() + 1e-12;
                         assert!(err <= tol, "{kernel:?} {poly:?} {k}: {err:e} > {tol:e}");
                     }
                 }

@@ -3,19 +3,20 @@
 //! evaluation (`|x - s|^2 < R^2`, the operations of [`crate::simd`]'s mask)
 //! and phi(|x - s| / R) as [`Kernel::eval`] computes it, for all eight
 //! lanes, so that the loops vectorise; the hits' weights are then stored in
-//! order, rounded to f32.
+//! order, each as its level: phi / phi(0) in 24-bit fixed point
+//! ([`Levels`], three bytes).
 //!
 //! The plain bodies are compiled twice: as they
 //! are (the reference, and the path without AVX2) and for AVX2, where the
-//! store of the hits' weights is one permutation and one unaligned store
-//! per block (`COMPRESS`). Neither uses fused multiply-adds: both give the
-//! weights `Kernel::eval` gives.
+//! store of the hits' levels is two permutations, a byte shuffle and one
+//! unaligned store per block (`COMPRESS`, `PACK`). Neither uses fused
+//! multiply-adds: both give the levels of the weights `Kernel::eval` gives.
 
 use std::mem::MaybeUninit;
 
 use glam::DVec3;
 
-use super::BLOCK;
+use super::{BLOCK, LEVEL_BYTES, Levels};
 use crate::evaluate::Candidates;
 use crate::kernel::Kernel;
 use crate::simd::Avx2Fma;
@@ -150,10 +151,10 @@ unsafe fn phi_avx2(kernel: Kernel, r: std::arch::x86_64::__m256d) -> std::arch::
     _mm256_blendv_pd(v, _mm256_setzero_pd(), _mm256_cmp_pd::<_CMP_GE_OQ>(r, one))
 }
 
-/// Writes one point's mask bytes into `row` and the weights of its hits
-/// into `weights` (from the first); returns the hits. The first `hits`
-/// elements of `weights` are then initialised (a vector store may write
-/// up to eight more).
+/// Writes one point's mask bytes into `row` and the levels of its hits'
+/// weights into `levels` (three bytes each, from the first); returns the
+/// hits. The first `3 hits` bytes of `levels` are then initialised (a
+/// vector store may write up to 32 more).
 pub(super) fn fill_row(
     cpu: Option<Avx2Fma>,
     lanes: &Lanes,
@@ -161,38 +162,41 @@ pub(super) fn fill_row(
     kernel: Kernel,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [MaybeUninit<f32>],
+    levels: &mut [MaybeUninit<u8>],
 ) -> usize {
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
         let _ = cpu;
         // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
         #[allow(unsafe_code)]
-        return unsafe { fill_avx2(lanes, x, kernel, radius, row, weights) };
+        return unsafe { fill_avx2(lanes, x, kernel, radius, row, levels) };
     }
     let _ = cpu;
-    fill_plain(lanes, x, kernel, radius, row, weights)
+    fill_plain(lanes, x, kernel, radius, row, levels)
 }
 
-/// The reference: the hits' weights stored one at a time.
+/// The reference: the hits' levels stored one at a time.
 pub(super) fn fill_plain(
     lanes: &Lanes,
     x: DVec3,
     kernel: Kernel,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [MaybeUninit<f32>],
+    levels: &mut [MaybeUninit<u8>],
 ) -> usize {
+    let scale = Levels::of(kernel).per_weight;
+    let out = (row, levels);
     match kernel {
-        Kernel::C0 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C0.eval(r)),
-        Kernel::C2 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C2.eval(r)),
-        Kernel::C4 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C4.eval(r)),
-        Kernel::C6 => fill_body(lanes, x, radius, row, weights, |r| Kernel::C6.eval(r)),
+        Kernel::C0 => fill_body(lanes, x, radius, out, |r| Kernel::C0.eval(r) * scale),
+        Kernel::C2 => fill_body(lanes, x, radius, out, |r| Kernel::C2.eval(r) * scale),
+        Kernel::C4 => fill_body(lanes, x, radius, out, |r| Kernel::C4.eval(r) * scale),
+        Kernel::C6 => fill_body(lanes, x, radius, out, |r| Kernel::C6.eval(r) * scale),
     }
 }
 
 /// [`fill_plain`] with AVX2: the hit test and phi of a block in two
-/// vectors of four, its hits' weights stored by one permutation.
+/// vectors of four, its hits' levels stored by two permutations and a byte
+/// shuffle.
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA.
@@ -205,10 +209,18 @@ unsafe fn fill_avx2(
     kernel: Kernel,
     radius: f64,
     row: &mut [u8],
-    weights: &mut [MaybeUninit<f32>],
+    levels: &mut [MaybeUninit<u8>],
 ) -> usize {
     use std::arch::x86_64::*;
     let (inv, r2) = (_mm256_set1_pd(1.0 / radius), radius * radius);
+    let scale = _mm256_set1_pd(Levels::of(kernel).per_weight);
+    // SAFETY: `PACK` and `JOIN` hold 32 bytes each.
+    let (pack, join) = unsafe {
+        (
+            _mm256_loadu_si256(PACK.as_ptr().cast()),
+            _mm256_loadu_si256(JOIN.as_ptr().cast()),
+        )
+    };
     let mut w = 0;
     for (b, r) in row.iter_mut().enumerate().take(lanes.blocks()) {
         // SAFETY: b is below `lanes.blocks()`; the CPU has AVX2 (our caller's promise).
@@ -224,38 +236,60 @@ unsafe fn fill_avx2(
                 phi_avx2(kernel, _mm256_mul_pd(_mm256_sqrt_pd(d2[1]), inv)),
             )
         };
-        let (lo, hi) = (_mm256_cvtpd_ps(lo), _mm256_cvtpd_ps(hi));
-        let packed = _mm256_set_m128(hi, lo);
-        match weights.get_mut(w..w + BLOCK) {
+        // Levels: phi times the scale, rounded to the nearest integer (ties
+        // to even, as `f64::round_ties_even`).
+        let packed = _mm256_set_m128i(
+            _mm256_cvtpd_epi32(_mm256_mul_pd(hi, scale)),
+            _mm256_cvtpd_epi32(_mm256_mul_pd(lo, scale)),
+        );
+        match levels.get_mut(LEVEL_BYTES * w..LEVEL_BYTES * w + 32) {
             Some(out) => {
-                // SAFETY: COMPRESS holds eight i32 for every byte, `out` eight f32.
+                // SAFETY: COMPRESS holds eight i32 for every byte, `out` 32
+                // bytes.
                 unsafe {
                     let idx = _mm256_loadu_si256(COMPRESS[bits as usize].as_ptr().cast());
-                    let v = _mm256_permutevar8x32_ps(packed, idx);
-                    _mm256_storeu_ps(out.as_mut_ptr().cast(), v);
+                    // The hits' levels in order, then their low three bytes
+                    // packed: twelve a half, then the two halves joined.
+                    let v = _mm256_permutevar8x32_epi32(packed, idx);
+                    let v = _mm256_permutevar8x32_epi32(_mm256_shuffle_epi8(v, pack), join);
+                    _mm256_storeu_si256(out.as_mut_ptr().cast(), v);
                 }
                 w += ONES[bits as usize] as usize;
             }
             None => {
-                let mut v = [0.0f32; BLOCK];
-                // SAFETY: `v` holds eight f32.
-                unsafe { _mm256_storeu_ps(v.as_mut_ptr(), packed) };
-                let phi = v.map(f64::from);
-                w = store_plain(&phi, bits, weights, w);
+                let mut v = [0u32; BLOCK];
+                // SAFETY: `v` holds eight u32.
+                unsafe { _mm256_storeu_si256(v.as_mut_ptr().cast(), packed) };
+                w = store_plain(&v, bits, levels, w);
             }
         }
     }
     w
 }
 
+/// For the packing of eight levels (a u32 each, below 2^24) into 24 bytes:
+/// each half's four low three-byte groups first (`PACK`, a byte shuffle
+/// within each half), then the halves' twelve bytes side by side (`JOIN`,
+/// the eight u32 lanes taken 0 1 2 4 5 6).
+static PACK: [u8; 32] = {
+    let mut t = [0x80u8; 32];
+    let mut k = 0;
+    while k < 12 {
+        t[k] = (k / 3 * 4 + k % 3) as u8;
+        t[16 + k] = t[k];
+        k += 1;
+    }
+    t
+};
+static JOIN: [u32; BLOCK] = [0, 1, 2, 4, 5, 6, 7, 7];
+
 #[inline(always)]
 fn fill_body(
     lanes: &Lanes,
     x: DVec3,
     radius: f64,
-    row: &mut [u8],
-    weights: &mut [MaybeUninit<f32>],
-    phi: impl Fn(f64) -> f64,
+    (row, levels): (&mut [u8], &mut [MaybeUninit<u8>]),
+    scaled_phi: impl Fn(f64) -> f64,
 ) -> usize {
     let (inv, r2) = (1.0 / radius, radius * radius);
     let mut w = 0;
@@ -265,28 +299,36 @@ fn fill_body(
         if bits == 0 {
             continue;
         }
-        let mut phis = [0.0f64; BLOCK];
+        let mut level = [0u32; BLOCK];
         for k in 0..BLOCK {
-            phis[k] = phi(d2[k].sqrt() * inv);
+            // Every lane, hit or not (the loop vectorises); a lane out of
+            // reach has phi 0, level 0.
+            level[k] = scaled_phi(d2[k].sqrt() * inv).round_ties_even() as u32;
         }
-        w = store_plain(&phis, bits, weights, w);
+        w = store_plain(&level, bits, levels, w);
     }
     w
 }
 
-/// Stores the weights of the set bits of `bits` from `weights[w]`; returns
-/// the next free index.
+/// Stores the levels of the set bits of `bits` from level `w` on (three
+/// bytes each, little-endian); returns the next free level.
 #[inline(always)]
 fn store_plain(
-    phi: &[f64; BLOCK],
+    level: &[u32; BLOCK],
     mut bits: u8,
-    weights: &mut [MaybeUninit<f32>],
+    levels: &mut [MaybeUninit<u8>],
     mut w: usize,
 ) -> usize {
     while bits != 0 {
         let k = bits.trailing_zeros() as usize;
         bits &= bits - 1;
-        weights[w] = MaybeUninit::new(phi[k] as f32);
+        let bytes = level[k].to_le_bytes();
+        for (o, b) in levels[LEVEL_BYTES * w..LEVEL_BYTES * (w + 1)]
+            .iter_mut()
+            .zip(bytes)
+        {
+            *o = MaybeUninit::new(b);
+        }
         w += 1;
     }
     w
