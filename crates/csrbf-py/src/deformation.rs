@@ -136,8 +136,7 @@ fn displacements_into(
 /// D evaluated in f64 (by `fill`) and rounded once into `out`: the package
 /// gives the values it always has, to f32's last bit. The engine's faster
 /// f32 lanes (`Deformation::displacements_f32`) agree only to about 1e-7 of
-/// the sum of |alpha| within R, which is more than a binding and a
-/// deformation may differ by here (1e-6 of the move).
+/// the sum of |alpha| within R (as a `Binding` does: its sums are f32).
 fn rounded(
     out: &mut [Vec3],
     fill: impl FnOnce(&mut [DVec3]) -> csrbf::Result<()>,

@@ -188,7 +188,12 @@ pub struct PyBinding {
 impl PyBinding {
     /// Binds `points` ((N, 3)) to the starts of `deformation` (a
     /// Deformation or a System). Results have the points' dtype (float32
-    /// stays float32; the weights are float32).
+    /// stays float32). The weights are kept in 24-bit fixed point (within
+    /// 3e-8 of the kernel's peak), about 3.2 bytes a point-start pair, and
+    /// summed in float32: displacements agree with
+    /// `Deformation.displacements` to about 1e-7 of the sum of
+    /// |coefficient| x weight within R (a few times 1e-6 of the largest move
+    /// where nearby starts pull in opposite directions).
     #[new]
     fn new(
         py: Python<'_>,

@@ -188,6 +188,54 @@ fn a_binding_agrees_with_the_f64_evaluation_issue_18() {
     }
 }
 
+/// Where nearby starts pull in opposite directions the coefficients exceed
+/// the move, and so does a binding's difference from the f64 evaluation
+/// relative to the move: still within the bound on the coefficients, and
+/// within a few times 1e-6 of the largest move (as documented).
+#[test]
+fn a_binding_agrees_where_nearby_starts_pull_apart() {
+    let mut rng = Rng::new(23);
+    for gap in [0.3, 0.1, 0.03] {
+        let radius = 0.3;
+        let (mut s, mut t) = (Vec::new(), Vec::new());
+        for _ in 0..40 {
+            let p = rng.vec3();
+            let dir = (rng.vec3() - 0.5).normalize() * gap * radius;
+            let m = (rng.vec3() - 0.5) * 0.05;
+            s.extend([p, p + dir]);
+            t.extend([p + m, p + dir - m]);
+        }
+        let d = Deformation::fit(&s, &t, FitOptions::new(radius)).expect("fit");
+        let points: Vec<Vec3> = (0..5000).map(|_| rng.vec3().as_vec3()).collect();
+        let want = d.displacements(&points);
+        let got = Binding::new(&d, &points).displacements(&d).expect("bound");
+        let step = Levels::of(Kernel::C2).per_level;
+        let (mut worst, mut largest) = (0.0f64, 0.0f64);
+        for ((p, g), w) in points.iter().zip(&got).zip(&want) {
+            let p = p.as_dvec3();
+            let near = d.starts().iter().zip(d.coefficients());
+            let (terms, coefficients) = near
+                .filter(|(s, _)| s.distance(p) < radius)
+                .map(|(s, a)| {
+                    (
+                        a.length() * Kernel::C2.eval(s.distance(p) / radius),
+                        a.length(),
+                    )
+                })
+                .fold((0.0, 0.0), |(t, c), (a, b)| (t + a, c + b));
+            let err = (g.as_dvec3() - *w).length();
+            let tol = 0.5 * step * coefficients + 1e-7 * terms + 1e-7 * w.length() + 1e-12;
+            assert!(err <= tol, "gap {gap}: {err:e} > {tol:e}");
+            worst = worst.max(err);
+            largest = largest.max(w.length());
+        }
+        assert!(
+            worst <= 5e-6 * largest,
+            "gap {gap}: {worst:e} of {largest:e}"
+        );
+    }
+}
+
 /// No points, and points beyond every start's reach (cells with no hit),
 /// bind and give empty or zero displacements.
 #[test]
