@@ -75,18 +75,32 @@ fn build<P: Point>(
         cells.extend(c);
         pairs += hits;
     }
-    let nonfinite = blocks
-        .order
-        .iter()
-        .enumerate()
-        .filter(|&(_, &i)| !points[i as usize].to_dvec3().is_finite())
-        .map(|(k, _)| k as u32)
-        .collect();
-    let (rest, order) = if blocks.identity {
+    // The points in cell order, then the non-finite ones among them: in
+    // parallel (a gather of 1M points in cell order took 7 ms on one thread).
+    let (rest, order): (Vec<P>, _) = if blocks.identity {
         (points.to_vec(), None)
+    } else if parallel {
+        let rest = blocks
+            .order
+            .par_iter()
+            .map(|&i| points[i as usize])
+            .collect();
+        (rest, Some(blocks.order))
     } else {
         let rest = blocks.order.iter().map(|&i| points[i as usize]).collect();
         (rest, Some(blocks.order))
+    };
+    let place_if_nonfinite = |(k, p): (usize, &P)| (!p.to_dvec3().is_finite()).then_some(k as u32);
+    let nonfinite = if parallel {
+        rest.par_iter()
+            .enumerate()
+            .filter_map(place_if_nonfinite)
+            .collect()
+    } else {
+        rest.iter()
+            .enumerate()
+            .filter_map(place_if_nonfinite)
+            .collect()
     };
     Binding {
         kernel: support.kernel,
