@@ -2,17 +2,17 @@
 //! evaluated), contact, the rigid motion, normals.
 //!
 //! An object with no chain of several stages and no contact takes the short
-//! way: its points are built by coordinate straight into the normals' lanes
+//! way: its points are built as x y z w straight into the normals' lanes
 //! from its [`RestLanes`] (rest points, then each stage's displacement times
 //! its phase, stage after stage as the `Vec3` code adds them), so a frame
-//! makes no pass to take `Vec3`s apart and allocates nothing. The others add
-//! their displacements to `Vec3`s, as they did, and the normals take them
-//! apart.
+//! makes no pass to copy `Vec3`s and allocates nothing. The others add
+//! their displacements to `Vec3`s, as they did, and the normals copy them.
 
 use glam::Vec3;
 
 use super::{Animated, ChainScratch, Frame, FrameObject, Object, RestLanes, Scene};
 use csrbf::Combine;
+use csrbf_mesh::POINT_FLOATS;
 
 /// Below this share of the vertices (one in eight) a stage's displacement
 /// is scattered to its vertices; at or above it a pass over every lane,
@@ -20,12 +20,15 @@ use csrbf::Combine;
 const DENSE_SHARE: usize = 8;
 
 impl RestLanes {
-    /// The rest points of `positions` by coordinate and, for each stage of
+    /// The rest points of `positions` as x y z 0 and, for each stage of
     /// `deformations` in order that moves one vertex in eight or more, its
-    /// displacement over every vertex (-0 where it moves none).
+    /// displacement over every vertex as x y z -0 (-0 where it moves none).
     pub fn new(positions: &[Vec3], deformations: &[Animated]) -> RestLanes {
         let n = positions.len();
-        let rest = [0, 1, 2].map(|c| positions.iter().map(|p| p[c]).collect());
+        let rest = positions
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z, 0.0])
+            .collect();
         let mut dense = Vec::new();
         for anim in deformations {
             for st in &anim.stages {
@@ -37,15 +40,14 @@ impl RestLanes {
                 let wide = st.vertices.len() * DENSE_SHARE >= n;
                 dense.push(
                     (unique && wide && st.vertices.len() == st.displacement.len()).then(|| {
-                        [0, 1, 2].map(|c| {
-                            // -0: x + -0 * t is x for every x when t is not
-                            // negative (+0 would turn a -0 into +0).
-                            let mut d = vec![-0.0f32; n];
-                            for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
-                                d[v as usize] = dv[c];
-                            }
-                            d
-                        })
+                        // -0: x + -0 * t is x for every x when t is not
+                        // negative (+0 would turn a -0 into +0).
+                        let mut d = vec![-0.0f32; POINT_FLOATS * n];
+                        for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
+                            let at = POINT_FLOATS * v as usize;
+                            d[at..at + 3].copy_from_slice(&dv.to_array());
+                        }
+                        d
                     }),
                 );
             }
@@ -59,7 +61,7 @@ impl RestLanes {
     fn fits(&self, obj: &Object) -> bool {
         let n = obj.mesh.positions.len();
         obj.contact.is_none()
-            && self.rest.iter().all(|r| r.len() == n)
+            && self.rest.len() == POINT_FLOATS * n
             && obj.normals.vertices() == n
             && self.dense.len()
                 == obj
@@ -151,7 +153,7 @@ impl Scene {
     /// rest, then each stage's displacement times its track's phase, in the
     /// order and with the arithmetic of the `Vec3` path (`p += d * t`).
     fn lanes_frame(obj: &Object, time: f64, out: &mut FrameObject) {
-        let [x, y, z] = out.scratch.points_mut(&obj.normals);
+        let p = out.scratch.points_mut(&obj.normals);
         let rest = &obj.lanes.rest;
         // The lanes hold the rest points from the first stage on: the first
         // wide stage adds to them as it copies them.
@@ -163,27 +165,25 @@ impl Scene {
                 match d {
                     // -0 * t is -0 only for t not negative (and finite).
                     Some(d) if t.is_finite() && t.is_sign_positive() => {
-                        for ((lane, d), r) in
-                            [&mut *x, &mut *y, &mut *z].into_iter().zip(d).zip(rest)
-                        {
-                            if started {
-                                csrbf_mesh::add_scaled(lane, d, t);
-                            } else {
-                                csrbf_mesh::scaled_sum_into(lane, r, d, t);
-                            }
+                        if started {
+                            csrbf_mesh::add_scaled(p, d, t);
+                        } else {
+                            csrbf_mesh::scaled_sum_into(p, rest, d, t);
                         }
                     }
                     _ => {
                         if !started {
-                            for (lane, r) in [&mut *x, &mut *y, &mut *z].into_iter().zip(rest) {
-                                lane.copy_from_slice(r);
-                            }
+                            p.copy_from_slice(rest);
                         }
                         for (&v, d) in st.vertices.iter().zip(&st.displacement) {
-                            let (v, d) = (v as usize, *d * t);
-                            x[v] += d.x;
-                            y[v] += d.y;
-                            z[v] += d.z;
+                            let (at, d) = (POINT_FLOATS * v as usize, *d * t);
+                            // A stage's vertices are the mesh's: `get_mut`
+                            // only keeps a bad one from panicking.
+                            if let Some(q) = p.get_mut(at..at + 3) {
+                                q[0] += d.x;
+                                q[1] += d.y;
+                                q[2] += d.z;
+                            }
                         }
                     }
                 }
@@ -191,9 +191,7 @@ impl Scene {
             }
         }
         if !started {
-            for (lane, r) in [x, y, z].into_iter().zip(rest) {
-                lane.copy_from_slice(r);
-            }
+            p.copy_from_slice(rest);
         }
     }
 

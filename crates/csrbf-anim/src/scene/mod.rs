@@ -179,11 +179,12 @@ pub struct Object {
 /// adds in the lanes its normals read ([`RestLanes::new`]).
 #[derive(Clone, Debug, Default)]
 pub struct RestLanes {
-    /// Rest positions by coordinate.
-    rest: [Vec<f32>; 3],
+    /// Rest positions as x y z 0 ([`csrbf_mesh::POINT_FLOATS`] floats a
+    /// vertex, as the normals take them).
+    rest: Vec<f32>,
     /// Per stage of every deformation, in order: its displacement at every
-    /// vertex by coordinate, or None where it is scattered to its vertices.
-    dense: Vec<Option<[Vec<f32>; 3]>>,
+    /// vertex as x y z -0, or None where it is scattered to its vertices.
+    dense: Vec<Option<Vec<f32>>>,
 }
 
 impl Object {
