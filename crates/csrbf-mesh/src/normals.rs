@@ -5,23 +5,26 @@
 //! instructions a triangle. A [`VertexNormals`] keeps the triangles whose
 //! corners are in range and, where the CPU has AVX2 (checked at run time),
 //! makes a frame two passes over points kept as x y z w, four floats a
-//! vertex: the same scatter, a triangle's edges, cross product and three
-//! additions one 128-bit register each (the fourth float rides along and is
-//! never read), then the sums normalised eight vertices at a time and
-//! written as turned `Vec3`s together with the moved points. The scatter
-//! adds in the plain function's order, so the normals are bit for bit its
-//! own. (The passes before this one gathered the corners of eight triangles
-//! by coordinate into a buffer of area vectors and summed them per vertex
-//! through a padded table: twice the loads, 4,700 gathers a frame of the
-//! papers' fish; the scatter was 30 % faster than those two passes.)
-//! Without AVX2 a frame takes the plain function; the same passes one
-//! vector at a time stay as the reference of the AVX2 ones in the tests.
+//! vertex: the same scatter, two triangles a step (their corners loaded as
+//! 128-bit halves, edges and cross products in 256-bit registers, then six
+//! read-add-writes of x y z w; the fourth float rides along and is never
+//! read), then the sums normalised eight vertices at a time and written as
+//! turned `Vec3`s. The scatter adds in the plain function's order, so the
+//! normals are bit for bit its own. (The passes before this one gathered
+//! the corners of eight triangles by coordinate into a buffer of area
+//! vectors and summed them per vertex through a table padded to eight
+//! lanes: 4,700 gathers a frame of the papers' fish.) Where the CPU also
+//! has AVX-512F, the way out's transposes and interleaves are two-table
+//! permutes (three instructions where AVX2 needs a dozen shuffles and
+//! blends). Without AVX2 a frame takes the plain function; the same passes
+//! one vector at a time stay as the reference of the others in the tests.
 //!
 //! A caller that builds its points itself (a frame: rest points plus
 //! displacements, [`NormalsScratch::points_mut`], [`add_scaled`]) hands them
-//! over with no pass to copy `Vec3`s ([`VertexNormals::moved_from_lanes`]);
-//! the rigid motion writes the moved points and turned normals as `Vec3`s
-//! straight from the x y z w floats.
+//! over with no pass to copy `Vec3`s ([`VertexNormals::moved_from_lanes`]),
+//! and may leave its last displacements to the pass that moves the points
+//! out ([`VertexNormals::moved_from_lanes_adding`]): a frame's points are
+//! read and written once fewer.
 
 use glam::{Mat3, Vec3};
 
@@ -177,6 +180,61 @@ impl VertexNormals {
         self.moved_lanes(cpu, rotation, shift, scratch, positions, normals);
     }
 
+    /// [`VertexNormals::moved_from_lanes`] after the last displacements:
+    /// the points in the lanes become `base + d * t` for each `(d, t)` of
+    /// `stages` in turn (`base`: those points themselves when None), as
+    /// [`scaled_sum_into`] and [`add_scaled`] make them, and with AVX2 they
+    /// are moved into `positions` in the same pass (no pass of the way out
+    /// for them, no pass a stage). Bit for bit those calls.
+    #[allow(clippy::too_many_arguments)]
+    pub fn moved_from_lanes_adding(
+        &self,
+        base: Option<&[f32]>,
+        stages: &[(&[f32], f32)],
+        rotation: Mat3,
+        shift: Vec3,
+        scratch: &mut NormalsScratch,
+        positions: &mut Vec<Vec3>,
+        normals: &mut Vec<Vec3>,
+    ) {
+        let cpu = self.cpu();
+        let p = scratch.points_mut(self);
+        let fits = stages.iter().all(|(d, _)| d.len() == p.len())
+            && base.is_none_or(|b| b.len() == p.len());
+        if cpu.is_none() || !fits {
+            for (k, &(d, t)) in stages.iter().enumerate() {
+                match base {
+                    Some(b) if k == 0 => scaled_sum_into(p, b, d, t),
+                    _ => add_scaled(p, d, t),
+                }
+            }
+            if stages.is_empty()
+                && let Some(b) = base
+                && b.len() == p.len()
+            {
+                p.copy_from_slice(b);
+            }
+            self.moved_from_lanes(rotation, shift, scratch, positions, normals);
+            return;
+        }
+        let m = rotation.to_cols_array();
+        positions.resize(self.vertices, Vec3::ZERO);
+        add_moved(
+            cpu,
+            avx512(),
+            p,
+            base,
+            stages,
+            &m,
+            shift.to_array(),
+            positions,
+        );
+        self.sums(cpu, scratch);
+        // Every value is written below: no clearing pass.
+        normals.resize(self.vertices, Vec3::ZERO);
+        write_out(cpu, &scratch.sum, true, Some((&m, None)), normals);
+    }
+
     /// The normals of the points in `scratch.xyzw` turned by `rotation`
     /// into `normals`, and the points moved into `positions` (as long as
     /// [`VertexNormals::vertices`]).
@@ -294,6 +352,207 @@ pub fn scaled_sum_into(out: &mut [f32], base: &[f32], d: &[f32], t: f32) {
     body(out, base, d, t);
 }
 
+/// `p = base + d * t` for each `(d, t)` of `stages` in turn (`base`: `p`
+/// itself when None) over x y z w, and each point moved, `m * p + shift`
+/// ([`turn_one`]), into `out`: the last displacements of a frame and its
+/// rigid motion in one pass, two points a 256-bit step with AVX2, eight
+/// with AVX-512 (`wide`).
+#[allow(clippy::too_many_arguments)]
+fn add_moved(
+    cpu: Option<Avx2>,
+    wide: Option<Avx512>,
+    p: &mut [f32],
+    base: Option<&[f32]>,
+    stages: &[(&[f32], f32)],
+    m: &[f32; 9],
+    shift: [f32; 3],
+    out: &mut [Vec3],
+) {
+    let n = out.len();
+    let whole = n.saturating_sub(1) / 2 * 2;
+    let floats = POINT_FLOATS * n;
+    assert!(
+        p.len() >= floats
+            && stages.iter().all(|(d, _)| d.len() >= floats)
+            && base.is_none_or(|b| b.len() >= floats),
+        "lanes too short"
+    );
+    let mut start = 0;
+    #[cfg(target_arch = "x86_64")]
+    if let Some(Avx2(())) = cpu {
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2; the lanes
+        // were just checked to hold four floats for each of `out`, and
+        // `whole` is even and leaves at least one point to the loop below.
+        #[allow(unsafe_code)]
+        unsafe {
+            if let Some(Avx512(())) = wide {
+                // SAFETY: as above, and an `Avx512` exists only when the
+                // CPU has AVX-512F and AVX2; eight points a step end at
+                // `n - n % 8`.
+                let f = match stages.len() {
+                    0 => add_moved_avx512::<0>,
+                    1 => add_moved_avx512::<1>,
+                    2 => add_moved_avx512::<2>,
+                    3 => add_moved_avx512::<3>,
+                    4 => add_moved_avx512::<4>,
+                    _ => add_moved_avx512::<{ usize::MAX }>,
+                };
+                start = n - n % LANES;
+                f(p, base, stages, m, shift, start, out);
+            } else {
+                let f = match stages.len() {
+                    0 => add_moved_avx2::<0>,
+                    1 => add_moved_avx2::<1>,
+                    2 => add_moved_avx2::<2>,
+                    3 => add_moved_avx2::<3>,
+                    4 => add_moved_avx2::<4>,
+                    _ => add_moved_avx2::<{ usize::MAX }>,
+                };
+                start = whole;
+                f(p, base, stages, m, shift, whole, out);
+            }
+        }
+    }
+    let _ = (cpu, wide);
+    for (i, o) in out.iter_mut().enumerate().skip(start) {
+        let at = POINT_FLOATS * i..POINT_FLOATS * (i + 1);
+        for k in at.clone() {
+            let mut q = base.map_or(p[k], |b| b[k]);
+            for (d, t) in stages {
+                q += d[k] * t;
+            }
+            p[k] = q;
+        }
+        let q = &p[at];
+        *o = turn_one(m, Some(shift), q[0], q[1], q[2]);
+    }
+}
+
+/// [`add_moved`] for the first `whole` points (even), two a step: the
+/// stages added in turn (`N` of them, unrolled; `usize::MAX`: any number), then each coordinate broadcast in its half, the
+/// products and sums of [`turn_one`] lane by lane, then each half stored
+/// as 16 bytes at its `Vec3` (the fourth float lands on the next point's
+/// x, which the next store writes).
+///
+/// # Safety
+/// The CPU has AVX2; `p`, `base` and each stage's displacement hold four
+/// floats for each of `out`, and `whole` is even and below `out.len()`.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2")]
+unsafe fn add_moved_avx2<const N: usize>(
+    p: &mut [f32],
+    base: Option<&[f32]>,
+    stages: &[(&[f32], f32)],
+    m: &[f32; 9],
+    s: [f32; 3],
+    whole: usize,
+    out: &mut [Vec3],
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats and the store at point `i`
+    // ends at float `3 i + 4`, within `out` for every `i` below
+    // `whole - 1 < n - 1`.
+    unsafe {
+        let col =
+            |c: usize| _mm256_setr_ps(m[c], m[c + 1], m[c + 2], 0.0, m[c], m[c + 1], m[c + 2], 0.0);
+        let (c0, c1, c2) = (col(0), col(3), col(6));
+        let sh = _mm256_setr_ps(s[0], s[1], s[2], 0.0, s[0], s[1], s[2], 0.0);
+        let src = base.map_or(p.as_ptr(), <[f32]>::as_ptr);
+        let (pp, dst) = (p.as_mut_ptr(), out.as_mut_ptr().cast::<f32>());
+        for i in (0..whole).step_by(2) {
+            let at = POINT_FLOATS * i;
+            let mut q = _mm256_loadu_ps(src.add(at));
+            let add = |q, (d, t): &(&[f32], f32)| {
+                // No fused multiply-add: the product rounded, then the sum.
+                let d = _mm256_loadu_ps(d.as_ptr().add(at));
+                _mm256_add_ps(q, _mm256_mul_ps(d, _mm256_set1_ps(*t)))
+            };
+            if N == usize::MAX {
+                q = stages.iter().fold(q, add);
+            } else {
+                for stage in &stages[..N] {
+                    q = add(q, stage);
+                }
+            }
+            _mm256_storeu_ps(pp.add(at), q);
+            let r = _mm256_add_ps(
+                _mm256_add_ps(
+                    _mm256_add_ps(
+                        _mm256_mul_ps(c0, _mm256_permute_ps::<0x00>(q)),
+                        _mm256_mul_ps(c1, _mm256_permute_ps::<0x55>(q)),
+                    ),
+                    _mm256_mul_ps(c2, _mm256_permute_ps::<0xAA>(q)),
+                ),
+                sh,
+            );
+            _mm_storeu_ps(dst.add(3 * i), _mm256_castps256_ps128(r));
+            _mm_storeu_ps(dst.add(3 * i + 3), _mm256_extractf128_ps::<1>(r));
+        }
+    }
+}
+
+/// [`add_moved`] for the first `whole` points (a multiple of eight), eight
+/// a step: the stages added in turn over two 512-bit registers (`N` of
+/// them, unrolled; `usize::MAX`: any number), the points stored, then
+/// their x, y and z by two-table permutes, [`turn_one`] lane by lane, and
+/// 24 floats of `Vec3`s interleaved by permutes.
+///
+/// # Safety
+/// The CPU has AVX-512F and AVX2; `p`, `base` and each stage's
+/// displacement hold four floats for each of `out`, and `whole` is a
+/// multiple of eight at most `out.len()`.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn add_moved_avx512<const N: usize>(
+    p: &mut [f32],
+    base: Option<&[f32]>,
+    stages: &[(&[f32], f32)],
+    m: &[f32; 9],
+    s: [f32; 3],
+    whole: usize,
+    out: &mut [Vec3],
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats.
+    unsafe {
+        let mm = m.map(|v| _mm256_set1_ps(v));
+        let sh = s.map(|v| _mm256_set1_ps(v));
+        let src = base.map_or(p.as_ptr(), <[f32]>::as_ptr);
+        let (pp, dst) = (p.as_mut_ptr(), out.as_mut_ptr().cast::<f32>());
+        for i in (0..whole).step_by(LANES) {
+            let at = POINT_FLOATS * i;
+            let mut q = [
+                _mm512_loadu_ps(src.add(at)),
+                _mm512_loadu_ps(src.add(at + 16)),
+            ];
+            let add = |q: [__m512; 2], (d, t): &(&[f32], f32)| {
+                let t = _mm512_set1_ps(*t);
+                // No fused multiply-add: the product rounded, then the sum.
+                [0, 16].map(|h| {
+                    let d = _mm512_loadu_ps(d.as_ptr().add(at + h));
+                    _mm512_add_ps(q[h / 16], _mm512_mul_ps(d, t))
+                })
+            };
+            if N == usize::MAX {
+                q = stages.iter().fold(q, add);
+            } else {
+                for stage in &stages[..N] {
+                    q = add(q, stage);
+                }
+            }
+            _mm512_storeu_ps(pp.add(at), q[0]);
+            _mm512_storeu_ps(pp.add(at + 16), q[1]);
+            let [x, y, z] = coordinates_of(q[0], q[1]);
+            let (x, y, z) = turn_avx2(&mm, Some(&sh), x, y, z);
+            interleave_avx512(dst.add(3 * i), x, y, z);
+        }
+    }
+}
+
 /// The normals of the plain function and the rigid motion, one vertex at a
 /// time (positions of another length, or no AVX2).
 fn plain_moved(
@@ -319,6 +578,22 @@ fn avx2() -> Option<Avx2> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         return Some(Avx2(()));
+    }
+    None
+}
+
+/// Proof that this CPU has AVX-512F and AVX2: only [`avx512`] makes one.
+#[derive(Clone, Copy, Debug)]
+struct Avx512(());
+
+/// The proof, when the CPU has AVX-512F and AVX2 (checked once, then
+/// cached by std). Its two-table permutes turn the way out's transposes
+/// and interleaves into three instructions each.
+fn avx512() -> Option<Avx512> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx2")
+    {
+        return Some(Avx512(()));
     }
     None
 }
@@ -397,6 +672,11 @@ fn write_out(cpu: Option<Avx2>, src: &[f32], normalise: bool, turn: Turn, out: &
         // just checked to hold four floats for each of `out`.
         #[allow(unsafe_code)]
         unsafe {
+            // SAFETY: an `Avx512` exists only when the CPU has AVX-512F
+            // and AVX2.
+            if let Some(Avx512(())) = avx512() {
+                return write_out_avx512(src, normalise, turn, out);
+            }
             return write_out_avx2(src, normalise, turn, out);
         }
     }
@@ -454,6 +734,20 @@ unsafe fn sums_avx2(corners: &[u32], xyzw: &[f32], sum: &mut [f32]) {
         let pairs = corners.chunks_exact(6);
         let odd = pairs.remainder();
         for c in pairs {
+            // Two offsets a 64-bit load (little-endian: the first in the
+            // low half): three loads a pair where six were, the loads
+            // being what the scatter waits on. The three unaligned reads
+            // cover the chunk's 24 bytes exactly.
+            let w = c.as_ptr().cast::<u64>();
+            let w = [0, 1, 2].map(|k| w.add(k).read_unaligned());
+            let c = [
+                w[0] as u32,
+                (w[0] >> 32) as u32,
+                w[1] as u32,
+                (w[1] >> 32) as u32,
+                w[2] as u32,
+                (w[2] >> 32) as u32,
+            ];
             let two = |i: usize| _mm256_set_m128(point(c[i + 3]), point(c[i]));
             let a = two(0);
             let e1 = _mm256_sub_ps(two(1), a);
@@ -489,6 +783,217 @@ unsafe fn sums_avx2(corners: &[u32], xyzw: &[f32], sum: &mut [f32]) {
     }
 }
 
+/// Which float of two tables (a permute's first: 0-15, second: 16-31)
+/// each lane takes.
+#[cfg(target_arch = "x86_64")]
+type Picks = [i32; 16];
+
+/// x, y or z (`c`) of eight x y z w vectors held in two 16-float tables.
+#[cfg(target_arch = "x86_64")]
+const fn coordinate_picks(c: i32) -> Picks {
+    let mut p = [0; 16];
+    let mut i = 0;
+    while i < 16 {
+        p[i] = 4 * (i as i32 % 8) + c;
+        i += 1;
+    }
+    p
+}
+
+/// Floats `from..from + 16` of eight `Vec3`s interleaved from the table
+/// x0..x7 y0..y7 and the table z0..z7: float `f` is coordinate `f % 3` of
+/// vector `f / 3`.
+#[cfg(target_arch = "x86_64")]
+const fn interleave_picks(from: i32) -> Picks {
+    let mut p = [0; 16];
+    let mut i = 0;
+    while i < 16 {
+        let f = (from + i as i32) % 24;
+        p[i] = 8 * (f % 3) + f / 3;
+        i += 1;
+    }
+    p
+}
+
+/// The picks of x, y and z of eight x y z w vectors.
+#[cfg(target_arch = "x86_64")]
+const COORDINATE_PICKS: [Picks; 3] = [
+    coordinate_picks(0),
+    coordinate_picks(1),
+    coordinate_picks(2),
+];
+
+/// The picks of the first 16 floats of eight interleaved `Vec3`s and of
+/// the last 8.
+#[cfg(target_arch = "x86_64")]
+const INTERLEAVE_PICKS: [Picks; 2] = [interleave_picks(0), interleave_picks(16)];
+
+/// Eight x y z w vectors (32 floats from `at`) as x, y and z: two loads and
+/// three two-table permutes (moves only).
+///
+/// # Safety
+/// The CPU has AVX-512F; `at` points to 32 readable floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[inline]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn coordinates_avx512(at: *const f32) -> [std::arch::x86_64::__m256; 3] {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract.
+    unsafe { coordinates_of(_mm512_loadu_ps(at), _mm512_loadu_ps(at.add(16))) }
+}
+
+/// [`coordinates_avx512`] of vectors in two registers, four in each.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx512f,avx2")]
+fn coordinates_of(
+    a: std::arch::x86_64::__m512,
+    b: std::arch::x86_64::__m512,
+) -> [std::arch::x86_64::__m256; 3] {
+    use std::arch::x86_64::*;
+    COORDINATE_PICKS.map(|p| {
+        // SAFETY: `p` is sixteen i32s, 64 readable bytes.
+        #[allow(unsafe_code)]
+        let picks = unsafe { _mm512_loadu_si512(p.as_ptr().cast()) };
+        _mm512_castps512_ps256(_mm512_permutex2var_ps(a, picks, b))
+    })
+}
+
+/// Eight vectors' x, y and z stored as 24 floats of `Vec3`s at `dst`: two
+/// two-table permutes (moves only), a 64-byte and a 32-byte store.
+///
+/// # Safety
+/// The CPU has AVX-512F; `dst` points to 24 writable floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[inline]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn interleave_avx512(
+    dst: *mut f32,
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract.
+    unsafe {
+        let xy = _mm512_castpd_ps(_mm512_insertf64x4::<1>(
+            _mm512_castpd256_pd512(_mm256_castps_pd(x)),
+            _mm256_castps_pd(y),
+        ));
+        let z = _mm512_castps256_ps512(z);
+        let pick = |p: &Picks| {
+            let picks = _mm512_loadu_si512(p.as_ptr().cast());
+            _mm512_permutex2var_ps(xy, picks, z)
+        };
+        _mm512_storeu_ps(dst, pick(&INTERLEAVE_PICKS[0]));
+        _mm256_storeu_ps(
+            dst.add(16),
+            _mm512_castps512_ps256(pick(&INTERLEAVE_PICKS[1])),
+        );
+    }
+}
+
+/// [`write_out`] eight vectors at a time as [`write_out_avx2`] computes
+/// them, the transpose and the interleave by two-table permutes.
+///
+/// # Safety
+/// The CPU has AVX-512F and AVX2; `src` holds at least `4 out.len()`
+/// floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn write_out_avx512(src: &[f32], normalise: bool, turn: Turn, out: &mut [Vec3]) {
+    use std::arch::x86_64::*;
+    let n = out.len();
+    let whole = n - n % LANES;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats.
+    unsafe {
+        let turn = turn.map(|(m, shift)| {
+            (
+                m.map(|v| _mm256_set1_ps(v)),
+                shift.map(|s| s.map(|v| _mm256_set1_ps(v))),
+            )
+        });
+        let (at, dst) = (src.as_ptr(), out.as_mut_ptr().cast::<f32>());
+        for k in (0..whole).step_by(LANES) {
+            let [mut x, mut y, mut z] = coordinates_avx512(at.add(POINT_FLOATS * k));
+            if normalise {
+                (x, y, z) = unit_avx2(x, y, z);
+            }
+            if let Some((mm, shift)) = turn {
+                (x, y, z) = turn_avx2(&mm, shift.as_ref(), x, y, z);
+            }
+            interleave_avx512(dst.add(3 * k), x, y, z);
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate().skip(whole) {
+        *o = out_one(&src[POINT_FLOATS * i..], normalise, turn);
+    }
+}
+
+/// Eight vectors of [`unit`] lane by lane: ((x x + y y) + z z), 1 / sqrt,
+/// the products; +Z where the sum is not above zero.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn unit_avx2(
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) -> (
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    // No fused multiply-add: the plain function rounds each product.
+    let len2 = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)),
+        _mm256_mul_ps(z, z),
+    );
+    let r = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
+    let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, zero);
+    (
+        _mm256_and_ps(positive, _mm256_mul_ps(x, r)),
+        _mm256_and_ps(positive, _mm256_mul_ps(y, r)),
+        _mm256_blendv_ps(one, _mm256_mul_ps(z, r), positive),
+    )
+}
+
+/// Eight vectors of [`turn_one`] lane by lane: the matrix's entries and
+/// the shift broadcast.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn turn_avx2(
+    mm: &[std::arch::x86_64::__m256; 9],
+    shift: Option<&[std::arch::x86_64::__m256; 3]>,
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) -> (
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    let row = |i: usize| {
+        let r = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(mm[i], x), _mm256_mul_ps(mm[i + 3], y)),
+            _mm256_mul_ps(mm[i + 6], z),
+        );
+        match shift {
+            Some(s) => _mm256_add_ps(r, s[i]),
+            None => r,
+        }
+    };
+    (row(0), row(1), row(2))
+}
+
 /// [`write_out`] eight vectors at a time: x y z w of vectors j and j + 4
 /// in the halves of a register, transposed into x, y and z (moves only);
 /// the normalisation of [`unit`] and the products and sums of
@@ -508,8 +1013,6 @@ unsafe fn write_out_avx2(src: &[f32], normalise: bool, turn: Turn, out: &mut [Ve
     // SAFETY: the caller's contract; `Vec3` is three f32 in a row
     // (`repr(C)`), so `out` is `3 n` floats.
     unsafe {
-        let zero = _mm256_setzero_ps();
-        let one = _mm256_set1_ps(1.0);
         let turn = turn.map(|(m, shift)| {
             (
                 m.map(|v| _mm256_set1_ps(v)),
@@ -540,29 +1043,10 @@ unsafe fn write_out_avx2(src: &[f32], normalise: bool, turn: Turn, out: &mut [Ve
             let mut y = _mm256_shuffle_ps::<0xEE>(t0, t1);
             let mut z = _mm256_shuffle_ps::<0x44>(t2, t3);
             if normalise {
-                // No fused multiply-add: the plain function rounds each product.
-                let len2 = _mm256_add_ps(
-                    _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)),
-                    _mm256_mul_ps(z, z),
-                );
-                let r = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
-                let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, zero);
-                x = _mm256_and_ps(positive, _mm256_mul_ps(x, r));
-                y = _mm256_and_ps(positive, _mm256_mul_ps(y, r));
-                z = _mm256_blendv_ps(one, _mm256_mul_ps(z, r), positive);
+                (x, y, z) = unit_avx2(x, y, z);
             }
             if let Some((mm, shift)) = turn {
-                let row = |i: usize| {
-                    let r = _mm256_add_ps(
-                        _mm256_add_ps(_mm256_mul_ps(mm[i], x), _mm256_mul_ps(mm[i + 3], y)),
-                        _mm256_mul_ps(mm[i + 6], z),
-                    );
-                    match shift {
-                        Some(s) => _mm256_add_ps(r, s[i]),
-                        None => r,
-                    }
-                };
-                (x, y, z) = (row(0), row(1), row(2));
+                (x, y, z) = turn_avx2(&mm, shift.as_ref(), x, y, z);
             }
             let pick = |j: usize| {
                 (
@@ -754,6 +1238,11 @@ mod tests {
         }
     }
 
+    /// A way out's kernel.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    type Kernel = unsafe fn(&[f32], bool, Turn, &mut [Vec3]);
+
     /// The AVX2 way out (eight at a time, transposed in, interleaved out)
     /// writes what the plain one writes, for every count up to a few blocks
     /// and a tail, normalised or not, turned, shifted or neither (zero and
@@ -784,6 +1273,112 @@ mod tests {
                         let at = format!("{n} vectors, {normalise}, {turn:?}, {cpu:?}");
                         assert_eq!(bits(&got), bits(&want), "{at}");
                     }
+                    // Each kernel, whichever `write_out` picks here.
+                    #[cfg(target_arch = "x86_64")]
+                    #[allow(unsafe_code)]
+                    for kernel in [
+                        avx2().map(|_| write_out_avx2 as Kernel),
+                        avx512().map(|_| write_out_avx512 as Kernel),
+                    ]
+                    .into_iter()
+                    .flatten()
+                    {
+                        let mut got = vec![Vec3::NAN; n];
+                        // SAFETY: each kernel only where the CPU has what
+                        // it needs; `src` holds four floats a vector.
+                        unsafe { kernel(&src[..], normalise, turn, &mut got[..]) };
+                        let at = format!("{n} vectors, {normalise}, {turn:?}, {kernel:?}");
+                        assert_eq!(bits(&got), bits(&want), "{at}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The last displacements added as the points are moved out give what
+    /// adding them lane by lane and then moving the points give, bit for
+    /// bit, with every kernel (one point at a time, AVX2, AVX-512 where
+    /// the CPU has them), for none to six stages, from the lanes or from a
+    /// base, over counts with and without a tail.
+    #[test]
+    fn adding_as_the_points_move_out_is_adding_then_moving() {
+        let rotation = Mat3::from_quat(glam::Quat::from_rotation_x(0.9));
+        let shift = Vec3::new(0.25, -1.0, 3.0);
+        let m = rotation.to_cols_array();
+        let mut r = rng(5);
+        for (positions, tris) in cases() {
+            let n = positions.len();
+            let normals = VertexNormals::new(&tris, n);
+            let lanes: Vec<f32> = positions
+                .iter()
+                .flat_map(|p| [p.x, p.y, p.z, 0.0])
+                .collect();
+            let ds: Vec<Vec<f32>> = (0..6)
+                .map(|_| {
+                    let d = |k: usize| if k % 4 == 3 { -0.0 } else { r() - 0.5 };
+                    (0..4 * n).map(d).collect()
+                })
+                .collect();
+            let ts = [0.3, 0.0, 1.0, 0.7, -0.0, 0.5];
+            for count in [0, 1, 2, 3, 4, 6] {
+                let stages: Vec<(&[f32], f32)> = ds
+                    .iter()
+                    .zip(ts)
+                    .take(count)
+                    .map(|(d, t)| (&d[..], t))
+                    .collect();
+                let mut want = lanes.clone();
+                for (d, t) in &stages {
+                    add_scaled(&mut want, d, *t);
+                }
+                let points: Vec<Vec3> = want
+                    .chunks_exact(4)
+                    .map(|q| Vec3::new(q[0], q[1], q[2]))
+                    .collect();
+                let want_p: Vec<Vec3> = points.iter().map(|p| rotation * *p + shift).collect();
+                let want_n: Vec<Vec3> = crate::triangle_vertex_normals(&points, &tris)
+                    .iter()
+                    .map(|v| rotation * *v)
+                    .collect();
+                for from_base in [false, true] {
+                    let base = from_base.then_some(&lanes[..]);
+                    let start = || match from_base {
+                        true => vec![f32::NAN; 4 * n],
+                        false => lanes.clone(),
+                    };
+                    for (cpu, wide) in [(None, None), (avx2(), None), (avx2(), avx512())] {
+                        let (mut p, mut out) = (start(), vec![Vec3::NAN; n]);
+                        add_moved(
+                            cpu,
+                            wide,
+                            &mut p,
+                            base,
+                            &stages,
+                            &m,
+                            shift.to_array(),
+                            &mut out,
+                        );
+                        let at =
+                            format!("{n} points, {count} stages, {from_base}, {cpu:?} {wide:?}");
+                        let lane_bits =
+                            |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(lane_bits(&p), lane_bits(&want), "{at}");
+                        assert_eq!(bits(&out), bits(&want_p), "{at}");
+                    }
+                    let mut scratch = NormalsScratch::default();
+                    scratch.points_mut(&normals).copy_from_slice(&start());
+                    let (mut got_p, mut got_n) = (vec![Vec3::X; 2], Vec::new());
+                    normals.moved_from_lanes_adding(
+                        base,
+                        &stages,
+                        rotation,
+                        shift,
+                        &mut scratch,
+                        &mut got_p,
+                        &mut got_n,
+                    );
+                    assert_eq!(bits(&got_p), bits(&want_p), "{n} points, {count} stages");
+                    assert_eq!(bits(&got_n), bits(&want_n), "{n} points, {count} stages");
                 }
             }
         }

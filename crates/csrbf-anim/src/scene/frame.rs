@@ -19,6 +19,14 @@ use csrbf_mesh::POINT_FLOATS;
 /// eight at a time, costs less.
 const DENSE_SHARE: usize = 8;
 
+/// Most wide stages a frame adds in the pass that moves its points out.
+const FUSED: usize = 4;
+
+/// What [`Scene::lanes_frame`] leaves to the way out: the base of the
+/// fused stages (None: the lanes), their displacements and phases, and how
+/// many of them there are.
+type Fused<'a> = (Option<&'a [f32]>, [(&'a [f32], f32); FUSED], usize);
+
 impl RestLanes {
     /// The rest points of `positions` as x y z 0 and, for each stage of
     /// `deformations` in order that moves one vertex in eight or more, its
@@ -97,10 +105,13 @@ impl Scene {
             .zip(frame.objects.iter_mut())
             .enumerate()
         {
+            // Each track's phase once (the controls, then the points).
+            let phases = &mut out.phases;
+            phases.clear();
+            phases.extend(obj.deformations.iter().map(|a| a.track.phase(time) as f32));
             let controls = &mut out.controls;
             controls.clear();
-            for anim in &obj.deformations {
-                let t = anim.track.phase(time) as f32;
+            for (anim, &t) in obj.deformations.iter().zip(&out.phases) {
                 for st in &anim.stages {
                     for (s, g) in st.deformation.starts().iter().zip(&st.targets) {
                         let (s, g) = (s.as_vec3(), g.as_vec3());
@@ -111,8 +122,10 @@ impl Scene {
             let (rot, shift) = obj.transform(time);
             let (rot32, shift32) = (glam::Mat3::from_quat(rot.as_quat()), shift.as_vec3());
             if obj.lanes.fits(obj) {
-                Self::lanes_frame(obj, time, out);
-                obj.normals.moved_from_lanes(
+                let (base, stages, fused) = Self::lanes_frame(obj, &out.phases, &mut out.scratch);
+                obj.normals.moved_from_lanes_adding(
+                    base,
+                    &stages[..fused],
                     rot32,
                     shift32,
                     &mut out.scratch,
@@ -123,8 +136,7 @@ impl Scene {
                 let local = &mut out.positions;
                 local.clear();
                 local.extend_from_slice(&obj.mesh.positions);
-                for anim in &obj.deformations {
-                    let t = anim.track.phase(time) as f32;
+                for (anim, &t) in obj.deformations.iter().zip(&out.phases) {
                     if anim.combine == Combine::Chain && anim.stages.len() > 1 {
                         Self::chain_frame(&obj.mesh.positions, anim, t, &mut out.chain, local);
                     } else {
@@ -149,50 +161,71 @@ impl Scene {
         }
     }
 
-    /// The object's local points at `time` built in the normals' lanes:
-    /// rest, then each stage's displacement times its track's phase, in the
-    /// order and with the arithmetic of the `Vec3` path (`p += d * t`).
-    fn lanes_frame(obj: &Object, time: f64, out: &mut FrameObject) {
-        let p = out.scratch.points_mut(&obj.normals);
-        let rest = &obj.lanes.rest;
+    /// The object's local points built in the normals' lanes: rest, then
+    /// each stage's displacement times its track's phase (`phases`, one a
+    /// deformation), in the order and with the arithmetic of the `Vec3`
+    /// path (`p += d * t`). The last wide stages in a row (up to
+    /// [`FUSED`]) are left to the caller, who adds them as the points are
+    /// moved out: their base (the rest points when no stage came before,
+    /// else None: the lanes), their displacements and phases, and how many.
+    fn lanes_frame<'a>(
+        obj: &'a Object,
+        phases: &[f32],
+        scratch: &mut csrbf_mesh::NormalsScratch,
+    ) -> Fused<'a> {
+        let p = scratch.points_mut(&obj.normals);
+        let rest = &obj.lanes.rest[..];
+        let stages = || {
+            obj.deformations
+                .iter()
+                .zip(phases)
+                .flat_map(|(a, &t)| a.stages.iter().map(move |st| (st, t)))
+                .zip(&obj.lanes.dense)
+        };
+        // -0 * t is -0 only for t not negative (and finite).
+        let wide = |d: &'a Option<Vec<f32>>, t: f32| {
+            d.as_deref()
+                .filter(|_| t.is_finite() && t.is_sign_positive())
+        };
+        let mut run = 0;
+        for ((_, t), d) in stages() {
+            run = if wide(d, t).is_some() { run + 1 } else { 0 };
+        }
+        let first_fused = obj.lanes.dense.len() - run.min(FUSED);
         // The lanes hold the rest points from the first stage on: the first
         // wide stage adds to them as it copies them.
         let mut started = false;
-        let mut dense = obj.lanes.dense.iter();
-        for anim in &obj.deformations {
-            let t = anim.track.phase(time) as f32;
-            for (st, d) in anim.stages.iter().zip(dense.by_ref()) {
-                match d {
-                    // -0 * t is -0 only for t not negative (and finite).
-                    Some(d) if t.is_finite() && t.is_sign_positive() => {
-                        if started {
-                            csrbf_mesh::add_scaled(p, d, t);
-                        } else {
-                            csrbf_mesh::scaled_sum_into(p, rest, d, t);
-                        }
+        for ((st, t), d) in stages().take(first_fused) {
+            match wide(d, t) {
+                Some(d) if started => csrbf_mesh::add_scaled(p, d, t),
+                Some(d) => csrbf_mesh::scaled_sum_into(p, rest, d, t),
+                None => {
+                    if !started {
+                        p.copy_from_slice(rest);
                     }
-                    _ => {
-                        if !started {
-                            p.copy_from_slice(rest);
-                        }
-                        for (&v, d) in st.vertices.iter().zip(&st.displacement) {
-                            let (at, d) = (POINT_FLOATS * v as usize, *d * t);
-                            // A stage's vertices are the mesh's: `get_mut`
-                            // only keeps a bad one from panicking.
-                            if let Some(q) = p.get_mut(at..at + 3) {
-                                q[0] += d.x;
-                                q[1] += d.y;
-                                q[2] += d.z;
-                            }
+                    for (&v, d) in st.vertices.iter().zip(&st.displacement) {
+                        let (at, d) = (POINT_FLOATS * v as usize, *d * t);
+                        // A stage's vertices are the mesh's: `get_mut`
+                        // only keeps a bad one from panicking.
+                        if let Some(q) = p.get_mut(at..at + 3) {
+                            q[0] += d.x;
+                            q[1] += d.y;
+                            q[2] += d.z;
                         }
                     }
                 }
-                started = true;
+            }
+            started = true;
+        }
+        let mut fused: [(&[f32], f32); FUSED] = [(&[], 0.0); FUSED];
+        let mut count = 0;
+        for (slot, ((_, t), d)) in fused.iter_mut().zip(stages().skip(first_fused)) {
+            if let Some(d) = wide(d, t) {
+                *slot = (d, t);
+                count += 1;
             }
         }
-        if !started {
-            p.copy_from_slice(rest);
-        }
+        ((!started).then_some(rest), fused, count)
     }
 
     /// Adds what a chained control file does at track phase `t`: each stage after

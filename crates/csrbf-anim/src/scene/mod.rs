@@ -321,6 +321,8 @@ pub struct FrameObject {
     scratch: csrbf_mesh::NormalsScratch,
     /// A chained control file's buffers, kept between frames.
     chain: ChainScratch,
+    /// Each deformation's phase at this frame's time.
+    phases: Vec<f32>,
 }
 
 /// Buffers of a chained control file's frame: the points as its stages
