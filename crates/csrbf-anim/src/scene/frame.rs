@@ -32,6 +32,12 @@ impl RestLanes {
     /// `deformations` in order that moves one vertex in eight or more, its
     /// displacement over every vertex as x y z -0 (-0 where it moves none).
     pub fn new(positions: &[Vec3], deformations: &[Animated]) -> RestLanes {
+        RestLanes::with_share(positions, deformations, DENSE_SHARE)
+    }
+
+    /// [`RestLanes::new`] keeping dense every stage that moves one vertex
+    /// in `share` or more.
+    fn with_share(positions: &[Vec3], deformations: &[Animated], share: usize) -> RestLanes {
         let n = positions.len();
         let rest = positions
             .iter()
@@ -45,7 +51,7 @@ impl RestLanes {
                     .vertices
                     .iter()
                     .all(|&v| (v as usize) < n && !std::mem::replace(&mut seen[v as usize], true));
-                let wide = st.vertices.len() * DENSE_SHARE >= n;
+                let wide = st.vertices.len().saturating_mul(share) >= n;
                 dense.push(
                     (unique && wide && st.vertices.len() == st.displacement.len()).then(|| {
                         // -0: x + -0 * t is x for every x when t is not
@@ -391,27 +397,49 @@ mod tests {
         out
     }
 
+    /// What a frame of a lanes object does: how many wide stages it leaves
+    /// to the way out, whether a track is at phase 0, whether its stages
+    /// leave vertices unmoved.
+    fn shape(obj: &Object, phases: &[f32]) -> (usize, bool, bool) {
+        let mut scratch = csrbf_mesh::NormalsScratch::default();
+        let fused = Scene::lanes_frame(obj, phases, &mut scratch).2;
+        let mut moved = vec![false; obj.mesh.positions.len()];
+        for st in obj.deformations.iter().flat_map(|a| &a.stages) {
+            for &v in &st.vertices {
+                moved[v as usize] = true;
+            }
+        }
+        (fused, phases.contains(&0.0), moved.contains(&false))
+    }
+
     /// Issue 18: frames built in the normals' lanes (dense stages added lane
-    /// by lane, sparse ones scattered) and frames of chains and contact are
-    /// bit for bit the plain computation's, one `Frame` reused for all.
+    /// by lane or as the points are moved out, several in a row, sparse
+    /// ones scattered; tracks at phase 0; meshes partly out of every
+    /// start's reach) and frames of chains and contact are bit for bit the
+    /// plain computation's, one `Frame` reused for all.
     #[test]
     fn frames_are_the_plain_computation_bit_for_bit() {
         let dir = std::env::temp_dir().join(format!("csrbf-frame-lanes-{}", std::process::id()));
         let mut frame = Frame::default();
-        let mut kinds = (0, 0, 0, 0); // lanes, dense stages, contact, chains
+        // Lanes objects, dense stages, contact, chains, frames with several
+        // stages fused, with a track at phase 0, with vertices unmoved.
+        let mut kinds = [0; 7];
         for (name, mut scene) in scenes(&dir) {
-            for sparse in [false, true] {
-                if sparse {
-                    // Every stage scattered into the lanes instead.
-                    for obj in &mut scene.objects {
-                        obj.lanes.dense.iter_mut().for_each(|d| *d = None);
-                    }
+            for mode in ["as loaded", "every stage dense", "every stage scattered"] {
+                for obj in &mut scene.objects {
+                    let share = match mode {
+                        "as loaded" => DENSE_SHARE,
+                        "every stage dense" => usize::MAX,
+                        _ => 0,
+                    };
+                    obj.lanes =
+                        RestLanes::with_share(&obj.mesh.positions, &obj.deformations, share);
                 }
                 for obj in &scene.objects {
-                    kinds.0 += obj.lanes.fits(obj) as usize;
-                    kinds.1 += obj.lanes.dense.iter().flatten().count();
-                    kinds.2 += obj.contact.is_some() as usize;
-                    kinds.3 += obj
+                    kinds[0] += obj.lanes.fits(obj) as usize;
+                    kinds[1] += obj.lanes.dense.iter().flatten().count();
+                    kinds[2] += obj.contact.is_some() as usize;
+                    kinds[3] += obj
                         .deformations
                         .iter()
                         .filter(|a| a.combine == Combine::Chain && a.stages.len() > 1)
@@ -424,16 +452,23 @@ mod tests {
                     let want = reference(&scene, time);
                     assert_eq!(frame.objects.len(), want.len());
                     for (oi, (got, (p, n))) in frame.objects.iter().zip(&want).enumerate() {
-                        let at = format!("{name} object {oi} at {time} s (sparse: {sparse})");
+                        let at = format!("{name} object {oi} at {time} s ({mode})");
                         assert_eq!(bits(&got.positions), bits(p), "positions of {at}");
                         assert_eq!(bits(&got.normals), bits(n), "normals of {at}");
+                        let obj = &scene.objects[oi];
+                        if obj.lanes.fits(obj) {
+                            let (fused, zero, unmoved) = shape(obj, &got.phases);
+                            kinds[4] += (fused > 1) as usize;
+                            kinds[5] += zero as usize;
+                            kinds[6] += unmoved as usize;
+                        }
                     }
                 }
             }
         }
         let _ = std::fs::remove_dir_all(&dir);
         assert!(
-            kinds.0 > 0 && kinds.1 > 0 && kinds.2 > 0 && kinds.3 > 0,
+            kinds.iter().all(|&k| k > 0),
             "every kind of frame compared: {kinds:?}"
         );
     }
