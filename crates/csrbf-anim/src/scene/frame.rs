@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 
-use super::{Animated, ChainScratch, Frame, FrameObject, Object, RestLanes, Scene};
+use super::{Animated, BoundStage, ChainScratch, Frame, FrameObject, Object, RestLanes, Scene};
 use csrbf::Combine;
 use csrbf_mesh::POINT_FLOATS;
 
@@ -22,6 +22,12 @@ const DENSE_SHARE: usize = 8;
 /// Most wide stages a frame adds in the pass that moves its points out.
 const FUSED: usize = 4;
 
+/// Most vertices of a mesh whose narrow stages before a wide one are kept
+/// dense (16 bytes a vertex each) so that all its stages are added in that
+/// pass: the fish's tail (198 of 2108 vertices, between the beak and the
+/// wings) made the beak a pass of its own (frame 15.7 -> 15.3 us).
+const FUSE_ALL_VERTICES: usize = 1 << 16;
+
 /// What [`Scene::lanes_frame`] leaves to the way out: the base of the
 /// fused stages (None: the lanes), their displacements and phases, and how
 /// many of them there are.
@@ -29,43 +35,67 @@ type Fused<'a> = (Option<&'a [f32]>, [(&'a [f32], f32); FUSED], usize);
 
 impl RestLanes {
     /// The rest points of `positions` as x y z 0 and, for each stage of
-    /// `deformations` in order that moves one vertex in eight or more, its
+    /// `deformations` in order that moves one vertex in eight or more (on a
+    /// small mesh of few stages, also each stage before such a one), its
     /// displacement over every vertex as x y z -0 (-0 where it moves none).
     pub fn new(positions: &[Vec3], deformations: &[Animated]) -> RestLanes {
         RestLanes::with_share(positions, deformations, DENSE_SHARE)
     }
 
     /// [`RestLanes::new`] keeping dense every stage that moves one vertex
-    /// in `share` or more.
+    /// in `share` or more and, on a small mesh of at most [`FUSED`] stages,
+    /// every stage before a dense one.
     fn with_share(positions: &[Vec3], deformations: &[Animated], share: usize) -> RestLanes {
         let n = positions.len();
         let rest = positions
             .iter()
             .flat_map(|p| [p.x, p.y, p.z, 0.0])
             .collect();
-        let mut dense = Vec::new();
-        for anim in deformations {
-            for st in &anim.stages {
+        let stages: Vec<&BoundStage> = deformations.iter().flat_map(|a| &a.stages).collect();
+        // Which stages can be dense: each vertex once, a displacement each.
+        let able: Vec<bool> = stages
+            .iter()
+            .map(|st| {
                 let mut seen = vec![false; n];
-                let unique = st
-                    .vertices
-                    .iter()
-                    .all(|&v| (v as usize) < n && !std::mem::replace(&mut seen[v as usize], true));
-                let wide = st.vertices.len().saturating_mul(share) >= n;
-                dense.push(
-                    (unique && wide && st.vertices.len() == st.displacement.len()).then(|| {
-                        // -0: x + -0 * t is x for every x when t is not
-                        // negative (+0 would turn a -0 into +0).
-                        let mut d = vec![-0.0f32; POINT_FLOATS * n];
-                        for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
-                            let at = POINT_FLOATS * v as usize;
-                            d[at..at + 3].copy_from_slice(&dv.to_array());
-                        }
-                        d
-                    }),
-                );
+                st.vertices.len() == st.displacement.len()
+                    && st.vertices.iter().all(|&v| {
+                        (v as usize) < n && !std::mem::replace(&mut seen[v as usize], true)
+                    })
+            })
+            .collect();
+        let mut keep: Vec<bool> = stages
+            .iter()
+            .zip(&able)
+            .map(|(st, &able)| able && st.vertices.len().saturating_mul(share) >= n)
+            .collect();
+        // A narrow stage before a dense one would split the pass that adds
+        // the dense ones as the points are moved out in two (the stages
+        // before it added lane by lane): on a small mesh it is kept dense
+        // too, one more array read in that pass.
+        if stages.len() <= FUSED
+            && n <= FUSE_ALL_VERTICES
+            && let Some(last) = keep.iter().rposition(|&k| k)
+        {
+            for (k, &able) in keep[..last].iter_mut().zip(&able) {
+                *k |= able;
             }
         }
+        let dense = stages
+            .iter()
+            .zip(keep)
+            .map(|(st, keep)| {
+                keep.then(|| {
+                    // -0: x + -0 * t is x for every x when t is not
+                    // negative (+0 would turn a -0 into +0).
+                    let mut d = vec![-0.0f32; POINT_FLOATS * n];
+                    for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
+                        let at = POINT_FLOATS * v as usize;
+                        d[at..at + 3].copy_from_slice(&dv.to_array());
+                    }
+                    d
+                })
+            })
+            .collect();
         RestLanes { rest, dense }
     }
 
