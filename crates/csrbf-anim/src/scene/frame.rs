@@ -455,15 +455,30 @@ mod tests {
         // stages fused, with a track at phase 0, with vertices unmoved.
         let mut kinds = [0; 7];
         for (name, mut scene) in scenes(&dir) {
-            for mode in ["as loaded", "every stage dense", "every stage scattered"] {
+            let modes = [
+                "as loaded",
+                "every stage dense",
+                "every stage scattered",
+                // Dense stages added lane by lane before a scattered one,
+                // after one, and as the points move out.
+                "dense at even stages",
+                "dense at odd stages",
+            ];
+            for mode in modes {
                 for obj in &mut scene.objects {
                     let share = match mode {
                         "as loaded" => DENSE_SHARE,
-                        "every stage dense" => usize::MAX,
-                        _ => 0,
+                        "every stage scattered" => 0,
+                        _ => usize::MAX,
                     };
                     obj.lanes =
                         RestLanes::with_share(&obj.mesh.positions, &obj.deformations, share);
+                    let odd = mode == "dense at odd stages";
+                    for (k, d) in obj.lanes.dense.iter_mut().enumerate() {
+                        if mode.starts_with("dense at") && (k % 2 == 1) != odd {
+                            *d = None;
+                        }
+                    }
                 }
                 for obj in &scene.objects {
                     kinds[0] += obj.lanes.fits(obj) as usize;
