@@ -65,9 +65,64 @@ pub struct VertexNormals {
 #[derive(Clone, Debug, Default)]
 pub struct NormalsScratch {
     /// Points as x y z w, [`POINT_FLOATS`] floats a vertex.
-    xyzw: Vec<f32>,
+    xyzw: CacheAligned,
     /// Each vertex's sum of area vectors, x y z w likewise.
-    sum: Vec<f32>,
+    sum: CacheAligned,
+}
+
+/// Floats whose first sits on a 64-byte boundary (a cache line, where the
+/// allocator allows it), so that a 512-bit load or store of them never
+/// straddles two lines: one that does costs two. A frame's point lanes,
+/// sums, rest points and displacements; derefs to `[f32]`.
+#[derive(Clone, Debug, Default)]
+pub struct CacheAligned {
+    buf: Vec<f32>,
+    start: usize,
+    len: usize,
+}
+
+impl CacheAligned {
+    /// `len` floats of `value`.
+    pub fn filled(len: usize, value: f32) -> CacheAligned {
+        let mut a = CacheAligned::default();
+        a.resize(len, value);
+        a
+    }
+
+    /// As long as `len`: the floats kept, new ones `value`.
+    pub fn resize(&mut self, len: usize, value: f32) {
+        if len == self.len {
+            return;
+        }
+        const LINE: usize = 64 / std::mem::size_of::<f32>();
+        let mut buf = vec![value; len + LINE - 1];
+        // Elements to the first line boundary (0 where it cannot say).
+        let start = buf.as_ptr().align_offset(64).min(LINE - 1);
+        let keep = len.min(self.len);
+        buf[start..start + keep].copy_from_slice(&self[..keep]);
+        *self = CacheAligned { buf, start, len };
+    }
+}
+
+impl From<Vec<f32>> for CacheAligned {
+    fn from(values: Vec<f32>) -> CacheAligned {
+        let mut a = CacheAligned::filled(values.len(), 0.0);
+        a.copy_from_slice(&values);
+        a
+    }
+}
+
+impl std::ops::Deref for CacheAligned {
+    type Target = [f32];
+    fn deref(&self) -> &[f32] {
+        &self.buf[self.start..self.start + self.len]
+    }
+}
+
+impl std::ops::DerefMut for CacheAligned {
+    fn deref_mut(&mut self) -> &mut [f32] {
+        &mut self.buf[self.start..self.start + self.len]
+    }
 }
 
 impl VertexNormals {
@@ -260,8 +315,8 @@ impl VertexNormals {
     fn sums(&self, cpu: Option<Avx2>, s: &mut NormalsScratch) {
         // Sized here whoever filled them: the scatter relies on it.
         s.points_mut(self);
-        s.sum.clear();
         s.sum.resize(POINT_FLOATS * self.vertices, 0.0);
+        s.sum.fill(0.0);
         match cpu {
             #[cfg(target_arch = "x86_64")]
             Some(Avx2(())) if self.corners.len() == 3 * self.triangles.len() => {
@@ -1382,6 +1437,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Cache-aligned floats start on a line, keep what they held as they
+    /// grow or shrink, and fill what is new.
+    #[test]
+    fn cache_aligned_floats_keep_their_values() {
+        let mut a = CacheAligned::from(vec![1.0, -0.0, 3.0]);
+        assert_eq!(
+            a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            [1.0f32, -0.0, 3.0].map(f32::to_bits)
+        );
+        for len in [3, 40, 17, 0, 5] {
+            let before: Vec<f32> = a.to_vec();
+            a.resize(len, 9.0);
+            assert_eq!(a.len(), len);
+            assert_eq!(a.as_ptr() as usize % 64, 0, "{len} floats");
+            let kept = before.len().min(len);
+            assert_eq!(a[..kept], before[..kept]);
+            assert!(a[kept..].iter().all(|&x| x == 9.0));
+        }
+        assert!(CacheAligned::default().is_empty());
     }
 
     /// Positions of another length go to the plain function, over the

@@ -50,7 +50,8 @@ impl RestLanes {
         let rest = positions
             .iter()
             .flat_map(|p| [p.x, p.y, p.z, 0.0])
-            .collect();
+            .collect::<Vec<f32>>()
+            .into();
         let stages: Vec<&BoundStage> = deformations.iter().flat_map(|a| &a.stages).collect();
         // Which stages can be dense: each vertex once, a displacement each.
         let able: Vec<bool> = stages
@@ -87,7 +88,7 @@ impl RestLanes {
                 keep.then(|| {
                     // -0: x + -0 * t is x for every x when t is not
                     // negative (+0 would turn a -0 into +0).
-                    let mut d = vec![-0.0f32; POINT_FLOATS * n];
+                    let mut d = csrbf_mesh::CacheAligned::filled(POINT_FLOATS * n, -0.0);
                     for (&v, dv) in st.vertices.iter().zip(&st.displacement) {
                         let at = POINT_FLOATS * v as usize;
                         d[at..at + 3].copy_from_slice(&dv.to_array());
@@ -219,7 +220,7 @@ impl Scene {
                 .zip(&obj.lanes.dense)
         };
         // -0 * t is -0 only for t not negative (and finite).
-        let wide = |d: &'a Option<Vec<f32>>, t: f32| {
+        let wide = |d: &'a Option<csrbf_mesh::CacheAligned>, t: f32| {
             d.as_deref()
                 .filter(|_| t.is_finite() && t.is_sign_positive())
         };

@@ -181,10 +181,10 @@ pub struct Object {
 pub struct RestLanes {
     /// Rest positions as x y z 0 ([`csrbf_mesh::POINT_FLOATS`] floats a
     /// vertex, as the normals take them).
-    rest: Vec<f32>,
+    rest: csrbf_mesh::CacheAligned,
     /// Per stage of every deformation, in order: its displacement at every
     /// vertex as x y z -0, or None where it is scattered to its vertices.
-    dense: Vec<Option<Vec<f32>>>,
+    dense: Vec<Option<csrbf_mesh::CacheAligned>>,
 }
 
 impl Object {
