@@ -432,9 +432,11 @@ fn add_moved(
             && base.is_none_or(|b| b.len() >= floats),
         "lanes too short"
     );
-    let mut start = 0;
+    // Where the one-point-at-a-time loop below starts.
+    #[cfg(not(target_arch = "x86_64"))]
+    let start = 0;
     #[cfg(target_arch = "x86_64")]
-    if let Some(Avx2(())) = cpu {
+    let start = if let Some(Avx2(())) = cpu {
         // SAFETY: an `Avx2` exists only when the CPU has AVX2; the lanes
         // were just checked to hold four floats for each of `out`, and
         // `whole` is even and leaves at least one point to the loop below.
@@ -452,8 +454,8 @@ fn add_moved(
                     4 => add_moved_avx512::<4>,
                     _ => add_moved_avx512::<{ usize::MAX }>,
                 };
-                start = n - n % LANES;
-                f(p, base, stages, m, shift, start, out);
+                f(p, base, stages, m, shift, n - n % LANES, out);
+                n - n % LANES
             } else {
                 let f = match stages.len() {
                     0 => add_moved_avx2::<0>,
@@ -463,12 +465,14 @@ fn add_moved(
                     4 => add_moved_avx2::<4>,
                     _ => add_moved_avx2::<{ usize::MAX }>,
                 };
-                start = whole;
                 f(p, base, stages, m, shift, whole, out);
+                whole
             }
         }
-    }
-    let _ = (cpu, wide);
+    } else {
+        0
+    };
+    let _ = (cpu, wide, whole);
     for (i, o) in out.iter_mut().enumerate().skip(start) {
         let at = POINT_FLOATS * i..POINT_FLOATS * (i + 1);
         for k in at.clone() {
