@@ -93,9 +93,7 @@ impl Orientation {
     /// The rotation at `time`: identity with no key; held before the first
     /// and after the last key.
     pub fn rotation(&self, time: f64) -> DQuat {
-        let Some((i, s)) =
-            crate::spline::segment(self.keys.iter().map(|k| k.time), self.keys.len(), time)
-        else {
+        let Some((i, s)) = crate::spline::segment(&self.keys, |k| k.time, time) else {
             return match (self.keys.first(), self.keys.last()) {
                 (Some(f), Some(l)) => {
                     if time >= l.time {

@@ -83,7 +83,7 @@ impl Trajectory {
     /// Position at `time`; before the first key the first position, after the
     /// last the last. `ZERO` for a trajectory with no key.
     pub fn position(&self, time: f64) -> DVec3 {
-        let Some((i, s)) = segment(self.keys.iter().map(|k| k.time), self.keys.len(), time) else {
+        let Some((i, s)) = segment(&self.keys, |k| k.time, time) else {
             return match (self.keys.first(), self.keys.last()) {
                 (Some(f), Some(l)) => {
                     if time >= l.time {
@@ -106,7 +106,7 @@ impl Trajectory {
 
     /// Velocity (derivative by time) at `time`, inside the keys' span.
     pub fn velocity(&self, time: f64) -> DVec3 {
-        let Some((i, s)) = segment(self.keys.iter().map(|k| k.time), self.keys.len(), time) else {
+        let Some((i, s)) = segment(&self.keys, |k| k.time, time) else {
             return DVec3::ZERO;
         };
         let dt = self.keys[i + 1].time - self.keys[i].time;
@@ -121,26 +121,28 @@ impl Trajectory {
     }
 }
 
-/// The segment containing `time` and the parameter in it, or None before the
-/// first key, after the last, or with fewer than two keys.
-pub(crate) fn segment(
-    times: impl Iterator<Item = f64> + Clone,
-    n: usize,
+/// The segment of `keys` (times by `time_of`) containing `time` and the
+/// parameter in it, or None before the first key, after the last, or with
+/// fewer than two keys. Allocates nothing: every track of a frame asks.
+pub(crate) fn segment<K>(
+    keys: &[K],
+    time_of: impl Fn(&K) -> f64,
     time: f64,
 ) -> Option<(usize, f64)> {
+    let n = keys.len();
     if n < 2 {
         return None;
     }
-    let t: Vec<f64> = times.collect();
-    if !(time > t[0]) || time >= t[n - 1] {
+    let t = |i: usize| time_of(&keys[i]);
+    if !(time > t(0)) || time >= t(n - 1) {
         return None;
     }
     // Last key at or before `time`.
-    let i = t
-        .partition_point(|&k| k <= time)
+    let i = keys
+        .partition_point(|k| time_of(k) <= time)
         .saturating_sub(1)
         .min(n - 2);
-    let s = (time - t[i]) / (t[i + 1] - t[i]);
+    let s = (time - t(i)) / (t(i + 1) - t(i));
     Some((i, s.clamp(0.0, 1.0)))
 }
 

@@ -45,9 +45,7 @@ impl PhaseTrack {
 
     /// The phase at `time`, held before the first and after the last key.
     pub fn phase(&self, time: f64) -> f64 {
-        let Some((i, s)) =
-            crate::spline::segment(self.keys.iter().map(|k| k.0), self.keys.len(), time)
-        else {
+        let Some((i, s)) = crate::spline::segment(&self.keys, |k| k.0, time) else {
             return match (self.keys.first(), self.keys.last()) {
                 (Some(f), Some(l)) => {
                     if time >= l.0 {

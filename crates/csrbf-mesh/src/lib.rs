@@ -48,7 +48,9 @@ pub use io::{
     Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, replace, temp_beside,
     track_temp, untrack_temp, write, write_atomic,
 };
-pub use normals::{NormalsScratch, VertexNormals, add_scaled, scaled_sum_into};
+pub use normals::{
+    CacheAligned, NormalsScratch, POINT_FLOATS, VertexNormals, add_scaled, scaled_sum_into,
+};
 pub use stand_in::StandIn;
 
 use glam::{Vec2, Vec3};

@@ -1,33 +1,42 @@
 //! Vertex normals of one triangle list, prepared once for many frames.
 //!
 //! [`crate::triangle_vertex_normals_into`] scatters each triangle's area
-//! vector into its three vertices: about 90 instructions a triangle. A
-//! [`VertexNormals`] keeps the triangles' corners by column and, for every
-//! eight vertices, their triangles in a table eight wide, so that a frame is
-//! three passes over plain arrays: the area vectors eight triangles at a
-//! time, their sums eight vertices at a time, and the rigid motion of points
-//! and normals. With AVX2 (checked at run time) the area pass gathers eight
-//! corners' coordinates an instruction and writes each area vector as
-//! x y z 0, which the sum pass loads whole (three gathers a row were
-//! slower); without it a frame takes the plain function (the
-//! same passes one lane at a time were 4x slower than it: they stay as the
-//! reference of the AVX2 passes in the tests).
-//! Each vertex's sum runs over the same triangles in the same order as the
-//! plain function's, so the normals are bit for bit its own.
+//! vector into its three vertices with scalar `Vec3` arithmetic: about 90
+//! instructions a triangle. A [`VertexNormals`] keeps the triangles whose
+//! corners are in range and, where the CPU has AVX2 (checked at run time),
+//! makes a frame two passes over points kept as x y z w, four floats a
+//! vertex: the same scatter, two triangles a step (their corners loaded as
+//! 128-bit halves, edges and cross products in 256-bit registers, then six
+//! read-add-writes of x y z w; the fourth float rides along and is never
+//! read), then the sums normalised eight vertices at a time and written as
+//! turned `Vec3`s. The scatter adds in the plain function's order, so the
+//! normals are bit for bit its own. (The passes before this one gathered
+//! the corners of eight triangles by coordinate into a buffer of area
+//! vectors and summed them per vertex through a table padded to eight
+//! lanes: 4,700 gathers a frame of the papers' fish.) Where the CPU also
+//! has AVX-512F, the way out's transposes and interleaves are two-table
+//! permutes (three instructions where AVX2 needs a dozen shuffles and
+//! blends). Without AVX2 a frame takes the plain function; the same passes
+//! one vector at a time stay as the reference of the others in the tests.
 //!
-//! A caller that builds its points by coordinate (a frame: rest points plus
+//! A caller that builds its points itself (a frame: rest points plus
 //! displacements, [`NormalsScratch::points_mut`], [`add_scaled`]) hands them
-//! over with no pass to take `Vec3`s apart
-//! ([`VertexNormals::moved_from_lanes`]); the rigid motion writes the moved
-//! points and turned normals as `Vec3`s straight from the lanes.
+//! over with no pass to copy `Vec3`s ([`VertexNormals::moved_from_lanes`]),
+//! and may leave its last displacements to the pass that moves the points
+//! out ([`VertexNormals::moved_from_lanes_adding`]): a frame's points are
+//! read and written once fewer.
 
 use glam::{Mat3, Vec3};
 
-/// Lanes of a pass (eight f32 in an AVX2 register).
+/// Vertices a pass of the way out handles at a time (eight f32 in an AVX2
+/// register).
 const LANES: usize = 8;
 
-/// The triangles around every vertex of one mesh, for its normals frame
-/// after frame ([`VertexNormals::compute_into`], or
+/// Floats a point or a sum takes: x y z and one the passes never read.
+pub const POINT_FLOATS: usize = 4;
+
+/// The triangles of one mesh whose corners are all in range, for its
+/// normals frame after frame ([`VertexNormals::compute_into`], or
 /// [`VertexNormals::moved_into`] with a rigid motion).
 ///
 /// ```
@@ -44,76 +53,112 @@ pub struct VertexNormals {
     vertices: usize,
     /// The triangles whose corners are all below `vertices`, in their order.
     triangles: Vec<[u32; 3]>,
-    /// Their corners by column, padded with vertex 0 to a multiple of eight.
-    corners: [Vec<u32>; 3],
-    /// Per eight vertices: where its rows start in `table` and how many.
-    groups: Vec<(u32, u32)>,
-    /// Row-major, eight wide: row `r` of a group holds the `r`-th triangle
-    /// of each of its vertices (ascending; a triangle naming a vertex twice
-    /// is there twice, as the scatter adds it twice), or `dummy()`, whose
-    /// area vector is -0 (x + -0 = x for every x, so padding changes no bit).
-    table: Vec<u32>,
+    /// Their corners as float offsets into the points, `4 i` for vertex
+    /// `i`, three a triangle (the AVX2 scatter indexes by them unchecked);
+    /// empty when `4 vertices` does not fit in a `u32` (the plain function
+    /// then takes every frame).
+    corners: Vec<u32>,
 }
 
 /// Buffers a frame's normals use, kept between frames so that a frame
 /// allocates nothing.
 #[derive(Clone, Debug, Default)]
 pub struct NormalsScratch {
-    /// Points by coordinate.
-    xyz: [Vec<f32>; 3],
-    /// Area vectors as x y z 0, four floats a triangle (and the dummy's
-    /// -0 -0 -0 0 at the end): the sum pass loads a triangle's three in one
-    /// move where three gathers were slower.
-    area: Vec<f32>,
-    /// Normals by coordinate.
-    normal: [Vec<f32>; 3],
+    /// Points as x y z w, [`POINT_FLOATS`] floats a vertex.
+    xyzw: CacheAligned,
+    /// Each vertex's sum of area vectors, x y z w likewise.
+    sum: CacheAligned,
+}
+
+/// Floats whose first sits on a 64-byte boundary (a cache line, where the
+/// allocator allows it), so that a 512-bit load or store of them never
+/// straddles two lines: one that does costs two. A frame's point lanes,
+/// sums, rest points and displacements; derefs to `[f32]`.
+#[derive(Clone, Debug, Default)]
+pub struct CacheAligned {
+    buf: Vec<f32>,
+    start: usize,
+    len: usize,
+}
+
+impl CacheAligned {
+    /// `len` floats of `value`.
+    pub fn filled(len: usize, value: f32) -> CacheAligned {
+        let mut a = CacheAligned::default();
+        a.resize(len, value);
+        a
+    }
+
+    /// As long as `len`: the floats kept, new ones `value`.
+    pub fn resize(&mut self, len: usize, value: f32) {
+        if len == self.len {
+            return;
+        }
+        const LINE: usize = 64 / std::mem::size_of::<f32>();
+        let mut buf = vec![value; len + LINE - 1];
+        // Elements to the first line boundary (0 where it cannot say).
+        let start = buf.as_ptr().align_offset(64).min(LINE - 1);
+        let keep = len.min(self.len);
+        buf[start..start + keep].copy_from_slice(&self[..keep]);
+        *self = CacheAligned { buf, start, len };
+    }
+}
+
+impl From<Vec<f32>> for CacheAligned {
+    fn from(values: Vec<f32>) -> CacheAligned {
+        let mut a = CacheAligned::filled(values.len(), 0.0);
+        a.copy_from_slice(&values);
+        a
+    }
+}
+
+impl std::ops::Deref for CacheAligned {
+    type Target = [f32];
+    fn deref(&self) -> &[f32] {
+        &self.buf[self.start..self.start + self.len]
+    }
+}
+
+impl std::ops::DerefMut for CacheAligned {
+    fn deref_mut(&mut self) -> &mut [f32] {
+        &mut self.buf[self.start..self.start + self.len]
+    }
 }
 
 impl VertexNormals {
-    /// The triangles around each of `vertices` vertices; triangles with an
-    /// index out of range are dropped (as the plain function skips them).
+    /// The triangles of `vertices` vertices; triangles with an index out of
+    /// range are dropped (as the plain function skips them).
     pub fn new(triangles: &[[u32; 3]], vertices: usize) -> VertexNormals {
-        let triangles: Vec<[u32; 3]> = triangles
+        let triangles = triangles
             .iter()
             .filter(|t| t.iter().all(|&i| (i as usize) < vertices))
             .copied()
-            .collect();
-        let padded = triangles.len().next_multiple_of(LANES);
-        let corners = [0, 1, 2].map(|c| {
-            let mut v: Vec<u32> = triangles.iter().map(|t| t[c]).collect();
-            v.resize(padded, 0);
-            v
-        });
-        let mut around = vec![Vec::new(); vertices];
-        for (k, t) in triangles.iter().enumerate() {
-            for &i in t {
-                around[i as usize].push(k as u32);
-            }
-        }
-        let dummy = padded as u32;
-        let (mut groups, mut table) = (Vec::new(), Vec::new());
-        for group in around.chunks(LANES) {
-            let width = group.iter().map(Vec::len).max().unwrap_or(0);
-            groups.push((table.len() as u32, width as u32));
-            for r in 0..width {
-                for lane in 0..LANES {
-                    let t = group.get(lane).and_then(|a| a.get(r)).copied();
-                    table.push(t.unwrap_or(dummy));
-                }
-            }
-        }
+            .collect::<Vec<_>>();
+        let fits = u32::try_from(POINT_FLOATS * vertices).is_ok();
+        let corners = match fits {
+            true => triangles
+                .iter()
+                .flatten()
+                .map(|&i| POINT_FLOATS as u32 * i)
+                .collect(),
+            false => Vec::new(),
+        };
         VertexNormals {
             vertices,
             triangles,
             corners,
-            groups,
-            table,
         }
     }
 
     /// Number of vertices it was made for.
     pub fn vertices(&self) -> usize {
         self.vertices
+    }
+
+    /// The proof of AVX2 when the passes can take a frame (the CPU has it
+    /// and every point has an offset in a `u32`).
+    fn cpu(&self) -> Option<Avx2> {
+        avx2().filter(|_| self.corners.len() == 3 * self.triangles.len())
     }
 
     /// Area-weighted normals of `positions` into `out` (vertices on no
@@ -127,15 +172,16 @@ impl VertexNormals {
         scratch: &mut NormalsScratch,
         out: &mut Vec<Vec3>,
     ) {
-        let cpu = avx2();
+        let cpu = self.cpu();
         if positions.len() != self.vertices || cpu.is_none() {
             crate::triangle_vertex_normals_into(positions, &self.triangles, out);
             return;
         }
-        self.normals_by_coordinate(positions, scratch, cpu);
-        let [x, y, z] = &scratch.normal;
-        out.clear();
-        out.extend((0..self.vertices).map(|v| Vec3::new(x[v], y[v], z[v])));
+        scratch.take_points(self, positions);
+        self.sums(cpu, scratch);
+        // Every value is written below: no clearing pass.
+        out.resize(self.vertices, Vec3::ZERO);
+        write_out(cpu, &scratch.sum, true, None, out);
     }
 
     /// The normals of `positions` and a rigid motion in one pass:
@@ -152,26 +198,20 @@ impl VertexNormals {
         scratch: &mut NormalsScratch,
         normals: &mut Vec<Vec3>,
     ) {
-        let cpu = avx2();
+        let cpu = self.cpu();
         if positions.len() != self.vertices || cpu.is_none() {
             plain_moved(positions, &self.triangles, rotation, shift, normals);
             return;
         }
-        let [xs, ys, zs] = scratch.points_mut(self);
-        for (p, ((x, y), z)) in positions
-            .iter()
-            .zip(xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()))
-        {
-            (*x, *y, *z) = (p.x, p.y, p.z);
-        }
+        scratch.take_points(self, positions);
         self.moved_lanes(cpu, rotation, shift, scratch, positions, normals);
     }
 
-    /// [`VertexNormals::moved_into`] for points the caller wrote by
-    /// coordinate into [`NormalsScratch::points_mut`]: no pass of its own
-    /// to take them apart. `positions` and `normals` are replaced by the
-    /// moved points and their turned normals, bit for bit what
-    /// [`VertexNormals::moved_into`] gives for the same points.
+    /// [`VertexNormals::moved_into`] for points the caller wrote as x y z w
+    /// into [`NormalsScratch::points_mut`]: no pass of its own to copy
+    /// them. `positions` and `normals` are replaced by the moved points and
+    /// their turned normals, bit for bit what [`VertexNormals::moved_into`]
+    /// gives for the same points.
     pub fn moved_from_lanes(
         &self,
         rotation: Mat3,
@@ -180,11 +220,14 @@ impl VertexNormals {
         positions: &mut Vec<Vec3>,
         normals: &mut Vec<Vec3>,
     ) {
-        let cpu = avx2();
+        let cpu = self.cpu();
         if cpu.is_none() {
-            let [xs, ys, zs] = scratch.points_mut(self);
+            let xyzw = scratch.points_mut(self);
             positions.clear();
-            positions.extend(lanes_to_points(xs, ys, zs));
+            positions.extend(
+                xyzw.chunks_exact(POINT_FLOATS)
+                    .map(|p| Vec3::new(p[0], p[1], p[2])),
+            );
             plain_moved(positions, &self.triangles, rotation, shift, normals);
             return;
         }
@@ -192,8 +235,63 @@ impl VertexNormals {
         self.moved_lanes(cpu, rotation, shift, scratch, positions, normals);
     }
 
-    /// The normals of the points in `scratch.xyz` turned by `rotation` into
-    /// `normals`, and the points moved into `positions` (as long as
+    /// [`VertexNormals::moved_from_lanes`] after the last displacements:
+    /// the points in the lanes become `base + d * t` for each `(d, t)` of
+    /// `stages` in turn (`base`: those points themselves when None), as
+    /// [`scaled_sum_into`] and [`add_scaled`] make them, and with AVX2 they
+    /// are moved into `positions` in the same pass (no pass of the way out
+    /// for them, no pass a stage). Bit for bit those calls.
+    #[allow(clippy::too_many_arguments)]
+    pub fn moved_from_lanes_adding(
+        &self,
+        base: Option<&[f32]>,
+        stages: &[(&[f32], f32)],
+        rotation: Mat3,
+        shift: Vec3,
+        scratch: &mut NormalsScratch,
+        positions: &mut Vec<Vec3>,
+        normals: &mut Vec<Vec3>,
+    ) {
+        let cpu = self.cpu();
+        let p = scratch.points_mut(self);
+        let fits = stages.iter().all(|(d, _)| d.len() == p.len())
+            && base.is_none_or(|b| b.len() == p.len());
+        if cpu.is_none() || !fits {
+            for (k, &(d, t)) in stages.iter().enumerate() {
+                match base {
+                    Some(b) if k == 0 => scaled_sum_into(p, b, d, t),
+                    _ => add_scaled(p, d, t),
+                }
+            }
+            if stages.is_empty()
+                && let Some(b) = base
+                && b.len() == p.len()
+            {
+                p.copy_from_slice(b);
+            }
+            self.moved_from_lanes(rotation, shift, scratch, positions, normals);
+            return;
+        }
+        let m = rotation.to_cols_array();
+        positions.resize(self.vertices, Vec3::ZERO);
+        add_moved(
+            cpu,
+            avx512(),
+            p,
+            base,
+            stages,
+            &m,
+            shift.to_array(),
+            positions,
+        );
+        self.sums(cpu, scratch);
+        // Every value is written below: no clearing pass.
+        normals.resize(self.vertices, Vec3::ZERO);
+        write_out(cpu, &scratch.sum, true, Some((&m, None)), normals);
+    }
+
+    /// The normals of the points in `scratch.xyzw` turned by `rotation`
+    /// into `normals`, and the points moved into `positions` (as long as
     /// [`VertexNormals::vertices`]).
     fn moved_lanes(
         &self,
@@ -204,75 +302,56 @@ impl VertexNormals {
         positions: &mut [Vec3],
         normals: &mut Vec<Vec3>,
     ) {
-        self.normals_of_lanes(scratch, cpu);
+        self.sums(cpu, scratch);
         let m = rotation.to_cols_array();
         // Every value is written below: no clearing pass.
         normals.resize(self.vertices, Vec3::ZERO);
-        turn_into(cpu, &scratch.normal, &m, None, normals);
-        turn_into(cpu, &scratch.xyz, &m, Some(shift.to_array()), positions);
+        write_out(cpu, &scratch.sum, true, Some((&m, None)), normals);
+        let shift = Some(shift.to_array());
+        write_out(cpu, &scratch.xyzw, false, Some((&m, shift)), positions);
     }
 
-    /// The three passes over `positions`, into `scratch.normal`.
-    fn normals_by_coordinate(&self, positions: &[Vec3], s: &mut NormalsScratch, cpu: Option<Avx2>) {
-        let [xs, ys, zs] = s.points_mut(self);
-        for (p, ((x, y), z)) in positions
-            .iter()
-            .zip(xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()))
-        {
-            (*x, *y, *z) = (p.x, p.y, p.z);
-        }
-        self.normals_of_lanes(s, cpu);
-    }
-
-    /// The area and sum passes over the points in `s.xyz`, into `s.normal`.
-    fn normals_of_lanes(&self, s: &mut NormalsScratch, cpu: Option<Avx2>) {
-        // Sized here whoever filled them: the gathers below rely on it.
+    /// The scatter pass over the points in `s.xyzw`, into `s.sum`.
+    fn sums(&self, cpu: Option<Avx2>, s: &mut NormalsScratch) {
+        // Sized here whoever filled them: the scatter relies on it.
         s.points_mut(self);
-        let padded_vertices = self.groups.len() * LANES;
-        let padded = self.corners[0].len();
-        for c in 0..3 {
-            s.area.resize(4 * (padded + 1), 0.0);
-            s.area[4 * padded + c] = -0.0; // the dummy
-            s.normal[c].resize(padded_vertices, 0.0);
-        }
+        s.sum.resize(POINT_FLOATS * self.vertices, 0.0);
+        s.sum.fill(0.0);
         match cpu {
             #[cfg(target_arch = "x86_64")]
-            Some(Avx2(())) => {
-                // SAFETY: an `Avx2` exists only when the CPU has AVX2; the
-                // indices are checked by the callee's contract: `new` kept
-                // only corners below `vertices` (padding is vertex 0, and a
-                // padded triangle exists only with a real one, so
-                // `vertices > 0`), `xyz` holds `vertices` or more values, and
-                // `table` names triangles below `padded` or the dummy at
-                // `padded`, whose four floats each `area` holds.
+            Some(Avx2(())) if self.corners.len() == 3 * self.triangles.len() => {
+                // SAFETY: an `Avx2` exists only when the CPU has AVX2; `new`
+                // kept only triangles whose corners are below `vertices`
+                // and made `corners` their offsets `4 i` (all of them, as
+                // just checked), and both buffers were just sized to four
+                // floats for each of `vertices`.
                 #[allow(unsafe_code)]
                 unsafe {
-                    areas_avx2(&self.corners, &s.xyz, &mut s.area);
-                    sums_avx2(&self.groups, &self.table, &s.area, &mut s.normal);
+                    sums_avx2(&self.corners, &s.xyzw, &mut s.sum);
                 }
             }
-            _ => {
-                areas_plain(&self.corners, &s.xyz, &mut s.area);
-                sums_plain(&self.groups, &self.table, &s.area, &mut s.normal);
-            }
+            _ => sums_plain(&self.triangles, &s.xyzw, &mut s.sum),
         }
     }
 }
 
 impl NormalsScratch {
-    /// The lanes of the points by coordinate, [`VertexNormals::vertices`]
-    /// of `normals` long each, for a caller that builds a frame's points
-    /// there before [`VertexNormals::moved_from_lanes`] (they hold what the
-    /// last frame left).
-    pub fn points_mut(&mut self, normals: &VertexNormals) -> [&mut [f32]; 3] {
-        // The sum pass moves eight vertices at a time: padded to its groups.
-        let padded = (normals.groups.len() * LANES).max(1);
-        for xyz in &mut self.xyz {
-            xyz.resize(padded, 0.0);
+    /// The points as x y z w, [`POINT_FLOATS`] floats for each of
+    /// [`VertexNormals::vertices`] of `normals`, for a caller that builds a
+    /// frame's points there before [`VertexNormals::moved_from_lanes`]
+    /// (they hold what the last frame left; the fourth float of each is
+    /// never read).
+    pub fn points_mut(&mut self, normals: &VertexNormals) -> &mut [f32] {
+        self.xyzw.resize(POINT_FLOATS * normals.vertices, 0.0);
+        &mut self.xyzw
+    }
+
+    /// `positions` copied in as x y z 0.
+    fn take_points(&mut self, normals: &VertexNormals, positions: &[Vec3]) {
+        let xyzw = self.points_mut(normals);
+        for (q, p) in xyzw.chunks_exact_mut(POINT_FLOATS).zip(positions) {
+            q.copy_from_slice(&[p.x, p.y, p.z, 0.0]);
         }
-        let n = normals.vertices;
-        let [x, y, z] = &mut self.xyz;
-        [&mut x[..n], &mut y[..n], &mut z[..n]]
     }
 }
 
@@ -328,16 +407,209 @@ pub fn scaled_sum_into(out: &mut [f32], base: &[f32], d: &[f32], t: f32) {
     body(out, base, d, t);
 }
 
-/// Points (or normals) from their lanes by coordinate.
-fn lanes_to_points<'a>(
-    x: &'a [f32],
-    y: &'a [f32],
-    z: &'a [f32],
-) -> impl Iterator<Item = Vec3> + 'a {
-    x.iter()
-        .zip(y)
-        .zip(z)
-        .map(|((&x, &y), &z)| Vec3::new(x, y, z))
+/// `p = base + d * t` for each `(d, t)` of `stages` in turn (`base`: `p`
+/// itself when None) over x y z w, and each point moved, `m * p + shift`
+/// ([`turn_one`]), into `out`: the last displacements of a frame and its
+/// rigid motion in one pass, two points a 256-bit step with AVX2, eight
+/// with AVX-512 (`wide`).
+#[allow(clippy::too_many_arguments)]
+fn add_moved(
+    cpu: Option<Avx2>,
+    wide: Option<Avx512>,
+    p: &mut [f32],
+    base: Option<&[f32]>,
+    stages: &[(&[f32], f32)],
+    m: &[f32; 9],
+    shift: [f32; 3],
+    out: &mut [Vec3],
+) {
+    let n = out.len();
+    let whole = n.saturating_sub(1) / 2 * 2;
+    let floats = POINT_FLOATS * n;
+    assert!(
+        p.len() >= floats
+            && stages.iter().all(|(d, _)| d.len() >= floats)
+            && base.is_none_or(|b| b.len() >= floats),
+        "lanes too short"
+    );
+    // Where the one-point-at-a-time loop below starts.
+    #[cfg(not(target_arch = "x86_64"))]
+    let start = 0;
+    #[cfg(target_arch = "x86_64")]
+    let start = if let Some(Avx2(())) = cpu {
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2; the lanes
+        // were just checked to hold four floats for each of `out`, and
+        // `whole` is even and leaves at least one point to the loop below.
+        #[allow(unsafe_code)]
+        unsafe {
+            if let Some(Avx512(())) = wide {
+                // SAFETY: as above, and an `Avx512` exists only when the
+                // CPU has AVX-512F and AVX2; eight points a step end at
+                // `n - n % 8`.
+                let f = match stages.len() {
+                    0 => add_moved_avx512::<0>,
+                    1 => add_moved_avx512::<1>,
+                    2 => add_moved_avx512::<2>,
+                    3 => add_moved_avx512::<3>,
+                    4 => add_moved_avx512::<4>,
+                    _ => add_moved_avx512::<{ usize::MAX }>,
+                };
+                f(p, base, stages, m, shift, n - n % LANES, out);
+                n - n % LANES
+            } else {
+                let f = match stages.len() {
+                    0 => add_moved_avx2::<0>,
+                    1 => add_moved_avx2::<1>,
+                    2 => add_moved_avx2::<2>,
+                    3 => add_moved_avx2::<3>,
+                    4 => add_moved_avx2::<4>,
+                    _ => add_moved_avx2::<{ usize::MAX }>,
+                };
+                f(p, base, stages, m, shift, whole, out);
+                whole
+            }
+        }
+    } else {
+        0
+    };
+    let _ = (cpu, wide, whole);
+    for (i, o) in out.iter_mut().enumerate().skip(start) {
+        let at = POINT_FLOATS * i..POINT_FLOATS * (i + 1);
+        for k in at.clone() {
+            let mut q = base.map_or(p[k], |b| b[k]);
+            for (d, t) in stages {
+                q += d[k] * t;
+            }
+            p[k] = q;
+        }
+        let q = &p[at];
+        *o = turn_one(m, Some(shift), q[0], q[1], q[2]);
+    }
+}
+
+/// [`add_moved`] for the first `whole` points (even), two a step: the
+/// stages added in turn (`N` of them, unrolled; `usize::MAX`: any number), then each coordinate broadcast in its half, the
+/// products and sums of [`turn_one`] lane by lane, then each half stored
+/// as 16 bytes at its `Vec3` (the fourth float lands on the next point's
+/// x, which the next store writes).
+///
+/// # Safety
+/// The CPU has AVX2; `p`, `base` and each stage's displacement hold four
+/// floats for each of `out`, and `whole` is even and below `out.len()`.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2")]
+unsafe fn add_moved_avx2<const N: usize>(
+    p: &mut [f32],
+    base: Option<&[f32]>,
+    stages: &[(&[f32], f32)],
+    m: &[f32; 9],
+    s: [f32; 3],
+    whole: usize,
+    out: &mut [Vec3],
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats and the store at point `i`
+    // ends at float `3 i + 4`, within `out` for every `i` below
+    // `whole - 1 < n - 1`.
+    unsafe {
+        let col =
+            |c: usize| _mm256_setr_ps(m[c], m[c + 1], m[c + 2], 0.0, m[c], m[c + 1], m[c + 2], 0.0);
+        let (c0, c1, c2) = (col(0), col(3), col(6));
+        let sh = _mm256_setr_ps(s[0], s[1], s[2], 0.0, s[0], s[1], s[2], 0.0);
+        let src = base.map_or(p.as_ptr(), <[f32]>::as_ptr);
+        let (pp, dst) = (p.as_mut_ptr(), out.as_mut_ptr().cast::<f32>());
+        for i in (0..whole).step_by(2) {
+            let at = POINT_FLOATS * i;
+            let mut q = _mm256_loadu_ps(src.add(at));
+            let add = |q, (d, t): &(&[f32], f32)| {
+                // No fused multiply-add: the product rounded, then the sum.
+                let d = _mm256_loadu_ps(d.as_ptr().add(at));
+                _mm256_add_ps(q, _mm256_mul_ps(d, _mm256_set1_ps(*t)))
+            };
+            if N == usize::MAX {
+                q = stages.iter().fold(q, add);
+            } else {
+                for stage in &stages[..N] {
+                    q = add(q, stage);
+                }
+            }
+            _mm256_storeu_ps(pp.add(at), q);
+            let r = _mm256_add_ps(
+                _mm256_add_ps(
+                    _mm256_add_ps(
+                        _mm256_mul_ps(c0, _mm256_permute_ps::<0x00>(q)),
+                        _mm256_mul_ps(c1, _mm256_permute_ps::<0x55>(q)),
+                    ),
+                    _mm256_mul_ps(c2, _mm256_permute_ps::<0xAA>(q)),
+                ),
+                sh,
+            );
+            _mm_storeu_ps(dst.add(3 * i), _mm256_castps256_ps128(r));
+            _mm_storeu_ps(dst.add(3 * i + 3), _mm256_extractf128_ps::<1>(r));
+        }
+    }
+}
+
+/// [`add_moved`] for the first `whole` points (a multiple of eight), eight
+/// a step: the stages added in turn over two 512-bit registers (`N` of
+/// them, unrolled; `usize::MAX`: any number), the points stored, then
+/// their x, y and z by two-table permutes, [`turn_one`] lane by lane, and
+/// 24 floats of `Vec3`s interleaved by permutes.
+///
+/// # Safety
+/// The CPU has AVX-512F and AVX2; `p`, `base` and each stage's
+/// displacement hold four floats for each of `out`, and `whole` is a
+/// multiple of eight at most `out.len()`.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn add_moved_avx512<const N: usize>(
+    p: &mut [f32],
+    base: Option<&[f32]>,
+    stages: &[(&[f32], f32)],
+    m: &[f32; 9],
+    s: [f32; 3],
+    whole: usize,
+    out: &mut [Vec3],
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats.
+    unsafe {
+        let mm = m.map(|v| _mm256_set1_ps(v));
+        let sh = s.map(|v| _mm256_set1_ps(v));
+        let src = base.map_or(p.as_ptr(), <[f32]>::as_ptr);
+        let (pp, dst) = (p.as_mut_ptr(), out.as_mut_ptr().cast::<f32>());
+        for i in (0..whole).step_by(LANES) {
+            let at = POINT_FLOATS * i;
+            let mut q = [
+                _mm512_loadu_ps(src.add(at)),
+                _mm512_loadu_ps(src.add(at + 16)),
+            ];
+            let add = |q: [__m512; 2], (d, t): &(&[f32], f32)| {
+                let t = _mm512_set1_ps(*t);
+                // No fused multiply-add: the product rounded, then the sum.
+                [0, 16].map(|h| {
+                    let d = _mm512_loadu_ps(d.as_ptr().add(at + h));
+                    _mm512_add_ps(q[h / 16], _mm512_mul_ps(d, t))
+                })
+            };
+            if N == usize::MAX {
+                q = stages.iter().fold(q, add);
+            } else {
+                for stage in &stages[..N] {
+                    q = add(q, stage);
+                }
+            }
+            _mm512_storeu_ps(pp.add(at), q[0]);
+            _mm512_storeu_ps(pp.add(at + 16), q[1]);
+            let [x, y, z] = coordinates_of(q[0], q[1]);
+            let (x, y, z) = turn_avx2(&mm, Some(&sh), x, y, z);
+            interleave_avx512(dst.add(3 * i), x, y, z);
+        }
+    }
 }
 
 /// The normals of the plain function and the rigid motion, one vertex at a
@@ -369,7 +641,23 @@ fn avx2() -> Option<Avx2> {
     None
 }
 
-/// One lane of the area pass: (b - a) x (c - a), as glam's `Vec3::cross`
+/// Proof that this CPU has AVX-512F and AVX2: only [`avx512`] makes one.
+#[derive(Clone, Copy, Debug)]
+struct Avx512(());
+
+/// The proof, when the CPU has AVX-512F and AVX2 (checked once, then
+/// cached by std). Its two-table permutes turn the way out's transposes
+/// and interleaves into three instructions each.
+fn avx512() -> Option<Avx512> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx2")
+    {
+        return Some(Avx512(()));
+    }
+    None
+}
+
+/// One triangle's area vector, (b - a) x (c - a), as glam's `Vec3::cross`
 /// multiplies and subtracts.
 #[inline(always)]
 fn cross_of(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [f32; 3] {
@@ -382,8 +670,9 @@ fn cross_of(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [f32; 3] {
     ]
 }
 
-/// One lane of the normalisation, as the plain function does it in `Vec3`:
-/// ((x x + y y) + z z), then times 1 / sqrt; +Z for a zero (or NaN) sum.
+/// One vector of the normalisation, as the plain function does it in
+/// `Vec3`: ((x x + y y) + z z), then times 1 / sqrt; +Z for a zero (or
+/// NaN) sum.
 #[inline(always)]
 fn unit(v: [f32; 3]) -> [f32; 3] {
     let len2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
@@ -412,61 +701,383 @@ fn turn_one(m: &[f32; 9], shift: Option<[f32; 3]>, a: f32, b: f32, c: f32) -> Ve
     }
 }
 
-/// `m * v (+ shift)` for the first `out.len()` column vectors of `cols`,
-/// as `Vec3`s into `out` ([`turn_one`] each): the rigid motion and the
-/// way back from lanes in one pass, eight vectors at a time with AVX2.
-fn turn_into(
-    cpu: Option<Avx2>,
-    cols: &[Vec<f32>; 3],
-    m: &[f32; 9],
-    shift: Option<[f32; 3]>,
-    out: &mut [Vec3],
-) {
-    assert!(cols.iter().all(|c| c.len() >= out.len()), "lanes too short");
+/// A turn of the way out: the matrix by columns and the shift after it
+/// (None adds nothing).
+type Turn<'a> = Option<(&'a [f32; 9], Option<[f32; 3]>)>;
+
+/// One vector of the way out: `src`'s x y z, normalised if `normalise`,
+/// then turned and shifted.
+#[inline(always)]
+fn out_one(src: &[f32], normalise: bool, turn: Turn) -> Vec3 {
+    let mut v = [src[0], src[1], src[2]];
+    if normalise {
+        v = unit(v);
+    }
+    match turn {
+        Some((m, shift)) => turn_one(m, shift, v[0], v[1], v[2]),
+        None => Vec3::from_array(v),
+    }
+}
+
+/// The way out: for the first `out.len()` vectors of `src` (x y z w, four
+/// floats each), normalised if `normalise` ([`unit`]), turned and shifted
+/// by `turn` ([`turn_one`]), as `Vec3`s into `out`: a frame's normals and
+/// its moved points, eight vectors at a time with AVX2.
+fn write_out(cpu: Option<Avx2>, src: &[f32], normalise: bool, turn: Turn, out: &mut [Vec3]) {
+    assert!(src.len() >= POINT_FLOATS * out.len(), "lanes too short");
     #[cfg(target_arch = "x86_64")]
     if let Some(Avx2(())) = cpu {
-        // SAFETY: an `Avx2` exists only when the CPU has AVX2; the columns
-        // were just checked to be long enough.
+        // SAFETY: an `Avx2` exists only when the CPU has AVX2; `src` was
+        // just checked to hold four floats for each of `out`.
         #[allow(unsafe_code)]
         unsafe {
-            return turn_into_avx2(cols, m, shift, out);
+            // SAFETY: an `Avx512` exists only when the CPU has AVX-512F
+            // and AVX2.
+            if let Some(Avx512(())) = avx512() {
+                return write_out_avx512(src, normalise, turn, out);
+            }
+            return write_out_avx2(src, normalise, turn, out);
         }
     }
     let _ = cpu;
-    turn_plain(cols, m, shift, out);
+    write_plain(src, normalise, turn, out);
 }
 
-/// [`turn_into`] one vector at a time (the reference of the AVX2 pass).
-fn turn_plain(cols: &[Vec<f32>; 3], m: &[f32; 9], shift: Option<[f32; 3]>, out: &mut [Vec3]) {
-    let [xs, ys, zs] = cols;
-    for (o, ((&a, &b), &c)) in out.iter_mut().zip(xs.iter().zip(ys).zip(zs)) {
-        *o = turn_one(m, shift, a, b, c);
+/// [`write_out`] one vector at a time (the reference of the AVX2 pass).
+fn write_plain(src: &[f32], normalise: bool, turn: Turn, out: &mut [Vec3]) {
+    for (o, s) in out.iter_mut().zip(src.chunks_exact(POINT_FLOATS)) {
+        *o = out_one(s, normalise, turn);
     }
 }
 
-/// [`turn_into`] eight vectors at a time: the products and sums of
-/// [`turn_one`] lane by lane, then eight x, y and z interleaved into 24
-/// floats by permutes and blends (moves only: no value changes).
+/// The scatter one triangle at a time in `f32`s (the reference of the AVX2
+/// pass): `sum` (zeroed) gets each triangle's area vector at its three
+/// corners, in the triangles' order.
+fn sums_plain(triangles: &[[u32; 3]], xyzw: &[f32], sum: &mut [f32]) {
+    let p = |i: usize| [xyzw[4 * i], xyzw[4 * i + 1], xyzw[4 * i + 2]];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| i as usize);
+        let area = cross_of(p(a), p(b), p(c));
+        for v in [a, b, c] {
+            for (s, a) in sum[4 * v..4 * v + 3].iter_mut().zip(area) {
+                *s += a;
+            }
+        }
+    }
+}
+
+/// The scatter, two triangles a step: their corners' x y z w in the halves
+/// of 256-bit registers, the edges, the cross product as
+/// `e1.yzx * e2.zxy - e2.yzx * e1.zxy` (each lane the products and
+/// difference of [`cross_of`]), then six read-add-writes of x y z w, the
+/// first triangle's three corners before the second's (an odd one last,
+/// alone). `corners` holds three float offsets a triangle, `4 i` for vertex
+/// `i`: addresses with no multiplication.
 ///
 /// # Safety
-/// The CPU has AVX2; each of `cols` holds at least `out.len()` values.
+/// The CPU has AVX2; `corners.len()` is a multiple of three and every
+/// offset in it is at most `xyzw.len() - 4` and `sum.len() - 4`.
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 #[target_feature(enable = "avx2")]
-unsafe fn turn_into_avx2(
-    cols: &[Vec<f32>; 3],
-    m: &[f32; 9],
-    shift: Option<[f32; 3]>,
-    out: &mut [Vec3],
+unsafe fn sums_avx2(corners: &[u32], xyzw: &[f32], sum: &mut [f32]) {
+    use std::arch::x86_64::*;
+    let (p, s) = (xyzw.as_ptr(), sum.as_mut_ptr());
+    // SAFETY: the caller's contract (offsets in range).
+    unsafe {
+        let point = |c: u32| _mm_loadu_ps(p.add(c as usize));
+        let add = |c: u32, area: __m128| {
+            let at = s.add(c as usize);
+            _mm_storeu_ps(at, _mm_add_ps(_mm_loadu_ps(at), area));
+        };
+        let pairs = corners.chunks_exact(6);
+        let odd = pairs.remainder();
+        for c in pairs {
+            // Two offsets a 64-bit load (little-endian: the first in the
+            // low half): three loads a pair where six were, the loads
+            // being what the scatter waits on. The three unaligned reads
+            // cover the chunk's 24 bytes exactly.
+            let w = c.as_ptr().cast::<u64>();
+            let w = [0, 1, 2].map(|k| w.add(k).read_unaligned());
+            let c = [
+                w[0] as u32,
+                (w[0] >> 32) as u32,
+                w[1] as u32,
+                (w[1] >> 32) as u32,
+                w[2] as u32,
+                (w[2] >> 32) as u32,
+            ];
+            let two = |i: usize| _mm256_set_m128(point(c[i + 3]), point(c[i]));
+            let a = two(0);
+            let e1 = _mm256_sub_ps(two(1), a);
+            let e2 = _mm256_sub_ps(two(2), a);
+            let yzx = |v| _mm256_permute_ps::<0b11_00_10_01>(v);
+            let zxy = |v| _mm256_permute_ps::<0b11_01_00_10>(v);
+            let area = _mm256_sub_ps(
+                _mm256_mul_ps(yzx(e1), zxy(e2)),
+                _mm256_mul_ps(yzx(e2), zxy(e1)),
+            );
+            let (first, second) = (
+                _mm256_castps256_ps128(area),
+                _mm256_extractf128_ps::<1>(area),
+            );
+            add(c[0], first);
+            add(c[1], first);
+            add(c[2], first);
+            add(c[3], second);
+            add(c[4], second);
+            add(c[5], second);
+        }
+        if let [a, b, c] = *odd {
+            let pa = point(a);
+            let e1 = _mm_sub_ps(point(b), pa);
+            let e2 = _mm_sub_ps(point(c), pa);
+            let yzx = |v| _mm_permute_ps::<0b11_00_10_01>(v);
+            let zxy = |v| _mm_permute_ps::<0b11_01_00_10>(v);
+            let area = _mm_sub_ps(_mm_mul_ps(yzx(e1), zxy(e2)), _mm_mul_ps(yzx(e2), zxy(e1)));
+            add(a, area);
+            add(b, area);
+            add(c, area);
+        }
+    }
+}
+
+/// Which float of two tables (a permute's first: 0-15, second: 16-31)
+/// each lane takes.
+#[cfg(target_arch = "x86_64")]
+type Picks = [i32; 16];
+
+/// x, y or z (`c`) of eight x y z w vectors held in two 16-float tables.
+#[cfg(target_arch = "x86_64")]
+const fn coordinate_picks(c: i32) -> Picks {
+    let mut p = [0; 16];
+    let mut i = 0;
+    while i < 16 {
+        p[i] = 4 * (i as i32 % 8) + c;
+        i += 1;
+    }
+    p
+}
+
+/// Floats `from..from + 16` of eight `Vec3`s interleaved from the table
+/// x0..x7 y0..y7 and the table z0..z7: float `f` is coordinate `f % 3` of
+/// vector `f / 3`.
+#[cfg(target_arch = "x86_64")]
+const fn interleave_picks(from: i32) -> Picks {
+    let mut p = [0; 16];
+    let mut i = 0;
+    while i < 16 {
+        let f = (from + i as i32) % 24;
+        p[i] = 8 * (f % 3) + f / 3;
+        i += 1;
+    }
+    p
+}
+
+/// The picks of x, y and z of eight x y z w vectors.
+#[cfg(target_arch = "x86_64")]
+const COORDINATE_PICKS: [Picks; 3] = [
+    coordinate_picks(0),
+    coordinate_picks(1),
+    coordinate_picks(2),
+];
+
+/// The picks of the first 16 floats of eight interleaved `Vec3`s and of
+/// the last 8.
+#[cfg(target_arch = "x86_64")]
+const INTERLEAVE_PICKS: [Picks; 2] = [interleave_picks(0), interleave_picks(16)];
+
+/// Eight x y z w vectors (32 floats from `at`) as x, y and z: two loads and
+/// three two-table permutes (moves only).
+///
+/// # Safety
+/// The CPU has AVX-512F; `at` points to 32 readable floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[inline]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn coordinates_avx512(at: *const f32) -> [std::arch::x86_64::__m256; 3] {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract.
+    unsafe { coordinates_of(_mm512_loadu_ps(at), _mm512_loadu_ps(at.add(16))) }
+}
+
+/// [`coordinates_avx512`] of vectors in two registers, four in each.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx512f,avx2")]
+fn coordinates_of(
+    a: std::arch::x86_64::__m512,
+    b: std::arch::x86_64::__m512,
+) -> [std::arch::x86_64::__m256; 3] {
+    use std::arch::x86_64::*;
+    COORDINATE_PICKS.map(|p| {
+        // SAFETY: `p` is sixteen i32s, 64 readable bytes.
+        #[allow(unsafe_code)]
+        let picks = unsafe { _mm512_loadu_si512(p.as_ptr().cast()) };
+        _mm512_castps512_ps256(_mm512_permutex2var_ps(a, picks, b))
+    })
+}
+
+/// Eight vectors' x, y and z stored as 24 floats of `Vec3`s at `dst`: two
+/// two-table permutes (moves only), a 64-byte and a 32-byte store.
+///
+/// # Safety
+/// The CPU has AVX-512F; `dst` points to 24 writable floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[inline]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn interleave_avx512(
+    dst: *mut f32,
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
 ) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract.
+    unsafe {
+        let xy = _mm512_castpd_ps(_mm512_insertf64x4::<1>(
+            _mm512_castpd256_pd512(_mm256_castps_pd(x)),
+            _mm256_castps_pd(y),
+        ));
+        let z = _mm512_castps256_ps512(z);
+        let pick = |p: &Picks| {
+            let picks = _mm512_loadu_si512(p.as_ptr().cast());
+            _mm512_permutex2var_ps(xy, picks, z)
+        };
+        _mm512_storeu_ps(dst, pick(&INTERLEAVE_PICKS[0]));
+        _mm256_storeu_ps(
+            dst.add(16),
+            _mm512_castps512_ps256(pick(&INTERLEAVE_PICKS[1])),
+        );
+    }
+}
+
+/// [`write_out`] eight vectors at a time as [`write_out_avx2`] computes
+/// them, the transpose and the interleave by two-table permutes.
+///
+/// # Safety
+/// The CPU has AVX-512F and AVX2; `src` holds at least `4 out.len()`
+/// floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx512f,avx2")]
+unsafe fn write_out_avx512(src: &[f32], normalise: bool, turn: Turn, out: &mut [Vec3]) {
     use std::arch::x86_64::*;
     let n = out.len();
     let whole = n - n % LANES;
     // SAFETY: the caller's contract; `Vec3` is three f32 in a row
     // (`repr(C)`), so `out` is `3 n` floats.
     unsafe {
-        let mm = m.map(|v| _mm256_set1_ps(v));
-        let shift = shift.map(|s| s.map(|v| _mm256_set1_ps(v)));
+        let turn = turn.map(|(m, shift)| {
+            (
+                m.map(|v| _mm256_set1_ps(v)),
+                shift.map(|s| s.map(|v| _mm256_set1_ps(v))),
+            )
+        });
+        let (at, dst) = (src.as_ptr(), out.as_mut_ptr().cast::<f32>());
+        for k in (0..whole).step_by(LANES) {
+            let [mut x, mut y, mut z] = coordinates_avx512(at.add(POINT_FLOATS * k));
+            if normalise {
+                (x, y, z) = unit_avx2(x, y, z);
+            }
+            if let Some((mm, shift)) = turn {
+                (x, y, z) = turn_avx2(&mm, shift.as_ref(), x, y, z);
+            }
+            interleave_avx512(dst.add(3 * k), x, y, z);
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate().skip(whole) {
+        *o = out_one(&src[POINT_FLOATS * i..], normalise, turn);
+    }
+}
+
+/// Eight vectors of [`unit`] lane by lane: ((x x + y y) + z z), 1 / sqrt,
+/// the products; +Z where the sum is not above zero.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn unit_avx2(
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) -> (
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    // No fused multiply-add: the plain function rounds each product.
+    let len2 = _mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)),
+        _mm256_mul_ps(z, z),
+    );
+    let r = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
+    let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, zero);
+    (
+        _mm256_and_ps(positive, _mm256_mul_ps(x, r)),
+        _mm256_and_ps(positive, _mm256_mul_ps(y, r)),
+        _mm256_blendv_ps(one, _mm256_mul_ps(z, r), positive),
+    )
+}
+
+/// Eight vectors of [`turn_one`] lane by lane: the matrix's entries and
+/// the shift broadcast.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn turn_avx2(
+    mm: &[std::arch::x86_64::__m256; 9],
+    shift: Option<&[std::arch::x86_64::__m256; 3]>,
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) -> (
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    let row = |i: usize| {
+        let r = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(mm[i], x), _mm256_mul_ps(mm[i + 3], y)),
+            _mm256_mul_ps(mm[i + 6], z),
+        );
+        match shift {
+            Some(s) => _mm256_add_ps(r, s[i]),
+            None => r,
+        }
+    };
+    (row(0), row(1), row(2))
+}
+
+/// [`write_out`] eight vectors at a time: x y z w of vectors j and j + 4
+/// in the halves of a register, transposed into x, y and z (moves only);
+/// the normalisation of [`unit`] and the products and sums of
+/// [`turn_one`] lane by lane; then eight x, y and z interleaved into 24
+/// floats by permutes and blends (moves only). The last `n % 8` vectors
+/// one at a time.
+///
+/// # Safety
+/// The CPU has AVX2; `src` holds at least `4 out.len()` floats.
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2")]
+unsafe fn write_out_avx2(src: &[f32], normalise: bool, turn: Turn, out: &mut [Vec3]) {
+    use std::arch::x86_64::*;
+    let n = out.len();
+    let whole = n - n % LANES;
+    // SAFETY: the caller's contract; `Vec3` is three f32 in a row
+    // (`repr(C)`), so `out` is `3 n` floats.
+    unsafe {
+        let turn = turn.map(|(m, shift)| {
+            (
+                m.map(|v| _mm256_set1_ps(v)),
+                shift.map(|s| s.map(|v| _mm256_set1_ps(v))),
+            )
+        });
         // Which vector each float of the three stores comes from: the
         // stores hold x0 y0 z0 x1 y1 z1 x2 y2 | z2 x3 y3 z3 x4 y4 z4 x5 |
         // y5 z5 x6 y6 z6 x7 y7 z7.
@@ -475,22 +1086,27 @@ unsafe fn turn_into_avx2(
             _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5),
             _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7),
         ];
-        let dst = out.as_mut_ptr().cast::<f32>();
+        let (at, dst) = (src.as_ptr(), out.as_mut_ptr().cast::<f32>());
         for k in (0..whole).step_by(LANES) {
-            let a = _mm256_loadu_ps(cols[0].as_ptr().add(k));
-            let b = _mm256_loadu_ps(cols[1].as_ptr().add(k));
-            let c = _mm256_loadu_ps(cols[2].as_ptr().add(k));
-            let row = |i: usize| {
-                let r = _mm256_add_ps(
-                    _mm256_add_ps(_mm256_mul_ps(mm[i], a), _mm256_mul_ps(mm[i + 3], b)),
-                    _mm256_mul_ps(mm[i + 6], c),
-                );
-                match shift {
-                    Some(s) => _mm256_add_ps(r, s[i]),
-                    None => r,
-                }
-            };
-            let (x, y, z) = (row(0), row(1), row(2));
+            let l = |j: usize| _mm_loadu_ps(at.add(POINT_FLOATS * (k + j)));
+            let v = [0, 1, 2, 3].map(|j| _mm256_set_m128(l(j + 4), l(j)));
+            let (t0, t1) = (
+                _mm256_unpacklo_ps(v[0], v[1]),
+                _mm256_unpacklo_ps(v[2], v[3]),
+            );
+            let (t2, t3) = (
+                _mm256_unpackhi_ps(v[0], v[1]),
+                _mm256_unpackhi_ps(v[2], v[3]),
+            );
+            let mut x = _mm256_shuffle_ps::<0x44>(t0, t1);
+            let mut y = _mm256_shuffle_ps::<0xEE>(t0, t1);
+            let mut z = _mm256_shuffle_ps::<0x44>(t2, t3);
+            if normalise {
+                (x, y, z) = unit_avx2(x, y, z);
+            }
+            if let Some((mm, shift)) = turn {
+                (x, y, z) = turn_avx2(&mm, shift.as_ref(), x, y, z);
+            }
             let pick = |j: usize| {
                 (
                     _mm256_permutevar8x32_ps(x, from[j]),
@@ -511,152 +1127,7 @@ unsafe fn turn_into_avx2(
         }
     }
     for (i, o) in out.iter_mut().enumerate().skip(whole) {
-        *o = turn_one(m, shift, cols[0][i], cols[1][i], cols[2][i]);
-    }
-}
-
-/// The area pass one lane at a time (the reference of the AVX2 pass).
-fn areas_plain(corners: &[Vec<u32>; 3], xyz: &[Vec<f32>; 3], area: &mut [f32]) {
-    let p = |i: u32| [0, 1, 2].map(|c| xyz[c][i as usize]);
-    for k in 0..corners[0].len() {
-        let a = cross_of(p(corners[0][k]), p(corners[1][k]), p(corners[2][k]));
-        for c in 0..3 {
-            area[4 * k + c] = a[c];
-        }
-    }
-}
-
-/// The sum-and-normalise pass one lane at a time.
-fn sums_plain(groups: &[(u32, u32)], table: &[u32], area: &[f32], normal: &mut [Vec<f32>; 3]) {
-    for (g, &(start, width)) in groups.iter().enumerate() {
-        for lane in 0..LANES {
-            let mut sum = [0.0f32; 3];
-            for r in 0..width as usize {
-                let t = table[start as usize + r * LANES + lane] as usize;
-                for c in 0..3 {
-                    sum[c] += area[4 * t + c];
-                }
-            }
-            let n = unit(sum);
-            for c in 0..3 {
-                normal[c][g * LANES + lane] = n[c];
-            }
-        }
-    }
-}
-
-/// The area pass, eight triangles at a time.
-///
-/// # Safety
-/// The CPU has AVX2; every corner indexes each of `xyz`; the three corner
-/// columns hold as many values as the first, a multiple of eight, and
-/// `area` four times as many.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-#[target_feature(enable = "avx2")]
-unsafe fn areas_avx2(corners: &[Vec<u32>; 3], xyz: &[Vec<f32>; 3], area: &mut [f32]) {
-    use std::arch::x86_64::*;
-    let n = corners[0].len();
-    // SAFETY: the caller's contract (indices in range, lengths as said).
-    unsafe {
-        let load =
-            |c: usize, k: usize| _mm256_loadu_si256(corners[c].as_ptr().add(k).cast::<__m256i>());
-        let gather = |c: usize, i: __m256i| _mm256_i32gather_ps::<4>(xyz[c].as_ptr(), i);
-        for k in (0..n).step_by(LANES) {
-            let (ia, ib, ic) = (load(0, k), load(1, k), load(2, k));
-            let (ax, ay, az) = (gather(0, ia), gather(1, ia), gather(2, ia));
-            let e1 = [
-                _mm256_sub_ps(gather(0, ib), ax),
-                _mm256_sub_ps(gather(1, ib), ay),
-                _mm256_sub_ps(gather(2, ib), az),
-            ];
-            let e2 = [
-                _mm256_sub_ps(gather(0, ic), ax),
-                _mm256_sub_ps(gather(1, ic), ay),
-                _mm256_sub_ps(gather(2, ic), az),
-            ];
-            let cross = |i: usize, j: usize| {
-                _mm256_sub_ps(_mm256_mul_ps(e1[i], e2[j]), _mm256_mul_ps(e2[i], e1[j]))
-            };
-            // Eight x y z 0 in a row: a 4 x 8 transpose (moves only).
-            let (x, y, z, w) = (cross(1, 2), cross(2, 0), cross(0, 1), _mm256_setzero_ps());
-            let (t0, t1) = (_mm256_unpacklo_ps(x, y), _mm256_unpackhi_ps(x, y));
-            let (t2, t3) = (_mm256_unpacklo_ps(z, w), _mm256_unpackhi_ps(z, w));
-            // Triangles k and k + 4, k + 1 and k + 5, ... in the two halves.
-            let r0 = _mm256_shuffle_ps::<0x44>(t0, t2);
-            let r1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
-            let r2 = _mm256_shuffle_ps::<0x44>(t1, t3);
-            let r3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
-            let at = area.as_mut_ptr().add(4 * k);
-            _mm256_storeu_ps(at, _mm256_permute2f128_ps::<0x20>(r0, r1));
-            _mm256_storeu_ps(at.add(8), _mm256_permute2f128_ps::<0x20>(r2, r3));
-            _mm256_storeu_ps(at.add(16), _mm256_permute2f128_ps::<0x31>(r0, r1));
-            _mm256_storeu_ps(at.add(24), _mm256_permute2f128_ps::<0x31>(r2, r3));
-        }
-    }
-}
-
-/// The sum-and-normalise pass, eight vertices at a time.
-///
-/// # Safety
-/// The CPU has AVX2; every entry `t` of `table` has its four floats at
-/// `4 t` in `area`; each group's rows lie in `table`; each `normal` column
-/// holds eight values per group.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-#[target_feature(enable = "avx2")]
-unsafe fn sums_avx2(
-    groups: &[(u32, u32)],
-    table: &[u32],
-    area: &[f32],
-    normal: &mut [Vec<f32>; 3],
-) {
-    use std::arch::x86_64::*;
-    // SAFETY: the caller's contract (indices in range, lengths as said).
-    unsafe {
-        let zero = _mm256_setzero_ps();
-        let one = _mm256_set1_ps(1.0);
-        for (g, &(start, width)) in groups.iter().enumerate() {
-            // Lanes j and j + 4 summed as x y z 0 in the halves of acc[j]:
-            // a triangle's area vector in one load, each lane's sum the
-            // same additions in the same order; one transpose a group.
-            let mut acc = [zero; 4];
-            for r in 0..width as usize {
-                let at = table.as_ptr().add(start as usize + r * LANES);
-                let l = |j: usize| _mm_loadu_ps(area.as_ptr().add(4 * *at.add(j) as usize));
-                for (j, acc) in acc.iter_mut().enumerate() {
-                    *acc = _mm256_add_ps(*acc, _mm256_set_m128(l(j + 4), l(j)));
-                }
-            }
-            let (t0, t1) = (
-                _mm256_unpacklo_ps(acc[0], acc[1]),
-                _mm256_unpacklo_ps(acc[2], acc[3]),
-            );
-            let (t2, t3) = (
-                _mm256_unpackhi_ps(acc[0], acc[1]),
-                _mm256_unpackhi_ps(acc[2], acc[3]),
-            );
-            let sum = [
-                _mm256_shuffle_ps::<0x44>(t0, t1),
-                _mm256_shuffle_ps::<0xEE>(t0, t1),
-                _mm256_shuffle_ps::<0x44>(t2, t3),
-            ];
-            // No fused multiply-add: the plain function rounds each product.
-            let len2 = _mm256_add_ps(
-                _mm256_add_ps(_mm256_mul_ps(sum[0], sum[0]), _mm256_mul_ps(sum[1], sum[1])),
-                _mm256_mul_ps(sum[2], sum[2]),
-            );
-            let r = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
-            let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, zero);
-            let unit = [
-                _mm256_and_ps(positive, _mm256_mul_ps(sum[0], r)),
-                _mm256_and_ps(positive, _mm256_mul_ps(sum[1], r)),
-                _mm256_blendv_ps(one, _mm256_mul_ps(sum[2], r), positive),
-            ];
-            for c in 0..3 {
-                _mm256_storeu_ps(normal[c].as_mut_ptr().add(g * LANES), unit[c]);
-            }
-        }
+        *o = out_one(&src[POINT_FLOATS * i..], normalise, turn);
     }
 }
 
@@ -711,8 +1182,9 @@ mod tests {
         out
     }
 
-    /// Both passes (AVX2 where the CPU has it, and one lane at a time) give
-    /// the plain function's normals bit for bit, also after the points moved.
+    /// Both passes (AVX2 where the CPU has it, and one vector at a time)
+    /// give the plain function's normals bit for bit, also after the points
+    /// moved.
     #[test]
     fn agrees_bit_for_bit_with_the_plain_function() {
         let mut r = rng(7);
@@ -723,11 +1195,10 @@ mod tests {
             for _ in 0..2 {
                 let want = bits(&crate::triangle_vertex_normals(&positions, &tris));
                 for cpu in [None, avx2()] {
-                    normals.normals_by_coordinate(&positions, &mut scratch, cpu);
-                    let [x, y, z] = &scratch.normal;
-                    let got: Vec<Vec3> = (0..positions.len())
-                        .map(|v| Vec3::new(x[v], y[v], z[v]))
-                        .collect();
+                    scratch.take_points(&normals, &positions);
+                    normals.sums(cpu, &mut scratch);
+                    let mut got = vec![Vec3::NAN; positions.len()];
+                    write_out(cpu, &scratch.sum, true, None, &mut got);
                     assert_eq!(bits(&got), want, "{} points, {cpu:?}", positions.len());
                 }
                 let mut out = vec![Vec3::X; 3];
@@ -740,24 +1211,9 @@ mod tests {
         }
     }
 
-    /// The rigid motion turns points and normals as the plain code would
-    /// (both turn passes: AVX2 where the CPU has it, and the plain one).
+    /// The rigid motion turns points and normals as the plain code would.
     #[test]
     fn a_rigid_motion_turns_points_and_normals() {
-        let m = Mat3::from_quat(glam::Quat::from_rotation_x(-1.1)).to_cols_array();
-        for cpu in [None, avx2()] {
-            let cols = [
-                vec![1.0, -0.0, 3.5],
-                vec![0.25, 2.0, -0.0],
-                vec![-7.0, 0.5, 0.0],
-            ];
-            let want: Vec<Vec3> = (0..3)
-                .map(|k| Mat3::from_cols_array(&m) * Vec3::new(cols[0][k], cols[1][k], cols[2][k]))
-                .collect();
-            let mut got = vec![Vec3::NAN; 3];
-            turn_into(cpu, &cols, &m, None, &mut got);
-            assert_eq!(bits(&got), bits(&want), "{cpu:?}");
-        }
         let rotation = Mat3::from_quat(glam::Quat::from_rotation_y(0.7));
         let shift = Vec3::new(1.0, -2.0, 0.5);
         for (positions, tris) in cases() {
@@ -770,13 +1226,13 @@ mod tests {
             let (mut moved, mut got) = (positions.clone(), Vec::new());
             let mut scratch = NormalsScratch::default();
             normals.moved_into(&mut moved, rotation, shift, &mut scratch, &mut got);
-            assert_eq!((moved, got), (want_p, want_n));
+            assert_eq!((bits(&moved), bits(&got)), (bits(&want_p), bits(&want_n)));
         }
     }
 
-    /// Points written by coordinate give what the same points given as
-    /// `Vec3`s give, bit for bit, and displacements added lane by lane
-    /// what `p += d * t` gives (signed zeros, NaN and infinities among them).
+    /// Points written as x y z w give what the same points given as `Vec3`s
+    /// give, bit for bit, and displacements added lane by lane what
+    /// `p += d * t` gives (signed zeros, NaN and infinities among them).
     #[test]
     fn points_by_coordinate_move_as_points_do() {
         let rotation = Mat3::from_quat(glam::Quat::from_rotation_z(2.3));
@@ -803,13 +1259,13 @@ mod tests {
             );
             for mut scratch in [scratch, NormalsScratch::default()] {
                 let lanes = scratch.points_mut(&normals);
-                for (c, lane) in lanes.into_iter().enumerate() {
-                    for (x, p) in lane.iter_mut().zip(&positions) {
-                        *x = p[c];
-                    }
-                    let dc: Vec<f32> = d.iter().map(|d| d[c]).collect();
-                    add_scaled(lane, &dc, t);
+                assert_eq!(lanes.len(), POINT_FLOATS * positions.len());
+                // The fourth float of each point left as it was: never read.
+                for (q, p) in lanes.chunks_exact_mut(POINT_FLOATS).zip(&positions) {
+                    q[..3].copy_from_slice(&p.to_array());
                 }
+                let dc: Vec<f32> = d.iter().flat_map(|d| [d.x, d.y, d.z, -0.0]).collect();
+                add_scaled(lanes, &dc, t);
                 let (mut got_p, mut got_n) = (vec![Vec3::X], Vec::new());
                 normals.moved_from_lanes(rotation, shift, &mut scratch, &mut got_p, &mut got_n);
                 assert_eq!(bits(&got_p), bits(&want_p), "{} points", positions.len());
@@ -841,32 +1297,171 @@ mod tests {
         }
     }
 
-    /// The AVX2 turn (eight at a time, interleaved by permutes) writes what
-    /// the plain one writes, for every count up to a few blocks and a tail.
+    /// A way out's kernel.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    type Kernel = unsafe fn(&[f32], bool, Turn, &mut [Vec3]);
+
+    /// The AVX2 way out (eight at a time, transposed in, interleaved out)
+    /// writes what the plain one writes, for every count up to a few blocks
+    /// and a tail, normalised or not, turned, shifted or neither (zero and
+    /// NaN sums, signed zeros and garbage in the fourth floats among them).
     #[test]
-    fn the_turn_into_vec3s_is_the_plain_one() {
+    fn the_way_out_is_the_plain_one() {
         let mut r = rng(3);
         let m = Mat3::from_quat(glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -1.2, 2.0))
             .to_cols_array();
         for n in 0..=27 {
-            let cols = [0, 1, 2].map(|c| {
-                let mut v: Vec<f32> = (0..n).map(|_| r() - 0.5).collect();
-                if n > c {
-                    v[c] = -0.0;
+            let mut src: Vec<f32> = (0..POINT_FLOATS * n).map(|_| r() - 0.5).collect();
+            for (k, v) in src.chunks_exact_mut(POINT_FLOATS).enumerate() {
+                match k % 5 {
+                    0 => v[..3].copy_from_slice(&[0.0, -0.0, 0.0]),
+                    1 => v[k % 3] = -0.0,
+                    2 => v[1] = f32::NAN,
+                    _ => v[3] = f32::INFINITY,
                 }
-                v.resize(n.next_multiple_of(LANES), f32::NAN); // padding never read
-                v
-            });
-            for shift in [None, Some([0.5, -0.0, -2.0])] {
-                let mut want = vec![Vec3::ZERO; n];
-                turn_plain(&cols, &m, shift, &mut want);
-                for cpu in [None, avx2()] {
-                    let mut got = vec![Vec3::NAN; n];
-                    turn_into(cpu, &cols, &m, shift, &mut got);
-                    assert_eq!(bits(&got), bits(&want), "{n} vectors, {shift:?}, {cpu:?}");
+            }
+            src.extend([f32::NAN; 5]); // beyond the vectors: never read
+            for normalise in [false, true] {
+                for turn in [None, Some((&m, None)), Some((&m, Some([0.5, -0.0, -2.0])))] {
+                    let mut want = vec![Vec3::ZERO; n];
+                    write_plain(&src, normalise, turn, &mut want);
+                    for cpu in [None, avx2()] {
+                        let mut got = vec![Vec3::NAN; n];
+                        write_out(cpu, &src, normalise, turn, &mut got);
+                        let at = format!("{n} vectors, {normalise}, {turn:?}, {cpu:?}");
+                        assert_eq!(bits(&got), bits(&want), "{at}");
+                    }
+                    // Each kernel, whichever `write_out` picks here.
+                    #[cfg(target_arch = "x86_64")]
+                    #[allow(unsafe_code)]
+                    for kernel in [
+                        avx2().map(|_| write_out_avx2 as Kernel),
+                        avx512().map(|_| write_out_avx512 as Kernel),
+                    ]
+                    .into_iter()
+                    .flatten()
+                    {
+                        let mut got = vec![Vec3::NAN; n];
+                        // SAFETY: each kernel only where the CPU has what
+                        // it needs; `src` holds four floats a vector.
+                        unsafe { kernel(&src[..], normalise, turn, &mut got[..]) };
+                        let at = format!("{n} vectors, {normalise}, {turn:?}, {kernel:?}");
+                        assert_eq!(bits(&got), bits(&want), "{at}");
+                    }
                 }
             }
         }
+    }
+
+    /// The last displacements added as the points are moved out give what
+    /// adding them lane by lane and then moving the points give, bit for
+    /// bit, with every kernel (one point at a time, AVX2, AVX-512 where
+    /// the CPU has them), for none to six stages, from the lanes or from a
+    /// base, over counts with and without a tail.
+    #[test]
+    fn adding_as_the_points_move_out_is_adding_then_moving() {
+        let rotation = Mat3::from_quat(glam::Quat::from_rotation_x(0.9));
+        let shift = Vec3::new(0.25, -1.0, 3.0);
+        let m = rotation.to_cols_array();
+        let mut r = rng(5);
+        for (positions, tris) in cases() {
+            let n = positions.len();
+            let normals = VertexNormals::new(&tris, n);
+            let lanes: Vec<f32> = positions
+                .iter()
+                .flat_map(|p| [p.x, p.y, p.z, 0.0])
+                .collect();
+            let ds: Vec<Vec<f32>> = (0..6)
+                .map(|_| {
+                    let d = |k: usize| if k % 4 == 3 { -0.0 } else { r() - 0.5 };
+                    (0..4 * n).map(d).collect()
+                })
+                .collect();
+            let ts = [0.3, 0.0, 1.0, 0.7, -0.0, 0.5];
+            for count in [0, 1, 2, 3, 4, 6] {
+                let stages: Vec<(&[f32], f32)> = ds
+                    .iter()
+                    .zip(ts)
+                    .take(count)
+                    .map(|(d, t)| (&d[..], t))
+                    .collect();
+                let mut want = lanes.clone();
+                for (d, t) in &stages {
+                    add_scaled(&mut want, d, *t);
+                }
+                let points: Vec<Vec3> = want
+                    .chunks_exact(4)
+                    .map(|q| Vec3::new(q[0], q[1], q[2]))
+                    .collect();
+                let want_p: Vec<Vec3> = points.iter().map(|p| rotation * *p + shift).collect();
+                let want_n: Vec<Vec3> = crate::triangle_vertex_normals(&points, &tris)
+                    .iter()
+                    .map(|v| rotation * *v)
+                    .collect();
+                for from_base in [false, true] {
+                    let base = from_base.then_some(&lanes[..]);
+                    let start = || match from_base {
+                        true => vec![f32::NAN; 4 * n],
+                        false => lanes.clone(),
+                    };
+                    for (cpu, wide) in [(None, None), (avx2(), None), (avx2(), avx512())] {
+                        let (mut p, mut out) = (start(), vec![Vec3::NAN; n]);
+                        add_moved(
+                            cpu,
+                            wide,
+                            &mut p,
+                            base,
+                            &stages,
+                            &m,
+                            shift.to_array(),
+                            &mut out,
+                        );
+                        let at =
+                            format!("{n} points, {count} stages, {from_base}, {cpu:?} {wide:?}");
+                        let lane_bits =
+                            |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(lane_bits(&p), lane_bits(&want), "{at}");
+                        assert_eq!(bits(&out), bits(&want_p), "{at}");
+                    }
+                    let mut scratch = NormalsScratch::default();
+                    scratch.points_mut(&normals).copy_from_slice(&start());
+                    let (mut got_p, mut got_n) = (vec![Vec3::X; 2], Vec::new());
+                    normals.moved_from_lanes_adding(
+                        base,
+                        &stages,
+                        rotation,
+                        shift,
+                        &mut scratch,
+                        &mut got_p,
+                        &mut got_n,
+                    );
+                    assert_eq!(bits(&got_p), bits(&want_p), "{n} points, {count} stages");
+                    assert_eq!(bits(&got_n), bits(&want_n), "{n} points, {count} stages");
+                }
+            }
+        }
+    }
+
+    /// Cache-aligned floats start on a line, keep what they held as they
+    /// grow or shrink, and fill what is new.
+    #[test]
+    fn cache_aligned_floats_keep_their_values() {
+        let mut a = CacheAligned::from(vec![1.0, -0.0, 3.0]);
+        assert_eq!(
+            a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            [1.0f32, -0.0, 3.0].map(f32::to_bits)
+        );
+        for len in [3, 40, 17, 0, 5] {
+            let before: Vec<f32> = a.to_vec();
+            a.resize(len, 9.0);
+            assert_eq!(a.len(), len);
+            assert_eq!(a.as_ptr() as usize % 64, 0, "{len} floats");
+            let kept = before.len().min(len);
+            assert_eq!(a[..kept], before[..kept]);
+            assert!(a[kept..].iter().all(|&x| x == 9.0));
+        }
+        assert!(CacheAligned::default().is_empty());
     }
 
     /// Positions of another length go to the plain function, over the

@@ -164,26 +164,27 @@ pub struct Object {
     pub contact: Option<Contact>,
     /// The mesh's faces as triangles, for the normals of every frame.
     pub triangles: Vec<[u32; 3]>,
-    /// The triangles around each vertex, prepared once: a frame's normals
-    /// without the scatter of the plain function (the same values).
+    /// The triangles, prepared once for the normals' passes of every frame
+    /// (the plain function's values, faster).
     pub normals: csrbf_mesh::VertexNormals,
-    /// The rest mesh and the stages' displacements by coordinate, prepared
+    /// The rest mesh and the stages' displacements as x y z w, prepared
     /// once from `mesh` and `deformations` (rebuild it with
     /// [`RestLanes::new`] if they change): a frame builds its points in the
     /// normals' lanes from them (the same values).
     pub lanes: RestLanes,
 }
 
-/// An object's rest points by coordinate and, for each of its stages that
+/// An object's rest points as x y z 0 and, for each of its stages that
 /// moves many vertices, its displacement over all of them: what a frame
 /// adds in the lanes its normals read ([`RestLanes::new`]).
 #[derive(Clone, Debug, Default)]
 pub struct RestLanes {
-    /// Rest positions by coordinate.
-    rest: [Vec<f32>; 3],
+    /// Rest positions as x y z 0 ([`csrbf_mesh::POINT_FLOATS`] floats a
+    /// vertex, as the normals take them).
+    rest: csrbf_mesh::CacheAligned,
     /// Per stage of every deformation, in order: its displacement at every
-    /// vertex by coordinate, or None where it is scattered to its vertices.
-    dense: Vec<Option<[Vec<f32>; 3]>>,
+    /// vertex as x y z -0, or None where it is scattered to its vertices.
+    dense: Vec<Option<csrbf_mesh::CacheAligned>>,
 }
 
 impl Object {
@@ -320,6 +321,8 @@ pub struct FrameObject {
     scratch: csrbf_mesh::NormalsScratch,
     /// A chained control file's buffers, kept between frames.
     chain: ChainScratch,
+    /// Each deformation's phase at this frame's time.
+    phases: Vec<f32>,
 }
 
 /// Buffers of a chained control file's frame: the points as its stages
