@@ -31,8 +31,8 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::{BLOCK, Binding, Cell, LEVEL_BYTES, LEVEL_TAIL, Levels};
-use crate::deformation::Deformation;
-use crate::evaluate::{PARALLEL_POINTS, Scatter};
+use crate::deformation::{Deformation, Linear};
+use crate::evaluate::{PARALLEL_POINTS, Point, Scatter};
 use crate::simd::Avx2Fma;
 
 /// f32 values per block of the coefficient table: x, y, z of eight candidates.
@@ -110,27 +110,23 @@ fn cell(
             s.table.push(lanes);
         }
     }
-    let base = c.point;
-    let place = |k: usize| b.order.as_ref().map_or(base + k, |o| o[base + k] as usize);
-    let put = |k: usize, v: Vec3| {
-        // SAFETY: place `base + k` belongs to this cell alone, and `order`
-        // maps places to points one to one (a permutation, see `Blocks`).
-        #[allow(unsafe_code)]
-        unsafe {
-            out.write(place(k), v)
+    let cell = c.point..c.point + c.points;
+    // The cell's places in the caller's order (`None`: they are its own).
+    let places = b.order.as_deref().map(|o| &o[cell.clone()]);
+    let linear = d.affine().map(|a| a.linear());
+    let ahead = |from: usize| {
+        if let Some(p) = places {
+            for &i in &p[from.min(c.points)..(from + CHUNK).min(c.points)] {
+                out.prefetch(i as usize);
+            }
         }
     };
-    let linear = d.affine().map(|a| a.linear());
+    ahead(0);
     let mut used = 0;
-    for k in 0..CHUNK.min(c.points) {
-        out.prefetch(place(k));
-    }
     for first in (0..c.points).step_by(CHUNK) {
         let n = CHUNK.min(c.points - first);
         // The next chunk's places are fetched while this one sums.
-        for k in first + CHUNK..(first + 2 * CHUNK).min(c.points) {
-            out.prefetch(place(k));
-        }
+        ahead(first + CHUNK);
         s.sums.clear();
         s.sums.resize(n, DVec3::ZERO);
         let rows = &g.masks[c.mask + first * c.blocks..c.mask + (first + n) * c.blocks];
@@ -142,25 +138,58 @@ fn cell(
             flat(&s.table),
             &mut s.sums,
         );
-        let sums = s.sums.iter().enumerate().map(|(k, v)| (first + k, *v));
-        match (&b.rest, linear) {
-            (_, None) => sums.for_each(|(k, sum)| put(k, sum.as_vec3())),
-            (super::Rest::F32(p), Some(l)) => {
-                sums.for_each(|(k, sum)| put(k, (l.eval(p[base + k].as_dvec3()) + sum).as_vec3()));
-            }
-            (super::Rest::F64(p), Some(l)) => {
-                sums.for_each(|(k, sum)| put(k, (l.eval(p[base + k]) + sum).as_vec3()));
-            }
+        let chunk = Chunk {
+            sums: &s.sums,
+            places: places.map(|p| &p[first..first + n]),
+            first: cell.start + first,
+        };
+        match &b.rest {
+            super::Rest::F32(p) => chunk.write(&p[chunk.first..chunk.first + n], linear, out),
+            super::Rest::F64(p) => chunk.write(&p[chunk.first..chunk.first + n], linear, out),
         }
     }
     // Points with a non-finite coordinate (no hits; rare) get NaN.
-    let last = base + c.points;
-    let from = b.nonfinite.partition_point(|&k| (k as usize) < base);
+    let from = b.nonfinite.partition_point(|&k| (k as usize) < cell.start);
     for &k in b.nonfinite[from..]
         .iter()
-        .take_while(|&&k| (k as usize) < last)
+        .take_while(|&&k| cell.contains(&(k as usize)))
     {
-        put(k as usize - base, Vec3::NAN);
+        let i = places.map_or(k as usize, |p| p[k as usize - cell.start] as usize);
+        // SAFETY: as in `Chunk::write`.
+        #[allow(unsafe_code)]
+        unsafe {
+            out.write(i, Vec3::NAN)
+        };
+    }
+}
+
+/// A chunk of a cell's points: their kernel sums, their places in the
+/// caller's order (`None`: their own, from `first`).
+struct Chunk<'a> {
+    sums: &'a [DVec3],
+    places: Option<&'a [u32]>,
+    first: usize,
+}
+
+impl Chunk<'_> {
+    /// Writes each point's displacement (its sum, and the polynomial part at
+    /// `rest`, the chunk's points) at its place in `out`.
+    #[inline(always)]
+    fn write<P: Point>(&self, rest: &[P], linear: Option<Linear>, out: &Scatter<'_, Vec3>) {
+        let place = |k: usize| self.places.map_or(self.first + k, |p| p[k] as usize);
+        for (k, (x, sum)) in rest.iter().zip(self.sums).enumerate() {
+            let v = match linear {
+                Some(l) => l.eval(x.to_dvec3()) + *sum,
+                None => *sum,
+            };
+            // SAFETY: each place belongs to this chunk's cell alone, and
+            // `order` maps places to points one to one (a permutation, see
+            // `Blocks`).
+            #[allow(unsafe_code)]
+            unsafe {
+                out.write(place(k), v.as_vec3())
+            };
+        }
     }
 }
 
