@@ -218,7 +218,9 @@ impl Factor {
                     par,
                     MemStack::new(&mut mem),
                 );
-                clear_upper_vector_state();
+                // The solve ran on this thread alone: no need to wake the
+                // pool's workers (`clear_upper_vector_state` would).
+                clear_upper_vector_state_here();
                 for (i, v) in b.iter_mut().enumerate().take(n) {
                     for k in 0..T::LANES {
                         v.set_lane(k, m[(i, k)]);
@@ -259,6 +261,15 @@ pub(crate) fn clear_upper_vector_state() {
             rayon::broadcast(|_| zero_upper());
             zero_upper();
         }
+    }
+}
+
+/// [`clear_upper_vector_state`] on the calling thread only, after faer ran
+/// on it alone (`Par::Seq`).
+fn clear_upper_vector_state_here() {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        zero_upper();
     }
 }
 
