@@ -3,8 +3,8 @@
 //! one of `csrbf::synthetic::SCENES`, default 1m). Prints the medians of
 //! bind, solve, refit through the binding (without the solve) and evaluate,
 //! the binding's size, and the largest difference between the binding and
-//! the f64 evaluation. `BIND_ONLY`, `REFIT_ONLY` or `EVALUATE_ONLY` set: that
-//! phase alone.
+//! the f64 evaluation. `BIND_ONLY` (bind, then re-bind reusing the memory),
+//! `REFIT_ONLY` or `EVALUATE_ONLY` set: that phase alone.
 
 use csrbf::synthetic::scene;
 use csrbf::{Binding, System};
@@ -49,6 +49,9 @@ fn main() -> Result<(), csrbf::Error> {
     if std::env::var_os("BIND_ONLY").is_some() {
         let (ms, b) = median(reps, || Binding::new(&d, &s.points));
         println!("bind {ms:.2} ms, {} pairs", b.pairs());
+        let mut b = b;
+        let (ms, _) = median(reps, || b.rebind(&d, &s.points));
+        println!("rebind {ms:.2} ms, {} pairs", b.pairs());
         return Ok(());
     }
     let (bind_ms, binding) = median(reps.min(3), || Binding::new(&d, &s.points));

@@ -628,7 +628,15 @@ impl Pipeline {
             };
             let (active, weights) = s.stage.region.weights(&self.rest, &lookup)?;
             let pts: Vec<Vec3> = active.iter().map(|&k| bind_input[k as usize]).collect();
-            let binding = Binding::new(def, &pts);
+            // The stale binding's memory is reused (no fresh pages to fault
+            // in, and no two bindings of the stage at once).
+            let binding = match s.binding.take() {
+                Some(Bound { mut binding, .. }) => {
+                    binding.rebind(def, &pts);
+                    binding
+                }
+                None => Binding::new(def, &pts),
+            };
             s.binding = Some(Bound {
                 key: bkey,
                 active,

@@ -19,28 +19,35 @@ use crate::simd::Avx2Fma;
 /// Marks a padding candidate in `ids` (no start has this index).
 pub(super) const PADDING: u32 = u32::MAX;
 
-pub(super) fn dispatch<P: Point>(support: &Support<'_>, points: &[P]) -> Binding {
+/// Builds a binding; `recycled` are groups of an earlier binding whose
+/// arrays (already in memory, their pages touched) the new groups reuse.
+pub(super) fn dispatch<P: Point>(
+    support: &Support<'_>,
+    points: &[P],
+    recycled: Vec<Group>,
+) -> Binding {
     match P::slice(points) {
-        Points::F32(p) => of_f32(support, p),
-        Points::F64(p) => of_f64(support, p),
+        Points::F32(p) => of_f32(support, p, recycled),
+        Points::F64(p) => of_f64(support, p, recycled),
     }
 }
 
 // The hot loops, compiled here (not in the caller's crate) for each kind.
 #[inline(never)]
-fn of_f32(support: &Support<'_>, points: &[Vec3]) -> Binding {
-    build(support, points, Rest::F32)
+fn of_f32(support: &Support<'_>, points: &[Vec3], recycled: Vec<Group>) -> Binding {
+    build(support, points, Rest::F32, recycled)
 }
 
 #[inline(never)]
-fn of_f64(support: &Support<'_>, points: &[DVec3]) -> Binding {
-    build(support, points, Rest::F64)
+fn of_f64(support: &Support<'_>, points: &[DVec3], recycled: Vec<Group>) -> Binding {
+    build(support, points, Rest::F64, recycled)
 }
 
 fn build<P: Point>(
     support: &Support<'_>,
     points: &[P],
     kind: impl FnOnce(Vec<P>) -> Rest,
+    mut recycled: Vec<Group>,
 ) -> Binding {
     let blocks = Blocks::for_starts(points, support.radius, support.starts);
     let parallel = points.len() >= PARALLEL_POINTS;
@@ -50,12 +57,15 @@ fn build<P: Point>(
         1
     };
     let ranges = group_ranges(&blocks.cells, tasks);
-    let make = |scratch: &mut (Candidates, Lanes), (k, range): (usize, Range<usize>)| {
-        group(support, points, &blocks, k, range, scratch)
+    recycled.resize_with(ranges.len(), Group::default);
+    let make = |scratch: &mut (Candidates, Lanes),
+                (k, (range, g)): (usize, (Range<usize>, Group))| {
+        group(support, points, &blocks, k, range, g, scratch)
     };
     let made: Vec<(Group, Vec<Cell>, usize)> = if parallel {
         ranges
             .into_par_iter()
+            .zip(recycled)
             .enumerate()
             .map_init(Default::default, make)
             .collect()
@@ -63,6 +73,7 @@ fn build<P: Point>(
         let mut scratch = Default::default();
         ranges
             .into_iter()
+            .zip(recycled)
             .enumerate()
             .map(|r| make(&mut scratch, r))
             .collect()
@@ -152,6 +163,7 @@ fn group<P: Point>(
     blocks: &Blocks,
     k: usize,
     range: Range<usize>,
+    mut g: Group,
     (cand, lanes): &mut (Candidates, Lanes),
 ) -> (Group, Vec<Cell>, usize) {
     let cpu = Avx2Fma::detect();
@@ -160,7 +172,10 @@ fn group<P: Point>(
             .iter()
             .map(|&i| points[i as usize].to_dvec3())
     };
-    let mut g = Group::default();
+    // A recycled group's arrays keep their memory.
+    g.ids.clear();
+    g.masks.clear();
+    g.levels.clear();
     let mut cells = Vec::with_capacity(range.len());
     let mut hits = 0;
     let group_points: usize = blocks.cells[range.clone()].iter().map(|c| c.1 - c.0).sum();

@@ -166,7 +166,27 @@ impl Binding {
             starts: deformation.starts().len(),
             fingerprint: deformation.fingerprint(),
         };
-        build::dispatch(&support, points)
+        build::dispatch(&support, points, Vec::new())
+    }
+
+    /// Makes this binding anew for the starts of `deformation` and `points`,
+    /// as [`Binding::new`] does, reusing its memory: the arrays of weights
+    /// stay allocated (their pages in memory), so a re-bind after the
+    /// control set changed (a studio's edit, a [`crate::Pipeline`]'s stage)
+    /// does not fault fresh memory in, and two bindings never coexist.
+    pub fn rebind<P: Point>(&mut self, deformation: &Deformation, points: &[P]) {
+        let support = Support {
+            octree: deformation.octree(),
+            kernel: deformation.kernel(),
+            radius: deformation.radius(),
+            starts: deformation.starts().len(),
+            fingerprint: deformation.fingerprint(),
+        };
+        let groups = std::mem::take(&mut self.groups);
+        // The points' copy and order go first: only the groups are reused.
+        self.rest = Rest::F32(Vec::new());
+        self.order = None;
+        *self = build::dispatch(&support, points, groups);
     }
 
     /// Binds to a system's starts ([`crate::System::bind`]).
@@ -178,7 +198,7 @@ impl Binding {
             starts: shared.starts.len(),
             fingerprint: shared.fingerprint,
         };
-        build::dispatch(&support, points)
+        build::dispatch(&support, points, Vec::new())
     }
 
     /// Number of points bound.

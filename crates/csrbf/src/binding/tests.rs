@@ -236,6 +236,44 @@ fn a_binding_agrees_where_nearby_starts_pull_apart() {
     }
 }
 
+/// A re-bind, reusing an earlier binding's memory (other starts, more or
+/// fewer points, f32 or f64), gives what a new binding gives, bit for bit,
+/// and refuses the deformations of the starts it was bound to before.
+#[test]
+fn a_rebind_is_a_new_binding() {
+    let mut rng = Rng::new(24);
+    let mut fit = |n: usize| {
+        let s: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
+        let t: Vec<DVec3> = s.iter().map(|p| *p + rng.vec3() * 0.02).collect();
+        Deformation::fit(&s, &t, FitOptions::new(0.2)).expect("fit")
+    };
+    let (d1, d2) = (fit(300), fit(500));
+    let mut rng = Rng::new(25);
+    let many: Vec<Vec3> = (0..6000).map(|_| rng.vec3().as_vec3()).collect();
+    let few: Vec<DVec3> = (0..700).map(|_| rng.vec3()).collect();
+    let mut b = Binding::new(&d1, &many);
+    b.rebind(&d2, &few);
+    let want = Binding::new(&d2, &few);
+    assert_eq!(
+        b.displacements(&d2).expect("d2"),
+        want.displacements(&d2).expect("d2")
+    );
+    assert_eq!(
+        (b.len(), b.pairs(), b.bytes()),
+        (want.len(), want.pairs(), want.bytes())
+    );
+    assert!(b.displacements(&d1).is_err(), "bound to d2's starts now");
+    b.rebind(&d1, &many);
+    let want = Binding::new(&d1, &many);
+    assert_eq!(
+        b.displacements(&d1).expect("d1"),
+        want.displacements(&d1).expect("d1")
+    );
+    assert_eq!((b.len(), b.pairs()), (want.len(), want.pairs()));
+    b.rebind(&d1, &[] as &[Vec3]);
+    assert!(b.is_empty() && b.displacements(&d1).expect("none").is_empty());
+}
+
 /// No points, and points beyond every start's reach (cells with no hit),
 /// bind and give empty or zero displacements.
 #[test]
