@@ -153,20 +153,26 @@ struct Support<'a> {
     fingerprint: u64,
 }
 
+impl<'a> Support<'a> {
+    /// The support of a deformation's starts.
+    fn of(deformation: &'a Deformation) -> Support<'a> {
+        Support {
+            octree: deformation.octree(),
+            kernel: deformation.kernel(),
+            radius: deformation.radius(),
+            starts: deformation.starts().len(),
+            fingerprint: deformation.fingerprint(),
+        }
+    }
+}
+
 impl Binding {
     /// Finds, for every point, the starts of `deformation` within R and their
     /// weights. Only the starts, kernel and R matter: any deformation solved
     /// from the same [`crate::System`] can then be applied through it
     /// ([`crate::System::bind`] binds without a solve).
     pub fn new<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
-        let support = Support {
-            octree: deformation.octree(),
-            kernel: deformation.kernel(),
-            radius: deformation.radius(),
-            starts: deformation.starts().len(),
-            fingerprint: deformation.fingerprint(),
-        };
-        build::dispatch(&support, points, Vec::new())
+        build::dispatch(&Support::of(deformation), points, Vec::new())
     }
 
     /// Makes this binding anew for the starts of `deformation` and `points`,
@@ -175,18 +181,11 @@ impl Binding {
     /// control set changed (a studio's edit, a [`crate::Pipeline`]'s stage)
     /// does not fault fresh memory in, and two bindings never coexist.
     pub fn rebind<P: Point>(&mut self, deformation: &Deformation, points: &[P]) {
-        let support = Support {
-            octree: deformation.octree(),
-            kernel: deformation.kernel(),
-            radius: deformation.radius(),
-            starts: deformation.starts().len(),
-            fingerprint: deformation.fingerprint(),
-        };
         let groups = std::mem::take(&mut self.groups);
         // The points' copy and order go first: only the groups are reused.
         self.rest = Rest::F32(Vec::new());
         self.order = None;
-        *self = build::dispatch(&support, points, groups);
+        *self = build::dispatch(&Support::of(deformation), points, groups);
     }
 
     /// Binds to a system's starts ([`crate::System::bind`]).
