@@ -189,11 +189,13 @@ impl PyBinding {
     /// Binds `points` ((N, 3)) to the starts of `deformation` (a
     /// Deformation or a System). Results have the points' dtype (float32
     /// stays float32). The weights are kept in 24-bit fixed point (within
-    /// 3e-8 of the kernel's peak), about 3.2 bytes a point-start pair, and
-    /// summed in float32: displacements agree with
-    /// `Deformation.displacements` to about 1e-7 of the sum of
-    /// |coefficient| x weight within R (a few times 1e-6 of the largest move
-    /// where nearby starts pull in opposite directions).
+    /// 3e-8 of the kernel's peak; about 3.3 bytes a point-start pair and 15
+    /// a point, 27 with float64 points) and summed in float32, for float64
+    /// points too: displacements agree with `Deformation.displacements` to
+    /// about 1e-7 of the sum of |coefficient| over the starts within R. That
+    /// is 1e-7 to 1e-6 of the largest move on real meshes, and more where
+    /// nearby starts pull in opposite directions (their coefficients exceed
+    /// the move: about 1e-5 of it with two starts 3 % of R apart).
     #[new]
     fn new(
         py: Python<'_>,

@@ -761,9 +761,7 @@ pub(crate) fn deformation_index(stages: &[FittedStage], at: usize) -> usize {
 ///
 /// It evaluates in f64 and rounds once; a [`Pipeline`] goes through a
 /// [`Binding`] (24-bit weights, f32 sums), so the two differ by about 1e-7
-/// of the sum of |coefficient| x weight within R: 6e-8 of the largest move
-/// on the bundled models, a few times 1e-6 of it where nearby starts pull
-/// in opposite directions.
+/// of the sum of |coefficient| over the starts within R (see [`Binding`]).
 pub fn compose(rest: &[Vec3], stages: &[FittedStage], combine: Combine) -> Result<Vec<Vec3>> {
     compose_traced(rest, stages, combine, &|_| None, None)
 }
