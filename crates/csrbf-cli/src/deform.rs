@@ -145,7 +145,7 @@ pub(crate) fn move_and_write(
     // The stages' phases were scaled by `phase`: the fold phase is a share of it.
     let fold_phase = report.fold_phase.map(|s| s * phase);
     progress.say(format_args!(
-        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved, largest move {:.6}{}, {} face(s) inside out{}, {}, {}",
+        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved (by more than 1e-6 of the diagonal), largest move {:.6}{}, {} face(s) inside out{}, {}, {}",
         m.positions.len(),
         report.moved,
         report.largest_move,

@@ -52,7 +52,8 @@ pub enum Error {
     /// A binding used with a deformation fitted to other starts, kernel or
     /// radius (their fingerprints differ): its weights would be wrong.
     #[error(
-        "the binding was made for other starts than this deformation's (bound: {bound_starts} starts, kernel {bound_kernel}, R {bound_radius}; given: {starts} starts, kernel {kernel}, R {radius}; the starts' fingerprints differ): bind again, or solve from the system the binding came from"
+        "{}: bind again, or solve from the system the binding came from",
+        mismatch(*.bound_starts, *.bound_kernel, *.bound_radius, *.starts, *.kernel, *.radius)
     )]
     BindingMismatch {
         /// Starts the binding was made for.
@@ -130,7 +131,8 @@ pub enum FitError {
     },
     /// Two starts are so close for this radius that the kernel cannot tell them apart.
     #[error(
-        "controls {first} and {second} start {distance:e} apart, too close to tell apart at radius {radius}: merge them or move one"
+        "controls {first} and {second} start {} apart, {} of the radius {}: too close for the kernel to tell apart (its values there differ by less than 1e-10); merge them, move one, or choose a smaller radius",
+        number(*.distance), number(*.distance / *.radius), number(*.radius)
     )]
     StartsTooClose {
         /// The first of the two controls.
@@ -318,5 +320,164 @@ pub(crate) fn check_phase(phase: f64) -> Result<()> {
         Ok(())
     } else {
         Err(Error::BadPhase(phase))
+    }
+}
+
+/// What differs between a binding and the deformation it was given, in
+/// words: the radius, the kernel, the count of starts, or (all three the
+/// same) the starts themselves.
+fn mismatch(
+    bound_starts: usize,
+    bound_kernel: crate::Kernel,
+    bound_radius: f64,
+    starts: usize,
+    kernel: crate::Kernel,
+    radius: f64,
+) -> String {
+    let mut differ = Vec::new();
+    if bound_radius.to_bits() != radius.to_bits() {
+        differ.push(format!(
+            "radius {} where the binding's is {}",
+            number(radius),
+            number(bound_radius)
+        ));
+    }
+    if bound_kernel != kernel {
+        differ.push(format!(
+            "kernel {kernel} where the binding's is {bound_kernel}"
+        ));
+    }
+    if bound_starts != starts {
+        differ.push(format!(
+            "{starts} starts where the binding's has {bound_starts}"
+        ));
+    }
+    if differ.is_empty() {
+        format!(
+            "the binding was made for other starts than this deformation's (both have {starts} starts, kernel {kernel} and radius {}, but the starts are not the same points)",
+            number(radius)
+        )
+    } else {
+        format!(
+            "the binding was made for another deformation: this one has {}",
+            differ.join(", ")
+        )
+    }
+}
+
+/// A number as a person writes it: four significant digits, in plain
+/// decimals from 0.001 to a million, in powers of ten beyond (2.294e-7).
+pub(crate) fn number(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    if (1e-3..1e6).contains(&a) {
+        // Four significant digits, trailing zeros dropped.
+        let decimals = (3 - a.log10().floor() as i32).max(0) as usize;
+        let s = format!("{x:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_owned()
+        } else {
+            s
+        }
+    } else {
+        let s = format!("{x:.3e}");
+        let (mantissa, exponent) = s.split_once('e').unwrap_or((&s, "0"));
+        let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+        format!("{mantissa}e{exponent}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Kernel;
+
+    #[test]
+    fn numbers_read_as_a_person_writes_them() {
+        for (x, want) in [
+            (2.2938347365839933, "2.294"),
+            (1e6, "1e6"),
+            (1_000_000.5, "1e6"),
+            (999_999.0, "999999"),
+            (0.5, "0.5"),
+            (0.001, "0.001"),
+            (0.000_999_9, "9.999e-4"),
+            (2.2938347365839933e-6, "2.294e-6"),
+            (-3.25, "-3.25"),
+            (0.0, "0"),
+            (f64::INFINITY, "inf"),
+            (12.0, "12"),
+        ] {
+            assert_eq!(number(x), want, "{x}");
+        }
+    }
+
+    /// A binding's refusal names what differs, and only that.
+    #[test]
+    fn a_binding_mismatch_names_what_differs() {
+        let e = |starts, kernel, radius| {
+            Error::BindingMismatch {
+                bound_starts: 10,
+                bound_kernel: Kernel::C2,
+                bound_radius: 0.5,
+                starts,
+                kernel,
+                radius,
+            }
+            .to_string()
+        };
+        let radius = e(10, Kernel::C2, 0.75);
+        assert!(
+            radius.contains("radius 0.75 where the binding's is 0.5"),
+            "{radius}"
+        );
+        assert!(
+            !radius.contains("kernel") && !radius.contains("starts where"),
+            "{radius}"
+        );
+        let kernel = e(10, Kernel::C4, 0.5);
+        assert!(
+            kernel.contains("kernel c4 where the binding's is c2"),
+            "{kernel}"
+        );
+        assert!(!kernel.contains("radius"), "{kernel}");
+        let count = e(12, Kernel::C2, 0.5);
+        assert!(
+            count.contains("12 starts where the binding's has 10"),
+            "{count}"
+        );
+        let all = e(12, Kernel::C0, 2.0);
+        for part in ["radius 2", "kernel c0", "12 starts"] {
+            assert!(all.contains(part), "{all}");
+        }
+        let points = e(10, Kernel::C2, 0.5);
+        assert!(
+            points.contains("the starts are not the same points"),
+            "{points}"
+        );
+        for m in [radius, kernel, count, all, points] {
+            assert!(
+                m.ends_with("bind again, or solve from the system the binding came from"),
+                "{m}"
+            );
+        }
+    }
+
+    #[test]
+    fn starts_too_close_say_how_close_against_the_radius() {
+        let m = FitError::StartsTooClose {
+            first: 0,
+            second: 1,
+            distance: 2.2938347365839933,
+            radius: 1e6,
+        }
+        .to_string();
+        assert!(
+            m.contains("start 2.294 apart, 2.294e-6 of the radius 1e6"),
+            "{m}"
+        );
+        assert!(m.contains("smaller radius"), "{m}");
     }
 }

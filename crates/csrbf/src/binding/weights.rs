@@ -226,9 +226,6 @@ unsafe fn fill_avx2(
         // SAFETY: b is below `lanes.blocks()`; the CPU has AVX2 (our caller's promise).
         let (d2, bits) = unsafe { block_avx2(lanes, b, x, r2) };
         *r = bits;
-        if bits == 0 {
-            continue;
-        }
         // SAFETY: as above.
         let (lo, hi) = unsafe {
             (
