@@ -1,6 +1,7 @@
 //! Making a [`Binding`]: the points are sorted into cells about R/2 wide (as
 //! the evaluation sorts them), the cells cut into groups of consecutive
-//! cells about equal in points, and each group built whole by one task into
+//! cells about equal in points (the points copied in cell order first, so a
+//! cell reads its own as one run), and each group built whole by one task into
 //! arrays of its own: each cell gathers its candidate starts once, and each
 //! point's mask and weights follow the previous point's. One pass, and no
 //! copy of the weights to join the groups (the product reads each cell from
@@ -11,10 +12,10 @@ use rayon::prelude::*;
 
 use std::ops::Range;
 
-use super::weights::{Lanes, fill_row};
+use super::weights::{Lanes, fill_cell};
 use super::{BLOCK, Binding, Cell, Group, LEVEL_BYTES, LEVEL_TAIL, Rest, Support};
 use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Points};
-use crate::simd::Avx2Fma;
+use crate::simd::{Avx2Fma, Avx512};
 
 /// Marks a padding candidate in `ids` (no start has this index).
 pub(super) const PADDING: u32 = u32::MAX;
@@ -56,11 +57,24 @@ fn build<P: Point>(
     } else {
         1
     };
+    // The points in cell order first (in parallel: a gather of 1M points
+    // in cell order took 7 ms on one thread): each cell then reads its
+    // points as one run.
+    let rest: Vec<P> = if blocks.identity {
+        points.to_vec()
+    } else if parallel {
+        blocks
+            .order
+            .par_iter()
+            .map(|&i| points[i as usize])
+            .collect()
+    } else {
+        blocks.order.iter().map(|&i| points[i as usize]).collect()
+    };
     let ranges = group_ranges(&blocks.cells, tasks);
     recycled.resize_with(ranges.len(), Group::default);
-    let make = |scratch: &mut (Candidates, Lanes),
-                (k, (range, g)): (usize, (Range<usize>, Group))| {
-        group(support, points, &blocks, k, range, g, scratch)
+    let make = |scratch: &mut Scratch, (k, (range, g)): (usize, (Range<usize>, Group))| {
+        group(support, &rest, &blocks.cells, k, range, g, scratch)
     };
     let made: Vec<(Group, Vec<Cell>, usize)> = if parallel {
         ranges
@@ -86,21 +100,7 @@ fn build<P: Point>(
         cells.extend(c);
         pairs += hits;
     }
-    // The points in cell order, then the non-finite ones among them: in
-    // parallel (a gather of 1M points in cell order took 7 ms on one thread).
-    let (rest, order): (Vec<P>, _) = if blocks.identity {
-        (points.to_vec(), None)
-    } else if parallel {
-        let rest = blocks
-            .order
-            .par_iter()
-            .map(|&i| points[i as usize])
-            .collect();
-        (rest, Some(blocks.order))
-    } else {
-        let rest = blocks.order.iter().map(|&i| points[i as usize]).collect();
-        (rest, Some(blocks.order))
-    };
+    let order = (!blocks.identity).then_some(blocks.order);
     let place_if_nonfinite = |(k, p): (usize, &P)| (!p.to_dvec3().is_finite()).then_some(k as u32);
     let nonfinite = if parallel {
         rest.par_iter()
@@ -159,27 +159,23 @@ fn group_ranges(cells: &[(usize, usize)], tasks: usize) -> Vec<Range<usize>> {
 /// the previous point's. Returns the group, its cells and its hits.
 fn group<P: Point>(
     support: &Support<'_>,
-    points: &[P],
-    blocks: &Blocks,
+    rest: &[P],
+    all_cells: &[(usize, usize)],
     k: usize,
     range: Range<usize>,
     mut g: Group,
-    (cand, lanes): &mut (Candidates, Lanes),
+    (cand, lanes, xs): &mut Scratch,
 ) -> (Group, Vec<Cell>, usize) {
-    let cpu = Avx2Fma::detect();
-    let cell_points = |(s, e): (usize, usize)| {
-        blocks.order[s..e]
-            .iter()
-            .map(|&i| points[i as usize].to_dvec3())
-    };
+    let cpu = (Avx2Fma::detect(), Avx512::detect());
+    let cell_points = |(s, e): (usize, usize)| rest[s..e].iter().map(|p| p.to_dvec3());
     // A recycled group's arrays keep their memory.
     g.ids.clear();
     g.masks.clear();
     g.levels.clear();
     let mut cells = Vec::with_capacity(range.len());
     let mut hits = 0;
-    let group_points: usize = blocks.cells[range.clone()].iter().map(|c| c.1 - c.0).sum();
-    for (n, &(s, e)) in blocks.cells[range].iter().enumerate() {
+    let group_points: usize = all_cells[range.clone()].iter().map(|c| c.1 - c.0).sum();
+    for (n, &(s, e)) in all_cells[range].iter().enumerate() {
         gather(support, cand, cell_points((s, e)));
         lanes.pad(cand);
         let nb = cand.len().div_ceil(BLOCK);
@@ -207,17 +203,14 @@ fn group<P: Point>(
         }
         g.levels.reserve(room);
         let spare = &mut g.levels.spare_capacity_mut()[..room];
-        let rows = g.masks[cell.mask..].chunks_exact_mut(nb.max(1));
-        let mut w = 0;
-        for (x, row) in cell_points((s, e)).zip(rows) {
-            if x.is_finite() {
-                let levels = &mut spare[LEVEL_BYTES * w..];
-                w += fill_row(cpu, lanes, x, support.kernel, support.radius, row, levels);
-            }
-        }
-        // SAFETY: each point's `fill_row` initialised its hits' levels from
-        // where the previous point's ended: the first `3 w` bytes of the
-        // spare capacity (and `3 w <= room`, the capacity reserved).
+        xs.clear();
+        xs.extend(cell_points((s, e)));
+        let rows = &mut g.masks[cell.mask..];
+        let (kernel, radius) = (support.kernel, support.radius);
+        let w = fill_cell(cpu, lanes, xs, kernel, radius, rows, spare);
+        // SAFETY: `fill_cell` initialised the hits' levels, point after
+        // point: the first `3 w` bytes of the spare capacity (and
+        // `3 w <= room`, the capacity reserved).
         #[allow(unsafe_code)]
         unsafe {
             g.levels.set_len(cell.level + LEVEL_BYTES * w)
@@ -236,6 +229,10 @@ fn group<P: Point>(
     g.ids.shrink_to_fit();
     (g, cells, hits)
 }
+
+/// A task's scratch: a cell's candidates, their coordinates in lanes, and
+/// its points.
+type Scratch = (Candidates, Lanes, Vec<DVec3>);
 
 /// The starts within R of the finite ones of a cell's points.
 fn gather(support: &Support<'_>, cand: &mut Candidates, points: impl Iterator<Item = DVec3>) {

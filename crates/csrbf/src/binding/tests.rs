@@ -7,12 +7,12 @@ use std::mem::MaybeUninit;
 use glam::{DVec3, Vec3};
 
 use super::product::{cell_plain, cell_sums, level};
-use super::weights::{Lanes, fill_plain, fill_row};
+use super::weights::{Lanes, fill_cell, fill_plain, fill_row};
 use super::{BLOCK, Binding, LEVEL_BYTES, LEVEL_TAIL, Levels};
 use crate::evaluate::Candidates;
 use crate::kernel::Kernel;
 use crate::octree::Octree;
-use crate::simd::Avx2Fma;
+use crate::simd::{Avx2Fma, Avx512};
 use crate::synthetic::Rng;
 use crate::{Deformation, FitOptions, Polynomial};
 
@@ -69,6 +69,75 @@ fn weights_with_and_without_avx2_are_the_same_bits() {
                     assert_eq!(read(&w2, count), want, "{kernel:?} n {n}");
                     let ones: u32 = m1.iter().map(|m| m.count_ones()).sum();
                     assert_eq!(ones as usize, count);
+                }
+            }
+        }
+    }
+}
+
+/// A cell's rows in one call (with AVX-512 where the CPU has it: no
+/// cut-off at r >= 1, the hits' levels compressed by the mask) are the
+/// plain code's, point after point, byte for byte: for every kernel, with
+/// points that are not finite (their rows stay zero, no levels), points on
+/// and a hair inside the sphere of radius R around a start (r rounds to 1
+/// or just below), room for the vector stores and exactly the hits.
+#[test]
+fn a_cell_with_and_without_avx512_is_the_same_bits() {
+    let mut rng = Rng::new(21);
+    if Avx512::detect().is_none() {
+        eprintln!(
+            "this CPU has no AVX-512: its path is not tested here (the AVX2 and plain ones are)"
+        );
+    }
+    for kernel in Kernel::ALL {
+        for n in [1, 8, 13, 64, 203] {
+            let radius = 0.05 + 0.2 * rng.f64();
+            let offset = DVec3::new(-1.0, 2.0, 0.25);
+            let starts: Vec<DVec3> = (0..n).map(|_| offset + rng.vec3() * 0.3).collect();
+            let octree = Octree::new(&starts);
+            let (lo, hi) = (offset + 0.1, offset + 0.1 + radius * 0.5);
+            let mut points: Vec<DVec3> = (0..40).map(|_| lo + (hi - lo) * rng.vec3()).collect();
+            // On the sphere around the first start, and a hair inside.
+            let dir = rng.vec3().normalize_or(DVec3::X);
+            points.push(starts[0] + dir * radius);
+            points.push(starts[0] + dir * radius * (1.0 - 1e-15));
+            points.push(starts[0] + dir * radius * (1.0 - 1e-9));
+            points.insert(3, DVec3::new(f64::NAN, 0.0, 0.0));
+            points.insert(17, DVec3::splat(f64::INFINITY));
+            let mut cand = Candidates::default();
+            let finite = points.iter().copied().filter(|p| p.is_finite());
+            cand.gather(&octree, finite, radius);
+            let mut lanes = Lanes::default();
+            lanes.pad(&cand);
+            let blocks = cand.len().div_ceil(BLOCK);
+            let rows = points.len() * blocks.max(1);
+            // The plain code, a point at a time.
+            let (mut m1, mut l1) = (vec![0u8; rows], Vec::new());
+            for (x, row) in points.iter().zip(m1.chunks_exact_mut(blocks.max(1))) {
+                if x.is_finite() {
+                    let mut l = vec![MaybeUninit::new(0u8); LEVEL_BYTES * BLOCK * blocks];
+                    let h = fill_plain(&lanes, *x, kernel, radius, row, &mut l);
+                    l1.extend(read(&l, h));
+                }
+            }
+            let count = l1.len();
+            let full = LEVEL_BYTES * BLOCK * rows + LEVEL_TAIL;
+            for room in [full, LEVEL_BYTES * count] {
+                let (cpu, wide) = (Avx2Fma::detect(), Avx512::detect());
+                for (cpu, wide) in [(cpu, wide), (cpu, None), (None, None)] {
+                    let (mut m2, mut l2) = (vec![0u8; rows], vec![MaybeUninit::new(9u8); room]);
+                    let h = fill_cell(
+                        (cpu, wide),
+                        &lanes,
+                        &points,
+                        kernel,
+                        radius,
+                        &mut m2,
+                        &mut l2,
+                    );
+                    assert_eq!(h, count, "{kernel:?} n {n}");
+                    assert_eq!(m2, m1, "{kernel:?} n {n}");
+                    assert_eq!(read(&l2, count), l1, "{kernel:?} n {n}");
                 }
             }
         }
