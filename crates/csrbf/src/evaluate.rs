@@ -224,34 +224,31 @@ impl Blocks {
             let iz = (c.z as usize).min(d[2] - 1);
             ix + d[0] * (iy + d[1] * iz)
         };
-        let keys: Vec<u32> = if parallel {
-            points
-                .par_iter()
-                .map(|p| key(p.to_dvec3()) as u32)
-                .collect()
+        let buckets = d[0] * d[1] * d[2];
+        // In parallel, each of a few runs of points counts its own buckets
+        // (a histogram a run: only when the buckets are no more than the
+        // points, so the histograms stay smaller than the points).
+        let runs = if parallel {
+            rayon::current_num_threads()
+                .clamp(1, MAX_SORT_RUNS)
+                .min(n / buckets.max(1))
+                .max(1)
         } else {
-            points.iter().map(|p| key(p.to_dvec3()) as u32).collect()
+            1
         };
-        let mut counts = vec![0u32; d[0] * d[1] * d[2] + 1];
-        for &k in &keys {
-            counts[k as usize + 1] += 1;
-        }
-        for c in 1..counts.len() {
-            counts[c] += counts[c - 1];
-        }
-        // The non-empty buckets, from the running counts (no pass over the
-        // sorted points).
-        let cells = counts
-            .windows(2)
-            .filter(|w| w[1] > w[0])
-            .map(|w| (w[0] as usize, w[1] as usize))
-            .collect();
-        let mut next = counts;
-        let mut order = vec![0u32; n];
-        for (i, &k) in keys.iter().enumerate() {
-            order[next[k as usize] as usize] = i as u32;
-            next[k as usize] += 1;
-        }
+        let (order, cells) = if runs > 1 {
+            counting_sort_parallel(points, key, buckets, runs)
+        } else {
+            let keys: Vec<u32> = if parallel {
+                points
+                    .par_iter()
+                    .map(|p| key(p.to_dvec3()) as u32)
+                    .collect()
+            } else {
+                points.iter().map(|p| key(p.to_dvec3()) as u32).collect()
+            };
+            counting_sort(&keys, buckets)
+        };
         Blocks {
             order,
             cells,
@@ -269,6 +266,97 @@ impl Blocks {
         }
         slices
     }
+}
+
+/// Runs of points counted apart by a parallel sort into cells, at most.
+const MAX_SORT_RUNS: usize = 8;
+
+/// The points' indices bucket by bucket (`keys` gives each point's bucket,
+/// below `buckets`), each bucket's in increasing order, and the non-empty
+/// buckets' ranges in that list.
+fn counting_sort(keys: &[u32], buckets: usize) -> (Vec<u32>, Vec<(usize, usize)>) {
+    let mut counts = vec![0u32; buckets + 1];
+    for &k in keys {
+        counts[k as usize + 1] += 1;
+    }
+    for c in 1..counts.len() {
+        counts[c] += counts[c - 1];
+    }
+    // The non-empty buckets, from the running counts (no pass over the
+    // sorted points).
+    let cells = counts
+        .windows(2)
+        .filter(|w| w[1] > w[0])
+        .map(|w| (w[0] as usize, w[1] as usize))
+        .collect();
+    let mut next = counts;
+    let mut order = vec![0u32; keys.len()];
+    for (i, &k) in keys.iter().enumerate() {
+        order[next[k as usize] as usize] = i as u32;
+        next[k as usize] += 1;
+    }
+    (order, cells)
+}
+
+/// [`counting_sort`] on threads, the same result (`key` gives a point's
+/// bucket): `runs` consecutive runs of points each compute their keys and count their buckets at once; a
+/// bucket's places go to the runs in order (so within a bucket, points stay
+/// in increasing order); then each run writes its points' indices into
+/// its own places.
+fn counting_sort_parallel<P: Point>(
+    points: &[P],
+    key: impl Fn(DVec3) -> usize + Sync,
+    buckets: usize,
+    runs: usize,
+) -> (Vec<u32>, Vec<(usize, usize)>) {
+    let n = points.len();
+    let size = n.div_ceil(runs);
+    let mut keys = vec![0u32; n];
+    let mut places: Vec<Vec<u32>> = points
+        .par_chunks(size)
+        .zip(keys.par_chunks_mut(size))
+        .map(|(ps, ks)| {
+            let mut counts = vec![0u32; buckets];
+            for (p, k) in ps.iter().zip(ks) {
+                *k = key(p.to_dvec3()) as u32;
+                counts[*k as usize] += 1;
+            }
+            counts
+        })
+        .collect();
+    // Each run's first place in each bucket, and the non-empty buckets.
+    let mut cells = Vec::new();
+    let mut next = 0u32;
+    for b in 0..buckets {
+        let first = next;
+        for run in &mut places {
+            let count = run[b];
+            run[b] = next;
+            next += count;
+        }
+        if next > first {
+            cells.push((first as usize, next as usize));
+        }
+    }
+    let mut order = vec![0u32; n];
+    let out = Scatter::new(&mut order);
+    keys.par_chunks(size)
+        .zip(places.par_iter_mut())
+        .enumerate()
+        .for_each(|(r, (ks, place))| {
+            for (j, &k) in ks.iter().enumerate() {
+                let at = &mut place[k as usize];
+                // SAFETY: each place is handed out once: the runs' places
+                // in a bucket are disjoint ranges (the prefix sums above),
+                // and a run advances its own.
+                #[allow(unsafe_code)]
+                unsafe {
+                    out.write(*at as usize, (r * size + j) as u32)
+                };
+                *at += 1;
+            }
+        });
+    (order, cells)
 }
 
 /// Candidate starts for a cell, gathered once, laid out by coordinate so
@@ -443,6 +531,54 @@ pub(crate) fn for_each_cell_with<T: Send, S: Default>(
         let mut scratch = S::default();
         for (cell, out) in blocks.cells.iter().zip(slices) {
             work(*cell, out, &mut scratch);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic::Rng;
+
+    /// The parallel sort into cells is the serial one, index for index: for
+    /// runs that do and do not divide the points, buckets crowded and
+    /// empty, points that are not finite (bucket 0), f32 and f64 points.
+    #[test]
+    fn the_parallel_counting_sort_is_the_serial_one() {
+        let mut rng = Rng::new(31);
+        for (n, buckets) in [
+            (1, 1),
+            (7, 3),
+            (1000, 1),
+            (1000, 17),
+            (4099, 512),
+            (20_000, 30),
+        ] {
+            let mut points: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
+            if n > 10 {
+                points[3].y = f64::NAN;
+                points[9] = DVec3::splat(f64::INFINITY);
+            }
+            // Buckets by x, then folded: some crowded, some empty.
+            let key = |p: DVec3| ((p.x * 1.7 * buckets as f64) as usize) % buckets;
+            let keys: Vec<u32> = points.iter().map(|p| key(*p) as u32).collect();
+            let want = counting_sort(&keys, buckets);
+            let mut seen = vec![false; n];
+            for &i in &want.0 {
+                assert!(!std::mem::replace(&mut seen[i as usize], true));
+            }
+            let narrow: Vec<Vec3> = points.iter().map(|p| p.as_vec3()).collect();
+            let narrow_keys: Vec<u32> = narrow.iter().map(|p| key(p.as_dvec3()) as u32).collect();
+            let narrow_want = counting_sort(&narrow_keys, buckets);
+            for runs in 2..=MAX_SORT_RUNS {
+                assert_eq!(
+                    counting_sort_parallel(&points, key, buckets, runs),
+                    want,
+                    "{n} {runs}"
+                );
+                let got = counting_sort_parallel(&narrow, key, buckets, runs);
+                assert_eq!(got, narrow_want, "f32 {n} {runs}");
+            }
         }
     }
 }
