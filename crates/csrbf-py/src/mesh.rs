@@ -9,7 +9,7 @@ use csrbf_mesh::{Faces, Mesh};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyCFunction, PyDict, PyList, PyTuple};
 
 use crate::arrays;
 use crate::cast::vectors_mut;
@@ -53,7 +53,7 @@ impl PyMesh {
                 return Err(PyValueError::new_err("give triangles or faces, not both"));
             }
             (Some(t), None) => {
-                let t = indices(t, "triangles")?;
+                let t = indices(t, "triangles", n)?;
                 for (i, tri) in t.chunks(3).enumerate() {
                     check_corners(tri, n, "triangles", i)?;
                     f.push(tri);
@@ -222,8 +222,9 @@ fn positions(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<csrbf::glam::Ve
     })
 }
 
-/// (M, 3) non-negative integers.
-fn indices(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<u32>> {
+/// (M, 3) non-negative integers (indices into `n` vertices: a negative one
+/// is refused naming `n`).
+fn indices(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<u32>> {
     let a = arrays::as_ndarray(obj, name)?;
     let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
     if kind != "i" && kind != "u" {
@@ -237,10 +238,11 @@ fn indices(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<u32>> {
     let a = np.call_method1("ascontiguousarray", (a, "int64"))?;
     let a = a.cast_into::<PyArray2<i64>>()?;
     let a = a.readonly();
-    let n = a.as_slice().unwrap_or(&[]);
-    n.iter()
+    let corners = a.as_slice().unwrap_or(&[]);
+    corners
+        .iter()
         .enumerate()
-        .map(|(i, &c)| u32::try_from(c).map_err(|_| bad_index(name, i / 3, c, usize::MAX)))
+        .map(|(i, &c)| u32::try_from(c).map_err(|_| bad_index(name, i / 3, c, n)))
         .collect()
 }
 
@@ -328,7 +330,8 @@ pub struct PyReport {
     #[pyo3(get)]
     warnings: Vec<String>,
     /// A stable name for each warning, in the same order, to filter on:
-    /// "empty_region", "past_fold_free_bound", "starts_far_from_mesh",
+    /// "empty_region", "past_fold_free_bound", "ill_conditioned",
+    /// "starts_far_from_mesh",
     /// "support_crosses_region", "polynomial_leak", "flipped_faces",
     /// "inside_out", "stretched", "self_intersecting".
     #[pyo3(get)]
@@ -480,7 +483,28 @@ impl PyReport {
 /// keys are warned about.
 fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<ControlFile> {
     let (text, name) = if controls.is_instance_of::<PyDict>() {
-        let json = py.import("json")?.call_method1("dumps", (controls,))?;
+        // numpy numbers and arrays (a radius from a computation, a start
+        // from a mesh's vertices) are written as the numbers they hold.
+        let numbers = PyCFunction::new_closure(
+            py,
+            None,
+            None,
+            |args: &Bound<'_, PyTuple>, _: Option<&Bound<'_, PyDict>>| -> PyResult<Py<PyAny>> {
+                let value = args.get_item(0)?;
+                if value.hasattr("tolist")? {
+                    return Ok(value.call_method0("tolist")?.unbind());
+                }
+                Err(PyTypeError::new_err(format!(
+                    "controls: a value of type {} cannot be part of a control file (give numbers, lists of numbers, strings and dicts)",
+                    value.get_type().name()?
+                )))
+            },
+        )?;
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("default", numbers)?;
+        let json = py
+            .import("json")?
+            .call_method("dumps", (controls,), Some(&kwargs))?;
         (json.extract::<String>()?, "controls".to_string())
     } else {
         let path: PathBuf = controls.extract().map_err(|_| {
@@ -549,6 +573,12 @@ pub fn deform_mesh(
             read_mesh(py, path)?.inner
         }
     };
+    if let Some(i) = m.positions.iter().position(|p| !p.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "mesh: vertex {i} has a coordinate that is not finite ({}): a mesh to deform needs finite positions",
+            m.positions[i]
+        )));
+    }
     let mut file = control_file(py, controls)?;
     if allow_large {
         for spec in &mut file.deformations {

@@ -62,3 +62,31 @@ def test_faces_pushed_through_each_other_are_reported():
     assert off.self_intersections is None
     _, small = csrbf.deform_mesh(mesh, {**push, "controls": [{"from": [0.2, -1.5, 0.5], "to": [0.25, -1.5, 0.5]}]})
     assert small.self_intersections.shape == (0, 2)
+
+
+def test_control_dicts_take_numpy_values():
+    """A radius computed with numpy and starts taken from a mesh's vertices
+    are what a script has at hand: the dict takes them as the numbers they
+    are, and the result equals the one from plain floats and lists."""
+    mesh = csrbf.read_mesh(HEAD)
+    plain_out, _ = csrbf.deform_mesh(mesh, PULL)
+    c = PULL["controls"][0]
+    numpy_dict = {
+        "radius": np.float32(PULL["radius"]),
+        "controls": [{"from": np.array(c["from"]), "to": np.array(c["to"], dtype=np.float32)}],
+    }
+    out, _ = csrbf.deform_mesh(mesh, numpy_dict)
+    np.testing.assert_allclose(out.vertices, plain_out.vertices, atol=1e-5)
+    with pytest.raises(TypeError, match="a value of type object cannot be part of a control file"):
+        csrbf.deform_mesh(mesh, {"radius": object(), "controls": []})
+
+
+def test_a_vertex_that_is_not_finite_is_refused_by_name():
+    """deform_mesh judges folds and moves of every face: a NaN vertex would
+    make its figures false, so it is refused, naming the vertex."""
+    mesh = csrbf.read_mesh(HEAD)
+    v = mesh.vertices.copy()
+    v[7] = [np.nan, 0.0, 1.0]
+    bad = csrbf.Mesh(v, mesh.triangles)
+    with pytest.raises(ValueError, match=r"mesh: vertex 7 has a coordinate that is not finite"):
+        csrbf.deform_mesh(bad, PULL)

@@ -110,6 +110,8 @@ def test_a_mesh_from_arrays():
     assert tri.diagonal == pytest.approx(np.sqrt(12))  # the box (0, 0, 0)-(2, 2, 2)
     with pytest.raises(ValueError, match="triangles\\[0\\] refers to vertex 5, but vertices has 3 rows"):
         csrbf.Mesh(np.eye(3), [[0, 1, 5]])
+    with pytest.raises(ValueError, match="triangles\\[1\\] refers to vertex -2, but vertices has 3 rows"):
+        csrbf.Mesh(np.eye(3), np.array([[0, 1, 2], [0, 1, -2]]))
     with pytest.raises(ValueError, match=r"triangles must be an \(M, 3\) array, got shape \(1, 4\)"):
         csrbf.Mesh(np.eye(3), [[0, 1, 2, 0]])
     with pytest.raises(TypeError, match="triangles must be an array of integers"):

@@ -79,7 +79,19 @@ pub struct Deformation {
     order: Arc<[u32]>,
     octree: Arc<Octree>,
     fingerprint: u64,
+    /// The largest move it makes at a start (destination less start): the
+    /// scale against which f32 sums are judged ([`Deformation::f32_reach`]).
+    moves: f64,
 }
+
+/// How many times the largest move the coefficients within reach of a
+/// cell of points may sum to before that cell is summed in f64: f32 rounds
+/// each term by about 6e-8 of it, so past this the f32 sum could be off by
+/// more than about 1e-4 of the move. Well-posed edits stay far below (the
+/// coefficients of starts 1 % of R apart pulling apart sum to a few hundred
+/// times the move); a radius thousands of times the model's size (nearly
+/// singular: coefficients 1e8 times the move that cancel) goes past it.
+const F32_REACH: f64 = 1000.0;
 
 /// A 64-bit fingerprint of what per-point kernel weights depend on: the
 /// kernel, the radius and every start, bit for bit. Two sets of starts that
@@ -156,7 +168,7 @@ impl Deformation {
     ) -> Deformation {
         let octree = Arc::new(Octree::new(&starts));
         let fingerprint = fingerprint(kernel, radius, &starts);
-        Deformation {
+        let mut d = Deformation {
             kernel,
             radius,
             starts: starts.into(),
@@ -165,7 +177,15 @@ impl Deformation {
             order: order.into(),
             octree,
             fingerprint,
-        }
+            moves: 0.0,
+        };
+        // The moves it makes at its starts, in f64 (what it was fitted to).
+        d.moves = d
+            .displacements(&d.starts)
+            .iter()
+            .map(|m| m.length())
+            .fold(0.0, f64::max);
+        d
     }
 
     /// The map that moves nothing: a layer with no control vectors yet (work
@@ -187,6 +207,7 @@ impl Deformation {
         shared: &crate::system::Shared,
         coefficients: Vec<DVec3>,
         affine: Option<Affine>,
+        moves: f64,
     ) -> Deformation {
         Deformation {
             kernel: shared.kernel,
@@ -197,15 +218,35 @@ impl Deformation {
             order: shared.order.clone(),
             octree: shared.octree.clone(),
             fingerprint: shared.fingerprint,
+            moves,
         }
     }
 
     /// Replaces the coefficients and polynomial part (a new solve of the
     /// same system), keeping every allocation.
-    pub(crate) fn set_solution(&mut self, coefficients: &[DVec3], affine: Option<Affine>) {
+    pub(crate) fn set_solution(
+        &mut self,
+        coefficients: &[DVec3],
+        affine: Option<Affine>,
+        moves: f64,
+    ) {
         self.coefficients.clear();
         self.coefficients.extend_from_slice(coefficients);
         self.affine = affine;
+        self.moves = moves;
+    }
+
+    /// The largest move it makes at a start (a destination less its
+    /// start): the scale its coefficients are judged against.
+    pub fn largest_move(&self) -> f64 {
+        self.moves
+    }
+
+    /// The largest sum of coefficient sizes (|x| + |y| + |z|) over the
+    /// starts a cell's points may reach for which an f32 sum is close
+    /// enough (see [`F32_REACH`]); a cell past it is summed in f64.
+    pub(crate) fn f32_reach(&self) -> f64 {
+        F32_REACH * self.moves
     }
 
     /// The fingerprint of its starts, kernel and radius (see [`Deformation`]):

@@ -26,10 +26,17 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::deformation::Deformation;
+use crate::error::number;
 use crate::error::{Error, Result};
 use crate::evaluate::{Blocks, PARALLEL_POINTS, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
 use crate::region::Region;
+
+/// How many times its largest move a deformation's largest coefficient may
+/// be before it is warned of as nearly singular. Well-posed edits stay far
+/// below: starts 1 % of R apart pulling apart give coefficients a few
+/// hundred times the move.
+const ILL_CONDITIONED: f64 = 1e4;
 
 /// How many control indices a warning lists before "and N more".
 const LISTED: usize = 8;
@@ -61,6 +68,19 @@ pub enum Warning {
         bound: f64,
         /// The kernel.
         kernel: Kernel,
+    },
+    /// Coefficients many thousand times the deformation's largest move: the
+    /// system is nearly singular (typically a radius far larger than the
+    /// model), so the map hangs on coefficients that cancel.
+    IllConditioned {
+        /// Index of the deformation.
+        stage: usize,
+        /// The largest coefficient over the largest move.
+        amplification: f64,
+        /// The radius of support.
+        radius: f64,
+        /// The diagonal of the vertices' bounding box.
+        size: f64,
     },
     /// Starts farther than R from every vertex of the region: they move nothing.
     StartsFarFromMesh {
@@ -135,12 +155,13 @@ impl Warning {
     /// A short stable name of the warning's kind, for callers that filter
     /// or act on kinds (the Python package's `Report.warning_kinds`, the
     /// Blender extension): `empty_region`, `past_fold_free_bound`,
-    /// `starts_far_from_mesh`, `support_crosses_region`, `polynomial_leak`,
+    /// `ill_conditioned`, `starts_far_from_mesh`, `support_crosses_region`, `polynomial_leak`,
     /// `flipped_faces`, `inside_out`, `stretched`, `self_intersecting`.
     pub fn kind(&self) -> &'static str {
         match self {
             Warning::EmptyRegion { .. } => "empty_region",
             Warning::PastFoldFreeBound { .. } => "past_fold_free_bound",
+            Warning::IllConditioned { .. } => "ill_conditioned",
             Warning::StartsFarFromMesh { .. } => "starts_far_from_mesh",
             Warning::SupportCrossesRegion { .. } => "support_crosses_region",
             Warning::PolynomialLeak { .. } => "polynomial_leak",
@@ -226,10 +247,25 @@ impl fmt::Display for Numbered<'_> {
                 kernel,
             } => write!(
                 f,
-                "{}: {count} control vector(s) move farther from their neighbours than the fold-free bound of {kernel} ({:.3} R = {bound:.4}; worst {longest:.4}): controls {}; the surface may fold there: use a larger radius or shorter moves",
+                "{}: {count} control vector(s) move farther from their neighbours than the fold-free bound of {kernel} ({:.3} R = {}; worst {}): controls {}; the surface may fold there: use a larger radius or shorter moves",
                 stage(s),
                 kernel.fold_free_ratio(),
+                number(*bound),
+                number(*longest),
                 controls(c, *count)
+            ),
+            Warning::IllConditioned {
+                stage: s,
+                amplification,
+                radius,
+                size,
+            } => write!(
+                f,
+                "{}: its coefficients reach {} times its largest move: the system is nearly singular (R = {} for a model {} across), so the map rests on coefficients that cancel (csrbf sums them in f64); a radius of at most a few times the model's size makes the same edit well posed",
+                stage(s),
+                number(*amplification),
+                number(*radius),
+                number(*size)
             ),
             Warning::StartsFarFromMesh {
                 stage: s,
@@ -238,8 +274,9 @@ impl fmt::Display for Numbered<'_> {
                 radius,
             } => write!(
                 f,
-                "{}: {count} start(s) lie farther than R = {radius} from every vertex it acts on, so they move nothing: controls {}",
+                "{}: {count} start(s) lie farther than R = {} from every vertex it acts on, so they move nothing: controls {}",
                 stage(s),
+                number(*radius),
                 controls(c, *count)
             ),
             Warning::SupportCrossesRegion {
@@ -579,6 +616,21 @@ fn diagnose_with(
                 longest: over.iter().map(|&j| relative[j]).fold(0.0, f64::max),
                 bound,
                 kernel: def.kernel(),
+            });
+        }
+        // Coefficients far past the moves: nearly singular.
+        let largest_move = def.largest_move();
+        let largest_coefficient = def
+            .coefficients()
+            .iter()
+            .map(|a| a.length())
+            .fold(0.0, f64::max);
+        if largest_coefficient > ILL_CONDITIONED * largest_move && largest_move > 0.0 {
+            warnings.push(Warning::IllConditioned {
+                stage: k,
+                amplification: largest_coefficient / largest_move,
+                radius: def.radius(),
+                size: diagonal,
             });
         }
         // Which starts reach a vertex of the region, which vertices a start.
@@ -946,6 +998,50 @@ mod tests {
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
         assert!(r.moved > 0 && r.moved < 41 * 41 / 5);
         assert!((r.largest_move - 0.05).abs() < 1e-6);
+    }
+
+    /// A radius thousands of times the model (a user's R = 1e6 on a model
+    /// 229 across) is said, with the figures in plain numbers; a well-posed
+    /// edit of three starts is not warned of.
+    #[test]
+    fn a_nearly_singular_system_is_said() {
+        let starts = [
+            DVec3::new(0.3, 0.3, 0.0),
+            DVec3::new(0.7, 0.4, 0.0),
+            DVec3::new(0.5, 0.8, 0.0),
+        ];
+        let moves = [DVec3::Z * 0.05, DVec3::X * 0.05, DVec3::Y * -0.1];
+        let targets: Vec<DVec3> = starts.iter().zip(&moves).map(|(s, m)| *s + *m).collect();
+        for (radius, warned) in [(1e4, true), (0.3, false)] {
+            let d = Deformation::fit(&starts, &targets, FitOptions::new(radius)).expect("fit");
+            assert!((d.largest_move() - 0.1).abs() < 1e-12);
+            let (r, _) = run(&[FittedStage {
+                deformation: d,
+                region: Region::All,
+                phase: 1.0,
+                sweep: None,
+            }]);
+            let said: Vec<String> = r
+                .warnings
+                .iter()
+                .filter(|w| w.kind() == "ill_conditioned")
+                .map(ToString::to_string)
+                .collect();
+            assert_eq!(
+                said.len(),
+                usize::from(warned),
+                "R {radius}: {:?}",
+                r.warnings
+            );
+            if warned {
+                let m = &said[0];
+                assert!(
+                    m.starts_with("deformation 0: its coefficients reach "),
+                    "{m}"
+                );
+                assert!(m.contains("(R = 10000 for a model 1.414 across)"), "{m}");
+            }
+        }
     }
 
     #[test]

@@ -46,6 +46,9 @@ pub(crate) struct Lanes {
     alpha: [Vec<f32>; 3],
     /// Candidates before padding.
     real: usize,
+    /// The sum of the candidates' coefficients' sizes (|x| + |y| + |z|: the
+    /// scale of the f32 sums' rounding).
+    reach: f64,
     centre: DVec3,
     inv_radius: f64,
 }
@@ -66,9 +69,11 @@ impl Lanes {
         self.centre = (lo + hi) * 0.5;
         self.inv_radius = 1.0 / radius;
         let (centre, inv) = (self.centre, self.inv_radius);
+        self.reach = 0.0;
         octree.for_each_near_box(lo, hi, radius, |i, p| {
             let u = (p - centre) * inv;
             let a = coefficients[i as usize];
+            self.reach += a.abs().element_sum();
             for c in 0..3 {
                 self.xyz[c].push(u[c] as f32);
                 self.alpha[c].push(a[c] as f32);
@@ -80,6 +85,11 @@ impl Lanes {
             self.xyz[c].resize(padded, FAR);
             self.alpha[c].resize(padded, 0.0);
         }
+    }
+
+    /// The sum of the candidates' |coefficient|.
+    pub(crate) fn reach(&self) -> f64 {
+        self.reach
     }
 
     /// Candidates gathered (before padding).
@@ -148,14 +158,19 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let (kernel, radius, alpha) = (d.kernel(), d.radius(), d.coefficients());
     let linear = d.affine().map(|a| a.linear());
     let cpu = (Avx2Fma::detect(), Avx512::detect());
+    let reach = d.f32_reach();
     let out = Scatter::new(out);
     let cell = |(lanes, cand): &mut (Lanes, Candidates), &(s, e): &(usize, usize)| {
         let idx = &blocks.order[s..e];
         let cell = bounds(points, idx);
-        let narrow = narrow(cell, radius);
+        let mut narrow = narrow(cell, radius);
         if narrow {
             lanes.gather(d.octree(), alpha, cell, radius);
-        } else {
+            // Coefficients far larger than the moves cancel: f32 would
+            // keep only their rounding.
+            narrow = lanes.reach() <= reach;
+        }
+        if !narrow {
             let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
             cand.gather(d.octree(), xs, radius);
         }

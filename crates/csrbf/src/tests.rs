@@ -1125,3 +1125,64 @@ mod library {
         }
     }
 }
+
+/// A radius thousands of times the model's size makes the system nearly
+/// singular: coefficients 1e8 times the moves that cancel. f32 sums keep
+/// only their rounding there (a user's armadillo was off by 252 units for
+/// moves of 30), so the f32 evaluation and a binding's product sum such
+/// cells in f64: both agree with the f64 evaluation, as on a well-posed
+/// scene, and the interpolation still holds at the starts.
+#[test]
+fn a_radius_far_larger_than_the_model_keeps_f32_paths_right() {
+    let mut rng = Rng::new(41);
+    // A model about 2 units across, its points in f32 as a mesh holds them.
+    let points: Vec<Vec3> = (0..3000)
+        .map(|_| (rng.vec3() * 2.0 - 1.0).as_vec3())
+        .collect();
+    let starts = [
+        DVec3::new(0.5, 0.2, 0.1),
+        DVec3::new(-0.4, 0.3, -0.2),
+        DVec3::new(0.1, -0.6, 0.4),
+    ];
+    let moves = [
+        DVec3::new(0.0, 0.05, 0.0),
+        DVec3::new(0.05, 0.0, 0.0),
+        DVec3::new(0.0, 0.0, -0.3),
+    ];
+    let targets: Vec<DVec3> = starts.iter().zip(&moves).map(|(s, m)| *s + *m).collect();
+    for radius in [1e4, 1.0] {
+        let d = Deformation::fit(&starts, &targets, FitOptions::new(radius)).expect("fit");
+        let amplification = d
+            .coefficients()
+            .iter()
+            .map(|a| a.length())
+            .fold(0.0, f64::max)
+            / 0.3;
+        if radius > 1.0 {
+            assert!(
+                amplification > 1e6,
+                "the scene is the ill-posed one: {amplification:e}"
+            );
+        }
+        let want = d.displacements(&points);
+        let f32s = d.displacements_f32(&points);
+        let bound = Binding::new(&d, &points).displacements(&d).expect("bound");
+        for (what, got) in [("f32 evaluation", &f32s), ("binding", &bound)] {
+            let worst = got
+                .iter()
+                .zip(&want)
+                .map(|(g, w)| (g.as_dvec3() - *w).length())
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= 1e-5 * 0.3,
+                "R {radius}, {what}: off by {worst:e} for moves of 0.3"
+            );
+        }
+        for (s, t) in starts.iter().zip(&targets) {
+            assert!(
+                (d.map(*s) - *t).length() < 1e-6,
+                "R {radius}: interpolation"
+            );
+        }
+    }
+}

@@ -99,7 +99,34 @@ fn cell(
     let step = Levels::of(b.kernel).per_level;
     s.table.clear();
     let g = &b.groups[c.group];
-    for block in g.ids[c.id..c.id + c.blocks * BLOCK].chunks_exact(BLOCK) {
+    let cell = c.point..c.point + c.points;
+    // The cell's places in the caller's order (`None`: they are its own).
+    let places = b.order.as_deref().map(|o| &o[cell.clone()]);
+    let ids = &g.ids[c.id..c.id + c.blocks * BLOCK];
+    // Coefficients far larger than the moves cancel: f32 sums (and the
+    // levels' rounding) would keep only their rounding, so such a cell is
+    // computed in f64, as `Deformation::displacements` computes it.
+    let reach: f64 = ids
+        .iter()
+        .filter_map(|&j| alpha.get(j as usize))
+        .map(|a| a.abs().element_sum())
+        .sum();
+    if reach > d.f32_reach() {
+        let place = |k: usize| places.map_or(cell.start + k, |p| p[k] as usize);
+        for k in 0..c.points {
+            let x = match &b.rest {
+                super::Rest::F32(p) => p[cell.start + k].as_dvec3(),
+                super::Rest::F64(p) => p[cell.start + k],
+            };
+            // SAFETY: as in `Chunk::write`.
+            #[allow(unsafe_code)]
+            unsafe {
+                out.write(place(k), d.displacement_at(x).as_vec3())
+            };
+        }
+        return;
+    }
+    for block in ids.chunks_exact(BLOCK) {
         for axis in 0..3 {
             let mut lanes = Lanes::default();
             for (l, &j) in lanes.0.iter_mut().zip(block) {
@@ -110,9 +137,6 @@ fn cell(
             s.table.push(lanes);
         }
     }
-    let cell = c.point..c.point + c.points;
-    // The cell's places in the caller's order (`None`: they are its own).
-    let places = b.order.as_deref().map(|o| &o[cell.clone()]);
     let linear = d.affine().map(|a| a.linear());
     let ahead = |from: usize| {
         if let Some(p) = places {

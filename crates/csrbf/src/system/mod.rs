@@ -199,8 +199,8 @@ impl System {
     /// Only the right-hand sides change: nothing is assembled or factored
     /// again, and the deformation shares the system's starts and octree.
     pub fn solve<P: Point>(&self, targets: &[P]) -> Result<Deformation, FitError> {
-        let (y, affine) = self.solution(targets)?;
-        Ok(Deformation::from_shared(&self.shared, y, affine))
+        let (y, affine, moves) = self.solution(targets)?;
+        Ok(Deformation::from_shared(&self.shared, y, affine, moves))
     }
 
     /// Solves again into a deformation this system solved before, reusing
@@ -210,8 +210,8 @@ impl System {
         if deformation.fingerprint() != self.shared.fingerprint {
             return Err(Error::SystemMismatch);
         }
-        let (y, affine) = self.solution(targets)?;
-        deformation.set_solution(&y, affine);
+        let (y, affine, moves) = self.solution(targets)?;
+        deformation.set_solution(&y, affine, moves);
         Ok(())
     }
 
@@ -233,8 +233,12 @@ impl System {
         Binding::of_shared(&self.shared, points)
     }
 
-    /// The coefficients and polynomial part for these destinations.
-    fn solution<P: Point>(&self, targets: &[P]) -> Result<(Vec<DVec3>, Option<Affine>), FitError> {
+    /// The coefficients and polynomial part for these destinations, and the
+    /// largest move (a destination less its start).
+    fn solution<P: Point>(
+        &self,
+        targets: &[P],
+    ) -> Result<(Vec<DVec3>, Option<Affine>, f64), FitError> {
         let starts = &self.shared.starts;
         if targets.len() != starts.len() {
             return Err(FitError::TargetCount {
@@ -254,6 +258,7 @@ impl System {
             y.push(t - *s);
         }
         self.check_near_pairs(&y)?;
+        let moves = y.iter().map(|m| m.length()).fold(0.0, f64::max);
         self.factor.solve_in_place(&mut y);
         let affine = match &self.poly {
             None => None,
@@ -281,7 +286,7 @@ impl System {
                 })
             }
         };
-        Ok((y, affine))
+        Ok((y, affine, moves))
     }
 
     /// Starts nearly on top of each other (closer than 1 % of R) must move
