@@ -355,7 +355,10 @@ impl Deformation {
     /// in f32 eight starts at a time: it agrees with
     /// [`Deformation::displacements`] to about 1e-7 of the sum of |alpha_j|
     /// over the starts within R (the tests allow 2e-6); the polynomial part
-    /// is added in f64.
+    /// is added in f64. A cell whose starts in reach have coefficients
+    /// summing past 1000 times [`Deformation::largest_move`] (a nearly
+    /// singular system) is summed in f64: f32 would keep only the rounding
+    /// of coefficients that cancel.
     /// [`Deformation::evaluation_counts`] says how much work it does.
     pub fn displacements_f32<P: Point>(&self, points: &[P]) -> Vec<Vec3> {
         let mut out = vec![Vec3::ZERO; points.len()];

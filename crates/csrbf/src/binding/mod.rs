@@ -47,7 +47,11 @@ use crate::system::Shared;
 /// largest move that is 1e-7 to 1e-6 on real meshes, and it grows with the
 /// coefficients where nearby starts pull in opposite directions: about 1e-5
 /// with two starts 3 % of R apart, 7e-5 at 1 % (coefficients 400 times the
-/// move).
+/// move). A cell whose starts in reach have coefficients summing past 1000
+/// times the largest move (a nearly singular system, typically a radius
+/// thousands of times the model) is computed in f64 as
+/// [`Deformation::displacements`] computes it: there the f32 sums and the
+/// levels would keep only the rounding of coefficients that cancel.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation
