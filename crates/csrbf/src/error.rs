@@ -231,8 +231,8 @@ pub enum FitError {
     Solver(String),
     /// The system would take more memory than the limit allows.
     #[error(
-        "R = {radius} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {:.1} GB, {:.1}x the limit of {:.1} GB: use a smaller R (about {suggested_radius:.4} fits), or lift the limit knowingly (FitOptions::memory_limit)",
-        bytes / 1e9, bytes / *limit as f64, *limit as f64 / 1e9
+        "R = {} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {:.1} GB, {:.1}x the limit of {:.1} GB: use a smaller R (about {} fits), or lift the limit knowingly (FitOptions::memory_limit)",
+        number(*radius), bytes / 1e9, bytes / *limit as f64, *limit as f64 / 1e9, number(*suggested_radius)
     )]
     TooLarge {
         /// Estimated bytes.

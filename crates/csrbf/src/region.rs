@@ -96,19 +96,23 @@ impl Origin {
 impl std::fmt::Display for Region {
     /// In words: `everything`, `sphere at (x, y, z) of radius r`, ...
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let p = |v: &DVec3| format!("({}, {}, {})", v.x, v.y, v.z);
+        use crate::error::number;
+        let p = |v: &DVec3| format!("({}, {}, {})", number(v.x), number(v.y), number(v.z));
         match self {
             Region::All => f.write_str("everything"),
             Region::Sphere { center, radius } => {
-                write!(f, "sphere at {} of radius {radius}", p(center))
+                write!(f, "sphere at {} of radius {}", p(center), number(*radius))
             }
             Region::Box { min, max } => write!(f, "box from {} to {}", p(min), p(max)),
             Region::Vertices(v) => write!(f, "{} listed vertices", v.len()),
             Region::Group(name) => write!(f, "part {name:?}"),
-            Region::Falloff { inner, width } => write!(f, "{inner}, blended over {width}"),
+            Region::Falloff { inner, width } => {
+                write!(f, "{inner}, blended over {}", number(*width))
+            }
             Region::Connected { distance, from } => write!(
                 f,
-                "within {distance} along the surface of the {}",
+                "within {} along the surface of the {}",
+                number(*distance),
                 match from {
                     Origin::Starts => "starts",
                     Origin::Handle => "handle's selection",
