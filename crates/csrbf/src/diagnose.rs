@@ -295,7 +295,8 @@ impl fmt::Display for Numbered<'_> {
                 example,
             } => write!(
                 f,
-                "{vertices} vertices farther than R from every start moved (up to {largest:.4}, e.g. vertex {example}): the linear polynomial made a local edit global; use \"polynomial\": \"none\" to keep it local"
+                "{vertices} vertices farther than R from every start moved (up to {}, e.g. vertex {example}): the linear polynomial made a local edit global; use \"polynomial\": \"none\" to keep it local",
+                number(*largest)
             ),
             Warning::FlippedFaces { count, triangles } => write!(
                 f,
