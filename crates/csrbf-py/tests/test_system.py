@@ -62,6 +62,28 @@ def test_a_binding_refuses_a_deformation_of_other_starts():
         b.displacements(csrbf.fit(moved, moved, 0.35))
 
 
+def test_a_rebind_is_a_new_binding():
+    """rebind makes the binding anew (other starts, other points of another
+    count and dtype) in place: it then equals a new binding of them, and
+    refuses the starts it was made for before."""
+    starts, points, rng = scene()
+    b = csrbf.Binding(csrbf.fit(starts, starts, 0.35), points)
+    other = starts + rng.normal(0, 0.02, starts.shape)
+    d = csrbf.fit(other, other + 0.01, 0.35)
+    more = np.concatenate([points, points[:500] * 0.9]).astype(np.float64)
+    assert b.rebind(d, more) is None
+    assert len(b) == len(more) and repr(b).endswith("float64)")
+    fresh = csrbf.Binding(d, more)
+    got = b.displacements(d)
+    assert got.dtype == np.float64
+    np.testing.assert_array_equal(got, fresh.displacements(d))
+    assert b.nbytes == fresh.nbytes
+    with pytest.raises(csrbf.Error, match="start"):
+        b.displacements(csrbf.fit(starts, starts, 0.35))
+    with pytest.raises(ValueError, match="points"):
+        b.rebind(d, np.zeros((4, 2)))
+
+
 def test_solve_many_and_displacements_many():
     starts, points, rng = scene()
     s = csrbf.System(starts, radius=0.35)
