@@ -161,6 +161,39 @@ impl PyMesh {
             .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
+    /// Texture coordinates, one per vertex: an (N, 2) float32 array, or
+    /// None when the mesh has none or its coordinates differ between the
+    /// corners of a vertex (a UV seam: see `corner_uvs`).
+    #[getter]
+    fn uvs<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f32>>> {
+        let m = &self.inner;
+        let per_vertex = m.uvs.as_ref()?.per_vertex(&m.faces, m.positions.len())?;
+        Some(vec2_rows(py, per_vertex.into_iter()))
+    }
+
+    /// Texture coordinates, one per face corner (the corners of `faces` in
+    /// order, flattened): a (C, 2) float32 array, or None when the mesh has
+    /// none. Unlike `uvs`, it keeps seams.
+    #[getter]
+    fn corner_uvs<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f32>>> {
+        let m = &self.inner;
+        let t = m.uvs.as_ref()?;
+        Some(match &t.corners {
+            Some(c) => vec2_rows(
+                py,
+                c.iter()
+                    .map(|&k| t.values.get(k as usize).copied().unwrap_or_default()),
+            ),
+            None => vec2_rows(
+                py,
+                m.faces
+                    .indices
+                    .iter()
+                    .map(|&v| t.values.get(v as usize).copied().unwrap_or_default()),
+            ),
+        })
+    }
+
     /// The diagonal of the bounding box: the scale to choose a radius by
     /// (5-15 % of it for local edits).
     #[getter]
@@ -244,6 +277,21 @@ fn indices(obj: &Bound<'_, PyAny>, name: &str, n: usize) -> PyResult<Vec<u32>> {
         .enumerate()
         .map(|(i, &c)| u32::try_from(c).map_err(|_| bad_index(name, i / 3, c, n)))
         .collect()
+}
+
+/// An (N, 2) float32 array of texture coordinates (a copy).
+fn vec2_rows<'py>(
+    py: Python<'py>,
+    v: impl ExactSizeIterator<Item = csrbf::glam::Vec2>,
+) -> Bound<'py, PyArray2<f32>> {
+    let a = PyArray2::<f32>::zeros(py, [v.len(), 2], false);
+    {
+        let mut w = a.readwrite();
+        for (o, uv) in arrays::data_mut(&mut w).chunks_mut(2).zip(v) {
+            o.copy_from_slice(&uv.to_array());
+        }
+    }
+    a
 }
 
 /// An (N, 3) float32 array of vectors (a copy).

@@ -183,3 +183,38 @@ def test_bad_files_raise_csrbf_errors_naming_them(tmp_path):
     cut.write_bytes(csrbf.fit([[0, 0, 0]], [[0, 0, 1]], 1.0).to_bytes()[:-9])
     with pytest.raises(csrbf.Error, match="cut.csrbf"):
         csrbf.Deformation.load(cut)
+
+
+def test_texture_coordinates_read_back(tmp_path):
+    """A mesh's UVs: per vertex where every corner of a vertex agrees (the
+    glTF box, split at its seams), per corner always, and the same after a
+    write and a read; a mesh without any has None."""
+    box = csrbf.read_mesh(MODELS / "assimp_BoxTextured.glb")
+    uv = box.uvs
+    assert uv is not None and uv.shape == (len(box), 2) and uv.dtype == np.float32
+    corners = box.corner_uvs
+    flat = [v for f in box.faces for v in f]
+    assert corners.shape == (len(flat), 2)
+    np.testing.assert_array_equal(corners, uv[flat])
+    # The sample's coordinates span [0, 6] x [0, 1] (its texture repeats).
+    np.testing.assert_allclose([uv.min(0), uv.max(0)], [[0, 0], [6, 1]], atol=1e-6)
+    back = tmp_path / "box.glb"
+    csrbf.write_mesh(box, back)
+    np.testing.assert_array_equal(csrbf.read_mesh(back).uvs, uv)
+    assert csrbf.read_mesh(HEAD).uvs is None and csrbf.read_mesh(HEAD).corner_uvs is None
+
+
+def test_seamed_texture_coordinates_are_per_corner(tmp_path):
+    """An OBJ whose vertex has two UVs (a seam) has no per-vertex UVs, and
+    its corners keep both."""
+    obj = tmp_path / "seam.obj"
+    obj.write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+        "vt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\n"
+        "f 1/1 2/2 3/3\nf 2/4 4/2 3/3\n"
+    )
+    m = csrbf.read_mesh(obj)
+    assert m.uvs is None
+    np.testing.assert_array_equal(
+        m.corner_uvs, [[0, 0], [1, 0], [0, 1], [0.5, 0.5], [1, 0], [0, 1]]
+    )
