@@ -220,7 +220,9 @@ impl PyDeformation {
     }
 
     /// The points moved to `phase`: points + phase * D(points), an (N, 3)
-    /// array of the points' dtype.
+    /// array of the points' dtype. A point with a NaN or infinite
+    /// coordinate comes out NaN (no error: `deform_mesh` refuses such a
+    /// mesh instead).
     ///
     /// Args:
     ///     points: (N, 3) array-like.
