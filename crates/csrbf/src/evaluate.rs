@@ -299,10 +299,10 @@ fn counting_sort(keys: &[u32], buckets: usize) -> (Vec<u32>, Vec<(usize, usize)>
 }
 
 /// [`counting_sort`] on threads, the same result (`key` gives a point's
-/// bucket): `runs` consecutive runs of points each compute their keys and count their buckets at once; a
-/// bucket's places go to the runs in order (so within a bucket, points stay
-/// in increasing order); then each run writes its points' indices into
-/// its own places.
+/// bucket): `runs` consecutive runs of points each compute their keys and
+/// count their buckets at once; a bucket's places go to the runs in order
+/// (so within a bucket, points stay in increasing order); then each run
+/// writes its points' indices into its own places.
 fn counting_sort_parallel<P: Point>(
     points: &[P],
     key: impl Fn(DVec3) -> usize + Sync,
