@@ -103,14 +103,23 @@ fn cell(
     // The cell's places in the caller's order (`None`: they are its own).
     let places = b.order.as_deref().map(|o| &o[cell.clone()]);
     let ids = &g.ids[c.id..c.id + c.blocks * BLOCK];
+    // The table of coefficients (scaled by the step), and the sum of their
+    // sizes in the same pass.
+    let mut reach = 0.0;
+    for block in ids.chunks_exact(BLOCK) {
+        for axis in 0..3 {
+            let mut lanes = Lanes::default();
+            for (l, &j) in lanes.0.iter_mut().zip(block) {
+                let a = alpha.get(j as usize).map_or(0.0, |a| a[axis]);
+                reach += a.abs();
+                *l = (a * step) as f32;
+            }
+            s.table.push(lanes);
+        }
+    }
     // Coefficients far larger than the moves cancel: f32 sums (and the
     // levels' rounding) would keep only their rounding, so such a cell is
     // computed in f64, as `Deformation::displacements` computes it.
-    let reach: f64 = ids
-        .iter()
-        .filter_map(|&j| alpha.get(j as usize))
-        .map(|a| a.abs().element_sum())
-        .sum();
     if reach > d.f32_reach() {
         let place = |k: usize| places.map_or(cell.start + k, |p| p[k] as usize);
         for k in 0..c.points {
@@ -125,17 +134,6 @@ fn cell(
             };
         }
         return;
-    }
-    for block in ids.chunks_exact(BLOCK) {
-        for axis in 0..3 {
-            let mut lanes = Lanes::default();
-            for (l, &j) in lanes.0.iter_mut().zip(block) {
-                *l = alpha
-                    .get(j as usize)
-                    .map_or(0.0, |a| (a[axis] * step) as f32);
-            }
-            s.table.push(lanes);
-        }
     }
     let linear = d.affine().map(|a| a.linear());
     let ahead = |from: usize| {
