@@ -3,17 +3,22 @@
 The factored system and the vertices' binding are kept per object (as the
 studio keeps them): a moved destination costs one solve and one sparse
 product; a moved start, a new control or other settings rebuild them.
+
+The handlers are persistent: Blender keeps them through File > Open and
+File > New, so the Live toggle, which is saved in the .blend, means what it
+shows: a file saved with Live on is live again once opened.
 """
 
 from __future__ import annotations
 
 import bpy
 import numpy as np
+from bpy.app.handlers import persistent
 
 from . import core
 
-# Object name -> _State. Runtime only (not saved in the .blend).
-_states: dict[str, "_State"] = {}
+# Object (its session_uid) -> _State. Runtime only (not saved in the .blend).
+_states: dict[int, "_State"] = {}
 
 
 class _State:
@@ -71,41 +76,55 @@ def refresh(obj) -> str:
     starts, targets = core.controls(obj)
     if len(starts) == 0:
         return "no control vectors"
-    st = _states.get(obj.name)
+    uid = obj.session_uid
+    st = _states.get(uid)
     did = "solved"
     try:
         if st is None or st.key != _settings_key(obj) or not np.array_equal(st.starts, starts):
-            st = _states[obj.name] = _State(obj)
+            st = _states[uid] = _State(obj)
             did = "rebuilt"
         elif st.shown is not None and np.array_equal(st.shown, targets):
             return "unchanged"
         st.update(obj, targets)
     except Exception as e:  # the engine's refusal: shown, never raised into Blender's handler loop
-        _states.pop(obj.name, None)
+        _states.pop(uid, None)
         obj.csrbf.warnings = f"live: {e}"
         return f"error: {e}"
     return did
 
 
+@persistent
 def _on_depsgraph(scene, depsgraph):
     for obj in scene.objects:
         if obj.type == "MESH" and obj.csrbf.live:
             refresh(obj)
 
 
+@persistent
+def _on_load(_filepath):
+    # Another file's objects: nothing kept is theirs.
+    _states.clear()
+
+
 def set_enabled(obj, on: bool) -> None:
-    if obj is not None and not on:
-        _states.pop(obj.name, None)
-    if obj is not None and on:
+    if obj is None or obj.type != "MESH":
+        return
+    if on:
         refresh(obj)
+    else:
+        _states.pop(obj.session_uid, None)
 
 
 def register():
     if _on_depsgraph not in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph)
+    if _on_load not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_on_load)
 
 
 def unregister():
     if _on_depsgraph in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(_on_depsgraph)
+    if _on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_on_load)
     _states.clear()

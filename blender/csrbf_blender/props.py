@@ -20,7 +20,7 @@ POLYNOMIALS = [
 def _live_changed(self, context):
     from . import live
 
-    live.set_enabled(context.object if context else None, self.live)
+    live.set_enabled(self.id_data, self.live)  # the object these settings are on
 
 
 class CsrbfSettings(bpy.types.PropertyGroup):
