@@ -22,12 +22,12 @@ _states: dict[int, "_State"] = {}
 
 
 class _State:
-    def __init__(self, obj):
+    def __init__(self, obj, controls):
         import csrbf
 
         s = obj.csrbf
         self.key = _settings_key(obj)
-        self.starts, self.targets = core.controls(obj)
+        self.starts, self.targets = controls.starts, controls.targets
         self.rest = core.rest_positions(obj)
         idx = None
         if s.vertex_group:
@@ -73,7 +73,8 @@ def refresh(obj) -> str:
     what it did: "solved" (destinations moved), "rebuilt" (starts or
     settings changed), "unchanged" or an error message (the key is then
     left as it was)."""
-    starts, targets = core.controls(obj)
+    controls = core.control_pairs(obj)
+    starts, targets = controls.starts, controls.targets
     if len(starts) == 0:
         return "no control vectors"
     uid = obj.session_uid
@@ -81,7 +82,7 @@ def refresh(obj) -> str:
     did = "solved"
     try:
         if st is None or st.key != _settings_key(obj) or not np.array_equal(st.starts, starts):
-            st = _states[uid] = _State(obj)
+            st = _states[uid] = _State(obj, controls)
             did = "rebuilt"
         elif st.shown is not None and np.array_equal(st.shown, targets):
             return "unchanged"
@@ -102,8 +103,10 @@ def _on_depsgraph(scene, depsgraph):
 
 @persistent
 def _on_load(_filepath):
-    # Another file's objects: nothing kept is theirs.
+    # Another file's objects: nothing kept is theirs. Controls saved by
+    # earlier versions are brought up to date (owner pointers).
     _states.clear()
+    core.migrate()
 
 
 def set_enabled(obj, on: bool) -> None:

@@ -58,21 +58,18 @@ _draw_handle = None
 def _draw_lines():
     import gpu
     from gpu_extras.batch import batch_for_shader
+    from mathutils import Vector
 
     coords = []
     for obj in bpy.context.scene.objects:
         if obj.type != "MESH":
             continue
-        col = bpy.data.collections.get(core.collection_name(obj))
-        if col is None:
+        if core._collection(obj) is None and not obj.children:
             continue
-        pairs = {}
-        for e in col.objects:
-            if e.get(core.OWNER) == obj.name and e.get(core.ROLE):
-                pairs.setdefault(e.get(core.PAIR), {})[e.get(core.ROLE)] = e.matrix_world.translation
-        for p in pairs.values():
-            if len(p) == 2:
-                coords += [tuple(p["start"]), tuple(p["target"])]
+        c = core.control_pairs(obj)
+        m = obj.matrix_world
+        for a, b in zip(c.starts, c.targets):
+            coords += [tuple(m @ Vector(a)), tuple(m @ Vector(b))]
     if not coords:
         return
     shader = gpu.shader.from_builtin("UNIFORM_COLOR")

@@ -59,3 +59,75 @@ def test_defect1_live_survives_file_new_and_open(tmp_path):
     target.location.z = 1.3
     bpy.context.view_layer.update()
     assert north_z(obj) == pytest.approx(1.3, abs=1e-4)
+
+
+def test_defect2_duplicated_pairs_are_new_controls_lone_empties_reported(tmp_path):
+    obj = sphere()
+    start, target = add_control()
+    # Shift+D on both empties: a second control vector, the first kept.
+    select_only(start, target)
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    copy_start, copy_target = sorted(bpy.context.selected_objects, key=lambda e: e[core.ROLE])
+    copy_target.location.x += 0.3
+    copy_start.location.x += 0.3
+    bpy.context.view_layer.update()
+    starts, _ = core.controls(obj)
+    assert len(starts) == 2
+    bpy.context.view_layer.objects.active = obj
+    out = tmp_path / "c.json"
+    assert bpy.ops.csrbf.export_controls(filepath=str(out)) == {"FINISHED"}
+    assert len(json.loads(out.read_text())["controls"]) == 2
+    # A start copied alone: reported by name, the original start kept.
+    select_only(start)
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    lone = bpy.context.active_object
+    lone.location.x -= 0.3
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.objects.active = obj
+    obj.csrbf.radius = 0.6
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert f"start {lone.name!r} has no destination" in obj.csrbf.warnings
+    assert np.allclose(np.sort(core.controls(obj)[0][:, 0]), [0.0, 0.3], atol=1e-4)
+    # A start deleted: its destination is named, not silently ignored.
+    bpy.data.objects.remove(copy_start)
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert f"destination {copy_target.name!r} has no start" in obj.csrbf.warnings
+    assert len(core.controls(obj)[0]) == 1
+
+
+def test_defect3_renaming_the_mesh_keeps_its_controls():
+    obj = sphere()
+    _, target = add_control()
+    obj.csrbf.radius = 0.6
+    target.location.z = 1.2
+    obj.name = "Ball"
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
+    obj.csrbf.live = True
+    target.location.z = 1.3
+    bpy.context.view_layer.update()
+    assert north_z(obj) == pytest.approx(1.3, abs=1e-4)
+
+
+def test_defect3_files_naming_the_owner_by_string_are_migrated(tmp_path):
+    # The empties as earlier versions saved them: the owner by name, no partners.
+    obj = sphere()
+    col = bpy.data.collections.new(f"csrbf {obj.name}")
+    bpy.context.scene.collection.children.link(col)
+    for role, z in (("start", 1.0), ("target", 1.2)):
+        e = bpy.data.objects.new(f"{obj.name} {role} 0", None)
+        col.objects.link(e)
+        e.parent = obj
+        e.location = (0.0, 0.0, z)
+        e[core.ROLE], e[core.PAIR], e[core.OWNER] = role, 0, obj.name
+    obj.csrbf.radius = 0.6
+    path = tmp_path / "old.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    obj = bpy.data.objects["Sphere"]
+    obj.name = "Ball"
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
