@@ -71,8 +71,11 @@ def _settings_key(obj):
 def refresh(obj) -> str:
     """Brings the object's shape key up to date with its empties; returns
     what it did: "solved" (destinations moved), "rebuilt" (starts or
-    settings changed), "unchanged" or an error message (the key is then
+    settings changed), "unchanged", "edit mode" (skipped: Blender would
+    overwrite the key on leaving it) or an error message (the key is then
     left as it was)."""
+    if obj.mode == "EDIT":
+        return "edit mode"
     controls = core.control_pairs(obj)
     starts, targets = controls.starts, controls.targets
     if len(starts) == 0:

@@ -24,6 +24,25 @@ def _mesh_object(op, context):
     return obj
 
 
+class _ObjectMode:
+    """Leaves Edit Mode for the duration (writing the mesh's edits back) and
+    returns to it: a shape key written in Edit Mode is overwritten by the
+    edit mesh's own copy when Edit Mode ends."""
+
+    def __init__(self, obj):
+        self.edit = obj.mode == "EDIT"
+
+    def __enter__(self):
+        if self.edit:
+            bpy.ops.object.mode_set(mode="OBJECT")
+        return self
+
+    def __exit__(self, *exc):
+        if self.edit:
+            bpy.ops.object.mode_set(mode="EDIT")
+        return False
+
+
 def _engine():
     import csrbf  # the wheel the extension ships
 
@@ -164,7 +183,8 @@ class CSRBF_OT_deform(bpy.types.Operator):
         if settings.vertex_group and obj.vertex_groups.get(settings.vertex_group) is None:
             self.report({"ERROR"}, f"csrbf: {obj.name!r} has no vertex group {settings.vertex_group!r}")
             return {"CANCELLED"}
-        ok = apply_spec(self, obj, core.control_file(obj, settings), obj.name, controls.problems)
+        with _ObjectMode(obj):
+            ok = apply_spec(self, obj, core.control_file(obj, settings), obj.name, controls.problems)
         return {"FINISHED"} if ok else {"CANCELLED"}
 
 
@@ -190,7 +210,9 @@ class CSRBF_OT_deform_from_file(bpy.types.Operator, ImportHelper):
         except (OSError, UnicodeDecodeError) as e:
             self.report({"ERROR"}, f"csrbf: cannot read {path}: {e}")
             return {"CANCELLED"}
-        return {"FINISHED"} if apply_spec(self, obj, spec, path) else {"CANCELLED"}
+        with _ObjectMode(obj):
+            ok = apply_spec(self, obj, spec, path)
+        return {"FINISHED"} if ok else {"CANCELLED"}
 
 
 class CSRBF_OT_export_controls(bpy.types.Operator, ExportHelper):

@@ -131,3 +131,28 @@ def test_defect3_files_naming_the_owner_by_string_are_migrated(tmp_path):
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.csrbf.deform() == {"FINISHED"}
     assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
+
+
+def test_defect4_deform_in_edit_mode_is_kept():
+    import bmesh  # only after bpy
+
+    obj = sphere()
+    _, target = add_control()
+    target.location.z = 1.2
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.objects.active = obj
+    obj.csrbf.radius = 0.6
+    bpy.ops.object.mode_set(mode="EDIT")
+    bm = bmesh.from_edit_mesh(obj.data)  # an edit not yet written to the mesh
+    min(bm.verts, key=lambda v: v.co.z).co.z -= 0.1
+    bmesh.update_edit_mesh(obj.data)
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert obj.mode == "EDIT"
+    bpy.ops.object.mode_set(mode="OBJECT")
+    rest = core.rest_positions(obj)
+    assert rest[:, 2].min() == pytest.approx(-1.1, abs=1e-5)  # the edit kept
+    got = core.shape_key_positions(obj, obj.csrbf.layer)
+    starts, targets = core.controls(obj)
+    want = csrbf.fit(starts, targets, 0.6).deform(rest)
+    assert np.abs(got - want).max() <= 1e-6 * core.diagonal(rest)
+    assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
