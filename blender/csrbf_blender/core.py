@@ -164,6 +164,14 @@ def _collection(obj):
     return obj.csrbf.collection or bpy.data.collections.get(collection_name(obj))
 
 
+def owner_mesh(obj):
+    """The mesh an operator acts on when `obj` is active: the object itself
+    when a mesh, the control's mesh when one of its empties, else None."""
+    if obj is not None and obj.type == "EMPTY" and obj.get(ROLE):
+        obj = owner_of(obj)
+    return obj if obj is not None and obj.type == "MESH" else None
+
+
 def group_vertices(obj, name: str) -> np.ndarray | None:
     """Indices of the vertices in a vertex group (any weight > 0), or None
     when the object has no such group."""

@@ -15,10 +15,13 @@ from . import core
 
 
 def _mesh_object(op, context):
-    obj = context.active_object
-    if obj is None or obj.type != "MESH":
-        what = "nothing" if obj is None else f"{obj.name!r} ({obj.type.lower()})"
-        op.report({"ERROR"}, f"csrbf: the active object must be a mesh, not {what}")
+    """The mesh to act on: the active object, or the mesh of the active
+    control empty (Add Control Vector leaves its destination active)."""
+    active = context.active_object
+    obj = core.owner_mesh(active)
+    if obj is None:
+        what = "nothing" if active is None else f"{active.name!r} ({active.type.lower()})"
+        op.report({"ERROR"}, f"csrbf: the active object must be a mesh or a control vector's empty, not {what}")
         return None
     core.migrate(obj)
     return obj

@@ -16,10 +16,8 @@ class CSRBF_PT_panel(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        obj = context.active_object
-        if obj is not None and obj.type == "EMPTY" and obj.parent is not None and obj.get(core.ROLE):
-            obj = obj.parent  # a control's empty is selected: show its mesh
-        if obj is None or obj.type != "MESH":
+        obj = core.owner_mesh(context.active_object)  # a control's empty active: its mesh
+        if obj is None:
             layout.label(text="Select a mesh object", icon="INFO")
             return
         s = obj.csrbf

@@ -156,3 +156,17 @@ def test_defect4_deform_in_edit_mode_is_kept():
     want = csrbf.fit(starts, targets, 0.6).deform(rest)
     assert np.abs(got - want).max() <= 1e-6 * core.diagonal(rest)
     assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
+
+
+def test_defect6_mesh_operators_accept_an_active_control_empty(tmp_path):
+    obj = sphere()
+    _, target = add_control()
+    obj.csrbf.radius = 0.6
+    target.location.z = 1.2
+    bpy.context.view_layer.update()
+    assert bpy.context.view_layer.objects.active == target
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
+    assert bpy.ops.csrbf.export_controls(filepath=str(tmp_path / "c.json")) == {"FINISHED"}
+    assert bpy.ops.csrbf.add_control() == {"FINISHED"}  # on the same mesh
+    assert len(core.controls(obj)[0]) == 2
