@@ -40,17 +40,21 @@ class _State:
         self.binding = self.system.bind(pts)
         self.shown = None  # the targets last written
 
-    def update(self, obj, targets) -> None:
-        if obj.csrbf.sweep:
+    def update(self, obj, targets, problems) -> None:
+        s = obj.csrbf
+        if s.sweep:
             # A sweep's steps move with the destinations: fitted anew each
-            # move (its report goes to the panel, as Deform's does).
+            # move, so its figures are the pose's own (as Deform's are).
             import csrbf
 
             mesh = csrbf.Mesh(self.rest, core.triangles(obj))
-            out, report = csrbf.deform_mesh(mesh, core.resolve_groups(core.control_file(obj, obj.csrbf), obj))
+            out, report = csrbf.deform_mesh(mesh, core.resolve_groups(core.control_file(obj, s), obj))
             out = out.vertices
-            obj.csrbf.inside_out = report.inside_out_faces
-            obj.csrbf.fold_phase = -1.0 if report.fold_phase is None else report.fold_phase
+            _set(s, "moved", report.moved)
+            _set(s, "inside_out", report.inside_out_faces)
+            _set(s, "fold_phase", -1.0 if report.fold_phase is None else report.fold_phase)
+            _set(s, "largest_move", report.largest_move)
+            _set(s, "warnings", "\n".join(problems + report.warnings))
         else:
             d = self.system.solve(targets)
             disp = self.binding.displacements(d)
@@ -59,8 +63,18 @@ class _State:
                 out += disp
             else:
                 out[self.region] += disp
-        core.write_shape_key(obj, obj.csrbf.layer, out)
+            # The last Deform's figures are not this pose's: cleared, not shown as current.
+            _set(s, "moved", -1)
+            _set(s, "warnings", "\n".join(problems))
+        core.write_shape_key(obj, s.layer, out)
         self.shown = targets.copy()
+
+
+def _set(settings, name, value) -> None:
+    """Writes a setting only when it changes: a write tags the object, and an
+    update from the handler must not start another one."""
+    if getattr(settings, name) != value:
+        setattr(settings, name, value)
 
 
 def _settings_key(obj):
@@ -73,12 +87,13 @@ def refresh(obj) -> str:
     what it did: "solved" (destinations moved), "rebuilt" (starts or
     settings changed), "unchanged", "edit mode" (skipped: Blender would
     overwrite the key on leaving it) or an error message (the key is then
-    left as it was)."""
+    left as it was and the message shown in the panel)."""
     if obj.mode == "EDIT":
         return "edit mode"
     controls = core.control_pairs(obj)
     starts, targets = controls.starts, controls.targets
     if len(starts) == 0:
+        _set(obj.csrbf, "warnings", "\n".join(["live: no control vectors"] + controls.problems))
         return "no control vectors"
     uid = obj.session_uid
     st = _states.get(uid)
@@ -89,10 +104,10 @@ def refresh(obj) -> str:
             did = "rebuilt"
         elif st.shown is not None and np.array_equal(st.shown, targets):
             return "unchanged"
-        st.update(obj, targets)
+        st.update(obj, targets, controls.problems)
     except Exception as e:  # the engine's refusal: shown, never raised into Blender's handler loop
         _states.pop(uid, None)
-        obj.csrbf.warnings = f"live: {e}"
+        _set(obj.csrbf, "warnings", f"live: {e}")
         return f"error: {e}"
     return did
 

@@ -39,15 +39,25 @@ class CSRBF_PT_panel(bpy.types.Panel):
         row.prop(s, "live", toggle=True, icon="PLAY")
         layout.operator("csrbf.deform_from_file", icon="FILE")
         layout.operator("csrbf.export_controls", icon="EXPORT")
-        starts, _ = core.controls(obj)
         box = layout.box()
-        box.label(text=f"{len(starts)} control vector(s)")
-        if s.moved >= 0:
-            box.label(text=f"{s.moved} vertices moved, largest {s.largest_move:.4g}")
-            folds = f", folds from phase {s.fold_phase:.2f}" if s.fold_phase >= 0 else ""
-            box.label(text=f"{s.inside_out} face(s) inside out{folds}", icon="ERROR" if s.inside_out else "CHECKMARK")
-        for w in s.warnings.splitlines()[:6]:
-            box.label(text=w, icon="ERROR")
+        for text, icon in status_lines(obj):
+            box.label(text=text, icon=icon)
+
+
+def status_lines(obj) -> list[tuple[str, str]]:
+    """The panel's box as (text, icon) lines: the control vectors, the last
+    deformation's figures (never a past Deform's as the live pose's) and the
+    warnings."""
+    s = obj.csrbf
+    lines = [(f"{len(core.controls(obj)[0])} control vector(s)", "NONE")]
+    if s.moved >= 0:
+        lines.append((f"{s.moved} vertices moved, largest {s.largest_move:.4g}", "NONE"))
+        folds = f", folds from phase {s.fold_phase:.2f}" if s.fold_phase >= 0 else ""
+        lines.append((f"{s.inside_out} face(s) inside out{folds}", "ERROR" if s.inside_out else "CHECKMARK"))
+    elif s.live:
+        lines.append(("Live pose: not checked for folds (Deform checks it)", "INFO"))
+    lines += [(w, "ERROR") for w in s.warnings.splitlines()[:6]]
+    return lines
 
 
 _draw_handle = None

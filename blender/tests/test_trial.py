@@ -170,3 +170,20 @@ def test_defect6_mesh_operators_accept_an_active_control_empty(tmp_path):
     assert bpy.ops.csrbf.export_controls(filepath=str(tmp_path / "c.json")) == {"FINISHED"}
     assert bpy.ops.csrbf.add_control() == {"FINISHED"}  # on the same mesh
     assert len(core.controls(obj)[0]) == 2
+
+
+def test_defect5_live_does_not_show_a_past_deforms_figures():
+    obj = sphere()
+    _, target = add_control()
+    obj.csrbf.radius = 0.6
+    target.location.z = 1.1
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert ("0 face(s) inside out", "CHECKMARK") in ui.status_lines(obj)
+    obj.csrbf.live = True
+    target.location.x = 0.5  # folds: Deform would say so
+    bpy.context.view_layer.update()
+    lines = [text for text, _ in ui.status_lines(obj)]
+    assert not any("inside out" in t or "vertices moved" in t for t in lines), lines
+    assert any("Live pose" in t for t in lines), lines
