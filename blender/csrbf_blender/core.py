@@ -187,7 +187,7 @@ def resolve_groups(spec, obj):
     """A control file (parsed JSON) with every region that names a part
     (`{"group": name}`, in `region`, a handle's `select` or an `anchor`)
     turned into the vertex list of the object's vertex group of that name.
-    Names that are not vertex groups are left for the engine to refuse."""
+    Raises ValueError naming a group the object does not have."""
     if isinstance(spec, dict):
         out = {}
         for k, v in spec.items():
@@ -195,9 +195,11 @@ def resolve_groups(spec, obj):
         name = out.get("group")
         if isinstance(name, str):
             idx = group_vertices(obj, name)
-            if idx is not None:
-                del out["group"]
-                out["vertices"] = idx.tolist()
+            if idx is None:
+                have = ", ".join(repr(g.name) for g in obj.vertex_groups) or "none"
+                raise ValueError(f"{obj.name!r} has no vertex group {name!r} (its vertex groups: {have})")
+            del out["group"]
+            out["vertices"] = idx.tolist()
         return out
     if isinstance(spec, list):
         return [resolve_groups(v, obj) for v in spec]

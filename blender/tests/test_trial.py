@@ -187,3 +187,13 @@ def test_defect5_live_does_not_show_a_past_deforms_figures():
     lines = [text for text, _ in ui.status_lines(obj)]
     assert not any("inside out" in t or "vertices moved" in t for t in lines), lines
     assert any("Live pose" in t for t in lines), lines
+
+
+def test_defect7_a_missing_vertex_group_is_named(tmp_path):
+    obj = sphere()
+    obj.vertex_groups.new(name="top")
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"radius": 0.5, "controls": [{"from": [0, 0, 1], "to": [0, 0, 2]}],
+                               "region": {"group": "nope"}}))
+    with pytest.raises(RuntimeError, match="'Sphere' has no vertex group 'nope' \\(its vertex groups: 'top'\\)"):
+        bpy.ops.csrbf.deform_from_file(filepath=str(bad))
