@@ -124,9 +124,9 @@ class CSRBF_OT_add_control(bpy.types.Operator):
             points = [location]
         settings = obj.csrbf
         size = core.diagonal(core.rest_positions(obj)) or 1.0
-        if not settings.initialised:
-            settings.radius = 0.15 * size
-            settings.initialised = True
+        if not settings.initialised and not settings.is_property_set("radius"):
+            settings.radius = 0.15 * size  # the user's own R is kept
+        settings.initialised = True
         col = settings.collection or bpy.data.collections.get(core.collection_name(obj))
         if col is None:
             col = bpy.data.collections.new(core.collection_name(obj))

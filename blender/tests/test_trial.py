@@ -197,3 +197,10 @@ def test_defect7_a_missing_vertex_group_is_named(tmp_path):
                                "region": {"group": "nope"}}))
     with pytest.raises(RuntimeError, match="'Sphere' has no vertex group 'nope' \\(its vertex groups: 'top'\\)"):
         bpy.ops.csrbf.deform_from_file(filepath=str(bad))
+
+
+def test_defect7_add_control_keeps_the_users_radius():
+    obj = sphere()
+    obj.csrbf.radius = 0.3
+    add_control()
+    assert obj.csrbf.radius == pytest.approx(0.3)
