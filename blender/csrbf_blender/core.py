@@ -172,6 +172,22 @@ def owner_mesh(obj):
     return obj if obj is not None and obj.type == "MESH" else None
 
 
+def far_starts(points: np.ndarray, starts: np.ndarray, radius: float) -> list[int]:
+    """The starts farther than `radius` from every point: they move nothing
+    (Deform refuses them through the engine's report; Live checks here).
+    Only points within the starts' bounding box grown by the radius are
+    measured."""
+    if len(starts) == 0:
+        return []
+    lo, hi = starts.min(axis=0) - radius, starts.max(axis=0) + radius
+    near = points[np.all((points >= lo) & (points <= hi), axis=1)].astype(np.float64)
+    far = []
+    for k, s in enumerate(starts):
+        if len(near) == 0 or np.min(np.sum((near - s) ** 2, axis=1)) >= radius * radius:
+            far.append(k)
+    return far
+
+
 def group_vertices(obj, name: str) -> np.ndarray | None:
     """Indices of the vertices in a vertex group (any weight > 0), or None
     when the object has no such group."""

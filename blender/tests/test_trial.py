@@ -158,20 +158,6 @@ def test_defect4_deform_in_edit_mode_is_kept():
     assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
 
 
-def test_defect6_mesh_operators_accept_an_active_control_empty(tmp_path):
-    obj = sphere()
-    _, target = add_control()
-    obj.csrbf.radius = 0.6
-    target.location.z = 1.2
-    bpy.context.view_layer.update()
-    assert bpy.context.view_layer.objects.active == target
-    assert bpy.ops.csrbf.deform() == {"FINISHED"}
-    assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
-    assert bpy.ops.csrbf.export_controls(filepath=str(tmp_path / "c.json")) == {"FINISHED"}
-    assert bpy.ops.csrbf.add_control() == {"FINISHED"}  # on the same mesh
-    assert len(core.controls(obj)[0]) == 2
-
-
 def test_defect5_live_does_not_show_a_past_deforms_figures():
     obj = sphere()
     _, target = add_control()
@@ -189,6 +175,20 @@ def test_defect5_live_does_not_show_a_past_deforms_figures():
     assert any("Live pose" in t for t in lines), lines
 
 
+def test_defect6_mesh_operators_accept_an_active_control_empty(tmp_path):
+    obj = sphere()
+    _, target = add_control()
+    obj.csrbf.radius = 0.6
+    target.location.z = 1.2
+    bpy.context.view_layer.update()
+    assert bpy.context.view_layer.objects.active == target
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
+    assert bpy.ops.csrbf.export_controls(filepath=str(tmp_path / "c.json")) == {"FINISHED"}
+    assert bpy.ops.csrbf.add_control() == {"FINISHED"}  # on the same mesh
+    assert len(core.controls(obj)[0]) == 2
+
+
 def test_defect7_a_missing_vertex_group_is_named(tmp_path):
     obj = sphere()
     obj.vertex_groups.new(name="top")
@@ -204,3 +204,18 @@ def test_defect7_add_control_keeps_the_users_radius():
     obj.csrbf.radius = 0.3
     add_control()
     assert obj.csrbf.radius == pytest.approx(0.3)
+
+
+def test_defect7_live_reports_a_start_far_from_the_mesh():
+    obj = sphere()
+    start, target = add_control()
+    obj.csrbf.radius = 0.3
+    obj.csrbf.live = True
+    target.location.z = 1.2
+    bpy.context.view_layer.update()
+    before = core.shape_key_positions(obj, obj.csrbf.layer).copy()
+    start.location = (5.0, 5.0, 5.0)
+    target.location = (5.0, 5.0, 6.0)
+    bpy.context.view_layer.update()  # the handler reports, never raises
+    assert f"start {start.name!r} lies farther than R" in obj.csrbf.warnings
+    assert np.array_equal(core.shape_key_positions(obj, obj.csrbf.layer), before)  # left as it was
