@@ -98,10 +98,11 @@ def control_pairs(obj) -> Controls:
         if t is not None and t.get(ROLE) == "target" and t.csrbf.partner == s and owner_of(t) == obj:
             pairs.append((s, t))
             paired.update((s.name, t.name))
-    # Legacy empties (no partners): one start and one destination a number.
+    # Legacy empties (owner by name, no partners): one start and one
+    # destination a number. Empties that lost their partner are not legacy.
     legacy: dict[int, list] = {}
     for e in empties:
-        if e.name not in paired and e.csrbf.partner is None:
+        if e.name not in paired and e.csrbf.owner is None and e.csrbf.partner is None:
             legacy.setdefault(int(e.get(PAIR, -1)), []).append(e)
     for group in legacy.values():
         if sorted(e[ROLE] for e in group) == ["start", "target"]:
@@ -143,10 +144,9 @@ def migrate(obj=None) -> None:
     legacy: dict[tuple[str, int], list] = {}
     for e in empties:
         owner = owner_of(e)
-        if owner is None:
-            continue
-        if e.csrbf.owner is None:
-            e.csrbf.owner = owner
+        if owner is None or e.csrbf.owner is not None:
+            continue  # an empty that lost its partner is not legacy: never paired up
+        e.csrbf.owner = owner
         if OWNER in e:
             del e[OWNER]
         if owner.csrbf.collection is None:

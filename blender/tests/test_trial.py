@@ -95,6 +95,24 @@ def test_defect2_duplicated_pairs_are_new_controls_lone_empties_reported(tmp_pat
     assert len(core.controls(obj)[0]) == 1
 
 
+def test_defect2_orphans_of_one_number_are_not_paired_up():
+    obj = sphere()
+    start, target = add_control()
+    select_only(start, target)
+    assert bpy.ops.object.duplicate() == {"FINISHED"}
+    copy_start, copy_target = sorted(bpy.context.selected_objects, key=lambda e: e[core.ROLE])
+    # The original's start and the copy's destination deleted: what is left
+    # shares the pair number, but each lost its own partner.
+    bpy.data.objects.remove(start)
+    bpy.data.objects.remove(copy_target)
+    bpy.context.view_layer.objects.active = obj
+    with pytest.raises(RuntimeError, match=f"no control vectors.*start {copy_start.name!r} has no destination"):
+        bpy.ops.csrbf.deform()  # (which also brings old files' empties up to date)
+    c = core.control_pairs(obj)
+    assert len(c.starts) == 0
+    assert len(c.problems) == 2 and any(repr(copy_start.name) in p for p in c.problems)
+
+
 def test_defect3_renaming_the_mesh_keeps_its_controls():
     obj = sphere()
     _, target = add_control()
