@@ -34,16 +34,20 @@ def add_controls(obj, k, rng):
     idx = rng.choice(len(rest), size=k, replace=False)
     col = bpy.data.collections.new(core.collection_name(obj))
     bpy.context.scene.collection.children.link(col)
+    obj.csrbf.collection = col
     targets = []
     for n, i in enumerate(idx):
+        pair = []
         for role, p in (("start", rest[i]), ("target", rest[i] * 1.05)):
             e = bpy.data.objects.new(f"{role} {n}", None)
             col.objects.link(e)
             e.parent = obj
             e.location = tuple(float(x) for x in p)
-            e[core.ROLE], e[core.PAIR], e[core.OWNER] = role, n, obj.name
-            if role == "target":
-                targets.append(e)
+            e[core.ROLE], e[core.PAIR] = role, n
+            e.csrbf.owner = obj
+            pair.append(e)
+        pair[0].csrbf.partner, pair[1].csrbf.partner = pair[1], pair[0]
+        targets.append(pair[1])
     bpy.context.view_layer.update()
     return targets
 

@@ -2,7 +2,9 @@
 
 Control vectors are pairs of empties parented to the mesh object, in a
 collection named after it: the start (a small sphere) and the destination
-(an arrow). Their positions are read in the object's local space, which is
+(an arrow). Each empty points at its mesh (`csrbf.owner`) and at the other
+end of its pair (`csrbf.partner`), so renaming the mesh or duplicating a
+pair keeps them apart. Their positions are read in the object's local space, which is
 where the mesh's vertices are, so a deformation is a shape key of the mesh.
 """
 
@@ -14,7 +16,7 @@ import numpy as np
 
 ROLE = "csrbf_role"  # "start" or "target"
 PAIR = "csrbf_pair"  # the control's number within its object
-OWNER = "csrbf_object"  # the mesh object's name
+OWNER = "csrbf_object"  # the mesh object's name: files before the owner was a pointer (csrbf.owner)
 
 
 def collection_name(obj) -> str:
@@ -48,37 +50,165 @@ def diagonal(points: np.ndarray) -> float:
     return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
 
 
-def controls(obj):
-    """The object's control vectors as (starts, targets), (K, 3) float64 in
-    its local space, ordered by pair number; pairs missing an empty are
-    left out."""
-    col = _collection(obj)
-    if col is None:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    inv = obj.matrix_world.inverted()
-    pairs: dict[int, dict[str, object]] = {}
-    for e in col.objects:
-        role = e.get(ROLE)
-        if e.get(OWNER) == obj.name and role in ("start", "target"):
-            pairs.setdefault(int(e.get(PAIR, -1)), {})[role] = inv @ e.matrix_world.translation
-    whole = [pairs[k] for k in sorted(pairs) if len(pairs[k]) == 2]
-    starts = np.array([tuple(p["start"]) for p in whole], dtype=np.float64).reshape(-1, 3)
-    targets = np.array([tuple(p["target"]) for p in whole], dtype=np.float64).reshape(-1, 3)
-    return starts, targets
+class Controls:
+    """An object's control vectors, read from its empties: `starts` and
+    `targets` (K, 3) float64 in its local space, `names` the K starts'
+    empties, and `problems`: one line for each empty left out (a start with
+    no destination or a destination with no start), naming it."""
+
+    def __init__(self, starts, targets, names, problems):
+        self.starts, self.targets, self.names, self.problems = starts, targets, names, problems
+
+
+def owner_of(e):
+    """The mesh object a control empty belongs to, or None. Files from before
+    the owner was a pointer name it by a string (read until migrated)."""
+    owner = e.csrbf.owner
+    if owner is None and isinstance(e.get(OWNER), str):
+        import bpy
+
+        owner = bpy.data.objects.get(e[OWNER])
+    return owner
 
 
 def control_empties(obj):
-    """Every empty of the object's control vectors."""
+    """Every empty of the object's control vectors: in its collection or
+    parented to it, whose owner is the object."""
+    seen, out = set(), []
     col = _collection(obj)
-    if col is None:
-        return []
-    return [e for e in col.objects if e.get(OWNER) == obj.name and e.get(ROLE)]
+    for e in list(obj.children) + (list(col.objects) if col is not None else []):
+        if e.name not in seen and e.get(ROLE) in ("start", "target") and owner_of(e) == obj:
+            seen.add(e.name)
+            out.append(e)
+    return out
+
+
+def control_pairs(obj) -> Controls:
+    """The object's control vectors. A start and a destination pair when
+    each is the other's partner (so duplicating both empties makes a new
+    pair, its partners the copies); empties from files made before the
+    partners were kept pair by their number when that is unambiguous. Every
+    other empty is left out and named in `problems`."""
+    empties = control_empties(obj)
+    starts = [e for e in empties if e[ROLE] == "start"]
+    targets = [e for e in empties if e[ROLE] == "target"]
+    pairs, paired = [], set()
+    for s in starts:
+        t = s.csrbf.partner
+        if t is not None and t.get(ROLE) == "target" and t.csrbf.partner == s and owner_of(t) == obj:
+            pairs.append((s, t))
+            paired.update((s.name, t.name))
+    # Legacy empties (owner by name, no partners): one start and one
+    # destination a number. Empties that lost their partner are not legacy.
+    legacy: dict[int, list] = {}
+    for e in empties:
+        if e.name not in paired and e.csrbf.owner is None and e.csrbf.partner is None:
+            legacy.setdefault(int(e.get(PAIR, -1)), []).append(e)
+    for group in legacy.values():
+        if sorted(e[ROLE] for e in group) == ["start", "target"]:
+            s, t = sorted(group, key=lambda e: e[ROLE])
+            pairs.append((s, t))
+            paired.update((s.name, t.name))
+    problems = []
+    for e in empties:
+        if e.name in paired:
+            continue
+        if e[ROLE] == "start":
+            problems.append(f"start {e.name!r} has no destination of its own (copied alone, or its destination "
+                            "deleted?): left out; delete it or Add Control Vector for a whole pair")
+        else:
+            problems.append(f"destination {e.name!r} has no start of its own (copied alone, or its start "
+                            "deleted?): left out; delete it or Add Control Vector for a whole pair")
+    pairs.sort(key=lambda p: (int(p[0].get(PAIR, -1)), p[0].name))
+    inv = obj.matrix_world.inverted()
+    starts_xyz = np.array([tuple(inv @ s.matrix_world.translation) for s, _ in pairs], dtype=np.float64)
+    targets_xyz = np.array([tuple(inv @ t.matrix_world.translation) for _, t in pairs], dtype=np.float64)
+    return Controls(starts_xyz.reshape(-1, 3), targets_xyz.reshape(-1, 3), [s.name for s, _ in pairs], problems)
+
+
+def controls(obj):
+    """The object's control vectors as (starts, targets), (K, 3) float64 in
+    its local space (see `control_pairs`, which also says what it left out)."""
+    c = control_pairs(obj)
+    return c.starts, c.targets
+
+
+def migrate(obj=None) -> None:
+    """Brings control empties saved by earlier versions up to date: the owner
+    named by a string becomes a pointer (so renaming the mesh keeps its
+    controls), each legacy pair's empties point at each other, and the
+    mesh points at its collection. Every object when `obj` is None."""
+    import bpy
+
+    empties = [e for e in (bpy.data.objects if obj is None else control_empties(obj)) if e.get(ROLE)]
+    legacy: dict[tuple[str, int], list] = {}
+    for e in empties:
+        owner = owner_of(e)
+        if owner is None or e.csrbf.owner is not None:
+            continue  # an empty that lost its partner is not legacy: never paired up
+        e.csrbf.owner = owner
+        if OWNER in e:
+            del e[OWNER]
+        if owner.csrbf.collection is None:
+            owner.csrbf.collection = bpy.data.collections.get(collection_name(owner))
+        if e.csrbf.partner is None:
+            legacy.setdefault((owner.name, int(e.get(PAIR, -1))), []).append(e)
+    for group in legacy.values():
+        if sorted(e[ROLE] for e in group) == ["start", "target"]:
+            group[0].csrbf.partner, group[1].csrbf.partner = group[1], group[0]
 
 
 def _collection(obj):
     import bpy
 
-    return bpy.data.collections.get(collection_name(obj))
+    return obj.csrbf.collection or bpy.data.collections.get(collection_name(obj))
+
+
+def owner_mesh(obj):
+    """The mesh an operator acts on when `obj` is active: the object itself
+    when a mesh, the control's mesh when one of its empties, else None."""
+    if obj is not None and obj.type == "EMPTY" and obj.get(ROLE):
+        obj = owner_of(obj)
+    return obj if obj is not None and obj.type == "MESH" else None
+
+
+def far_starts(points: np.ndarray, starts: np.ndarray, radius: float) -> list[int]:
+    """The starts farther than `radius` from every point: they move nothing
+    (Deform refuses them through the engine's report; Live checks here).
+    The points are sorted into cells R wide once, and each start measured
+    against the points of its 27 cells only."""
+    if len(starts) == 0:
+        return []
+    if len(points) == 0 or not radius > 0.0:
+        return list(range(len(starts)))
+    points = np.asarray(points, dtype=np.float64)
+    lo = points.min(axis=0)
+    if np.linalg.norm(points.max(axis=0) - lo) / radius > 1e12:  # cells past int64: measure every point
+        return [k for k, s in enumerate(starts) if np.min(np.sum((points - s) ** 2, axis=1)) >= radius * radius]
+    keys = _cell_keys(np.floor((points - lo) / radius).astype(np.int64))
+    order = np.argsort(keys)
+    keys = keys[order]
+    far = []
+    for k, s in enumerate(np.asarray(starts, dtype=np.float64)):
+        if np.any(np.abs(s - lo) / radius > 1e12):
+            far.append(k)
+            continue
+        cell = np.floor((s - lo) / radius).astype(np.int64)
+        near = _cell_keys(cell + _NEIGHBOURS)
+        first, last = np.searchsorted(keys, near, "left"), np.searchsorted(keys, near, "right")
+        idx = np.concatenate([order[i:j] for i, j in zip(first, last)])
+        if len(idx) == 0 or np.min(np.sum((points[idx] - s) ** 2, axis=1)) >= radius * radius:
+            far.append(k)
+    return far
+
+
+_NEIGHBOURS = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)], dtype=np.int64)
+
+
+def _cell_keys(cells: np.ndarray) -> np.ndarray:
+    """A cell's key (int64, wrapping): cells that collide only add points to
+    measure, never hide one."""
+    return (cells[:, 0] * 73856093) ^ (cells[:, 1] * 19349663) ^ (cells[:, 2] * 83492791)
 
 
 def group_vertices(obj, name: str) -> np.ndarray | None:
@@ -96,7 +226,7 @@ def resolve_groups(spec, obj):
     """A control file (parsed JSON) with every region that names a part
     (`{"group": name}`, in `region`, a handle's `select` or an `anchor`)
     turned into the vertex list of the object's vertex group of that name.
-    Names that are not vertex groups are left for the engine to refuse."""
+    Raises ValueError naming a group the object does not have."""
     if isinstance(spec, dict):
         out = {}
         for k, v in spec.items():
@@ -104,9 +234,11 @@ def resolve_groups(spec, obj):
         name = out.get("group")
         if isinstance(name, str):
             idx = group_vertices(obj, name)
-            if idx is not None:
-                del out["group"]
-                out["vertices"] = idx.tolist()
+            if idx is None:
+                have = ", ".join(repr(g.name) for g in obj.vertex_groups) or "none"
+                raise ValueError(f"{obj.name!r} has no vertex group {name!r} (its vertex groups: {have})")
+            del out["group"]
+            out["vertices"] = idx.tolist()
         return out
     if isinstance(spec, list):
         return [resolve_groups(v, obj) for v in spec]

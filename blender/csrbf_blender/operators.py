@@ -15,12 +15,35 @@ from . import core
 
 
 def _mesh_object(op, context):
-    obj = context.active_object
-    if obj is None or obj.type != "MESH":
-        what = "nothing" if obj is None else f"{obj.name!r} ({obj.type.lower()})"
-        op.report({"ERROR"}, f"csrbf: the active object must be a mesh, not {what}")
+    """The mesh to act on: the active object, or the mesh of the active
+    control empty (Add Control Vector leaves its destination active)."""
+    active = context.active_object
+    obj = core.owner_mesh(active)
+    if obj is None:
+        what = "nothing" if active is None else f"{active.name!r} ({active.type.lower()})"
+        op.report({"ERROR"}, f"csrbf: the active object must be a mesh or a control vector's empty, not {what}")
         return None
+    core.migrate(obj)
     return obj
+
+
+class _ObjectMode:
+    """Leaves Edit Mode for the duration (writing the mesh's edits back) and
+    returns to it: a shape key written in Edit Mode is overwritten by the
+    edit mesh's own copy when Edit Mode ends."""
+
+    def __init__(self, obj):
+        self.edit = obj.mode == "EDIT"
+
+    def __enter__(self):
+        if self.edit:
+            bpy.ops.object.mode_set(mode="OBJECT")
+        return self
+
+    def __exit__(self, *exc):
+        if self.edit:
+            bpy.ops.object.mode_set(mode="EDIT")
+        return False
 
 
 def _engine():
@@ -35,11 +58,12 @@ def _has_region(spec) -> bool:
     return "region" in spec or any(_has_region(d) for d in spec.get("deformations", []))
 
 
-def apply_spec(op, obj, spec: dict, source: str) -> bool:
+def apply_spec(op, obj, spec: dict, source: str, problems=()) -> bool:
     """Fits a control file (parsed JSON, regions by vertex group name) on the
     object's rest shape and writes the result into the shape key named after
     the first deformation's `name` (or the object's layer). Reports and
-    changes nothing on any error, or when a start reaches no vertex."""
+    changes nothing on any error, or when a start reaches no vertex.
+    `problems` (empties left out) are reported as warnings with the rest."""
     csrbf = _engine()
     settings = obj.csrbf
     rest = core.rest_positions(obj)
@@ -61,10 +85,11 @@ def apply_spec(op, obj, spec: dict, source: str) -> bool:
     settings.inside_out = report.inside_out_faces
     settings.fold_phase = -1.0 if report.fold_phase is None else report.fold_phase
     settings.largest_move = report.largest_move
-    settings.warnings = "\n".join(report.warnings)
-    level = {"WARNING"} if report.warnings else {"INFO"}
+    warnings = list(problems) + report.warnings
+    settings.warnings = "\n".join(warnings)
+    level = {"WARNING"} if warnings else {"INFO"}
     op.report(level, f"csrbf: {report.moved} of {len(rest)} vertices moved into shape key {name!r}"
-              + (f"; {len(report.warnings)} warning(s): {report.warnings[0]}" if report.warnings else ""))
+              + (f"; {len(warnings)} warning(s): {warnings[0]}" if warnings else ""))
     return True
 
 
@@ -99,19 +124,21 @@ class CSRBF_OT_add_control(bpy.types.Operator):
             points = [location]
         settings = obj.csrbf
         size = core.diagonal(core.rest_positions(obj)) or 1.0
-        if not settings.initialised:
-            settings.radius = 0.15 * size
-            settings.initialised = True
-        col = bpy.data.collections.get(core.collection_name(obj))
+        if not settings.initialised and not settings.is_property_set("radius"):
+            settings.radius = 0.15 * size  # the user's own R is kept
+        settings.initialised = True
+        col = settings.collection or bpy.data.collections.get(core.collection_name(obj))
         if col is None:
             col = bpy.data.collections.new(core.collection_name(obj))
             context.scene.collection.children.link(col)
+        settings.collection = col
         target = None
         for p in points:
             k = settings.next_pair
             settings.next_pair += 1
             start = _empty(col, obj, f"{obj.name} start {k}", "SPHERE", 0.01 * size, p, "start", k)
             target = _empty(col, obj, f"{obj.name} to {k}", "PLAIN_AXES", 0.03 * size, p, "target", k)
+            start.csrbf.partner, target.csrbf.partner = target, start
             start.hide_select = False
         for o in context.view_layer.objects:
             o.select_set(False)
@@ -132,7 +159,7 @@ def _empty(col, obj, name, display, size, local, role, pair):
     e.location = local
     e[core.ROLE] = role
     e[core.PAIR] = pair
-    e[core.OWNER] = obj.name
+    e.csrbf.owner = obj
     return e
 
 
@@ -147,9 +174,10 @@ class CSRBF_OT_deform(bpy.types.Operator):
         obj = _mesh_object(self, context)
         if obj is None:
             return {"CANCELLED"}
-        starts, _ = core.controls(obj)
-        if len(starts) == 0:
-            self.report({"ERROR"}, f"csrbf: {obj.name!r} has no control vectors: add one first")
+        controls = core.control_pairs(obj)
+        if len(controls.starts) == 0:
+            left = f" ({'; '.join(controls.problems)})" if controls.problems else ""
+            self.report({"ERROR"}, f"csrbf: {obj.name!r} has no control vectors: add one first{left}")
             return {"CANCELLED"}
         settings = obj.csrbf
         if not settings.radius > 0.0:
@@ -158,7 +186,8 @@ class CSRBF_OT_deform(bpy.types.Operator):
         if settings.vertex_group and obj.vertex_groups.get(settings.vertex_group) is None:
             self.report({"ERROR"}, f"csrbf: {obj.name!r} has no vertex group {settings.vertex_group!r}")
             return {"CANCELLED"}
-        ok = apply_spec(self, obj, core.control_file(obj, settings), obj.name)
+        with _ObjectMode(obj):
+            ok = apply_spec(self, obj, core.control_file(obj, settings), obj.name, controls.problems)
         return {"FINISHED"} if ok else {"CANCELLED"}
 
 
@@ -184,7 +213,9 @@ class CSRBF_OT_deform_from_file(bpy.types.Operator, ImportHelper):
         except (OSError, UnicodeDecodeError) as e:
             self.report({"ERROR"}, f"csrbf: cannot read {path}: {e}")
             return {"CANCELLED"}
-        return {"FINISHED"} if apply_spec(self, obj, spec, path) else {"CANCELLED"}
+        with _ObjectMode(obj):
+            ok = apply_spec(self, obj, spec, path)
+        return {"FINISHED"} if ok else {"CANCELLED"}
 
 
 class CSRBF_OT_export_controls(bpy.types.Operator, ExportHelper):
@@ -216,7 +247,10 @@ class CSRBF_OT_export_controls(bpy.types.Operator, ExportHelper):
                 os.remove(tmp)
             self.report({"ERROR"}, f"csrbf: cannot write {path}: {e}")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"csrbf: wrote {len(spec['controls'])} control vector(s) to {path}")
+        problems = core.control_pairs(obj).problems
+        level = {"WARNING"} if problems else {"INFO"}
+        self.report(level, f"csrbf: wrote {len(spec['controls'])} control vector(s) to {path}"
+                    + (f"; {len(problems)} empty(ies) left out: {problems[0]}" if problems else ""))
         return {"FINISHED"}
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
 KERNELS = [
     ("c0", "C0", "(1-r)^2: continuous, the most local; fold-free for moves up to 0.5 R"),
@@ -20,7 +20,7 @@ POLYNOMIALS = [
 def _live_changed(self, context):
     from . import live
 
-    live.set_enabled(context.object if context else None, self.live)
+    live.set_enabled(self.id_data, self.live)  # the object these settings are on
 
 
 class CsrbfSettings(bpy.types.PropertyGroup):
@@ -52,9 +52,18 @@ class CsrbfSettings(bpy.types.PropertyGroup):
         update=_live_changed,
         description="Keep the shape key updated while a destination moves (one solve per move)",
     )
-    initialised: BoolProperty(default=False, options={"HIDDEN"})
+    initialised: BoolProperty(default=False, options={"HIDDEN"})  # R set by the first Add Control Vector
+    collection: PointerProperty(
+        type=bpy.types.Collection, options={"HIDDEN"}, description="On a mesh: the collection its control empties are made in"
+    )
+    # On a control empty (role and pair number are its custom properties).
+    owner: PointerProperty(type=bpy.types.Object, options={"HIDDEN"}, description="The mesh this control empty belongs to")
+    partner: PointerProperty(
+        type=bpy.types.Object, options={"HIDDEN"}, description="The other empty of this control vector (start or destination)"
+    )
     next_pair: IntProperty(default=0, options={"HIDDEN"})
-    # The last deformation's diagnostics, for the panel.
+    # The last deformation's diagnostics, for the panel (moved -1: none, or
+    # Live has posed the mesh since Deform).
     moved: IntProperty(default=-1, options={"HIDDEN"})
     inside_out: IntProperty(default=0, options={"HIDDEN"})
     fold_phase: FloatProperty(default=-1.0, options={"HIDDEN"})

@@ -16,10 +16,8 @@ class CSRBF_PT_panel(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        obj = context.active_object
-        if obj is not None and obj.type == "EMPTY" and obj.parent is not None and obj.get(core.ROLE):
-            obj = obj.parent  # a control's empty is selected: show its mesh
-        if obj is None or obj.type != "MESH":
+        obj = core.owner_mesh(context.active_object)  # a control's empty active: its mesh
+        if obj is None:
             layout.label(text="Select a mesh object", icon="INFO")
             return
         s = obj.csrbf
@@ -41,15 +39,25 @@ class CSRBF_PT_panel(bpy.types.Panel):
         row.prop(s, "live", toggle=True, icon="PLAY")
         layout.operator("csrbf.deform_from_file", icon="FILE")
         layout.operator("csrbf.export_controls", icon="EXPORT")
-        starts, _ = core.controls(obj)
         box = layout.box()
-        box.label(text=f"{len(starts)} control vector(s)")
-        if s.moved >= 0:
-            box.label(text=f"{s.moved} vertices moved, largest {s.largest_move:.4g}")
-            folds = f", folds from phase {s.fold_phase:.2f}" if s.fold_phase >= 0 else ""
-            box.label(text=f"{s.inside_out} face(s) inside out{folds}", icon="ERROR" if s.inside_out else "CHECKMARK")
-        for w in s.warnings.splitlines()[:6]:
-            box.label(text=w, icon="ERROR")
+        for text, icon in status_lines(obj):
+            box.label(text=text, icon=icon)
+
+
+def status_lines(obj) -> list[tuple[str, str]]:
+    """The panel's box as (text, icon) lines: the control vectors, the last
+    deformation's figures (never a past Deform's as the live pose's) and the
+    warnings."""
+    s = obj.csrbf
+    lines = [(f"{len(core.controls(obj)[0])} control vector(s)", "NONE")]
+    if s.moved >= 0:
+        lines.append((f"{s.moved} vertices moved, largest {s.largest_move:.4g}", "NONE"))
+        folds = f", folds from phase {s.fold_phase:.2f}" if s.fold_phase >= 0 else ""
+        lines.append((f"{s.inside_out} face(s) inside out{folds}", "ERROR" if s.inside_out else "CHECKMARK"))
+    elif s.live:
+        lines.append(("Live pose: not checked for folds (Deform checks it)", "INFO"))
+    lines += [(w, "ERROR") for w in s.warnings.splitlines()[:6]]
+    return lines
 
 
 _draw_handle = None
@@ -58,21 +66,18 @@ _draw_handle = None
 def _draw_lines():
     import gpu
     from gpu_extras.batch import batch_for_shader
+    from mathutils import Vector
 
     coords = []
     for obj in bpy.context.scene.objects:
         if obj.type != "MESH":
             continue
-        col = bpy.data.collections.get(core.collection_name(obj))
-        if col is None:
+        if core._collection(obj) is None and not obj.children:
             continue
-        pairs = {}
-        for e in col.objects:
-            if e.get(core.OWNER) == obj.name and e.get(core.ROLE):
-                pairs.setdefault(e.get(core.PAIR), {})[e.get(core.ROLE)] = e.matrix_world.translation
-        for p in pairs.values():
-            if len(p) == 2:
-                coords += [tuple(p["start"]), tuple(p["target"])]
+        c = core.control_pairs(obj)
+        m = obj.matrix_world
+        for a, b in zip(c.starts, c.targets):
+            coords += [tuple(m @ Vector(a)), tuple(m @ Vector(b))]
     if not coords:
         return
     shader = gpu.shader.from_builtin("UNIFORM_COLOR")
