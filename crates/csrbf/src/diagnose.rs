@@ -129,6 +129,9 @@ pub enum Warning {
         count: usize,
         /// The first few, by triangle index.
         triangles: Vec<u32>,
+        /// Whether a deformation is nearly singular ([`Warning::IllConditioned`]):
+        /// then a larger radius, the usual cure of a crease, is the wrong one.
+        nearly_singular: bool,
     },
     /// Faces stretched more than the limit (see [`Diagnostics::stretched`]).
     Stretched {
@@ -298,13 +301,22 @@ impl fmt::Display for Numbered<'_> {
                 "{vertices} vertices farther than R from every start moved (up to {}, e.g. vertex {example}): the linear polynomial made a local edit global; use \"polynomial\": \"none\" to keep it local",
                 number(*largest)
             ),
-            Warning::FlippedFaces { count, triangles } => write!(
+            Warning::FlippedFaces {
+                count,
+                triangles,
+                nearly_singular,
+            } => write!(
                 f,
-                "{count} face(s) turned against the faces around them where the map itself does not fold (triangles {}): a sharp crease of the surface; a larger radius smooths it",
+                "{count} face(s) turned against the faces around them where the map itself does not fold (triangles {}): a sharp crease of the surface; {}",
                 list(
                     &triangles.iter().map(|&t| t as usize).collect::<Vec<_>>(),
                     *count
-                )
+                ),
+                if *nearly_singular {
+                    "the system is nearly singular (see above): a radius of at most a few times the model's size, not a larger one"
+                } else {
+                    "a larger radius smooths it"
+                }
             ),
             Warning::InsideOut {
                 count,
@@ -712,9 +724,13 @@ fn diagnose_with(
         .filter(|t| folds.triangles.binary_search(t).is_err())
         .collect();
     if !creases.is_empty() {
+        let nearly_singular = warnings
+            .iter()
+            .any(|w| matches!(w, Warning::IllConditioned { .. }));
         warnings.push(Warning::FlippedFaces {
             count: creases.len(),
             triangles: creases.iter().copied().take(LISTED).collect(),
+            nearly_singular,
         });
     }
     let stretch = crate::stretch::summary(rest, moved, triangles, options.stretch_limit);
@@ -1043,6 +1059,27 @@ mod tests {
                 assert!(m.contains("(R = 10000 for a model 1.414 across)"), "{m}");
             }
         }
+    }
+
+    /// A crease's advice is a larger radius, unless a deformation is nearly
+    /// singular: then a larger radius is the wrong way.
+    #[test]
+    fn a_crease_advises_by_the_system() {
+        let said = |nearly_singular| {
+            Warning::FlippedFaces {
+                count: 2,
+                triangles: vec![4, 9],
+                nearly_singular,
+            }
+            .to_string()
+        };
+        assert!(said(false).ends_with("a sharp crease of the surface; a larger radius smooths it"));
+        let singular = said(true);
+        assert!(singular.contains("(triangles 4, 9)"), "{singular}");
+        assert!(
+            singular.ends_with("not a larger one") && !singular.contains("smooths"),
+            "{singular}"
+        );
     }
 
     #[test]
