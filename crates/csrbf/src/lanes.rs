@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Scatter, for_each_cell_with};
 use crate::kernel::Kernel;
 use crate::octree::Octree;
-use crate::simd::{Avx2Fma, Avx512};
+use crate::simd::Avx2Fma;
 
 /// Candidates per vector.
 pub(crate) const LANES: usize = 8;
@@ -109,21 +109,12 @@ impl Lanes {
 
     /// sum_j alpha_j phi(|x - s_j| / R) over the candidates, `x` given by
     /// [`Lanes::local`]; with AVX2 and FMA when the proof is given.
-    pub(crate) fn sum(
-        &self,
-        (cpu, wide): (Option<Avx2Fma>, Option<Avx512>),
-        kernel: Kernel,
-        x: [f32; 3],
-    ) -> [f32; 3] {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(wide) = wide {
-            return sum_avx512(wide, self, kernel, x);
-        }
+    pub(crate) fn sum(&self, cpu: Option<Avx2Fma>, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
         #[cfg(target_arch = "x86_64")]
         if let Some(cpu) = cpu {
             return sum_avx2(cpu, self, kernel, x);
         }
-        let _ = (cpu, wide);
+        let _ = cpu;
         sum_plain(self, kernel, x)
     }
 }
@@ -157,7 +148,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let blocks = Blocks::for_starts(points, d.radius(), d.starts().len());
     let (kernel, radius, alpha) = (d.kernel(), d.radius(), d.coefficients());
     let linear = d.affine().map(|a| a.linear());
-    let cpu = (Avx2Fma::detect(), Avx512::detect());
+    let cpu = Avx2Fma::detect();
     let reach = d.f32_reach();
     let out = Scatter::new(out);
     let cell = |(lanes, cand): &mut (Lanes, Candidates), &(s, e): &(usize, usize)| {
@@ -332,7 +323,7 @@ fn sum_body<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
             acc[2][k] = fma(w, az[k], acc[2][k]);
         }
     }
-    acc.map(|a| ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7])))
+    acc.map(|a| ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7])))
 }
 
 /// The reference: [`sum_body`] for the kernel.
@@ -405,15 +396,20 @@ unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
             _mm256_fmadd_ps(w, wz, acc[2]),
         ];
     }
-    acc.map(|a| {
-        let mut v = [0.0f32; LANES];
-        // SAFETY: `v` holds eight f32.
-        #[allow(unsafe_code)]
-        unsafe {
-            _mm256_storeu_ps(v.as_mut_ptr(), a)
-        };
-        ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]))
-    })
+    // The three sums at once: two horizontal adds of x with y and z with
+    // itself, one of those, then the halves.
+    let xyz = _mm256_hadd_ps(
+        _mm256_hadd_ps(acc[0], acc[1]),
+        _mm256_hadd_ps(acc[2], acc[2]),
+    );
+    let sums = _mm_add_ps(_mm256_castps256_ps128(xyz), _mm256_extractf128_ps::<1>(xyz));
+    let mut v = [0.0f32; 4];
+    // SAFETY: `v` holds four f32.
+    #[allow(unsafe_code)]
+    unsafe {
+        _mm_storeu_ps(v.as_mut_ptr(), sums)
+    };
+    [v[0], v[1], v[2]]
 }
 
 /// [`sum_avx2_fma`] for the kernel, behind the proof.
@@ -432,107 +428,6 @@ fn sum_avx2(cpu: Avx2Fma, l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
     }
 }
 
-/// [`sum_avx2_fma`] sixteen lanes a register: the same operations per
-/// lane, summed in sixteen accumulators (so the result differs from the
-/// eight-lane sums by f32 rounding), the three reduced together (one
-/// thread at 1M: 78.4 -> 76.1 ms against three separate reductions); a
-/// last block of eight is loaded
-/// under a mask (the other eight lanes zero: coordinates at the cell's
-/// centre, coefficients zero, so they add nothing).
-///
-/// # Safety
-/// The CPU has AVX-512 F, AVX2 and FMA.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-#[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn sum_avx512_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
-    use std::arch::x86_64::*;
-    let [xs, ys, zs] = &l.xyz;
-    let [ax, ay, az] = &l.alpha;
-    let n = [xs, ys, zs, ax, ay, az]
-        .map(|v| v.len())
-        .into_iter()
-        .min()
-        .unwrap_or(0);
-    let n = n - n % LANES;
-    let (px, py, pz) = (
-        _mm512_set1_ps(x[0]),
-        _mm512_set1_ps(x[1]),
-        _mm512_set1_ps(x[2]),
-    );
-    let (zero, one) = (_mm512_setzero_ps(), _mm512_set1_ps(1.0));
-    let c = _mm512_set1_ps;
-    let mut acc = [zero; 3];
-    for k in (0..n).step_by(2 * LANES) {
-        // All sixteen lanes, or the last eight.
-        let mask: __mmask16 = if k + 2 * LANES <= n { 0xffff } else { 0x00ff };
-        // SAFETY: lanes k..k+8 are within every array (k + 8 <= n), and
-        // k+8..k+16 too unless masked off (a masked-off lane is not read and
-        // cannot fault).
-        let [cx, cy, cz, wx, wy, wz] = [xs, ys, zs, ax, ay, az]
-            .map(|v| unsafe { _mm512_maskz_loadu_ps(mask, v.as_ptr().add(k)) });
-        let (dx, dy, dz) = (
-            _mm512_sub_ps(cx, px),
-            _mm512_sub_ps(cy, py),
-            _mm512_sub_ps(cz, pz),
-        );
-        let r2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
-        let r = _mm512_sqrt_ps(r2);
-        let t = _mm512_max_ps(_mm512_sub_ps(one, r), zero);
-        let t2 = _mm512_mul_ps(t, t);
-        let w = match K {
-            0 => t2,
-            2 => _mm512_mul_ps(_mm512_mul_ps(t2, t2), _mm512_fmadd_ps(c(4.0), r, one)),
-            4 => {
-                let p = _mm512_fmadd_ps(_mm512_fmadd_ps(c(35.0), r, c(18.0)), r, c(3.0));
-                _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(t2, t2), t2), p)
-            }
-            _ => {
-                let t4 = _mm512_mul_ps(t2, t2);
-                let p = _mm512_fmadd_ps(c(32.0), r, c(25.0));
-                let p = _mm512_fmadd_ps(_mm512_fmadd_ps(p, r, c(8.0)), r, one);
-                _mm512_mul_ps(_mm512_mul_ps(t4, t4), p)
-            }
-        };
-        acc = [
-            _mm512_fmadd_ps(w, wx, acc[0]),
-            _mm512_fmadd_ps(w, wy, acc[1]),
-            _mm512_fmadd_ps(w, wz, acc[2]),
-        ];
-    }
-    // The three sums at once: halves added, then pairs (two horizontal
-    // adds of x with y and z with itself, one of those), then the halves.
-    let half = |a: __m512| {
-        _mm256_add_ps(
-            _mm512_castps512_ps256(a),
-            _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(a))),
-        )
-    };
-    let (x8, y8, z8) = (half(acc[0]), half(acc[1]), half(acc[2]));
-    let xyz = _mm256_hadd_ps(_mm256_hadd_ps(x8, y8), _mm256_hadd_ps(z8, z8));
-    let sums = _mm_add_ps(_mm256_castps256_ps128(xyz), _mm256_extractf128_ps::<1>(xyz));
-    let mut v = [0.0f32; 4];
-    // SAFETY: `v` holds four f32.
-    unsafe { _mm_storeu_ps(v.as_mut_ptr(), sums) };
-    [v[0], v[1], v[2]]
-}
-
-/// [`sum_avx512_fma`] for the kernel, behind the proof.
-#[cfg(target_arch = "x86_64")]
-fn sum_avx512(wide: Avx512, l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
-    let _ = wide;
-    // SAFETY: an `Avx512` exists only when the CPU has AVX-512 F, AVX2 and FMA.
-    #[allow(unsafe_code)]
-    unsafe {
-        match kernel {
-            Kernel::C0 => sum_avx512_fma::<0>(l, x),
-            Kernel::C2 => sum_avx512_fma::<2>(l, x),
-            Kernel::C4 => sum_avx512_fma::<4>(l, x),
-            Kernel::C6 => sum_avx512_fma::<6>(l, x),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -547,17 +442,15 @@ mod tests {
             .sum()
     }
 
-    /// The three copies agree with the f64 sum to f32 accuracy (relative to the
+    /// Both copies agree with the f64 sum to f32 accuracy (relative to the
     /// sum of |alpha_j| within R, the scale of the rounding), for every kernel,
     /// candidate counts that are and are not multiples of eight (and none),
-    /// starts far from the origin, and the AVX2 and AVX-512 copies with the
-    /// plain one (where the CPU has them; elsewhere the plain one is checked
-    /// alone).
+    /// starts far from the origin, and the AVX2 copy with the plain
+    /// one (where the CPU has it; elsewhere the plain one is checked alone).
     #[test]
     fn agrees_with_the_f64_sum_with_and_without_avx2() {
         let mut rng = Rng::new(18);
         for kernel in [Kernel::C0, Kernel::C2, Kernel::C4, Kernel::C6] {
-            // Lanes 0, 8 (a half register), 16, 24 and 104 (whole ones and a half).
             for n in [0, 1, 7, 8, 9, 23, 30, 64, 100, 203] {
                 let r = 0.05 + 0.2 * rng.f64();
                 let offset = DVec3::new(3.0, -2.0, 0.5); // far from the origin
@@ -584,12 +477,12 @@ mod tests {
                         + 1e-30;
                     let plain =
                         DVec3::from_array(sum_plain(&lanes, kernel, lanes.local(x)).map(f64::from));
-                    let sum = |cpu| {
-                        DVec3::from_array(lanes.sum(cpu, kernel, lanes.local(x)).map(f64::from))
-                    };
-                    let fast = sum((Avx2Fma::detect(), None));
-                    let wide = sum((Avx2Fma::detect(), Avx512::detect()));
-                    for (got, what) in [(plain, "plain"), (fast, "avx2"), (wide, "avx512")] {
+                    let fast = DVec3::from_array(
+                        lanes
+                            .sum(Avx2Fma::detect(), kernel, lanes.local(x))
+                            .map(f64::from),
+                    );
+                    for (got, what) in [(plain, "plain"), (fast, "avx2")] {
                         let err = (got - want).length() / scale;
                         assert!(err < 2e-6, "{kernel:?} n {n} {what}: error {err:e}");
                         assert!((got - plain).length() / scale < 2e-6);
