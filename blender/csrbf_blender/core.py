@@ -172,45 +172,6 @@ def owner_mesh(obj):
     return obj if obj is not None and obj.type == "MESH" else None
 
 
-def far_starts(points: np.ndarray, starts: np.ndarray, radius: float) -> list[int]:
-    """The starts farther than `radius` from every point: they move nothing
-    (Deform refuses them through the engine's report; Live checks here).
-    The points are sorted into cells R wide once, and each start measured
-    against the points of its 27 cells only."""
-    if len(starts) == 0:
-        return []
-    if len(points) == 0 or not radius > 0.0:
-        return list(range(len(starts)))
-    points = np.asarray(points, dtype=np.float64)
-    lo = points.min(axis=0)
-    if np.linalg.norm(points.max(axis=0) - lo) / radius > 1e12:  # cells past int64: measure every point
-        return [k for k, s in enumerate(starts) if np.min(np.sum((points - s) ** 2, axis=1)) >= radius * radius]
-    keys = _cell_keys(np.floor((points - lo) / radius).astype(np.int64))
-    order = np.argsort(keys)
-    keys = keys[order]
-    far = []
-    for k, s in enumerate(np.asarray(starts, dtype=np.float64)):
-        if np.any(np.abs(s - lo) / radius > 1e12):
-            far.append(k)
-            continue
-        cell = np.floor((s - lo) / radius).astype(np.int64)
-        near = _cell_keys(cell + _NEIGHBOURS)
-        first, last = np.searchsorted(keys, near, "left"), np.searchsorted(keys, near, "right")
-        idx = np.concatenate([order[i:j] for i, j in zip(first, last)])
-        if len(idx) == 0 or np.min(np.sum((points[idx] - s) ** 2, axis=1)) >= radius * radius:
-            far.append(k)
-    return far
-
-
-_NEIGHBOURS = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)], dtype=np.int64)
-
-
-def _cell_keys(cells: np.ndarray) -> np.ndarray:
-    """A cell's key (int64, wrapping): cells that collide only add points to
-    measure, never hide one."""
-    return (cells[:, 0] * 73856093) ^ (cells[:, 1] * 19349663) ^ (cells[:, 2] * 83492791)
-
-
 def group_vertices(obj, name: str) -> np.ndarray | None:
     """Indices of the vertices in a vertex group (any weight > 0), or None
     when the object has no such group."""

@@ -36,13 +36,13 @@ class _State:
                 raise ValueError(f"{obj.name!r} has no vertex group {s.vertex_group!r}")
         self.region = idx
         pts = self.rest if idx is None else self.rest[idx]
-        far = core.far_starts(pts, self.starts, s.radius)
+        self.system = csrbf.System(self.starts, s.radius, kernel=s.kernel, polynomial=s.polynomial)
+        far = self.system.starts_out_of_reach(pts)
         if far:  # what Deform refuses, refused alike (the key is left as it was)
             where = "onto the mesh, inside the Region," if idx is not None else "onto the mesh"
             names = ", ".join(repr(controls.names[k]) for k in far)
             raise ValueError(f"the start {names} lies farther than R = {s.radius:.4g} from every vertex it acts on, "
                              f"so it moves nothing (move the start {where} or raise the radius)")
-        self.system = csrbf.System(self.starts, s.radius, kernel=s.kernel, polynomial=s.polynomial)
         self.binding = self.system.bind(pts)
         self.shown = None  # the targets last written
 

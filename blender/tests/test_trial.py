@@ -239,14 +239,3 @@ def test_defect7_live_reports_a_start_far_from_the_mesh():
     assert np.array_equal(core.shape_key_positions(obj, obj.csrbf.layer), before)  # left as it was
 
 
-def test_defect7_far_starts_equals_brute_force():
-    """Live's far-start check (cells R wide) against measuring every point."""
-    rng = np.random.default_rng(7)
-    for n, k, radius in [(2000, 40, 0.05), (500, 30, 0.2), (50, 10, 1e-3), (1, 5, 0.5)]:
-        points = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
-        starts = np.concatenate([points[rng.choice(n, k // 2)] + rng.normal(0, 0.3 * radius, (k // 2, 3)),
-                                 rng.uniform(-1.5, 1.5, (k - k // 2, 3))])
-        d = np.linalg.norm(points[None, :, :].astype(np.float64) - starts[:, None, :], axis=2).min(axis=1)
-        want = [i for i in range(k) if d[i] >= radius]
-        assert core.far_starts(points, starts, radius) == want, (n, k, radius)
-        assert 0 < len(want) < k or n == 1

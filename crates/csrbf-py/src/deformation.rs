@@ -353,6 +353,17 @@ impl PyDeformation {
         self.inner.polynomial().name()
     }
 
+    /// The indices of the starts farther than R from every one of `points`
+    /// ((N, 3)): they move none of them. A list of int.
+    fn starts_out_of_reach(
+        &self,
+        py: Python<'_>,
+        points: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<usize>> {
+        let p = crate::mesh::positions(points, "points")?;
+        Ok(py.detach(|| self.inner.starts_out_of_reach(&p)))
+    }
+
     /// The starts, an (M, 3) float64 array.
     #[getter]
     fn starts<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {

@@ -248,7 +248,7 @@ fn check_corners(corners: &[u32], n: usize, what: &str, face: usize) -> PyResult
 }
 
 /// (N, 3) numbers as float32 vectors.
-fn positions(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<csrbf::glam::Vec3>> {
+pub(crate) fn positions(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<csrbf::glam::Vec3>> {
     Ok(match arrays::points(obj, name)?.view() {
         arrays::View::F32(v) => v.to_vec(),
         arrays::View::F64(v) => v.iter().map(|p| p.as_vec3()).collect(),

@@ -89,6 +89,17 @@ impl PySystem {
         Ok(PyBinding::of(inner, p.dtype()))
     }
 
+    /// The indices of the starts farther than R from every one of `points`
+    /// ((N, 3)): they would move none of them. A list of int.
+    fn starts_out_of_reach(
+        &self,
+        py: Python<'_>,
+        points: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<usize>> {
+        let p = crate::mesh::positions(points, "points")?;
+        Ok(py.detach(|| self.inner.starts_out_of_reach(&p)))
+    }
+
     /// The starts, an (M, 3) float64 array.
     #[getter]
     fn starts<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {

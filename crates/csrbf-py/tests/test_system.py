@@ -145,3 +145,19 @@ def test_heavy_calls_release_the_gil():
         worker.join()
     inside = [t for t in ticks if any(a < t < b for a, b in calls)]
     assert len(inside) >= 5, f"{len(inside)} ticks of the other thread during {len(calls)} calls"
+
+
+def test_starts_out_of_reach_equal_brute_force():
+    """The starts farther than R from every point (what Blender's Live refuses,
+    as Deform does) against measuring every point."""
+    rng = np.random.default_rng(7)
+    for n, k, radius in [(2000, 40, 0.05), (500, 30, 0.2), (50, 10, 1e-3), (1, 5, 0.5)]:
+        points = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+        starts = np.concatenate([points[rng.choice(n, k // 2)] + rng.normal(0, 0.3 * radius, (k // 2, 3)),
+                                 rng.uniform(-1.5, 1.5, (k - k // 2, 3))])
+        d = np.linalg.norm(points[None, :, :].astype(np.float64) - starts[:, None, :], axis=2).min(axis=1)
+        want = [i for i in range(k) if d[i] >= radius]
+        s = csrbf.System(starts, radius)
+        assert s.starts_out_of_reach(points) == want, (n, k, radius)
+        assert s.solve(starts).starts_out_of_reach(points) == want
+        assert 0 < len(want) < k or n == 1

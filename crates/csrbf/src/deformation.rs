@@ -236,6 +236,13 @@ impl Deformation {
         self.moves = moves;
     }
 
+    /// The starts farther than R from every one of `points`, by index: they
+    /// move none of them (the diagnostics' `StartsFarFromMesh`, for a
+    /// caller that checks before fitting or posing).
+    pub fn starts_out_of_reach(&self, points: &[Vec3]) -> Vec<usize> {
+        crate::diagnose::out_of_reach(&self.octree, self.starts.len(), self.radius, points)
+    }
+
     /// The largest move it makes at a start (a destination less its
     /// start): the scale its coefficients are judged against.
     pub fn largest_move(&self) -> f64 {

@@ -30,6 +30,7 @@ use crate::error::number;
 use crate::error::{Error, Result};
 use crate::evaluate::{Blocks, PARALLEL_POINTS, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
+use crate::octree::Octree;
 use crate::region::Region;
 
 /// How many times its largest move a deformation's largest coefficient may
@@ -808,13 +809,34 @@ fn relative_moves(def: &Deformation, moves: &[DVec3], phase: f64) -> Vec<f64> {
 /// For each point, whether some start lies within R; for each start,
 /// whether some point lies within R. Blocked like evaluation.
 fn reach(def: &Deformation, points: &[Vec3]) -> (Vec<bool>, Vec<bool>) {
-    let starts = def.starts().len();
+    reach_of(def.octree(), def.starts().len(), def.radius(), points)
+}
+
+/// The starts (`starts` of them, in `octree`) farther than `radius` from
+/// every one of `points`: [`Deformation::starts_out_of_reach`] and
+/// [`crate::System::starts_out_of_reach`].
+pub(crate) fn out_of_reach(
+    octree: &Octree,
+    starts: usize,
+    radius: f64,
+    points: &[Vec3],
+) -> Vec<usize> {
+    let (_, touched) = reach_of(octree, starts, radius, points);
+    (0..starts).filter(|&j| !touched[j]).collect()
+}
+
+/// [`reach`] of any starts' octree.
+fn reach_of(
+    octree: &Octree,
+    starts: usize,
+    radius: f64,
+    points: &[Vec3],
+) -> (Vec<bool>, Vec<bool>) {
     let touched: Vec<AtomicBool> = (0..starts).map(|_| AtomicBool::new(false)).collect();
     let mut near = vec![false; points.len()];
     if points.is_empty() || starts == 0 {
         return (near, vec![false; starts]);
     }
-    let radius = def.radius();
     let blocks = Blocks::for_starts(points, radius, starts);
     let mut out = vec![false; points.len()];
     for_each_cell(
@@ -825,7 +847,7 @@ fn reach(def: &Deformation, points: &[Vec3]) -> (Vec<bool>, Vec<bool>) {
             let cell = blocks.order[s..e]
                 .iter()
                 .map(|&i| points[i as usize].as_dvec3());
-            cand.gather(def.octree(), cell, radius);
+            cand.gather(octree, cell, radius);
             for (k, &i) in blocks.order[s..e].iter().enumerate() {
                 let x: DVec3 = points[i as usize].as_dvec3();
                 cand.for_each_weight(x, Kernel::C0, radius, |j, _| {

@@ -1186,3 +1186,43 @@ fn a_radius_far_larger_than_the_model_keeps_f32_paths_right() {
         }
     }
 }
+
+/// `starts_out_of_reach` (a System's, before any solve, and a Deformation's)
+/// names exactly the starts that every point is R or farther from.
+#[test]
+fn starts_out_of_reach_are_those_every_point_is_r_from() {
+    let mut rng = Rng::new(43);
+    let points: Vec<Vec3> = (0..2000)
+        .map(|_| (rng.vec3() * 2.0 - 1.0).as_vec3())
+        .collect();
+    let radius = 0.05;
+    let starts: Vec<DVec3> = (0..60)
+        .map(|k| {
+            if k % 2 == 0 {
+                points[k * 7].as_dvec3() + (rng.vec3() - 0.5) * radius
+            } else {
+                rng.vec3() * 3.0 - 1.5
+            }
+        })
+        .collect();
+    let want: Vec<usize> = (0..starts.len())
+        .filter(|&j| {
+            points
+                .iter()
+                .all(|p| p.as_dvec3().distance_squared(starts[j]) >= radius * radius)
+        })
+        .collect();
+    assert!(!want.is_empty() && want.len() < starts.len());
+    let s = System::new(&starts, FitOptions::new(radius)).expect("system");
+    assert_eq!(s.starts_out_of_reach(&points), want);
+    assert_eq!(
+        s.solve(&starts)
+            .expect("solve")
+            .starts_out_of_reach(&points),
+        want
+    );
+    assert_eq!(
+        s.starts_out_of_reach(&[]),
+        (0..starts.len()).collect::<Vec<_>>()
+    );
+}

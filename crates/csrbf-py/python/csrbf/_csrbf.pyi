@@ -24,6 +24,7 @@ class Error(ValueError):
 class Deformation:
     """A fitted deformation x -> x + D(x); immutable, thread-safe, picklable."""
 
+    def starts_out_of_reach(self, points: npt.ArrayLike) -> list[int]: ...
     @property
     def kernel(self) -> Kernel: ...
     @property
@@ -66,6 +67,7 @@ def fit(
 class System:
     """The factored system of one set of starts: solve many destinations."""
 
+    def starts_out_of_reach(self, points: npt.ArrayLike) -> list[int]: ...
     def __init__(
         self,
         starts: npt.ArrayLike,

@@ -227,6 +227,13 @@ impl System {
             .collect()
     }
 
+    /// The starts farther than R from every one of `points`, by index
+    /// ([`Deformation::starts_out_of_reach`], before any solve).
+    pub fn starts_out_of_reach(&self, points: &[glam::Vec3]) -> Vec<usize> {
+        let s = &self.shared;
+        crate::diagnose::out_of_reach(&s.octree, s.starts.len(), s.radius, points)
+    }
+
     /// Binds these points to the system's starts: their kernel weights,
     /// found once, apply to every deformation the system solves.
     pub fn bind<P: Point>(&self, points: &[P]) -> Binding {
