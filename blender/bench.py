@@ -9,6 +9,13 @@
   destinations) and the same through mathutils.kdtree.
 
 Run: ~/.cache/csrbf/venv-blender/bin/python blender/bench.py
+
+with a release build of csrbf in that venv, as users install it (the tests
+put a dev build there, slower; the script says which it times):
+
+    scripts/build-blender-extension.sh
+    ~/.cache/csrbf/venv-blender/bin/python -m pip install --force-reinstall \
+        --no-deps target/blender-wheel/csrbf-*.whl
 """
 
 import statistics
@@ -62,6 +69,12 @@ def median_ms(f, runs):
 
 
 def main():
+    import csrbf
+
+    print(f"csrbf {csrbf.__version__} ({csrbf.build_profile} build), Blender {bpy.app.version_string}")
+    if csrbf.build_profile != "release":
+        print("warning: a dev build of csrbf (the tests'), slower than users' release build: see this "
+              "script's docstring for the figures", file=sys.stderr)
     rng = np.random.default_rng(1)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     csrbf_blender.register()

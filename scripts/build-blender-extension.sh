@@ -6,6 +6,7 @@
 #
 #   scripts/build-blender-extension.sh              # builds the wheel (release)
 #   scripts/build-blender-extension.sh --wheel W    # packs a wheel built before
+#   ... --out DIR                                   # the zip into DIR (not dist/)
 #
 # The wheel is abi3 (CPython 3.9 and newer): the same file serves Blender
 # 4.2-5.0 (CPython 3.11) and 5.1+ (CPython 3.13). It is built for the machine
@@ -14,7 +15,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 wheel=""
-if [ "${1:-}" = "--wheel" ]; then wheel=$2; fi
+out_dir=dist
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --wheel) wheel=$2; shift 2 ;;
+    --out) out_dir=$2; shift 2 ;;
+    *) echo "build-blender-extension: unknown argument $1 (--wheel W, --out DIR)" >&2; exit 2 ;;
+  esac
+done
 if [ -z "$wheel" ]; then
   build=.venv-build
   [ -x "$build/bin/python" ] || python3 -m venv "$build"
@@ -33,8 +41,8 @@ cp blender/csrbf_blender/*.py "$stage/"
 sed "s|./wheels/WHEEL_PLACEHOLDER|./wheels/$name|" blender/csrbf_blender/blender_manifest.toml \
   > "$stage/blender_manifest.toml"
 cp "$wheel" "$stage/wheels/"
-mkdir -p dist
-out="dist/csrbf_blender-$version.zip"
+mkdir -p "$out_dir"
+out="$out_dir/csrbf_blender-$version.zip"
 # Whole or not at all: packed beside the target, then renamed.
 python3 scripts/zip_folder.py "$stage" "$out"
 echo "build-blender-extension: wrote $out ($(du -h "$out" | cut -f1), wheel $name)"

@@ -3,7 +3,8 @@
 # package's): headless Blender (the bpy module, about 375 MB) in a venv kept
 # in the user's cache, so it is downloaded once per machine; the csrbf wheel
 # scripts/test_python.sh built is installed into it. Also packs the
-# extension's zip with that wheel and checks what Blender will read in it.
+# extension's zip with that wheel (under target/, never dist/) and checks
+# what Blender will read in it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 py="${PYTHON:-python3}"
@@ -22,8 +23,11 @@ fi
 wheel=$(ls target/py-wheels/csrbf-*.whl)
 "$venv/bin/python" -m pip install -q --disable-pip-version-check --force-reinstall --no-deps "$wheel"
 "$venv/bin/python" -m pytest -q -p no:cacheprovider blender/tests
-scripts/build-blender-extension.sh --wheel "$wheel"
-zip=$(ls dist/csrbf_blender-*.zip)
+# Packed apart from dist/ (where users' release zip goes): the tests' wheel is
+# a dev build, slower, and must not pass for the one to install.
+rm -rf target/blender-ext-test
+scripts/build-blender-extension.sh --wheel "$wheel" --out target/blender-ext-test
+zip=$(ls target/blender-ext-test/csrbf_blender-*.zip)
 # Blender's own extension tool (shipped in bpy) validates the zip as Blender
 # does before installing it.
 ext_cli=$(ls "$venv"/lib/python3*/site-packages/bpy/*/scripts/addons_core/bl_pkg/cli/blender_ext.py)

@@ -28,7 +28,7 @@ venv() { # venv DIR REQUIREMENTS: made and filled only when missing or changed
 
 install() { # install VENV: the wheel, and nothing else from PyPI
   "$1/bin/python" -m pip install -q --disable-pip-version-check --force-reinstall --no-deps "$wheel"
-  "$1/bin/python" -c 'import csrbf, numpy; print(f"python tests: csrbf {csrbf.__version__} from {csrbf.__file__}, numpy {numpy.__version__}")'
+  "$1/bin/python" -c 'import csrbf, numpy; print(f"python tests: csrbf {csrbf.__version__} ({csrbf.build_profile} build) from {csrbf.__file__}, numpy {numpy.__version__}")'
 }
 
 # A Python extension does not link libpython (pyo3 reads this).
@@ -42,6 +42,8 @@ cp target/debug/lib_csrbf.so target/py-test/csrbf/_csrbf.abi3.so
 version=$(sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
 wheel=$("$py" scripts/pack_wheel.py target/py-test "$version" target/py-wheels)
 export CSRBF_BIN="$PWD/target/debug/csrbf"
+# The wheel is cargo's dev build; the suite checks the module says so.
+export CSRBF_EXPECT_BUILD_PROFILE=dev
 
 venv .venv-py "$tests/requirements.txt"
 install .venv-py

@@ -177,7 +177,10 @@ def main():
         cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
                     if line.startswith("model name")), cpu)
     machine = f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}"
-    print(f"# csrbf {csrbf.__version__}, {machine}; medians of {args.runs}")
+    print(f"# csrbf {csrbf.__version__} ({csrbf.build_profile} build), {machine}; medians of {args.runs}")
+    if csrbf.build_profile != "release":
+        print("# warning: this csrbf is a dev build (scripts/test.sh installs one), slower than users' "
+              "release build: pip install crates/csrbf-py for the figures", file=sys.stderr)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         directory = Path(tmp)

@@ -63,6 +63,14 @@ pub(crate) fn chain(e: &(dyn std::error::Error + 'static)) -> String {
 fn _csrbf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("Error", m.py().get_type::<Error>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Benchmarks say which build they time: the tests' wheel is a dev
+    // build (optimised less, with debug assertions), users' is release.
+    let profile = if cfg!(debug_assertions) {
+        "dev"
+    } else {
+        "release"
+    };
+    m.add("build_profile", profile)?;
     deformation::register(m)?;
     system::register(m)?;
     mesh::register(m)?;

@@ -1,5 +1,6 @@
 """fit and Deformation: numbers in and out, as the README shows them."""
 
+import os
 import pickle
 
 import numpy as np
@@ -16,6 +17,16 @@ TARGETS = STARTS + [[0.0, 0.1, 0.0], [0.0, 0.0, 0.0], [0.05, 0.0, 0.0], [0.0, 0.
 
 def cloud(n=500, seed=1, dtype=np.float64):
     return np.random.default_rng(seed).uniform(-0.5, 1.5, (n, 3)).astype(dtype)
+
+
+def test_the_module_says_which_build_it_is():
+    # Benchmarks print it: a dev build (the test scripts') is slower than
+    # users' release build. scripts/test_python.sh says which it installed.
+    assert csrbf.build_profile in ("release", "dev")
+    expected = os.environ.get("CSRBF_EXPECT_BUILD_PROFILE")
+    if expected:
+        assert csrbf.build_profile == expected
+    assert csrbf.__version__.count(".") == 2
 
 
 def test_fit_carries_every_start_to_its_destination_and_stays_local():

@@ -9,6 +9,9 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+#: "release" (``pip install``, maturin --release: users' builds) or "dev" (the
+#: test scripts' wheel: slower; benchmarks say which they time).
+build_profile: Literal["release", "dev"]
 
 Kernel = Literal["c0", "c2", "c4", "c6"]
 Polynomial = Literal["none", "linear"]
