@@ -96,8 +96,12 @@ impl PySystem {
         py: Python<'_>,
         points: &Bound<'_, PyAny>,
     ) -> PyResult<Vec<usize>> {
-        let p = crate::mesh::positions(points, "points")?;
-        Ok(py.detach(|| self.inner.starts_out_of_reach(&p)))
+        let p = arrays::points(points, "points")?;
+        let view = p.view();
+        Ok(py.detach(|| match view {
+            View::F32(v) => self.inner.starts_out_of_reach(v),
+            View::F64(v) => self.inner.starts_out_of_reach(v),
+        }))
     }
 
     /// The starts, an (M, 3) float64 array.

@@ -161,3 +161,9 @@ def test_starts_out_of_reach_equal_brute_force():
         assert s.starts_out_of_reach(points) == want, (n, k, radius)
         assert s.solve(starts).starts_out_of_reach(points) == want
         assert 0 < len(want) < k or n == 1
+    # float64 points are measured as they are: rounded to float32, this
+    # point would be 1.5e-9 nearer, within R of the start.
+    p = np.array([[0.1, 0.0, 0.0]])
+    s = csrbf.System(p + [[0.5 * (1 + 1e-12), 0.0, 0.0]], 0.5)
+    assert s.starts_out_of_reach(p) == [0]
+    assert s.starts_out_of_reach(p.astype(np.float32)) == []

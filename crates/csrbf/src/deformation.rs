@@ -238,8 +238,9 @@ impl Deformation {
 
     /// The starts farther than R from every one of `points`, by index: they
     /// move none of them (the diagnostics' `StartsFarFromMesh`, for a
-    /// caller that checks before fitting or posing).
-    pub fn starts_out_of_reach(&self, points: &[Vec3]) -> Vec<usize> {
+    /// caller that checks before fitting or posing). f32 or f64 points,
+    /// compared as they are.
+    pub fn starts_out_of_reach<P: Point>(&self, points: &[P]) -> Vec<usize> {
         crate::diagnose::out_of_reach(&self.octree, self.starts.len(), self.radius, points)
     }
 

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use crate::deformation::Deformation;
 use crate::error::number;
 use crate::error::{Error, Result};
-use crate::evaluate::{Blocks, PARALLEL_POINTS, for_each_cell};
+use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
 use crate::region::Region;
@@ -815,22 +815,22 @@ fn reach(def: &Deformation, points: &[Vec3]) -> (Vec<bool>, Vec<bool>) {
 /// The starts (`starts` of them, in `octree`) farther than `radius` from
 /// every one of `points`: [`Deformation::starts_out_of_reach`] and
 /// [`crate::System::starts_out_of_reach`].
-pub(crate) fn out_of_reach(
+pub(crate) fn out_of_reach<P: Point>(
     octree: &Octree,
     starts: usize,
     radius: f64,
-    points: &[Vec3],
+    points: &[P],
 ) -> Vec<usize> {
     let (_, touched) = reach_of(octree, starts, radius, points);
     (0..starts).filter(|&j| !touched[j]).collect()
 }
 
 /// [`reach`] of any starts' octree.
-fn reach_of(
+fn reach_of<P: Point>(
     octree: &Octree,
     starts: usize,
     radius: f64,
-    points: &[Vec3],
+    points: &[P],
 ) -> (Vec<bool>, Vec<bool>) {
     let touched: Vec<AtomicBool> = (0..starts).map(|_| AtomicBool::new(false)).collect();
     let mut near = vec![false; points.len()];
@@ -846,10 +846,10 @@ fn reach_of(
         |(s, e), out, cand| {
             let cell = blocks.order[s..e]
                 .iter()
-                .map(|&i| points[i as usize].as_dvec3());
+                .map(|&i| points[i as usize].to_dvec3());
             cand.gather(octree, cell, radius);
             for (k, &i) in blocks.order[s..e].iter().enumerate() {
-                let x: DVec3 = points[i as usize].as_dvec3();
+                let x: DVec3 = points[i as usize].to_dvec3();
                 cand.for_each_weight(x, Kernel::C0, radius, |j, _| {
                     out[k] = true;
                     // A read first: a start hit by many points is written

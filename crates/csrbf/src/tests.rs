@@ -1222,7 +1222,14 @@ fn starts_out_of_reach_are_those_every_point_is_r_from() {
         want
     );
     assert_eq!(
-        s.starts_out_of_reach(&[]),
+        s.starts_out_of_reach::<Vec3>(&[]),
         (0..starts.len()).collect::<Vec<_>>()
     );
+    // f64 points are measured as they are: rounded to f32, this point
+    // would be 1.5e-9 nearer, within R of the start.
+    let p = DVec3::new(0.1, 0.0, 0.0);
+    let one =
+        System::new(&[p + DVec3::X * 0.5 * (1.0 + 1e-12)], FitOptions::new(0.5)).expect("system");
+    assert_eq!(one.starts_out_of_reach(&[p]), [0]);
+    assert!(one.starts_out_of_reach(&[p.as_vec3()]).is_empty());
 }

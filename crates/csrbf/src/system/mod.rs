@@ -229,7 +229,7 @@ impl System {
 
     /// The starts farther than R from every one of `points`, by index
     /// ([`Deformation::starts_out_of_reach`], before any solve).
-    pub fn starts_out_of_reach(&self, points: &[glam::Vec3]) -> Vec<usize> {
+    pub fn starts_out_of_reach<P: crate::Point>(&self, points: &[P]) -> Vec<usize> {
         let s = &self.shared;
         crate::diagnose::out_of_reach(&s.octree, s.starts.len(), s.radius, points)
     }
