@@ -158,6 +158,27 @@ def migrate(obj=None) -> None:
             group[0].csrbf.partner, group[1].csrbf.partner = group[1], group[0]
 
 
+def follow_rename(obj) -> None:
+    """After the mesh is renamed, its collection and control empties, still
+    named after the old name ("csrbf Old", "Old start 0", "Old to 0"), take
+    the new one. Names the user chose (anything else) are kept, and so is a
+    name another collection already has."""
+    import bpy
+
+    col = obj.csrbf.collection
+    want = collection_name(obj)
+    if col is None or col.name == want or not col.name.startswith("csrbf "):
+        return
+    old = col.name.removeprefix("csrbf ")
+    if bpy.data.collections.get(want) is None:
+        col.name = want
+    for e in control_empties(obj):
+        for role in (" start ", " to "):
+            number = e.name.removeprefix(old + role)
+            if number != e.name and number.isdigit():
+                e.name = f"{obj.name}{role}{number}"
+
+
 def _collection(obj):
     import bpy
 

@@ -24,6 +24,7 @@ def _mesh_object(op, context):
         op.report({"ERROR"}, f"csrbf: the active object must be a mesh or a control vector's empty, not {what}")
         return None
     core.migrate(obj)
+    core.follow_rename(obj)
     return obj
 
 

@@ -118,11 +118,16 @@ def test_defect3_renaming_the_mesh_keeps_its_controls():
     _, target = add_control()
     obj.csrbf.radius = 0.6
     target.location.z = 1.2
+    old = obj.name
     obj.name = "Ball"
     bpy.context.view_layer.update()
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.csrbf.deform() == {"FINISHED"}
     assert north_z(obj) == pytest.approx(1.2, abs=1e-4)
+    # The collection and the empties follow the new name.
+    assert obj.csrbf.collection.name == "csrbf Ball"
+    assert bpy.data.collections.get(f"csrbf {old}") is None
+    assert sorted(e.name for e in core.control_empties(obj)) == ["Ball start 0", "Ball to 0"]
     obj.csrbf.live = True
     target.location.z = 1.3
     bpy.context.view_layer.update()
