@@ -40,7 +40,7 @@ pub struct AnimateArgs {
 pub fn load_scene(path: &Path) -> Result<Scene> {
     let scene = Scene::load(path)?;
     for w in &scene.warnings {
-        eprintln!("warning: {}: {w}", path.display());
+        err_line!("warning: {}: {w}", path.display());
     }
     Ok(scene)
 }
@@ -92,7 +92,7 @@ pub fn write_movie(
         true
     })?;
     if let Some(why) = &written.fell_back {
-        eprintln!("warning: {why}; wrote a GIF instead");
+        err_line!("warning: {why}; wrote a GIF instead");
     }
     progress.say(format_args!(
         "rendered {} frames in {:.1} s",

@@ -141,7 +141,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         ));
         let r = run(&s, args.runs as usize)?;
         if !args.json {
-            println!(
+            out_line!(
                 "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",
                 s.name,
                 s.points.len(),
@@ -166,7 +166,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         } else {
             json!(results)
         };
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        out_line!("{}", serde_json::to_string_pretty(&out)?);
     }
     Ok(())
 }
@@ -362,14 +362,14 @@ fn paper_in(dir: &std::path::Path, args: &BenchArgs, progress: &Progress) -> Res
         }));
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        out_line!("{}", serde_json::to_string_pretty(&rows)?);
     } else {
-        println!(
+        out_line!(
             "| model | vertices | polygons | vectors | R | deformation fps | x papers | with rendering 1024x768 fps | x papers | papers' fps |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|");
+        out_line!("|---|---|---|---|---|---|---|---|---|---|");
         for r in &rows {
-            println!(
+            out_line!(
                 "| {} | {} | {} | {} | {} | {:.0} | {:.0}x | {:.1} | {:.2}x | {} |",
                 r["model"].as_str().unwrap_or(""),
                 r["vertices"],

@@ -38,19 +38,19 @@ impl Progress {
         }
         let width = 30;
         let filled = done * width / total;
-        eprint!(
+        err_text!(
             "\r[{}{}] {done}/{total}",
             "#".repeat(filled),
             ".".repeat(width - filled)
         );
         if done == total {
-            eprintln!();
+            err_line!();
         }
     }
 
     pub fn say(&self, msg: impl std::fmt::Display) {
         if self.on {
-            eprintln!("[{:7.2} s] {msg}", self.start.elapsed().as_secs_f64());
+            err_line!("[{:7.2} s] {msg}", self.start.elapsed().as_secs_f64());
         }
     }
 }
@@ -61,7 +61,7 @@ pub fn read_controls(path: &Path, progress: &Progress) -> Result<ControlFile> {
         .with_context(|| format!("cannot read control file {}", path.display()))?;
     let file = ControlFile::parse(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     for w in &file.warnings {
-        eprintln!("warning: {}: {w}", path.display());
+        err_line!("warning: {}: {w}", path.display());
     }
     let n: usize = file.deformations.iter().map(|d| d.starts.len()).sum();
     progress.say(format_args!(
@@ -113,7 +113,7 @@ pub fn fit_all(
                 t.elapsed().as_secs_f64() * 1e3
             ));
             if !sweep.certified() {
-                eprintln!(
+                err_line!(
                     "warning: {at}: a step of the sweep's {} has a gradient bound of {:.3} (>= 1), so it may fold: leave out \"steps\" and csrbf takes as many as it needs",
                     sweep.len(),
                     sweep.bound()
@@ -239,7 +239,7 @@ pub fn read_mesh(path: &Path, progress: &Progress) -> Result<Mesh> {
     let t = Instant::now();
     let loaded = csrbf_mesh::load(path)?;
     for w in &loaded.warnings {
-        eprintln!("warning: {w}");
+        err_line!("warning: {w}");
     }
     let mesh = loaded.mesh;
     progress.say(format_args!(
@@ -306,7 +306,7 @@ pub fn remove_stale_temps(out: &Path) {
     };
     let n = csrbf_mesh::remove_stale_temps(dir);
     if n > 0 {
-        eprintln!(
+        err_line!(
             "note: removed {n} temporary file(s) an interrupted run left in {}",
             dir.display()
         );
@@ -354,7 +354,7 @@ fn with_large_hint(e: csrbf::FitError) -> anyhow::Error {
 fn warn_if_dense(s: &ControlSpec, at: &str) {
     let e = csrbf::estimate(&s.starts, s.options.radius);
     if e.nearly_dense() {
-        eprintln!(
+        err_line!(
             "warning: {at}: R = {} reaches about {:.0} % of the {} starts, so the system is nearly dense and the fit will be slow and large; a smaller R keeps it sparse",
             s.options.radius,
             e.fraction * 100.0,

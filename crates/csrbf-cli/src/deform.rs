@@ -161,13 +161,13 @@ pub(crate) fn move_and_write(
         intersections_said(&report),
     ));
     for w in &report.warnings {
-        eprintln!("warning: {w}");
+        err_line!("warning: {w}");
     }
     if !remedy.is_empty() {
-        eprintln!("warning: {remedy}");
+        err_line!("warning: {remedy}");
     }
     if let Some(lost) = csrbf_mesh::Format::from_path(out)?.loses(m) {
-        eprintln!("warning: {}: {lost}", out.display());
+        err_line!("warning: {}: {lost}", out.display());
     }
     csrbf_mesh::write(out, m)?;
     progress.say(format_args!("wrote {}", out.display()));
@@ -198,7 +198,7 @@ pub(crate) fn move_and_write(
             "deform_ms": deform_ms,
             "remedies": remedy_json,
         });
-        println!("{}", serde_json::to_string_pretty(&value)?);
+        out_line!("{}", serde_json::to_string_pretty(&value)?);
     }
     Ok(())
 }

@@ -15,7 +15,7 @@ pub fn export(scene: &Path, out: &Path, force: bool, progress: &Progress) -> Res
     check_output(out, &[scene], force, false)?;
     let s = load_scene(scene)?;
     for note in csrbf_anim::export_notes(&s) {
-        eprintln!("note: {}: {note}", scene.display());
+        err_line!("note: {}: {note}", scene.display());
     }
     let bytes = csrbf_anim::export_gltf(&s, ext == "glb");
     csrbf_mesh::write_atomic(out, &bytes)?;

@@ -23,7 +23,7 @@ pub fn info(
         _ => bail!("give --mesh, --controls (with --mesh for handles and reach), or --deformation"),
     };
     if as_json {
-        println!("{}", serde_json::to_string_pretty(&value)?);
+        out_line!("{}", serde_json::to_string_pretty(&value)?);
     } else {
         print_plain(&value, 0);
     }
@@ -37,20 +37,20 @@ fn print_plain(v: &Value, indent: usize) {
             for (k, v) in o {
                 match v {
                     Value::Object(_) => {
-                        println!("{pad}{k}:");
+                        out_line!("{pad}{k}:");
                         print_plain(v, indent + 2);
                     }
                     Value::Array(a) if a.iter().any(|x| x.is_object()) => {
                         for (i, x) in a.iter().enumerate() {
-                            println!("{pad}{k}[{i}]:");
+                            out_line!("{pad}{k}[{i}]:");
                             print_plain(x, indent + 2);
                         }
                     }
-                    _ => println!("{pad}{k}: {v}"),
+                    _ => out_line!("{pad}{k}: {v}"),
                 }
             }
         }
-        other => println!("{pad}{other}"),
+        other => out_line!("{pad}{other}"),
     }
 }
 

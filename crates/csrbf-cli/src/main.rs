@@ -1,6 +1,34 @@
 //! `csrbf`: deform meshes by control vectors with compactly supported radial
 //! basis functions. Glue only: the work is in the `csrbf` and `csrbf-mesh` crates.
 
+/// A line on standard error that never panics: when standard error is
+/// closed (`2>&-`, or a pipe to `head` that has exited) the message is
+/// dropped and the work goes on, where `eprintln!` would panic (exit 101)
+/// before the output is written. (`eprintln!` is refused by clippy.toml.)
+macro_rules! err_line {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// [`err_line!`] without the newline (a progress bar's redraw).
+macro_rules! err_text {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// A line on standard output that never panics: a reader that stops early
+/// (`| head`) ends the listing, not the command.
+macro_rules! out_line {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod animate;
 mod apply;
 mod bench;
@@ -24,7 +52,7 @@ use clap::{Parser, Subcommand};
 #[derive(Parser)]
 #[command(name = "csrbf", version, about, long_about = None)]
 struct Cli {
-    /// Print nothing but errors.
+    /// Print no progress (warnings and errors still print).
     #[arg(long, short, global = true)]
     quiet: bool,
     #[command(subcommand)]
@@ -163,7 +191,7 @@ fn main() -> ExitCode {
     // what was being written, and leave with the shell's code for it.
     let _ = ctrlc::set_handler(|| {
         csrbf_render::movie::interrupt();
-        eprintln!("interrupted: partial files removed");
+        err_line!("interrupted: partial files removed");
         leave(130);
     });
     let cli = Cli::parse();
@@ -222,7 +250,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            err_line!("error: {e:#}");
             ExitCode::FAILURE
         }
     }

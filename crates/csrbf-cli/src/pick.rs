@@ -112,23 +112,23 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
         }
     };
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&value)?);
+        out_line!("{}", serde_json::to_string_pretty(&value)?);
     } else if value["hit"] == false {
-        println!("pixel {x},{y}: no surface (background)");
+        out_line!("pixel {x},{y}: no surface (background)");
     } else {
         let v = &value;
-        println!("pixel {x},{y}:");
-        println!("  point        {}", v["point"]);
-        println!(
+        out_line!("pixel {x},{y}:");
+        out_line!("  point        {}", v["point"]);
+        out_line!(
             "  rest point   {}  (use it as a control's \"from\")",
             v["rest_point"]
         );
-        println!("  triangle     {}  (face {})", v["triangle"], v["face"]);
-        println!(
+        out_line!("  triangle     {}  (face {})", v["triangle"], v["face"]);
+        out_line!(
             "  nearest      vertex {} at {}",
             v["nearest_vertex"], v["nearest_vertex_position"]
         );
-        println!("  parts        {}", v["parts"]);
+        out_line!("  parts        {}", v["parts"]);
     }
     Ok(())
 }

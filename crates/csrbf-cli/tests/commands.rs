@@ -481,3 +481,28 @@ fn a_layer_with_no_vectors_yet_is_read_and_said() {
         &["deformations[1]", "controls 0 and 1"],
     );
 }
+
+/// Standard output and error closed (a pipe to `head` that has exited,
+/// `2>&-`): the command still writes its mesh and exits 0. (Printing used
+/// to panic there, exit 101, before the output was written.)
+#[test]
+fn closed_streams_do_not_stop_a_command() {
+    let dir = TempDir::new("closed");
+    let out = dir.path("smile.obj");
+    let head = model("cgal_head.off");
+    let c = root().join("assets/controls/head_smile.json");
+    let mut child = command()
+        .args(["deform", "--mesh", arg(&head), "--controls", arg(&c)])
+        .args(["--out", arg(&out), "--json"])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run csrbf");
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().expect("wait");
+    assert!(status.success(), "{status}");
+    let text = std::fs::read_to_string(&out).expect("the mesh is written");
+    assert!(text.lines().filter(|l| l.starts_with("v ")).count() > 1000);
+}
