@@ -150,6 +150,17 @@ fn fit_then_apply_equals_deform_and_json_is_readable() {
     );
     let info = ok(&["info", "--deformation", arg(&d), "--json"]);
     assert!(info.contains("\"controls\": 34"), "{info}");
+    // The JSON form is for reading: apply and info say so, and what to do.
+    for args in [
+        vec!["apply", "--mesh", arg(&mesh), "--deformation", arg(&j)],
+        vec!["info", "--deformation", arg(&j)],
+    ] {
+        let mut args = args;
+        if args[0] == "apply" {
+            args.extend(["--out", arg(&a)]);
+        }
+        fails(&args, &["smile.json", "it is JSON", "csrbf fit --out D.csrbf"]);
+    }
 }
 
 #[test]

@@ -127,6 +127,13 @@ pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
 /// version, sizes, checksum and that every value is finite.
 pub fn decode(bytes: &[u8]) -> Result<Replay> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
+        // The JSON `csrbf fit --out D.json` writes is for people to read.
+        if bytes.trim_ascii_start().starts_with(b"{") {
+            return Err(damaged(
+                "it is JSON, the form `csrbf fit --out D.json` writes for people to read; \
+                 deformations are read back only from .csrbf files (csrbf fit --out D.csrbf)",
+            ));
+        }
         return Err(damaged("it does not start with the csrbf magic bytes"));
     }
     if bytes.len() < 22 {
