@@ -157,16 +157,27 @@ pub fn deform_mesh_checked(
     Ok(report)
 }
 
-/// Saves fitted deformations as a `.csrbf` file, whole or not at all.
+/// Saves deformations fitted on `mesh` as a `.csrbf` file, whole or not at
+/// all; when their regions list vertices by index, the file carries the
+/// mesh's stamp ([`mesh_stamp`]) and `csrbf apply` refuses another mesh.
 pub fn save_replay(
     path: &Path,
     stages: &[FittedStage],
     combine: csrbf::Combine,
+    mesh: &Mesh,
 ) -> Result<(), ApplyError> {
+    let stamp = Replay::lists_vertices(stages).then(|| mesh_stamp(mesh));
     Ok(csrbf_mesh::write_atomic(
         path,
-        &format::encode(stages, combine),
+        &format::encode_for(stages, combine, stamp),
     )?)
+}
+
+/// The stamp of `mesh` a `.csrbf` file carries when its regions list
+/// vertices by index: its count of vertices and its faces' hash
+/// ([`format::MeshStamp`]).
+pub fn mesh_stamp(mesh: &Mesh) -> format::MeshStamp {
+    format::MeshStamp::of(mesh.positions.len(), Some(mesh.faces.iter()))
 }
 
 /// Loads a `.csrbf` file.
@@ -205,7 +216,7 @@ mod tests {
             &file,
         )
         .expect("fit");
-        save_replay(&path, &stages, file.combine).expect("save");
+        save_replay(&path, &stages, file.combine, &head).expect("save");
         let back = load_replay(&path).expect("load");
         assert_eq!(back.stages, stages);
         let e = load_replay(&dir.join("missing.csrbf")).expect_err("missing");

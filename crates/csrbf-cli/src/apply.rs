@@ -30,6 +30,11 @@ pub fn apply(
         replay.combine
     ));
     let mut m = read_mesh(mesh, progress)?;
+    if let Some(stamp) = &replay.mesh {
+        stamp
+            .check(&csrbf_anim::apply::mesh_stamp(&m))
+            .with_context(|| format!("{} on {}", deformation.display(), mesh.display()))?;
+    }
     move_and_write(
         &mut m,
         &replay.stages,

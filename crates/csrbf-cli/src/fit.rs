@@ -27,10 +27,20 @@ pub fn fit(
         allow_large,
         progress,
     )?;
+    // Regions that list vertices (resolved on the mesh) hold for that mesh
+    // alone: the file names it, and `apply` refuses another.
+    let stamp = m
+        .as_ref()
+        .filter(|_| format::Replay::lists_vertices(&stages))
+        .map(csrbf_anim::apply::mesh_stamp);
     let bytes = if ext == "json" {
-        serde_json::to_vec_pretty(&format::to_json(&stages, file.combine))?
+        let mut value = format::to_json(&stages, file.combine);
+        if let Some(s) = stamp {
+            value["mesh"] = serde_json::json!({ "vertices": s.vertices, "faces_hash": s.faces });
+        }
+        serde_json::to_vec_pretty(&value)?
     } else {
-        format::encode(&stages, file.combine)
+        format::encode_for(&stages, file.combine, stamp)
     };
     csrbf_mesh::write_atomic(out, &bytes)?;
     progress.say(format_args!(

@@ -249,5 +249,7 @@ fn deformation_info(path: &Path) -> Result<Value> {
         "version": u16::from_le_bytes([bytes[6], bytes[7]]),
         "combine": replay.combine.name(),
         "deformations": list,
+        // The mesh its regions' vertex indices refer to (apply refuses another).
+        "fitted_on_mesh": replay.mesh.map(|m| json!({ "vertices": m.vertices, "faces_hash": m.faces })),
     }))
 }

@@ -126,7 +126,8 @@ pub fn pick(a: &PickArgs, progress: &Progress) -> Result<()> {
         out_line!("  triangle     {}  (face {})", v["triangle"], v["face"]);
         out_line!(
             "  nearest      vertex {} at {}",
-            v["nearest_vertex"], v["nearest_vertex_position"]
+            v["nearest_vertex"],
+            v["nearest_vertex_position"]
         );
         out_line!("  parts        {}", v["parts"]);
     }

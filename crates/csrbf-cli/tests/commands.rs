@@ -159,7 +159,10 @@ fn fit_then_apply_equals_deform_and_json_is_readable() {
         if args[0] == "apply" {
             args.extend(["--out", arg(&a)]);
         }
-        fails(&args, &["smile.json", "it is JSON", "csrbf fit --out D.csrbf"]);
+        fails(
+            &args,
+            &["smile.json", "it is JSON", "csrbf fit --out D.csrbf"],
+        );
     }
 }
 

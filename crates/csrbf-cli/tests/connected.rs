@@ -135,6 +135,38 @@ fn a_connected_region_keeps_the_torso_still_in_every_reader() {
     let a = csrbf_mesh::read(&out).expect("deformed");
     let b = csrbf_mesh::read(&applied).expect("applied");
     assert_eq!(a.positions, b.positions, "apply differs from deform");
+    // The file's region lists this mesh's vertices: another mesh, or the
+    // same count of vertices with other faces, is refused before any move.
+    let head = root().join("assets/models/cgal_head.off");
+    let mut other = csrbf_mesh::read(&mesh).expect("hairpin");
+    let faces: Vec<Vec<u32>> = other.faces.iter().map(<[u32]>::to_vec).collect();
+    other.faces = csrbf_mesh::Faces::new();
+    for f in faces.iter().rev() {
+        other.faces.push(f);
+    }
+    let reordered = dir.path("reordered.obj");
+    csrbf_mesh::write(&reordered, &other).expect("write");
+    for (on, want) in [
+        (&head, "it was fitted on a mesh of"),
+        (&reordered, "with other faces"),
+    ] {
+        let out = dir.path("elsewhere.obj");
+        fails(
+            &[
+                "apply",
+                "--mesh",
+                arg(on),
+                "--deformation",
+                arg(&fitted),
+                "--out",
+                arg(&out),
+            ],
+            &["connected.csrbf", want, "fit it again on this mesh"],
+        );
+        assert!(!out.exists());
+    }
+    let info = ok(&["info", "--deformation", arg(&fitted), "--json"]);
+    assert!(info.contains("fitted_on_mesh"), "{info}");
     // Without the mesh the region cannot be measured.
     fails(
         &[

@@ -284,6 +284,12 @@ pub enum FormatError {
         "not a single deformation over every point: {0}; read it as a pipeline (csrbf::format::decode)"
     )]
     NotSingle(String),
+    /// Replayed on another mesh than the one its regions' vertex indices
+    /// refer to ([`crate::format::MeshStamp`]).
+    #[error(
+        "its regions list vertices by index and {0}: on this mesh they would name other vertices; fit it again on this mesh (csrbf fit --mesh)"
+    )]
+    OtherMesh(String),
 }
 
 /// Why a region cannot be used.

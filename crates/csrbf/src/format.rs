@@ -40,8 +40,8 @@ use crate::region::{Origin, Region};
 
 /// The file's first bytes.
 pub const MAGIC: &[u8; 6] = b"CSRBF\0";
-/// The version this build writes (it reads this one and versions 1 to 3).
-pub const VERSION: u16 = 4;
+/// The version this build writes (it reads this one and versions 1 to 4).
+pub const VERSION: u16 = 5;
 
 /// What a `.csrbf` file holds: deformations with their regions and phases,
 /// and how they combine.
@@ -51,12 +51,80 @@ pub struct Replay {
     pub stages: Vec<FittedStage>,
     /// How the stages act together.
     pub combine: Combine,
+    /// The mesh its regions' vertex indices refer to, when they list
+    /// vertices of one (files before version 5: not known).
+    pub mesh: Option<MeshStamp>,
+}
+
+/// Which mesh a file's regions were made on, when they list its vertices
+/// by index (a connected region resolved on it, a vertex list or weights):
+/// replayed on another mesh the same indices name other vertices, and the
+/// edit lands in scattered places. A replay checks it ([`MeshStamp::check`])
+/// before moving anything.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshStamp {
+    /// Its vertices.
+    pub vertices: u32,
+    /// Its faces' vertex indices hashed ([`MeshStamp::of`]), when known.
+    pub faces: Option<u64>,
+}
+
+impl MeshStamp {
+    /// The stamp of a mesh of `vertices` points and these faces (each a
+    /// list of vertex indices); `None` faces when the caller has only the
+    /// points.
+    pub fn of<'a>(vertices: usize, faces: Option<impl Iterator<Item = &'a [u32]>>) -> MeshStamp {
+        MeshStamp {
+            vertices: vertices.min(u32::MAX as usize) as u32,
+            faces: faces.map(|faces| {
+                let mut bytes = Vec::new();
+                for f in faces {
+                    bytes.extend_from_slice(&(f.len() as u32).to_le_bytes());
+                    for i in f {
+                        bytes.extend_from_slice(&i.to_le_bytes());
+                    }
+                }
+                fnv1a(&bytes)
+            }),
+        }
+    }
+
+    /// `Ok` when `mesh` (a stamp of the mesh about to be moved) is the one
+    /// this stamp names: the same count of vertices and, where both know
+    /// them, the same faces.
+    pub fn check(&self, mesh: &MeshStamp) -> Result<()> {
+        let same_faces = match (self.faces, mesh.faces) {
+            (Some(a), Some(b)) => a == b,
+            _ => true,
+        };
+        if self.vertices == mesh.vertices && same_faces {
+            return Ok(());
+        }
+        let what = if self.vertices != mesh.vertices {
+            format!(
+                "it was fitted on a mesh of {} vertices, this one has {}",
+                self.vertices, mesh.vertices
+            )
+        } else {
+            format!(
+                "it was fitted on a mesh of {} vertices with other faces (the same count, another mesh or another vertex order)",
+                self.vertices
+            )
+        };
+        Err(FormatError::OtherMesh(what).into())
+    }
 }
 
 impl Replay {
-    /// The file's bytes ([`encode`]).
+    /// The file's bytes ([`encode`], with its mesh stamp).
     pub fn to_bytes(&self) -> Vec<u8> {
-        encode(&self.stages, self.combine)
+        encode_for(&self.stages, self.combine, self.mesh)
+    }
+
+    /// Whether any stage's region lists vertices by index (so the file
+    /// should carry the [`MeshStamp`] of the mesh they index).
+    pub fn lists_vertices(stages: &[FittedStage]) -> bool {
+        stages.iter().any(|s| s.region.lists_vertices())
     }
 
     /// Reads a file's bytes ([`decode`]).
@@ -80,8 +148,13 @@ fn damaged(message: impl Into<String>) -> Error {
 }
 
 /// Encodes deformations with their regions and phases (borrowed: nothing is
-/// copied but into the bytes).
+/// copied but into the bytes), without a mesh stamp.
 pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
+    encode_for(stages, combine, None)
+}
+
+/// [`encode`] with the stamp of the mesh its regions' indices refer to.
+pub fn encode_for(stages: &[FittedStage], combine: Combine, mesh: Option<MeshStamp>) -> Vec<u8> {
     let mut w = Vec::new();
     w.extend_from_slice(MAGIC);
     w.extend_from_slice(&VERSION.to_le_bytes());
@@ -117,6 +190,22 @@ pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
         let (step, steps) = sweep.map_or((0, 0), |s| (s.index, s.count));
         w.extend_from_slice(&step.to_le_bytes());
         w.extend_from_slice(&steps.to_le_bytes());
+    }
+    // Version 5: the mesh stamp (a flag byte, then the vertices and, behind
+    // a second flag, the faces' hash).
+    match mesh {
+        None => w.push(0),
+        Some(m) => {
+            w.push(1);
+            w.extend_from_slice(&m.vertices.to_le_bytes());
+            match m.faces {
+                None => w.push(0),
+                Some(h) => {
+                    w.push(1);
+                    w.extend_from_slice(&h.to_le_bytes());
+                }
+            }
+        }
     }
     let sum = fnv1a(&w);
     w.extend_from_slice(&sum.to_le_bytes());
@@ -266,6 +355,17 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
             sweep,
         });
     }
+    let mesh = if version >= 5 && r.u8("mesh stamp")? == 1 {
+        let vertices = r.u32("mesh stamp")?;
+        let faces = match r.u8("mesh stamp")? {
+            0 => None,
+            1 => Some(r.u64("mesh stamp")?),
+            f => return Err(damaged(format!("unknown mesh stamp flag {f}"))),
+        };
+        Some(MeshStamp { vertices, faces })
+    } else {
+        None
+    };
     if r.at != r.b.len() {
         return Err(damaged(format!(
             "{} unexpected bytes after the last stage",
@@ -275,6 +375,7 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
     Ok(Replay {
         stages: out,
         combine,
+        mesh,
     })
 }
 
@@ -439,6 +540,11 @@ impl Reader<'_> {
         a.copy_from_slice(self.take(4, what)?);
         Ok(u32::from_le_bytes(a))
     }
+    fn u64(&mut self, what: &str) -> Result<u64> {
+        let mut a = [0u8; 8];
+        a.copy_from_slice(self.take(8, what)?);
+        Ok(u64::from_le_bytes(a))
+    }
     fn f64(&mut self, what: &str) -> Result<f64> {
         let mut a = [0u8; 8];
         a.copy_from_slice(self.take(8, what)?);
@@ -454,7 +560,7 @@ impl Reader<'_> {
 }
 
 /// 64-bit FNV-1a.
-fn fnv1a(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for &b in bytes {
         h ^= b as u64;

@@ -565,9 +565,15 @@ impl Pipeline {
             self.refresh_deformation(i)?;
             stages.extend(self.fitted_stages(i).expect("just refreshed"));
         }
+        // The points alone: the faces are the caller's (a file saved from
+        // it is stamped with the count of points, see `MeshStamp`).
+        let mesh = crate::format::Replay::lists_vertices(&stages).then(|| {
+            crate::format::MeshStamp::of(self.rest.len(), None::<std::iter::Empty<&[u32]>>)
+        });
         Ok(crate::format::Replay {
             stages,
             combine: self.combine,
+            mesh,
         })
     }
 

@@ -124,6 +124,16 @@ impl std::fmt::Display for Region {
 }
 
 impl Region {
+    /// Whether it lists vertices by index (a vertex list or weights, or a
+    /// falloff around one): such a region means something on one mesh only.
+    pub fn lists_vertices(&self) -> bool {
+        match self {
+            Region::Vertices(_) | Region::Weights { .. } => true,
+            Region::Falloff { inner, .. } => inner.lists_vertices(),
+            _ => false,
+        }
+    }
+
     /// Refuses a region no point could sensibly be in, naming the field: a
     /// sphere whose centre is not finite or whose radius is negative or not
     /// finite, a box with a corner not finite or `min` above `max` on an

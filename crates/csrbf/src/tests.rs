@@ -412,12 +412,39 @@ fn replay_file_round_trips_bit_exact_and_detects_damage() {
         bad[at] ^= 0x40;
         assert!(format::decode(&bad).is_err(), "flip at {at} accepted");
     }
-    let mut v5 = bytes.clone();
-    v5[6] = 5;
+    let mut v6 = bytes.clone();
+    v6[6] = 6;
     assert!(
-        format::decode(&v5)
+        format::decode(&v6)
             .err()
-            .is_some_and(|e| e.to_string().contains("version 5"))
+            .is_some_and(|e| e.to_string().contains("version 6"))
+    );
+    // Version 4 (no mesh stamp: the flag byte before the checksum) still
+    // reads.
+    let mut v4 = bytes[..bytes.len() - 9].to_vec();
+    v4[6] = 4;
+    let sum = format::fnv1a(&v4);
+    v4.extend_from_slice(&sum.to_le_bytes());
+    let old = format::decode(&v4).expect("version 4");
+    assert_eq!((old.stages, old.mesh), (stages.clone(), None));
+    // A stamp round-trips, and names the mesh it was made on.
+    let faces = [[0u32, 1, 2], [2, 1, 3]];
+    let stamp = format::MeshStamp::of(4, Some(faces.iter().map(|f| &f[..])));
+    let stamped =
+        format::decode(&format::encode_for(&stages, Combine::Add, Some(stamp))).expect("stamped");
+    assert_eq!(stamped.mesh, Some(stamp));
+    assert!(stamp.check(&stamp).is_ok());
+    let other = format::MeshStamp::of(4, Some(faces.iter().rev().map(|f| &f[..])));
+    assert!(stamp.check(&other).is_err());
+    assert!(
+        stamp
+            .check(&format::MeshStamp::of(5, None::<std::iter::Empty<&[u32]>>))
+            .is_err()
+    );
+    assert!(
+        stamp
+            .check(&format::MeshStamp::of(4, None::<std::iter::Empty<&[u32]>>))
+            .is_ok()
     );
 }
 

@@ -222,7 +222,7 @@ impl StudioApp {
                     s.with_phase(phase)
                 })
                 .collect();
-            csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine)
+            csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine, &m.doc.mesh)
         });
         match result {
             Ok(()) => self.picker.status = format!("Exported {}", path.display()),
