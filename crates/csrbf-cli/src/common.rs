@@ -100,7 +100,6 @@ pub fn fit_all(
         }
         if let Some(options) = s.sweep {
             let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)
-                .map_err(with_large_hint)
                 .with_context(|| at.clone())?;
             progress.say(format_args!(
                 "swept {} controls ({}, R {}) in {} step(s), each step's |dD/dx| <= {:.3} (the single map's bound: {:.3}), {:.2} ms",
@@ -122,9 +121,7 @@ pub fn fit_all(
             out.extend(FittedStage::sweep(sweep, s.region.clone(), s.phase));
             continue;
         }
-        let sys = System::new(&s.starts, s.options)
-            .map_err(with_large_hint)
-            .with_context(|| at.clone())?;
+        let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
         let def = sys.solve(&s.targets).with_context(|| at.clone())?;
         let st = sys.stats();
         progress.say(format_args!(
@@ -337,16 +334,6 @@ pub fn extension_in(out: &Path, allowed: &[&str], what: &str) -> Result<String> 
         );
     }
     Ok(ext)
-}
-
-/// The engine's refusal of a system past the memory limit, with the flag
-/// that lifts it (the library speaks of `FitOptions::memory_limit`).
-fn with_large_hint(e: csrbf::FitError) -> anyhow::Error {
-    if matches!(e, csrbf::FitError::TooLarge { .. }) {
-        anyhow::Error::new(e).context("the system is past the memory limit: use a smaller R, or pass --allow-large to fit it knowingly")
-    } else {
-        e.into()
-    }
 }
 
 /// Warns before a long fit when R reaches most of the starts: the system is

@@ -33,7 +33,7 @@ pub struct DeformArgs {
     /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
     #[arg(long)]
     pub json: bool,
-    /// Fit even a system estimated past the memory limit (4 GB).
+    /// Fit even a system estimated past the memory limit (4 GiB).
     #[arg(long)]
     pub allow_large: bool,
     #[command(flatten)]

@@ -71,7 +71,7 @@ enum Command {
         /// The mesh, for control files with a handle (sampled on it).
         #[arg(long)]
         mesh: Option<PathBuf>,
-        /// Fit even a system estimated past the memory limit (4 GB).
+        /// Fit even a system estimated past the memory limit (4 GiB).
         #[arg(long)]
         allow_large: bool,
         /// Output: .csrbf (binary, bit-exact) or .json.

@@ -180,7 +180,7 @@ fn a_dense_control_file_is_refused_with_a_radius_that_fits() {
         ],
         &[
             "dense.json",
-            "the limit of 4.3 GB",
+            "the limit of 4 GiB",
             "smaller R",
             "--allow-large",
         ],

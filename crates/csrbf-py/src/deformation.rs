@@ -76,7 +76,7 @@ pub(crate) fn vectors_f64(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<DV
 ///     polynomial: "none" (default: exactly zero displacement farther than R
 ///         from every start) or "linear" (adds an affine part: reproduces any
 ///         affine map, but a local edit then moves the whole model).
-///     allow_large: fit even a system estimated past the 4 GB memory limit.
+///     allow_large: fit even a system estimated past the 4 GiB memory limit.
 ///
 /// Returns:
 ///     A Deformation.

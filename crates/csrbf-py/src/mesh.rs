@@ -580,7 +580,7 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
 ///     controls: a path to a control file (JSON), or a dict in its form
 ///         ({"radius": 0.3, "controls": [{"from": [..], "to": [..]}]}).
 ///     phase: in [0, 1], times each deformation's own phase.
-///     allow_large: fit even systems estimated past the 4 GB limit.
+///     allow_large: fit even systems estimated past the 4 GiB limit.
 ///     stretch_limit: triangles stretched more than this (a finite number
 ///         >= 1) are listed in `Report.stretched` and warned of.
 ///     self_intersections: look for faces passing through each other that

@@ -231,8 +231,8 @@ pub enum FitError {
     Solver(String),
     /// The system would take more memory than the limit allows.
     #[error(
-        "R = {} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {:.1} GB, {:.1}x the limit of {:.1} GB: use a smaller R (about {} fits), or lift the limit knowingly (FitOptions::memory_limit)",
-        number(*radius), bytes / 1e9, bytes / *limit as f64, *limit as f64 / 1e9, number(*suggested_radius)
+        "R = {} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {} GiB, {:.1}x the limit of {} GiB: use a smaller R (R = {} fits), or lift the limit knowingly (FitOptions::memory_limit in Rust, allow_large=True in Python, --allow-large on the command line)",
+        number(*radius), number(bytes / GIB), bytes / *limit as f64, number(*limit as f64 / GIB), number(*suggested_radius)
     )]
     TooLarge {
         /// Estimated bytes.
@@ -270,6 +270,9 @@ pub enum NameError {
     #[error("unknown combine {0:?}: expected chain or add")]
     UnknownCombine(String),
 }
+
+/// Bytes in a GiB (memory limits are powers of two: the default is 4 GiB).
+const GIB: f64 = (1u64 << 30) as f64;
 
 /// Why a `.csrbf` file cannot be read.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]

@@ -720,9 +720,23 @@ fn dense_systems_are_refused_before_any_allocation() {
     assert!(bytes > limit as f64 && suggested_radius < 10.0);
     let msg = e.to_string();
     assert!(
-        msg.contains("the limit of 4.3 GB") && msg.contains("smaller R"),
+        msg.contains("the limit of 4 GiB") && msg.contains("smaller R"),
         "{msg}"
     );
+    // The radius it suggests fits, and is near the largest that does: here
+    // R = 10 reaches every start, so halving it (or any R^2 rule) would not.
+    assert!(estimate(&starts, suggested_radius).bytes <= limit as f64);
+    assert!(estimate(&starts, suggested_radius * 1.05).bytes > limit as f64);
+    let tight = FitOptions::new(0.3).with_memory_limit(50_000_000);
+    let Err(FitError::TooLarge {
+        suggested_radius: r,
+        ..
+    }) = System::new(&starts, tight)
+    else {
+        panic!("50 MB refuses R = 0.3");
+    };
+    assert!(estimate(&starts, r).bytes <= 5e7 && estimate(&starts, r * 1.05).bytes > 5e7);
+    assert!(System::new(&starts, tight.with_radius(r)).is_ok());
     let est = estimate(&starts, 10.0);
     assert!(est.nearly_dense() && est.fraction > 0.99);
     // A small limit refuses a sparse system too, and a large one lets it through.

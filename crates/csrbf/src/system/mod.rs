@@ -104,7 +104,11 @@ impl System {
                     neighbours: e.neighbours,
                     starts: e.starts,
                     radius,
-                    suggested_radius: e.radius_for(radius, options.memory_limit),
+                    suggested_radius: estimate::radius_within(
+                        &starts,
+                        radius,
+                        options.memory_limit,
+                    ),
                 });
             }
         }
