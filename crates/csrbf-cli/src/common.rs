@@ -105,7 +105,7 @@ pub fn fit_all(
                 "swept {} controls ({}, R {}) in {} step(s), each step's |dD/dx| <= {:.3} (the single map's bound: {:.3}), {:.2} ms",
                 s.starts.len(),
                 s.options.kernel,
-                s.options.radius,
+                csrbf::plain_number(s.options.radius),
                 sweep.len(),
                 sweep.bound(),
                 sweep.plain_bound,
@@ -128,7 +128,7 @@ pub fn fit_all(
             "fitted {} controls ({}, R {}, {}): {} solver, band {} -> {}, {:.2} ms",
             st.controls,
             s.options.kernel,
-            s.options.radius,
+            csrbf::plain_number(s.options.radius),
             s.options.polynomial,
             st.solver,
             st.bandwidth_before,
@@ -343,7 +343,7 @@ fn warn_if_dense(s: &ControlSpec, at: &str) {
     if e.nearly_dense() {
         err_line!(
             "warning: {at}: R = {} reaches about {:.0} % of the {} starts, so the system is nearly dense and the fit will be slow and large; a smaller R keeps it sparse",
-            s.options.radius,
+            csrbf::plain_number(s.options.radius),
             e.fraction * 100.0,
             e.starts
         );

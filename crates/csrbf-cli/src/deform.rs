@@ -145,10 +145,10 @@ pub(crate) fn move_and_write(
     // The stages' phases were scaled by `phase`: the fold phase is a share of it.
     let fold_phase = report.fold_phase.map(|s| s * phase);
     progress.say(format_args!(
-        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved (by more than 1e-6 of the diagonal), largest move {:.6}{}, {} face(s) inside out{}, {}, {}",
+        "deformed and checked {} vertices in {deform_ms:.1} ms: {} moved (by more than 1e-6 of the diagonal), largest move {}{}, {} face(s) inside out{}, {}, {}",
         m.positions.len(),
         report.moved,
-        report.largest_move,
+        csrbf::plain_number(report.largest_move),
         report
             .largest_move_vertex
             .map(|v| format!(" (vertex {v})"))
@@ -206,8 +206,8 @@ pub(crate) fn move_and_write(
 /// "largest stretch 1.32x (face 7), 0 face(s) over 4x".
 fn stretch_said(r: &Diagnostics) -> String {
     format!(
-        "largest stretch {:.2}x{}, {} face(s) over {}x",
-        r.largest_stretch,
+        "largest stretch {}x{}, {} face(s) over {}x",
+        csrbf::plain_number(r.largest_stretch),
         r.largest_stretch_face
             .map(|f| format!(" (face {f})"))
             .unwrap_or_default(),

@@ -520,3 +520,38 @@ fn closed_streams_do_not_stop_a_command() {
     let text = std::fs::read_to_string(&out).expect("the mesh is written");
     assert!(text.lines().filter(|l| l.starts_with("v ")).count() > 1000);
 }
+
+/// Absurd numbers (a move of 1e30, R = 1e300) are computed without an
+/// overflow (a sweep's cell keys overflowed i64) and said as numbers a
+/// person reads: no figure of thirty digits.
+#[test]
+fn absurd_numbers_are_said_plainly() {
+    let dir = TempDir::new("absurd");
+    let head = model("cgal_head.off");
+    for (i, (radius, to)) in [(0.3, "1e30"), (1e300, "0.1")].into_iter().enumerate() {
+        let c = dir.write(
+            &format!("c{i}.json"),
+            format!(
+                r#"{{"radius": {radius}, "controls": [{{"from": [0, 0, 0], "to": [0, {to}, 0]}}]}}"#
+            ),
+        );
+        let out = dir.path(&format!("o{i}.off"));
+        let run = csrbf(&[
+            "deform",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(&c),
+            "--out",
+            arg(&out),
+        ]);
+        let said = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{said}");
+        let longest = said
+            .split(|ch: char| !ch.is_ascii_digit())
+            .map(str::len)
+            .max()
+            .unwrap_or(0);
+        assert!(longest < 12, "a {longest}-digit figure: {said}");
+    }
+}

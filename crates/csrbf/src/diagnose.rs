@@ -339,7 +339,9 @@ impl fmt::Display for Numbered<'_> {
                 limit,
             } => write!(
                 f,
-                "{count} face(s) stretched more than {limit}x (up to {largest:.2}x; triangles {}): the texture and shading smear there; use a larger radius or more controls",
+                "{count} face(s) stretched more than {}x (up to {}x; triangles {}): the texture and shading smear there; use a larger radius or more controls",
+                number(*limit),
+                number(*largest),
                 list(
                     &triangles.iter().map(|&t| t as usize).collect::<Vec<_>>(),
                     *count

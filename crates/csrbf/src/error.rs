@@ -147,8 +147,8 @@ pub enum FitError {
     /// Two starts nearly on top of each other whose moves differ by more
     /// than their distance: no smooth map does that.
     #[error(
-        "controls {first} and {second} start {distance:.3e} apart ({:.3} % of R) but their moves differ by {difference:.4}: no smooth map does that without overshooting far away; give them the same move, merge them or move one away",
-        distance / radius * 100.0
+        "controls {first} and {second} start {} apart ({} % of R) but their moves differ by {}: no smooth map does that without overshooting far away; give them the same move, merge them or move one away",
+        number(*distance), number(distance / radius * 100.0), number(*difference)
     )]
     ConflictingStarts {
         /// The first control.
@@ -206,7 +206,8 @@ pub enum FitError {
     },
     /// Even the most steps leave a step that may fold.
     #[error(
-        "a sweep of {steps} steps still has a step whose gradient bound is {bound:.3} (>= 1, so it may fold): the control vectors pull apart too sharply for R; use a larger R or fewer, farther controls"
+        "a sweep of {steps} steps still has a step whose gradient bound is {} (>= 1, so it may fold): the control vectors pull apart too sharply for R; use a larger R or fewer, farther controls",
+        number(*bound)
     )]
     SweepTooStiff {
         /// Steps tried.
@@ -375,8 +376,10 @@ fn mismatch(
 }
 
 /// A number as a person writes it: four significant digits, in plain
-/// decimals from 0.001 to a million, in powers of ten beyond (2.294e-7).
-pub(crate) fn number(x: f64) -> String {
+/// decimals from 0.001 to a million, in powers of ten beyond (2.294e-7):
+/// what errors and warnings print (`csrbf::plain_number`, for front ends'
+/// messages).
+pub fn number(x: f64) -> String {
     let a = x.abs();
     if x == 0.0 || !x.is_finite() {
         return format!("{x}");

@@ -232,7 +232,9 @@ pub use diagnose::{
     DiagnoseOptions, Diagnostics, Numbered, Numbering, Warning, compose_diagnosed,
     compose_diagnosed_with, diagnose, vertices_within,
 };
-pub use error::{Error, FitError, FormatError, NameError, RegionError, Result};
+pub use error::{
+    Error, FitError, FormatError, NameError, RegionError, Result, number as plain_number,
+};
 pub use evaluate::{Point, Points, PointsMut};
 pub use folds::{Folds, folds};
 pub use handle::{Handle, HandleControls, Rotation};

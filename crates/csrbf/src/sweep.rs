@@ -398,7 +398,13 @@ fn add_to_cells(
     }
     // Cells within R of a start's cell: R / (R/4) + 1 each way.
     let reach = 5i64;
-    let home = (s / cell).floor();
+    // A start astronomically far (a control moved by 1e30) is clamped to a
+    // cell still far from everything, not cast past i64 (its neighbours'
+    // keys would overflow).
+    const FAR: f64 = (1u64 << 52) as f64;
+    let home = (s / cell)
+        .floor()
+        .clamp(DVec3::splat(-FAR), DVec3::splat(FAR));
     let (hx, hy, hz) = (home.x as i64, home.y as i64, home.z as i64);
     for dz in -reach..=reach {
         for dy in -reach..=reach {

@@ -793,7 +793,7 @@ fn near_starts_with_conflicting_moves_are_named() {
     );
     assert!(
         e.to_string()
-            .contains("controls 0 and 1 start 1.000e-4 apart"),
+            .contains("controls 0 and 1 start 1e-4 apart (0.002857 % of R)"),
         "{e}"
     );
     let alike = [
