@@ -56,6 +56,9 @@ fn malformed_meshes_of_every_format() {
         ("k.gltf", b"{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [", &["k.gltf", "glTF"]),
         ("l.glb", b"glTF\x02\x00\x00\x00\x10\x00", &["l.glb", "GLB header is cut short"]),
         ("m.off", b"", &["m.off", "empty"]),
+        ("n.off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", &["n.off:6", "\"-1\" is negative"]),
+        // A vertex count too large: face lines read as vertices.
+        ("o.off", b"OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", &["o.off", "header's counts are wrong", "4 vertices"]),
     ];
     for (name, bytes, want) in cases {
         let m = dir.write(name, bytes);

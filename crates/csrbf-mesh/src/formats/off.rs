@@ -100,7 +100,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             MeshError::parse(
                 path,
                 None,
-                format!("truncated: expected {nf} faces, found {f}"),
+                format!(
+                    "truncated: expected {nf} faces, found {f} (if the file is whole, the header's counts are wrong: it says {nv} vertices and {nf} faces, and face lines read as vertices when the vertex count is too large)"
+                ),
             )
         })?;
         let mut tok = s.split_ascii_whitespace();

@@ -65,11 +65,13 @@ pub(crate) fn number<T: Number>(
 ) -> Result<T> {
     let tok = tok.ok_or_else(|| MeshError::parse(path, Some(line), format!("missing {what}")))?;
     let v: T = tok.parse().map_err(|_| {
-        MeshError::parse(
-            path,
-            Some(line),
-            format!("{what}: {tok:?} is not a valid number"),
-        )
+        // A count or index (unsigned) given as a negative integer.
+        let why = if tok.starts_with('-') && tok[1..].parse::<u64>().is_ok() {
+            "is negative: counts and indices start at 0"
+        } else {
+            "is not a valid number"
+        };
+        MeshError::parse(path, Some(line), format!("{what}: {tok:?} {why}"))
     })?;
     if v.overflowed(tok) {
         return Err(MeshError::parse(
