@@ -154,11 +154,16 @@ fn bad_control_files() {
         ),
         (
             r#"{"radius": 1, "polynomial": "none", "region": {"group": "nose"}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
-            &["nose"],
+            &["c.json", "region", "\"nose\"", "no named parts"],
         ),
         (
             r#"{"radius": 1, "polynomial": "none", "region": {"vertices": [99]}, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#,
-            &["vertex 99"],
+            &[
+                "c.json",
+                "region",
+                "vertex 99 is out of range",
+                "4 vertices",
+            ],
         ),
         (
             r#"{"deformations": [{"radius": 1, "polynomial": "none", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}, {"radius": 1, "polynomial": "linear", "controls": [{"from": [0,0,0], "to": [0,0,0]}]}]}"#,
