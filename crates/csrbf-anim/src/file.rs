@@ -243,14 +243,21 @@ impl SceneFile {
         serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
-            let at = if path == "." {
-                format!("line {}, column {}", inner.line(), inner.column())
-            } else {
-                path
+            let place = format!("line {}, column {}", inner.line(), inner.column());
+            let at = match (path.as_str(), inner.classify()) {
+                // A field missing from the whole scene: its end is no place.
+                (".", serde_json::error::Category::Data) => "the scene's top level".to_owned(),
+                (_, serde_json::error::Category::Data) => path,
+                // Broken JSON: the place first, and where in the scene.
+                (".", _) => place,
+                _ => format!("{place} (in {path})"),
             };
+            // serde_json ends its message with the place, said above.
+            let message = inner.to_string();
+            let suffix = format!(" at line {} column {}", inner.line(), inner.column());
             ParseError {
                 at,
-                message: inner.to_string(),
+                message: message.strip_suffix(&suffix).unwrap_or(&message).to_owned(),
             }
         })
     }

@@ -66,6 +66,32 @@ fn a_scene_round_trips_through_its_file() {
     }
 }
 
+/// A scene's mistakes are placed once: a field missing from the whole
+/// scene at its top level, a wrong value by its path, broken JSON by line
+/// and column and the path it was in (serde's own "at line ... column ..."
+/// is not repeated).
+#[test]
+fn scene_mistakes_are_placed_once() {
+    let cases = [
+        (
+            r#"{"duration": 1, "objects": []}"#,
+            "the scene's top level: missing field `camera`",
+        ),
+        (
+            r#"{"duration": "x", "camera": {}, "objects": []}"#,
+            "duration: invalid type",
+        ),
+        (
+            r#"{"duration": 1, "objects": ["#,
+            "line 1, column 28 (in objects): EOF",
+        ),
+    ];
+    for (text, want) in cases {
+        let e = SceneFile::parse(text).expect_err(text).to_string();
+        assert!(e.contains(want) && !e.contains(" at line "), "{e}");
+    }
+}
+
 /// Issue 22: a scene written on Windows (backslashes, files in other
 /// folders) opens here, and frames the same as the one written with `/`.
 #[test]
