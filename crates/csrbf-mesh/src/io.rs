@@ -148,7 +148,8 @@ fn obj_library(
         return Ok(Some(kept));
     }
     let name = format!("{stem}.mtl");
-    let target = dir.join(&name);
+    // Beside the OBJ, named as the user named it (`b.mtl`, not `./b.mtl`).
+    let target = path.with_file_name(&name);
     let ours = |p: &Path| std::fs::read(p).is_ok_and(|b| b.starts_with(obj::WRITTEN_BY.as_bytes()));
     if target.exists() && !options.force && !ours(&target) {
         let names: Vec<&str> = lib.materials.iter().map(|m| m.name.as_str()).collect();
@@ -165,7 +166,7 @@ fn obj_library(
         let Some((file, bytes)) = &m.texture else {
             continue;
         };
-        let at = dir.join(file);
+        let at = path.with_file_name(file);
         match std::fs::read(&at) {
             Ok(old) if old == *bytes => textures.push(at),
             Ok(_) | Err(_) if at.exists() && !options.force => {

@@ -53,10 +53,8 @@ pub(crate) fn read_beside(obj: &Path, mesh: &mut Mesh, warnings: &mut Vec<String
     let Some(line) = mesh.material_library.clone() else {
         return;
     };
-    let dir = match obj.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    // "" for a bare file name, so messages say `duck.mtl`, not `./duck.mtl`.
+    let dir = obj.parent().unwrap_or(Path::new(""));
     let mut textures: HashMap<PathBuf, Option<(String, Vec<u8>)>> = HashMap::new();
     let mut files = Vec::new();
     let mut all_read = true;
