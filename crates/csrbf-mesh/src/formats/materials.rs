@@ -18,8 +18,9 @@ use crate::{Material, Mesh, PartKind};
 /// material library.
 pub(crate) const MAX_LIBRARY_BYTES: u64 = 16 << 20;
 
-/// The largest texture read (bytes): a 16k x 16k RGBA PNG stored flat.
-pub(crate) const MAX_TEXTURE_BYTES: u64 = 1 << 30;
+/// The largest texture read (bytes); real textures, even 16k PNGs, are
+/// smaller.
+pub(crate) const MAX_TEXTURE_BYTES: u64 = 256 << 20;
 
 /// The MIME type of an image by its first bytes: PNG or JPEG, the two that
 /// glTF carries and csrbf's renderer draws.
@@ -162,13 +163,24 @@ fn local(dir: &Path, name: &str) -> Option<PathBuf> {
     inside_folder(name).then(|| dir.join(name))
 }
 
-/// A file's bytes, refused past `limit` before any is read.
+/// A file's bytes, refused past `limit`: by its size before any is read,
+/// and while reading for what has no size (a link to a device).
 fn read_limited(path: &Path, limit: u64) -> std::io::Result<Vec<u8>> {
-    let len = std::fs::metadata(path)?.len();
+    use std::io::Read;
+    let too_big = |len: u64| {
+        std::io::Error::other(format!(
+            "{len} bytes or more, more than the {limit} read for a side file"
+        ))
+    };
+    let file = std::fs::File::open(path)?;
+    let len = file.metadata()?.len();
     if len > limit {
-        return Err(std::io::Error::other(format!(
-            "{len} bytes, more than the {limit} read for a side file"
-        )));
+        return Err(too_big(len));
     }
-    std::fs::read(path)
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(limit + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
 }
