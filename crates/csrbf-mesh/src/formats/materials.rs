@@ -22,6 +22,9 @@ pub(crate) const MAX_LIBRARY_BYTES: u64 = 16 << 20;
 /// smaller.
 pub(crate) const MAX_TEXTURE_BYTES: u64 = 256 << 20;
 
+/// The most libraries one OBJ's `mtllib` lines name that are read.
+pub(crate) const MAX_LIBRARIES: usize = 16;
+
 /// The MIME type of an image by its first bytes: PNG or JPEG, the two that
 /// glTF carries and csrbf's renderer draws.
 pub(crate) fn image_mime(bytes: &[u8]) -> Option<&'static str> {
@@ -59,7 +62,17 @@ pub(crate) fn read_beside(obj: &Path, mesh: &mut Mesh, warnings: &mut Vec<String
     let mut textures: HashMap<PathBuf, Option<(String, Vec<u8>)>> = HashMap::new();
     let mut files = Vec::new();
     let mut all_read = true;
-    for name in library_names(&line, dir) {
+    let mut names = library_names(&line, dir);
+    if names.len() > MAX_LIBRARIES {
+        warnings.push(format!(
+            "{}: mtllib names {} libraries; only the first {MAX_LIBRARIES} are read",
+            obj.display(),
+            names.len()
+        ));
+        names.truncate(MAX_LIBRARIES);
+        all_read = false;
+    }
+    for name in names {
         let Some(path) = local(dir, &name) else {
             warnings.push(format!(
                 "{}: material library {name:?} is refused: only files in the model's own folder are read; its materials are grey",

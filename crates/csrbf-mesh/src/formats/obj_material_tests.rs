@@ -163,6 +163,14 @@ fn missing_foreign_or_escaping_side_files_are_warnings() {
         "{:?}",
         l.warnings
     );
+    let many: Vec<String> = (0..1000).map(|k| format!("m{k}.mtl")).collect();
+    let l = load(&many.join(" "));
+    assert!(l.warnings.len() <= 20, "{}", l.warnings.len());
+    assert!(
+        l.warnings[0].contains("only the first 16"),
+        "{:?}",
+        l.warnings
+    );
     std::fs::write(d.path("secret.mtl"), "newmtl a\nKd 1 0 0\n").expect("mtl");
     for bad in ["../secret.mtl", "/etc/passwd", "C:/x.mtl"] {
         let l = load(bad);
