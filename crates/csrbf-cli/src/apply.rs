@@ -40,7 +40,7 @@ pub fn apply(
         &replay.stages,
         (None, replay.combine),
         phase,
-        (mesh, out),
+        (mesh, out, force),
         (json, &checks),
         progress,
     )

@@ -27,7 +27,7 @@ pub struct DeformArgs {
     /// Output mesh; the format comes from the extension.
     #[arg(long)]
     pub out: PathBuf,
-    /// Allow the output to replace an input file.
+    /// Allow the output to replace an input file, and an OBJ output to replace side files (.mtl, textures) that csrbf did not write.
     #[arg(long)]
     pub force: bool,
     /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.
@@ -56,7 +56,7 @@ pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
         &stages,
         (Some(&specs), file.combine),
         phase,
-        (mesh, out),
+        (mesh, out, force),
         (json, &checks),
         progress,
     )
@@ -112,14 +112,15 @@ fn remedies_said(
 }
 
 /// Moves the vertices (each stage at its own phase times `phase`),
-/// recomputes normals where the mesh had them, writes.
+/// recomputes normals where the mesh had them, writes (with `force`, over
+/// an OBJ's side files that csrbf did not write).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn move_and_write(
     m: &mut Mesh,
     stages: &[FittedStage],
     (specs, combine): (Option<&[ControlSpec]>, Combine),
     phase: f64,
-    (mesh_path, out): (&Path, &Path),
+    (mesh_path, out, force): (&Path, &Path, bool),
     (json, checks): (bool, &csrbf_anim::apply::Checks),
     progress: &Progress,
 ) -> Result<()> {
@@ -169,11 +170,17 @@ pub(crate) fn move_and_write(
     if let Some(lost) = csrbf_mesh::Format::from_path(out)?.loses(m) {
         err_line!("warning: {}: {lost}", out.display());
     }
-    csrbf_mesh::write(out, m)?;
-    progress.say(format_args!("wrote {}", out.display()));
+    let options = csrbf_mesh::WriteOptions::default().with_force(force);
+    let written = csrbf_mesh::write_with(out, m, &options)?;
+    for w in &written.warnings {
+        eprintln!("warning: {w}");
+    }
+    progress.say(format_args!("wrote {}", files_said(&written.files)));
     if json {
         let value = serde_json::json!({
             "output": out.display().to_string(),
+            "files": written.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+            "write_warnings": written.warnings,
             "vertices": m.positions.len(),
             "moved": report.moved,
             "largest_move": report.largest_move,
@@ -201,6 +208,20 @@ pub(crate) fn move_and_write(
         out_line!("{}", serde_json::to_string_pretty(&value)?);
     }
     Ok(())
+}
+
+/// "out/b.obj, b.mtl, b_0.png": the first file as given, the side files
+/// beside it by name.
+fn files_said(files: &[PathBuf]) -> String {
+    let mut said: Vec<String> = Vec::new();
+    for (k, f) in files.iter().enumerate() {
+        let name = match f.file_name() {
+            Some(n) if k > 0 => n.to_string_lossy().into_owned(),
+            _ => f.display().to_string(),
+        };
+        said.push(name);
+    }
+    said.join(", ")
 }
 
 /// "largest stretch 1.32x (face 7), 0 face(s) over 4x".

@@ -55,7 +55,8 @@ fn print_plain(v: &Value, indent: usize) {
 }
 
 fn mesh_info(path: &Path) -> Result<Value> {
-    let m = csrbf_mesh::read(path)?;
+    // Warnings (an OBJ's missing library or texture) go to standard error.
+    let m = read_mesh(path, &Progress::new(false))?;
     let (lo, hi) = m.bounds().unwrap_or_default();
     let parts: Vec<Value> = m
         .parts
@@ -93,6 +94,7 @@ fn mesh_info(path: &Path) -> Result<Value> {
         "colors": m.colors.is_some(),
         "normals": m.normals.is_some(),
         "materials": m.materials.len(),
+        "textures": m.materials.iter().filter(|t| t.texture.is_some()).count(),
         "parts": parts,
     }))
 }

@@ -95,7 +95,7 @@ enum Command {
         /// Output mesh.
         #[arg(long)]
         out: PathBuf,
-        /// Allow the output to replace an input file.
+        /// Allow the output to replace an input file, and an OBJ output to replace side files (.mtl, textures) that csrbf did not write.
         #[arg(long)]
         force: bool,
         /// Print the figures (vertices moved, faces turned over, warnings) as JSON on standard output.

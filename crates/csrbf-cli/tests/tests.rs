@@ -8,5 +8,6 @@ mod intersections;
 mod limits;
 mod meaning;
 mod pictures;
+mod side_files;
 mod stretch;
 mod support;

@@ -21,15 +21,21 @@ pub struct Loaded {
 }
 
 /// Reads and validates a mesh, and says what looked wrong without being an
-/// error: a text format with no line break at its end may have been cut off.
+/// error: a text format with no line break at its end may have been cut off;
+/// an OBJ's material library or texture that is missing, unreadable,
+/// malformed or outside the model's folder (the mesh loads, those materials
+/// grey or without their picture).
 pub fn load(path: &Path) -> Result<Loaded> {
     let format = Format::from_path(path)?;
     let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
         path: path.to_owned(),
         source,
     })?;
-    let mesh = Mesh::from_bytes(&bytes, format, path)?;
+    let mut mesh = Mesh::from_bytes(&bytes, format, path)?;
     let mut warnings = Vec::new();
+    if format == Format::Obj {
+        crate::formats::materials::read_beside(path, &mut mesh, &mut warnings);
+    }
     let text =
         matches!(format, Format::Obj | Format::Off) || bytes.starts_with(b"ply\nformat ascii");
     if text && !bytes.is_empty() && !bytes.ends_with(b"\n") {
@@ -42,25 +48,92 @@ pub fn load(path: &Path) -> Result<Loaded> {
 }
 
 /// Writes a mesh whole or not at all; the format comes from the extension.
-///
-/// An OBJ with material parts names a material library beside it: the one
-/// it was read with when that file is there, else `STEM.mtl` written with
-/// it (with its textures), unless a file of that name that csrbf did not
-/// write is in the way; then it names none. Never a library that is not there.
+/// An OBJ's side files are written as [`write_with`] does by default (what
+/// is left alone is not said: use [`write_with`] to hear it).
 pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
-    let format = Format::from_path(path)?;
-    if format == Format::Obj {
-        mesh.validate(path)?;
-        let library = write_obj_library(path, mesh)?;
-        return write_atomic(path, &crate::formats::obj::encode(mesh, library.as_deref()));
-    }
-    let bytes = mesh.to_bytes_for(format, path)?;
-    write_atomic(path, &bytes)
+    write_with(path, mesh, &WriteOptions::default()).map(|_| ())
 }
 
-/// Writes the material library an OBJ at `path` names, if it needs one;
-/// returns the name for its `mtllib` line.
-fn write_obj_library(path: &Path, mesh: &Mesh) -> Result<Option<String>> {
+/// How [`write_with`] treats files in the way.
+#[derive(Clone, Debug, Default)]
+#[non_exhaustive]
+pub struct WriteOptions {
+    /// Replace an OBJ's side files (a `.mtl` that csrbf did not write, a
+    /// texture of the same name with other bytes) instead of leaving them
+    /// alone. Default false.
+    pub force: bool,
+}
+
+impl WriteOptions {
+    /// Sets [`WriteOptions::force`].
+    pub fn with_force(mut self, force: bool) -> WriteOptions {
+        self.force = force;
+        self
+    }
+}
+
+/// What [`write_with`] did.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[non_exhaustive]
+pub struct Written {
+    /// Every file the output consists of, the mesh first: for an OBJ its
+    /// material library and textures too (written, or already there with
+    /// the same bytes).
+    pub files: Vec<PathBuf>,
+    /// Side files left alone, each naming the file, what the output lacks
+    /// as a result, and `--force`.
+    pub warnings: Vec<String>,
+}
+
+/// Writes a mesh whole or not at all; the format comes from the extension.
+///
+/// An OBJ with material parts names a material library beside it: the one
+/// its materials were read from when the OBJ goes into that same folder;
+/// else `STEM.mtl`, written with its textures (`STEM_K.png` or `.jpg`).
+/// A file csrbf did not write is never replaced unless `options.force`: a
+/// `STEM.mtl` without csrbf's header comment (the OBJ then names no
+/// library), a texture whose bytes differ (the library then gives that
+/// material its colour only); each case is a warning in [`Written`].
+/// The side files and the OBJ are all written to temporaries first and
+/// renamed only when every one is complete, the OBJ last, so it never
+/// names a library that is not there.
+pub fn write_with(path: &Path, mesh: &Mesh, options: &WriteOptions) -> Result<Written> {
+    let format = Format::from_path(path)?;
+    if format != Format::Obj {
+        let bytes = mesh.to_bytes_for(format, path)?;
+        write_atomic(path, &bytes)?;
+        return Ok(Written {
+            files: vec![path.to_owned()],
+            warnings: Vec::new(),
+        });
+    }
+    mesh.validate(path)?;
+    let mut written = Written::default();
+    let mut side: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    let library = obj_library(path, mesh, options, &mut side, &mut written)?;
+    let obj = crate::formats::obj::encode(mesh, library.as_deref());
+    let mut all: Vec<(&Path, &[u8])> = side
+        .iter()
+        .map(|(p, b)| (p.as_path(), b.as_slice()))
+        .collect();
+    all.push((path, &obj));
+    write_all_atomic(&all)?;
+    written.files.insert(0, path.to_owned());
+    Ok(written)
+}
+
+/// Plans the material library an OBJ at `path` names, if it needs one:
+/// the files to write go into `side`, those kept or unchanged into
+/// `written.files`, what is left alone into `written.warnings`; returns the
+/// name for its `mtllib` line.
+fn obj_library(
+    path: &Path,
+    mesh: &Mesh,
+    options: &WriteOptions,
+    side: &mut Vec<(PathBuf, Vec<u8>)>,
+    written: &mut Written,
+) -> Result<Option<String>> {
+    use crate::formats::obj;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -68,29 +141,69 @@ fn write_obj_library(path: &Path, mesh: &Mesh) -> Result<Option<String>> {
     let stem = path
         .file_stem()
         .map_or("mesh".into(), |s| s.to_string_lossy());
-    let Some(lib) = crate::formats::obj::library(mesh, &stem) else {
+    let Some(mut lib) = obj::library(mesh, &stem) else {
         return Ok(None);
     };
-    if let Some(kept) = &mesh.material_library
-        && dir.join(kept).is_file()
-    {
-        return Ok(Some(kept.clone()));
+    if let Some(kept) = reusable_library(mesh, dir) {
+        return Ok(Some(kept));
     }
     let name = format!("{stem}.mtl");
-    let target = dir.join(&name);
-    let ours = |p: &Path| {
-        std::fs::read(p).map_or(true, |b| {
-            b.starts_with(crate::formats::obj::WRITTEN_BY.as_bytes())
-        })
-    };
-    if target.exists() && !ours(&target) {
+    // Beside the OBJ, named as the user named it (`b.mtl`, not `./b.mtl`).
+    let target = path.with_file_name(&name);
+    let ours = |p: &Path| std::fs::read(p).is_ok_and(|b| b.starts_with(obj::WRITTEN_BY.as_bytes()));
+    if target.exists() && !options.force && !ours(&target) {
+        let names: Vec<&str> = lib.materials.iter().map(|m| m.name.as_str()).collect();
+        written.warnings.push(format!(
+            "{}: exists and was not written by csrbf, so it is left alone: {} names no material library, so its materials ({}) have no colour or texture in other programs; pass --force to replace it",
+            target.display(),
+            path.display(),
+            names.join(", ")
+        ));
         return Ok(None);
     }
-    for (file, bytes) in &lib.textures {
-        write_atomic(&dir.join(file), bytes)?;
+    let mut textures = Vec::new();
+    for m in &mut lib.materials {
+        let Some((file, bytes)) = &m.texture else {
+            continue;
+        };
+        let at = path.with_file_name(file);
+        match std::fs::read(&at) {
+            Ok(old) if old == *bytes => textures.push(at),
+            Ok(_) | Err(_) if at.exists() && !options.force => {
+                written.warnings.push(format!(
+                    "{}: exists with other content, so it is left alone: {} gives material {} its colour but not its texture; pass --force to replace it",
+                    at.display(),
+                    target.display(),
+                    m.name
+                ));
+                m.texture = None;
+            }
+            _ => {
+                textures.push(at.clone());
+                side.push((at, bytes.clone()));
+            }
+        }
     }
-    write_atomic(&target, lib.text.as_bytes())?;
+    written.files.push(target.clone());
+    written.files.extend(textures);
+    side.push((target, lib.text().into_bytes()));
     Ok(Some(name))
+}
+
+/// The `mtllib` line the mesh was read with, when an OBJ in `dir` would
+/// find through it exactly the library files its materials came from
+/// (an output beside its input): naming them keeps what csrbf does not read.
+fn reusable_library(mesh: &Mesh, dir: &Path) -> Option<String> {
+    let line = mesh.material_library.as_ref()?;
+    if mesh.material_files.is_empty() {
+        return None;
+    }
+    let names = crate::formats::materials::library_names(line, dir);
+    let found: Option<Vec<PathBuf>> = names
+        .iter()
+        .map(|n| std::fs::canonicalize(dir.join(n)).ok())
+        .collect();
+    (found.as_ref() == Some(&mesh.material_files)).then(|| line.clone())
 }
 
 /// The prefix of every temporary file csrbf writes (`.csrbf-PID-N.tmp`).
@@ -182,6 +295,51 @@ pub fn remove_stale_temps(dir: &Path) -> usize {
 /// permissions (a read-only file stays read-only; on Windows, where a
 /// read-only file cannot be replaced, the error says so).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_all_atomic(&[(path, bytes)])
+}
+
+/// Writes several files as [`write_atomic`] does one: every temporary is
+/// written and flushed before any is renamed, so a failure while writing
+/// (a full disk) changes none of them; the renames go in the order given.
+pub fn write_all_atomic(files: &[(&Path, &[u8])]) -> Result<()> {
+    let mut staged: Vec<PathBuf> = Vec::with_capacity(files.len());
+    let mut result = Ok(());
+    for &(path, bytes) in files {
+        match stage(path, bytes) {
+            Ok(tmp) => staged.push(tmp),
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
+    }
+    if result.is_ok() {
+        for (k, (&(path, _), tmp)) in files.iter().zip(&staged).enumerate() {
+            if let Err(source) = replace(tmp, path) {
+                result = Err(MeshError::Io {
+                    path: path.to_owned(),
+                    source,
+                });
+                for rest in &staged[k..] {
+                    let _ = std::fs::remove_file(rest);
+                }
+                break;
+            }
+        }
+    } else {
+        for tmp in &staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+    for tmp in &staged {
+        untrack_temp(tmp);
+    }
+    result
+}
+
+/// Writes and flushes the temporary that will become `path`, with the
+/// permissions of the file it replaces; tracked until renamed or removed.
+fn stage(path: &Path, bytes: &[u8]) -> Result<PathBuf> {
     let io = |source| MeshError::Io {
         path: path.to_owned(),
         source,
@@ -197,13 +355,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         if let Some(permissions) = kept.filter(|_| cfg!(unix)) {
             std::fs::set_permissions(&tmp, permissions)?;
         }
-        replace(&tmp, path)
+        Ok(())
     })();
-    if result.is_err() {
+    if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
+        untrack_temp(&tmp);
+        return Err(io(e));
     }
-    untrack_temp(&tmp);
-    result.map_err(io)
+    Ok(tmp)
 }
 
 /// Moves the finished temporary `tmp` over `path` (a rename: whole or not

@@ -45,8 +45,9 @@ pub use geometry::{
     vertex_normals,
 };
 pub use io::{
-    Loaded, TEMP_PREFIX, load, read, remove_live_temps, remove_stale_temps, replace, temp_beside,
-    track_temp, untrack_temp, write, write_atomic,
+    Loaded, TEMP_PREFIX, WriteOptions, Written, load, read, remove_live_temps, remove_stale_temps,
+    replace, temp_beside, track_temp, untrack_temp, write, write_all_atomic, write_atomic,
+    write_with,
 };
 pub use normals::{
     CacheAligned, NormalsScratch, POINT_FLOATS, VertexNormals, add_scaled, scaled_sum_into,
@@ -218,7 +219,10 @@ pub struct Part {
 pub struct Material {
     /// Its name.
     pub name: String,
-    /// Base colour, linear RGBA.
+    /// Base colour, linear RGBA: glTF's `baseColorFactor`; an OBJ's
+    /// material library holds it as `Kd` and `d` (read and written as these
+    /// numbers, so they survive OBJ -> glTF -> OBJ). A texture is multiplied
+    /// by it, in both formats.
     pub color: [f32; 4],
     /// An embedded base-colour image: its MIME type and bytes.
     pub texture: Option<(String, Vec<u8>)>,
@@ -241,8 +245,17 @@ pub struct Mesh {
     pub parts: Vec<Part>,
     /// Materials by name, for formats that carry them.
     pub materials: Vec<Material>,
-    /// The OBJ material library the file referred to, kept for writing.
+    /// The OBJ material library the file referred to (its `mtllib` line).
     pub material_library: Option<String>,
+    /// The material library files `materials` were read from (canonical
+    /// paths), when all were read: an OBJ written beside them names them
+    /// instead of writing a copy (which keeps what csrbf does not read:
+    /// shininess, bump maps, ...).
+    pub material_files: Vec<std::path::PathBuf>,
+    /// Each face's OBJ smoothing group (`s N`; 0 is `s off`), when the file
+    /// smoothed any face: Blender and Maya shade those faces smooth. Ignored
+    /// unless it has one entry per face.
+    pub smoothing: Option<Vec<u32>>,
 }
 
 impl Mesh {

@@ -55,7 +55,7 @@ static ALLOCATOR: Limited = Limited;
 /// A small valid mesh with every feature: polygons, parts, per-corner UVs, colours.
 fn sample() -> Mesh {
     let src = b"v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 1 1 0 0 0 1\nv 0 1 0 1 1 1\nv 0 0 1 0.5 0.5 0.5\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
-o box\ng bottom\nusemtl a\nf 1/1 2/2 3/3 4/4\ng side\nusemtl b\nf 1/1 2/2 5/3\nf 2/2 3/3 5/4\n";
+o box\ng bottom\nusemtl a\nf 1/1 2/2 3/3 4/4\ng side\nusemtl b\ns 1\nf 1/1 2/2 5/3\ns off\nf 2/2 3/3 5/4\n";
     Mesh::from_bytes(src, Format::Obj, Path::new("s.obj")).expect("sample")
 }
 
@@ -143,4 +143,26 @@ fn every_reader_survives_thousands_of_mutations() {
         0,
         "a reader panicked"
     );
+}
+
+/// Issue 25: a material library is a side file read with warnings, never
+/// refused: mutated libraries give materials and a few warnings, no panic
+/// and no huge allocation.
+#[test]
+fn the_material_library_reader_survives_mutations() {
+    let seed = b"# Blender MTL\nnewmtl blinn3\nNs 96\nKd 0.2 0.4 0.6\nd 0.5\nTr 0.1\n\
+map_Kd -o 0.1 0.2 -bm 1 -clamp on duck tex.png\nnewmtl b\nKd 1\nmap_Kd b.jpg\n";
+    let mut rng = Rng::new(25);
+    for case in 0..10_000 {
+        let input = mutate(seed, &mut rng, &[seed]);
+        let mut warnings = Vec::new();
+        let entries = super::mtl::parse(&input, Path::new("fuzz.mtl"), &mut warnings);
+        assert!(warnings.len() <= 9, "case {case}: {warnings:?}");
+        for e in entries {
+            assert!(
+                e.color.iter().all(|c| c.is_finite()) && (0.0..=1.0).contains(&e.color[3]),
+                "case {case}: {e:?}"
+            );
+        }
+    }
 }

@@ -2,6 +2,8 @@
 
 /// glTF reading and writing, and the buffer builder the scene exporter shares.
 pub mod gltf;
+pub(crate) mod materials;
+mod mtl;
 pub(crate) mod obj;
 mod off;
 mod ply;
@@ -161,6 +163,27 @@ fn loses_per_vertex(format: Format, mesh: &Mesh) -> Option<String> {
     Some(format!("{said}; use OBJ or glTF to keep them"))
 }
 
+/// Whether a file name a model gives (a glTF buffer URI, decoded; an OBJ's
+/// material library or texture) stays in the model's folder: relative, no
+/// drive or scheme (a colon before the first `/`), no `..`. A model from
+/// the web must not make csrbf read other local files.
+pub(crate) fn inside_folder(name: &str) -> bool {
+    let rel = Path::new(name);
+    let scheme = name
+        .split('/')
+        .next()
+        .is_some_and(|first| first.contains(':'));
+    let escapes = rel.is_absolute()
+        || rel.has_root()
+        || rel.components().any(|c| {
+            !matches!(
+                c,
+                std::path::Component::Normal(_) | std::path::Component::CurDir
+            )
+        });
+    !(scheme || escapes || name.is_empty())
+}
+
 pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
     // A byte-order mark before a text header (an editor's habit) is skipped;
     // a binary STL's 80-byte header is free text and is left alone unless it
@@ -199,6 +222,8 @@ pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
 
 #[cfg(test)]
 mod fuzz;
+#[cfg(test)]
+mod obj_material_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

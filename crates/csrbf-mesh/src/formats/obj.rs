@@ -1,5 +1,7 @@
 //! Wavefront OBJ: `v` (with optional colours), `vt`, `vn`, polygon `f`
-//! with any corner form and negative indices, `g`, `o`, `usemtl`, `mtllib`.
+//! with any corner form and negative indices, `g`, `o`, `usemtl`, `mtllib`,
+//! and `s` (smoothing groups, per face). The material library itself is
+//! read by [`super::materials`] when the OBJ is read from a file.
 
 use std::collections::HashMap;
 use std::fmt::Write;
@@ -26,6 +28,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut current_by_kind: HashMap<PartKind, Vec<usize>> = HashMap::new();
     let mut corner = Vec::new();
     let mut corner_uv = Vec::new();
+    // The smoothing group of each face, and of the faces to come.
+    let mut smoothing: Vec<u32> = Vec::new();
+    let mut group = 0u32;
 
     for item in lines(bytes, path) {
         let (ln, line) = item?;
@@ -106,6 +111,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 }
                 let f = mesh.faces.len() as u32;
                 mesh.faces.push(&corner);
+                smoothing.push(group);
                 if corner_uv.is_empty() {
                     corners_uv.extend(std::iter::repeat_n(u32::MAX, corner.len()));
                 } else {
@@ -142,7 +148,14 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 current = current_by_kind.values().flatten().copied().collect();
             }
             "mtllib" => mesh.material_library = Some(line[key.len()..].trim().to_owned()),
-            _ => {} // s, l, p, curves and vendor extensions carry nothing we keep.
+            // `s off`, `s 0` or a bare `s`: flat; `s on` or any other word: 1.
+            "s" => {
+                group = match tok.next() {
+                    None | Some("off") => 0,
+                    Some(t) => t.parse().unwrap_or(1),
+                }
+            }
+            _ => {} // l, p, curves and vendor extensions carry nothing we keep.
         }
     }
     if any_color {
@@ -166,6 +179,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             values: uvs,
             corners: Some(corners_uv),
         });
+    }
+    if smoothing.iter().any(|&g| g != 0) {
+        mesh.smoothing = Some(smoothing);
     }
     mesh.parts.retain(|p| !p.faces.is_empty());
     for p in &mut mesh.parts {
@@ -252,6 +268,9 @@ pub(crate) fn encode(mesh: &Mesh, library: Option<&str>) -> Vec<u8> {
     }
     let keys = ["o", "g", "usemtl"];
     let mut last: [Option<&Vec<&str>>; 3] = [None, None, None];
+    // Smoothing groups where the mesh has them for every face; faces start flat.
+    let smoothing = mesh.smoothing.as_ref().filter(|s| s.len() == nf);
+    let mut last_group = 0u32;
     #[allow(clippy::needless_range_loop)] // f indexes three label tables and the faces
     for f in 0..nf {
         for k in 0..3 {
@@ -272,6 +291,16 @@ pub(crate) fn encode(mesh: &Mesh, library: Option<&str>) -> Vec<u8> {
                 }
                 last[k] = Some(cur);
             }
+        }
+        if let Some(&g) = smoothing.and_then(|sm| sm.get(f))
+            && g != last_group
+        {
+            if g == 0 {
+                s.push_str("s off\n");
+            } else {
+                let _ = writeln!(s, "s {g}");
+            }
+            last_group = g;
         }
         s.push('f');
         let start = mesh.faces.offsets[f] as usize;
@@ -299,11 +328,18 @@ pub(crate) fn encode(mesh: &Mesh, library: Option<&str>) -> Vec<u8> {
     s.into_bytes()
 }
 
-/// A material library (`.mtl`) for an OBJ: its text and the texture files
-/// it names, each (file name, bytes), all to be written beside the OBJ.
+/// A material library (`.mtl`) for an OBJ: every material part's name,
+/// colour and texture file, in the order the parts come.
 pub(crate) struct Library {
-    pub text: String,
-    pub textures: Vec<(String, Vec<u8>)>,
+    pub materials: Vec<LibraryMaterial>,
+}
+
+/// One material of a [`Library`].
+pub(crate) struct LibraryMaterial {
+    pub name: String,
+    pub color: [f32; 4],
+    /// The texture's file name beside the OBJ and its bytes.
+    pub texture: Option<(String, Vec<u8>)>,
 }
 
 /// The material library of a mesh with material parts, for an OBJ whose
@@ -320,21 +356,40 @@ pub(crate) fn library(mesh: &Mesh, stem: &str) -> Option<Library> {
     if names.is_empty() {
         return None;
     }
-    let mut text = format!("{WRITTEN_BY}\n");
-    let mut textures = Vec::new();
+    let mut materials = Vec::new();
+    let mut count = 0;
     for name in names {
         let m = mesh.materials.iter().find(|m| m.name == name);
-        let [r, g, b, a] = m.map_or([0.8, 0.8, 0.8, 1.0], |m| m.color);
-        let _ = writeln!(text, "\nnewmtl {name}\nKd {r} {g} {b}");
-        if a < 1.0 {
-            let _ = writeln!(text, "d {a}");
-        }
-        if let Some((mime, bytes)) = m.and_then(|m| m.texture.as_ref()) {
+        let [r, g, b] = super::mtl::DEFAULT_KD;
+        let texture = m.and_then(|m| m.texture.as_ref()).map(|(mime, bytes)| {
             let ext = if mime == "image/jpeg" { "jpg" } else { "png" };
-            let file = format!("{stem}_{}.{ext}", textures.len());
-            let _ = writeln!(text, "map_Kd {file}");
-            textures.push((file, bytes.clone()));
-        }
+            count += 1;
+            (format!("{stem}_{}.{ext}", count - 1), bytes.clone())
+        });
+        materials.push(LibraryMaterial {
+            name: name.to_owned(),
+            color: m.map_or([r, g, b, 1.0], |m| m.color),
+            texture,
+        });
     }
-    Some(Library { text, textures })
+    Some(Library { materials })
+}
+
+impl Library {
+    /// The `.mtl` text, starting with [`WRITTEN_BY`] (how a later write
+    /// knows the file is csrbf's to replace).
+    pub(crate) fn text(&self) -> String {
+        let mut text = format!("{WRITTEN_BY}\n");
+        for m in &self.materials {
+            let [r, g, b, a] = m.color;
+            let _ = writeln!(text, "\nnewmtl {}\nKd {r} {g} {b}", m.name);
+            if a < 1.0 {
+                let _ = writeln!(text, "d {a}");
+            }
+            if let Some((file, _)) = &m.texture {
+                let _ = writeln!(text, "map_Kd {file}");
+            }
+        }
+        text
+    }
 }

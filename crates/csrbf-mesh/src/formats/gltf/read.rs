@@ -592,20 +592,7 @@ fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
     // the model's own folder (or below it), never a URL or a path out of it.
     let decoded = percent_decode(uri);
     let rel = Path::new(&decoded);
-    // A scheme (`http:`) or a drive (`C:`): a colon before any slash.
-    let scheme = uri
-        .split('/')
-        .next()
-        .is_some_and(|first| first.contains(':'));
-    let escapes = rel.is_absolute()
-        || rel.has_root()
-        || rel.components().any(|c| {
-            !matches!(
-                c,
-                std::path::Component::Normal(_) | std::path::Component::CurDir
-            )
-        });
-    if scheme || escapes {
+    if !crate::formats::inside_folder(&decoded) {
         return Err(MeshError::parse(
             path,
             None,
