@@ -173,7 +173,7 @@ pub(crate) fn move_and_write(
     let options = csrbf_mesh::WriteOptions::default().with_force(force);
     let written = csrbf_mesh::write_with(out, m, &options)?;
     for w in &written.warnings {
-        eprintln!("warning: {w}");
+        err_line!("warning: {w}");
     }
     progress.say(format_args!("wrote {}", files_said(&written.files)));
     if json {
