@@ -210,6 +210,25 @@ fn bad_arguments_and_outputs() {
         ],
         &["m.3ds", "unknown mesh format"],
     );
+    // An output that is a folder, or has no extension, is said to be one.
+    let m = dir.write("m.obj", TRI);
+    for (out, want) in [
+        (dir.path(""), "is a folder"),
+        (dir.path("noext"), "has no extension"),
+    ] {
+        fails(
+            &[
+                "deform",
+                "--mesh",
+                arg(&m),
+                "--controls",
+                arg(&c),
+                "--out",
+                arg(&out),
+            ],
+            &[want, ".obj, .ply"],
+        );
+    }
     // Output into a missing directory.
     fails(
         &[

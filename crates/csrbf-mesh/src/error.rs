@@ -35,10 +35,7 @@ pub enum MeshError {
         message: String,
     },
     /// The extension names no supported format.
-    #[error(
-        "{}: unknown mesh format {ext:?}; supported: .obj, .ply, .stl, .off, .gltf, .glb",
-        path.display()
-    )]
+    #[error("{}", unknown_format(path, ext))]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -72,3 +69,17 @@ impl MeshError {
 
 /// The mesh crate's result type.
 pub type Result<T, E = MeshError> = std::result::Result<T, E>;
+
+/// [`MeshError::UnknownFormat`]'s message: a folder and a name without an
+/// extension said as such (`unknown mesh format ""` told neither).
+fn unknown_format(path: &std::path::Path, ext: &str) -> String {
+    const SUPPORTED: &str = ".obj, .ply, .stl, .off, .gltf, .glb";
+    let p = path.display();
+    if path.is_dir() {
+        format!("{p} is a folder: give a file name ending in one of {SUPPORTED}")
+    } else if ext.is_empty() {
+        format!("{p} has no extension to tell the mesh format by: end it in one of {SUPPORTED}")
+    } else {
+        format!("{p}: unknown mesh format {ext:?}; supported: {SUPPORTED}")
+    }
+}
