@@ -152,8 +152,9 @@ pub fn deform_mesh_checked(
         .collect();
     let (moved, report) = compose_checked(mesh, &stages, file.combine, checks)
         .map_err(|source| ApplyError::Engine { index: 0, source })?;
-    mesh.positions = moved;
-    mesh.recompute_normals();
+    // The file's normals carried through the move (seams and hard edges
+    // kept), or recomputed when it had none.
+    mesh.move_vertices(moved);
     Ok(report)
 }
 

@@ -27,6 +27,7 @@
 #![warn(clippy::unwrap_used)]
 
 pub mod bvh;
+mod carry;
 mod error;
 /// The file formats.
 pub mod formats;
@@ -38,6 +39,7 @@ pub mod shapes;
 mod stand_in;
 
 pub use bvh::{Bvh, Hit, Ray};
+pub use carry::{SAME_NORMAL_COS, carry_normals, smooth_groups};
 pub use error::{MeshError, Result};
 pub use formats::Format;
 pub use geometry::{

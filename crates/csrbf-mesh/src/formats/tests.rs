@@ -571,3 +571,46 @@ fn overflowing_coordinates_are_named_and_cr_only_files_read() {
     .expect("CR only");
     assert_eq!((m.positions.len(), m.faces.len()), (3, 1));
 }
+
+/// A glTF from another tool keeps its normals: read as given (a deformation
+/// then carries them, `Mesh::move_vertices`), so a sphere split at its seams
+/// comes back with equal normals on every copy, and unchanged where nothing
+/// moved.
+#[test]
+fn gltf_normals_are_read_and_carried_across_seams() {
+    let welded = crate::shapes::uv_sphere(1.0, 8, 16);
+    let smooth = crate::vertex_normals(&welded.positions, &welded.faces);
+    // Every face its own corners (no UVs, so no csrbf extras weld them back).
+    let mut m = Mesh::default();
+    let mut normals = Vec::new();
+    for f in welded.faces.iter() {
+        let base = m.positions.len() as u32;
+        for &v in f {
+            m.positions.push(welded.positions[v as usize]);
+            normals.push(smooth[v as usize]);
+        }
+        m.faces.push(&(base..base + f.len() as u32).collect::<Vec<_>>());
+    }
+    m.normals = Some(normals.clone());
+    let bytes = m.to_bytes(Format::Glb).expect("enc");
+    let mut back = Mesh::from_bytes(&bytes, Format::Glb, Path::new("s.glb")).expect("parse");
+    let read = back.normals.clone().expect("the file's normals are read");
+    for (i, (a, b)) in normals.iter().zip(&read).enumerate() {
+        assert!((*a - *b).length() < 1e-6, "vertex {i}: {a} read as {b}");
+    }
+    let moved: Vec<glam::Vec3> = back
+        .positions
+        .iter()
+        .map(|p| *p + glam::Vec3::new(0.3 * p.y * p.y, 0.0, 0.2 * p.x))
+        .collect();
+    back.move_vertices(moved);
+    let n = back.normals.as_ref().expect("normals");
+    for i in 0..back.positions.len() {
+        for j in i + 1..back.positions.len() {
+            if back.positions[i] == back.positions[j] {
+                let angle = n[i].angle_between(n[j]).to_degrees();
+                assert!(angle < 1e-3, "copies {i} and {j} differ by {angle} degrees");
+            }
+        }
+    }
+}

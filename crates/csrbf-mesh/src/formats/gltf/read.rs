@@ -67,6 +67,8 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     };
     let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut uvs: Vec<Vec2> = Vec::new();
+    // The file's normals, `None` for vertices of primitives without them.
+    let mut normals: Vec<Option<Vec3>> = Vec::new();
     let (mut any_color, mut any_uv) = (false, false);
     let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
     // Primitives that share their vertex accessors (one mesh, a primitive
@@ -169,6 +171,17 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                         None => colors.resize(base as usize, [1.0; 4]),
                     }
                     colors.resize(mesh.positions.len(), [1.0; 4]);
+                    // Normals turn with the node (its inverse transpose, for
+                    // scaled nodes).
+                    let turn = glam::Mat3::from_mat4(world).inverse().transpose();
+                    normals.resize(base as usize, None);
+                    if let Some(nr) = reader.read_normals() {
+                        normals.extend(
+                            nr.map(|n| Some((turn * Vec3::from_array(n)).normalize_or_zero()))
+                                .take(count),
+                        );
+                    }
+                    normals.resize(mesh.positions.len(), None);
                     shared.insert(key, (base, count));
                     (base, count)
                 }
@@ -196,6 +209,20 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     }
     if any_color {
         mesh.colors = Some(colors);
+    }
+    // The file's normals are kept (a deformation carries them, see
+    // `Mesh::move_vertices`): recomputing them on vertices split at UV seams
+    // would show the seams. Vertices of primitives without normals get
+    // computed ones.
+    if normals.iter().any(Option::is_some) {
+        let computed = crate::vertex_normals(&mesh.positions, &mesh.faces);
+        mesh.normals = Some(
+            normals
+                .iter()
+                .zip(computed)
+                .map(|(n, c)| n.filter(|n| *n != Vec3::ZERO).unwrap_or(c))
+                .collect(),
+        );
     }
     if meshes_seen == 1
         && let Some(extras) = extras
@@ -517,6 +544,9 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
             mesh.positions.truncate(kept);
             if let Some(c) = &mut mesh.colors {
                 c.truncate(kept);
+            }
+            if let Some(n) = &mut mesh.normals {
+                n.truncate(kept);
             }
         }
     }
