@@ -614,3 +614,36 @@ fn gltf_normals_are_read_and_carried_across_seams() {
         }
     }
 }
+
+/// Issue 7, again: a symlink in the model's folder that points out of it is
+/// refused like a `..` URI.
+#[cfg(unix)]
+#[test]
+fn gltf_symlinks_out_of_the_model_folder_are_refused() {
+    let dir = std::env::temp_dir().join(format!("csrbf-symlink-{}", std::process::id()));
+    let (model, outside) = (dir.join("model"), dir.join("outside"));
+    std::fs::create_dir_all(&model).expect("mkdir");
+    std::fs::create_dir_all(&outside).expect("mkdir");
+    std::fs::write(outside.join("secret.bin"), [0u8; 4]).expect("write");
+    std::fs::write(model.join("inside.bin"), [0u8; 4]).expect("write");
+    let _ = std::fs::remove_file(model.join("link.bin"));
+    std::os::unix::fs::symlink(outside.join("secret.bin"), model.join("link.bin"))
+        .expect("symlink");
+    let doc = |uri: &str| {
+        format!(r#"{{"asset": {{"version": "2.0"}}, "buffers": [{{"uri": "{uri}", "byteLength": 4}}]}}"#)
+    };
+    let read = |uri: &str| {
+        let path = model.join("m.gltf");
+        std::fs::write(&path, doc(uri)).expect("write");
+        crate::read(&path)
+    };
+    let e = read("link.bin").expect_err("a symlink out of the folder is followed");
+    let e = e.to_string();
+    assert!(e.contains("\"link.bin\"") && e.contains("leaves the model's folder"), "{e}");
+    // A file really inside is still read (the file has no mesh: an empty
+    // document is an error of its own, not a refusal).
+    if let Err(e) = read("inside.bin") {
+        assert!(!e.to_string().contains("refused"), "{e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

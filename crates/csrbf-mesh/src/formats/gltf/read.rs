@@ -644,8 +644,33 @@ fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
             ),
         ));
     }
-    let file = path.parent().unwrap_or(Path::new(".")).join(rel);
-    std::fs::read(&file).map_err(|source| MeshError::Io { path: file, source })
+    let folder = path.parent().unwrap_or(Path::new("."));
+    let folder = if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    };
+    let file = folder.join(rel);
+    // A symlink (or a linked folder) in the model's folder may point
+    // anywhere: what is read is where the resolved path lands, which must
+    // still be inside the resolved folder.
+    let io = |p: &Path, source| MeshError::Io {
+        path: p.to_owned(),
+        source,
+    };
+    let real_folder = folder.canonicalize().map_err(|e| io(folder, e))?;
+    let real_file = file.canonicalize().map_err(|e| io(&file, e))?;
+    if !real_file.starts_with(&real_folder) {
+        return Err(MeshError::parse(
+            path,
+            None,
+            format!(
+                "buffer URI {uri:?} is refused: it resolves to {}, which leaves the model's folder (a symlink?); only data URIs and files in the model's own folder are read",
+                real_file.display()
+            ),
+        ));
+    }
+    std::fs::read(&real_file).map_err(|source| io(&file, source))
 }
 
 fn percent_decode(s: &str) -> String {
