@@ -647,3 +647,62 @@ fn gltf_symlinks_out_of_the_model_folder_are_refused() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A glTF round trip keeps the material's properties: metallic 0.9 came
+/// back 0, roughness 0.3 came back 0.8, emission, double-sidedness and the
+/// sampler's filters were dropped.
+#[test]
+fn gltf_round_trips_material_properties() {
+    let path = root().join("assets/models/assimp_BoxTextured.glb");
+    let mut m = crate::read(&path).expect("read");
+    // BoxTextured leaves roughness out: glTF's default, 1, not csrbf's 0.8.
+    assert_eq!(m.materials[0].roughness, 1.0, "{:?}", m.materials[0]);
+    let round_trip = |m: &Mesh| {
+        let bytes = m.to_bytes(Format::Glb).expect("enc");
+        Mesh::from_bytes(&bytes, Format::Glb, Path::new("x.glb")).expect("parse")
+    };
+    // Compared without the image bytes (kept too, but unreadable in a
+    // failure's message).
+    let look = |m: &Mesh| -> Vec<crate::Material> {
+        m.materials
+            .iter()
+            .map(|mat| {
+                let mut mat = mat.clone();
+                mat.texture = mat.texture.map(|(mime, bytes)| (mime, vec![bytes.len() as u8]));
+                mat
+            })
+            .collect()
+    };
+    assert_eq!(look(&round_trip(&m)), look(&m));
+    let mat = &mut m.materials[0];
+    mat.metallic = 0.9;
+    mat.roughness = 0.3;
+    mat.emissive = [1.0, 0.0, 0.0];
+    mat.double_sided = true;
+    mat.alpha_mode = Some(crate::AlphaMode::Mask(0.25));
+    mat.sampler = Some(crate::Sampler {
+        mag_filter: Some(9729),
+        min_filter: Some(9986),
+        wrap_s: Some(33071),
+        wrap_t: None,
+    });
+    let back = round_trip(&m);
+    assert_eq!(look(&back), look(&m));
+    assert_eq!(back.materials[0].texture, m.materials[0].texture);
+}
+
+/// A glTF material that leaves its factors out reads as glTF's defaults.
+#[test]
+fn gltf_material_defaults_are_gltfs() {
+    let bytes = tiny_gltf(
+        r#", "indices": 1, "mode": 5, "material": 0"#,
+        "",
+        r#"[{"mesh": 0}], "materials": [{"name": "bare"}]"#,
+    );
+    let m = Mesh::from_bytes(&bytes, Format::Gltf, Path::new("d.gltf")).expect("parse");
+    let mut want = crate::Material::new("bare", [1.0; 4]);
+    want.metallic = 1.0;
+    want.roughness = 1.0;
+    want.alpha_mode = Some(crate::AlphaMode::Opaque);
+    assert_eq!(m.materials, vec![want]);
+}

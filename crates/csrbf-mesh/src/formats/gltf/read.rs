@@ -7,7 +7,7 @@ use glam::{Mat4, Vec2, Vec3};
 use serde_json::Value;
 
 use super::base64::base64_decode;
-use crate::{Faces, Material, Mesh, MeshError, PartKind, Result, TexCoords};
+use crate::{AlphaMode, Faces, Material, Mesh, MeshError, PartKind, Result, Sampler, TexCoords};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // The gltf crate asserts on some malformed accessors; a malformed file
@@ -486,11 +486,7 @@ fn name_parts(
             None => "default".to_owned(),
         });
     if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
-        mesh.materials.push(Material {
-            name: mat_name.clone(),
-            color: mat.pbr_metallic_roughness().base_color_factor(),
-            texture: texture_of(&mat, buffers, path),
-        });
+        mesh.materials.push(material_of(&mat, mat_name.clone(), buffers, path));
     }
     let names = [
         (
@@ -583,6 +579,36 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
         mesh.parts = restored;
     }
 }
+
+/// A glTF material's properties; absent fields take glTF's defaults (the
+/// gltf crate fills them: metallic 1, roughness 1, no emission, opaque).
+fn material_of(mat: &gltf::Material, name: String, buffers: &[Vec<u8>], path: &Path) -> Material {
+    let pbr = mat.pbr_metallic_roughness();
+    let mut m = Material::new(name, pbr.base_color_factor());
+    m.texture = texture_of(mat, buffers, path);
+    m.sampler = pbr.base_color_texture().map(|info| {
+        let s = info.texture().sampler();
+        Sampler {
+            mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
+            min_filter: s.min_filter().map(|f| f.as_gl_enum()),
+            wrap_s: Some(s.wrap_s().as_gl_enum()).filter(|&w| w != REPEAT),
+            wrap_t: Some(s.wrap_t().as_gl_enum()).filter(|&w| w != REPEAT),
+        }
+    });
+    m.metallic = pbr.metallic_factor();
+    m.roughness = pbr.roughness_factor();
+    m.emissive = mat.emissive_factor();
+    m.double_sided = mat.double_sided();
+    m.alpha_mode = Some(match mat.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask(mat.alpha_cutoff().unwrap_or(0.5)),
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+    });
+    m
+}
+
+/// glTF's default wrap.
+const REPEAT: u32 = 10497;
 
 /// The base-colour image of a material, when it is embedded.
 fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<(String, Vec<u8>)> {
