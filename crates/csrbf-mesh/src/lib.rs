@@ -249,6 +249,32 @@ pub struct Material {
     /// How alpha is used; `None` (the default): blended when the colour's
     /// alpha is below 1, opaque otherwise.
     pub alpha_mode: Option<AlphaMode>,
+    /// glTF's tangent-space normal map, written back unchanged: it stays
+    /// right on a deformed mesh because csrbf writes no tangents, so readers
+    /// rebuild the tangent frame (MikkTSpace, as glTF requires) from the
+    /// deformed normals and the UVs; the map's bumps turn with the surface.
+    /// Its `scale` is glTF's normal scale.
+    pub normal_texture: Option<TextureMap>,
+    /// glTF's occlusion map (red channel); its `scale` is the strength.
+    pub occlusion_texture: Option<TextureMap>,
+    /// glTF's emissive map, times `emissive`.
+    pub emissive_texture: Option<TextureMap>,
+    /// glTF's metallic-roughness map (blue: metal, green: roughness), times
+    /// `metallic` and `roughness`.
+    pub metallic_roughness_texture: Option<TextureMap>,
+}
+
+/// A material's texture other than the base colour: an embedded image read
+/// through the first UV set (csrbf keeps one UV set; a glTF map on another
+/// is not kept).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureMap {
+    /// The image: its MIME type and bytes.
+    pub image: (String, Vec<u8>),
+    /// How it is sampled.
+    pub sampler: Option<Sampler>,
+    /// The normal map's scale or the occlusion map's strength; 1 otherwise.
+    pub scale: f32,
 }
 
 impl Default for Material {
@@ -263,6 +289,10 @@ impl Default for Material {
             emissive: [0.0; 3],
             double_sided: false,
             alpha_mode: None,
+            normal_texture: None,
+            occlusion_texture: None,
+            emissive_texture: None,
+            metallic_roughness_texture: None,
         }
     }
 }

@@ -668,7 +668,13 @@ fn gltf_round_trips_material_properties() {
             .iter()
             .map(|mat| {
                 let mut mat = mat.clone();
-                mat.texture = mat.texture.map(|(mime, bytes)| (mime, vec![bytes.len() as u8]));
+                let short = |(mime, bytes): (String, Vec<u8>)| (mime, vec![bytes.len() as u8]);
+                mat.texture = mat.texture.map(short);
+                for map in [&mut mat.normal_texture, &mut mat.occlusion_texture] {
+                    if let Some(t) = map {
+                        t.image = short(t.image.clone());
+                    }
+                }
                 mat
             })
             .collect()
@@ -686,8 +692,25 @@ fn gltf_round_trips_material_properties() {
         wrap_s: Some(33071),
         wrap_t: None,
     });
+    // The other maps (here the same image), with their own samplers.
+    let image = mat.texture.clone().expect("BoxTextured has a texture");
+    mat.normal_texture = Some(crate::TextureMap {
+        image: image.clone(),
+        sampler: Some(crate::Sampler {
+            mag_filter: Some(9728),
+            ..crate::Sampler::default()
+        }),
+        scale: 0.5,
+    });
+    mat.occlusion_texture = Some(crate::TextureMap {
+        image: image.clone(),
+        sampler: Some(crate::Sampler::default()),
+        scale: 0.75,
+    });
     let back = round_trip(&m);
     assert_eq!(look(&back), look(&m));
+    let normal = back.materials[0].normal_texture.as_ref().expect("normal map");
+    assert_eq!(normal.image, image);
     assert_eq!(back.materials[0].texture, m.materials[0].texture);
 }
 

@@ -7,7 +7,9 @@ use glam::{Mat4, Vec2, Vec3};
 use serde_json::Value;
 
 use super::base64::base64_decode;
-use crate::{AlphaMode, Faces, Material, Mesh, MeshError, PartKind, Result, Sampler, TexCoords};
+use crate::{
+    AlphaMode, Faces, Material, Mesh, MeshError, PartKind, Result, Sampler, TexCoords, TextureMap,
+};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // The gltf crate asserts on some malformed accessors; a malformed file
@@ -585,16 +587,31 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
 fn material_of(mat: &gltf::Material, name: String, buffers: &[Vec<u8>], path: &Path) -> Material {
     let pbr = mat.pbr_metallic_roughness();
     let mut m = Material::new(name, pbr.base_color_factor());
-    m.texture = texture_of(mat, buffers, path);
-    m.sampler = pbr.base_color_texture().map(|info| {
-        let s = info.texture().sampler();
-        Sampler {
-            mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
-            min_filter: s.min_filter().map(|f| f.as_gl_enum()),
-            wrap_s: Some(s.wrap_s().as_gl_enum()).filter(|&w| w != REPEAT),
-            wrap_t: Some(s.wrap_t().as_gl_enum()).filter(|&w| w != REPEAT),
-        }
-    });
+    if let Some(info) = pbr.base_color_texture() {
+        m.texture = image_of(&info.texture(), buffers, path);
+        m.sampler = m.texture.as_ref().map(|_| sampler_of(&info.texture()));
+    }
+    // Maps on a second UV set are not kept: csrbf reads and writes one.
+    let map = |t: gltf::Texture, tex_coord: u32, scale: f32| {
+        (tex_coord == 0).then_some(())?;
+        Some(TextureMap {
+            image: image_of(&t, buffers, path)?,
+            sampler: Some(sampler_of(&t)),
+            scale,
+        })
+    };
+    m.normal_texture = mat
+        .normal_texture()
+        .and_then(|t| map(t.texture(), t.tex_coord(), t.scale()));
+    m.occlusion_texture = mat
+        .occlusion_texture()
+        .and_then(|t| map(t.texture(), t.tex_coord(), t.strength()));
+    m.emissive_texture = mat
+        .emissive_texture()
+        .and_then(|t| map(t.texture(), t.tex_coord(), 1.0));
+    m.metallic_roughness_texture = pbr
+        .metallic_roughness_texture()
+        .and_then(|t| map(t.texture(), t.tex_coord(), 1.0));
     m.metallic = pbr.metallic_factor();
     m.roughness = pbr.roughness_factor();
     m.emissive = mat.emissive_factor();
@@ -610,10 +627,22 @@ fn material_of(mat: &gltf::Material, name: String, buffers: &[Vec<u8>], path: &P
 /// glTF's default wrap.
 const REPEAT: u32 = 10497;
 
-/// The base-colour image of a material, when it is embedded.
-fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<(String, Vec<u8>)> {
-    let info = mat.pbr_metallic_roughness().base_color_texture()?;
-    match info.texture().source().source() {
+/// How a texture is sampled, in glTF's codes; wraps at glTF's default
+/// (repeat) are left out.
+fn sampler_of(t: &gltf::Texture) -> Sampler {
+    let s = t.sampler();
+    Sampler {
+        mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
+        min_filter: s.min_filter().map(|f| f.as_gl_enum()),
+        wrap_s: Some(s.wrap_s().as_gl_enum()).filter(|&w| w != REPEAT),
+        wrap_t: Some(s.wrap_t().as_gl_enum()).filter(|&w| w != REPEAT),
+    }
+}
+
+/// A texture's image: its MIME type and bytes (from the file's buffers or
+/// a URI in the model's folder).
+fn image_of(t: &gltf::Texture, buffers: &[Vec<u8>], path: &Path) -> Option<(String, Vec<u8>)> {
+    match t.source().source() {
         gltf::image::Source::View { view, mime_type } => {
             let b = buffers.get(view.buffer().index())?;
             Some((

@@ -349,14 +349,32 @@ fn material_json(mesh: &Mesh, b: &mut Builder) -> MaterialJson {
         let mut pbr = json!({
             "baseColorFactor": m.color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness
         });
-        if let Some((mime, bytes)) = &m.texture {
+        // Each texture its image, sampler and texture entry; returns the
+        // texture's index.
+        let mut texture = |(mime, bytes): &(String, Vec<u8>), sampler: Option<crate::Sampler>| {
             let view = b.view(bytes, None);
             images.push(json!({ "bufferView": view, "mimeType": mime }));
-            samplers.push(sampler_json(m.sampler.unwrap_or_default()));
+            samplers.push(sampler_json(sampler.unwrap_or_default()));
             textures.push(json!({ "source": images.len() - 1, "sampler": samplers.len() - 1 }));
-            pbr["baseColorTexture"] = json!({ "index": textures.len() - 1 });
+            textures.len() - 1
+        };
+        if let Some(image) = &m.texture {
+            pbr["baseColorTexture"] = json!({ "index": texture(image, m.sampler) });
+        }
+        if let Some(t) = &m.metallic_roughness_texture {
+            pbr["metallicRoughnessTexture"] = json!({ "index": texture(&t.image, t.sampler) });
         }
         let mut mat = json!({ "name": name, "pbrMetallicRoughness": pbr });
+        if let Some(t) = &m.normal_texture {
+            mat["normalTexture"] = json!({ "index": texture(&t.image, t.sampler), "scale": t.scale });
+        }
+        if let Some(t) = &m.occlusion_texture {
+            mat["occlusionTexture"] =
+                json!({ "index": texture(&t.image, t.sampler), "strength": t.scale });
+        }
+        if let Some(t) = &m.emissive_texture {
+            mat["emissiveTexture"] = json!({ "index": texture(&t.image, t.sampler) });
+        }
         if m.emissive != [0.0; 3] {
             mat["emissiveFactor"] = json!(m.emissive);
         }
