@@ -38,9 +38,9 @@ impl Mesh {
     /// (or with a count that does not match) gets them recomputed.
     pub fn move_vertices(&mut self, moved: Vec<Vec3>) {
         let carried = match &self.normals {
-            Some(n) if n.len() == self.positions.len() && moved.len() == n.len() => Some(
-                carry_normals(&self.positions, &moved, &self.faces, n),
-            ),
+            Some(n) if n.len() == self.positions.len() && moved.len() == n.len() => {
+                Some(carry_normals(&self.positions, &moved, &self.faces, n))
+            }
             _ => None,
         };
         self.positions = moved;
@@ -62,7 +62,11 @@ pub fn smooth_groups(positions: &[Vec3], normals: &[Vec3]) -> Vec<u32> {
         // -0.0 and 0.0 are one position.
         let key = (*p + Vec3::ZERO).to_array().map(f32::to_bits);
         let firsts = at.entry(key).or_default();
-        let n = normals.get(v).copied().unwrap_or(Vec3::ZERO).normalize_or_zero();
+        let n = normals
+            .get(v)
+            .copied()
+            .unwrap_or(Vec3::ZERO)
+            .normalize_or_zero();
         let same = firsts.iter().copied().find(|&f| {
             let m = normals[f as usize].normalize_or_zero();
             n.dot(m) > SAME_NORMAL_COS
@@ -82,7 +86,12 @@ pub fn smooth_groups(positions: &[Vec3], normals: &[Vec3]) -> Vec<u32> {
 /// `normals` (one per vertex of `before`) carried to the moved positions
 /// `after`: each rotated by the turn of its smooth group's area-weighted
 /// normal (module docs).
-pub fn carry_normals(before: &[Vec3], after: &[Vec3], faces: &Faces, normals: &[Vec3]) -> Vec<Vec3> {
+pub fn carry_normals(
+    before: &[Vec3],
+    after: &[Vec3],
+    faces: &Faces,
+    normals: &[Vec3],
+) -> Vec<Vec3> {
     let group = smooth_groups(before, normals);
     let groups = group.iter().map(|&g| g as usize + 1).max().unwrap_or(0);
     let (mut n0, mut n1) = (vec![Vec3::ZERO; groups], vec![Vec3::ZERO; groups]);
@@ -107,7 +116,10 @@ pub fn carry_normals(before: &[Vec3], after: &[Vec3], faces: &Faces, normals: &[
         .iter()
         .zip(&group)
         .map(|(&nv, &g)| {
-            let (a, b) = (n0[g as usize].normalize_or_zero(), n1[g as usize].normalize_or_zero());
+            let (a, b) = (
+                n0[g as usize].normalize_or_zero(),
+                n1[g as usize].normalize_or_zero(),
+            );
             if a == b || a == Vec3::ZERO || b == Vec3::ZERO {
                 return nv;
             }
@@ -174,7 +186,9 @@ mod tests {
         // Normals a tool weighted its own way: not what csrbf would compute.
         let mut s = 12345u64;
         for n in m.normals.as_mut().expect("normals") {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let jitter = ((s >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.02;
             *n = (*n + Vec3::splat(jitter)).normalize();
         }
@@ -194,7 +208,10 @@ mod tests {
             let moved = bend(&m.positions, seed);
             m.move_vertices(moved);
             let worst = max_angle_between_copies(&m);
-            assert!(worst < 1e-3, "seed {seed}: copies differ by {worst} degrees");
+            assert!(
+                worst < 1e-3,
+                "seed {seed}: copies differ by {worst} degrees"
+            );
             // And the normals did turn with the surface.
             let fresh = {
                 let mut w = m.clone();
@@ -221,7 +238,8 @@ mod tests {
             let base = m.positions.len() as u32;
             m.positions.extend(&p);
             n.extend(std::iter::repeat_n(normal, p.len()));
-            m.faces.push(&(base..base + p.len() as u32).collect::<Vec<_>>());
+            m.faces
+                .push(&(base..base + p.len() as u32).collect::<Vec<_>>());
         }
         m.normals = Some(n);
         // A rotation with a stretch: faces stay flat, turn and tilt.
@@ -238,7 +256,10 @@ mod tests {
             let flat = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
             for &v in f {
                 let angle = normals[v as usize].angle_between(flat).to_degrees();
-                assert!(angle < 1e-2, "face {fi} vertex {v}: {angle} degrees off flat");
+                assert!(
+                    angle < 1e-2,
+                    "face {fi} vertex {v}: {angle} degrees off flat"
+                );
             }
         }
     }

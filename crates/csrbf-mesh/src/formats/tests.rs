@@ -589,7 +589,8 @@ fn gltf_normals_are_read_and_carried_across_seams() {
             m.positions.push(welded.positions[v as usize]);
             normals.push(smooth[v as usize]);
         }
-        m.faces.push(&(base..base + f.len() as u32).collect::<Vec<_>>());
+        m.faces
+            .push(&(base..base + f.len() as u32).collect::<Vec<_>>());
     }
     m.normals = Some(normals.clone());
     let bytes = m.to_bytes(Format::Glb).expect("enc");
@@ -630,7 +631,9 @@ fn gltf_symlinks_out_of_the_model_folder_are_refused() {
     std::os::unix::fs::symlink(outside.join("secret.bin"), model.join("link.bin"))
         .expect("symlink");
     let doc = |uri: &str| {
-        format!(r#"{{"asset": {{"version": "2.0"}}, "buffers": [{{"uri": "{uri}", "byteLength": 4}}]}}"#)
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "buffers": [{{"uri": "{uri}", "byteLength": 4}}]}}"#
+        )
     };
     let read = |uri: &str| {
         let path = model.join("m.gltf");
@@ -639,7 +642,10 @@ fn gltf_symlinks_out_of_the_model_folder_are_refused() {
     };
     let e = read("link.bin").expect_err("a symlink out of the folder is followed");
     let e = e.to_string();
-    assert!(e.contains("\"link.bin\"") && e.contains("leaves the model's folder"), "{e}");
+    assert!(
+        e.contains("\"link.bin\"") && e.contains("leaves the model's folder"),
+        "{e}"
+    );
     // A file really inside is still read (the file has no mesh: an empty
     // document is an error of its own, not a refusal).
     if let Err(e) = read("inside.bin") {
@@ -670,10 +676,11 @@ fn gltf_round_trips_material_properties() {
                 let mut mat = mat.clone();
                 let short = |(mime, bytes): (String, Vec<u8>)| (mime, vec![bytes.len() as u8]);
                 mat.texture = mat.texture.map(short);
-                for map in [&mut mat.normal_texture, &mut mat.occlusion_texture] {
-                    if let Some(t) = map {
-                        t.image = short(t.image.clone());
-                    }
+                for t in [&mut mat.normal_texture, &mut mat.occlusion_texture]
+                    .into_iter()
+                    .flatten()
+                {
+                    t.image = short(t.image.clone());
                 }
                 mat
             })
@@ -709,7 +716,10 @@ fn gltf_round_trips_material_properties() {
     });
     let back = round_trip(&m);
     assert_eq!(look(&back), look(&m));
-    let normal = back.materials[0].normal_texture.as_ref().expect("normal map");
+    let normal = back.materials[0]
+        .normal_texture
+        .as_ref()
+        .expect("normal map");
     assert_eq!(normal.image, image);
     assert_eq!(back.materials[0].texture, m.materials[0].texture);
 }

@@ -488,7 +488,8 @@ fn name_parts(
             None => "default".to_owned(),
         });
     if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
-        mesh.materials.push(material_of(&mat, mat_name.clone(), buffers, path));
+        mesh.materials
+            .push(material_of(&mat, mat_name.clone(), buffers, path));
     }
     let names = [
         (

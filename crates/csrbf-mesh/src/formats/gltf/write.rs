@@ -366,7 +366,8 @@ fn material_json(mesh: &Mesh, b: &mut Builder) -> MaterialJson {
         }
         let mut mat = json!({ "name": name, "pbrMetallicRoughness": pbr });
         if let Some(t) = &m.normal_texture {
-            mat["normalTexture"] = json!({ "index": texture(&t.image, t.sampler), "scale": t.scale });
+            mat["normalTexture"] =
+                json!({ "index": texture(&t.image, t.sampler), "scale": t.scale });
         }
         if let Some(t) = &m.occlusion_texture {
             mat["occlusionTexture"] =
