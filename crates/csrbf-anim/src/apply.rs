@@ -1,7 +1,7 @@
 //! The common cases in one call, for library users: deform a
 //! [`csrbf_mesh::Mesh`] in place by a control file (handles sampled on it,
-//! its deformations combined as the file says, normals recomputed), and save
-//! or load a fitted deformation by path.
+//! its deformations combined as the file says, normals carried by
+//! `Mesh::move_vertices`), and save or load a fitted deformation by path.
 
 use std::path::Path;
 
