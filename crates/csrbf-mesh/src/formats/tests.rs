@@ -627,7 +627,9 @@ fn gltf_symlinks_out_of_the_model_folder_are_refused() {
     std::fs::create_dir_all(&outside).expect("mkdir");
     std::fs::write(outside.join("secret.bin"), [0u8; 4]).expect("write");
     std::fs::write(model.join("inside.bin"), [0u8; 4]).expect("write");
-    let _ = std::fs::remove_file(model.join("link.bin"));
+    for link in ["link.bin", "link.png"] {
+        let _ = std::fs::remove_file(model.join(link));
+    }
     std::os::unix::fs::symlink(outside.join("secret.bin"), model.join("link.bin"))
         .expect("symlink");
     let doc = |uri: &str| {
@@ -646,6 +648,19 @@ fn gltf_symlinks_out_of_the_model_folder_are_refused() {
         e.contains("\"link.bin\"") && e.contains("leaves the model's folder"),
         "{e}"
     );
+    // An image through such a link too (it was silently followed).
+    std::os::unix::fs::symlink(outside.join("secret.bin"), model.join("link.png"))
+        .expect("symlink");
+    let path = model.join("t.gltf");
+    let image = tiny_gltf(
+        r#", "indices": 1, "mode": 5, "material": 0"#,
+        "",
+        r#"[{"mesh": 0}], "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}], "images": [{"uri": "link.png"}]"#,
+    );
+    std::fs::write(&path, image).expect("write");
+    let e = crate::read(&path).expect_err("an image through a symlink out of the folder is read");
+    assert!(e.to_string().contains("\"link.png\""), "{e}");
     // A file really inside is still read (the file has no mesh: an empty
     // document is an error of its own, not a refusal).
     if let Err(e) = read("inside.bin") {

@@ -200,7 +200,7 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             )?;
             name_parts(
                 &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
-            );
+            )?;
         }
     }
     if any_uv {
@@ -466,7 +466,8 @@ where
 }
 
 /// The faces from `first_face` on belong to the primitive's mesh, node and
-/// material parts; the material is recorded once.
+/// material parts; the material is recorded once (an error only when one of
+/// its images' URIs is refused).
 #[allow(clippy::too_many_arguments)]
 fn name_parts(
     mesh: &mut Mesh,
@@ -477,7 +478,7 @@ fn name_parts(
     first_face: u32,
     buffers: &[Vec<u8>],
     path: &Path,
-) {
+) -> Result<()> {
     let faces: Vec<u32> = (first_face..mesh.faces.len() as u32).collect();
     let mat = prim.material();
     let mat_name = mat
@@ -489,7 +490,7 @@ fn name_parts(
         });
     if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
         mesh.materials
-            .push(material_of(&mat, mat_name.clone(), buffers, path));
+            .push(material_of(&mat, mat_name.clone(), buffers, path)?);
     }
     let names = [
         (
@@ -511,6 +512,7 @@ fn name_parts(
         let id = mesh.part_index(parts, kind, name);
         mesh.parts[id].faces.extend_from_slice(&faces);
     }
+    Ok(())
 }
 
 /// What this writer keeps in a mesh's `csrbf` extras: the parts by
@@ -585,34 +587,41 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
 
 /// A glTF material's properties; absent fields take glTF's defaults (the
 /// gltf crate fills them: metallic 1, roughness 1, no emission, opaque).
-fn material_of(mat: &gltf::Material, name: String, buffers: &[Vec<u8>], path: &Path) -> Material {
+fn material_of(
+    mat: &gltf::Material,
+    name: String,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) -> Result<Material> {
     let pbr = mat.pbr_metallic_roughness();
     let mut m = Material::new(name, pbr.base_color_factor());
     if let Some(info) = pbr.base_color_texture() {
-        m.texture = image_of(&info.texture(), buffers, path);
+        m.texture = image_of(&info.texture(), buffers, path)?;
         m.sampler = m.texture.as_ref().map(|_| sampler_of(&info.texture()));
     }
     // Maps on a second UV set are not kept: csrbf reads and writes one.
-    let map = |t: gltf::Texture, tex_coord: u32, scale: f32| {
-        (tex_coord == 0).then_some(())?;
-        Some(TextureMap {
-            image: image_of(&t, buffers, path)?,
+    let map = |t: gltf::Texture, tex_coord: u32, scale: f32| -> Result<Option<TextureMap>> {
+        if tex_coord != 0 {
+            return Ok(None);
+        }
+        Ok(image_of(&t, buffers, path)?.map(|image| TextureMap {
+            image,
             sampler: Some(sampler_of(&t)),
             scale,
-        })
+        }))
     };
-    m.normal_texture = mat
-        .normal_texture()
-        .and_then(|t| map(t.texture(), t.tex_coord(), t.scale()));
-    m.occlusion_texture = mat
-        .occlusion_texture()
-        .and_then(|t| map(t.texture(), t.tex_coord(), t.strength()));
-    m.emissive_texture = mat
-        .emissive_texture()
-        .and_then(|t| map(t.texture(), t.tex_coord(), 1.0));
-    m.metallic_roughness_texture = pbr
-        .metallic_roughness_texture()
-        .and_then(|t| map(t.texture(), t.tex_coord(), 1.0));
+    if let Some(t) = mat.normal_texture() {
+        m.normal_texture = map(t.texture(), t.tex_coord(), t.scale())?;
+    }
+    if let Some(t) = mat.occlusion_texture() {
+        m.occlusion_texture = map(t.texture(), t.tex_coord(), t.strength())?;
+    }
+    if let Some(t) = mat.emissive_texture() {
+        m.emissive_texture = map(t.texture(), t.tex_coord(), 1.0)?;
+    }
+    if let Some(t) = pbr.metallic_roughness_texture() {
+        m.metallic_roughness_texture = map(t.texture(), t.tex_coord(), 1.0)?;
+    }
     m.metallic = pbr.metallic_factor();
     m.roughness = pbr.roughness_factor();
     m.emissive = mat.emissive_factor();
@@ -622,7 +631,7 @@ fn material_of(mat: &gltf::Material, name: String, buffers: &[Vec<u8>], path: &P
         gltf::material::AlphaMode::Mask => AlphaMode::Mask(mat.alpha_cutoff().unwrap_or(0.5)),
         gltf::material::AlphaMode::Blend => AlphaMode::Blend,
     });
-    m
+    Ok(m)
 }
 
 /// glTF's default wrap.
@@ -641,19 +650,25 @@ fn sampler_of(t: &gltf::Texture) -> Sampler {
 }
 
 /// A texture's image: its MIME type and bytes (from the file's buffers or
-/// a URI in the model's folder).
-fn image_of(t: &gltf::Texture, buffers: &[Vec<u8>], path: &Path) -> Option<(String, Vec<u8>)> {
+/// a URI in the model's folder). `None` when it cannot be read, which
+/// leaves the material without it; a URI refused for leaving the model's
+/// folder is an error, as for buffers.
+fn image_of(
+    t: &gltf::Texture,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) -> Result<Option<(String, Vec<u8>)>> {
     match t.source().source() {
-        gltf::image::Source::View { view, mime_type } => {
-            let b = buffers.get(view.buffer().index())?;
-            Some((
-                mime_type.to_owned(),
-                b.get(view.offset()..view.offset() + view.length())?
-                    .to_vec(),
-            ))
-        }
+        gltf::image::Source::View { view, mime_type } => Ok(buffers
+            .get(view.buffer().index())
+            .and_then(|b| b.get(view.offset()..view.offset() + view.length()))
+            .map(|bytes| (mime_type.to_owned(), bytes.to_vec()))),
         gltf::image::Source::Uri { uri, mime_type } => {
-            let data = load_uri(uri, path).ok()?;
+            let data = match load_uri(uri, path) {
+                Ok(data) => data,
+                Err(e @ MeshError::Parse { .. }) if !uri.starts_with("data:") => return Err(e),
+                Err(_) => return Ok(None),
+            };
             let mime = mime_type.map(str::to_owned).unwrap_or_else(|| {
                 if uri.ends_with(".jpg") || uri.ends_with(".jpeg") {
                     "image/jpeg".into()
@@ -661,7 +676,7 @@ fn image_of(t: &gltf::Texture, buffers: &[Vec<u8>], path: &Path) -> Option<(Stri
                     "image/png".into()
                 }
             });
-            Some((mime, data))
+            Ok(Some((mime, data)))
         }
     }
 }
@@ -696,7 +711,7 @@ fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
             path,
             None,
             format!(
-                "buffer URI {uri:?} is refused: only data URIs and files in the model's own folder are read"
+                "URI {uri:?} is refused: only data URIs and files in the model's own folder are read"
             ),
         ));
     }
@@ -721,7 +736,7 @@ fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
             path,
             None,
             format!(
-                "buffer URI {uri:?} is refused: it resolves to {}, which leaves the model's folder (a symlink?); only data URIs and files in the model's own folder are read",
+                "URI {uri:?} is refused: it resolves to {}, which leaves the model's folder (a symlink?); only data URIs and files in the model's own folder are read",
                 real_file.display()
             ),
         ));
