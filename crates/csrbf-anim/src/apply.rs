@@ -1,7 +1,7 @@
 //! The common cases in one call, for library users: deform a
 //! [`csrbf_mesh::Mesh`] in place by a control file (handles sampled on it,
-//! its deformations combined as the file says, normals recomputed), and save
-//! or load a fitted deformation by path.
+//! its deformations combined as the file says, normals carried by
+//! `Mesh::move_vertices`), and save or load a fitted deformation by path.
 
 use std::path::Path;
 
@@ -152,8 +152,9 @@ pub fn deform_mesh_checked(
         .collect();
     let (moved, report) = compose_checked(mesh, &stages, file.combine, checks)
         .map_err(|source| ApplyError::Engine { index: 0, source })?;
-    mesh.positions = moved;
-    mesh.recompute_normals();
+    // The file's normals carried through the move (seams and hard edges
+    // kept), or recomputed when it had none.
+    mesh.move_vertices(moved);
     Ok(report)
 }
 

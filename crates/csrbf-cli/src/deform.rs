@@ -112,8 +112,8 @@ fn remedies_said(
 }
 
 /// Moves the vertices (each stage at its own phase times `phase`),
-/// recomputes normals where the mesh had them, writes (with `force`, over
-/// an OBJ's side files that csrbf did not write).
+/// carries normals where the mesh had them (`Mesh::move_vertices`), writes
+/// (with `force`, over an OBJ's side files that csrbf did not write).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn move_and_write(
     m: &mut Mesh,
@@ -139,9 +139,12 @@ pub(crate) fn move_and_write(
         }
         _ => (String::new(), serde_json::Value::Null),
     };
-    m.positions = moved;
     if m.normals.is_some() {
-        m.recompute_normals();
+        // Carried, not recomputed: a file's normals split at UV seams stay
+        // equal on their copies, hard edges stay hard.
+        m.move_vertices(moved);
+    } else {
+        m.positions = moved;
     }
     // The stages' phases were scaled by `phase`: the fold phase is a share of it.
     let fold_phase = report.fold_phase.map(|s| s * phase);

@@ -27,6 +27,7 @@
 #![warn(clippy::unwrap_used)]
 
 pub mod bvh;
+mod carry;
 mod error;
 /// The file formats.
 pub mod formats;
@@ -38,6 +39,7 @@ pub mod shapes;
 mod stand_in;
 
 pub use bvh::{Bvh, Hit, Ray};
+pub use carry::{SAME_NORMAL_COS, carry_normals, smooth_groups};
 pub use error::{MeshError, Result};
 pub use formats::Format;
 pub use geometry::{
@@ -215,17 +217,126 @@ pub struct Part {
 }
 
 /// A material's look, where the file gives one.
+///
+/// Made with [`Material::new`] (or `Default`) and the fields set after:
+/// the struct is `#[non_exhaustive]` so that a new property does not break
+/// every construction site. The defaults are what csrbf has always written
+/// for materials of formats without PBR properties (OBJ, PLY, OFF):
+/// metallic 0, roughness 0.8, no emission, one-sided, the alpha mode chosen
+/// from the colour's alpha. The glTF reader sets every property from the
+/// file, with glTF's own defaults where a field is absent (metallic 1,
+/// roughness 1).
 #[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct Material {
     /// Its name.
     pub name: String,
     /// Base colour, linear RGBA: glTF's `baseColorFactor`; an OBJ's
     /// material library holds it as `Kd` and `d` (read and written as these
     /// numbers, so they survive OBJ -> glTF -> OBJ). A texture is multiplied
-    /// by it, in both formats.
+    /// by it, in both formats. Default: light grey, opaque.
     pub color: [f32; 4],
     /// An embedded base-colour image: its MIME type and bytes.
     pub texture: Option<(String, Vec<u8>)>,
+    /// How the base-colour image is sampled (glTF's sampler); `None`:
+    /// the reader's default (glTF: linear, repeat).
+    pub sampler: Option<Sampler>,
+    /// Metalness in [0, 1]. Default 0 (glTF's own default, 1, when a glTF
+    /// material leaves it out).
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1]. Default 0.8 (glTF: 1 when absent).
+    pub roughness: f32,
+    /// Emitted light, linear RGB. Default black.
+    pub emissive: [f32; 3],
+    /// Drawn from both sides (no back-face culling). Default false.
+    pub double_sided: bool,
+    /// How alpha is used; `None` (the default): blended when the colour's
+    /// alpha is below 1, opaque otherwise.
+    pub alpha_mode: Option<AlphaMode>,
+    /// glTF's tangent-space normal map, written back unchanged: it stays
+    /// right on a deformed mesh because csrbf writes no tangents, so readers
+    /// rebuild the tangent frame (MikkTSpace, as glTF requires) from the
+    /// deformed normals and the UVs; the map's bumps turn with the surface.
+    /// Its `scale` is glTF's normal scale.
+    pub normal_texture: Option<TextureMap>,
+    /// glTF's occlusion map (red channel); its `scale` is the strength.
+    pub occlusion_texture: Option<TextureMap>,
+    /// glTF's emissive map, times `emissive`.
+    pub emissive_texture: Option<TextureMap>,
+    /// glTF's metallic-roughness map (blue: metal, green: roughness), times
+    /// `metallic` and `roughness`.
+    pub metallic_roughness_texture: Option<TextureMap>,
+}
+
+/// A material's texture other than the base colour: an embedded image read
+/// through the first UV set (csrbf keeps one UV set; a glTF map on another
+/// is not kept).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureMap {
+    /// The image: its MIME type and bytes.
+    pub image: (String, Vec<u8>),
+    /// How it is sampled.
+    pub sampler: Option<Sampler>,
+    /// The normal map's scale or the occlusion map's strength; 1 otherwise.
+    pub scale: f32,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: String::new(),
+            color: [0.8, 0.8, 0.8, 1.0],
+            texture: None,
+            sampler: None,
+            metallic: 0.0,
+            roughness: 0.8,
+            emissive: [0.0; 3],
+            double_sided: false,
+            alpha_mode: None,
+            normal_texture: None,
+            occlusion_texture: None,
+            emissive_texture: None,
+            metallic_roughness_texture: None,
+        }
+    }
+}
+
+impl Material {
+    /// A material of this name and base colour, the rest at the defaults.
+    pub fn new(name: impl Into<String>, color: [f32; 4]) -> Self {
+        Material {
+            name: name.into(),
+            color,
+            ..Material::default()
+        }
+    }
+}
+
+/// How a material's alpha is used (glTF's `alphaMode`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    Opaque,
+    /// Drawn where alpha is at least the cutoff, not drawn elsewhere.
+    Mask(f32),
+    /// Blended with what lies behind.
+    Blend,
+}
+
+/// How a texture is sampled, in glTF's codes (kept as numbers so that a
+/// round trip writes back exactly what it read): filters 9728 nearest,
+/// 9729 linear, 9984-9987 the mipmap minifications; wraps 33071 clamp,
+/// 33648 mirrored repeat, 10497 repeat.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Sampler {
+    /// Magnification filter; `None`: the reader chooses.
+    pub mag_filter: Option<u32>,
+    /// Minification filter; `None`: the reader chooses.
+    pub min_filter: Option<u32>,
+    /// Wrap along u; `None`: repeat.
+    pub wrap_s: Option<u32>,
+    /// Wrap along v; `None`: repeat.
+    pub wrap_t: Option<u32>,
 }
 
 /// A polygon mesh.

@@ -573,7 +573,8 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
 
 /// Deforms a mesh by a control file (the CLI's `csrbf deform`): handles
 /// sampled on the mesh, every deformation fitted on its region and combined
-/// as the file says, normals recomputed.
+/// as the file says, normals carried (the file's own, turned with the
+/// surface; computed when it had none).
 ///
 /// Args:
 ///     mesh: a Mesh, or a path to a mesh file.

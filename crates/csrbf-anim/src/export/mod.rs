@@ -151,9 +151,16 @@ pub fn export_gltf(scene: &Scene, glb: bool) -> Vec<u8> {
         };
         let pos = written(&obj.mesh.positions);
         let mut attributes = json!({ "POSITION": b.floats(&pos, 3, "VEC3", true) });
-        let mut m = obj.mesh.clone();
-        m.recompute_normals();
-        let nrm = written(m.normals.as_deref().unwrap_or(&obj.mesh.positions[..]));
+        // The rest mesh's own normals where it has them: recomputed on a
+        // mesh read split at UV seams, they would differ across the seams.
+        let nrm = match &obj.mesh.normals {
+            Some(own) if own.len() == n => written(own),
+            _ => {
+                let mut m = obj.mesh.clone();
+                m.recompute_normals();
+                written(m.normals.as_deref().unwrap_or(&obj.mesh.positions[..]))
+            }
+        };
         attributes["NORMAL"] = json!(b.floats(&nrm, 3, "VEC3", false));
         let uvs = match &split {
             Some(s) => Some(s.uvs.clone()),

@@ -571,3 +571,186 @@ fn overflowing_coordinates_are_named_and_cr_only_files_read() {
     .expect("CR only");
     assert_eq!((m.positions.len(), m.faces.len()), (3, 1));
 }
+
+/// A glTF from another tool keeps its normals: read as given (a deformation
+/// then carries them, `Mesh::move_vertices`), so a sphere split at its seams
+/// comes back with equal normals on every copy, and unchanged where nothing
+/// moved.
+#[test]
+fn gltf_normals_are_read_and_carried_across_seams() {
+    let welded = crate::shapes::uv_sphere(1.0, 8, 16);
+    let smooth = crate::vertex_normals(&welded.positions, &welded.faces);
+    // Every face its own corners (no UVs, so no csrbf extras weld them back).
+    let mut m = Mesh::default();
+    let mut normals = Vec::new();
+    for f in welded.faces.iter() {
+        let base = m.positions.len() as u32;
+        for &v in f {
+            m.positions.push(welded.positions[v as usize]);
+            normals.push(smooth[v as usize]);
+        }
+        m.faces
+            .push(&(base..base + f.len() as u32).collect::<Vec<_>>());
+    }
+    m.normals = Some(normals.clone());
+    let bytes = m.to_bytes(Format::Glb).expect("enc");
+    let mut back = Mesh::from_bytes(&bytes, Format::Glb, Path::new("s.glb")).expect("parse");
+    let read = back.normals.clone().expect("the file's normals are read");
+    for (i, (a, b)) in normals.iter().zip(&read).enumerate() {
+        assert!((*a - *b).length() < 1e-6, "vertex {i}: {a} read as {b}");
+    }
+    let moved: Vec<glam::Vec3> = back
+        .positions
+        .iter()
+        .map(|p| *p + glam::Vec3::new(0.3 * p.y * p.y, 0.0, 0.2 * p.x))
+        .collect();
+    back.move_vertices(moved);
+    let n = back.normals.as_ref().expect("normals");
+    for i in 0..back.positions.len() {
+        for j in i + 1..back.positions.len() {
+            if back.positions[i] == back.positions[j] {
+                let angle = n[i].angle_between(n[j]).to_degrees();
+                assert!(angle < 1e-3, "copies {i} and {j} differ by {angle} degrees");
+            }
+        }
+    }
+}
+
+/// Issue 7, again: a symlink in the model's folder that points out of it is
+/// refused like a `..` URI.
+#[cfg(unix)]
+#[test]
+fn gltf_symlinks_out_of_the_model_folder_are_refused() {
+    let dir = std::env::temp_dir().join(format!("csrbf-symlink-{}", std::process::id()));
+    let (model, outside) = (dir.join("model"), dir.join("outside"));
+    std::fs::create_dir_all(&model).expect("mkdir");
+    std::fs::create_dir_all(&outside).expect("mkdir");
+    std::fs::write(outside.join("secret.bin"), [0u8; 4]).expect("write");
+    std::fs::write(model.join("inside.bin"), [0u8; 4]).expect("write");
+    for link in ["link.bin", "link.png"] {
+        let _ = std::fs::remove_file(model.join(link));
+    }
+    std::os::unix::fs::symlink(outside.join("secret.bin"), model.join("link.bin"))
+        .expect("symlink");
+    let doc = |uri: &str| {
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "buffers": [{{"uri": "{uri}", "byteLength": 4}}]}}"#
+        )
+    };
+    let read = |uri: &str| {
+        let path = model.join("m.gltf");
+        std::fs::write(&path, doc(uri)).expect("write");
+        crate::read(&path)
+    };
+    let e = read("link.bin").expect_err("a symlink out of the folder is followed");
+    let e = e.to_string();
+    assert!(
+        e.contains("\"link.bin\"") && e.contains("leaves the model's folder"),
+        "{e}"
+    );
+    // An image through such a link too (it was silently followed).
+    std::os::unix::fs::symlink(outside.join("secret.bin"), model.join("link.png"))
+        .expect("symlink");
+    let path = model.join("t.gltf");
+    let image = tiny_gltf(
+        r#", "indices": 1, "mode": 5, "material": 0"#,
+        "",
+        r#"[{"mesh": 0}], "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}], "images": [{"uri": "link.png"}]"#,
+    );
+    std::fs::write(&path, image).expect("write");
+    let e = crate::read(&path).expect_err("an image through a symlink out of the folder is read");
+    assert!(e.to_string().contains("\"link.png\""), "{e}");
+    // A file really inside is still read (the file has no mesh: an empty
+    // document is an error of its own, not a refusal).
+    if let Err(e) = read("inside.bin") {
+        assert!(!e.to_string().contains("refused"), "{e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A glTF round trip keeps the material's properties: metallic 0.9 came
+/// back 0, roughness 0.3 came back 0.8, emission, double-sidedness and the
+/// sampler's filters were dropped.
+#[test]
+fn gltf_round_trips_material_properties() {
+    let path = root().join("assets/models/assimp_BoxTextured.glb");
+    let mut m = crate::read(&path).expect("read");
+    // BoxTextured leaves roughness out: glTF's default, 1, not csrbf's 0.8.
+    assert_eq!(m.materials[0].roughness, 1.0, "{:?}", m.materials[0]);
+    let round_trip = |m: &Mesh| {
+        let bytes = m.to_bytes(Format::Glb).expect("enc");
+        Mesh::from_bytes(&bytes, Format::Glb, Path::new("x.glb")).expect("parse")
+    };
+    // Compared without the image bytes (kept too, but unreadable in a
+    // failure's message).
+    let look = |m: &Mesh| -> Vec<crate::Material> {
+        m.materials
+            .iter()
+            .map(|mat| {
+                let mut mat = mat.clone();
+                let short = |(mime, bytes): (String, Vec<u8>)| (mime, vec![bytes.len() as u8]);
+                mat.texture = mat.texture.map(short);
+                for t in [&mut mat.normal_texture, &mut mat.occlusion_texture]
+                    .into_iter()
+                    .flatten()
+                {
+                    t.image = short(t.image.clone());
+                }
+                mat
+            })
+            .collect()
+    };
+    assert_eq!(look(&round_trip(&m)), look(&m));
+    let mat = &mut m.materials[0];
+    mat.metallic = 0.9;
+    mat.roughness = 0.3;
+    mat.emissive = [1.0, 0.0, 0.0];
+    mat.double_sided = true;
+    mat.alpha_mode = Some(crate::AlphaMode::Mask(0.25));
+    mat.sampler = Some(crate::Sampler {
+        mag_filter: Some(9729),
+        min_filter: Some(9986),
+        wrap_s: Some(33071),
+        wrap_t: None,
+    });
+    // The other maps (here the same image), with their own samplers.
+    let image = mat.texture.clone().expect("BoxTextured has a texture");
+    mat.normal_texture = Some(crate::TextureMap {
+        image: image.clone(),
+        sampler: Some(crate::Sampler {
+            mag_filter: Some(9728),
+            ..crate::Sampler::default()
+        }),
+        scale: 0.5,
+    });
+    mat.occlusion_texture = Some(crate::TextureMap {
+        image: image.clone(),
+        sampler: Some(crate::Sampler::default()),
+        scale: 0.75,
+    });
+    let back = round_trip(&m);
+    assert_eq!(look(&back), look(&m));
+    let normal = back.materials[0]
+        .normal_texture
+        .as_ref()
+        .expect("normal map");
+    assert_eq!(normal.image, image);
+    assert_eq!(back.materials[0].texture, m.materials[0].texture);
+}
+
+/// A glTF material that leaves its factors out reads as glTF's defaults.
+#[test]
+fn gltf_material_defaults_are_gltfs() {
+    let bytes = tiny_gltf(
+        r#", "indices": 1, "mode": 5, "material": 0"#,
+        "",
+        r#"[{"mesh": 0}], "materials": [{"name": "bare"}]"#,
+    );
+    let m = Mesh::from_bytes(&bytes, Format::Gltf, Path::new("d.gltf")).expect("parse");
+    let mut want = crate::Material::new("bare", [1.0; 4]);
+    want.metallic = 1.0;
+    want.roughness = 1.0;
+    want.alpha_mode = Some(crate::AlphaMode::Opaque);
+    assert_eq!(m.materials, vec![want]);
+}

@@ -161,11 +161,7 @@ g left\nf 1/1 2/2 3/3\ng right\nf 2/5 4/4 3/3\n";
 fn a_see_through_material_is_blended_in_gltf() {
     let src = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl glass\nf 1 2 3\nusemtl wood\nf 2 4 3\n";
     let mut mesh = Mesh::from_bytes(src, Format::Obj, "a.obj".as_ref()).expect("parse");
-    mesh.materials = vec![crate::Material {
-        name: "glass".into(),
-        color: [0.5, 0.7, 1.0, 0.3],
-        texture: None,
-    }];
+    mesh.materials = vec![crate::Material::new("glass", [0.5, 0.7, 1.0, 0.3])];
     let bytes = mesh.to_bytes(Format::Gltf).expect("gltf");
     let doc: serde_json::Value = serde_json::from_slice(&bytes).expect("json");
     let mats = doc["materials"].as_array().expect("materials");

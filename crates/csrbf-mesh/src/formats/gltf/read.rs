@@ -7,7 +7,9 @@ use glam::{Mat4, Vec2, Vec3};
 use serde_json::Value;
 
 use super::base64::base64_decode;
-use crate::{Faces, Material, Mesh, MeshError, PartKind, Result, TexCoords};
+use crate::{
+    AlphaMode, Faces, Material, Mesh, MeshError, PartKind, Result, Sampler, TexCoords, TextureMap,
+};
 
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // The gltf crate asserts on some malformed accessors; a malformed file
@@ -67,6 +69,8 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     };
     let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut uvs: Vec<Vec2> = Vec::new();
+    // The file's normals, `None` for vertices of primitives without them.
+    let mut normals: Vec<Option<Vec3>> = Vec::new();
     let (mut any_color, mut any_uv) = (false, false);
     let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
     // Primitives that share their vertex accessors (one mesh, a primitive
@@ -169,6 +173,17 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
                         None => colors.resize(base as usize, [1.0; 4]),
                     }
                     colors.resize(mesh.positions.len(), [1.0; 4]);
+                    // Normals turn with the node (its inverse transpose, for
+                    // scaled nodes).
+                    let turn = glam::Mat3::from_mat4(world).inverse().transpose();
+                    normals.resize(base as usize, None);
+                    if let Some(nr) = reader.read_normals() {
+                        normals.extend(
+                            nr.map(|n| Some((turn * Vec3::from_array(n)).normalize_or_zero()))
+                                .take(count),
+                        );
+                    }
+                    normals.resize(mesh.positions.len(), None);
                     shared.insert(key, (base, count));
                     (base, count)
                 }
@@ -185,7 +200,7 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
             )?;
             name_parts(
                 &mut mesh, &mut parts, &node, &gmesh, &prim, first_face, &buffers, path,
-            );
+            )?;
         }
     }
     if any_uv {
@@ -196,6 +211,20 @@ fn parse_inner(bytes: &[u8], path: &Path) -> Result<Mesh> {
     }
     if any_color {
         mesh.colors = Some(colors);
+    }
+    // The file's normals are kept (a deformation carries them, see
+    // `Mesh::move_vertices`): recomputing them on vertices split at UV seams
+    // would show the seams. Vertices of primitives without normals get
+    // computed ones.
+    if normals.iter().any(Option::is_some) {
+        let computed = crate::vertex_normals(&mesh.positions, &mesh.faces);
+        mesh.normals = Some(
+            normals
+                .iter()
+                .zip(computed)
+                .map(|(n, c)| n.filter(|n| *n != Vec3::ZERO).unwrap_or(c))
+                .collect(),
+        );
     }
     if meshes_seen == 1
         && let Some(extras) = extras
@@ -437,7 +466,8 @@ where
 }
 
 /// The faces from `first_face` on belong to the primitive's mesh, node and
-/// material parts; the material is recorded once.
+/// material parts; the material is recorded once (an error only when one of
+/// its images' URIs is refused).
 #[allow(clippy::too_many_arguments)]
 fn name_parts(
     mesh: &mut Mesh,
@@ -448,7 +478,7 @@ fn name_parts(
     first_face: u32,
     buffers: &[Vec<u8>],
     path: &Path,
-) {
+) -> Result<()> {
     let faces: Vec<u32> = (first_face..mesh.faces.len() as u32).collect();
     let mat = prim.material();
     let mat_name = mat
@@ -459,11 +489,8 @@ fn name_parts(
             None => "default".to_owned(),
         });
     if mat.index().is_some() && !mesh.materials.iter().any(|m| m.name == mat_name) {
-        mesh.materials.push(Material {
-            name: mat_name.clone(),
-            color: mat.pbr_metallic_roughness().base_color_factor(),
-            texture: texture_of(&mat, buffers, path),
-        });
+        mesh.materials
+            .push(material_of(&mat, mat_name.clone(), buffers, path)?);
     }
     let names = [
         (
@@ -485,6 +512,7 @@ fn name_parts(
         let id = mesh.part_index(parts, kind, name);
         mesh.parts[id].faces.extend_from_slice(&faces);
     }
+    Ok(())
 }
 
 /// What this writer keeps in a mesh's `csrbf` extras: the parts by
@@ -517,6 +545,9 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
             mesh.positions.truncate(kept);
             if let Some(c) = &mut mesh.colors {
                 c.truncate(kept);
+            }
+            if let Some(n) = &mut mesh.normals {
+                n.truncate(kept);
             }
         }
     }
@@ -554,20 +585,90 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
     }
 }
 
-/// The base-colour image of a material, when it is embedded.
-fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<(String, Vec<u8>)> {
-    let info = mat.pbr_metallic_roughness().base_color_texture()?;
-    match info.texture().source().source() {
-        gltf::image::Source::View { view, mime_type } => {
-            let b = buffers.get(view.buffer().index())?;
-            Some((
-                mime_type.to_owned(),
-                b.get(view.offset()..view.offset() + view.length())?
-                    .to_vec(),
-            ))
+/// A glTF material's properties; absent fields take glTF's defaults (the
+/// gltf crate fills them: metallic 1, roughness 1, no emission, opaque).
+fn material_of(
+    mat: &gltf::Material,
+    name: String,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) -> Result<Material> {
+    let pbr = mat.pbr_metallic_roughness();
+    let mut m = Material::new(name, pbr.base_color_factor());
+    if let Some(info) = pbr.base_color_texture() {
+        m.texture = image_of(&info.texture(), buffers, path)?;
+        m.sampler = m.texture.as_ref().map(|_| sampler_of(&info.texture()));
+    }
+    // Maps on a second UV set are not kept: csrbf reads and writes one.
+    let map = |t: gltf::Texture, tex_coord: u32, scale: f32| -> Result<Option<TextureMap>> {
+        if tex_coord != 0 {
+            return Ok(None);
         }
+        Ok(image_of(&t, buffers, path)?.map(|image| TextureMap {
+            image,
+            sampler: Some(sampler_of(&t)),
+            scale,
+        }))
+    };
+    if let Some(t) = mat.normal_texture() {
+        m.normal_texture = map(t.texture(), t.tex_coord(), t.scale())?;
+    }
+    if let Some(t) = mat.occlusion_texture() {
+        m.occlusion_texture = map(t.texture(), t.tex_coord(), t.strength())?;
+    }
+    if let Some(t) = mat.emissive_texture() {
+        m.emissive_texture = map(t.texture(), t.tex_coord(), 1.0)?;
+    }
+    if let Some(t) = pbr.metallic_roughness_texture() {
+        m.metallic_roughness_texture = map(t.texture(), t.tex_coord(), 1.0)?;
+    }
+    m.metallic = pbr.metallic_factor();
+    m.roughness = pbr.roughness_factor();
+    m.emissive = mat.emissive_factor();
+    m.double_sided = mat.double_sided();
+    m.alpha_mode = Some(match mat.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask(mat.alpha_cutoff().unwrap_or(0.5)),
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+    });
+    Ok(m)
+}
+
+/// glTF's default wrap.
+const REPEAT: u32 = 10497;
+
+/// How a texture is sampled, in glTF's codes; wraps at glTF's default
+/// (repeat) are left out.
+fn sampler_of(t: &gltf::Texture) -> Sampler {
+    let s = t.sampler();
+    Sampler {
+        mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
+        min_filter: s.min_filter().map(|f| f.as_gl_enum()),
+        wrap_s: Some(s.wrap_s().as_gl_enum()).filter(|&w| w != REPEAT),
+        wrap_t: Some(s.wrap_t().as_gl_enum()).filter(|&w| w != REPEAT),
+    }
+}
+
+/// A texture's image: its MIME type and bytes (from the file's buffers or
+/// a URI in the model's folder). `None` when it cannot be read, which
+/// leaves the material without it; a URI refused for leaving the model's
+/// folder is an error, as for buffers.
+fn image_of(
+    t: &gltf::Texture,
+    buffers: &[Vec<u8>],
+    path: &Path,
+) -> Result<Option<(String, Vec<u8>)>> {
+    match t.source().source() {
+        gltf::image::Source::View { view, mime_type } => Ok(buffers
+            .get(view.buffer().index())
+            .and_then(|b| b.get(view.offset()..view.offset() + view.length()))
+            .map(|bytes| (mime_type.to_owned(), bytes.to_vec()))),
         gltf::image::Source::Uri { uri, mime_type } => {
-            let data = load_uri(uri, path).ok()?;
+            let data = match load_uri(uri, path) {
+                Ok(data) => data,
+                Err(e @ MeshError::Parse { .. }) if !uri.starts_with("data:") => return Err(e),
+                Err(_) => return Ok(None),
+            };
             let mime = mime_type.map(str::to_owned).unwrap_or_else(|| {
                 if uri.ends_with(".jpg") || uri.ends_with(".jpeg") {
                     "image/jpeg".into()
@@ -575,7 +676,7 @@ fn texture_of(mat: &gltf::Material, buffers: &[Vec<u8>], path: &Path) -> Option<
                     "image/png".into()
                 }
             });
-            Some((mime, data))
+            Ok(Some((mime, data)))
         }
     }
 }
@@ -597,12 +698,37 @@ fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
             path,
             None,
             format!(
-                "buffer URI {uri:?} is refused: only data URIs and files in the model's own folder are read"
+                "URI {uri:?} is refused: only data URIs and files in the model's own folder are read"
             ),
         ));
     }
-    let file = path.parent().unwrap_or(Path::new(".")).join(rel);
-    std::fs::read(&file).map_err(|source| MeshError::Io { path: file, source })
+    let folder = path.parent().unwrap_or(Path::new("."));
+    let folder = if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    };
+    let file = folder.join(rel);
+    // A symlink (or a linked folder) in the model's folder may point
+    // anywhere: what is read is where the resolved path lands, which must
+    // still be inside the resolved folder.
+    let io = |p: &Path, source| MeshError::Io {
+        path: p.to_owned(),
+        source,
+    };
+    let real_folder = folder.canonicalize().map_err(|e| io(folder, e))?;
+    let real_file = file.canonicalize().map_err(|e| io(&file, e))?;
+    if !real_file.starts_with(&real_folder) {
+        return Err(MeshError::parse(
+            path,
+            None,
+            format!(
+                "URI {uri:?} is refused: it resolves to {}, which leaves the model's folder (a symlink?); only data URIs and files in the model's own folder are read",
+                real_file.display()
+            ),
+        ));
+    }
+    std::fs::read(&real_file).map_err(|source| io(&file, source))
 }
 
 fn percent_decode(s: &str) -> String {

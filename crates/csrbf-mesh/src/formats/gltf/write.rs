@@ -171,7 +171,7 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
         let t: Vec<f32> = source.iter().flat_map(|&v| c[v as usize]).collect();
         attributes["COLOR_0"] = json!(b.floats(&t, 4, "VEC4", false));
     }
-    let (materials, images, textures) = material_json(mesh, &mut b);
+    let (materials, images, textures, samplers) = material_json(mesh, &mut b);
     let mut primitives = Vec::new();
     // Where each polygon's triangles land when read back (primitive by
     // primitive), for the parts in the extras.
@@ -233,7 +233,7 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
     if !images.is_empty() {
         doc["images"] = json!(images);
         doc["textures"] = json!(textures);
-        doc["samplers"] = json!([{}]);
+        doc["samplers"] = json!(samplers);
     }
     doc["bufferViews"] = json!(b.views);
     doc["accessors"] = json!(b.accessors);
@@ -329,28 +329,90 @@ pub fn split_uv_seams(mesh: &Mesh) -> Option<UvSplit> {
     })
 }
 
-/// Materials as glTF JSON, with embedded textures as buffer views.
-fn material_json(mesh: &Mesh, b: &mut Builder) -> (Vec<Value>, Vec<Value>, Vec<Value>) {
-    let (mut mats, mut images, mut textures) = (Vec::new(), Vec::new(), Vec::new());
+/// Materials as glTF JSON (with their textures, images and samplers),
+/// embedded images as buffer views. A name without a [`Material`] gets
+/// [`Material::default`]'s look.
+///
+/// [`Material`]: crate::Material
+type MaterialJson = (Vec<Value>, Vec<Value>, Vec<Value>, Vec<Value>);
+
+fn material_json(mesh: &Mesh, b: &mut Builder) -> MaterialJson {
+    let (mut mats, mut images, mut textures, mut samplers) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let fallback = crate::Material::default();
     for name in material_names(mesh) {
-        let m = mesh.materials.iter().find(|m| m.name == name);
-        let color = m.map_or([0.8, 0.8, 0.8, 1.0], |m| m.color);
-        let mut pbr =
-            json!({ "baseColorFactor": color, "metallicFactor": 0.0, "roughnessFactor": 0.8 });
-        if let Some((mime, bytes)) = m.and_then(|m| m.texture.as_ref()) {
+        let m = mesh
+            .materials
+            .iter()
+            .find(|m| m.name == name)
+            .unwrap_or(&fallback);
+        let mut pbr = json!({
+            "baseColorFactor": m.color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness
+        });
+        // Each texture its image, sampler and texture entry; returns the
+        // texture's index.
+        let mut texture = |(mime, bytes): &(String, Vec<u8>), sampler: Option<crate::Sampler>| {
             let view = b.view(bytes, None);
             images.push(json!({ "bufferView": view, "mimeType": mime }));
-            textures.push(json!({ "source": images.len() - 1, "sampler": 0 }));
-            pbr["baseColorTexture"] = json!({ "index": textures.len() - 1 });
+            samplers.push(sampler_json(sampler.unwrap_or_default()));
+            textures.push(json!({ "source": images.len() - 1, "sampler": samplers.len() - 1 }));
+            textures.len() - 1
+        };
+        if let Some(image) = &m.texture {
+            pbr["baseColorTexture"] = json!({ "index": texture(image, m.sampler) });
+        }
+        if let Some(t) = &m.metallic_roughness_texture {
+            pbr["metallicRoughnessTexture"] = json!({ "index": texture(&t.image, t.sampler) });
         }
         let mut mat = json!({ "name": name, "pbrMetallicRoughness": pbr });
-        if color[3] < 1.0 {
-            // Without it, readers draw the material opaque.
-            mat["alphaMode"] = json!("BLEND");
+        if let Some(t) = &m.normal_texture {
+            mat["normalTexture"] =
+                json!({ "index": texture(&t.image, t.sampler), "scale": t.scale });
+        }
+        if let Some(t) = &m.occlusion_texture {
+            mat["occlusionTexture"] =
+                json!({ "index": texture(&t.image, t.sampler), "strength": t.scale });
+        }
+        if let Some(t) = &m.emissive_texture {
+            mat["emissiveTexture"] = json!({ "index": texture(&t.image, t.sampler) });
+        }
+        if m.emissive != [0.0; 3] {
+            mat["emissiveFactor"] = json!(m.emissive);
+        }
+        if m.double_sided {
+            mat["doubleSided"] = json!(true);
+        }
+        match m.alpha_mode {
+            Some(crate::AlphaMode::Opaque) => {}
+            Some(crate::AlphaMode::Mask(cutoff)) => {
+                mat["alphaMode"] = json!("MASK");
+                mat["alphaCutoff"] = json!(cutoff);
+            }
+            // Without it, readers draw a see-through material opaque.
+            Some(crate::AlphaMode::Blend) => mat["alphaMode"] = json!("BLEND"),
+            None if m.color[3] < 1.0 => mat["alphaMode"] = json!("BLEND"),
+            None => {}
         }
         mats.push(mat);
     }
-    (mats, images, textures)
+    (mats, images, textures, samplers)
+}
+
+/// A sampler as glTF JSON: only the fields set (absent ones are glTF's
+/// defaults).
+fn sampler_json(s: crate::Sampler) -> Value {
+    let mut v = json!({});
+    for (key, value) in [
+        ("magFilter", s.mag_filter),
+        ("minFilter", s.min_filter),
+        ("wrapS", s.wrap_s),
+        ("wrapT", s.wrap_t),
+    ] {
+        if let Some(x) = value {
+            v[key] = json!(x);
+        }
+    }
+    v
 }
 
 fn material_names(mesh: &Mesh) -> Vec<String> {
