@@ -143,7 +143,7 @@
 //! `positions` are the `Vec3`s every call here takes), and
 //! `csrbf_anim::apply::deform_mesh(&mut mesh, &control_file, phase)` deforms
 //! a mesh by a control file in one call (handles, regions by part name,
-//! normals recomputed, the diagnostics `csrbf deform` prints). Control files
+//! normals carried, the diagnostics `csrbf deform` prints). Control files
 //! are [`controls::ControlFile`]; `.csrbf` files are [`mod@format`].
 //!
 //! # Speed in a debug build

@@ -105,9 +105,8 @@ pub(crate) fn read_beside(obj: &Path, mesh: &mut Mesh, warnings: &mut Vec<String
                     .clone()
             });
             mesh.materials.push(Material {
-                name: entry.name,
-                color: entry.color,
                 texture,
+                ..Material::new(entry.name, entry.color)
             });
         }
         files.push(std::fs::canonicalize(&path).unwrap_or(path));
@@ -171,9 +170,24 @@ fn texture(
     }
 }
 
-/// `name` under `dir` when it stays inside it (no root, drive, scheme or `..`).
+/// `name` under `dir` when it stays inside it: no root, drive, scheme or
+/// `..` in the name, and, where it exists, its resolved path inside the
+/// resolved folder (a symlink in the model's folder may point anywhere; the
+/// glTF reader checks its URIs the same way).
 fn local(dir: &Path, name: &str) -> Option<PathBuf> {
-    inside_folder(name).then(|| dir.join(name))
+    if !inside_folder(name) {
+        return None;
+    }
+    let path = dir.join(name);
+    let folder = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    match (folder.canonicalize(), path.canonicalize()) {
+        (Ok(folder), Ok(real)) if !real.starts_with(&folder) => None,
+        _ => Some(path),
+    }
 }
 
 /// A file's bytes, refused past `limit`: by its size before any is read,

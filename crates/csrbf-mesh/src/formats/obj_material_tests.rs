@@ -192,6 +192,31 @@ fn missing_foreign_or_escaping_side_files_are_warnings() {
     assert!(said.contains("\"../secret.png\" is refused"), "{said}");
     assert!(said.contains("tex.tga is neither PNG nor JPEG"), "{said}");
     assert!(said.contains("none.png"), "{said}");
+    // A symlink in the model's folder that points out of it is refused too.
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(d.path("secret.mtl"), d.path("in/linked.mtl")).expect("link");
+        std::os::unix::fs::symlink(d.path("secret.png"), d.path("in/linked.png")).expect("link");
+        let l = load("linked.mtl");
+        assert!(l.mesh.materials.is_empty(), "{:?}", l.mesh.materials);
+        assert!(
+            l.warnings[0].contains("\"linked.mtl\" is refused"),
+            "{:?}",
+            l.warnings
+        );
+        std::fs::write(
+            d.path("in/m.mtl"),
+            "newmtl a\nKd 1 0 0\nmap_Kd linked.png\n",
+        )
+        .expect("mtl");
+        let l = load("m.mtl");
+        assert!(l.mesh.materials[0].texture.is_none());
+        assert!(
+            l.warnings.join("\n").contains("\"linked.png\" is refused"),
+            "{:?}",
+            l.warnings
+        );
+    }
 }
 
 /// The report's second case: an unrelated b_0.png was replaced, and a

@@ -201,8 +201,9 @@ impl StudioApp {
             return;
         };
         let mut mesh: Mesh = (*m.doc.mesh).clone();
-        mesh.positions = m.shown.to_vec();
-        mesh.recompute_normals();
+        // The file's normals carried through the edit (a glTF's UV seams
+        // and hard edges kept), computed where it had none.
+        mesh.move_vertices(m.shown.to_vec());
         match csrbf_mesh::write(path, &mesh) {
             Ok(()) => self.picker.status = format!("Exported {}", path.display()),
             Err(e) => self.show_error("Cannot export the mesh", reason(&e)),
