@@ -53,6 +53,19 @@ fn duck(d: &Dir) -> PathBuf {
     d.path("in/duck.obj")
 }
 
+/// A material's name, colour and texture.
+type Look = (String, [f32; 4], Option<(String, Vec<u8>)>);
+
+/// What both an OBJ library and glTF carry of materials: names, colours and
+/// base-colour textures (glTF's sampler, roughness or alpha mode do not
+/// pass through an OBJ, and an OBJ's defaults are not glTF's).
+fn looks(materials: &[crate::Material]) -> Vec<Look> {
+    materials
+        .iter()
+        .map(|m| (m.name.clone(), m.color, m.texture.clone()))
+        .collect()
+}
+
 fn line(file: &Path, key: &str) -> Option<String> {
     std::fs::read_to_string(file)
         .expect("file")
@@ -121,7 +134,7 @@ fn obj_to_glb_keeps_colours_and_textures() {
     let out = d.path("out/d.glb");
     crate::write(&out, &mesh).expect("write");
     let back = crate::read(&out).expect("read back");
-    assert_eq!(back.materials, mesh.materials);
+    assert_eq!(looks(&back.materials), looks(&mesh.materials));
 }
 
 /// The report: an OBJ csrbf wrote from BoxTextured.glb lost its texture
@@ -136,13 +149,19 @@ fn glb_to_obj_to_obj_keeps_colours_and_textures() {
     crate::write(&first, &glb).expect("write");
     let obj = crate::load(&first).expect("read");
     assert!(obj.warnings.is_empty(), "{:?}", obj.warnings);
-    assert_eq!(obj.mesh.materials, glb.materials);
+    assert_eq!(looks(&obj.mesh.materials), looks(&glb.materials));
     let second = d.path("out/c.obj");
     crate::write(&second, &obj.mesh).expect("write");
-    assert_eq!(crate::read(&second).expect("read").materials, glb.materials);
+    assert_eq!(
+        looks(&crate::read(&second).expect("read").materials),
+        looks(&glb.materials)
+    );
     let third = d.path("out/c.glb");
     crate::write(&third, &obj.mesh).expect("write");
-    assert_eq!(crate::read(&third).expect("read").materials, glb.materials);
+    assert_eq!(
+        looks(&crate::read(&third).expect("read").materials),
+        looks(&glb.materials)
+    );
 }
 
 /// A missing library or texture, a texture that is neither PNG nor JPEG,
