@@ -873,8 +873,13 @@ fn reach_of<P: Point>(
     )
 }
 
-/// Triangles whose deformed normal opposes the deformed vertex normals of
-/// their corners while at rest it agreed with the rest ones.
+/// The cosine within which a face agrees with the faces around it at rest,
+/// for [`flipped_faces`] to count it turned (60 degrees).
+const CLEARLY_AGREED: f32 = 0.5;
+
+/// Triangles whose deformed normal opposes the faces around them (the
+/// area-weighted normals of the other faces at their corners) while at rest
+/// it agreed with them within 60 degrees.
 ///
 /// Only faces with a corner that moved can turn over; only the vertex
 /// normals of their corners are needed (a local edit costs little).
@@ -930,8 +935,18 @@ fn flipped_faces(
         .filter(|&f| {
             let t = &triangles[f as usize];
             let [a, b, c] = t.map(|i| i as usize);
-            face(rest, t).dot(vr[a] + vr[b] + vr[c]) > 0.0
-                && face(moved, t).dot(vm[a] + vm[b] + vm[c]) < 0.0
+            // The faces around it: its corners' vertex normals without its
+            // own share (a large face's own normal outweighed its
+            // neighbours, so a face whose neighbours all turned away was
+            // missed). At rest it must agree with them clearly (within
+            // 60 degrees): a face already at a crease at rest (79 degrees
+            // on the armadillo) tipped over by a small turn is not one the
+            // deformation turned.
+            let (own_r, own_m) = (face(rest, t), face(moved, t));
+            let around_r = vr[a] + vr[b] + vr[c] - 3.0 * own_r;
+            let around_m = vm[a] + vm[b] + vm[c] - 3.0 * own_m;
+            let agreed = own_r.dot(around_r) >= CLEARLY_AGREED * own_r.length() * around_r.length();
+            agreed && own_r.dot(around_r) > 0.0 && own_m.dot(around_m) < 0.0
         })
         .collect()
 }
@@ -1275,5 +1290,53 @@ mod tests {
             let want = rest.iter().any(|p| s.distance(p.as_dvec3()) < 0.08);
             assert_eq!(touched[j], want, "start {j}");
         }
+    }
+
+    /// A large face whose small neighbours all turned over around it is
+    /// counted (its own area outweighed theirs in the sum of its corners'
+    /// vertex normals, so it was missed: the armadillo's triangle 12662),
+    /// and a face that already stood at a crease at rest (80 degrees from
+    /// its neighbours) and turns a little further is not.
+    #[test]
+    fn a_face_is_judged_against_the_faces_around_it() {
+        let rest = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 0.0),
+            Vec3::new(2.0, -1.0, 0.0),
+            Vec3::new(3.0, 3.0, 0.0),
+            Vec3::new(-1.0, 2.0, 0.0),
+        ];
+        let tris = vec![[0, 1, 2], [1, 0, 3], [2, 1, 4], [0, 2, 5]];
+        // The three outer corners folded over onto the big face.
+        let mut moved = rest.clone();
+        moved[0].z = 0.001;
+        moved[3] = Vec3::new(2.0, 1.0, 0.01);
+        moved[4] = Vec3::new(1.0, 1.0, 0.01);
+        moved[5] = Vec3::new(1.0, 2.0, 0.01);
+        let all = vec![true; rest.len()];
+        let flipped = flipped_faces(&rest, &moved, &tris, &all);
+        assert!(flipped.contains(&0), "{flipped:?}");
+        // A face 80 degrees from its neighbours at rest (a sharp ridge),
+        // turned 20 degrees further: a crease it had, not one made.
+        let ridge = |deg: f32| {
+            let (s, c) = deg.to_radians().sin_cos();
+            // Face 0 tilted about the x axis; faces 1 and 2 flat beside it.
+            vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(0.5, c, s),
+                Vec3::new(0.5, -1.0, 0.0),
+                Vec3::new(1.5, -0.5, 0.0),
+            ]
+        };
+        let tris = vec![[0, 1, 2], [1, 0, 3], [1, 3, 4]];
+        let (r, m) = (ridge(80.0), ridge(100.0));
+        let turned = flipped_faces(&r, &m, &tris, &[true; 5]);
+        assert!(turned.is_empty(), "{turned:?}");
+        // The same turn from flat is counted.
+        let (r, m) = (ridge(0.0), ridge(100.0));
+        let turned = flipped_faces(&r, &m, &tris, &[true; 5]);
+        assert!(turned.contains(&0), "{turned:?}");
     }
 }
