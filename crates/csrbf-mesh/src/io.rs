@@ -154,7 +154,7 @@ fn obj_library(
     if target.exists() && !options.force && !ours(&target) {
         let names: Vec<&str> = lib.materials.iter().map(|m| m.name.as_str()).collect();
         written.warnings.push(format!(
-            "{}: exists and was not written by csrbf, so it is left alone: {} names no material library, so its materials ({}) have no colour or texture in other programs; pass --force to replace it",
+            "{}: exists and was not written by csrbf, so it is left alone: {} names no material library, so its materials ({}) have no colour or texture in other programs; pass --force (force=True in Python) to replace it",
             target.display(),
             path.display(),
             names.join(", ")
@@ -171,7 +171,7 @@ fn obj_library(
             Ok(old) if old == *bytes => textures.push(at),
             Ok(_) | Err(_) if at.exists() && !options.force => {
                 written.warnings.push(format!(
-                    "{}: exists with other content, so it is left alone: {} gives material {} its colour but not its texture; pass --force to replace it",
+                    "{}: exists with other content, so it is left alone: {} gives material {} its colour but not its texture; pass --force (force=True in Python) to replace it",
                     at.display(),
                     target.display(),
                     m.name

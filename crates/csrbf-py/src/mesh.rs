@@ -304,29 +304,49 @@ fn vec3_rows<'py>(py: Python<'py>, v: &[csrbf::glam::Vec3]) -> Bound<'py, PyArra
     a
 }
 
-/// Reads a mesh file: OBJ, PLY, STL, OFF, glTF (.gltf, .glb), by extension.
+/// Reads a mesh file: OBJ (with its material library and textures), PLY,
+/// STL, OFF, glTF (.gltf, .glb), by extension.
 ///
-/// Raises csrbf.Error naming the file and line when it cannot be read.
+/// Raises csrbf.Error naming the file and line when it cannot be read;
+/// warns (UserWarning) of what looked wrong without being an error (an OBJ's
+/// material library or texture missing, a text file cut off).
 #[pyfunction]
 pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
-    let m = py
-        .detach(|| csrbf_mesh::read(&path))
+    let loaded = py
+        .detach(|| csrbf_mesh::load(&path))
         .map_err(|e| error(&e))?;
-    Ok(PyMesh { inner: m })
+    for w in &loaded.warnings {
+        warn(py, w)?;
+    }
+    Ok(PyMesh { inner: loaded.mesh })
 }
 
 /// Writes a mesh file, the format by extension, whole or not at all
-/// (a temporary file renamed). Warns (UserWarning) when the format cannot
-/// keep everything (STL: no vertex order, parts, UVs or colours).
+/// (temporary files renamed). Warns (UserWarning) when the format cannot
+/// keep everything (STL: no vertex order, parts, UVs or colours), and when
+/// a file beside an OBJ (its material library, a texture) that csrbf did
+/// not write is left alone; `force=True` replaces such files.
 #[pyfunction]
-pub fn write_mesh(py: Python<'_>, mesh: PyRef<'_, PyMesh>, path: PathBuf) -> PyResult<()> {
+#[pyo3(signature = (mesh, path, *, force = false))]
+pub fn write_mesh(
+    py: Python<'_>,
+    mesh: PyRef<'_, PyMesh>,
+    path: PathBuf,
+    force: bool,
+) -> PyResult<()> {
     let m = &mesh.inner;
     let format = csrbf_mesh::Format::from_path(&path).map_err(|e| error(&e))?;
     if let Some(lost) = format.loses(m) {
         warn(py, &format!("{}: {lost}", path.display()))?;
     }
-    py.detach(|| csrbf_mesh::write(&path, m))
-        .map_err(|e| error(&e))
+    let options = csrbf_mesh::WriteOptions::default().with_force(force);
+    let written = py
+        .detach(|| csrbf_mesh::write_with(&path, m, &options))
+        .map_err(|e| error(&e))?;
+    for w in &written.warnings {
+        warn(py, w)?;
+    }
+    Ok(())
 }
 
 fn warn(py: Python<'_>, text: &str) -> PyResult<()> {

@@ -94,7 +94,9 @@ def test_meshes_round_trip_through_files(tmp_path):
         back = csrbf.read_mesh(tmp_path / f"head.{ext}")
         assert np.array_equal(back.vertices, head.vertices), ext
         assert np.array_equal(back.triangles, head.triangles), ext
-    duck = csrbf.read_mesh(MODELS / "pybullet_duck.obj")
+    # The bundled duck names a material library it came without: said, read.
+    with pytest.warns(UserWarning, match="duck.mtl"):
+        duck = csrbf.read_mesh(MODELS / "pybullet_duck.obj")
     assert duck.parts and all(v.dtype == np.uint32 for v in duck.parts.values())
     with pytest.warns(UserWarning, match="STL stores triangles, not vertices: it cannot keep .*parts"):
         csrbf.write_mesh(duck, tmp_path / "duck.stl")
@@ -183,6 +185,25 @@ def test_bad_files_raise_csrbf_errors_naming_them(tmp_path):
     cut.write_bytes(csrbf.fit([[0, 0, 0]], [[0, 0, 1]], 1.0).to_bytes()[:-9])
     with pytest.raises(csrbf.Error, match="cut.csrbf"):
         csrbf.Deformation.load(cut)
+
+
+def test_side_files_of_an_obj_are_kept_and_never_clobbered(tmp_path):
+    """An OBJ's texture is written beside it, and read back; a file of the
+    same name that csrbf did not write is left alone with a warning (the OBJ
+    then names no such texture), unless force=True."""
+    box = csrbf.read_mesh(MODELS / "assimp_BoxTextured.glb")
+    out = tmp_path / "b.obj"
+    csrbf.write_mesh(box, out)
+    written = (tmp_path / "b_0.png").read_bytes()
+    assert written.startswith(b"\x89PNG")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "b_0.png").write_bytes(b"my own picture")
+    with pytest.warns(UserWarning, match="b_0.png"):
+        csrbf.write_mesh(box, other / "b.obj")
+    assert (other / "b_0.png").read_bytes() == b"my own picture"
+    csrbf.write_mesh(box, other / "b.obj", force=True)
+    assert (other / "b_0.png").read_bytes() == written
 
 
 def test_texture_coordinates_read_back(tmp_path):
