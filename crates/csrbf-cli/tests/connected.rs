@@ -136,19 +136,39 @@ fn a_connected_region_keeps_the_torso_still_in_every_reader() {
     let b = csrbf_mesh::read(&applied).expect("applied");
     assert_eq!(a.positions, b.positions, "apply differs from deform");
     // The file's region lists this mesh's vertices: another mesh, or the
-    // same count of vertices with other faces, is refused before any move.
+    // same count of vertices with other faces, is refused before any move;
+    // the same faces in another order are the same mesh.
     let head = root().join("assets/models/cgal_head.off");
-    let mut other = csrbf_mesh::read(&mesh).expect("hairpin");
-    let faces: Vec<Vec<u32>> = other.faces.iter().map(<[u32]>::to_vec).collect();
-    other.faces = csrbf_mesh::Faces::new();
-    for f in faces.iter().rev() {
-        other.faces.push(f);
-    }
-    let reordered = dir.path("reordered.obj");
-    csrbf_mesh::write(&reordered, &other).expect("write");
+    let pin = csrbf_mesh::read(&mesh).expect("hairpin");
+    let faces: Vec<Vec<u32>> = pin.faces.iter().map(<[u32]>::to_vec).collect();
+    let with_faces = |name: &str, faces: &[Vec<u32>]| {
+        let mut m = pin.clone();
+        m.faces = csrbf_mesh::Faces::new();
+        for f in faces {
+            m.faces.push(f);
+        }
+        let path = dir.path(name);
+        csrbf_mesh::write(&path, &m).expect("write");
+        path
+    };
+    let reversed: Vec<Vec<u32>> = faces.iter().rev().cloned().collect();
+    let reordered = with_faces("reordered.obj", &reversed);
+    let mut flipped = faces.clone();
+    flipped[0].reverse();
+    let other = with_faces("other.obj", &flipped);
+    ok(&[
+        "apply",
+        "-q",
+        "--mesh",
+        arg(&reordered),
+        "--deformation",
+        arg(&fitted),
+        "--out",
+        arg(&dir.path("reordered_out.obj")),
+    ]);
     for (on, want) in [
         (&head, "it was fitted on a mesh of"),
-        (&reordered, "with other faces"),
+        (&other, "with other faces"),
     ] {
         let out = dir.path("elsewhere.obj");
         fails(

@@ -53,7 +53,8 @@ impl Mesh {
 
 /// The smooth group of every vertex: vertices at the same position (bit for
 /// bit: exporters write a seam's copies from one value) whose normals agree
-/// within [`SAME_NORMAL_COS`] share a group.
+/// within [`SAME_NORMAL_COS`] share a group (a vertex without a normal in
+/// `normals` is a group of its own).
 pub fn smooth_groups(positions: &[Vec3], normals: &[Vec3]) -> Vec<u32> {
     let mut at: HashMap<[u32; 3], Vec<u32>> = HashMap::new();
     let mut group = vec![0u32; positions.len()];
@@ -68,7 +69,11 @@ pub fn smooth_groups(positions: &[Vec3], normals: &[Vec3]) -> Vec<u32> {
             .unwrap_or(Vec3::ZERO)
             .normalize_or_zero();
         let same = firsts.iter().copied().find(|&f| {
-            let m = normals[f as usize].normalize_or_zero();
+            let m = normals
+                .get(f as usize)
+                .copied()
+                .unwrap_or(Vec3::ZERO)
+                .normalize_or_zero();
             n.dot(m) > SAME_NORMAL_COS
         });
         group[v] = match same {
@@ -85,13 +90,17 @@ pub fn smooth_groups(positions: &[Vec3], normals: &[Vec3]) -> Vec<u32> {
 
 /// `normals` (one per vertex of `before`) carried to the moved positions
 /// `after`: each rotated by the turn of its smooth group's area-weighted
-/// normal (module docs).
+/// normal (module docs). Unless `before`, `after` and `normals` have one
+/// entry per vertex each, `normals` are returned as they are.
 pub fn carry_normals(
     before: &[Vec3],
     after: &[Vec3],
     faces: &Faces,
     normals: &[Vec3],
 ) -> Vec<Vec3> {
+    if before.len() != after.len() || before.len() != normals.len() {
+        return normals.to_vec();
+    }
     let group = smooth_groups(before, normals);
     let groups = group.iter().map(|&g| g as usize + 1).max().unwrap_or(0);
     let (mut n0, mut n1) = (vec![Vec3::ZERO; groups], vec![Vec3::ZERO; groups]);

@@ -232,7 +232,7 @@ pub enum FitError {
     Solver(String),
     /// The system would take more memory than the limit allows.
     #[error(
-        "R = {} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {} GiB, {:.1}x the limit of {} GiB: use a smaller R (R = {} fits), or lift the limit knowingly (FitOptions::memory_limit in Rust, allow_large=True in Python, --allow-large on the command line)",
+        "R = {} reaches about {neighbours:.0} of the {starts} starts, so the system would take about {} GiB, {:.1}x the limit of {} GiB: use a smaller R (R = {} fits), or lift the limit knowingly (FitOptions::memory_limit in Rust, allow_large=True in Python, --allow-large for csrbf fit and deform)",
         number(*radius), number(bytes / GIB), bytes / *limit as f64, number(*limit as f64 / GIB), number(*suggested_radius)
     )]
     TooLarge {

@@ -5,7 +5,7 @@
 //! Layout (all little-endian):
 //!
 //! ```text
-//! magic "CSRBF\0" | version u16 = 4 | combine u16 (0 chain, 1 add) | stages u32
+//! magic "CSRBF\0" | version u16 (4, or 5 with a mesh stamp) | combine u16 (0 chain, 1 add) | stages u32
 //! per stage:
 //!   kernel u8 | polynomial u8 | reserved u16 | radius f64 | phase f64 | n u32
 //!   starts 3n f64 | coefficients 3n f64
@@ -15,6 +15,8 @@
 //!           6 weights: n u32, n vertices u32, n weights f32; 7 connected:
 //!           distance f64, from u8 (0 starts, 1 handle)) and its data
 //!   sweep: step u32 | steps u32 (0 0: not a sweep's step)
+//! version 5 only: mesh stamp: flag u8 (1) | vertices u32 | faces flag u8
+//!   (0 unknown, 1 known) | faces' hash u64 when known
 //! checksum u64: FNV-1a of every byte before it
 //! ```
 //!
@@ -23,8 +25,11 @@
 //! starts and their coefficients alpha, the affine part (centre, scale and
 //! the 4 coefficient vectors of p(x)) when linear, the order the system was
 //! factored in (kept so a refit is bit-exact), the region, and which step
-//! of a fold-free sweep the stage is. Version 3 files (no weights or
-//! connected regions), version 2 files (no sweep) and version 1 files (no combine, no phase: chained, every phase 1) still read.
+//! of a fold-free sweep the stage is, and (version 5) the mesh whose vertices
+//! its regions list by index ([`MeshStamp`]). A file without a stamp is
+//! written as version 4, so builds before the stamp read it. Version 3 files
+//! (no weights or connected regions), version 2 files (no sweep) and version
+//! 1 files (no combine, no phase: chained, every phase 1) still read.
 //!
 //! The checksum proves the bytes were not damaged; the values are checked
 //! too: a NaN or infinite start, coefficient, affine term or phase is refused.
@@ -72,19 +77,23 @@ pub struct MeshStamp {
 impl MeshStamp {
     /// The stamp of a mesh of `vertices` points and these faces (each a
     /// list of vertex indices); `None` faces when the caller has only the
-    /// points.
+    /// points. The faces' hash does not depend on their order, nor on which
+    /// corner a face lists first (neither changes which vertex an index
+    /// names), only on the set of faces and their orientation.
     pub fn of<'a>(vertices: usize, faces: Option<impl Iterator<Item = &'a [u32]>>) -> MeshStamp {
         MeshStamp {
             vertices: vertices.min(u32::MAX as usize) as u32,
             faces: faces.map(|faces| {
-                let mut bytes = Vec::new();
-                for f in faces {
-                    bytes.extend_from_slice(&(f.len() as u32).to_le_bytes());
-                    for i in f {
-                        bytes.extend_from_slice(&i.to_le_bytes());
+                faces.fold(0u64, |sum, f| {
+                    // From its smallest corner on, its orientation kept.
+                    let first = (0..f.len()).min_by_key(|&k| f[k]).unwrap_or(0);
+                    let mut h = Fnv::new();
+                    h.add(&(f.len() as u32).to_le_bytes());
+                    for k in 0..f.len() {
+                        h.add(&f[(first + k) % f.len()].to_le_bytes());
                     }
-                }
-                fnv1a(&bytes)
+                    sum.wrapping_add(h.finish())
+                })
             }),
         }
     }
@@ -107,7 +116,7 @@ impl MeshStamp {
             )
         } else {
             format!(
-                "it was fitted on a mesh of {} vertices with other faces (the same count, another mesh or another vertex order)",
+                "it was fitted on a mesh of {} vertices with other faces (another mesh with as many vertices, or its polygons split into triangles)",
                 self.vertices
             )
         };
@@ -157,7 +166,9 @@ pub fn encode(stages: &[FittedStage], combine: Combine) -> Vec<u8> {
 pub fn encode_for(stages: &[FittedStage], combine: Combine, mesh: Option<MeshStamp>) -> Vec<u8> {
     let mut w = Vec::new();
     w.extend_from_slice(MAGIC);
-    w.extend_from_slice(&VERSION.to_le_bytes());
+    // Version 4 when there is no stamp: older builds read such a file.
+    let version: u16 = if mesh.is_some() { VERSION } else { 4 };
+    w.extend_from_slice(&version.to_le_bytes());
     w.extend_from_slice(&(combine as u16).to_le_bytes());
     w.extend_from_slice(&(stages.len() as u32).to_le_bytes());
     for FittedStage {
@@ -194,7 +205,7 @@ pub fn encode_for(stages: &[FittedStage], combine: Combine, mesh: Option<MeshSta
     // Version 5: the mesh stamp (a flag byte, then the vertices and, behind
     // a second flag, the faces' hash).
     match mesh {
-        None => w.push(0),
+        None => {}
         Some(m) => {
             w.push(1);
             w.extend_from_slice(&m.vertices.to_le_bytes());
@@ -355,14 +366,20 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
             sweep,
         });
     }
-    let mesh = if version >= 5 && r.u8("mesh stamp")? == 1 {
-        let vertices = r.u32("mesh stamp")?;
-        let faces = match r.u8("mesh stamp")? {
+    let mesh = if version >= 5 {
+        match r.u8("mesh stamp")? {
             0 => None,
-            1 => Some(r.u64("mesh stamp")?),
+            1 => {
+                let vertices = r.u32("mesh stamp")?;
+                let faces = match r.u8("mesh stamp")? {
+                    0 => None,
+                    1 => Some(r.u64("mesh stamp")?),
+                    f => return Err(damaged(format!("unknown mesh stamp faces flag {f}"))),
+                };
+                Some(MeshStamp { vertices, faces })
+            }
             f => return Err(damaged(format!("unknown mesh stamp flag {f}"))),
-        };
-        Some(MeshStamp { vertices, faces })
+        }
     } else {
         None
     };
@@ -556,6 +573,24 @@ impl Reader<'_> {
             self.f64(what)?,
             self.f64(what)?,
         ))
+    }
+}
+
+/// 64-bit FNV-1a, fed piece by piece.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn add(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 

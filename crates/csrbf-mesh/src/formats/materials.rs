@@ -184,9 +184,21 @@ fn local(dir: &Path, name: &str) -> Option<PathBuf> {
     } else {
         dir
     };
-    match (folder.canonicalize(), path.canonicalize()) {
-        (Ok(folder), Ok(real)) if !real.starts_with(&folder) => None,
-        _ => Some(path),
+    // Missing: kept, so that reading it says so. Present: it must resolve
+    // inside the resolved folder and be a plain file (a link whose target
+    // cannot be resolved, a pipe or a device is refused: reading one could
+    // take another program's input or never end).
+    match path.symlink_metadata() {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Some(path),
+        Err(_) => None,
+        Ok(_) => match (folder.canonicalize(), path.canonicalize()) {
+            (Ok(folder), Ok(real))
+                if real.starts_with(&folder) && real.metadata().is_ok_and(|m| m.is_file()) =>
+            {
+                Some(path)
+            }
+            _ => None,
+        },
     }
 }
 

@@ -235,6 +235,22 @@ fn missing_foreign_or_escaping_side_files_are_warnings() {
             "{:?}",
             l.warnings
         );
+        // A named pipe is no texture: refused, not read (reading it would
+        // wait for a writer forever).
+        let fifo = d.path("in/pipe.png");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .expect("mkfifo");
+        assert!(made.success());
+        std::fs::write(d.path("in/m.mtl"), "newmtl a\nKd 1 0 0\nmap_Kd pipe.png\n").expect("mtl");
+        let l = load("m.mtl");
+        assert!(l.mesh.materials[0].texture.is_none());
+        assert!(
+            l.warnings.join("\n").contains("\"pipe.png\" is refused"),
+            "{:?}",
+            l.warnings
+        );
     }
 }
 

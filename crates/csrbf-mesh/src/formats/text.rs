@@ -66,7 +66,10 @@ pub(crate) fn number<T: Number>(
     let tok = tok.ok_or_else(|| MeshError::parse(path, Some(line), format!("missing {what}")))?;
     let v: T = tok.parse().map_err(|_| {
         // A count or index (unsigned) given as a negative integer.
-        let why = if tok.starts_with('-') && tok[1..].parse::<u64>().is_ok() {
+        // (Only for a type that holds no negative number: OBJ's signed
+        // indices say "out of range" for a huge negative one.)
+        let unsigned = "-1".parse::<T>().is_err();
+        let why = if unsigned && tok.starts_with('-') && tok[1..].parse::<u64>().is_ok() {
             "is negative: counts and indices start at 0"
         } else {
             "is not a valid number"
