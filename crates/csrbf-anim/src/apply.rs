@@ -158,6 +158,44 @@ pub fn deform_mesh_checked(
     Ok(report)
 }
 
+/// A region's parts and vertex indices checked against the mesh it will
+/// act on, before any fit, so that a caller can name the control file and
+/// deformation in the message (found when the mesh moves, it named only the
+/// mesh): a part the mesh lacks (its parts listed) or a vertex beyond it.
+pub fn check_region(region: &csrbf::Region, mesh: &Mesh) -> Result<(), String> {
+    use csrbf::Region;
+    let n = mesh.positions.len();
+    match region {
+        Region::Group(name) if mesh.part_vertices(name).is_none() => {
+            let mut names: Vec<&str> = Vec::new();
+            for p in &mesh.parts {
+                if !names.contains(&p.name.as_str()) {
+                    names.push(&p.name);
+                }
+            }
+            let have = match names.len() {
+                0 => "it has no named parts".to_owned(),
+                1..=12 => format!("its parts: {}", names.join(", ")),
+                k => format!("its parts: {} and {} more", names[..12].join(", "), k - 12),
+            };
+            Err(format!(
+                "names part {name:?}, which the mesh does not have ({have})"
+            ))
+        }
+        Region::Vertices(v) | Region::Weights { vertices: v, .. } => {
+            match v.iter().find(|&&i| i as usize >= n) {
+                Some(bad) => Err(format!(
+                    "vertex {bad} is out of range: the mesh has {n} vertices (0 to {})",
+                    n.saturating_sub(1)
+                )),
+                None => Ok(()),
+            }
+        }
+        Region::Falloff { inner, .. } => check_region(inner, mesh),
+        _ => Ok(()),
+    }
+}
+
 /// Saves deformations fitted on `mesh` as a `.csrbf` file, whole or not at
 /// all; when their regions list vertices by index, the file carries the
 /// mesh's stamp ([`mesh_stamp`]) and `csrbf apply` refuses another mesh.
@@ -222,6 +260,25 @@ mod tests {
         assert_eq!(back.stages, stages);
         let e = load_replay(&dir.join("missing.csrbf")).expect_err("missing");
         assert!(e.to_string().contains("missing.csrbf"));
+        // Regions checked against the mesh: a missing part names the parts,
+        // a vertex past the end the count; inside a falloff too.
+        use csrbf::Region;
+        assert!(check_region(&Region::All, &head).is_ok());
+        let far = Region::Vertices(vec![0, head.positions.len() as u32]);
+        let said = check_region(&far, &head).expect_err("past the end");
+        assert!(
+            said.contains(&format!("has {} vertices", head.positions.len())),
+            "{said}"
+        );
+        let nose = Region::Falloff {
+            inner: Box::new(Region::Group("nose".into())),
+            width: 0.1,
+        };
+        let said = check_region(&nose, &head).expect_err("no nose");
+        assert!(
+            said.contains("\"nose\"") && said.contains("no named parts"),
+            "{said}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

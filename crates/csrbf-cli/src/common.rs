@@ -84,7 +84,8 @@ pub fn fit_all(
     let mut specs = resolve_all(specs, path, mesh, progress)?;
     if let Some(m) = mesh {
         for (i, s) in specs.iter().enumerate() {
-            check_region(&s.region, m)
+            csrbf_anim::apply::check_region(&s.region, m)
+                .map_err(anyhow::Error::msg)
                 .with_context(|| format!("{}: region", stage_name(path, i, specs.len())))?;
         }
     }
@@ -155,41 +156,6 @@ fn stage_name(path: &Path, i: usize, count: usize) -> String {
         format!("{}: deformations[{i}]", path.display())
     } else {
         path.display().to_string()
-    }
-}
-
-/// A region's parts and vertex indices checked against the mesh before any
-/// fit, so that a mistake names the control file and its deformation (found
-/// when the mesh moves, it named only the mesh).
-fn check_region(region: &csrbf::Region, mesh: &Mesh) -> Result<()> {
-    use csrbf::Region;
-    let n = mesh.positions.len();
-    match region {
-        Region::Group(name) if mesh.part_vertices(name).is_none() => {
-            let mut names: Vec<&str> = Vec::new();
-            for p in &mesh.parts {
-                if !names.contains(&p.name.as_str()) {
-                    names.push(&p.name);
-                }
-            }
-            let have = match names.len() {
-                0 => "it has no named parts".to_owned(),
-                1..=12 => format!("its parts: {}", names.join(", ")),
-                k => format!("its parts: {} and {} more", names[..12].join(", "), k - 12),
-            };
-            bail!("names part {name:?}, which the mesh does not have ({have})")
-        }
-        Region::Vertices(v) | Region::Weights { vertices: v, .. } => {
-            if let Some(bad) = v.iter().find(|&&i| i as usize >= n) {
-                bail!(
-                    "vertex {bad} is out of range: the mesh has {n} vertices (0 to {})",
-                    n.saturating_sub(1)
-                );
-            }
-            Ok(())
-        }
-        Region::Falloff { inner, .. } => check_region(inner, mesh),
-        _ => Ok(()),
     }
 }
 
