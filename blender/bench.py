@@ -1,8 +1,8 @@
 """Figures of the Blender extension (headless; not a test):
 
 - live updates per second on a ~50k-vertex mesh with 20 control vectors
-  (the depsgraph handler's own work: read the empties, one solve, one
-  sparse product, write the shape key);
+  (the depsgraph handler's own work: read the empties, one solve, the
+  kernel sums through the binding, write the shape key);
 - `csrbf.deform` on a ~1M-vertex mesh against what a user would otherwise
   script in Blender's Python: a proportional-editing style falloff per
   control in numpy (not an interpolation: starts do not reach their

@@ -14,7 +14,7 @@ Each task is one mesh: it picks --controls starts among the mesh's vertices
 and K sets of destinations (seeded by the mesh's name and --seed, so a run is
 reproducible on any cluster), deforms the mesh by all K in one call
 (csrbf.deform_many: the system is factored once, the K solves run in
-parallel, each variant is one sparse product) and writes NAME_vNNN.EXT.
+parallel, each variant is the kernel sums through one binding) and writes NAME_vNNN.EXT.
 """
 
 from __future__ import annotations

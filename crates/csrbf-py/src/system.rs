@@ -1,5 +1,5 @@
-//! `csrbf.System` (factor once, solve many), `csrbf.Binding` (per-point
-//! weights for repeated frames) and `csrbf.deform_many` (one point set, K
+//! `csrbf.System` (factor once, solve many), `csrbf.Binding` (points bound
+//! to a system's starts for repeated frames) and `csrbf.deform_many` (one point set, K
 //! target sets, one call).
 
 use std::sync::RwLock;
@@ -186,9 +186,10 @@ fn check_sets(starts: usize, sets: &[Vec<DVec3>]) -> PyResult<()> {
     }
 }
 
-/// Per-point weights of one set of starts, kept for repeated frames: a new
+/// Points bound to one set of starts, for repeated frames: the points sorted
+/// into cells and each cell's starts in reach found once, so that a new
 /// deformation of those starts (from `System.solve`) updates every point
-/// with one sparse product.
+/// with the kernel sums alone (no search of the starts).
 ///
 /// >>> b = csrbf.Binding(s.solve(targets), vertices)   # or s.bind(vertices)
 /// >>> b.displacements(s.solve(other_targets))
@@ -203,14 +204,15 @@ pub struct PyBinding {
 impl PyBinding {
     /// Binds `points` ((N, 3)) to the starts of `deformation` (a
     /// Deformation or a System). Results have the points' dtype (float32
-    /// stays float32). The weights are kept in 24-bit fixed point (within
-    /// 3e-8 of the kernel's peak; about 3.3 bytes a point-start pair and 15
-    /// a point, 27 with float64 points) and summed in float32, for float64
-    /// points too: displacements agree with `Deformation.displacements` to
-    /// about 1e-7 of the sum of |coefficient| over the starts within R. That
-    /// is 1e-7 to 1e-6 of the largest move on real meshes, and more where
-    /// nearby starts pull in opposite directions (their coefficients exceed
-    /// the move: about 1e-5 of it with two starts 3 % of R apart).
+    /// stays float32). It keeps about 21 bytes a point at a million points
+    /// (33 with float64 points), however many starts are in reach, and sums
+    /// the kernel in float32 lanes, for float64 points too: displacements agree with
+    /// `Deformation.displacements` (float64) to the float32 sums' rounding,
+    /// about 1e-7 of the sum of |coefficient| over the starts within R
+    /// (1e-7 to 1e-6 of the largest move on real meshes; more where nearby
+    /// starts pull in opposite directions, their coefficients exceeding the
+    /// move: up to 5e-6 of it on the tests' scenes of starts 3-30 % of R
+    /// apart).
     #[new]
     fn new(
         py: Python<'_>,
@@ -298,7 +300,8 @@ impl PyBinding {
         self.len()
     }
 
-    /// Bytes the weights take.
+    /// Bytes the binding holds (the points' copy, their order, the cells'
+    /// candidates).
     #[getter]
     fn nbytes(&self) -> usize {
         self.read().0.bytes()
@@ -422,7 +425,7 @@ fn writable<'py, T: numpy::Element>(
 /// Deforms one point set by K target sets of the same starts, in one call on
 /// all cores (dataset augmentation): the system is factored once, the K
 /// solves run in parallel, the points are bound once and every variant is
-/// one sparse product.
+/// the kernel sums alone.
 ///
 /// Args:
 ///     points: (N, 3) points (a mesh's vertices).

@@ -330,6 +330,11 @@ impl Deformation {
         &self.octree
     }
 
+    /// The octree over the starts, shared (a [`crate::Binding`] keeps it).
+    pub(crate) fn octree_shared(&self) -> &Arc<Octree> {
+        &self.octree
+    }
+
     /// The displacement D(x) = sum alpha_j phi(|x - s_j| / R) + p(x); NaN
     /// for a point with a non-finite coordinate.
     pub fn displacement_at(&self, x: DVec3) -> DVec3 {

@@ -404,17 +404,6 @@ impl Candidates {
         self.id.len()
     }
 
-    /// The candidates' start indices, in the order of every other view.
-    pub(crate) fn ids(&self) -> &[u32] {
-        &self.id
-    }
-
-    /// Start `k` of the candidates.
-    #[inline]
-    pub(crate) fn start(&self, k: usize) -> DVec3 {
-        DVec3::new(self.xs[k], self.ys[k], self.zs[k])
-    }
-
     /// Calls `f(base, bits)` for every 64 candidates from `base`: bit `k`
     /// of `bits` is set when candidate `base + k` is closer than `radius`
     /// to `x` (the test of [`Candidates::for_each_offset`]).

@@ -17,8 +17,12 @@
 //! 0)` makes phi zero beyond R (every Wendland function is (1 - r)_+^k times
 //! a polynomial), so misses cost the same lanes and need no mask.
 //!
-//! [`sum_plain`] is the reference: the same arithmetic one lane at a time
+//! [`sum_body`] is the reference: the same arithmetic one lane at a time
 //! (without fused multiply-adds), used where the CPU has no AVX2 and FMA.
+//! [`sums_for`] chooses the sums for a kernel and CPU once; the AVX2 copy
+//! takes two points at a time, sharing the candidates' loads. A
+//! [`crate::Binding`] keeps the coordinates and fills each new
+//! deformation's coefficients into lanes beside them.
 
 use glam::{DVec3, Vec3};
 
@@ -66,16 +70,14 @@ impl Lanes {
         for v in self.xyz.iter_mut().chain(&mut self.alpha) {
             v.clear();
         }
-        self.centre = (lo + hi) * 0.5;
+        self.centre = centre((lo, hi));
         self.inv_radius = 1.0 / radius;
-        let (centre, inv) = (self.centre, self.inv_radius);
         self.reach = 0.0;
-        octree.for_each_near_box(lo, hi, radius, |i, p| {
-            let u = (p - centre) * inv;
+        for_each_candidate(octree, (lo, hi), radius, |i, u| {
             let a = coefficients[i as usize];
             self.reach += a.abs().element_sum();
             for c in 0..3 {
-                self.xyz[c].push(u[c] as f32);
+                self.xyz[c].push(u[c]);
                 self.alpha[c].push(a[c] as f32);
             }
         });
@@ -104,20 +106,87 @@ impl Lanes {
 
     /// x in the lanes' frame (units of R about the centre).
     pub(crate) fn local(&self, x: DVec3) -> [f32; 3] {
-        ((x - self.centre) * self.inv_radius).as_vec3().to_array()
+        local(self.centre, self.inv_radius, x)
     }
 
-    /// sum_j alpha_j phi(|x - s_j| / R) over the candidates, `x` given by
-    /// [`Lanes::local`]; with AVX2 and FMA when the proof is given.
-    pub(crate) fn sum(&self, cpu: Option<Avx2Fma>, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(cpu) = cpu {
-            return sum_avx2(cpu, self, kernel, x);
+    fn view(&self) -> View<'_> {
+        View {
+            xyz: [&self.xyz[0], &self.xyz[1], &self.xyz[2]],
+            alpha: [&self.alpha[0], &self.alpha[1], &self.alpha[2]],
         }
-        let _ = cpu;
-        sum_plain(self, kernel, x)
     }
 }
+
+/// `x` in the frame of a cell's lanes: units of R (`inv_radius` = 1 / R)
+/// about the cell's `centre`.
+#[inline]
+pub(crate) fn local(centre: DVec3, inv_radius: f64, x: DVec3) -> [f32; 3] {
+    ((x - centre) * inv_radius).as_vec3().to_array()
+}
+
+/// The starts within `radius` of the box `lo..hi`, each with its
+/// coordinates in the lanes' frame (units of R about the box's centre).
+pub(crate) fn for_each_candidate(
+    octree: &Octree,
+    (lo, hi): (DVec3, DVec3),
+    radius: f64,
+    mut f: impl FnMut(u32, [f32; 3]),
+) {
+    let (centre, inv) = (centre((lo, hi)), 1.0 / radius);
+    octree.for_each_near_box(lo, hi, radius, |i, p| f(i, local(centre, inv, p)));
+}
+
+/// Pads a cell's coordinate lanes to a multiple of [`LANES`] with far
+/// starts (their kernel is zero at every point of the cell).
+pub(crate) fn pad_far(xyz: &mut [Vec<f32>; 3], from: usize) {
+    let padded = from + (xyz[0].len() - from).next_multiple_of(LANES);
+    for v in xyz {
+        v.resize(padded, FAR);
+    }
+}
+
+/// Where a cell's lanes are centred: the middle of its points' bounds.
+pub(crate) fn centre((lo, hi): (DVec3, DVec3)) -> DVec3 {
+    (lo + hi) * 0.5
+}
+
+/// A cell's candidates in lanes, borrowed: their coordinates (as in
+/// [`Lanes`]) and coefficients, each padded to the same multiple of
+/// [`LANES`]. A [`crate::Binding`] keeps the coordinates and fills the
+/// coefficients of each new deformation.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct View<'a> {
+    pub(crate) xyz: [&'a [f32]; 3],
+    pub(crate) alpha: [&'a [f32]; 3],
+}
+
+/// Kernel sums over a cell's lanes at many points (in the lanes' frame),
+/// one into each place of `out`.
+pub(crate) type SumsFn = fn(View<'_>, &[[f32; 3]], &mut [[f32; 3]]);
+
+/// The kernel sums for `kernel` on this CPU (AVX2 and FMA when the proof
+/// is given), chosen once for a cell's points.
+pub(crate) fn sums_for(cpu: Option<Avx2Fma>, kernel: Kernel) -> SumsFn {
+    #[cfg(target_arch = "x86_64")]
+    if cpu.is_some() {
+        return match kernel {
+            Kernel::C0 => sums_avx2::<0>,
+            Kernel::C2 => sums_avx2::<2>,
+            Kernel::C4 => sums_avx2::<4>,
+            Kernel::C6 => sums_avx2::<6>,
+        };
+    }
+    let _ = cpu;
+    match kernel {
+        Kernel::C0 => sums_plain::<0>,
+        Kernel::C2 => sums_plain::<2>,
+        Kernel::C4 => sums_plain::<4>,
+        Kernel::C6 => sums_plain::<6>,
+    }
+}
+
+/// Points whose kernel sums are computed in one call.
+const CHUNK: usize = 16;
 
 /// The widest cell, in R, whose kernel sum runs in f32 about its centre
 /// (cells are about R/2 wide when there are enough starts to sort points;
@@ -127,17 +196,19 @@ const LANES_CELL: f64 = 4.0;
 
 /// The finite bounds of a cell's points (an empty box when none is finite).
 fn bounds<P: Point>(points: &[P], idx: &[u32]) -> (DVec3, DVec3) {
-    idx.iter()
-        .map(|&i| points[i as usize].to_dvec3())
-        .filter(|x| x.is_finite())
-        .fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(p), hi.max(p)),
-        )
+    finite_bounds(idx.iter().map(|&i| points[i as usize].to_dvec3()))
+}
+
+/// The bounds of the finite ones of `points` (an empty box when none is).
+pub(crate) fn finite_bounds(points: impl Iterator<Item = DVec3>) -> (DVec3, DVec3) {
+    points.filter(|x| x.is_finite()).fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(p), hi.max(p)),
+    )
 }
 
 /// Whether a cell's kernel sum runs in f32 lanes.
-fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
+pub(crate) fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
     (hi - lo).max_element() <= LANES_CELL * radius
 }
 
@@ -148,7 +219,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let blocks = Blocks::for_starts(points, d.radius(), d.starts().len());
     let (kernel, radius, alpha) = (d.kernel(), d.radius(), d.coefficients());
     let linear = d.affine().map(|a| a.linear());
-    let cpu = Avx2Fma::detect();
+    let sum_many = sums_for(Avx2Fma::detect(), kernel);
     let reach = d.f32_reach();
     let out = Scatter::new(out);
     let cell = |(lanes, cand): &mut (Lanes, Candidates), &(s, e): &(usize, usize)| {
@@ -165,26 +236,35 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
             let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
             cand.gather(d.octree(), xs, radius);
         }
-        for &i in idx {
-            let x = points[i as usize].to_dvec3();
-            let v = if !x.is_finite() {
-                Vec3::NAN
-            } else {
-                let mut v = linear.map_or(DVec3::ZERO, |l| l.eval(x));
-                if narrow {
-                    let sum = lanes.sum(cpu, kernel, lanes.local(x));
-                    v += DVec3::from_array(sum.map(f64::from));
-                } else {
-                    cand.for_each_weight(x, kernel, radius, |j, w| v += alpha[j as usize] * w);
+        // A chunk's points' kernel sums in one call (two points at a time).
+        let (mut xs, mut sums) = ([[0.0f32; 3]; CHUNK], [[0.0f32; 3]; CHUNK]);
+        for chunk in idx.chunks(CHUNK) {
+            if narrow {
+                for (l, &i) in xs.iter_mut().zip(chunk) {
+                    *l = lanes.local(points[i as usize].to_dvec3());
                 }
-                v.as_vec3()
-            };
-            // SAFETY: `i` is this cell's own point (`Blocks::order` is a
-            // permutation and the cells do not overlap).
-            #[allow(unsafe_code)]
-            unsafe {
-                out.write(i as usize, v)
-            };
+                sum_many(lanes.view(), &xs[..chunk.len()], &mut sums[..chunk.len()]);
+            }
+            for (&i, sum) in chunk.iter().zip(&sums) {
+                let x = points[i as usize].to_dvec3();
+                let v = if !x.is_finite() {
+                    Vec3::NAN
+                } else {
+                    let mut v = linear.map_or(DVec3::ZERO, |l| l.eval(x));
+                    if narrow {
+                        v += DVec3::from_array(sum.map(f64::from));
+                    } else {
+                        cand.for_each_weight(x, kernel, radius, |j, w| v += alpha[j as usize] * w);
+                    }
+                    v.as_vec3()
+                };
+                // SAFETY: `i` is this cell's own point (`Blocks::order` is a
+                // permutation and the cells do not overlap).
+                #[allow(unsafe_code)]
+                unsafe {
+                    out.write(i as usize, v)
+                };
+            }
         }
     };
     if points.len() >= PARALLEL_POINTS {
@@ -298,12 +378,12 @@ fn phi<const K: u8>(t: f32, r: f32) -> f32 {
 }
 
 /// The sum, eight lanes of accumulators over the padded arrays, in the
-/// order [`sum_avx2_fma`] computes it (which fuses the multiply-adds).
-fn sum_body<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
+/// order [`sums_avx2_fma`] computes it (which fuses the multiply-adds).
+fn sum_body<const K: u8>(l: View<'_>, x: [f32; 3]) -> [f32; 3] {
     let fma = |a: f32, b: f32, c: f32| a * b + c;
     let mut acc = [[0.0f32; LANES]; 3];
-    let [xs, ys, zs] = &l.xyz;
-    let [ax, ay, az] = &l.alpha;
+    let [xs, ys, zs] = l.xyz;
+    let [ax, ay, az] = l.alpha;
     let chunks = xs
         .chunks_exact(LANES)
         .zip(ys.chunks_exact(LANES))
@@ -326,78 +406,51 @@ fn sum_body<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
     acc.map(|a| ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7])))
 }
 
-/// The reference: [`sum_body`] for the kernel.
-pub(crate) fn sum_plain(l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
-    match kernel {
-        Kernel::C0 => sum_body::<0>(l, x),
-        Kernel::C2 => sum_body::<2>(l, x),
-        Kernel::C4 => sum_body::<4>(l, x),
-        Kernel::C6 => sum_body::<6>(l, x),
+/// Phi of eight candidates' coordinates `c` at a point `p` (broadcast):
+/// [`sum_body`]'s operations, in its order.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+fn weight_avx2<const K: u8>(
+    c: [std::arch::x86_64::__m256; 3],
+    p: [std::arch::x86_64::__m256; 3],
+) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let k = _mm256_set1_ps;
+    let (dx, dy, dz) = (
+        _mm256_sub_ps(c[0], p[0]),
+        _mm256_sub_ps(c[1], p[1]),
+        _mm256_sub_ps(c[2], p[2]),
+    );
+    let r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
+    let r = _mm256_sqrt_ps(r2);
+    let t = _mm256_max_ps(_mm256_sub_ps(one, r), zero);
+    let t2 = _mm256_mul_ps(t, t);
+    match K {
+        0 => t2,
+        2 => _mm256_mul_ps(_mm256_mul_ps(t2, t2), _mm256_fmadd_ps(k(4.0), r, one)),
+        4 => {
+            let q = _mm256_fmadd_ps(_mm256_fmadd_ps(k(35.0), r, k(18.0)), r, k(3.0));
+            _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(t2, t2), t2), q)
+        }
+        _ => {
+            let t4 = _mm256_mul_ps(t2, t2);
+            let q = _mm256_fmadd_ps(k(32.0), r, k(25.0));
+            let q = _mm256_fmadd_ps(_mm256_fmadd_ps(q, r, k(8.0)), r, one);
+            _mm256_mul_ps(_mm256_mul_ps(t4, t4), q)
+        }
     }
 }
 
-/// [`sum_body`] in AVX2 and FMA intrinsics: eight lanes a register, the
-/// same operations in the same order per lane.
-///
-/// # Safety
-/// The CPU has AVX2 and FMA.
+/// A point's three sums from its eight lanes of accumulators: two
+/// horizontal adds of x with y and z with itself, one of those, then the
+/// halves.
 #[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
+#[inline]
+fn reduce_avx2(acc: [std::arch::x86_64::__m256; 3]) -> [f32; 3] {
     use std::arch::x86_64::*;
-    let [xs, ys, zs] = &l.xyz;
-    let [ax, ay, az] = &l.alpha;
-    let n = [xs, ys, zs, ax, ay, az]
-        .map(|v| v.len())
-        .into_iter()
-        .min()
-        .unwrap_or(0);
-    let n = n - n % LANES;
-    let (px, py, pz) = (
-        _mm256_set1_ps(x[0]),
-        _mm256_set1_ps(x[1]),
-        _mm256_set1_ps(x[2]),
-    );
-    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
-    let c = _mm256_set1_ps;
-    let mut acc = [zero; 3];
-    for k in (0..n).step_by(LANES) {
-        // SAFETY: k + 8 <= n <= the length of every array.
-        #[allow(unsafe_code)]
-        let [cx, cy, cz, wx, wy, wz] =
-            unsafe { [xs, ys, zs, ax, ay, az].map(|v| _mm256_loadu_ps(v.as_ptr().add(k))) };
-        let (dx, dy, dz) = (
-            _mm256_sub_ps(cx, px),
-            _mm256_sub_ps(cy, py),
-            _mm256_sub_ps(cz, pz),
-        );
-        let r2 = _mm256_fmadd_ps(dz, dz, _mm256_fmadd_ps(dy, dy, _mm256_mul_ps(dx, dx)));
-        let r = _mm256_sqrt_ps(r2);
-        let t = _mm256_max_ps(_mm256_sub_ps(one, r), zero);
-        let t2 = _mm256_mul_ps(t, t);
-        let w = match K {
-            0 => t2,
-            2 => _mm256_mul_ps(_mm256_mul_ps(t2, t2), _mm256_fmadd_ps(c(4.0), r, one)),
-            4 => {
-                let p = _mm256_fmadd_ps(_mm256_fmadd_ps(c(35.0), r, c(18.0)), r, c(3.0));
-                _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(t2, t2), t2), p)
-            }
-            _ => {
-                let t4 = _mm256_mul_ps(t2, t2);
-                let p = _mm256_fmadd_ps(c(32.0), r, c(25.0));
-                let p = _mm256_fmadd_ps(_mm256_fmadd_ps(p, r, c(8.0)), r, one);
-                _mm256_mul_ps(_mm256_mul_ps(t4, t4), p)
-            }
-        };
-        acc = [
-            _mm256_fmadd_ps(w, wx, acc[0]),
-            _mm256_fmadd_ps(w, wy, acc[1]),
-            _mm256_fmadd_ps(w, wz, acc[2]),
-        ];
-    }
-    // The three sums at once: two horizontal adds of x with y and z with
-    // itself, one of those, then the halves.
     let xyz = _mm256_hadd_ps(
         _mm256_hadd_ps(acc[0], acc[1]),
         _mm256_hadd_ps(acc[2], acc[2]),
@@ -412,19 +465,90 @@ unsafe fn sum_avx2_fma<const K: u8>(l: &Lanes, x: [f32; 3]) -> [f32; 3] {
     [v[0], v[1], v[2]]
 }
 
-/// [`sum_avx2_fma`] for the kernel, behind the proof.
+/// [`sum_body`] in AVX2 and FMA intrinsics for every point of `xs` (into
+/// `out`): eight lanes a register, the same operations in the same order
+/// per lane, two points at a time (they share the lanes' loads; a point's
+/// sums are the same alone or paired).
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
-fn sum_avx2(cpu: Avx2Fma, l: &Lanes, kernel: Kernel, x: [f32; 3]) -> [f32; 3] {
-    let _ = cpu;
-    // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+#[allow(unsafe_code)]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn sums_avx2_fma<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
+    use std::arch::x86_64::*;
+    let [cxs, cys, czs] = l.xyz;
+    let [axs, ays, azs] = l.alpha;
+    let n = [cxs, cys, czs, axs, ays, azs]
+        .map(|v| v.len())
+        .into_iter()
+        .min()
+        .unwrap_or(0);
+    let n = n - n % LANES;
+    let lanes = [cxs, cys, czs, axs, ays, azs];
+    let at = |x: &[f32; 3]| x.map(|v| _mm256_set1_ps(v));
+    let two = xs.len() / 2 * 2;
+    let (xs2, xs1) = xs.split_at(two);
+    let (out2, out1) = out.split_at_mut(two);
+    for (x, o) in xs2.chunks_exact(2).zip(out2.chunks_exact_mut(2)) {
+        let (p, q) = (at(&x[0]), at(&x[1]));
+        let mut acc = [_mm256_setzero_ps(); 6];
+        for k in (0..n).step_by(LANES) {
+            // SAFETY: k + 8 <= n <= the length of every array.
+            #[allow(unsafe_code)]
+            let [cx, cy, cz, ax, ay, az] =
+                unsafe { lanes.map(|v| _mm256_loadu_ps(v.as_ptr().add(k))) };
+            let (w, v) = (
+                weight_avx2::<K>([cx, cy, cz], p),
+                weight_avx2::<K>([cx, cy, cz], q),
+            );
+            acc = [
+                _mm256_fmadd_ps(w, ax, acc[0]),
+                _mm256_fmadd_ps(w, ay, acc[1]),
+                _mm256_fmadd_ps(w, az, acc[2]),
+                _mm256_fmadd_ps(v, ax, acc[3]),
+                _mm256_fmadd_ps(v, ay, acc[4]),
+                _mm256_fmadd_ps(v, az, acc[5]),
+            ];
+        }
+        o[0] = reduce_avx2([acc[0], acc[1], acc[2]]);
+        o[1] = reduce_avx2([acc[3], acc[4], acc[5]]);
+    }
+    for (x, o) in xs1.iter().zip(out1) {
+        let p = at(x);
+        let mut acc = [_mm256_setzero_ps(); 3];
+        for k in (0..n).step_by(LANES) {
+            // SAFETY: as above.
+            #[allow(unsafe_code)]
+            let [cx, cy, cz, ax, ay, az] =
+                unsafe { lanes.map(|v| _mm256_loadu_ps(v.as_ptr().add(k))) };
+            let w = weight_avx2::<K>([cx, cy, cz], p);
+            acc = [
+                _mm256_fmadd_ps(w, ax, acc[0]),
+                _mm256_fmadd_ps(w, ay, acc[1]),
+                _mm256_fmadd_ps(w, az, acc[2]),
+            ];
+        }
+        *o = reduce_avx2(acc);
+    }
+}
+
+/// [`sums_avx2_fma`] for kernel `K`: reached only through [`sums_for`]
+/// given an [`Avx2Fma`].
+#[cfg(target_arch = "x86_64")]
+fn sums_avx2<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
+    // SAFETY: `sums_for` returns this function only for an `Avx2Fma`, which
+    // exists only when the CPU has AVX2 and FMA.
     #[allow(unsafe_code)]
     unsafe {
-        match kernel {
-            Kernel::C0 => sum_avx2_fma::<0>(l, x),
-            Kernel::C2 => sum_avx2_fma::<2>(l, x),
-            Kernel::C4 => sum_avx2_fma::<4>(l, x),
-            Kernel::C6 => sum_avx2_fma::<6>(l, x),
-        }
+        sums_avx2_fma::<K>(l, xs, out)
+    }
+}
+
+/// [`sum_body`] for every point of `xs`, into `out`.
+fn sums_plain<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
+    for (x, o) in xs.iter().zip(out) {
+        *o = sum_body::<K>(l, *x);
     }
 }
 
@@ -462,31 +586,36 @@ mod tests {
                 lanes.gather(&octree, &alpha, (lo, hi), r);
                 assert_eq!(lanes.lanes() % LANES, 0);
                 assert!(lanes.candidates() <= n && lanes.lanes() < lanes.candidates() + LANES);
-                for _ in 0..20 {
-                    let x = lo + (hi - lo) * rng.vec3();
-                    let want = reference(&starts, &alpha, kernel, r, x);
+                // Points in one call (an odd count: pairs and one alone).
+                let xs: Vec<DVec3> = (0..21).map(|_| lo + (hi - lo) * rng.vec3()).collect();
+                let local: Vec<[f32; 3]> = xs.iter().map(|x| lanes.local(*x)).collect();
+                let mut plain = vec![[0.0f32; 3]; xs.len()];
+                let mut fast = plain.clone();
+                sums_for(None, kernel)(lanes.view(), &local, &mut plain);
+                sums_for(Avx2Fma::detect(), kernel)(lanes.view(), &local, &mut fast);
+                for (k, x) in xs.iter().enumerate() {
+                    let want = reference(&starts, &alpha, kernel, r, *x);
                     // f32 rounds r and phi by about 1e-7 (phi and its slope
                     // are at most a few): the error scales with the
                     // coefficients in reach.
                     let scale: f64 = starts
                         .iter()
                         .zip(&alpha)
-                        .filter(|(s, _)| s.distance(x) < r)
+                        .filter(|(s, _)| s.distance(*x) < r)
                         .map(|(_, a)| a.length())
                         .sum::<f64>()
                         + 1e-30;
-                    let plain =
-                        DVec3::from_array(sum_plain(&lanes, kernel, lanes.local(x)).map(f64::from));
-                    let fast = DVec3::from_array(
-                        lanes
-                            .sum(Avx2Fma::detect(), kernel, lanes.local(x))
-                            .map(f64::from),
-                    );
-                    for (got, what) in [(plain, "plain"), (fast, "avx2")] {
+                    let (p, f) = (plain[k].map(f64::from), fast[k].map(f64::from));
+                    let (p, f) = (DVec3::from_array(p), DVec3::from_array(f));
+                    for (got, what) in [(p, "plain"), (f, "avx2")] {
                         let err = (got - want).length() / scale;
                         assert!(err < 2e-6, "{kernel:?} n {n} {what}: error {err:e}");
-                        assert!((got - plain).length() / scale < 2e-6);
+                        assert!((got - p).length() / scale < 2e-6);
                     }
+                    // A point's sums alone are its sums in a pair.
+                    let mut alone = [[0.0f32; 3]];
+                    sums_for(Avx2Fma::detect(), kernel)(lanes.view(), &local[k..=k], &mut alone);
+                    assert_eq!(alone[0].map(f32::to_bits), fast[k].map(f32::to_bits));
                 }
             }
         }

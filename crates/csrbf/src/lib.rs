@@ -13,7 +13,7 @@
 //! - [`System`]: symbolic and numeric work for one set of starts; solves
 //!   again for new destinations without re-factoring;
 //! - [`Deformation`]: the fitted map, evaluated anywhere, in parallel;
-//! - [`Binding`]: per-point weights for repeated frames; [`frame`] gives v + t D(v);
+//! - [`Binding`]: points bound to a system's starts for repeated frames; [`frame`] gives v + t D(v);
 //! - [`Pipeline`]: deformations composed in order, each on a [`Region`], lazily;
 //! - [`mod@format`]: the compact `.csrbf` replay file.
 //!
@@ -75,8 +75,8 @@
 //! ```
 //!
 //! Factor once, solve many: a drag loop moves destinations without
-//! re-factoring ([`System`]), and a [`Binding`] updates every vertex with one
-//! sparse product.
+//! re-factoring ([`System`]), and a [`Binding`] updates every vertex with the
+//! kernel sums alone (the points' cells and the starts in reach found once).
 //!
 //! ```
 //! use csrbf::{Binding, FitOptions, System};

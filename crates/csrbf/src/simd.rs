@@ -18,30 +18,6 @@ impl Avx2Fma {
     }
 }
 
-/// Proof that this CPU has AVX-512 (F and VL: eight f64 lanes, and the
-/// compress of 32-bit lanes by a mask) besides AVX2, FMA and `popcnt`.
-/// Only the binding's weights use it: eight candidates of f64 in one
-/// register where AVX2 takes two.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Avx512(());
-
-impl Avx512 {
-    /// The proof, when the CPU has all of them (checked once, then cached by std).
-    #[inline]
-    pub(crate) fn detect() -> Option<Avx512> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::is_x86_feature_detected as has;
-            (has!("avx512f") && has!("avx512vl") && has!("popcnt") && has_avx2_fma())
-                .then_some(Avx512(()))
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            None
-        }
-    }
-}
-
 /// Whether this CPU has AVX2 and FMA.
 #[inline]
 fn has_avx2_fma() -> bool {

@@ -69,7 +69,7 @@ pub struct BoundStage {
     pub targets: Vec<DVec3>,
     /// The vertices it moves (those of its region with a displacement).
     pub vertices: Vec<u32>,
-    /// Kernel weights of every vertex of its region.
+    /// Every vertex of its region, bound to its starts.
     pub binding: Binding,
     /// Full displacement of each of `vertices` (times the stage's phase in
     /// its file), computed once at rest. Empty for a chained stage after the

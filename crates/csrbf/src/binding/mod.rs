@@ -1,133 +1,95 @@
-//! A deformation's starts bound to a fixed set of points: each point's
-//! neighbouring starts and kernel weights, found once, so that new
-//! destinations update every point with one sparse product.
+//! A deformation's starts bound to a fixed set of points: the points sorted
+//! into cells and each cell's candidate starts found once, so that new
+//! destinations update every point without a search of the starts.
 //!
 //! `build` makes a binding (one parallel pass over groups of cells, each
-//! group into arrays of its own) with `weights` (a point's hits and kernel weights,
-//! eight candidates at a time); `product` is the sum a new deformation
-//! costs.
+//! group into arrays of its own); `product` is what a new deformation
+//! costs: each cell's coefficients into lanes, then the evaluation's f32
+//! kernel sum for each of its points.
 
 mod build;
 mod product;
-mod weights;
+
+use std::sync::{Arc, OnceLock};
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::deformation::Deformation;
 use crate::error::{Error, Result};
-use crate::evaluate::Point;
+use crate::evaluate::{PARALLEL_POINTS, Point};
 use crate::kernel::Kernel;
 use crate::octree::Octree;
 use crate::system::Shared;
 
-/// Per-point kernel weights of one set of starts (one [`crate::System`]).
+/// A set of points bound to the starts of one [`crate::System`]: what does
+/// not change when only the destinations do, found once.
 ///
 /// It pays when destinations change and the points do not (a drag loop, a
-/// Picker): each new solve costs one sparse product instead of a search of
-/// the starts. When only the phase changes (playback), compute the
-/// displacement once and call [`frame`] instead.
+/// Picker): each new solve costs the kernel sums alone, without sorting
+/// the points or searching the starts. When only the phase changes
+/// (playback), compute the displacement once and call [`frame`] instead.
 ///
-/// Points are grouped in cells about R/2 wide, and the points of a cell
-/// share one list of candidate starts (those within R of the cell). A point
-/// keeps one bit per candidate (whether the start is within R) and the
-/// kernel weights of the starts that are, each in three bytes: about 3.3
-/// bytes a point-start pair and 15 a point (27 with f64 points), so a
-/// dense binding (hundreds of pairs a point) costs about 3.3 bytes a pair
-/// and a sparse one (a few) mostly its points. A weight is stored as its level,
-/// phi / phi(0) in 24-bit fixed point (the f64 kernel rounded to the
-/// nearest of 2^24 - 1 steps), so every weight is within 3e-8 of phi(0) of
-/// the kernel's value, as f32 weights were for the largest. A displacement
-/// through a binding (its sums in f32 lanes) agrees with
-/// [`Deformation::displacements`] to about 1e-7 of the sum of
-/// |coefficient| over the starts within R (unweighted: a weight's error is
-/// absolute, so a point near the edge of every support may get 0 where the
-/// f64 value is 1e-10), so a [`crate::Pipeline`], which binds, and
-/// [`crate::compose`], which does not, differ by that much. Relative to the
-/// largest move that is 1e-7 to 1e-6 on real meshes, and it grows with the
-/// coefficients where nearby starts pull in opposite directions: about 1e-5
-/// with two starts 3 % of R apart, 7e-5 at 1 % (coefficients 400 times the
-/// move). A cell whose starts in reach have coefficients summing past 1000
-/// times the largest move (a nearly singular system, typically a radius
-/// thousands of times the model) is computed in f64 as
-/// [`Deformation::displacements`] computes it: there the f32 sums and the
-/// levels would keep only the rounding of coefficients that cancel.
+/// The points are sorted into cells about R/2 wide and copied in that
+/// order, and each cell keeps its candidate starts (those within R of the
+/// cell), by index and by coordinate (f32, in units of R about the cell's
+/// centre), as [`Deformation::displacements_f32`] gathers them. A new
+/// deformation then costs, per cell, its candidates' coefficients put in
+/// lanes, and per point the evaluation's kernel sum (eight candidates at a
+/// time, in f32): the weights are computed again, not stored. So a binding
+/// gives [`Deformation::displacements_f32`]'s displacements bit for bit
+/// (its error against [`Deformation::displacements`] is the f32
+/// evaluation's; a cell whose coefficients would cancel in f32 is summed
+/// in f64 by both), and costs about 21 bytes a point at 1M points (the
+/// points' copy 12, their order 4, the cells' candidates 5; 33 with f64
+/// points) whatever the number of starts in reach.
+///
+/// Measured at 1M points and 10,000 starts (about 43 in reach of each
+/// point, `csrbf bench --scene 1m`): a bind costs less than one
+/// evaluation, a product about half of one. Storing each pair's weight
+/// (this type's earlier form: 3.3 bytes a pair, 160 MB) made the product
+/// about a fifth faster and the bind twice as slow as an evaluation.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation
-/// ([`Error::BindingMismatch`]): its weights would give wrong displacements.
-/// A point with a non-finite coordinate gets a NaN displacement.
+/// ([`Error::BindingMismatch`]). A point with a non-finite coordinate gets
+/// a NaN displacement.
 #[derive(Clone, Debug)]
 pub struct Binding {
     kernel: Kernel,
     radius: f64,
     starts: usize,
     fingerprint: u64,
+    /// The starts' octree (shared with the system): the f64 sums and
+    /// [`Binding::pairs`] search it.
+    octree: Arc<Octree>,
     /// The cells, in the order their points are stored.
     cells: Vec<Cell>,
     /// The arrays of each group of consecutive cells (one task made each).
     groups: Vec<Group>,
-    /// The points in cell order (the polynomial part needs them).
+    /// The points in cell order.
     rest: Rest,
     /// The point at each place of cell order (a permutation); `None` when
     /// cell order is the points' own order.
     order: Option<Vec<u32>>,
-    /// The places (cell order) of the points with a non-finite coordinate,
-    /// ascending: they have no hits, and get NaN.
-    nonfinite: Vec<u32>,
-    /// Weights before the zeros.
-    pairs: usize,
-}
-
-/// Candidates per mask byte.
-const BLOCK: usize = 8;
-
-/// Bytes a stored weight (a level) takes.
-const LEVEL_BYTES: usize = 3;
-
-/// Bytes past a row's last level that its vector loads and stores may
-/// touch (a 32-byte access starting within the row).
-const LEVEL_TAIL: usize = 32;
-
-/// How a kernel's weights are stored: `phi * per_weight`, rounded to the
-/// nearest integer (ties to even), is a level between 0 and 2^24 - 1 (phi
-/// is largest at 0); a level times `per_level` is the weight again, within
-/// half a step (`per_level / 2`, 3e-8 of phi(0)).
-#[derive(Clone, Copy, Debug)]
-struct Levels {
-    per_weight: f64,
-    per_level: f64,
-}
-
-impl Levels {
-    const STEPS: f64 = ((1u32 << 24) - 1) as f64;
-
-    fn of(kernel: Kernel) -> Levels {
-        let top = kernel.eval(0.0);
-        Levels {
-            per_weight: Self::STEPS / top,
-            per_level: top / Self::STEPS,
-        }
-    }
+    /// Point-start pairs within R, counted when first asked.
+    pairs: OnceLock<usize>,
 }
 
 /// The arrays of a group of consecutive cells.
 #[derive(Clone, Debug, Default)]
 struct Group {
-    /// Each cell's candidate starts, padded to a multiple of eight.
+    /// Each cell's candidate starts.
     ids: Vec<u32>,
-    /// Per point, one byte per eight candidates of its cell: bit `k` of byte
-    /// `b` is set when candidate `8 b + k` is within R.
-    masks: Vec<u8>,
-    /// The levels of the set bits' weights, three bytes each, point after
-    /// point, then zeros (eight levels per mask byte of the longest row, and
-    /// [`LEVEL_TAIL`] bytes), so that a row's vector loads stay inside.
-    levels: Vec<u8>,
+    /// Their coordinates, in units of R about their cell's centre, each
+    /// cell's padded to a multiple of eight lanes with far starts
+    /// ([`crate::lanes`]).
+    xyz: [Vec<f32>; 3],
 }
 
-/// One cell of points: its group, and where its rows start in the group's
-/// arrays.
-#[derive(Clone, Copy, Debug, Default)]
+/// One cell of points: its group, where its candidates start in the
+/// group's arrays, and its lanes' frame.
+#[derive(Clone, Copy, Debug)]
 struct Cell {
     /// First point (cell order).
     point: usize,
@@ -137,12 +99,17 @@ struct Cell {
     group: usize,
     /// First candidate in `ids`.
     id: usize,
-    /// Mask bytes per point (candidates / 8, rounded up).
-    blocks: usize,
-    /// First mask byte.
-    mask: usize,
-    /// First byte of its levels.
-    level: usize,
+    /// Candidates.
+    candidates: usize,
+    /// First lane in `xyz`.
+    lane: usize,
+    /// Lanes (candidates padded to a multiple of eight).
+    lanes: usize,
+    /// The lanes' centre.
+    centre: DVec3,
+    /// Whether the kernel sum may run in f32 lanes (the cell is narrow:
+    /// see [`crate::lanes`]); else in f64, as the evaluation does.
+    narrow: bool,
 }
 
 /// The bound points, of the kind they were given in.
@@ -152,10 +119,35 @@ enum Rest {
     F64(Vec<DVec3>),
 }
 
+impl Rest {
+    fn len(&self) -> usize {
+        match self {
+            Rest::F32(p) => p.len(),
+            Rest::F64(p) => p.len(),
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        match self {
+            Rest::F32(p) => size_of_val(p.as_slice()),
+            Rest::F64(p) => size_of_val(p.as_slice()),
+        }
+    }
+
+    /// Point `k` (cell order).
+    #[inline]
+    fn at(&self, k: usize) -> DVec3 {
+        match self {
+            Rest::F32(p) => p[k].to_dvec3(),
+            Rest::F64(p) => p[k],
+        }
+    }
+}
+
 /// What a binding is made from: the starts' octree, kernel, radius and
 /// fingerprint.
 struct Support<'a> {
-    octree: &'a Octree,
+    octree: &'a Arc<Octree>,
     kernel: Kernel,
     radius: f64,
     starts: usize,
@@ -166,7 +158,7 @@ impl<'a> Support<'a> {
     /// The support of a deformation's starts.
     fn of(deformation: &'a Deformation) -> Support<'a> {
         Support {
-            octree: deformation.octree(),
+            octree: deformation.octree_shared(),
             kernel: deformation.kernel(),
             radius: deformation.radius(),
             starts: deformation.starts().len(),
@@ -176,8 +168,8 @@ impl<'a> Support<'a> {
 }
 
 impl Binding {
-    /// Finds, for every point, the starts of `deformation` within R and their
-    /// weights. Only the starts, kernel and R matter: any deformation solved
+    /// Sorts `points` into cells and finds each cell's candidate starts
+    /// among those of `deformation`. Only the starts, kernel and R matter: any deformation solved
     /// from the same [`crate::System`] can then be applied through it
     /// ([`crate::System::bind`] binds without a solve).
     pub fn new<P: Point>(deformation: &Deformation, points: &[P]) -> Binding {
@@ -185,8 +177,8 @@ impl Binding {
     }
 
     /// Makes this binding anew for the starts of `deformation` and `points`,
-    /// as [`Binding::new`] does, reusing its memory: the arrays of weights
-    /// stay allocated (their pages in memory), so a re-bind after the
+    /// as [`Binding::new`] does, reusing its memory: the arrays of
+    /// candidates stay allocated (their pages in memory), so a re-bind after the
     /// control set changed (a studio's edit, a [`crate::Pipeline`]'s stage)
     /// does not fault fresh memory in, and two bindings never coexist.
     pub fn rebind<P: Point>(&mut self, deformation: &Deformation, points: &[P]) {
@@ -211,10 +203,7 @@ impl Binding {
 
     /// Number of points bound.
     pub fn len(&self) -> usize {
-        match &self.rest {
-            Rest::F32(p) => p.len(),
-            Rest::F64(p) => p.len(),
-        }
+        self.rest.len()
     }
 
     /// Whether no point is bound.
@@ -222,27 +211,40 @@ impl Binding {
         self.len() == 0
     }
 
-    /// Stored point-start pairs.
+    /// Point-start pairs within R: the nonzero terms of a point's sum,
+    /// over all points. Counted (a search of the starts for every point)
+    /// when first asked, then remembered.
     pub fn pairs(&self) -> usize {
-        self.pairs
+        *self.pairs.get_or_init(|| {
+            let (octree, radius) = (&*self.octree, self.radius);
+            let count = |k: usize| {
+                let x = self.rest.at(k);
+                let mut n = 0;
+                if x.is_finite() {
+                    octree.for_each_within(x, radius, |_, _| n += 1);
+                }
+                n
+            };
+            if self.len() >= PARALLEL_POINTS {
+                (0..self.len()).into_par_iter().map(count).sum()
+            } else {
+                (0..self.len()).map(count).sum()
+            }
+        })
     }
 
-    /// Bytes the binding holds.
+    /// Bytes the binding holds (its octree, shared with the system, not
+    /// counted).
     pub fn bytes(&self) -> usize {
-        let rest = match &self.rest {
-            Rest::F32(p) => size_of_val(p.as_slice()),
-            Rest::F64(p) => size_of_val(p.as_slice()),
-        };
         let groups: usize = self
             .groups
             .iter()
-            .map(|g| size_of_val(g.ids.as_slice()) + g.masks.len() + g.levels.len())
+            .map(|g| size_of_val(g.ids.as_slice()) + 3 * size_of_val(g.xyz[0].as_slice()))
             .sum();
         size_of_val(self.cells.as_slice())
             + groups
-            + rest
+            + self.rest.bytes()
             + self.order.as_ref().map_or(0, |s| size_of_val(s.as_slice()))
-            + size_of_val(self.nonfinite.as_slice())
     }
 
     /// Writes D of `deformation` at every bound point into `out` (point order).

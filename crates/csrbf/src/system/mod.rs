@@ -238,8 +238,8 @@ impl System {
         crate::diagnose::out_of_reach(&s.octree, s.starts.len(), s.radius, points)
     }
 
-    /// Binds these points to the system's starts: their kernel weights,
-    /// found once, apply to every deformation the system solves.
+    /// Binds these points to the system's starts: their cells and the starts
+    /// in reach, found once, serve every deformation the system solves.
     pub fn bind<P: Point>(&self, points: &[P]) -> Binding {
         Binding::of_shared(&self.shared, points)
     }
