@@ -1,8 +1,8 @@
 """Live posing: while a destination empty moves, the shape key follows.
 
 The factored system and the vertices' binding are kept per object (as the
-studio keeps them): a moved destination costs one solve and one sparse
-product; a moved start, a new control or other settings rebuild them.
+studio keeps them): a moved destination costs one solve and the kernel
+sums through the binding; a moved start, a new control or other settings rebuild them.
 
 The handlers are persistent: Blender keeps them through File > Open and
 File > New, so the Live toggle, which is saved in the .blend, means what it

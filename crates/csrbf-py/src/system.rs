@@ -204,10 +204,12 @@ pub struct PyBinding {
 impl PyBinding {
     /// Binds `points` ((N, 3)) to the starts of `deformation` (a
     /// Deformation or a System). Results have the points' dtype (float32
-    /// stays float32). It keeps about 21 bytes a point at a million points
-    /// (33 with float64 points), however many starts are in reach, and sums
-    /// the kernel in float32 lanes, for float64 points too: displacements agree with
-    /// `Deformation.displacements` (float64) to the float32 sums' rounding,
+    /// stays float32). It keeps the points sorted into cells and each cell's
+    /// starts in reach (about 21 bytes a point at a million points, 33 with
+    /// float64 points; more with fewer points a cell or more starts in
+    /// reach), and sums the kernel in float32 lanes, for float64 points too:
+    /// displacements agree with `Deformation.displacements` (float64) to the
+    /// float32 sums' rounding,
     /// about 1e-7 of the sum of |coefficient| over the starts within R
     /// (1e-7 to 1e-6 of the largest move on real meshes; more where nearby
     /// starts pull in opposite directions, their coefficients exceeding the
@@ -244,9 +246,9 @@ impl PyBinding {
 
     /// Makes the binding anew for the starts of `deformation` (a
     /// Deformation) and `points` ((N, 3), any N; results then have their
-    /// dtype), in the memory it has: at a million points that saves about a
-    /// third of a new binding's time (no fresh memory to fault in), and the
-    /// old and new binding never take memory at once.
+    /// dtype), reusing the cells' arrays: the old and new binding never
+    /// take memory at once (at a million points a rebind takes about as
+    /// long as a new binding, a fraction of one evaluation).
     ///
     /// >>> b.rebind(s.solve(targets), moved_vertices)
     fn rebind(
@@ -309,12 +311,7 @@ impl PyBinding {
 
     fn __repr__(&self) -> String {
         let state = self.read();
-        format!(
-            "Binding({} points, {} point-start pairs, {})",
-            state.0.len(),
-            state.0.pairs(),
-            state.1.name()
-        )
+        format!("Binding({} points, {})", state.0.len(), state.1.name())
     }
 }
 

@@ -145,6 +145,17 @@ impl<'a, T> Scatter<'a, T> {
 /// point: sorting points into cells would cost more than it saves.
 const FEW_STARTS: usize = 48;
 
+/// Refuses more points than a `u32` index names: the cells' order would
+/// not be a permutation, and the tasks writing each point's place would
+/// share places (more than 4 billion points: about 51 GB of f32 points).
+fn assert_indexable(n: usize) {
+    assert!(
+        u32::try_from(n).is_ok(),
+        "{n} points: at most {} can be sorted into cells",
+        u32::MAX
+    );
+}
+
 /// Points below this count are sorted into cells on one thread.
 const PARALLEL_SORT: usize = 1 << 15;
 
@@ -156,6 +167,7 @@ impl Blocks {
     /// runs of points in their own order when there are few starts, else
     /// cells about R/2 wide.
     pub(crate) fn for_starts<P: Point>(points: &[P], radius: f64, starts: usize) -> Blocks {
+        assert_indexable(points.len());
         if starts > FEW_STARTS {
             return Blocks::new(points, radius * 0.5);
         }
@@ -173,6 +185,7 @@ impl Blocks {
     /// Buckets `points` into cells of about `cell` width by a counting sort.
     pub(crate) fn new<P: Point>(points: &[P], cell: f64) -> Blocks {
         let n = points.len();
+        assert_indexable(n);
         if n == 0 {
             return Blocks {
                 order: Vec::new(),

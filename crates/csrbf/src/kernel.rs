@@ -33,7 +33,7 @@ impl Kernel {
     pub fn eval(self, r: f64) -> f64 {
         let s = 1.0 - r;
         // The polynomial first and the cut-off as a select, not a branch:
-        // a loop over candidates then vectorises (a binding's weights).
+        // a loop over candidates then vectorises.
         let v = match self {
             Kernel::C0 => s * s,
             Kernel::C2 => {

@@ -19,7 +19,7 @@
 //!
 //! [`sum_body`] is the reference: the same arithmetic one lane at a time
 //! (without fused multiply-adds), used where the CPU has no AVX2 and FMA.
-//! [`sums_for`] chooses the sums for a kernel and CPU once; the AVX2 copy
+//! [`Sums`] chooses the sums for a kernel and CPU once; the AVX2 copy
 //! takes two points at a time, sharing the candidates' loads. A
 //! [`crate::Binding`] keeps the coordinates and fills each new
 //! deformation's coefficients into lanes beside them.
@@ -147,7 +147,8 @@ pub(crate) fn pad_far(xyz: &mut [Vec<f32>; 3], from: usize) {
 
 /// Where a cell's lanes are centred: the middle of its points' bounds.
 pub(crate) fn centre((lo, hi): (DVec3, DVec3)) -> DVec3 {
-    (lo + hi) * 0.5
+    // Not (lo + hi) / 2, which overflows near the largest f64.
+    lo + (hi - lo) * 0.5
 }
 
 /// A cell's candidates in lanes, borrowed: their coordinates (as in
@@ -160,28 +161,43 @@ pub(crate) struct View<'a> {
     pub(crate) alpha: [&'a [f32]; 3],
 }
 
-/// Kernel sums over a cell's lanes at many points (in the lanes' frame),
-/// one into each place of `out`.
-pub(crate) type SumsFn = fn(View<'_>, &[[f32; 3]], &mut [[f32; 3]]);
+/// The kernel sums of one kernel on this CPU, chosen once: with AVX2 and
+/// FMA when the proof is given.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sums {
+    kernel: Kernel,
+    cpu: Option<Avx2Fma>,
+}
 
-/// The kernel sums for `kernel` on this CPU (AVX2 and FMA when the proof
-/// is given), chosen once for a cell's points.
-pub(crate) fn sums_for(cpu: Option<Avx2Fma>, kernel: Kernel) -> SumsFn {
-    #[cfg(target_arch = "x86_64")]
-    if cpu.is_some() {
-        return match kernel {
-            Kernel::C0 => sums_avx2::<0>,
-            Kernel::C2 => sums_avx2::<2>,
-            Kernel::C4 => sums_avx2::<4>,
-            Kernel::C6 => sums_avx2::<6>,
-        };
+impl Sums {
+    pub(crate) fn of(cpu: Option<Avx2Fma>, kernel: Kernel) -> Sums {
+        Sums { kernel, cpu }
     }
-    let _ = cpu;
-    match kernel {
-        Kernel::C0 => sums_plain::<0>,
-        Kernel::C2 => sums_plain::<2>,
-        Kernel::C4 => sums_plain::<4>,
-        Kernel::C6 => sums_plain::<6>,
+
+    /// sum_j alpha_j phi(|x - s_j| / R) over a cell's lanes at each point
+    /// of `xs` (in the lanes' frame, [`local`]), into `out`.
+    pub(crate) fn run(self, l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.cpu {
+            let _ = cpu;
+            // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+            #[allow(unsafe_code)]
+            unsafe {
+                match self.kernel {
+                    Kernel::C0 => sums_avx2_fma::<0>(l, xs, out),
+                    Kernel::C2 => sums_avx2_fma::<2>(l, xs, out),
+                    Kernel::C4 => sums_avx2_fma::<4>(l, xs, out),
+                    Kernel::C6 => sums_avx2_fma::<6>(l, xs, out),
+                }
+            }
+            return;
+        }
+        match self.kernel {
+            Kernel::C0 => sums_plain::<0>(l, xs, out),
+            Kernel::C2 => sums_plain::<2>(l, xs, out),
+            Kernel::C4 => sums_plain::<4>(l, xs, out),
+            Kernel::C6 => sums_plain::<6>(l, xs, out),
+        }
     }
 }
 
@@ -219,7 +235,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let blocks = Blocks::for_starts(points, d.radius(), d.starts().len());
     let (kernel, radius, alpha) = (d.kernel(), d.radius(), d.coefficients());
     let linear = d.affine().map(|a| a.linear());
-    let sum_many = sums_for(Avx2Fma::detect(), kernel);
+    let sums_of = Sums::of(Avx2Fma::detect(), kernel);
     let reach = d.f32_reach();
     let out = Scatter::new(out);
     let cell = |(lanes, cand): &mut (Lanes, Candidates), &(s, e): &(usize, usize)| {
@@ -243,7 +259,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
                 for (l, &i) in xs.iter_mut().zip(chunk) {
                     *l = lanes.local(points[i as usize].to_dvec3());
                 }
-                sum_many(lanes.view(), &xs[..chunk.len()], &mut sums[..chunk.len()]);
+                sums_of.run(lanes.view(), &xs[..chunk.len()], &mut sums[..chunk.len()]);
             }
             for (&i, sum) in chunk.iter().zip(&sums) {
                 let x = points[i as usize].to_dvec3();
@@ -533,18 +549,6 @@ unsafe fn sums_avx2_fma<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f
     }
 }
 
-/// [`sums_avx2_fma`] for kernel `K`: reached only through [`sums_for`]
-/// given an [`Avx2Fma`].
-#[cfg(target_arch = "x86_64")]
-fn sums_avx2<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
-    // SAFETY: `sums_for` returns this function only for an `Avx2Fma`, which
-    // exists only when the CPU has AVX2 and FMA.
-    #[allow(unsafe_code)]
-    unsafe {
-        sums_avx2_fma::<K>(l, xs, out)
-    }
-}
-
 /// [`sum_body`] for every point of `xs`, into `out`.
 fn sums_plain<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
     for (x, o) in xs.iter().zip(out) {
@@ -591,8 +595,8 @@ mod tests {
                 let local: Vec<[f32; 3]> = xs.iter().map(|x| lanes.local(*x)).collect();
                 let mut plain = vec![[0.0f32; 3]; xs.len()];
                 let mut fast = plain.clone();
-                sums_for(None, kernel)(lanes.view(), &local, &mut plain);
-                sums_for(Avx2Fma::detect(), kernel)(lanes.view(), &local, &mut fast);
+                Sums::of(None, kernel).run(lanes.view(), &local, &mut plain);
+                Sums::of(Avx2Fma::detect(), kernel).run(lanes.view(), &local, &mut fast);
                 for (k, x) in xs.iter().enumerate() {
                     let want = reference(&starts, &alpha, kernel, r, *x);
                     // f32 rounds r and phi by about 1e-7 (phi and its slope
@@ -614,7 +618,11 @@ mod tests {
                     }
                     // A point's sums alone are its sums in a pair.
                     let mut alone = [[0.0f32; 3]];
-                    sums_for(Avx2Fma::detect(), kernel)(lanes.view(), &local[k..=k], &mut alone);
+                    Sums::of(Avx2Fma::detect(), kernel).run(
+                        lanes.view(),
+                        &local[k..=k],
+                        &mut alone,
+                    );
                     assert_eq!(alone[0].map(f32::to_bits), fast[k].map(f32::to_bits));
                 }
             }

@@ -766,7 +766,7 @@ pub(crate) fn deformation_index(stages: &[FittedStage], at: usize) -> usize {
 /// [`compose_with_groups`].
 ///
 /// It evaluates in f64 and rounds once; a [`Pipeline`] goes through a
-/// [`Binding`] (24-bit weights, f32 sums), so the two differ by about 1e-7
+/// [`Binding`] (the f32 evaluation's sums), so the two differ by about 1e-7
 /// of the sum of |coefficient| over the starts within R (see [`Binding`]).
 pub fn compose(rest: &[Vec3], stages: &[FittedStage], combine: Combine) -> Result<Vec<Vec3>> {
     compose_traced(rest, stages, combine, &|_| None, None)

@@ -1159,7 +1159,7 @@ mod library {
                 .zip(evaluated)
                 .map(|(a, b)| a.distance(*b))
                 .fold(0.0f32, f32::max);
-            // f32 binding weights against f64 evaluation (see Binding).
+            // The binding's f32 sums against the f64 evaluation (see Binding).
             assert!(worst < 1e-6, "{combine}: {worst}");
             // A file of two deformations is not one deformation.
             let e = Deformation::from_bytes(&bytes).expect_err("two read as one");

@@ -177,9 +177,5 @@ fn group<P: Point>(
             narrow,
         });
     }
-    g.ids.shrink_to_fit();
-    for v in &mut g.xyz {
-        v.shrink_to_fit();
-    }
     (g, cells)
 }

@@ -40,15 +40,18 @@ use crate::system::Shared;
 /// gives [`Deformation::displacements_f32`]'s displacements bit for bit
 /// (its error against [`Deformation::displacements`] is the f32
 /// evaluation's; a cell whose coefficients would cancel in f32 is summed
-/// in f64 by both), and costs about 21 bytes a point at 1M points (the
-/// points' copy 12, their order 4, the cells' candidates 5; 33 with f64
-/// points) whatever the number of starts in reach.
+/// in f64 by both). It costs the points' copy (12 bytes a point, 24 with
+/// f64 points), their order (4) and per cell 16 bytes a candidate: about
+/// 21 bytes a point at 1M points on a sphere with 43 starts in reach of
+/// each (cells of about 240 points and 80 candidates), more with fewer
+/// points a cell or more starts in reach.
 ///
 /// Measured at 1M points and 10,000 starts (about 43 in reach of each
 /// point, `csrbf bench --scene 1m`): a bind costs less than one
 /// evaluation, a product about half of one. Storing each pair's weight
-/// (this type's earlier form: 3.3 bytes a pair, 160 MB) made the product
-/// about a fifth faster and the bind twice as slow as an evaluation.
+/// (this type's earlier form: 3.3 bytes a pair, 160 MB) made a refit
+/// (solve and product) about 8 % faster and a bind 2.6 times an
+/// evaluation.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation
@@ -177,15 +180,18 @@ impl Binding {
     }
 
     /// Makes this binding anew for the starts of `deformation` and `points`,
-    /// as [`Binding::new`] does, reusing its memory: the arrays of
-    /// candidates stay allocated (their pages in memory), so a re-bind after the
-    /// control set changed (a studio's edit, a [`crate::Pipeline`]'s stage)
-    /// does not fault fresh memory in, and two bindings never coexist.
+    /// as [`Binding::new`] does, reusing the arrays of its cells'
+    /// candidates, so that a re-bind after the control set changed (a
+    /// studio's edit, a [`crate::Pipeline`]'s stage) never holds two
+    /// bindings at once.
     pub fn rebind<P: Point>(&mut self, deformation: &Deformation, points: &[P]) {
         let groups = std::mem::take(&mut self.groups);
-        // The points' copy and order go first: only the groups are reused.
+        // The rest goes first (only the groups are reused), and nothing of
+        // the old binding is left to read should the build panic.
         self.rest = Rest::F32(Vec::new());
         self.order = None;
+        self.cells = Vec::new();
+        self.pairs = OnceLock::from(0);
         *self = build::dispatch(&Support::of(deformation), points, groups);
     }
 
@@ -297,6 +303,11 @@ impl Binding {
             });
         }
         if n == 0 {
+            // Nothing to write, but a deformation of other starts is refused
+            // as with points.
+            for d in deformations {
+                self.displacements_into(d, &mut [])?;
+            }
             return Ok(());
         }
         out.par_chunks_mut(n)

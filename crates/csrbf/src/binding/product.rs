@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use super::{Binding, Cell, Rest};
 use crate::deformation::{Deformation, Linear};
 use crate::evaluate::{Candidates, PARALLEL_POINTS, Point, Scatter};
-use crate::lanes::{SumsFn, View, local, sums_for};
+use crate::lanes::{Sums, View, local};
 use crate::simd::Avx2Fma;
 
 /// Points summed at a time: the places of the next chunk's points are
@@ -108,7 +108,7 @@ fn cell(
                 Vec3::NAN
             };
             let place = places.map_or(c.point + k, |p| p[k] as usize);
-            // SAFETY: as in `Sums::write`.
+            // SAFETY: as in `Narrow::write`.
             #[allow(unsafe_code)]
             unsafe {
                 out.write(place, v)
@@ -121,9 +121,9 @@ fn cell(
         xyz: g.xyz.each_ref().map(|v| &v[lanes.clone()]),
         alpha: s.alpha.each_ref().map(Vec::as_slice),
     };
-    let sums = Sums {
+    let narrow = Narrow {
         view,
-        sums: sums_for(cpu, b.kernel),
+        sums: Sums::of(cpu, b.kernel),
         linear: d.affine().map(|a| a.linear()),
         centre: c.centre,
         inv_radius: 1.0 / b.radius,
@@ -131,16 +131,16 @@ fn cell(
         first: c.point,
     };
     match &b.rest {
-        Rest::F32(p) => sums.write(&p[points], out),
-        Rest::F64(p) => sums.write(&p[points], out),
+        Rest::F32(p) => narrow.write(&p[points], out),
+        Rest::F64(p) => narrow.write(&p[points], out),
     }
 }
 
 /// A narrow cell's sums: its lanes, the kernel sum chosen for them, the
 /// polynomial part, its frame and its places.
-struct Sums<'a> {
+struct Narrow<'a> {
     view: View<'a>,
-    sums: SumsFn,
+    sums: Sums,
     linear: Option<Linear>,
     centre: DVec3,
     inv_radius: f64,
@@ -150,7 +150,7 @@ struct Sums<'a> {
     first: usize,
 }
 
-impl Sums<'_> {
+impl Narrow<'_> {
     /// Writes the displacement of each of the cell's `points` at its place.
     fn write<P: Point>(&self, points: &[P], out: &Scatter<'_, Vec3>) {
         let place = |k: usize| self.places.map_or(self.first + k, |p| p[k] as usize);
@@ -170,7 +170,7 @@ impl Sums<'_> {
             for (l, x) in local_xs.iter_mut().zip(chunk) {
                 *l = local(self.centre, self.inv_radius, x.to_dvec3());
             }
-            (self.sums)(self.view, &local_xs[..m], &mut sums[..m]);
+            self.sums.run(self.view, &local_xs[..m], &mut sums[..m]);
             for (k, (x, sum)) in chunk.iter().zip(&sums).enumerate() {
                 let x = x.to_dvec3();
                 let v = if x.is_finite() {

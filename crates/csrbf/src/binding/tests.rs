@@ -70,9 +70,15 @@ fn a_binding_is_the_f32_evaluation_issue_18() {
                         assert!(f64s[k].is_nan() && f32s[k].is_nan());
                         continue;
                     }
-                    let (coefficients, n) = reach(&d, *p);
-                    pairs += n;
-                    for (got, want) in [(f64s[k], want[k]), (f32s[k], want32[k])] {
+                    // The pairs of the points bound (f32: a distance within
+                    // 1e-7 of R may fall either side for the f64 point).
+                    pairs += reach(&d, p32[k].as_dvec3()).1;
+                    let near = [
+                        (f64s[k], want[k], *p),
+                        (f32s[k], want32[k], p32[k].as_dvec3()),
+                    ];
+                    for (got, want, p) in near {
+                        let (coefficients, _) = reach(&d, p);
                         let err = (got.as_dvec3() - want).length();
                         let tol = 2e-6 * coefficients + 1e-7 * want.length() + 1e-12;
                         assert!(err <= tol, "{kernel:?} {poly:?} {k}: {err:e} > {tol:e}");
@@ -132,6 +138,8 @@ fn a_binding_sums_cancelling_coefficients_as_the_evaluation_does() {
     let s: Vec<DVec3> = (0..120).map(|_| rng.vec3()).collect();
     let t: Vec<DVec3> = s.iter().map(|p| *p + rng.vec3() * 1e-3).collect();
     let d = Deformation::fit(&s, &t, FitOptions::new(40.0)).expect("fit");
+    let total: f64 = d.coefficients().iter().map(|a| a.abs().element_sum()).sum();
+    assert!(total > d.f32_reach(), "the cells are summed in f64");
     let points: Vec<Vec3> = (0..2000).map(|_| rng.vec3().as_vec3()).collect();
     same_bits(&d, &points);
 }
@@ -186,6 +194,14 @@ fn bindings_of_no_points_and_of_points_out_of_reach() {
     let empty = Binding::new(&d, &none);
     assert!(empty.is_empty() && empty.pairs() == 0);
     assert_eq!(empty.displacements(&d).expect("empty"), Vec::<Vec3>::new());
+    // No points, but a deformation of other starts is still refused.
+    let other = Deformation::fit(&s[..50], &t[..50], FitOptions::new(0.2)).expect("fit");
+    assert!(
+        empty
+            .displacements_many(&[d.clone(), other], &mut [])
+            .is_err()
+    );
+    assert!(empty.displacements_many(&[d.clone()], &mut []).is_ok());
     let far: Vec<Vec3> = (0..2000).map(|_| (rng.vec3() + 5.0).as_vec3()).collect();
     let b = Binding::new(&d, &far);
     assert_eq!(b.pairs(), 0);
@@ -197,9 +213,10 @@ fn bindings_of_no_points_and_of_points_out_of_reach() {
     );
 }
 
-/// Points all alike, and a model spread over a box thousands of times R
-/// with a few far points (cells wider than the f32 lanes allow, summed in
-/// f64): the evaluation's values still.
+/// Points all alike, a model spread over a box thousands of times R with a
+/// few far points (cells wider than the f32 lanes allow, summed in f64),
+/// infinite coordinates, cells and runs of which no point is finite, and
+/// f64 points far from the origin: the evaluation's values still.
 #[test]
 fn degenerate_and_spread_points_bind_as_they_evaluate() {
     let mut rng = Rng::new(27);
@@ -212,4 +229,22 @@ fn degenerate_and_spread_points_bind_as_they_evaluate() {
         spread[k * 97] = rng.vec3() * 1e5;
     }
     same_bits(&d, &spread);
+    // Infinite coordinates, and cells (many starts) or runs (few) of
+    // points none of which is finite.
+    let mut odd: Vec<Vec3> = (0..3000).map(|_| rng.vec3().as_vec3()).collect();
+    odd[5] = Vec3::new(f32::INFINITY, 0.5, 0.5);
+    odd[6] = Vec3::new(0.5, f32::NEG_INFINITY, 0.5);
+    odd[7] = Vec3::splat(f32::INFINITY);
+    odd.extend(std::iter::repeat_n(Vec3::NAN, 600));
+    same_bits(&d, &odd);
+    let few = Deformation::fit(&s[..20], &t[..20], FitOptions::new(0.3)).expect("fit");
+    let got = same_bits(&few, &odd);
+    assert!(got[5].is_nan() && got[3000..].iter().all(|v| v.is_nan()));
+    // f64 points far from the origin (in units of R), a start among them.
+    let far = DVec3::new(1e5, -2e5, 3e4);
+    let s: Vec<DVec3> = (0..200).map(|_| far + rng.vec3()).collect();
+    let t: Vec<DVec3> = s.iter().map(|p| *p + rng.vec3() * 0.01).collect();
+    let d = Deformation::fit(&s, &t, FitOptions::new(0.15)).expect("fit");
+    let points: Vec<DVec3> = (0..3000).map(|_| far + rng.vec3()).collect();
+    same_bits(&d, &points);
 }
