@@ -201,7 +201,11 @@ fn bindings_of_no_points_and_of_points_out_of_reach() {
             .displacements_many(&[d.clone(), other], &mut [])
             .is_err()
     );
-    assert!(empty.displacements_many(std::slice::from_ref(&d), &mut []).is_ok());
+    assert!(
+        empty
+            .displacements_many(std::slice::from_ref(&d), &mut [])
+            .is_ok()
+    );
     let far: Vec<Vec3> = (0..2000).map(|_| (rng.vec3() + 5.0).as_vec3()).collect();
     let b = Binding::new(&d, &far);
     assert_eq!(b.pairs(), 0);
