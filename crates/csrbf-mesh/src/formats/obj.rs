@@ -24,7 +24,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // length (exporters write `vn 0 0 0` for degenerate faces): its corners
     // are read as corners without a normal.
     let mut normals: Vec<Option<Vec3>> = Vec::new();
-    // Each face corner's normal, `None` where it names none.
+    // Each face corner's normal, `None` where it names none; empty until a
+    // face names one (a file without normals costs nothing), then padded.
     let mut corners_normal: Vec<Option<Vec3>> = Vec::new();
     let mut corners_uv: Vec<u32> = Vec::new();
     let mut any_face_uv = false;
@@ -133,7 +134,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     any_face_uv = true;
                     corners_uv.extend_from_slice(&corner_uv);
                 }
-                corners_normal.extend_from_slice(&corner_normal);
+                if !corners_normal.is_empty() || corner_normal.iter().any(Option::is_some) {
+                    let before = mesh.faces.indices.len() - corner.len();
+                    corners_normal.resize(before, None);
+                    corners_normal.extend_from_slice(&corner_normal);
+                }
                 for &p in &current {
                     mesh.parts[p].faces.push(f);
                 }
@@ -200,6 +205,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     // a vertex has several: hard edges); vertices without get computed ones.
     // A file whose faces name none keeps none, as before.
     if corners_normal.iter().any(Option::is_some) {
+        corners_normal.resize(mesh.faces.indices.len(), None);
         let computed = crate::vertex_normals(&mesh.positions, &mesh.faces);
         let (per_vertex, per_corner) =
             crate::carry::normals_from_corners(computed, &mesh.faces, &corners_normal);

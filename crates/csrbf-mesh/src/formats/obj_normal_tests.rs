@@ -218,3 +218,25 @@ fn ply_and_off_say_they_lose_the_hard_edges() {
     assert_eq!(Format::Obj.loses(&m), None);
     assert_eq!(Format::Glb.loses(&m), None);
 }
+
+#[test]
+fn normals_after_faces_without_them_land_on_their_own_corners() {
+    // The first face names no normals, the next two do and disagree at
+    // vertices 2 and 3: the per-corner normals line up with the corners.
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 1 1 1\nf 1 2 3\nvn 0 0 1\nvn 1 0 0\n\
+f 2//1 4//1 3//1\nf 2//2 5//2 4//2\n";
+    let m = read(text).expect("read");
+    let c = m.corner_normals.as_ref().expect("corner normals");
+    assert_eq!(c.len(), 9);
+    assert_eq!(
+        &c[3..],
+        &[Vec3::Z, Vec3::Z, Vec3::Z, Vec3::X, Vec3::X, Vec3::X]
+    );
+    let n = m.normals.as_ref().expect("normals");
+    // Vertex 0 is only on the face without normals: computed, and its corner
+    // takes it.
+    assert!((n[0] - Vec3::Z).length() < 1e-6, "{}", n[0]);
+    assert_eq!(c[0], n[0]);
+    // Vertex 1 (index 1) has both: the normalised mean.
+    assert!((n[1] - (Vec3::X + Vec3::Z).normalize()).length() < 1e-6);
+}
