@@ -43,12 +43,109 @@ impl Mesh {
             }
             _ => None,
         };
+        let corners = match (&self.corner_normals, &carried) {
+            (Some(c), Some(_)) => carry_corner_normals(&self.positions, &moved, &self.faces, c),
+            _ => None,
+        };
         self.positions = moved;
         match carried {
-            Some(n) => self.normals = Some(n),
+            Some(n) => {
+                self.normals = Some(n);
+                self.corner_normals = corners;
+            }
             None => self.recompute_normals(),
         }
     }
+}
+
+/// Per-corner normals carried as [`carry_normals`] carries per-vertex ones,
+/// over the mesh split where a vertex's corners differ (each vertex and
+/// normal its own vertex: the hard edges `smooth_groups` keeps apart).
+/// `None` unless `corners` has one normal per face corner and every corner's
+/// vertex is in `before` and `after`.
+fn carry_corner_normals(
+    before: &[Vec3],
+    after: &[Vec3],
+    faces: &Faces,
+    corners: &[Vec3],
+) -> Option<Vec<Vec3>> {
+    let n = before.len().min(after.len());
+    if corners.len() != faces.indices.len() || faces.indices.iter().any(|&v| v as usize >= n) {
+        return None;
+    }
+    let mut split: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
+    let (mut b, mut a, mut normals) = (Vec::new(), Vec::new(), Vec::new());
+    let mut indices = Vec::with_capacity(corners.len());
+    for (&v, &c) in faces.indices.iter().zip(corners) {
+        let key = (v, (c + Vec3::ZERO).to_array().map(f32::to_bits));
+        let at = *split.entry(key).or_insert_with(|| {
+            b.push(before[v as usize]);
+            a.push(after[v as usize]);
+            normals.push(c);
+            (normals.len() - 1) as u32
+        });
+        indices.push(at);
+    }
+    let split_faces = Faces {
+        offsets: faces.offsets.clone(),
+        indices,
+    };
+    let carried = carry_normals(&b, &a, &split_faces, &normals);
+    Some(
+        split_faces
+            .indices
+            .iter()
+            .map(|&i| carried[i as usize])
+            .collect(),
+    )
+}
+
+/// Per-vertex and, where needed, per-corner normals from each face corner's
+/// normal (`None`: the corner has none): a vertex whose corners agree gets
+/// their normal, one whose corners differ the normalised mean of theirs, one
+/// with none `base`'s. The per-corner normals (a corner without one takes
+/// its vertex's) are `Some` only when some vertex's corners differ.
+pub(crate) fn normals_from_corners(
+    base: Vec<Vec3>,
+    faces: &Faces,
+    corners: &[Option<Vec3>],
+) -> (Vec<Vec3>, Option<Vec<Vec3>>) {
+    let n = base.len();
+    let mut first: Vec<Option<Vec3>> = vec![None; n];
+    let mut sum = vec![Vec3::ZERO; n];
+    let mut differs = vec![false; n];
+    for (&v, c) in faces.indices.iter().zip(corners) {
+        let (Some(c), Some(slot)) = (*c, first.get_mut(v as usize)) else {
+            continue;
+        };
+        match slot {
+            Some(f) if *f != c => differs[v as usize] = true,
+            Some(_) => {}
+            None => *slot = Some(c),
+        }
+        sum[v as usize] += c.normalize_or_zero();
+    }
+    let per_vertex: Vec<Vec3> = base
+        .into_iter()
+        .enumerate()
+        .map(|(v, b)| match first[v] {
+            Some(f) if !differs[v] => f,
+            Some(f) => sum[v].normalize_or(f),
+            None => b,
+        })
+        .collect();
+    let split = differs.iter().any(|&d| d) && corners.len() == faces.indices.len();
+    let per_corner = split.then(|| {
+        faces
+            .indices
+            .iter()
+            .zip(corners)
+            .map(|(&v, c)| {
+                c.unwrap_or_else(|| per_vertex.get(v as usize).copied().unwrap_or(Vec3::Z))
+            })
+            .collect()
+    });
+    (per_vertex, per_corner)
 }
 
 /// The smooth group of every vertex: vertices at the same position (bit for

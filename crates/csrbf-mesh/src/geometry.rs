@@ -25,8 +25,10 @@ impl Mesh {
 
     /// Area-weighted vertex normals from the faces (fan-triangulated).
     /// Vertices on no face get +Z.
+    /// Per-corner normals are dropped: the recomputed ones are smooth.
     pub fn recompute_normals(&mut self) {
         self.normals = Some(vertex_normals(&self.positions, &self.faces));
+        self.corner_normals = None;
     }
 
     /// Checks what every consumer relies on: at least one vertex, finite

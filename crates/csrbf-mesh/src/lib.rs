@@ -348,8 +348,19 @@ pub struct Mesh {
     pub faces: Faces,
     /// Texture coordinates, if the file has them.
     pub uvs: Option<TexCoords>,
-    /// Per-vertex normals: from the file, or recomputed.
+    /// Per-vertex normals: from the file, or recomputed. Where the file
+    /// gives a vertex several normals (see `corner_normals`), its normalised
+    /// mean.
     pub normals: Option<Vec<Vec3>>,
+    /// Per face-corner normals (aligned with [`Faces::indices`]), kept only
+    /// when the file gives some vertex different normals on different
+    /// corners (hard edges, custom split normals: an OBJ's `f v//vn`), as
+    /// per-corner UVs keep UV seams. The OBJ and glTF writers write them
+    /// (glTF splits such vertices, and csrbf welds them back on reading);
+    /// the others write `normals`. [`Mesh::move_vertices`] carries them,
+    /// [`Mesh::recompute_normals`] drops them. Ignored unless it has one
+    /// entry per face corner.
+    pub corner_normals: Option<Vec<Vec3>>,
     /// Per-vertex colours, linear RGBA in [0, 1].
     pub colors: Option<Vec<[f32; 4]>>,
     /// Named parts: groups, objects, materials.

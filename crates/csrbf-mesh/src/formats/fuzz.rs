@@ -52,10 +52,12 @@ unsafe impl GlobalAlloc for Limited {
 #[global_allocator]
 static ALLOCATOR: Limited = Limited;
 
-/// A small valid mesh with every feature: polygons, parts, per-corner UVs, colours.
+/// A small valid mesh with every feature: polygons, parts, per-corner UVs,
+/// colours, normals per corner (a hard edge at vertices 1 and 2, and a face
+/// without normals).
 fn sample() -> Mesh {
     let src = b"v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 1 1 0 0 0 1\nv 0 1 0 1 1 1\nv 0 0 1 0.5 0.5 0.5\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
-o box\ng bottom\nusemtl a\nf 1/1 2/2 3/3 4/4\ng side\nusemtl b\ns 1\nf 1/1 2/2 5/3\ns off\nf 2/2 3/3 5/4\n";
+vn 0 0 -1\nvn 0 -1 0\no box\ng bottom\nusemtl a\nf 1/1/1 2/2/1 3/3/1 4/4/1\ng side\nusemtl b\ns 1\nf 1/1/2 2/2/2 5/3/2\ns off\nf 2/2 3/3 5/4\n";
     Mesh::from_bytes(src, Format::Obj, Path::new("s.obj")).expect("sample")
 }
 

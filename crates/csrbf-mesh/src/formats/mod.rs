@@ -42,7 +42,7 @@ impl Format {
     /// stores triangles, not vertices, so reading it back gives vertices in
     /// the order the triangles first use them, without unused ones, with
     /// coincident ones merged, and no parts, UVs or colours; PLY and OFF keep
-    /// one UV per vertex and no parts.
+    /// one UV and one normal per vertex and no parts.
     pub fn loses(self, mesh: &crate::Mesh) -> Option<String> {
         match self {
             Format::Stl => {}
@@ -124,6 +124,13 @@ fn loses_per_vertex(format: Format, mesh: &Mesh) -> Option<String> {
         && uv.per_vertex(&mesh.faces, mesh.positions.len()).is_none()
     {
         lost.push("its UVs, which have seams (a vertex with several UVs)".to_owned());
+    }
+    if mesh
+        .corner_normals
+        .as_ref()
+        .is_some_and(|c| c.len() == mesh.faces.indices.len())
+    {
+        lost.push("its hard edges (a vertex with several normals)".to_owned());
     }
     let mut names: Vec<&str> = mesh.parts.iter().map(|p| p.name.as_str()).collect();
     names.dedup();
@@ -224,6 +231,8 @@ pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
 mod fuzz;
 #[cfg(test)]
 mod obj_material_tests;
+#[cfg(test)]
+mod obj_normal_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

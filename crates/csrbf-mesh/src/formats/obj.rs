@@ -20,7 +20,13 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut any_color = false;
     let mut uvs: Vec<Vec2> = Vec::new();
-    let mut normals = 0usize;
+    // The file's normals; `None` for one that is not finite or of zero
+    // length (exporters write `vn 0 0 0` for degenerate faces): its corners
+    // are read as corners without a normal.
+    let mut normals: Vec<Option<Vec3>> = Vec::new();
+    // Each face corner's normal, `None` where it names none; empty until a
+    // face names one (a file without normals costs nothing), then padded.
+    let mut corners_normal: Vec<Option<Vec3>> = Vec::new();
     let mut corners_uv: Vec<u32> = Vec::new();
     let mut any_face_uv = false;
     let mut parts: HashMap<(PartKind, String), usize> = HashMap::new();
@@ -28,6 +34,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut current_by_kind: HashMap<PartKind, Vec<usize>> = HashMap::new();
     let mut corner = Vec::new();
     let mut corner_uv = Vec::new();
+    let mut corner_normal = Vec::new();
     // The smoothing group of each face, and of the faces to come.
     let mut smoothing: Vec<u32> = Vec::new();
     let mut group = 0u32;
@@ -65,19 +72,22 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 uvs.push(Vec2::new(u, v));
             }
             "vn" => {
-                for k in 0..3 {
-                    number::<f32>(
+                let mut n = [0.0f32; 3];
+                for (k, c) in n.iter_mut().enumerate() {
+                    *c = number::<f32>(
                         tok.next(),
                         path,
                         ln,
                         ["normal x", "normal y", "normal z"][k],
                     )?;
                 }
-                normals += 1;
+                let n = Vec3::from_array(n);
+                normals.push((n.is_finite() && n.length_squared() > 0.0).then_some(n));
             }
             "f" | "fo" => {
                 corner.clear();
                 corner_uv.clear();
+                corner_normal.clear();
                 for c in tok {
                     let mut it = c.split('/');
                     let v = resolve(it.next(), mesh.positions.len(), path, ln, "vertex")?;
@@ -91,9 +101,15 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                             "texture coordinate",
                         )?);
                     }
-                    if let Some(n) = it.next().filter(|t| !t.is_empty()) {
-                        resolve(Some(n), normals, path, ln, "normal")?;
-                    }
+                    // A corner without a normal index (even in a face whose
+                    // other corners have one) is a corner without a normal.
+                    let n = match it.next().filter(|t| !t.is_empty()) {
+                        Some(n) => {
+                            normals[resolve(Some(n), normals.len(), path, ln, "normal")? as usize]
+                        }
+                        None => None,
+                    };
+                    corner_normal.push(n);
                 }
                 if corner.len() < 3 {
                     return Err(MeshError::parse(
@@ -117,6 +133,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 } else {
                     any_face_uv = true;
                     corners_uv.extend_from_slice(&corner_uv);
+                }
+                if !corners_normal.is_empty() || corner_normal.iter().any(Option::is_some) {
+                    let before = mesh.faces.indices.len() - corner.len();
+                    corners_normal.resize(before, None);
+                    corners_normal.extend_from_slice(&corner_normal);
                 }
                 for &p in &current {
                     mesh.parts[p].faces.push(f);
@@ -180,6 +201,17 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             corners: Some(corners_uv),
         });
     }
+    // The file's normals where its faces name them (split per corner where
+    // a vertex has several: hard edges); vertices without get computed ones.
+    // A file whose faces name none keeps none, as before.
+    if corners_normal.iter().any(Option::is_some) {
+        corners_normal.resize(mesh.faces.indices.len(), None);
+        let computed = crate::vertex_normals(&mesh.positions, &mesh.faces);
+        let (per_vertex, per_corner) =
+            crate::carry::normals_from_corners(computed, &mesh.faces, &corners_normal);
+        mesh.normals = Some(per_vertex);
+        mesh.corner_normals = per_corner;
+    }
     if smoothing.iter().any(|&g| g != 0) {
         mesh.smoothing = Some(smoothing);
     }
@@ -239,16 +271,41 @@ pub(crate) fn encode(mesh: &Mesh, library: Option<&str>) -> Vec<u8> {
             s.push('\n');
         }
     }
-    if let Some(normals) = &mesh.normals {
-        for n in normals {
-            s.push_str("vn");
-            for c in n.to_array() {
-                s.push(' ');
-                push_f32(&mut s, c);
+    // One `vn` per vertex, or, where the mesh keeps normals per corner
+    // (hard edges), one per distinct corner normal in the order corners use
+    // them, each corner naming its own.
+    let corner_normals = mesh
+        .corner_normals
+        .as_ref()
+        .filter(|c| c.len() == mesh.faces.indices.len());
+    let mut corner_vn: Vec<u32> = Vec::new();
+    let written: Vec<Vec3> = match (corner_normals, &mesh.normals) {
+        (Some(corners), _) => {
+            let mut index: HashMap<[u32; 3], u32> = HashMap::new();
+            let mut distinct = Vec::new();
+            for n in corners {
+                let k = *index
+                    .entry(n.to_array().map(f32::to_bits))
+                    .or_insert_with(|| {
+                        distinct.push(*n);
+                        distinct.len() as u32 - 1
+                    });
+                corner_vn.push(k);
             }
-            s.push('\n');
+            distinct
         }
+        (None, Some(normals)) => normals.clone(),
+        (None, None) => Vec::new(),
+    };
+    for n in &written {
+        s.push_str("vn");
+        for c in n.to_array() {
+            s.push(' ');
+            push_f32(&mut s, c);
+        }
+        s.push('\n');
     }
+    let has_normals = corner_normals.is_some() || mesh.normals.is_some();
     // Which part of each kind each face is in, to emit o/g/usemtl on change.
     let nf = mesh.faces.len();
     let mut labels: [Vec<Vec<&str>>; 3] = [
@@ -310,15 +367,16 @@ pub(crate) fn encode(mesh: &Mesh, library: Option<&str>) -> Vec<u8> {
                 Some(idx) => idx[start + c],
                 None => v,
             });
-            match (uv, mesh.normals.is_some()) {
+            let vn = corner_vn.get(start + c).copied().unwrap_or(v);
+            match (uv, has_normals) {
                 (Some(t), true) => {
-                    let _ = write!(s, "/{}/{}", t + 1, v + 1);
+                    let _ = write!(s, "/{}/{}", t + 1, vn + 1);
                 }
                 (Some(t), false) => {
                     let _ = write!(s, "/{}", t + 1);
                 }
                 (None, true) => {
-                    let _ = write!(s, "//{}", v + 1);
+                    let _ = write!(s, "//{}", vn + 1);
                 }
                 (None, false) => {}
             }

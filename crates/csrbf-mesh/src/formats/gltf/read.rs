@@ -539,6 +539,15 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
                     corners: Some(mesh.faces.indices.clone()),
                 });
             }
+            // Normals per corner too: copies split at a hard edge have
+            // their own (kept per corner where a vertex has several).
+            let corner_normals: Option<Vec<Option<Vec3>>> = mesh.normals.as_ref().map(|n| {
+                mesh.faces
+                    .indices
+                    .iter()
+                    .map(|&v| n.get(v as usize).copied())
+                    .collect()
+            });
             for v in &mut mesh.faces.indices {
                 *v = source[*v as usize];
             }
@@ -548,6 +557,12 @@ fn apply_extras(mesh: &mut Mesh, extras: &Value) {
             }
             if let Some(n) = &mut mesh.normals {
                 n.truncate(kept);
+            }
+            if let (Some(n), Some(corners)) = (mesh.normals.take(), corner_normals) {
+                let (per_vertex, per_corner) =
+                    crate::carry::normals_from_corners(n, &mesh.faces, &corners);
+                mesh.normals = Some(per_vertex);
+                mesh.corner_normals = per_corner;
             }
         }
     }

@@ -135,7 +135,12 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
     // vertex, several UVs), the vertex is written once per UV, and the
     // `csrbf` extras name the source vertex of each written one so this
     // reader welds them back (other readers see an ordinary split mesh).
-    let split = split_uv_seams(mesh);
+    // Hard edges (per-corner normals) split vertices the same way, on the
+    // UV and the normal together.
+    let (split, split_normals) = match split_uv_and_normal_seams(mesh) {
+        Some((s, normals)) => (Some(s), Some(normals)),
+        None => (split_uv_seams(mesh), None),
+    };
     let source: Vec<u32> = split
         .as_ref()
         .map_or_else(|| (0..n as u32).collect(), |s| s.source.clone());
@@ -154,13 +159,20 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
             normals_mesh.normals.as_ref().map_or(&mesh.positions, |v| v)
         }
     };
-    let nrm: Vec<f32> = source
-        .iter()
-        .flat_map(|&v| normals[v as usize].normalize_or(Vec3::Z).to_array())
-        .collect();
+    let nrm: Vec<f32> = match &split_normals {
+        Some(written) => written
+            .iter()
+            .flat_map(|n| n.normalize_or(Vec3::Z).to_array())
+            .collect(),
+        None => source
+            .iter()
+            .flat_map(|&v| normals[v as usize].normalize_or(Vec3::Z).to_array())
+            .collect(),
+    };
     attributes["NORMAL"] = json!(b.floats(&nrm, 3, "VEC3", false));
     let uv_values: Option<Vec<Vec2>> = match &split {
-        Some(s) => Some(s.uvs.clone()),
+        Some(s) if mesh.uvs.is_some() => Some(s.uvs.clone()),
+        Some(_) => None,
         None => mesh.uvs.as_ref().and_then(|u| u.per_vertex(&mesh.faces, n)),
     };
     if let Some(uv) = &uv_values {
@@ -327,6 +339,80 @@ pub fn split_uv_seams(mesh: &Mesh) -> Option<UvSplit> {
         uvs,
         corners: out,
     })
+}
+
+/// The mesh's vertices split where a vertex's corners differ in UV or in
+/// normal, as [`split_uv_seams`] splits them at UV seams, with the normal
+/// of every written vertex; `None` unless the mesh keeps normals per corner
+/// (one per face corner).
+fn split_uv_and_normal_seams(mesh: &Mesh) -> Option<(UvSplit, Vec<Vec3>)> {
+    let normals = mesh
+        .corner_normals
+        .as_ref()
+        .filter(|c| c.len() == mesh.faces.indices.len())?;
+    let n = mesh.positions.len();
+    let per_vertex_uv = mesh
+        .uvs
+        .as_ref()
+        .filter(|u| u.corners.is_none() && u.values.len() == n);
+    let uv_of = |c: usize, v: u32| -> Vec2 {
+        let Some(uv) = &mesh.uvs else {
+            return Vec2::ZERO;
+        };
+        let t = match (&uv.corners, per_vertex_uv) {
+            (Some(idx), _) => idx.get(c).copied(),
+            (None, Some(_)) => Some(v),
+            (None, None) => None,
+        };
+        t.and_then(|t| uv.values.get(t as usize).copied())
+            .unwrap_or(Vec2::ZERO)
+    };
+    let key = |uv: Vec2, nm: Vec3| {
+        let [a, b] = uv.to_array().map(f32::to_bits);
+        let [x, y, z] = nm.to_array().map(f32::to_bits);
+        [a, b, x, y, z]
+    };
+    let mut first: Vec<Option<[u32; 5]>> = vec![None; n];
+    let mut extra: HashMap<(u32, [u32; 5]), u32> = HashMap::new();
+    let mut source: Vec<u32> = (0..n as u32).collect();
+    let mut uvs = vec![Vec2::ZERO; n];
+    let mut written = mesh
+        .normals
+        .clone()
+        .filter(|v| v.len() == n)
+        .unwrap_or_else(|| vec![Vec3::Z; n]);
+    let mut out = Vec::with_capacity(normals.len());
+    for (c, (&v, &nm)) in mesh.faces.indices.iter().zip(normals).enumerate() {
+        if v as usize >= n {
+            return None;
+        }
+        let uv = uv_of(c, v);
+        let k = key(uv, nm);
+        let at = match first[v as usize] {
+            None => {
+                first[v as usize] = Some(k);
+                uvs[v as usize] = uv;
+                written[v as usize] = nm;
+                v
+            }
+            Some(k0) if k0 == k => v,
+            Some(_) => *extra.entry((v, k)).or_insert_with(|| {
+                source.push(v);
+                uvs.push(uv);
+                written.push(nm);
+                (source.len() - 1) as u32
+            }),
+        };
+        out.push(at);
+    }
+    Some((
+        UvSplit {
+            source,
+            uvs,
+            corners: out,
+        },
+        written,
+    ))
 }
 
 /// Materials as glTF JSON (with their textures, images and samplers),
