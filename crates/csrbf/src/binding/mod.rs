@@ -50,8 +50,8 @@ use crate::system::Shared;
 /// point, `csrbf bench --scene 1m`): a bind costs less than one
 /// evaluation, a product about half of one. Storing each pair's weight
 /// (this type's earlier form: 3.3 bytes a pair, 160 MB) made a refit
-/// (solve and product) about 6 % faster (30 % at 100k points, whose
-/// weights stayed in the caches) and a bind 2.6 times an evaluation.
+/// (solve and product) about as fast at 1M points (30 % faster at 100k,
+/// whose weights stayed in the caches) and a bind 2.6 times an evaluation.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation
