@@ -9,6 +9,25 @@ const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n";
 /// Runs `deform` and expects failure naming `file` and every `want`; the
 /// existing output must be left untouched and nothing else written.
 #[track_caller]
+/// `deform --mesh MESH --controls CONTROLS --out OUT` fails saying `want`.
+fn deform_to_fails(
+    mesh: &std::path::Path,
+    controls: &std::path::Path,
+    out: &std::path::Path,
+    want: &[&str],
+) {
+    let args = [
+        "deform",
+        "--mesh",
+        arg(mesh),
+        "--controls",
+        arg(controls),
+        "--out",
+        arg(out),
+    ];
+    fails(&args, want);
+}
+
 fn deform_fails(
     dir: &TempDir,
     mesh: &std::path::Path,
@@ -186,28 +205,11 @@ fn bad_arguments_and_outputs() {
     deform_fails(&dir, &m, &c, &["--phase", "1.5"], &["phase", "[0, 1]"]);
     deform_fails(&dir, &m, &c, &["--phase", "-0.1"], &["phase"]);
     // Unknown output extension: listed formats, nothing written.
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&m),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&dir.path("x.fbx")),
-        ],
-        &["x.fbx", ".obj", ".glb"],
-    );
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&dir.path("m.3ds")),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&dir.path("o.obj")),
-        ],
+    deform_to_fails(&m, &c, &dir.path("x.fbx"), &["x.fbx", ".obj", ".glb"]);
+    deform_to_fails(
+        &dir.path("m.3ds"),
+        &c,
+        &dir.path("o.obj"),
         &["m.3ds", "unknown mesh format"],
     );
     // An output that is a folder, or has no extension, is said to be one.
@@ -216,46 +218,13 @@ fn bad_arguments_and_outputs() {
         (dir.path(""), "is a folder"),
         (dir.path("noext"), "has no extension"),
     ] {
-        fails(
-            &[
-                "deform",
-                "--mesh",
-                arg(&m),
-                "--controls",
-                arg(&c),
-                "--out",
-                arg(&out),
-            ],
-            &[want, ".obj, .ply"],
-        );
+        deform_to_fails(&m, &c, &out, &[want, ".obj, .ply"]);
     }
     // Output into a missing directory.
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&m),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&dir.path("no/such/o.obj")),
-        ],
-        &["does not exist"],
-    );
+    deform_to_fails(&m, &c, &dir.path("no/such/o.obj"), &["does not exist"]);
     // Output equal to the input: refused, input intact; allowed with --force.
     let before = std::fs::read(&m).expect("m");
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&m),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&m),
-        ],
-        &["same file as an input", "--force"],
-    );
+    deform_to_fails(&m, &c, &m, &["same file as an input", "--force"]);
     assert_eq!(std::fs::read(&m).expect("m"), before);
     ok(&[
         "deform",
@@ -329,16 +298,10 @@ fn duplicate_keys_boms_and_empty_boxes() {
     let head = model("cgal_head.off");
     let out = dir.path("o.ply");
     let dup = dir.write("dup.json", "{\n  \"radius\": 3.5,\n  \"radius\": 0.1,\n  \"controls\": [{\"from\": [0, 0, 0], \"to\": [0, 0, 0]}]\n}\n");
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&head),
-            "--controls",
-            arg(&dup),
-            "--out",
-            arg(&out),
-        ],
+    deform_to_fails(
+        &head,
+        &dup,
+        &out,
         &["dup.json", "\"radius\" is given twice", "line 2", "line 3"],
     );
     let bom = dir.write("bom.json", "\u{feff}{\"radius\": 3.5, \"controls\": [{\"from\": [2.15, 10.18, 4.42], \"to\": [2.15, 10.5, 4.42]}]}");
@@ -353,16 +316,10 @@ fn duplicate_keys_boms_and_empty_boxes() {
         arg(&out),
     ]);
     let empty = dir.write("box.json", r#"{"radius": 3.5, "region": {"box": {"min": [0, 5, 0], "max": [1, 1, 1]}}, "controls": [{"from": [0, 0, 0], "to": [0, 0, 0]}]}"#);
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&head),
-            "--controls",
-            arg(&empty),
-            "--out",
-            arg(&dir.path("p.ply")),
-        ],
+    deform_to_fails(
+        &head,
+        &empty,
+        &dir.path("p.ply"),
         &["region.box.min[1]", "greater than max[1]"],
     );
     std::fs::copy(&head, dir.path("head.off")).expect("copy");
@@ -382,35 +339,13 @@ fn odd_outputs_and_degenerate_meshes() {
     let head = model("cgal_head.off");
     let c = root().join("assets/controls/head_smile.json");
     let file = dir.write("plain", "x");
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&head),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&file.join("o.ply")),
-        ],
-        &["is a file, not a folder"],
-    );
+    deform_to_fails(&head, &c, &file.join("o.ply"), &["is a file, not a folder"]);
     let copy = dir.path("head.off");
     std::fs::copy(&head, &copy).expect("copy");
     let link = dir.path("link.off");
     std::fs::hard_link(&copy, &link).expect("hard link");
     let before = std::fs::read(&copy).expect("read");
-    fails(
-        &[
-            "deform",
-            "--mesh",
-            arg(&copy),
-            "--controls",
-            arg(&c),
-            "--out",
-            arg(&link),
-        ],
-        &["same file as an input"],
-    );
+    deform_to_fails(&copy, &c, &link, &["same file as an input"]);
     assert_eq!(
         std::fs::read(&copy).expect("read"),
         before,
