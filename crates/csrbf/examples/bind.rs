@@ -4,7 +4,7 @@
 //! bind, solve, refit through the binding (without the solve) and evaluate,
 //! the binding's size, and the largest difference between the binding and
 //! the f64 evaluation. `BIND_ONLY` (bind, then re-bind reusing the memory),
-//! `REFIT_ONLY` or `EVALUATE_ONLY` set: that phase alone.
+//! `REFIT_ONLY`, `SOLVE_ONLY` or `EVALUATE_ONLY` set: that phase alone.
 
 use csrbf::synthetic::scene;
 use csrbf::{Binding, System};
@@ -47,6 +47,11 @@ fn main() -> Result<(), csrbf::Error> {
     if std::env::var_os("EVALUATE_ONLY").is_some() {
         let (ms, _) = median(reps, || d.displacements_f32(&s.points));
         println!("evaluate {ms:.2} ms");
+        return Ok(());
+    }
+    if std::env::var_os("SOLVE_ONLY").is_some() {
+        let (ms, _) = median(reps, || sys.solve(&s.targets));
+        println!("solve {ms:.2} ms");
         return Ok(());
     }
     if std::env::var_os("BIND_ONLY").is_some() {

@@ -218,6 +218,7 @@ mod surface;
 mod sweep;
 pub mod synthetic;
 mod system;
+mod triangular;
 
 #[cfg(test)]
 mod connected_tests;

@@ -203,29 +203,47 @@ impl Factor {
                 }
             }
             Factor::Supernodal { symbolic, values } => {
-                let n = symbolic.nrows();
-                let mut m = Mat::<f64>::from_fn(n, T::LANES, |i, k| b[i].lane(k));
-                // One thread: the triangular solves with a few right-hand
-                // sides read L once each way and are bound by memory; at 1m
-                // (27 MB of L, 4 right-hand sides) rayon took 8.1-14.3 ms
-                // where one thread took 6.9-11.2 ms, and `solve_many`
-                // already runs its solves in parallel.
-                let par = Par::Seq;
-                let mut mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(T::LANES, par));
-                LltRef::new(symbolic, values).solve_in_place_with_conj(
-                    Conj::No,
-                    m.as_mut(),
-                    par,
-                    MemStack::new(&mut mem),
-                );
-                // The solve ran on this thread alone: no need to wake the
-                // pool's workers (`clear_upper_vector_state` would).
-                clear_upper_vector_state_here();
-                for (i, v) in b.iter_mut().enumerate().take(n) {
-                    for k in 0..T::LANES {
-                        v.set_lane(k, m[(i, k)]);
-                    }
+                if let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw()
+                    && T::LANES <= crate::triangular::MAX_LANES
+                {
+                    let forward = symbolic.perm().map(|p| p.arrays().0);
+                    crate::triangular::solve_in_place(s, forward, values, b);
+                    return;
                 }
+                Self::solve_in_place_faer(symbolic, values, b);
+            }
+        }
+    }
+
+    /// [`Factor::solve_in_place`] through faer's solve (a simplicial
+    /// factor, or more right-hand sides than [`crate::triangular`] takes);
+    /// the reference of [`crate::triangular`]'s tests.
+    pub(crate) fn solve_in_place_faer<T: Rhs>(
+        symbolic: &SymbolicCholesky<u32>,
+        values: &[f64],
+        b: &mut [T],
+    ) {
+        let n = symbolic.nrows();
+        let mut m = Mat::<f64>::from_fn(n, T::LANES, |i, k| b[i].lane(k));
+        // One thread: the triangular solves with a few right-hand
+        // sides read L once each way and are bound by memory; at 1m
+        // (27 MB of L, 4 right-hand sides) rayon took 8.1-14.3 ms
+        // where one thread took 6.9-11.2 ms, and `solve_many`
+        // already runs its solves in parallel.
+        let par = Par::Seq;
+        let mut mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(T::LANES, par));
+        LltRef::new(symbolic, values).solve_in_place_with_conj(
+            Conj::No,
+            m.as_mut(),
+            par,
+            MemStack::new(&mut mem),
+        );
+        // The solve ran on this thread alone: no need to wake the
+        // pool's workers (`clear_upper_vector_state` would).
+        clear_upper_vector_state_here();
+        for (i, v) in b.iter_mut().enumerate().take(n) {
+            for k in 0..T::LANES {
+                v.set_lane(k, m[(i, k)]);
             }
         }
     }
@@ -285,7 +303,7 @@ fn zero_upper() {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use glam::DVec3;
 
     use super::*;
@@ -294,7 +312,7 @@ mod tests {
     use crate::testing::{Rng, assert_close};
 
     /// The lower triangle of A for random starts in a cube, and their graph.
-    fn random_system(n: usize, radius: f64, seed: u64) -> (Vec<DVec3>, Graph, LowerCsc) {
+    pub(crate) fn random_system(n: usize, radius: f64, seed: u64) -> (Vec<DVec3>, Graph, LowerCsc) {
         let mut rng = Rng::new(seed);
         let s: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
         let lists: Vec<Vec<u32>> = (0..n)
