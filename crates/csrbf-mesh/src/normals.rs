@@ -11,17 +11,21 @@
 //! read), then the sums normalised eight vertices at a time and written as
 //! turned `Vec3`s.
 //!
-//! The scatter takes the triangles in an order made once (`schedule`): each
-//! vertex still meets its triangles in their order, so the normals are bit
-//! for bit the plain function's, but two triangles that share a vertex are
-//! 16 places apart where the mesh allows. In the mesh's own order
-//! neighbouring triangles share vertices, and each read-add-write waited on
-//! the store just before it to the same vertex (the fish's frame 16.2 ->
-//! 14.5 us, medians of 11 interleaved runs). Where the CPU also has
-//! AVX-512F, the way out's transposes and interleaves are two-table
-//! permutes (three instructions where AVX2 needs a dozen shuffles and
-//! blends). Without AVX2 a frame takes the plain function; the same passes
-//! one vector at a time stay as the reference of the others in the tests.
+//! The scatter takes the triangles in an order made once (`schedule`):
+//! each vertex still meets its triangles in their order, so the normals
+//! are bit for bit the plain function's, but two triangles that share a
+//! vertex are 16 places apart where the mesh allows. In the mesh's own
+//! order neighbouring triangles share vertices, and each read-add-write
+//! waited on the store just before it to the same vertex (the fish's
+//! frame 16.2 -> 14.5 us, medians of 11 interleaved runs). The way out
+//! issues the square roots and divisions of the blocks two ahead of the
+//! one it finishes: finished in program order, a block's products, turn
+//! and interleave filled the scheduler waiting on its own division
+//! (14.5 -> 13.3 us). Where the CPU also has AVX-512F, the way out's
+//! transposes and interleaves are two-table permutes (three instructions
+//! where AVX2 needs a dozen shuffles and blends). Without AVX2 a frame
+//! takes the plain function; the same passes one vector at a time stay as
+//! the reference of the others in the tests.
 //!
 //! Tried and measured not to win (the fish's frame, interleaved): the
 //! gathers of the passes before this scatter (area vectors of eight
@@ -32,7 +36,8 @@
 //! with the way out (15.0 us against 14.5 for the scheduled scatter: the
 //! area pass and the table's loads cost what the waits did); the cross
 //! product in z x y order (two shuffles a step fewer) with six 32-bit
-//! offset loads in place of three 64-bit ones (14.7 against 14.5).
+//! offset loads in place of three 64-bit ones (14.7 against 14.5); square
+//! roots three blocks ahead (15.4 against 13.3).
 //!
 //! A caller that builds its points itself (a frame: rest points plus
 //! displacements, [`NormalsScratch::points_mut`], [`add_scaled`]) hands them
@@ -46,6 +51,10 @@ use glam::{Mat3, Vec3};
 /// Vertices a pass of the way out handles at a time (eight f32 in an AVX2
 /// register).
 const LANES: usize = 8;
+
+/// Blocks of eight whose square roots and divisions the way out issues
+/// before it finishes the block at hand.
+const AHEAD: usize = 2;
 
 /// Floats a point or a sum takes: x y z and one the passes never read.
 pub const POINT_FLOATS: usize = 4;
@@ -1076,8 +1085,8 @@ unsafe fn write_out_avx512(src: &[f32], normalise: bool, turn: Turn, out: &mut [
     }
 }
 
-/// Eight vectors of [`unit`] lane by lane: ((x x + y y) + z z), 1 / sqrt,
-/// the products; +Z where the sum is not above zero.
+/// Eight vectors of [`unit`] lane by lane: [`lengths_avx2`], then
+/// [`scale_avx2`].
 #[cfg(target_arch = "x86_64")]
 #[inline]
 #[target_feature(enable = "avx2")]
@@ -1090,14 +1099,50 @@ fn unit_avx2(
     std::arch::x86_64::__m256,
     std::arch::x86_64::__m256,
 ) {
+    let (len2, r) = lengths_avx2(x, y, z);
+    scale_avx2(x, y, z, len2, r)
+}
+
+/// The first half of [`unit`] for eight vectors: ((x x + y y) + z z) and
+/// 1 / its square root.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn lengths_avx2(
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
     use std::arch::x86_64::*;
-    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
     // No fused multiply-add: the plain function rounds each product.
     let len2 = _mm256_add_ps(
         _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)),
         _mm256_mul_ps(z, z),
     );
-    let r = _mm256_div_ps(one, _mm256_sqrt_ps(len2));
+    (
+        len2,
+        _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_sqrt_ps(len2)),
+    )
+}
+
+/// The second half of [`unit`] for eight vectors: the products by `r`;
+/// +Z where `len2` is not above zero.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn scale_avx2(
+    x: std::arch::x86_64::__m256,
+    y: std::arch::x86_64::__m256,
+    z: std::arch::x86_64::__m256,
+    len2: std::arch::x86_64::__m256,
+    r: std::arch::x86_64::__m256,
+) -> (
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+    std::arch::x86_64::__m256,
+) {
+    use std::arch::x86_64::*;
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
     let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, zero);
     (
         _mm256_and_ps(positive, _mm256_mul_ps(x, r)),
@@ -1140,8 +1185,9 @@ fn turn_avx2(
 /// in the halves of a register, transposed into x, y and z (moves only);
 /// the normalisation of [`unit`] and the products and sums of
 /// [`turn_one`] lane by lane; then eight x, y and z interleaved into 24
-/// floats by permutes and blends (moves only). The last `n % 8` vectors
-/// one at a time.
+/// floats by permutes and blends (moves only). The loads, lengths, square
+/// roots and divisions run [`AHEAD`] blocks before the rest. The last
+/// `n % 8` vectors one at a time.
 ///
 /// # Safety
 /// The CPU has AVX2; `src` holds at least `4 out.len()` floats.
@@ -1170,7 +1216,8 @@ unsafe fn write_out_avx2(src: &[f32], normalise: bool, turn: Turn, out: &mut [Ve
             _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7),
         ];
         let (at, dst) = (src.as_ptr(), out.as_mut_ptr().cast::<f32>());
-        for k in (0..whole).step_by(LANES) {
+        // The x, y and z of the block of eight from vector `k`.
+        let block = |k: usize| {
             let l = |j: usize| _mm_loadu_ps(at.add(POINT_FLOATS * (k + j)));
             let v = [0, 1, 2, 3].map(|j| _mm256_set_m128(l(j + 4), l(j)));
             let (t0, t1) = (
@@ -1181,11 +1228,42 @@ unsafe fn write_out_avx2(src: &[f32], normalise: bool, turn: Turn, out: &mut [Ve
                 _mm256_unpackhi_ps(v[0], v[1]),
                 _mm256_unpackhi_ps(v[2], v[3]),
             );
-            let mut x = _mm256_shuffle_ps::<0x44>(t0, t1);
-            let mut y = _mm256_shuffle_ps::<0xEE>(t0, t1);
-            let mut z = _mm256_shuffle_ps::<0x44>(t2, t3);
+            [
+                _mm256_shuffle_ps::<0x44>(t0, t1),
+                _mm256_shuffle_ps::<0xEE>(t0, t1),
+                _mm256_shuffle_ps::<0x44>(t2, t3),
+            ]
+        };
+        // Its squared lengths and their reciprocal roots when normalising
+        // (the square root and the division: the long wait).
+        let lengths = |[x, y, z]: [__m256; 3]| match normalise {
+            true => lengths_avx2(x, y, z),
+            false => (_mm256_setzero_ps(), _mm256_setzero_ps()),
+        };
+        // Software pipelined: the loads, lengths, roots and divisions of
+        // the block `AHEAD` blocks on (zeros past the end, never used) are
+        // issued before this block's products, turn and stores, so that
+        // the divider works on later blocks while this one is finished
+        // (in program order, a block's finishing ops filled the scheduler
+        // waiting on its own division).
+        let ahead = |k: usize| match k < whole {
+            true => {
+                let c = block(k);
+                (c, lengths(c))
+            }
+            false => {
+                let zero = _mm256_setzero_ps();
+                ([zero; 3], (zero, zero))
+            }
+        };
+        let mut queue: [([__m256; 3], (__m256, __m256)); AHEAD] =
+            std::array::from_fn(|d| ahead(LANES * d));
+        for k in (0..whole).step_by(LANES) {
+            let ([mut x, mut y, mut z], (len2, r)) = queue[0];
+            queue.rotate_left(1);
+            queue[AHEAD - 1] = ahead(k + LANES * AHEAD);
             if normalise {
-                (x, y, z) = unit_avx2(x, y, z);
+                (x, y, z) = scale_avx2(x, y, z, len2, r);
             }
             if let Some((mm, shift)) = turn {
                 (x, y, z) = turn_avx2(&mm, shift.as_ref(), x, y, z);
