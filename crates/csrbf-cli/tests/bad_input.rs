@@ -6,17 +6,13 @@ const GOOD: &str = r#"{"kernel": "c2", "radius": 1.0, "polynomial": "linear", "c
 
 const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n";
 
-/// Runs `deform` and expects failure naming `file` and every `want`; the
-/// existing output must be left untouched and nothing else written.
-#[track_caller]
-/// `deform --mesh MESH --controls CONTROLS --out OUT` fails saying `want`.
-fn deform_to_fails(
-    mesh: &std::path::Path,
-    controls: &std::path::Path,
-    out: &std::path::Path,
-    want: &[&str],
-) {
-    let args = [
+/// `deform --mesh MESH --controls CONTROLS --out OUT`.
+fn deform_args<'a>(
+    mesh: &'a std::path::Path,
+    controls: &'a std::path::Path,
+    out: &'a std::path::Path,
+) -> Vec<&'a str> {
+    vec![
         "deform",
         "--mesh",
         arg(mesh),
@@ -24,10 +20,23 @@ fn deform_to_fails(
         arg(controls),
         "--out",
         arg(out),
-    ];
-    fails(&args, want);
+    ]
 }
 
+/// `deform --mesh MESH --controls CONTROLS --out OUT` fails saying `want`.
+#[track_caller]
+fn deform_to_fails(
+    mesh: &std::path::Path,
+    controls: &std::path::Path,
+    out: &std::path::Path,
+    want: &[&str],
+) {
+    fails(&deform_args(mesh, controls, out), want);
+}
+
+/// Runs `deform` and expects failure naming `file` and every `want`; the
+/// existing output must be left untouched and nothing else written.
+#[track_caller]
 fn deform_fails(
     dir: &TempDir,
     mesh: &std::path::Path,
@@ -38,15 +47,7 @@ fn deform_fails(
     let out = dir.path("out.obj");
     std::fs::write(&out, "precious").expect("write");
     let before = dir.files();
-    let mut args = vec![
-        "deform",
-        "--mesh",
-        arg(mesh),
-        "--controls",
-        arg(controls),
-        "--out",
-        arg(&out),
-    ];
+    let mut args = deform_args(mesh, controls, &out);
     args.extend_from_slice(extra);
     fails(&args, want);
     assert_eq!(
