@@ -6,23 +6,6 @@ const GOOD: &str = r#"{"kernel": "c2", "radius": 1.0, "polynomial": "linear", "c
 
 const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n";
 
-/// `deform --mesh MESH --controls CONTROLS --out OUT`.
-fn deform_args<'a>(
-    mesh: &'a std::path::Path,
-    controls: &'a std::path::Path,
-    out: &'a std::path::Path,
-) -> Vec<&'a str> {
-    vec![
-        "deform",
-        "--mesh",
-        arg(mesh),
-        "--controls",
-        arg(controls),
-        "--out",
-        arg(out),
-    ]
-}
-
 /// `deform --mesh MESH --controls CONTROLS --out OUT` fails saying `want`.
 #[track_caller]
 fn deform_to_fails(

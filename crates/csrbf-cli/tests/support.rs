@@ -126,21 +126,25 @@ pub fn controls_for(mesh: &Path, kernel: &str, poly: &str) -> String {
     serde_json::json!({ "kernel": kernel, "radius": 0.25 * diag, "polynomial": poly, "controls": controls }).to_string()
 }
 
-/// `csrbf deform -q --json` of `mesh` by `controls` into `out`, with `extra`
-/// flags; its JSON figures.
-#[track_caller]
-pub fn deform_json(mesh: &Path, controls: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
-    let mut args = vec![
+/// `deform --mesh MESH --controls CONTROLS --out OUT`.
+pub fn deform_args<'a>(mesh: &'a Path, controls: &'a Path, out: &'a Path) -> Vec<&'a str> {
+    vec![
         "deform",
-        "-q",
         "--mesh",
         arg(mesh),
         "--controls",
         arg(controls),
         "--out",
         arg(out),
-        "--json",
-    ];
+    ]
+}
+
+/// `csrbf deform -q --json` of `mesh` by `controls` into `out`, with `extra`
+/// flags; its JSON figures.
+#[track_caller]
+pub fn deform_json(mesh: &Path, controls: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = deform_args(mesh, controls, out);
+    args.extend_from_slice(&["-q", "--json"]);
     args.extend_from_slice(extra);
     serde_json::from_str(&ok(&args)).expect("deform --json")
 }
