@@ -10,7 +10,21 @@ use csrbf::synthetic::scene;
 use csrbf::{Binding, System};
 use glam::{DVec3, Vec3};
 
-fn median<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+/// The median and the fastest of some runs, in ms: on a shared machine
+/// the fastest is the least disturbed.
+#[derive(Clone, Copy)]
+struct Times {
+    median: f64,
+    min: f64,
+}
+
+impl std::fmt::Display for Times {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:.2} ms (fastest {:.2})", self.median, self.min)
+    }
+}
+
+fn timed<T>(reps: usize, mut f: impl FnMut() -> T) -> (Times, T) {
     let mut times = Vec::new();
     let mut last = None;
     for _ in 0..reps.max(1) {
@@ -22,7 +36,16 @@ fn median<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
         last = Some(out);
     }
     times.sort_by(f64::total_cmp);
-    (times[times.len() / 2], last.expect("one run"))
+    let times = Times {
+        median: times[times.len() / 2],
+        min: times[0],
+    };
+    (times, last.expect("one run"))
+}
+
+fn median<T>(reps: usize, f: impl FnMut() -> T) -> (f64, T) {
+    let (t, out) = timed(reps, f);
+    (t.median, out)
 }
 
 fn main() -> Result<(), csrbf::Error> {
@@ -45,13 +68,13 @@ fn main() -> Result<(), csrbf::Error> {
     let sys = System::new(&s.starts, s.options)?;
     let d = sys.solve(&s.targets)?;
     if std::env::var_os("EVALUATE_ONLY").is_some() {
-        let (ms, _) = median(reps, || d.displacements_f32(&s.points));
-        println!("evaluate {ms:.2} ms");
+        let (t, _) = timed(reps, || d.displacements_f32(&s.points));
+        println!("evaluate {t}");
         return Ok(());
     }
     if std::env::var_os("SOLVE_ONLY").is_some() {
-        let (ms, _) = median(reps, || sys.solve(&s.targets));
-        println!("solve {ms:.2} ms");
+        let (t, _) = timed(reps, || sys.solve(&s.targets));
+        println!("solve {t}");
         return Ok(());
     }
     if std::env::var_os("BIND_ONLY").is_some() {
@@ -65,8 +88,8 @@ fn main() -> Result<(), csrbf::Error> {
     let (bind_ms, binding) = median(reps.min(3), || Binding::new(&d, &s.points));
     if std::env::var_os("REFIT_ONLY").is_some() {
         let mut out = vec![Vec3::ZERO; s.points.len()];
-        let (ms, _) = median(50, || binding.displacements_into(&d, &mut out));
-        println!("refit {ms:.2} ms");
+        let (t, _) = timed(50, || binding.displacements_into(&d, &mut out));
+        println!("refit {t}");
         return Ok(());
     }
     let moved: Vec<DVec3> = s

@@ -13,6 +13,7 @@ use faer::{Conj, Mat, Par, Side};
 
 use crate::error::{FitError, NameError, Result};
 use crate::skyline::{Profile, Rhs};
+use crate::triangular::Split;
 
 /// Which factorisation to use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -74,6 +75,9 @@ pub(crate) enum Factor {
     Supernodal {
         symbolic: SymbolicCholesky<u32>,
         values: Vec<f64>,
+        /// Its subtrees cut in two for a solve on two threads (`None`: a
+        /// small or simplicial factor, solved on one).
+        split: Option<Box<Split>>,
     },
 }
 
@@ -189,7 +193,15 @@ impl Factor {
             return Err(FitError::NotPositiveDefinite { control });
         }
         clear_upper_vector_state();
-        Ok(Factor::Supernodal { symbolic, values })
+        let split = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Split::of(s, values.len()).map(Box::new),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        };
+        Ok(Factor::Supernodal {
+            symbolic,
+            values,
+            split,
+        })
     }
 
     /// Solves A x = b in place; `b` is in the caller's numbering.
@@ -202,12 +214,16 @@ impl Factor {
                     b[old as usize] = x[new];
                 }
             }
-            Factor::Supernodal { symbolic, values } => {
+            Factor::Supernodal {
+                symbolic,
+                values,
+                split,
+            } => {
                 if let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw()
                     && T::LANES <= crate::triangular::MAX_LANES
                 {
                     let forward = symbolic.perm().map(|p| p.arrays().0);
-                    crate::triangular::solve_in_place(s, forward, values, b);
+                    crate::triangular::solve_in_place(s, forward, values, split.as_deref(), b);
                     return;
                 }
                 Self::solve_in_place_faer(symbolic, values, b);

@@ -14,6 +14,11 @@
 //! factor (forward: four columns at a time subtracted from the rows below
 //! them; backward: each column a dot product with the rows below it), and
 //! the rows are put back.
+//!
+//! A large factor's elimination tree is cut once ([`Split`]) into two sets
+//! of whole subtrees and the supernodes above them, and the two sets are
+//! solved at once: at 1m the fill-reducing order's top separators hold a
+//! third of L, the two sets a third each.
 
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 
@@ -30,10 +35,13 @@ pub(crate) const MAX_LANES: usize = 4;
 /// `values`) with fill-reducing order `forward` (new row `i` is the
 /// caller's row `forward[i]`; `None`: the caller's order). `b` holds one
 /// value per row in the caller's numbering, of at most [`MAX_LANES`] lanes.
+/// With a [`Split`] of the factor, its two sets of subtrees are solved at
+/// once (on two threads when the pool has them).
 pub(crate) fn solve_in_place<T: Rhs>(
     symbolic: &SymbolicSupernodalCholesky<u32>,
     forward: Option<&[u32]>,
     values: &[f64],
+    split: Option<&Split>,
     b: &mut [T],
 ) {
     assert!(T::LANES <= MAX_LANES, "at most four right-hand sides a row");
@@ -46,10 +54,14 @@ pub(crate) fn solve_in_place<T: Rhs>(
             std::array::from_fn(|k| if k < T::LANES { v.lane(k) } else { 0.0 })
         })
         .collect();
-    let mut work = Vec::new();
-    match Avx2Fma::detect() {
-        Some(cpu) => solve_with(cpu, symbolic, values, &mut x, &mut work),
-        None => solve_body::<false>(symbolic, values, &mut x, &mut work),
+    let passes = Passes {
+        symbolic,
+        values,
+        cpu: Avx2Fma::detect(),
+    };
+    match split {
+        Some(split) => passes.solve_split(split, &mut x),
+        None => passes.solve(&mut x),
     }
     for (i, r) in x.iter().enumerate() {
         let v = &mut b[old(i)];
@@ -59,34 +71,241 @@ pub(crate) fn solve_in_place<T: Rhs>(
     }
 }
 
-/// [`solve_body`] compiled for AVX2 and FMA (the proof given).
-fn solve_with(
-    _cpu: Avx2Fma,
-    symbolic: &SymbolicSupernodalCholesky<u32>,
-    values: &[f64],
-    x: &mut [Row],
-    work: &mut Vec<Row>,
-) {
-    // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    unsafe {
-        solve_avx2(symbolic, values, x, work)
+/// Values of L below which a factor is solved on one thread: waking a
+/// second costs more than half of so small a solve.
+const SPLIT_VALUES: usize = 1 << 19;
+
+/// Two sets of subtrees by their roots, each with its work.
+type Halves = [(f64, Vec<u32>); 2];
+
+/// Subtrees taken apart at most in search of a cut.
+const MAX_CUTS: usize = 64;
+
+/// The most a cut's solve may take, of the serial one's work: less gain
+/// is not worth a second thread's start and the copies.
+const GAIN: f64 = 0.8;
+
+/// The supernodes cut in two for a solve on two threads: two sets of whole
+/// subtrees of the elimination tree, about equal in values of L, and the
+/// supernodes above them (the top separators). A subtree's supernodes
+/// change only rows of the subtree and of the supernodes above it, so the
+/// two sets run at once: forward, each adds its updates of the rows above
+/// into a buffer of its own, and the top is solved after them; backward,
+/// the top first, then both sets. Found from the factor's structure alone,
+/// so a solve gives the same values on any number of threads.
+#[derive(Clone, Debug)]
+pub(crate) struct Split {
+    /// Each set's supernodes, ascending (a child before its parent).
+    sets: [Vec<u32>; 2],
+    /// The supernodes above both sets, ascending.
+    top: Vec<u32>,
+}
+
+impl Split {
+    /// The cut of a factor with `values` values of L, or `None` when the
+    /// factor is too small to gain or its tree has no two halves of about
+    /// equal work below a small top.
+    pub(crate) fn of(symbolic: &SymbolicSupernodalCholesky<u32>, values: usize) -> Option<Split> {
+        if values < SPLIT_VALUES {
+            return None;
+        }
+        Split::cut(symbolic)
     }
-    // No such proof is ever made elsewhere; the plain body compiles.
-    #[cfg(not(target_arch = "x86_64"))]
-    solve_body::<false>(symbolic, values, x, work)
+
+    /// The cut of any factor, however small.
+    fn cut(symbolic: &SymbolicSupernodalCholesky<u32>) -> Option<Split> {
+        let count = symbolic.n_supernodes();
+        if count < 3 {
+            return None;
+        }
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        let mut of_column = vec![0u32; symbolic.nrows()];
+        for k in 0..count {
+            of_column[begin[k] as usize..end[k] as usize].fill(k as u32);
+        }
+        // A supernode's parent holds its first row below the diagonal
+        // block (a later column: a parent comes after its children).
+        let mut children: Vec<Vec<u32>> = vec![Vec::new(); count];
+        let mut roots = Vec::new();
+        let mut subtree: Vec<f64> = (0..count)
+            .map(|k| {
+                let width = (end[k] - begin[k]) as f64;
+                (width + symbolic.supernode(k).pattern().len() as f64) * width
+            })
+            .collect();
+        let own = subtree.clone();
+        for k in 0..count {
+            match symbolic.supernode(k).pattern().first() {
+                Some(&r) => {
+                    let p = of_column[r as usize] as usize;
+                    children[p].push(k as u32);
+                    subtree[p] += subtree[k];
+                }
+                None => roots.push(k as u32),
+            }
+        }
+        let total: f64 = own.iter().sum();
+        // Take the largest subtree apart (its root to the top) while that
+        // shortens the solve on two threads (the top's work plus the larger
+        // set's), its sets dealt largest first to the lighter one; keep the
+        // best cut seen.
+        let deal = |below: &mut Vec<u32>| {
+            below.sort_by(|a, b| subtree[*b as usize].total_cmp(&subtree[*a as usize]));
+            let mut halves: Halves = Default::default();
+            for &k in below.iter() {
+                let h = usize::from(halves[1].0 < halves[0].0);
+                halves[h].0 += subtree[k as usize];
+                halves[h].1.push(k);
+            }
+            halves
+        };
+        let (mut below, mut top, mut top_work) = (roots, Vec::new(), 0.0);
+        // The best cut: its time, its top and its two sets.
+        let mut best: Option<(f64, Vec<u32>, Halves)> = None;
+        for _ in 0..MAX_CUTS {
+            let halves = deal(&mut below);
+            let time = top_work + halves[0].0.max(halves[1].0);
+            if best.as_ref().is_none_or(|b| time < b.0) {
+                best = Some((time, top.clone(), halves));
+            }
+            let largest = below.remove(0);
+            if children[largest as usize].is_empty() {
+                break;
+            }
+            top_work += own[largest as usize];
+            top.push(largest);
+            below.extend(&children[largest as usize]);
+        }
+        let (time, mut top, halves) = best?;
+        if time > GAIN * total || halves.iter().any(|h| h.1.is_empty()) {
+            return None;
+        }
+        let sets = halves.map(|(_, roots)| {
+            let mut set = Vec::new();
+            let mut stack = roots;
+            while let Some(k) = stack.pop() {
+                set.push(k);
+                stack.extend(&children[k as usize]);
+            }
+            set.sort_unstable();
+            set
+        });
+        top.sort_unstable();
+        Some(Split { sets, top })
+    }
+}
+
+/// The two passes over chosen supernodes, compiled for the CPU found.
+#[derive(Clone, Copy)]
+struct Passes<'a> {
+    symbolic: &'a SymbolicSupernodalCholesky<u32>,
+    values: &'a [f64],
+    cpu: Option<Avx2Fma>,
+}
+
+impl Passes<'_> {
+    /// Forward then backward over every supernode.
+    fn solve(self, x: &mut [Row]) {
+        let mut work = Vec::new();
+        let count = self.symbolic.n_supernodes();
+        self.forward(0..count, x, &mut work);
+        self.backward((0..count).rev(), x, &mut work);
+    }
+
+    /// [`Passes::solve`] with the two sets of `split` at once. The second
+    /// set works in a copy of `x` whose top rows start at zero (they gather
+    /// its updates, added after), and its rows are copied back.
+    fn solve_split(self, split: &Split, x: &mut [Row]) {
+        let (begin, end) = (
+            self.symbolic.supernode_begin(),
+            self.symbolic.supernode_end(),
+        );
+        let rows = |k: u32| begin[k as usize] as usize..end[k as usize] as usize;
+        let nodes = |set: &[u32]| set.iter().map(|&k| k as usize).collect::<Vec<_>>();
+        let [first, second] = split.sets.each_ref().map(|s| nodes(s));
+        let mut copy = x.to_vec();
+        for &k in &split.top {
+            copy[rows(k)].fill([0.0; 4]);
+        }
+        let (mut work, mut work2) = (Vec::new(), Vec::new());
+        rayon::join(
+            || self.forward(first.iter().copied(), x, &mut work),
+            || self.forward(second.iter().copied(), &mut copy, &mut work2),
+        );
+        for &k in &split.sets[1] {
+            x[rows(k)].copy_from_slice(&copy[rows(k)]);
+        }
+        for &k in &split.top {
+            for (a, b) in x[rows(k)].iter_mut().zip(&copy[rows(k)]) {
+                *a = std::array::from_fn(|l| a[l] + b[l]);
+            }
+        }
+        let top = nodes(&split.top);
+        self.forward(top.iter().copied(), x, &mut work);
+        self.backward(top.iter().rev().copied(), x, &mut work);
+        for &k in &split.top {
+            copy[rows(k)].copy_from_slice(&x[rows(k)]);
+        }
+        rayon::join(
+            || self.backward(first.iter().rev().copied(), x, &mut work),
+            || self.backward(second.iter().rev().copied(), &mut copy, &mut work2),
+        );
+        for &k in &split.sets[1] {
+            x[rows(k)].copy_from_slice(&copy[rows(k)]);
+        }
+    }
+
+    fn forward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.cpu {
+            let _ = cpu;
+            // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+            #[allow(unsafe_code)]
+            unsafe {
+                forward_avx2(self.symbolic, self.values, nodes, x, work)
+            };
+            return;
+        }
+        forward_pass::<false>(self.symbolic, self.values, nodes, x, work)
+    }
+
+    fn backward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.cpu {
+            let _ = cpu;
+            // SAFETY: as in `forward`.
+            #[allow(unsafe_code)]
+            unsafe {
+                backward_avx2(self.symbolic, self.values, nodes, x, work)
+            };
+            return;
+        }
+        backward_pass::<false>(self.symbolic, self.values, nodes, x, work)
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn solve_avx2(
+fn forward_avx2(
     symbolic: &SymbolicSupernodalCholesky<u32>,
     values: &[f64],
+    nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
-    solve_body::<true>(symbolic, values, x, work)
+    forward_pass::<true>(symbolic, values, nodes, x, work)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn backward_avx2(
+    symbolic: &SymbolicSupernodalCholesky<u32>,
+    values: &[f64],
+    nodes: impl Iterator<Item = usize>,
+    x: &mut [Row],
+    work: &mut Vec<Row>,
+) {
+    backward_pass::<true>(symbolic, values, nodes, x, work)
 }
 
 /// One supernode: its first column, its rows below the diagonal block and
@@ -165,16 +384,17 @@ fn mul_add<const FMA: bool>(acc: Row, l: f64, x: Row) -> Row {
     })
 }
 
-/// Forward (L y = b) then backward (L^T x = y) over every supernode.
+/// L y = b over `nodes` (ascending: a child before its parent), each
+/// solving its own rows and updating those below it.
 #[inline(always)]
-fn solve_body<const FMA: bool>(
+fn forward_pass<const FMA: bool>(
     symbolic: &SymbolicSupernodalCholesky<u32>,
     values: &[f64],
+    nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
-    let count = symbolic.n_supernodes();
-    for s in 0..count {
+    for s in nodes {
         let node = node(symbolic, values, s);
         node.gather(x, work);
         forward_node::<FMA>(&node, work);
@@ -183,7 +403,19 @@ fn solve_body<const FMA: bool>(
             x[r as usize] = *v;
         }
     }
-    for s in (0..count).rev() {
+}
+
+/// L^T x = y over `nodes` (descending: a parent before its children),
+/// the rows below each already solved.
+#[inline(always)]
+fn backward_pass<const FMA: bool>(
+    symbolic: &SymbolicSupernodalCholesky<u32>,
+    values: &[f64],
+    nodes: impl Iterator<Item = usize>,
+    x: &mut [Row],
+    work: &mut Vec<Row>,
+) {
+    for s in nodes {
         let node = node(symbolic, values, s);
         node.gather(x, work);
         backward_node::<FMA>(&node, work);
@@ -338,7 +570,10 @@ mod tests {
         let b: Vec<T> = (0..n).map(|_| rhs(&mut rng)).collect();
         let (mut ours, mut faer) = (b.clone(), b.clone());
         factor.solve_in_place(&mut ours);
-        let Factor::Supernodal { symbolic, values } = &factor else {
+        let Factor::Supernodal {
+            symbolic, values, ..
+        } = &factor
+        else {
             unreachable!("a supernodal factor")
         };
         Factor::solve_in_place_faer(symbolic, values, &mut faer);
@@ -375,7 +610,10 @@ mod tests {
     #[test]
     fn the_plain_path_agrees_with_the_fused_one() {
         let (a, factor) = supernodal(600, 0.22, 9);
-        let Factor::Supernodal { symbolic, values } = factor else {
+        let Factor::Supernodal {
+            symbolic, values, ..
+        } = factor
+        else {
             unreachable!("a supernodal factor")
         };
         let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
@@ -389,16 +627,129 @@ mod tests {
             })
             .collect();
         let (mut plain, mut fused) = (b.clone(), b);
-        let mut work = Vec::new();
-        solve_body::<false>(s, &values, &mut plain, &mut work);
-        if let Some(cpu) = Avx2Fma::detect() {
-            solve_with(cpu, s, &values, &mut fused, &mut work);
-        } else {
-            solve_body::<true>(s, &values, &mut fused, &mut work);
-        }
+        let passes = |cpu| Passes {
+            symbolic: s,
+            values: &values,
+            cpu,
+        };
+        passes(None).solve(&mut plain);
+        passes(Avx2Fma::detect()).solve(&mut fused);
         for (p, f) in plain.iter().zip(&fused) {
             for k in 0..4 {
                 assert!((p[k] - f[k]).abs() <= 1e-11 * (1.0 + f[k].abs()));
+            }
+        }
+    }
+
+    /// A random system's supernodal factor, its structure and its cut.
+    fn cut_of(n: usize, radius: f64, seed: u64) -> (Factor, Split) {
+        let (_, factor) = supernodal(n, radius, seed);
+        let Factor::Supernodal { symbolic, .. } = &factor else {
+            unreachable!("a supernodal factor")
+        };
+        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+            unreachable!("forced supernodal")
+        };
+        let split = Split::cut(s).unwrap_or_else(|| panic!("n {n}: no cut"));
+        (factor, split)
+    }
+
+    /// The cut takes every supernode once, each set whole subtrees (a
+    /// supernode's parent in its set or in the top, never in the other
+    /// set), and the top no more than its share.
+    #[test]
+    fn a_cut_takes_whole_subtrees_into_two_sets() {
+        for (n, radius, seed) in [(2000, 0.1, 4), (5000, 0.07, 7)] {
+            let (factor, split) = cut_of(n, radius, seed);
+            let Factor::Supernodal { symbolic, .. } = &factor else {
+                unreachable!()
+            };
+            let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+                unreachable!()
+            };
+            let count = s.n_supernodes();
+            let mut set_of = vec![None; count];
+            for (k, set) in split.sets.iter().chain([&split.top]).enumerate() {
+                assert!(set.windows(2).all(|w| w[0] < w[1]), "n {n}: ascending");
+                for &node in set {
+                    assert_eq!(set_of[node as usize], None, "n {n}: node {node} twice");
+                    set_of[node as usize] = Some(k);
+                }
+            }
+            assert!(set_of.iter().all(Option::is_some), "n {n}: a node left out");
+            assert!(
+                split.sets.iter().all(|s| !s.is_empty()),
+                "n {n}: an empty set"
+            );
+            for node in 0..count {
+                let Some(&row) = s.supernode(node).pattern().first() else {
+                    continue;
+                };
+                let parent = (0..count)
+                    .find(|&p| (s.supernode_begin()[p]..s.supernode_end()[p]).contains(&row))
+                    .expect("a parent");
+                let (mine, theirs) = (set_of[node].unwrap(), set_of[parent].unwrap());
+                assert!(
+                    theirs == mine || theirs == 2,
+                    "n {n}: node {node} in set {mine}, its parent {parent} in {theirs}"
+                );
+                if mine == 2 {
+                    assert_eq!(theirs, 2, "n {n}: the top's parents are the top's");
+                }
+            }
+        }
+    }
+
+    /// The two sets at once (on one thread or two) give the serial solve's
+    /// solution to rounding, and the same values on any number of threads.
+    #[test]
+    fn a_split_solve_agrees_with_the_serial_one_on_any_number_of_threads() {
+        for (n, radius, seed) in [(2000, 0.1, 4), (5000, 0.07, 7)] {
+            let (factor, split) = cut_of(n, radius, seed);
+            let Factor::Supernodal {
+                symbolic, values, ..
+            } = &factor
+            else {
+                unreachable!()
+            };
+            let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+                unreachable!()
+            };
+            let mut rng = Rng::new(seed + 1);
+            let b: Vec<Row> = (0..n)
+                .map(|_| {
+                    let v = rng.vec3() - DVec3::splat(0.5);
+                    [v.x, v.y, v.z, rng.vec3().x]
+                })
+                .collect();
+            let passes = Passes {
+                symbolic: s,
+                values,
+                cpu: Avx2Fma::detect(),
+            };
+            let mut serial = b.clone();
+            passes.solve(&mut serial);
+            let on = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .expect("a pool");
+                let mut x = b.clone();
+                pool.install(|| passes.solve_split(&split, &mut x));
+                x
+            };
+            let (one, two) = (on(1), on(2));
+            assert_eq!(one, two, "n {n}: the thread count changed the values");
+            let scale = serial.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (i, (u, v)) in two.iter().zip(&serial).enumerate() {
+                for k in 0..4 {
+                    assert!(
+                        (u[k] - v[k]).abs() <= 1e-11 * scale,
+                        "n {n} row {i} lane {k}: {} vs {}",
+                        u[k],
+                        v[k]
+                    );
+                }
             }
         }
     }
