@@ -58,6 +58,7 @@ pub(crate) fn solve_in_place<T: Rhs>(
         symbolic,
         values,
         cpu: Avx2Fma::detect(),
+        wide: WIDE_NODE,
     };
     match split {
         Some(split) => passes.solve_split(split, &mut x),
@@ -201,6 +202,9 @@ struct Passes<'a> {
     symbolic: &'a SymbolicSupernodalCholesky<u32>,
     values: &'a [f64],
     cpu: Option<Avx2Fma>,
+    /// Values from which a supernode goes a panel at a time
+    /// ([`WIDE_NODE`]; the tests take every node they can).
+    wide: usize,
 }
 
 impl Passes<'_> {
@@ -262,11 +266,11 @@ impl Passes<'_> {
             // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
             #[allow(unsafe_code)]
             unsafe {
-                forward_avx2(self.symbolic, self.values, nodes, x, work)
+                forward_avx2(self, nodes, x, work)
             };
             return;
         }
-        forward_pass::<false>(self.symbolic, self.values, nodes, x, work)
+        forward_pass::<false>(self, nodes, x, work)
     }
 
     fn backward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
@@ -276,36 +280,104 @@ impl Passes<'_> {
             // SAFETY: as in `forward`.
             #[allow(unsafe_code)]
             unsafe {
-                backward_avx2(self.symbolic, self.values, nodes, x, work)
+                backward_avx2(self, nodes, x, work)
             };
             return;
         }
-        backward_pass::<false>(self.symbolic, self.values, nodes, x, work)
+        backward_pass::<false>(self, nodes, x, work)
+    }
+}
+
+impl Passes<'_> {
+    /// [`take_columns`] for the CPU.
+    fn take_columns(
+        self,
+        node: &Node<'_>,
+        columns: std::ops::Range<usize>,
+        xs: &[Row],
+        rows: &mut [Row],
+        from: usize,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.cpu {
+            let _ = cpu;
+            // SAFETY: as in `Passes::forward`.
+            #[allow(unsafe_code)]
+            unsafe {
+                take_columns_avx2(node, columns, xs, rows, from)
+            };
+            return;
+        }
+        take_columns::<false>(node, columns, xs, rows, from)
+    }
+
+    /// [`dots_below`] for the CPU.
+    fn dots_below(
+        self,
+        node: &Node<'_>,
+        columns: std::ops::Range<usize>,
+        from: usize,
+        rows: &[Row],
+        out: &mut [Row],
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(cpu) = self.cpu {
+            let _ = cpu;
+            // SAFETY: as in `Passes::forward`.
+            #[allow(unsafe_code)]
+            unsafe {
+                dots_below_avx2(node, columns, from, rows, out)
+            };
+            return;
+        }
+        dots_below::<false>(node, columns, from, rows, out)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+fn take_columns_avx2(
+    node: &Node<'_>,
+    columns: std::ops::Range<usize>,
+    xs: &[Row],
+    rows: &mut [Row],
+    from: usize,
+) {
+    take_columns::<true>(node, columns, xs, rows, from)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn dots_below_avx2(
+    node: &Node<'_>,
+    columns: std::ops::Range<usize>,
+    from: usize,
+    rows: &[Row],
+    out: &mut [Row],
+) {
+    dots_below::<true>(node, columns, from, rows, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
 fn forward_avx2(
-    symbolic: &SymbolicSupernodalCholesky<u32>,
-    values: &[f64],
+    passes: Passes<'_>,
     nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
-    forward_pass::<true>(symbolic, values, nodes, x, work)
+    forward_pass::<true>(passes, nodes, x, work)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn backward_avx2(
-    symbolic: &SymbolicSupernodalCholesky<u32>,
-    values: &[f64],
+    passes: Passes<'_>,
     nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
-    backward_pass::<true>(symbolic, values, nodes, x, work)
+    backward_pass::<true>(passes, nodes, x, work)
 }
 
 /// One supernode: its first column, its rows below the diagonal block and
@@ -388,16 +460,15 @@ fn mul_add<const FMA: bool>(acc: Row, l: f64, x: Row) -> Row {
 /// solving its own rows and updating those below it.
 #[inline(always)]
 fn forward_pass<const FMA: bool>(
-    symbolic: &SymbolicSupernodalCholesky<u32>,
-    values: &[f64],
+    passes: Passes<'_>,
     nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
     for s in nodes {
-        let node = node(symbolic, values, s);
+        let node = node(passes.symbolic, passes.values, s);
         node.gather(x, work);
-        forward_node::<FMA>(&node, work);
+        forward_node::<FMA>(passes, &node, work);
         x[node.start..node.start + node.width].copy_from_slice(&work[..node.width]);
         for (&r, v) in node.below.iter().zip(&work[node.width..]) {
             x[r as usize] = *v;
@@ -409,30 +480,75 @@ fn forward_pass<const FMA: bool>(
 /// the rows below each already solved.
 #[inline(always)]
 fn backward_pass<const FMA: bool>(
-    symbolic: &SymbolicSupernodalCholesky<u32>,
-    values: &[f64],
+    passes: Passes<'_>,
     nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
     for s in nodes {
-        let node = node(symbolic, values, s);
+        let node = node(passes.symbolic, passes.values, s);
         node.gather(x, work);
-        backward_node::<FMA>(&node, work);
+        backward_node::<FMA>(passes, &node, work);
         x[node.start..node.start + node.width].copy_from_slice(&work[..node.width]);
     }
 }
 
+/// Columns a panel of a wide supernode holds (a multiple of four, so that
+/// its groups of four columns are those of the whole node).
+const PANEL: usize = 64;
+
+/// Values from which a supernode's rows are split between two threads a
+/// panel at a time (at 1m the top separator's supernodes hold a third of
+/// L, and would run on one thread after the two sets).
+const WIDE_NODE: usize = 1 << 16;
+
+/// Whether `node` is solved a panel at a time, its rows (forward) or its
+/// columns (backward) in two halves at once.
+fn is_wide(node: &Node<'_>, wide: usize) -> bool {
+    node.values.len() >= wide && node.width >= 2 * PANEL
+}
+
 /// One supernode's part of L y = b on its gathered rows: its diagonal
-/// block's rows solved, the rows below updated. Four columns at a time:
-/// their 4 x 4 triangle column by column, then the rows below it take the
-/// four columns' terms in one pass (a row loaded and stored once for four
-/// multiply-adds).
+/// block's rows solved, the rows below updated, four columns at a time
+/// (their 4 x 4 triangle column by column, then the rows below it take the
+/// four columns' terms in one pass: a row loaded and stored once for four
+/// multiply-adds). A wide node goes a panel of columns at a time: the
+/// panel's own rows first, then the rows below the panel in two halves at
+/// once; each row takes the same terms in the same order either way.
 #[inline(always)]
-fn forward_node<const FMA: bool>(node: &Node<'_>, work: &mut [Row]) {
-    let mut j = 0;
-    while j < node.width {
-        let k = (node.width - j).min(4);
+fn forward_node<const FMA: bool>(passes: Passes<'_>, node: &Node<'_>, work: &mut [Row]) {
+    if !is_wide(node, passes.wide) {
+        forward_panel::<FMA>(node, work, 0..node.width, work.len());
+        return;
+    }
+    for p in (0..node.width).step_by(PANEL) {
+        let q = (p + PANEL).min(node.width);
+        forward_panel::<FMA>(node, work, p..q, q);
+        let (done, rest) = work.split_at_mut(q);
+        let xs = &done[p..q];
+        let (a, b) = rest.split_at_mut(rest.len() / 2);
+        let b_from = q + a.len();
+        // rayon's closures do not inherit this function's target
+        // features: each half is compiled for the CPU anew.
+        rayon::join(
+            || passes.take_columns(node, p..q, xs, a, q),
+            || passes.take_columns(node, p..q, xs, b, b_from),
+        );
+    }
+}
+
+/// Solves the rows of `columns` and updates the rows after them up to
+/// `until` (node rows), four columns at a time.
+#[inline(always)]
+fn forward_panel<const FMA: bool>(
+    node: &Node<'_>,
+    work: &mut [Row],
+    columns: std::ops::Range<usize>,
+    until: usize,
+) {
+    let mut j = columns.start;
+    while j < columns.end {
+        let k = (columns.end - j).min(4);
         for c in j..j + k {
             let col = node.column(c);
             let xc = work[c].map(|v| v / col[0]);
@@ -441,31 +557,50 @@ fn forward_node<const FMA: bool>(node: &Node<'_>, work: &mut [Row]) {
                 work[i] = mul_sub::<FMA>(work[i], l, xc);
             }
         }
-        let (done, rest) = work.split_at_mut(j + k);
-        let rest_of = |c: usize| &node.column(c)[j + k - c..];
+        let (done, rest) = work[..until].split_at_mut(j + k);
+        take_columns::<FMA>(node, j..j + k, &done[j..j + k], rest, j + k);
+        j += k;
+    }
+}
+
+/// `rows` (node rows from `from`) take the terms of the solved `columns`
+/// (values `xs`), four columns at a time in column order.
+#[inline(always)]
+fn take_columns<const FMA: bool>(
+    node: &Node<'_>,
+    columns: std::ops::Range<usize>,
+    xs: &[Row],
+    rows: &mut [Row],
+    from: usize,
+) {
+    let n = rows.len();
+    let of = |c: usize| &node.column(c)[from - c..from - c + n];
+    let mut j = columns.start;
+    while j < columns.end {
+        let k = (columns.end - j).min(4);
+        let x = &xs[j - columns.start..];
         if k == 4 {
-            let n = rest.len();
-            let cols = [0, 1, 2, 3].map(|t| &rest_of(j + t)[..n]);
-            let xs = [0, 1, 2, 3].map(|t| done[j + t]);
+            let cols = [0, 1, 2, 3].map(|t| of(j + t));
+            let xs = [x[0], x[1], x[2], x[3]];
             // Two rows a step.
             for i in (0..n - n % 2).step_by(2) {
-                let (mut a, mut b) = (rest[i], rest[i + 1]);
+                let (mut a, mut b) = (rows[i], rows[i + 1]);
                 for t in 0..4 {
                     a = mul_sub::<FMA>(a, cols[t][i], xs[t]);
                     b = mul_sub::<FMA>(b, cols[t][i + 1], xs[t]);
                 }
-                (rest[i], rest[i + 1]) = (a, b);
+                (rows[i], rows[i + 1]) = (a, b);
             }
             if n % 2 == 1 {
-                let mut a = rest[n - 1];
+                let mut a = rows[n - 1];
                 for t in 0..4 {
                     a = mul_sub::<FMA>(a, cols[t][n - 1], xs[t]);
                 }
-                rest[n - 1] = a;
+                rows[n - 1] = a;
             }
         } else {
-            for (c, &xc) in done.iter().enumerate().skip(j) {
-                for (d, &l) in rest.iter_mut().zip(rest_of(c)) {
+            for (t, &xc) in x[..k].iter().enumerate() {
+                for (d, &l) in rows.iter_mut().zip(of(j + t)) {
                     *d = mul_sub::<FMA>(*d, l, xc);
                 }
             }
@@ -479,12 +614,71 @@ fn forward_node<const FMA: bool>(node: &Node<'_>, work: &mut [Row]) {
 /// the four columns' dot products with the solved rows below them in one
 /// pass (a row loaded once for four multiply-adds, two rows a step: eight
 /// sums in flight where one dot product's chain of multiply-adds would
-/// wait on each other), then their 4 x 4 triangle.
+/// wait on each other), then their 4 x 4 triangle. A wide node goes a
+/// panel at a time from the last: the dot products of the panel's columns
+/// with the rows after the panel first, its columns in two halves at once,
+/// then the panel as a node of its own.
 #[inline(always)]
-fn backward_node<const FMA: bool>(node: &Node<'_>, work: &mut [Row]) {
-    let mut end = node.width;
-    while end > 0 {
-        let start = end.saturating_sub(4);
+fn backward_node<const FMA: bool>(passes: Passes<'_>, node: &Node<'_>, work: &mut [Row]) {
+    if !is_wide(node, passes.wide) {
+        backward_panel::<FMA>(node, work, 0..node.width, None);
+        return;
+    }
+    let mut sums = Vec::with_capacity(PANEL);
+    let mut q = node.width;
+    while q > 0 {
+        let p = q.saturating_sub(PANEL);
+        let (head, solved) = work.split_at_mut(q);
+        sums.clear();
+        sums.resize(q - p, [0.0; 4]);
+        let mid = p + (q - p) / 2;
+        let (a, b) = sums.split_at_mut(mid - p);
+        // As in `forward_node`.
+        rayon::join(
+            || passes.dots_below(node, p..mid, q, solved, a),
+            || passes.dots_below(node, mid..q, q, solved, b),
+        );
+        backward_panel::<FMA>(node, head, p..q, Some(&sums));
+        q = p;
+    }
+}
+
+/// The dot products of `columns` with the solved `rows` (node rows from
+/// `from`), into `out`, four columns a pass.
+#[inline(always)]
+fn dots_below<const FMA: bool>(
+    node: &Node<'_>,
+    columns: std::ops::Range<usize>,
+    from: usize,
+    rows: &[Row],
+    out: &mut [Row],
+) {
+    let below = |c: usize| &node.column(c)[from - c..];
+    for (j, out) in columns.clone().step_by(4).zip(out.chunks_mut(4)) {
+        let k = out.len();
+        if k == 4 {
+            out.copy_from_slice(&dots4::<FMA>([0, 1, 2, 3].map(|t| below(j + t)), rows));
+        } else {
+            for (t, o) in out.iter_mut().enumerate() {
+                *o = dots4::<FMA>([below(j + t); 4], rows)[0];
+            }
+        }
+    }
+}
+
+/// The backward step of `columns` on `work` (node rows up to the end of
+/// `columns`, the rows after them solved), last four first; `after`: the
+/// columns' dot products with the rows after `work`, to add.
+#[inline(always)]
+fn backward_panel<const FMA: bool>(
+    node: &Node<'_>,
+    work: &mut [Row],
+    columns: std::ops::Range<usize>,
+    after: Option<&[Row]>,
+) {
+    let mut end = columns.end;
+    while end > columns.start {
+        let start = end.saturating_sub(4).max(columns.start);
         let (head, solved) = work.split_at_mut(end);
         let below = |c: usize| &node.column(c)[end - c..];
         let mut sums = [[0.0; 4]; 4];
@@ -493,6 +687,12 @@ fn backward_node<const FMA: bool>(node: &Node<'_>, work: &mut [Row]) {
         } else {
             for c in start..end {
                 sums[c - start] = dots4::<FMA>([below(c); 4], solved)[0];
+            }
+        }
+        if let Some(after) = after {
+            for c in start..end {
+                let a = after[c - columns.start];
+                sums[c - start] = std::array::from_fn(|k| sums[c - start][k] + a[k]);
             }
         }
         for c in (start..end).rev() {
@@ -631,6 +831,7 @@ mod tests {
             symbolic: s,
             values: &values,
             cpu,
+            wide: WIDE_NODE,
         };
         passes(None).solve(&mut plain);
         passes(Avx2Fma::detect()).solve(&mut fused);
@@ -726,6 +927,7 @@ mod tests {
                 symbolic: s,
                 values,
                 cpu: Avx2Fma::detect(),
+                wide: WIDE_NODE,
             };
             let mut serial = b.clone();
             passes.solve(&mut serial);
@@ -750,6 +952,74 @@ mod tests {
                         v[k]
                     );
                 }
+            }
+        }
+    }
+
+    /// A wide supernode a panel at a time, its halves at once: forward the
+    /// same values bit for bit as the whole node, backward the same to
+    /// rounding, and the same values on any number of threads.
+    #[test]
+    fn a_wide_node_by_panels_agrees_with_the_whole_node() {
+        let (a, factor) = supernodal(900, 0.2, 4);
+        let Factor::Supernodal {
+            symbolic, values, ..
+        } = &factor
+        else {
+            unreachable!()
+        };
+        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+            unreachable!()
+        };
+        let widest = (0..s.n_supernodes())
+            .map(|k| s.supernode_end()[k] - s.supernode_begin()[k])
+            .max()
+            .unwrap_or(0);
+        assert!(
+            widest as usize >= 2 * PANEL + 3,
+            "a node of {widest} columns"
+        );
+        let mut rng = Rng::new(11);
+        let b: Vec<Row> = (0..a.n)
+            .map(|_| {
+                let v = rng.vec3() - DVec3::splat(0.5);
+                [v.x, v.y, v.z, 0.25]
+            })
+            .collect();
+        let passes = |wide| Passes {
+            symbolic: s,
+            values,
+            cpu: Avx2Fma::detect(),
+            wide,
+        };
+        let count = s.n_supernodes();
+        let forward = |wide| {
+            let mut x = b.clone();
+            passes(wide).forward(0..count, &mut x, &mut Vec::new());
+            x
+        };
+        assert_eq!(forward(usize::MAX), forward(0), "forward by panels");
+        let solve = |wide, threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let mut x = b.clone();
+            pool.install(|| passes(wide).solve(&mut x));
+            x
+        };
+        let whole = solve(usize::MAX, 2);
+        let (one, two) = (solve(0, 1), solve(0, 2));
+        assert_eq!(one, two, "the thread count changed the values");
+        let scale = whole.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (i, (u, v)) in two.iter().zip(&whole).enumerate() {
+            for k in 0..4 {
+                assert!(
+                    (u[k] - v[k]).abs() <= 1e-11 * scale,
+                    "row {i} lane {k}: {} vs {}",
+                    u[k],
+                    v[k]
+                );
             }
         }
     }
