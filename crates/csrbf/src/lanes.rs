@@ -238,9 +238,15 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let sums_of = Sums::of(Avx2Fma::detect(), kernel);
     let reach = d.f32_reach();
     let out = Scatter::new(out);
-    let cell = |(lanes, cand): &mut (Lanes, Candidates), &(s, e): &(usize, usize)| {
+    let cell = |(lanes, cand, xs64): &mut (Lanes, Candidates, Vec<DVec3>),
+                &(s, e): &(usize, usize)| {
         let idx = &blocks.order[s..e];
-        let cell = bounds(points, idx);
+        // The cell's points read once from their places in the caller's
+        // order (scattered: the first touch of each is what costs), then
+        // from this copy for the bounds, the frame and the polynomial part.
+        xs64.clear();
+        xs64.extend(idx.iter().map(|&i| points[i as usize].to_dvec3()));
+        let cell = finite_bounds(xs64.iter().copied());
         let mut narrow = narrow(cell, radius);
         if narrow {
             lanes.gather(d.octree(), alpha, cell, radius);
@@ -249,20 +255,32 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
             narrow = lanes.reach() <= reach;
         }
         if !narrow {
-            let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
-            cand.gather(d.octree(), xs, radius);
+            cand.gather(d.octree(), xs64.iter().copied(), radius);
         }
-        // A chunk's points' kernel sums in one call (two points at a time).
-        let (mut xs, mut sums) = ([[0.0f32; 3]; CHUNK], [[0.0f32; 3]; CHUNK]);
-        for chunk in idx.chunks(CHUNK) {
-            if narrow {
-                for (l, &i) in xs.iter_mut().zip(chunk) {
-                    *l = lanes.local(points[i as usize].to_dvec3());
-                }
-                sums_of.run(lanes.view(), &xs[..chunk.len()], &mut sums[..chunk.len()]);
+        // The places of a chunk's points are fetched while the chunk
+        // before sums (a point a cache line, when the caller's order is not
+        // the cells').
+        let ahead = |from: usize| {
+            for &i in &idx[from.min(idx.len())..(from + CHUNK).min(idx.len())] {
+                out.prefetch(i as usize);
             }
-            for (&i, sum) in chunk.iter().zip(&sums) {
-                let x = points[i as usize].to_dvec3();
+        };
+        ahead(0);
+        // A chunk's points' kernel sums in one call (two points at a time).
+        let (mut local_xs, mut sums) = ([[0.0f32; 3]; CHUNK], [[0.0f32; 3]; CHUNK]);
+        for (n, (chunk, xs)) in idx.chunks(CHUNK).zip(xs64.chunks(CHUNK)).enumerate() {
+            ahead((n + 1) * CHUNK);
+            if narrow {
+                for (l, &x) in local_xs.iter_mut().zip(xs) {
+                    *l = lanes.local(x);
+                }
+                sums_of.run(
+                    lanes.view(),
+                    &local_xs[..chunk.len()],
+                    &mut sums[..chunk.len()],
+                );
+            }
+            for ((&i, &x), sum) in chunk.iter().zip(xs).zip(&sums) {
                 let v = if !x.is_finite() {
                     Vec3::NAN
                 } else {
