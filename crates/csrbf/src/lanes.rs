@@ -259,8 +259,11 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
         }
         // The places of a chunk's points are fetched while the chunk
         // before sums (a point a cache line, when the caller's order is not
-        // the cells').
+        // the cells'; in runs of the caller's order they are consecutive).
         let ahead = |from: usize| {
+            if blocks.identity {
+                return;
+            }
             for &i in &idx[from.min(idx.len())..(from + CHUNK).min(idx.len())] {
                 out.prefetch(i as usize);
             }

@@ -18,7 +18,9 @@
 //! A large factor's elimination tree is cut once ([`Split`]) into two sets
 //! of whole subtrees and the supernodes above them, and the two sets are
 //! solved at once: at 1m the fill-reducing order's top separators hold a
-//! third of L, the two sets a third each.
+//! third of L, the two sets a third each. The top's wide supernodes go a
+//! panel of [`PANEL`] columns at a time, each panel's rows below it
+//! (forward) or its columns' dot products (backward) in two halves at once.
 
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 
@@ -54,11 +56,17 @@ pub(crate) fn solve_in_place<T: Rhs>(
             std::array::from_fn(|k| if k < T::LANES { v.lane(k) } else { 0.0 })
         })
         .collect();
+    // A factor too small to split runs on this thread alone, its wide
+    // nodes too.
     let passes = Passes {
         symbolic,
         values,
         cpu: Avx2Fma::detect(),
-        wide: WIDE_NODE,
+        wide: if split.is_some() {
+            WIDE_NODE
+        } else {
+            usize::MAX
+        },
     };
     match split {
         Some(split) => passes.solve_split(split, &mut x),
@@ -90,9 +98,9 @@ const GAIN: f64 = 0.8;
 /// subtrees of the elimination tree, about equal in values of L, and the
 /// supernodes above them (the top separators). A subtree's supernodes
 /// change only rows of the subtree and of the supernodes above it, so the
-/// two sets run at once: forward, each adds its updates of the rows above
-/// into a buffer of its own, and the top is solved after them; backward,
-/// the top first, then both sets. Found from the factor's structure alone,
+/// two sets run at once: forward, the first in place and the second in a
+/// copy whose rows above start at zero, added after, and the top is solved
+/// after them; backward, the top first, then both sets. Found from the factor's structure alone,
 /// so a solve gives the same values on any number of threads.
 #[derive(Clone, Debug)]
 pub(crate) struct Split {
@@ -203,7 +211,7 @@ struct Passes<'a> {
     values: &'a [f64],
     cpu: Option<Avx2Fma>,
     /// Values from which a supernode goes a panel at a time
-    /// ([`WIDE_NODE`]; the tests take every node they can).
+    /// ([`WIDE_NODE`] in a split factor's solve, never in another's).
     wide: usize,
 }
 
@@ -236,9 +244,8 @@ impl Passes<'_> {
             || self.forward(first.iter().copied(), x, &mut work),
             || self.forward(second.iter().copied(), &mut copy, &mut work2),
         );
-        for &k in &split.sets[1] {
-            x[rows(k)].copy_from_slice(&copy[rows(k)]);
-        }
+        // The second set's rows stay in the copy until the end: nothing
+        // else reads them.
         for &k in &split.top {
             for (a, b) in x[rows(k)].iter_mut().zip(&copy[rows(k)]) {
                 *a = std::array::from_fn(|l| a[l] + b[l]);
@@ -666,9 +673,10 @@ fn dots_below<const FMA: bool>(
     }
 }
 
-/// The backward step of `columns` on `work` (node rows up to the end of
-/// `columns`, the rows after them solved), last four first; `after`: the
-/// columns' dot products with the rows after `work`, to add.
+/// The backward step of `columns` on `work` (the node's rows from its
+/// first, the rows after `columns` solved), last four first; `after`: the
+/// columns' dot products with rows past the end of `work` (a wide node's
+/// panel is given the rows up to its end), to add.
 #[inline(always)]
 fn backward_panel<const FMA: bool>(
     node: &Node<'_>,
@@ -764,8 +772,28 @@ mod tests {
     }
 
     /// The supernodal factor of a random system: its solve against faer's.
-    fn check<T: Rhs>(n: usize, radius: f64, seed: u64, rhs: impl Fn(&mut Rng) -> T) {
+    /// With `split`, the factor is solved through a cut of its tree (and
+    /// its wide nodes by panels) whatever its size, when it has one.
+    fn check<T: Rhs>(n: usize, radius: f64, seed: u64, split: bool, rhs: impl Fn(&mut Rng) -> T) {
         let (_, factor) = supernodal(n, radius, seed);
+        let Factor::Supernodal {
+            symbolic, values, ..
+        } = factor
+        else {
+            unreachable!("a supernodal factor")
+        };
+        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+            unreachable!("forced supernodal")
+        };
+        let cut = if split { Split::cut(s) } else { None };
+        if split && cut.is_none() {
+            return;
+        }
+        let factor = Factor::Supernodal {
+            split: cut.map(Box::new),
+            symbolic,
+            values,
+        };
         let mut rng = Rng::new(seed + 100);
         let b: Vec<T> = (0..n).map(|_| rhs(&mut rng)).collect();
         let (mut ours, mut faer) = (b.clone(), b.clone());
@@ -786,7 +814,7 @@ mod tests {
                 let err = (u.lane(k) - v.lane(k)).abs();
                 assert!(
                     err <= 1e-11 * scale,
-                    "n {n} row {i} lane {k}: {} vs {}",
+                    "n {n} row {i} lane {k} (split {split}): {} vs {}",
                     u.lane(k),
                     v.lane(k)
                 );
@@ -795,13 +823,22 @@ mod tests {
     }
 
     #[test]
-    fn the_solve_agrees_with_faers_for_one_three_and_four_right_hand_sides() {
-        for (n, radius, seed) in [(5, 2.0, 1), (40, 0.6, 2), (300, 0.25, 3), (900, 0.2, 4)] {
-            check(n, radius, seed, |r| r.vec3().x - 0.5);
-            check(n, radius, seed, |r| r.vec3() - DVec3::splat(0.5));
-            check(n, radius, seed, |r| {
-                r.vec3().extend(r.vec3().y) - DVec4::splat(0.5)
-            });
+    fn the_solve_agrees_with_faers_for_one_three_and_four_right_hand_sides_split_or_not() {
+        let cases = [
+            (5, 2.0, 1),
+            (40, 0.6, 2),
+            (300, 0.25, 3),
+            (900, 0.2, 4),
+            (2000, 0.1, 4),
+        ];
+        for (n, radius, seed) in cases {
+            for split in [false, true] {
+                check(n, radius, seed, split, |r| r.vec3().x - 0.5);
+                check(n, radius, seed, split, |r| r.vec3() - DVec3::splat(0.5));
+                check(n, radius, seed, split, |r| {
+                    r.vec3().extend(r.vec3().y) - DVec4::splat(0.5)
+                });
+            }
         }
     }
 
@@ -834,7 +871,16 @@ mod tests {
             wide: WIDE_NODE,
         };
         passes(None).solve(&mut plain);
-        passes(Avx2Fma::detect()).solve(&mut fused);
+        match Avx2Fma::detect() {
+            Some(cpu) => passes(Some(cpu)).solve(&mut fused),
+            // Fused multiply-adds in software.
+            None => {
+                let count = s.n_supernodes();
+                let work = &mut Vec::new();
+                forward_pass::<true>(passes(None), 0..count, &mut fused, work);
+                backward_pass::<true>(passes(None), (0..count).rev(), &mut fused, work);
+            }
+        }
         for (p, f) in plain.iter().zip(&fused) {
             for k in 0..4 {
                 assert!((p[k] - f[k]).abs() <= 1e-11 * (1.0 + f[k].abs()));
@@ -855,9 +901,10 @@ mod tests {
         (factor, split)
     }
 
-    /// The cut takes every supernode once, each set whole subtrees (a
-    /// supernode's parent in its set or in the top, never in the other
-    /// set), and the top no more than its share.
+    /// The cut takes every supernode once, each set whole subtrees (every
+    /// row a supernode changes lies in its own set or in the top, so the
+    /// sets never touch each other's rows), and two threads' share of the
+    /// work (the top's and the larger set's) is at most [`GAIN`] of it all.
     #[test]
     fn a_cut_takes_whole_subtrees_into_two_sets() {
         for (n, radius, seed) in [(2000, 0.1, 4), (5000, 0.07, 7)] {
@@ -869,6 +916,7 @@ mod tests {
                 unreachable!()
             };
             let count = s.n_supernodes();
+            let (begin, end) = (s.supernode_begin(), s.supernode_end());
             let mut set_of = vec![None; count];
             for (k, set) in split.sets.iter().chain([&split.top]).enumerate() {
                 assert!(set.windows(2).all(|w| w[0] < w[1]), "n {n}: ascending");
@@ -882,22 +930,25 @@ mod tests {
                 split.sets.iter().all(|s| !s.is_empty()),
                 "n {n}: an empty set"
             );
+            let node_of_row = |row: u32| (0..count).find(|&p| (begin[p]..end[p]).contains(&row));
+            let mut work = [0.0; 3];
             for node in 0..count {
-                let Some(&row) = s.supernode(node).pattern().first() else {
-                    continue;
-                };
-                let parent = (0..count)
-                    .find(|&p| (s.supernode_begin()[p]..s.supernode_end()[p]).contains(&row))
-                    .expect("a parent");
-                let (mine, theirs) = (set_of[node].unwrap(), set_of[parent].unwrap());
-                assert!(
-                    theirs == mine || theirs == 2,
-                    "n {n}: node {node} in set {mine}, its parent {parent} in {theirs}"
-                );
-                if mine == 2 {
-                    assert_eq!(theirs, 2, "n {n}: the top's parents are the top's");
+                let mine = set_of[node].unwrap();
+                let width = (end[node] - begin[node]) as usize;
+                work[mine] += ((width + s.supernode(node).pattern().len()) * width) as f64;
+                for &row in s.supernode(node).pattern() {
+                    let theirs = set_of[node_of_row(row).expect("a row's node")].unwrap();
+                    assert!(
+                        theirs == mine || theirs == 2,
+                        "n {n}: node {node} in set {mine} changes row {row} of set {theirs}"
+                    );
                 }
             }
+            let all: f64 = work.iter().sum();
+            assert!(
+                work[2] + work[0].max(work[1]) <= GAIN * all,
+                "n {n}: the work by set {work:?}"
+            );
         }
     }
 
@@ -958,10 +1009,30 @@ mod tests {
 
     /// A wide supernode a panel at a time, its halves at once: forward the
     /// same values bit for bit as the whole node, backward the same to
-    /// rounding, and the same values on any number of threads.
+    /// rounding, and the same values on any number of threads; with and
+    /// without AVX2. The node's last panel is short and ends in fewer than
+    /// four columns.
     #[test]
     fn a_wide_node_by_panels_agrees_with_the_whole_node() {
-        let (a, factor) = supernodal(900, 0.2, 4);
+        // The first system whose widest node ends in a short panel and a
+        // group of fewer than four columns.
+        let (a, factor, widest) = (4..40)
+            .find_map(|seed| {
+                let (a, factor) = supernodal(900, 0.2, seed);
+                let Factor::Supernodal { symbolic, .. } = &factor else {
+                    unreachable!()
+                };
+                let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+                    unreachable!()
+                };
+                let widest = (0..s.n_supernodes())
+                    .map(|k| (s.supernode_end()[k] - s.supernode_begin()[k]) as usize)
+                    .max()
+                    .unwrap_or(0);
+                (widest >= 2 * PANEL && widest % PANEL != 0 && widest % 4 != 0)
+                    .then_some((a, factor, widest))
+            })
+            .expect("a system with such a node");
         let Factor::Supernodal {
             symbolic, values, ..
         } = &factor
@@ -971,14 +1042,6 @@ mod tests {
         let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
             unreachable!()
         };
-        let widest = (0..s.n_supernodes())
-            .map(|k| s.supernode_end()[k] - s.supernode_begin()[k])
-            .max()
-            .unwrap_or(0);
-        assert!(
-            widest as usize >= 2 * PANEL + 3,
-            "a node of {widest} columns"
-        );
         let mut rng = Rng::new(11);
         let b: Vec<Row> = (0..a.n)
             .map(|_| {
@@ -986,40 +1049,47 @@ mod tests {
                 [v.x, v.y, v.z, 0.25]
             })
             .collect();
-        let passes = |wide| Passes {
-            symbolic: s,
-            values,
-            cpu: Avx2Fma::detect(),
-            wide,
-        };
         let count = s.n_supernodes();
-        let forward = |wide| {
-            let mut x = b.clone();
-            passes(wide).forward(0..count, &mut x, &mut Vec::new());
-            x
-        };
-        assert_eq!(forward(usize::MAX), forward(0), "forward by panels");
-        let solve = |wide, threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("a pool");
-            let mut x = b.clone();
-            pool.install(|| passes(wide).solve(&mut x));
-            x
-        };
-        let whole = solve(usize::MAX, 2);
-        let (one, two) = (solve(0, 1), solve(0, 2));
-        assert_eq!(one, two, "the thread count changed the values");
-        let scale = whole.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (i, (u, v)) in two.iter().zip(&whole).enumerate() {
-            for k in 0..4 {
-                assert!(
-                    (u[k] - v[k]).abs() <= 1e-11 * scale,
-                    "row {i} lane {k}: {} vs {}",
-                    u[k],
-                    v[k]
-                );
+        for cpu in [None, Avx2Fma::detect()] {
+            let passes = |wide| Passes {
+                symbolic: s,
+                values,
+                cpu,
+                wide,
+            };
+            let forward = |wide| {
+                let mut x = b.clone();
+                passes(wide).forward(0..count, &mut x, &mut Vec::new());
+                x
+            };
+            let cpu = cpu.is_some();
+            assert_eq!(
+                forward(usize::MAX),
+                forward(0),
+                "forward by panels (AVX2 {cpu}, {widest} columns)"
+            );
+            let solve = |wide, threads| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .expect("a pool");
+                let mut x = b.clone();
+                pool.install(|| passes(wide).solve(&mut x));
+                x
+            };
+            let whole = solve(usize::MAX, 2);
+            let (one, two) = (solve(0, 1), solve(0, 2));
+            assert_eq!(one, two, "the thread count changed the values (AVX2 {cpu})");
+            let scale = whole.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (i, (u, v)) in two.iter().zip(&whole).enumerate() {
+                for k in 0..4 {
+                    assert!(
+                        (u[k] - v[k]).abs() <= 1e-11 * scale,
+                        "row {i} lane {k} (AVX2 {cpu}): {} vs {}",
+                        u[k],
+                        v[k]
+                    );
+                }
             }
         }
     }
