@@ -204,6 +204,23 @@ impl Split {
     }
 }
 
+/// `$avx2` (a function compiled for AVX2 and FMA) when `$passes` holds
+/// the CPU's proof, else `$plain`.
+macro_rules! on_cpu {
+    ($passes:expr, $avx2:expr, $plain:expr) => {{
+        #[cfg(target_arch = "x86_64")]
+        if $passes.cpu.is_some() {
+            // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
+            #[allow(unsafe_code)]
+            unsafe {
+                $avx2
+            };
+            return;
+        }
+        $plain
+    }};
+}
+
 /// The two passes over chosen supernodes, compiled for the CPU found.
 #[derive(Clone, Copy)]
 struct Passes<'a> {
@@ -267,35 +284,21 @@ impl Passes<'_> {
     }
 
     fn forward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(cpu) = self.cpu {
-            let _ = cpu;
-            // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
-            #[allow(unsafe_code)]
-            unsafe {
-                forward_avx2(self, nodes, x, work)
-            };
-            return;
-        }
-        forward_pass::<false>(self, nodes, x, work)
+        on_cpu!(
+            self,
+            forward_avx2(self, nodes, x, work),
+            forward_pass::<false>(self, nodes, x, work)
+        )
     }
 
     fn backward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(cpu) = self.cpu {
-            let _ = cpu;
-            // SAFETY: as in `forward`.
-            #[allow(unsafe_code)]
-            unsafe {
-                backward_avx2(self, nodes, x, work)
-            };
-            return;
-        }
-        backward_pass::<false>(self, nodes, x, work)
+        on_cpu!(
+            self,
+            backward_avx2(self, nodes, x, work),
+            backward_pass::<false>(self, nodes, x, work)
+        )
     }
-}
 
-impl Passes<'_> {
     /// [`take_columns`] for the CPU.
     fn take_columns(
         self,
@@ -305,17 +308,11 @@ impl Passes<'_> {
         rows: &mut [Row],
         from: usize,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(cpu) = self.cpu {
-            let _ = cpu;
-            // SAFETY: as in `Passes::forward`.
-            #[allow(unsafe_code)]
-            unsafe {
-                take_columns_avx2(node, columns, xs, rows, from)
-            };
-            return;
-        }
-        take_columns::<false>(node, columns, xs, rows, from)
+        on_cpu!(
+            self,
+            take_columns_avx2(node, columns, xs, rows, from),
+            take_columns::<false>(node, columns, xs, rows, from)
+        )
     }
 
     /// [`dots_below`] for the CPU.
@@ -327,17 +324,11 @@ impl Passes<'_> {
         rows: &[Row],
         out: &mut [Row],
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(cpu) = self.cpu {
-            let _ = cpu;
-            // SAFETY: as in `Passes::forward`.
-            #[allow(unsafe_code)]
-            unsafe {
-                dots_below_avx2(node, columns, from, rows, out)
-            };
-            return;
-        }
-        dots_below::<false>(node, columns, from, rows, out)
+        on_cpu!(
+            self,
+            dots_below_avx2(node, columns, from, rows, out),
+            dots_below::<false>(node, columns, from, rows, out)
+        )
     }
 }
 
