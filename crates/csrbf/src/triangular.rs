@@ -284,18 +284,25 @@ impl Passes<'_> {
     }
 
     fn forward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
-        on_cpu!(
-            self,
-            forward_avx2(self, nodes, x, work),
-            forward_pass::<false>(self, nodes, x, work)
-        )
+        self.pass(Way::Forward, nodes, x, work)
     }
 
     fn backward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
+        self.pass(Way::Backward, nodes, x, work)
+    }
+
+    /// [`pass`] for the CPU.
+    fn pass(
+        self,
+        way: Way,
+        nodes: impl Iterator<Item = usize>,
+        x: &mut [Row],
+        work: &mut Vec<Row>,
+    ) {
         on_cpu!(
             self,
-            backward_avx2(self, nodes, x, work),
-            backward_pass::<false>(self, nodes, x, work)
+            pass_avx2(self, way, nodes, x, work),
+            pass::<false>(self, way, nodes, x, work)
         )
     }
 
@@ -358,24 +365,14 @@ fn dots_below_avx2(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn forward_avx2(
+fn pass_avx2(
     passes: Passes<'_>,
+    way: Way,
     nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
 ) {
-    forward_pass::<true>(passes, nodes, x, work)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn backward_avx2(
-    passes: Passes<'_>,
-    nodes: impl Iterator<Item = usize>,
-    x: &mut [Row],
-    work: &mut Vec<Row>,
-) {
-    backward_pass::<true>(passes, nodes, x, work)
+    pass::<true>(passes, way, nodes, x, work)
 }
 
 /// One supernode: its first column, its rows below the diagonal block and
@@ -454,31 +451,23 @@ fn mul_add<const FMA: bool>(acc: Row, l: f64, x: Row) -> Row {
     })
 }
 
-/// L y = b over `nodes` (ascending: a child before its parent), each
-/// solving its own rows and updating those below it.
-#[inline(always)]
-fn forward_pass<const FMA: bool>(
-    passes: Passes<'_>,
-    nodes: impl Iterator<Item = usize>,
-    x: &mut [Row],
-    work: &mut Vec<Row>,
-) {
-    for s in nodes {
-        let node = node(passes.symbolic, passes.values, s);
-        node.gather(x, work);
-        forward_node::<FMA>(passes, &node, work);
-        x[node.start..node.start + node.width].copy_from_slice(&work[..node.width]);
-        for (&r, v) in node.below.iter().zip(&work[node.width..]) {
-            x[r as usize] = *v;
-        }
-    }
+/// Which triangular solve a pass makes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Way {
+    /// L y = b over supernodes ascending (a child before its parent), each
+    /// solving its own rows and updating those below it.
+    Forward,
+    /// L^T x = y over supernodes descending (a parent before its
+    /// children), the rows below each already solved.
+    Backward,
 }
 
-/// L^T x = y over `nodes` (descending: a parent before its children),
-/// the rows below each already solved.
+/// One solve `way` over `nodes`: each supernode's rows gathered, solved,
+/// and put back (forward, the rows below it too).
 #[inline(always)]
-fn backward_pass<const FMA: bool>(
+fn pass<const FMA: bool>(
     passes: Passes<'_>,
+    way: Way,
     nodes: impl Iterator<Item = usize>,
     x: &mut [Row],
     work: &mut Vec<Row>,
@@ -486,8 +475,16 @@ fn backward_pass<const FMA: bool>(
     for s in nodes {
         let node = node(passes.symbolic, passes.values, s);
         node.gather(x, work);
-        backward_node::<FMA>(passes, &node, work);
+        match way {
+            Way::Forward => forward_node::<FMA>(passes, &node, work),
+            Way::Backward => backward_node::<FMA>(passes, &node, work),
+        }
         x[node.start..node.start + node.width].copy_from_slice(&work[..node.width]);
+        if way == Way::Forward {
+            for (&r, v) in node.below.iter().zip(&work[node.width..]) {
+                x[r as usize] = *v;
+            }
+        }
     }
 }
 
@@ -868,8 +865,14 @@ mod tests {
             None => {
                 let count = s.n_supernodes();
                 let work = &mut Vec::new();
-                forward_pass::<true>(passes(None), 0..count, &mut fused, work);
-                backward_pass::<true>(passes(None), (0..count).rev(), &mut fused, work);
+                pass::<true>(passes(None), Way::Forward, 0..count, &mut fused, work);
+                pass::<true>(
+                    passes(None),
+                    Way::Backward,
+                    (0..count).rev(),
+                    &mut fused,
+                    work,
+                );
             }
         }
         for (p, f) in plain.iter().zip(&fused) {
