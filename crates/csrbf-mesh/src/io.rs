@@ -4,6 +4,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use crate::formats::Skipped;
 use crate::{Format, Mesh, MeshError, Result};
 
 /// Reads and validates a mesh; the format comes from the extension.
@@ -21,7 +22,9 @@ pub struct Loaded {
 }
 
 /// Reads and validates a mesh, and says what looked wrong without being an
-/// error: a text format with no line break at its end may have been cut off;
+/// error: what the file holds that a mesh does not keep (an OBJ's lines
+/// and points, a PLY's other elements and properties, an OFF's face
+/// colours); a text format with no line break at its end may have been cut off;
 /// an OBJ's material library or texture that is missing, unreadable,
 /// malformed or outside the model's folder (the mesh loads, those materials
 /// grey or without their picture).
@@ -31,8 +34,9 @@ pub fn load(path: &Path) -> Result<Loaded> {
         path: path.to_owned(),
         source,
     })?;
-    let mut mesh = Mesh::from_bytes(&bytes, format, path)?;
-    let mut warnings = Vec::new();
+    let mut skipped = Skipped::default();
+    let mut mesh = Mesh::from_bytes_noting(&bytes, format, path, &mut skipped)?;
+    let mut warnings: Vec<String> = skipped.warning(path).into_iter().collect();
     if format == Format::Obj {
         crate::formats::materials::read_beside(path, &mut mesh, &mut warnings);
     }
@@ -402,18 +406,32 @@ impl Mesh {
     /// Parses a mesh from bytes and validates it; `path` names it in errors
     /// and anchors relative references (glTF buffers).
     pub fn from_bytes(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
-        let mesh = crate::formats::parse(bytes, format, path)?;
+        Mesh::from_bytes_noting(bytes, format, path, &mut Skipped::default())
+    }
+
+    /// [`Mesh::from_bytes`], counting what the reader does not keep.
+    fn from_bytes_noting(
+        bytes: &[u8],
+        format: Format,
+        path: &Path,
+        skipped: &mut Skipped,
+    ) -> Result<Mesh> {
+        let mesh = crate::formats::parse(bytes, format, path, skipped)?;
         mesh.validate(path)?;
         Ok(mesh)
     }
 
-    /// Encodes the mesh in `format`.
+    /// Encodes the mesh in `format` (a glTF's object named `mesh`).
     pub fn to_bytes(&self, format: Format) -> Result<Vec<u8>> {
         self.to_bytes_for(format, Path::new("<memory>"))
     }
 
+    /// The bytes of the file `path`: a glTF's object is named after the
+    /// file (`out/bunny.glb` makes `bunny` in Blender).
     fn to_bytes_for(&self, format: Format, path: &Path) -> Result<Vec<u8>> {
         self.validate(path)?;
-        Ok(crate::formats::encode(self, format))
+        let name = path.file_stem().and_then(|s| s.to_str());
+        let name = name.filter(|s| !s.is_empty() && *s != "<memory>");
+        Ok(crate::formats::encode(self, format, name.unwrap_or("mesh")))
     }
 }

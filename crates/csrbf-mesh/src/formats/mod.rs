@@ -191,7 +191,46 @@ pub(crate) fn inside_folder(name: &str) -> bool {
     !(scheme || escapes || name.is_empty())
 }
 
-pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
+/// What a reader met in a file and does not keep (an OBJ's lines and
+/// points, a PLY's other elements and properties, an OFF's face colours),
+/// counted by kind, for one warning that names the file: a mesh written
+/// from it will not have them.
+#[derive(Debug, Default)]
+pub(crate) struct Skipped(Vec<(String, usize)>);
+
+impl Skipped {
+    /// Counts `n` more of `what` (a plural: `lines (\`l\`)`).
+    pub(crate) fn add(&mut self, what: &str, n: usize) {
+        if n == 0 {
+            return;
+        }
+        match self.0.iter_mut().find(|(w, _)| w == what) {
+            Some((_, count)) => *count += n,
+            None => self.0.push((what.to_owned(), n)),
+        }
+    }
+
+    /// The warning for `path`, if anything was skipped.
+    pub(crate) fn warning(&self, path: &Path) -> Option<String> {
+        let list: Vec<String> = self.0.iter().map(|(w, n)| format!("{n} {w}")).collect();
+        (!list.is_empty()).then(|| {
+            format!(
+                "{}: not kept (a file written from this mesh will not have them): {}",
+                path.display(),
+                list.join(", ")
+            )
+        })
+    }
+}
+
+/// Parses a mesh (not validated); what the format's reader does not keep
+/// is counted in `skipped`.
+pub(crate) fn parse(
+    bytes: &[u8],
+    format: Format,
+    path: &Path,
+    skipped: &mut Skipped,
+) -> Result<Mesh> {
     // A byte-order mark before a text header (an editor's habit) is skipped;
     // a binary STL's 80-byte header is free text and is left alone unless it
     // then reads as ASCII STL.
@@ -205,25 +244,26 @@ pub(crate) fn parse(bytes: &[u8], format: Format, path: &Path) -> Result<Mesh> {
         _ => bytes,
     };
     match format {
-        Format::Obj => obj::parse(bytes, path),
-        Format::Ply | Format::PlyAscii => ply::parse(bytes, path),
+        Format::Obj => obj::parse(bytes, path, skipped),
+        Format::Ply | Format::PlyAscii => ply::parse(bytes, path, skipped),
         Format::Stl => stl::parse(bytes, path),
-        Format::Off => off::parse(bytes, path),
+        Format::Off => off::parse(bytes, path, skipped),
         Format::Gltf | Format::Glb => gltf::parse(bytes, path),
     }
 }
 
 /// A mesh's bytes in a format; an OBJ names no material library (it has
 /// no folder to put one in: [`crate::write`] writes one beside the file).
-pub(crate) fn encode(mesh: &Mesh, format: Format) -> Vec<u8> {
+/// `name` names a glTF's node and mesh (the object an importer makes).
+pub(crate) fn encode(mesh: &Mesh, format: Format, name: &str) -> Vec<u8> {
     match format {
         Format::Obj => obj::encode(mesh, None),
         Format::Ply => ply::encode(mesh, false),
         Format::PlyAscii => ply::encode(mesh, true),
         Format::Stl => stl::encode(mesh),
         Format::Off => off::encode(mesh),
-        Format::Gltf => gltf::encode(mesh, false),
-        Format::Glb => gltf::encode(mesh, true),
+        Format::Gltf => gltf::encode(mesh, false, name),
+        Format::Glb => gltf::encode(mesh, true, name),
     }
 }
 

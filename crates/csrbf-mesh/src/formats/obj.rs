@@ -9,10 +9,11 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
+use super::Skipped;
 use super::text::{lines, number, push_f32};
 use crate::{Faces, Mesh, MeshError, PartKind, Result, TexCoords};
 
-pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
+pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<Mesh> {
     let mut mesh = Mesh {
         faces: Faces::new(),
         ..Mesh::default()
@@ -176,7 +177,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                     Some(t) => t.parse().unwrap_or(1),
                 }
             }
-            _ => {} // l, p, curves and vendor extensions carry nothing we keep.
+            // Lines, points, curves, surfaces and vendor statements: nothing
+            // a mesh of faces keeps, but said.
+            "l" => skipped.add("lines (`l`)", 1),
+            "p" => skipped.add("points (`p`)", 1),
+            _ => skipped.add(&format!("`{key}` statements"), 1),
         }
     }
     if any_color {

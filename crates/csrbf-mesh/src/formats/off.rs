@@ -6,10 +6,11 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
+use super::Skipped;
 use super::text::{lines, number, push_f32};
 use crate::{Faces, Mesh, MeshError, Result, TexCoords};
 
-pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
+pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<Mesh> {
     let mut it = lines(bytes, path);
     let (ln, header) = it
         .next()
@@ -57,6 +58,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     mesh.positions.reserve(nv.min(bytes.len() / 6));
     let mut colors = Vec::new();
     let mut uvs = Vec::new();
+    let mut normals = Vec::new();
     for v in 0..nv {
         let (l, s) = it.next().transpose()?.ok_or_else(|| {
             MeshError::parse(
@@ -79,6 +81,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             ));
         }
         mesh.positions.push(Vec3::new(vals[0], vals[1], vals[2]));
+        if has_n {
+            normals.push(Vec3::new(vals[3], vals[4], vals[5]));
+        }
         let mut k = 3 + if has_n { 3 } else { 0 };
         if has_c {
             let rgba_len = if vals.len() >= k + 4 + if has_st { 2 } else { 0 } {
@@ -133,6 +138,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             }
             corners.push(v);
         }
+        // A colour (three or four numbers, or a colour map index) may
+        // follow the corners.
+        if tok.next().is_some() {
+            skipped.add("faces' colours", 1);
+        }
         if k < 3 {
             return Err(MeshError::parse(
                 path,
@@ -156,6 +166,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
             values: uvs,
             corners: None,
         });
+    }
+    if has_n {
+        mesh.normals = Some(normals);
     }
     Ok(mesh)
 }

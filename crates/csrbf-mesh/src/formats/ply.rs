@@ -10,6 +10,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
+use super::Skipped;
 use super::text::push_f32;
 use crate::{Faces, Mesh, MeshError, Part, PartKind, Result, TexCoords};
 
@@ -71,7 +72,7 @@ enum Encoding {
     Big,
 }
 
-pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
+pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<Mesh> {
     let err = |line: Option<usize>, m: String| MeshError::parse(path, line, m);
     let end = find(bytes, b"end_header").ok_or_else(|| {
         err(
@@ -216,6 +217,32 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
                 .iter()
                 .map(|&(k, _)| (k, Vec::with_capacity(el.count.min(bytes.len() / 4))))
                 .collect();
+        }
+        // The properties read below; the others are said to be skipped.
+        let used: Vec<usize> = if is_vertex {
+            let mut used = vec![px, py, pz];
+            if col[0].is_some() {
+                used.extend(col);
+            }
+            if tu.is_some() && tv.is_some() {
+                used.extend([tu, tv]);
+            }
+            if nx.is_some() && ny.is_some() && nz.is_some() {
+                used.extend([nx, ny, nz]);
+            }
+            used.into_iter().flatten().collect()
+        } else {
+            part_props.iter().map(|&(_, i)| i).chain(list_prop).collect()
+        };
+        if is_vertex || is_face {
+            let whose = if is_vertex { "vertices'" } else { "faces'" };
+            for (k, p) in el.props.iter().enumerate() {
+                if !used.contains(&k) {
+                    skipped.add(&format!("{whose} `{}`", p.name), el.count);
+                }
+            }
+        } else {
+            skipped.add(&format!("`{}` elements", el.name), el.count);
         }
         if is_vertex && (px.is_none() || py.is_none() || pz.is_none()) {
             return Err(err(

@@ -279,6 +279,97 @@ fn atomic_write_leaves_no_partial_file() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// What a file holds and a mesh does not keep is one warning naming the
+/// file and counting each kind: an OBJ's lines, points and unknown
+/// statements; a PLY's other elements and properties; an OFF's face
+/// colours. A file with nothing skipped has no such warning, and an NOFF's
+/// normals are kept.
+#[test]
+fn what_a_reader_skips_is_said() {
+    let dir = std::env::temp_dir().join(format!("csrbf-mesh-skipped-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let ply = |extra_vertex: &str, extra_face: &str, tail: &str| {
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{}element face 1\nproperty list uchar int vertex_indices\n{}{}end_header\n",
+            extra_vertex, extra_face, tail
+        )
+    };
+    let cases: [(&str, String, &[&str]); 5] = [
+        ("plain.obj", tri.to_owned(), &[]),
+        (
+            "lines.obj",
+            format!("{tri}l 1 2\nl 2 3\np 1\ncstype bspline\nl 3 1\n"),
+            &["3 lines (`l`)", "1 points (`p`)", "1 `cstype` statements"],
+        ),
+        (
+            "quality.ply",
+            ply("property float quality\nproperty float nx\n", "property uchar red\n", "element edge 2\nproperty int vertex1\nproperty int vertex2\n")
+                + "0 0 0 1 0\n1 0 0 1 0\n0 1 0 1 0\n3 0 1 2 255\n0 1\n1 2\n",
+            &["3 vertices' `quality`", "3 vertices' `nx`", "1 faces' `red`", "2 `edge` elements"],
+        ),
+        (
+            "colours.off",
+            "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 0 0\n3 0 2 1\n".to_owned(),
+            &["1 faces' colours"],
+        ),
+        (
+            "normals.off",
+            "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n".to_owned(),
+            &[],
+        ),
+    ];
+    for (file, text, want) in cases {
+        let path = dir.join(file);
+        std::fs::write(&path, text).expect("write");
+        let loaded = crate::load(&path).expect(file);
+        let said: Vec<&String> = loaded.warnings.iter().filter(|w| w.contains("not kept")).collect();
+        if want.is_empty() {
+            assert!(said.is_empty(), "{file}: {said:?}");
+            continue;
+        }
+        assert_eq!(said.len(), 1, "{file}: {:?}", loaded.warnings);
+        assert!(said[0].starts_with(&path.display().to_string()), "{}", said[0]);
+        for w in want {
+            assert!(said[0].contains(w), "{file}: {w:?} in {}", said[0]);
+        }
+    }
+    let noff = crate::load(&dir.join("normals.off")).expect("noff").mesh;
+    assert_eq!(noff.normals, Some(vec![glam::Vec3::Z; 3]));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A glTF written to a file names its object after the file (what a
+/// Blender import shows); bytes made in memory name it `mesh`.
+#[test]
+fn a_written_gltf_names_its_object_after_the_file() {
+    let dir = std::env::temp_dir().join(format!("csrbf-mesh-name-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let m = crate::read(&root().join("assets/models/assimp_BoxTextured.glb")).expect("read");
+    let names = |doc: &serde_json::Value| {
+        ["nodes", "meshes"].map(|k| doc[k][0]["name"].as_str().unwrap_or("").to_owned())
+    };
+    for (file, glb) in [("box_bent.gltf", false), ("box.bent.glb", true)] {
+        let path = dir.join(file);
+        crate::write(&path, &m).expect("write");
+        let bytes = std::fs::read(&path).expect("read");
+        let json = if glb {
+            // The JSON chunk: its length at byte 12, its text from 20.
+            let n = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+            bytes[20..20 + n].to_vec()
+        } else {
+            bytes
+        };
+        let doc: serde_json::Value = serde_json::from_slice(&json).expect("json");
+        let stem = file.rsplit_once('.').map_or(file, |(s, _)| s);
+        assert_eq!(names(&doc), [stem, stem], "{file}");
+    }
+    let bytes = m.to_bytes(Format::Gltf).expect("encode");
+    let doc: serde_json::Value = serde_json::from_slice(&bytes).expect("json");
+    assert_eq!(names(&doc), ["mesh", "mesh"]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Texture coordinates equal within rounding (glTF flips v on the way in and out).
 #[track_caller]
 fn assert_close_uvs(a: &Mesh, b: &Mesh) {

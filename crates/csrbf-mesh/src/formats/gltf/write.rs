@@ -128,7 +128,7 @@ pub fn package(mut doc: Value, bin: Vec<u8>, glb: bool) -> Vec<u8> {
     }
 }
 
-pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
+pub(crate) fn encode(mesh: &Mesh, glb: bool, name: &str) -> Vec<u8> {
     let n = mesh.positions.len();
     let mut b = Builder::default();
     // glTF keeps one UV per vertex: where the mesh's UVs have seams (one
@@ -236,8 +236,8 @@ pub(crate) fn encode(mesh: &Mesh, glb: bool) -> Vec<u8> {
         "asset": { "version": "2.0", "generator": "csrbf" },
         "scene": 0,
         "scenes": [{ "nodes": [0] }],
-        "nodes": [{ "mesh": 0, "name": "mesh" }],
-        "meshes": [{ "primitives": primitives, "name": "mesh", "extras": { "csrbf": extras } }],
+        "nodes": [{ "mesh": 0, "name": name }],
+        "meshes": [{ "primitives": primitives, "name": name, "extras": { "csrbf": extras } }],
     });
     if !materials.is_empty() {
         doc["materials"] = json!(materials);
