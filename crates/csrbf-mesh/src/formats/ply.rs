@@ -232,7 +232,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<
             }
             used.into_iter().flatten().collect()
         } else {
-            part_props.iter().map(|&(_, i)| i).chain(list_prop).collect()
+            part_props
+                .iter()
+                .map(|&(_, i)| i)
+                .chain(list_prop)
+                .collect()
         };
         if is_vertex || is_face {
             let whose = if is_vertex { "vertices'" } else { "faces'" };

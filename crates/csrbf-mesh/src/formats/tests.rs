@@ -304,9 +304,17 @@ fn what_a_reader_skips_is_said() {
         ),
         (
             "quality.ply",
-            ply("property float quality\nproperty float nx\n", "property uchar red\n", "element edge 2\nproperty int vertex1\nproperty int vertex2\n")
-                + "0 0 0 1 0\n1 0 0 1 0\n0 1 0 1 0\n3 0 1 2 255\n0 1\n1 2\n",
-            &["3 vertices' `quality`", "3 vertices' `nx`", "1 faces' `red`", "2 `edge` elements"],
+            ply(
+                "property float quality\nproperty float nx\n",
+                "property uchar red\n",
+                "element edge 2\nproperty int vertex1\nproperty int vertex2\n",
+            ) + "0 0 0 1 0\n1 0 0 1 0\n0 1 0 1 0\n3 0 1 2 255\n0 1\n1 2\n",
+            &[
+                "3 vertices' `quality`",
+                "3 vertices' `nx`",
+                "1 faces' `red`",
+                "2 `edge` elements",
+            ],
         ),
         (
             "colours.off",
@@ -323,13 +331,21 @@ fn what_a_reader_skips_is_said() {
         let path = dir.join(file);
         std::fs::write(&path, text).expect("write");
         let loaded = crate::load(&path).expect(file);
-        let said: Vec<&String> = loaded.warnings.iter().filter(|w| w.contains("not kept")).collect();
+        let said: Vec<&String> = loaded
+            .warnings
+            .iter()
+            .filter(|w| w.contains("not kept"))
+            .collect();
         if want.is_empty() {
             assert!(said.is_empty(), "{file}: {said:?}");
             continue;
         }
         assert_eq!(said.len(), 1, "{file}: {:?}", loaded.warnings);
-        assert!(said[0].starts_with(&path.display().to_string()), "{}", said[0]);
+        assert!(
+            said[0].starts_with(&path.display().to_string()),
+            "{}",
+            said[0]
+        );
         for w in want {
             assert!(said[0].contains(w), "{file}: {w:?} in {}", said[0]);
         }

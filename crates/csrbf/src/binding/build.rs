@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 
 use super::{Binding, Cell, Group, Rest, Support};
 use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points};
-use crate::lanes::{centre, finite_bounds, for_each_candidate, narrow, pad_far};
+use crate::lanes::{centre, finite_bounds, for_each_candidate, local, narrow, pad_far};
 
 /// Builds a binding; `recycled` are groups of an earlier binding whose
 /// arrays (already in memory, their pages touched) the new groups reuse.
@@ -145,6 +145,7 @@ fn group<P: Point>(
 ) -> (Group, Vec<Cell>) {
     // A recycled group's arrays keep their memory.
     g.ids.clear();
+    g.local.clear();
     for v in &mut g.xyz {
         v.clear();
     }
@@ -155,8 +156,12 @@ fn group<P: Point>(
         // values bit for bit.
         let bounds = finite_bounds(rest[s..e].iter().map(|p| p.to_dvec3()));
         let narrow = narrow(bounds, support.radius);
-        let (id, lane) = (g.ids.len(), g.xyz[0].len());
+        let (id, lane, first) = (g.ids.len(), g.xyz[0].len(), g.local.len());
+        let centre = centre(bounds);
         if narrow {
+            let inv_radius = 1.0 / support.radius;
+            let frame = |p: &P| local(centre, inv_radius, p.to_dvec3());
+            g.local.extend(rest[s..e].iter().map(frame));
             for_each_candidate(support.octree, bounds, support.radius, |i, u| {
                 g.ids.push(i);
                 for (v, c) in g.xyz.iter_mut().zip(u) {
@@ -173,7 +178,7 @@ fn group<P: Point>(
             candidates: g.ids.len() - id,
             lane,
             lanes: g.xyz[0].len() - lane,
-            centre: centre(bounds),
+            local: first,
             narrow,
         });
     }

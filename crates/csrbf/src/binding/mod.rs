@@ -41,10 +41,12 @@ use crate::system::Shared;
 /// (its error against [`Deformation::displacements`] is the f32
 /// evaluation's; a cell whose coefficients would cancel in f32 is summed
 /// in f64 by both). It costs the points' copy (12 bytes a point, 24 with
-/// f64 points), their order (4) and per cell 16 bytes a candidate: about
-/// 21 bytes a point at 1M points on a sphere with 43 starts in reach of
-/// each (cells of about 240 points and 80 candidates), more with fewer
-/// points a cell or more starts in reach.
+/// f64 points), the points in their cell's frame (12, the f32 lanes'
+/// coordinates: a product does not convert them again), their order (4)
+/// and per cell 16 bytes a candidate: about 33 bytes a point at 1M points
+/// on a sphere with 43 starts in reach of each (cells of about 240 points
+/// and 80 candidates), more with fewer points a cell or more starts in
+/// reach.
 ///
 /// Measured at 1M points and 10,000 starts (about 43 in reach of each
 /// point, `csrbf bench --scene 1m`): a bind costs less than one
@@ -88,6 +90,10 @@ struct Group {
     /// cell's padded to a multiple of eight lanes with far starts
     /// ([`crate::lanes`]).
     xyz: [Vec<f32>; 3],
+    /// The points of each narrow cell in that cell's frame (as the
+    /// evaluation computes them), so that a product does not convert them
+    /// again.
+    local: Vec<[f32; 3]>,
 }
 
 /// One cell of points: its group, where its candidates start in the
@@ -108,8 +114,8 @@ struct Cell {
     lane: usize,
     /// Lanes (candidates padded to a multiple of eight).
     lanes: usize,
-    /// The lanes' centre.
-    centre: DVec3,
+    /// First of its points in `local` (narrow cells only).
+    local: usize,
     /// Whether the kernel sum may run in f32 lanes (the cell is narrow:
     /// see [`crate::lanes`]); else in f64, as the evaluation does.
     narrow: bool,
@@ -245,7 +251,11 @@ impl Binding {
         let groups: usize = self
             .groups
             .iter()
-            .map(|g| size_of_val(g.ids.as_slice()) + 3 * size_of_val(g.xyz[0].as_slice()))
+            .map(|g| {
+                size_of_val(g.ids.as_slice())
+                    + 3 * size_of_val(g.xyz[0].as_slice())
+                    + size_of_val(g.local.as_slice())
+            })
             .sum();
         size_of_val(self.cells.as_slice())
             + groups

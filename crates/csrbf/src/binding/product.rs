@@ -1,7 +1,8 @@
 //! The product a new deformation costs: per cell, its candidates'
 //! coefficients put in f32 lanes beside the coordinates the binding keeps;
 //! per point, the evaluation's kernel sum over those lanes
-//! ([`crate::lanes`]), plus the polynomial part in f64. The same cells,
+//! ([`crate::lanes`]) from the point's coordinates in the cell's frame,
+//! which the binding keeps too, plus the polynomial part in f64. The same cells,
 //! frames, candidates and arithmetic as
 //! [`Deformation::displacements_f32`], so the same values, bit for bit;
 //! a cell that is not narrow, or whose coefficients would cancel in f32,
@@ -20,7 +21,7 @@ use rayon::prelude::*;
 use super::{Binding, Cell, Rest};
 use crate::deformation::{Deformation, Linear};
 use crate::evaluate::{Candidates, PARALLEL_POINTS, Point, Scatter};
-use crate::lanes::{Sums, View, local};
+use crate::lanes::{Sums, View};
 use crate::simd::Avx2Fma;
 
 /// Points summed at a time: the places of the next chunk's points are
@@ -72,21 +73,19 @@ fn cell(
     let places = b.order.as_deref().map(|o| &o[points.clone()]);
     let mut narrow = c.narrow;
     if narrow {
-        // The coefficients in lanes, and the sum of their sizes in the
-        // evaluation's order.
+        // The coefficients in lanes (the padding's zero), and the sum of
+        // their sizes in the evaluation's order.
+        let ids = &g.ids[c.id..c.id + c.candidates];
         let mut reach = 0.0;
         for v in &mut s.alpha {
             v.clear();
+            v.resize(c.lanes, 0.0);
         }
-        for &j in &g.ids[c.id..c.id + c.candidates] {
+        let [ax, ay, az] = s.alpha.each_mut().map(|v| &mut v[..ids.len()]);
+        for (k, &j) in ids.iter().enumerate() {
             let a = alpha[j as usize];
             reach += a.abs().element_sum();
-            for (v, a) in s.alpha.iter_mut().zip(a.to_array()) {
-                v.push(a as f32);
-            }
-        }
-        for v in &mut s.alpha {
-            v.resize(c.lanes, 0.0);
+            (ax[k], ay[k], az[k]) = (a.x as f32, a.y as f32, a.z as f32);
         }
         // Coefficients far larger than the moves cancel: f32 sums would
         // keep only their rounding.
@@ -125,8 +124,7 @@ fn cell(
         view,
         sums: Sums::of(cpu, b.kernel),
         linear: d.affine().map(|a| a.linear()),
-        centre: c.centre,
-        inv_radius: 1.0 / b.radius,
+        local: &g.local[c.local..c.local + c.points],
         places,
         first: c.point,
     };
@@ -137,13 +135,13 @@ fn cell(
 }
 
 /// A narrow cell's sums: its lanes, the kernel sum chosen for them, the
-/// polynomial part, its frame and its places.
+/// polynomial part, its points in its frame and its places.
 struct Narrow<'a> {
     view: View<'a>,
     sums: Sums,
     linear: Option<Linear>,
-    centre: DVec3,
-    inv_radius: f64,
+    /// The cell's points in its lanes' frame (the binding's copy).
+    local: &'a [[f32; 3]],
     /// The cell's places in the caller's order (`None`: its own, from
     /// `first`).
     places: Option<&'a [u32]>,
@@ -162,15 +160,12 @@ impl Narrow<'_> {
             }
         };
         ahead(0);
-        let (mut local_xs, mut sums) = ([[0.0f32; 3]; CHUNK], [[0.0f32; 3]; CHUNK]);
-        for (n, chunk) in points.chunks(CHUNK).enumerate() {
+        let mut sums = [[0.0f32; 3]; CHUNK];
+        let locals = self.local.chunks(CHUNK);
+        for (n, (chunk, local)) in points.chunks(CHUNK).zip(locals).enumerate() {
             // The next chunk's places are fetched while this one sums.
             ahead((n + 1) * CHUNK);
-            let m = chunk.len();
-            for (l, x) in local_xs.iter_mut().zip(chunk) {
-                *l = local(self.centre, self.inv_radius, x.to_dvec3());
-            }
-            self.sums.run(self.view, &local_xs[..m], &mut sums[..m]);
+            self.sums.run(self.view, local, &mut sums[..chunk.len()]);
             for (k, (x, sum)) in chunk.iter().zip(&sums).enumerate() {
                 let x = x.to_dvec3();
                 let v = if x.is_finite() {
