@@ -199,13 +199,27 @@ pub(crate) fn inside_folder(name: &str) -> bool {
 pub(crate) struct Skipped(Vec<(String, usize)>);
 
 impl Skipped {
-    /// Counts `n` more of `what` (a plural: `lines (\`l\`)`).
+    /// Kinds counted apart; the rest are counted together (a file of a
+    /// million made-up keywords must not make a million kinds).
+    const KINDS: usize = 12;
+
+    /// Counts `n` more of `what` (a plural: `lines (\`l\`)`; a name taken
+    /// from the file is cut to 40 characters).
     pub(crate) fn add(&mut self, what: &str, n: usize) {
         if n == 0 {
             return;
         }
+        let what = match what.char_indices().nth(40) {
+            Some((cut, _)) => &what[..cut],
+            None => what,
+        };
+        let what = if self.0.len() >= Self::KINDS && !self.0.iter().any(|(w, _)| w == what) {
+            "more of other kinds"
+        } else {
+            what
+        };
         match self.0.iter_mut().find(|(w, _)| w == what) {
-            Some((_, count)) => *count += n,
+            Some((_, count)) => *count = count.saturating_add(n),
             None => self.0.push((what.to_owned(), n)),
         }
     }

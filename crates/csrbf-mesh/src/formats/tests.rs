@@ -350,6 +350,18 @@ fn what_a_reader_skips_is_said() {
             assert!(said[0].contains(w), "{file}: {w:?} in {}", said[0]);
         }
     }
+    // Made-up keywords by the thousand: a few kinds named, the rest together.
+    let many: String = (0..5000).map(|k| format!("x{k} 1\n")).collect();
+    let path = dir.join("many.obj");
+    std::fs::write(&path, format!("{tri}{many}")).expect("write");
+    let warnings = crate::load(&path).expect("many").warnings;
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].len() < 600, "{}", warnings[0]);
+    assert!(
+        warnings[0].contains("4988 more of other kinds"),
+        "{}",
+        warnings[0]
+    );
     let noff = crate::load(&dir.join("normals.off")).expect("noff").mesh;
     assert_eq!(noff.normals, Some(vec![glam::Vec3::Z; 3]));
     std::fs::remove_dir_all(&dir).ok();
