@@ -150,6 +150,10 @@ fn group<P: Point>(
         v.clear();
     }
     let mut cells = Vec::with_capacity(range.len());
+    // At most every point of the group in a frame: one allocation, not a
+    // doubling series of copies.
+    let points: usize = all_cells[range.clone()].iter().map(|(s, e)| e - s).sum();
+    g.local.reserve(points);
     for &(s, e) in &all_cells[range] {
         // The evaluation's cell, its frame and its candidates
         // (`crate::lanes::displacements`), so that a product gives its
