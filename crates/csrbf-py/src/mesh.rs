@@ -309,7 +309,9 @@ fn vec3_rows<'py>(py: Python<'py>, v: &[csrbf::glam::Vec3]) -> Bound<'py, PyArra
 ///
 /// Raises csrbf.Error naming the file and line when it cannot be read;
 /// warns (UserWarning) of what looked wrong without being an error (an OBJ's
-/// material library or texture missing, a text file cut off).
+/// material library or texture missing, a text file cut off) and of what
+/// the file holds that a mesh does not keep (an OBJ's polylines and points,
+/// a PLY's other elements and properties, an OFF's face colours).
 #[pyfunction]
 pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
     let loaded = py

@@ -191,42 +191,56 @@ pub(crate) fn inside_folder(name: &str) -> bool {
     !(scheme || escapes || name.is_empty())
 }
 
-/// What a reader met in a file and does not keep (an OBJ's lines and
+/// What a reader met in a file and does not keep (an OBJ's polylines and
 /// points, a PLY's other elements and properties, an OFF's face colours),
 /// counted by kind, for one warning that names the file: a mesh written
 /// from it will not have them.
 #[derive(Debug, Default)]
-pub(crate) struct Skipped(Vec<(String, usize)>);
+pub(crate) struct Skipped {
+    kinds: Vec<(String, usize)>,
+    /// Whether kinds beyond [`Skipped::KINDS`] were met.
+    more: bool,
+}
 
 impl Skipped {
-    /// Kinds counted apart; the rest are counted together (a file of a
-    /// million made-up keywords must not make a million kinds).
+    /// Kinds counted apart; beyond them the warning says only that there
+    /// were others (a file of a million made-up keywords must not make a
+    /// million kinds).
     const KINDS: usize = 12;
 
-    /// Counts `n` more of `what` (a plural: `lines (\`l\`)`; a name taken
-    /// from the file is cut to 40 characters).
+    /// Counts `n` more of `what` (`polylines (\`l\`)`).
     pub(crate) fn add(&mut self, what: &str, n: usize) {
         if n == 0 {
             return;
         }
-        let what = match what.char_indices().nth(40) {
-            Some((cut, _)) => &what[..cut],
-            None => what,
-        };
-        let what = if self.0.len() >= Self::KINDS && !self.0.iter().any(|(w, _)| w == what) {
-            "more of other kinds"
-        } else {
-            what
-        };
-        match self.0.iter_mut().find(|(w, _)| w == what) {
+        let full = self.kinds.len() >= Self::KINDS;
+        match self.kinds.iter_mut().find(|(w, _)| w == what) {
             Some((_, count)) => *count = count.saturating_add(n),
-            None => self.0.push((what.to_owned(), n)),
+            None if full => self.more = true,
+            None => self.kinds.push((what.to_owned(), n)),
+        }
+    }
+
+    /// A name taken from the file, for a label: control characters
+    /// escaped, cut to 32 characters, in backticks.
+    pub(crate) fn name(name: &str) -> String {
+        let escaped: String = name.escape_debug().collect();
+        match escaped.char_indices().nth(32) {
+            Some((cut, _)) => format!("`{}...`", &escaped[..cut]),
+            None => format!("`{escaped}`"),
         }
     }
 
     /// The warning for `path`, if anything was skipped.
     pub(crate) fn warning(&self, path: &Path) -> Option<String> {
-        let list: Vec<String> = self.0.iter().map(|(w, n)| format!("{n} {w}")).collect();
+        let mut list: Vec<String> = self
+            .kinds
+            .iter()
+            .map(|(w, n)| format!("{w}: {n}"))
+            .collect();
+        if self.more {
+            list.push("and other kinds".to_owned());
+        }
         (!list.is_empty()).then(|| {
             format!(
                 "{}: not kept (a file written from this mesh will not have them): {}",

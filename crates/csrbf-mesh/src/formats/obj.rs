@@ -179,9 +179,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<
             }
             // Lines, points, curves, surfaces and vendor statements: nothing
             // a mesh of faces keeps, but said.
-            "l" => skipped.add("lines (`l`)", 1),
+            "l" => skipped.add("polylines (`l`)", 1),
             "p" => skipped.add("points (`p`)", 1),
-            _ => skipped.add(&format!("`{key}` statements"), 1),
+            _ => skipped.add(&format!("{} statements", Skipped::name(key)), 1),
         }
     }
     if any_color {

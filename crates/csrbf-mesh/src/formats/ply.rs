@@ -242,11 +242,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<
             let whose = if is_vertex { "vertices'" } else { "faces'" };
             for (k, p) in el.props.iter().enumerate() {
                 if !used.contains(&k) {
-                    skipped.add(&format!("{whose} `{}`", p.name), el.count);
+                    skipped.add(&format!("{whose} {}", Skipped::name(&p.name)), el.count);
                 }
             }
         } else {
-            skipped.add(&format!("`{}` elements", el.name), el.count);
+            skipped.add(&format!("{} elements", Skipped::name(&el.name)), el.count);
         }
         if is_vertex && (px.is_none() || py.is_none() || pz.is_none()) {
             return Err(err(

@@ -97,7 +97,7 @@ struct Group {
 }
 
 /// One cell of points: its group, where its candidates start in the
-/// group's arrays, and its lanes' frame.
+/// group's arrays, and where its points in its lanes' frame start.
 #[derive(Clone, Copy, Debug)]
 struct Cell {
     /// First point (cell order).

@@ -161,6 +161,7 @@ impl Narrow<'_> {
         };
         ahead(0);
         let mut sums = [[0.0f32; 3]; CHUNK];
+        debug_assert_eq!(self.local.len(), points.len(), "a frame point a point");
         let locals = self.local.chunks(CHUNK);
         for (n, (chunk, local)) in points.chunks(CHUNK).zip(locals).enumerate() {
             // The next chunk's places are fetched while this one sums.
