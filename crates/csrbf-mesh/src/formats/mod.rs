@@ -42,7 +42,8 @@ impl Format {
     /// stores triangles, not vertices, so reading it back gives vertices in
     /// the order the triangles first use them, without unused ones, with
     /// coincident ones merged, and no parts, UVs or colours; PLY and OFF keep
-    /// one UV and one normal per vertex and no parts.
+    /// one UV per vertex, PLY one normal per vertex and OFF none (its readers
+    /// often refuse `NOFF`), OFF no parts.
     pub fn loses(self, mesh: &crate::Mesh) -> Option<String> {
         match self {
             Format::Stl => {}

@@ -1,6 +1,6 @@
 //! Object File Format: `OFF` with the optional `C` (vertex colours), `N`
-//! (normals) and `ST` (texture coordinates) prefixes, read and written;
-//! polygon faces (a face's colour is not kept: `load` says so).
+//! (normals, read only) and `ST` (texture coordinates) prefixes; polygon
+//! faces (a face's colour is not kept: `load` says so).
 
 use std::fmt::Write;
 use std::path::Path;
@@ -180,16 +180,13 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
         .uvs
         .as_ref()
         .and_then(|u| u.per_vertex(&mesh.faces, mesh.positions.len()));
-    let normals = mesh
-        .normals
-        .as_ref()
-        .filter(|n| n.len() == mesh.positions.len());
+    // No normals (`NOFF`): trimesh, among others, refuses that header, and
+    // a deformed mesh always has normals (carried or computed).
     let _ = writeln!(
         s,
-        "{}{}{}OFF\n{} {} 0",
+        "{}{}OFF\n{} {} 0",
         if uvs.is_some() { "ST" } else { "" },
         if mesh.colors.is_some() { "C" } else { "" },
-        if normals.is_some() { "N" } else { "" },
         mesh.positions.len(),
         mesh.faces.len()
     );
@@ -204,11 +201,6 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
         };
         for c in p.to_array() {
             put(&mut s, c);
-        }
-        if let Some(n) = normals {
-            for c in n[i].to_array() {
-                put(&mut s, c);
-            }
         }
         if let Some(c) = &mesh.colors {
             for v in c[i] {

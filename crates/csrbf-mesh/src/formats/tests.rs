@@ -377,7 +377,7 @@ fn what_a_reader_skips_is_said() {
     );
     // What csrbf writes has nothing skipped: a PLY and an OFF with colours,
     // UVs, normals (and parts, in the PLY) read back without the warning,
-    // the OFF's normals included.
+    // the PLY with its normals (an OFF is written without them).
     let mut m = crate::read(&root().join("assets/models/cgal_head.off")).expect("head");
     let n = m.positions.len();
     m.colors = Some(
@@ -411,7 +411,9 @@ fn what_a_reader_skips_is_said() {
         crate::write(&path, &m).expect("write");
         let loaded = crate::load(&path).expect(file);
         assert!(loaded.warnings.is_empty(), "{file}: {:?}", loaded.warnings);
-        assert_eq!(loaded.mesh.normals, m.normals, "{file}");
+        if file.ends_with(".ply") {
+            assert_eq!(loaded.mesh.normals, m.normals, "{file}");
+        }
     }
     let noff = crate::load(&dir.join("normals.off")).expect("noff").mesh;
     assert_eq!(noff.normals, Some(vec![glam::Vec3::Z; 3]));
