@@ -1,4 +1,5 @@
-//! Runtime dispatch of the few hot loops to AVX2 + FMA where the CPU has it.
+//! Runtime dispatch of the few hot loops to AVX2 + FMA where the CPU has it
+//! (and of the f32 kernel sum to AVX-512).
 //!
 //! The crate compiles for baseline x86-64 (SSE2), which leaves most of a
 //! modern CPU's vector width unused. Each hot loop is written once as an
@@ -15,6 +16,24 @@ impl Avx2Fma {
     #[inline]
     pub(crate) fn detect() -> Option<Avx2Fma> {
         has_avx2_fma().then_some(Avx2Fma(()))
+    }
+}
+
+/// Proof that this CPU has AVX-512F besides AVX2 and FMA: only
+/// [`Avx512::detect`] makes one.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx512(());
+
+impl Avx512 {
+    /// The proof, when the CPU has all three (checked once, then cached by
+    /// std).
+    #[inline]
+    pub(crate) fn detect() -> Option<Avx512> {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx2_fma() && std::arch::is_x86_feature_detected!("avx512f") {
+            return Some(Avx512(()));
+        }
+        None
     }
 }
 
