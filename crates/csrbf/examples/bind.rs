@@ -5,6 +5,9 @@
 //! the binding's size, and the largest difference between the binding and
 //! the f64 evaluation. `BIND_ONLY` (bind, then re-bind reusing the memory),
 //! `REFIT_ONLY`, `SOLVE_ONLY` or `EVALUATE_ONLY` set: that phase alone.
+//! `SPATIAL_ORDER` set: the points sorted into cells of R/2 first (a mesh
+//! whose vertices come in spatial runs), against the scenes' Fibonacci
+//! order, whose neighbours are scattered through memory.
 
 use csrbf::synthetic::scene;
 use csrbf::{Binding, System};
@@ -61,10 +64,21 @@ fn main() -> Result<(), csrbf::Error> {
             None,
         ))
     });
-    let Some(s) = custom.or_else(|| scene(name)) else {
+    let Some(mut s) = custom.or_else(|| scene(name)) else {
         eprintln!("unknown scene {name}");
         return Ok(());
     };
+    if std::env::var_os("SPATIAL_ORDER").is_some() {
+        // Points in the order of cells of R/2 (z, y, x), as a mesh whose
+        // vertices are stored in spatial runs would give them: what the
+        // scattered reads and writes of the scene's Fibonacci order cost.
+        let h = 0.5 * s.options.radius;
+        let key = |p: &Vec3| (p.as_dvec3() / h).floor().as_ivec3().to_array();
+        s.points.sort_by_key(|p| {
+            let [x, y, z] = key(p);
+            (z, y, x)
+        });
+    }
     let sys = System::new(&s.starts, s.options)?;
     let d = sys.solve(&s.targets)?;
     if std::env::var_os("EVALUATE_ONLY").is_some() {
