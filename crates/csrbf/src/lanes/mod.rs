@@ -24,6 +24,8 @@
 //! beside them.
 
 mod sums;
+#[cfg(target_arch = "x86_64")]
+mod vector;
 
 pub(crate) use sums::Sums;
 
