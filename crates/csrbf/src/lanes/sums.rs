@@ -28,65 +28,59 @@ use super::{LANES, View};
 /// the plain reference.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Sums {
-    kernel: Kernel,
-    cpu: Option<Avx2Fma>,
-    wide: Option<Avx512>,
+    /// The copy chosen. Unsafe to call: a vector copy needs its
+    /// instruction set, which [`Sums::choose`] checked.
+    sums: SumsFn,
 }
+
+/// One copy of the sums for one kernel.
+type SumsFn = unsafe fn(View<'_>, &[[f32; 3]], &mut [[f32; 3]]);
 
 impl Sums {
     /// The widest sums this CPU runs (none but the plain reference without
     /// `cpu`).
     pub(crate) fn of(cpu: Option<Avx2Fma>, kernel: Kernel) -> Sums {
-        let wide = cpu.and_then(|_| Avx512::detect());
-        Sums { kernel, cpu, wide }
+        Sums::choose(cpu, cpu.and_then(|_| Avx512::detect()), kernel)
     }
 
-    /// These sums without AVX-512 (the eight-lane copy, for tests and
-    /// measurements beside the wide one).
+    /// The sums without AVX-512 (the eight-lane copy where `cpu` is given),
+    /// for tests beside the wide one.
     #[cfg(test)]
-    pub(crate) fn eight_lanes(self) -> Sums {
-        Sums { wide: None, ..self }
+    pub(crate) fn eight_lanes(cpu: Option<Avx2Fma>, kernel: Kernel) -> Sums {
+        Sums::choose(cpu, None, kernel)
+    }
+
+    /// The copy for `kernel`: sixteen lanes with the AVX-512 proof, eight
+    /// with the AVX2 one, else the plain reference.
+    fn choose(cpu: Option<Avx2Fma>, wide: Option<Avx512>, kernel: Kernel) -> Sums {
+        fn copy<const K: u8>(cpu: Option<Avx2Fma>, wide: Option<Avx512>) -> SumsFn {
+            #[cfg(target_arch = "x86_64")]
+            match (wide, cpu) {
+                (Some(_), _) => return sums_avx512::<K>,
+                (None, Some(_)) => return sums_avx2_fma::<K>,
+                (None, None) => {}
+            }
+            let _ = (cpu, wide);
+            sums_plain::<K>
+        }
+        let sums = match kernel {
+            Kernel::C0 => copy::<0>(cpu, wide),
+            Kernel::C2 => copy::<2>(cpu, wide),
+            Kernel::C4 => copy::<4>(cpu, wide),
+            Kernel::C6 => copy::<6>(cpu, wide),
+        };
+        Sums { sums }
     }
 
     /// sum_j alpha_j phi(|x - s_j| / R) over a cell's lanes at each point
     /// of `xs` (in the lanes' frame, [`super::local`]), into `out`.
     pub(crate) fn run(self, l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(wide) = self.wide {
-            let _ = wide;
-            // SAFETY: an `Avx512` exists only when the CPU has AVX-512F,
-            // AVX2 and FMA.
-            #[allow(unsafe_code)]
-            unsafe {
-                match self.kernel {
-                    Kernel::C0 => sums_avx512::<0>(l, xs, out),
-                    Kernel::C2 => sums_avx512::<2>(l, xs, out),
-                    Kernel::C4 => sums_avx512::<4>(l, xs, out),
-                    Kernel::C6 => sums_avx512::<6>(l, xs, out),
-                }
-            }
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if let Some(cpu) = self.cpu {
-            let _ = cpu;
-            // SAFETY: an `Avx2Fma` exists only when the CPU has AVX2 and FMA.
-            #[allow(unsafe_code)]
-            unsafe {
-                match self.kernel {
-                    Kernel::C0 => sums_avx2_fma::<0>(l, xs, out),
-                    Kernel::C2 => sums_avx2_fma::<2>(l, xs, out),
-                    Kernel::C4 => sums_avx2_fma::<4>(l, xs, out),
-                    Kernel::C6 => sums_avx2_fma::<6>(l, xs, out),
-                }
-            }
-            return;
-        }
-        match self.kernel {
-            Kernel::C0 => sums_plain::<0>(l, xs, out),
-            Kernel::C2 => sums_plain::<2>(l, xs, out),
-            Kernel::C4 => sums_plain::<4>(l, xs, out),
-            Kernel::C6 => sums_plain::<6>(l, xs, out),
+        // SAFETY: `choose` took a vector copy only with the proof that the
+        // CPU has its instruction set (an `Avx2Fma` or `Avx512` exists only
+        // then).
+        #[allow(unsafe_code)]
+        unsafe {
+            (self.sums)(l, xs, out)
         }
     }
 }
@@ -176,7 +170,7 @@ mod tests {
         for kernel in [Kernel::C0, Kernel::C2, Kernel::C4, Kernel::C6] {
             let copies = [
                 ("plain", Sums::of(None, kernel)),
-                ("avx2", Sums::of(Avx2Fma::detect(), kernel).eight_lanes()),
+                ("avx2", Sums::eight_lanes(Avx2Fma::detect(), kernel)),
                 ("avx512", Sums::of(Avx2Fma::detect(), kernel)),
             ];
             for n in [0, 1, 7, 8, 9, 16, 23, 24, 30, 64, 100, 203] {
