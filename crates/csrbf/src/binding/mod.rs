@@ -35,8 +35,8 @@ use crate::system::Shared;
 /// cell), by index and by coordinate (f32, in units of R about the cell's
 /// centre), as [`Deformation::displacements_f32`] gathers them. A new
 /// deformation then costs, per cell, its candidates' coefficients put in
-/// lanes, and per point the evaluation's kernel sum (eight candidates at a
-/// time, in f32): the weights are computed again, not stored. So a binding
+/// lanes, and per point the evaluation's kernel sum (eight or sixteen
+/// candidates at a time, in f32): the weights are computed again, not stored. So a binding
 /// gives [`Deformation::displacements_f32`]'s displacements bit for bit
 /// (its error against [`Deformation::displacements`] is the f32
 /// evaluation's; a cell whose coefficients would cancel in f32 is summed

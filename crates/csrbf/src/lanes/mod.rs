@@ -1,5 +1,5 @@
-//! The f32 kernel sum of the vertex-buffer evaluation, eight candidates at
-//! a time.
+//! The f32 kernel sum of the vertex-buffer evaluation, eight or sixteen
+//! candidates at a time.
 //!
 //! A cell's candidate starts are kept by coordinate, relative to the cell's
 //! centre and in units of R (so every value is about 1 and f32 loses
@@ -193,7 +193,7 @@ pub(crate) fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
 }
 
 /// [`Deformation::displacements_f32`]: by cells, each narrow cell's kernel
-/// sum eight candidates at a time in f32, a wide one's in f64 as
+/// sum eight or sixteen candidates at a time in f32, a wide one's in f64 as
 /// [`Deformation::displacements`] does; the polynomial part in f64.
 pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [Vec3]) {
     let blocks = Blocks::for_starts(points, d.radius(), d.starts().len());
