@@ -42,10 +42,11 @@ struct Scratch {
 /// holds one vector per bound point).
 pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
     assert_eq!(out.len(), b.len(), "one displacement per bound point");
-    let cpu = Avx2Fma::detect();
+    // The evaluation's choice of kernel sum (so the same values).
+    let sums = Sums::of(Avx2Fma::detect(), b.kernel);
     let parallel = out.len() >= PARALLEL_POINTS;
     let out = Scatter::new(out);
-    let work = |s: &mut Scratch, c: &Cell| cell(b, d, cpu, c, s, &out);
+    let work = |s: &mut Scratch, c: &Cell| cell(b, d, sums, c, s, &out);
     if parallel {
         b.cells
             .par_iter()
@@ -61,7 +62,7 @@ pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
 fn cell(
     b: &Binding,
     d: &Deformation,
-    cpu: Option<Avx2Fma>,
+    sums: Sums,
     c: &Cell,
     s: &mut Scratch,
     out: &Scatter<'_, Vec3>,
@@ -122,7 +123,7 @@ fn cell(
     };
     let narrow = Narrow {
         view,
-        sums: Sums::of(cpu, b.kernel),
+        sums,
         linear: d.affine().map(|a| a.linear()),
         local: &g.local[c.local..c.local + c.points],
         places,

@@ -12,10 +12,11 @@
 //! phi(t, r) (C2: 4 ops), sum += phi * alpha (3 fma)
 //! ```
 //!
-//! about 16 vector operations per eight candidates, where a hit test and a
-//! scalar kernel per hit cost about 40 instructions per hit. `t = max(1 - r,
-//! 0)` makes phi zero beyond R (every Wendland function is (1 - r)_+^k times
-//! a polynomial), so misses cost the same lanes and need no mask.
+//! about 16 vector operations per register of candidates (eight or
+//! sixteen), where a hit test and a scalar kernel per hit cost about 40
+//! instructions per hit. `t = max(1 - r, 0)` makes phi zero beyond R
+//! (every Wendland function is (1 - r)_+^k times a polynomial), so misses
+//! cost the same lanes and need no mask.
 //!
 //! [`Sums`] (in `sums`) computes that sum, chosen once for a kernel and
 //! CPU: a plain reference one lane at a time, an AVX2 copy of eight lanes a
@@ -294,8 +295,9 @@ pub struct EvaluationCounts {
     /// cell gathered (within R of the cell's bounds).
     pub candidates: u64,
     /// Kernel evaluations computed: in f32 lanes, each point's candidates
-    /// rounded up to a multiple of eight; in the f64 path of a wide cell,
-    /// one per hit.
+    /// rounded up to a multiple of eight (the sixteen-lane sum computes a
+    /// cell's odd last eight in a register of sixteen, half of it masked:
+    /// not counted); in the f64 path of a wide cell, one per hit.
     pub kernel_evaluations: u64,
     /// Pairs within R: the nonzero terms of the sums.
     pub hits: u64,

@@ -29,7 +29,7 @@ use super::{LANES, View};
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Sums {
     /// The copy chosen. Unsafe to call: a vector copy needs its
-    /// instruction set, which [`Sums::choose`] checked.
+    /// instruction set, which the token [`Sums::choose`] was given proves.
     sums: SumsFn,
 }
 
@@ -144,7 +144,7 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
-    use crate::lanes::Lanes;
+    use crate::lanes::{FAR, Lanes};
     use crate::octree::Octree;
     use crate::synthetic::Rng;
 
@@ -159,11 +159,13 @@ mod tests {
 
     /// Every copy this CPU runs agrees with the f64 sum to f32 accuracy
     /// (relative to the sum of |alpha_j| within R, the scale of the
-    /// rounding) and with the plain one, for every kernel, candidate counts
-    /// that are and are not multiples of eight and of sixteen (and none),
-    /// starts far from the origin; and gives a point the same sums alone
-    /// as in a pair. Where the CPU lacks AVX2 or AVX-512 the copies it
-    /// lacks fall back to the narrower one, checked the same way.
+    /// rounding) and with the plain one, for every kernel, start counts
+    /// from none to a few hundred (lane counts odd and even multiples of
+    /// eight), starts far from the origin; and gives a point the same sums
+    /// alone as in a pair. Where the CPU lacks AVX2 or AVX-512 the copies it
+    /// lacks fall back to the narrower one, checked the same way
+    /// ([`the_vector_copies_are_their_scalar_models_bit_for_bit`] says which
+    /// ran).
     #[test]
     fn every_copy_agrees_with_the_f64_sum() {
         let mut rng = Rng::new(18);
@@ -215,6 +217,120 @@ mod tests {
                         copy.run(lanes.view(), &local[k..=k], &mut alone);
                         let bits = |v: [f32; 3]| v.map(f32::to_bits);
                         assert_eq!(bits(alone[0]), bits(sums[k]), "{what}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// phi with fused multiply-adds, as the vector copies compute it.
+    fn phi_fused<const K: u8>(t: f32, r: f32) -> f32 {
+        let t2 = t * t;
+        match K {
+            0 => t2,
+            2 => t2 * t2 * 4.0f32.mul_add(r, 1.0),
+            4 => t2 * t2 * t2 * 35.0f32.mul_add(r, 18.0).mul_add(r, 3.0),
+            _ => {
+                let t4 = t2 * t2;
+                t4 * t4 * 32.0f32.mul_add(r, 25.0).mul_add(r, 8.0).mul_add(r, 1.0)
+            }
+        }
+    }
+
+    /// The vector copies' arithmetic one lane at a time: `width` lanes of
+    /// accumulators, each taking every `width`-th candidate (an odd last
+    /// eight in the low lanes), then with sixteen the high eight added to
+    /// the low, then the eight summed as [`sum_body`] sums them.
+    fn model<const K: u8>(l: View<'_>, x: [f32; 3], width: usize) -> [f32; 3] {
+        let n = l
+            .xyz
+            .iter()
+            .chain(&l.alpha)
+            .map(|v| v.len())
+            .min()
+            .unwrap_or(0);
+        let n = n - n % LANES;
+        let mut acc = [[0.0f32; 16]; 3];
+        for k in (0..n).step_by(width) {
+            for j in 0..width.min(n - k) {
+                let i = k + j;
+                let [dx, dy, dz] = [0, 1, 2].map(|c| l.xyz[c][i] - x[c]);
+                let r = dz.mul_add(dz, dy.mul_add(dy, dx * dx)).sqrt();
+                let t = 1.0 - r;
+                let w = phi_fused::<K>(if t > 0.0 { t } else { 0.0 }, r);
+                for c in 0..3 {
+                    acc[c][j] = w.mul_add(l.alpha[c][i], acc[c][j]);
+                }
+            }
+        }
+        acc.map(|a| {
+            let h: [f32; 8] =
+                std::array::from_fn(|j| if width == 16 { a[j] + a[j + 8] } else { a[j] });
+            ((h[0] + h[1]) + (h[2] + h[3])) + ((h[4] + h[5]) + (h[6] + h[7]))
+        })
+    }
+
+    /// Each vector copy this CPU runs gives its scalar model's sums bit for
+    /// bit (so the eight-lane copy gives every AVX2 machine the values it
+    /// gave before the sixteen-lane one came), over lanes of 8 to 72
+    /// (sixteen-lane registers full and with a masked last half), with
+    /// points near and far, alone and in pairs. The lanes are views of
+    /// longer buffers holding NaN past their end: a load past a view's
+    /// length would make the sums NaN.
+    #[test]
+    fn the_vector_copies_are_their_scalar_models_bit_for_bit() {
+        let cpu = Avx2Fma::detect();
+        let wide = cpu.and(Avx512::detect()).is_some();
+        if cpu.is_none() {
+            eprintln!("this CPU has no AVX2 and FMA: no vector copy to check");
+            return;
+        }
+        if !wide {
+            eprintln!("this CPU has no AVX-512F: the sixteen-lane copy is not checked here");
+        }
+        let mut rng = Rng::new(1618);
+        for kernel in [Kernel::C0, Kernel::C2, Kernel::C4, Kernel::C6] {
+            let copies = [
+                (Sums::eight_lanes(cpu, kernel), 8),
+                (Sums::of(cpu, kernel), if wide { 16 } else { 8 }),
+            ];
+            for n in [8, 16, 24, 40, 64, 72] {
+                // Coordinates within 1.6 R of the cell's centre (hits and
+                // misses), coefficients of either sign; NaN past `n`.
+                let mut buffers: Vec<Vec<f32>> = (0..6)
+                    .map(|c| {
+                        let mut v: Vec<f32> = (0..n)
+                            .map(|_| (rng.f64() * 3.2 - 1.6) as f32 * if c < 3 { 1.0 } else { 2.0 })
+                            .collect();
+                        v.extend([f32::NAN; 8]);
+                        v
+                    })
+                    .collect();
+                // A few far starts of zero coefficient, as the padding.
+                for i in (n - 3)..n {
+                    for (c, b) in buffers.iter_mut().enumerate() {
+                        b[i] = if c < 3 { FAR } else { 0.0 };
+                    }
+                }
+                let view = View {
+                    xyz: [0, 1, 2].map(|c| &buffers[c][..n]),
+                    alpha: [3, 4, 5].map(|c| &buffers[c][..n]),
+                };
+                let xs: Vec<[f32; 3]> = (0..5)
+                    .map(|_| [0; 3].map(|_| (rng.f64() - 0.5) as f32))
+                    .collect();
+                for (copy, width) in &copies {
+                    let mut out = vec![[0.0f32; 3]; xs.len()];
+                    copy.run(view, &xs, &mut out);
+                    for (x, got) in xs.iter().zip(&out) {
+                        let want = match kernel {
+                            Kernel::C0 => model::<0>(view, *x, *width),
+                            Kernel::C2 => model::<2>(view, *x, *width),
+                            Kernel::C4 => model::<4>(view, *x, *width),
+                            Kernel::C6 => model::<6>(view, *x, *width),
+                        };
+                        let bits = |v: [f32; 3]| v.map(f32::to_bits);
+                        assert_eq!(bits(*got), bits(want), "{kernel:?} n {n} width {width}");
                     }
                 }
             }

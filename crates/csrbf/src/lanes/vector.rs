@@ -54,7 +54,8 @@ impl Vector for __m256 {
         unsafe { _mm256_set1_ps(v) }
     }
     #[inline(always)]
-    unsafe fn load(v: &[f32], k: usize, _n: usize, _fill: f32) -> Self {
+    unsafe fn load(v: &[f32], k: usize, n: usize, _fill: f32) -> Self {
+        debug_assert!(k + 8 <= n && n <= v.len());
         // SAFETY: k + 8 <= n <= v.len() (the caller's promise).
         unsafe { _mm256_loadu_ps(v.as_ptr().add(k)) }
     }
@@ -110,6 +111,7 @@ impl Vector for __m512 {
     }
     #[inline(always)]
     unsafe fn load(v: &[f32], k: usize, n: usize, fill: f32) -> Self {
+        debug_assert!(k + 8 <= n && n <= v.len() && n % 8 == 0);
         // SAFETY: k + 16 <= n <= v.len(), or k + 8 <= n and the masked
         // load reads only the low eight lanes (the caller's promise).
         unsafe {
