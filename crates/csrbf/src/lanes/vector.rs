@@ -111,7 +111,7 @@ impl Vector for __m512 {
     }
     #[inline(always)]
     unsafe fn load(v: &[f32], k: usize, n: usize, fill: f32) -> Self {
-        debug_assert!(k + 8 <= n && n <= v.len() && n % 8 == 0);
+        debug_assert!(k + 8 <= n && n <= v.len() && n.is_multiple_of(8));
         // SAFETY: k + 16 <= n <= v.len(), or k + 8 <= n and the masked
         // load reads only the low eight lanes (the caller's promise).
         unsafe {
