@@ -252,14 +252,13 @@ mod tests {
         let n = n - n % LANES;
         let mut acc = [[0.0f32; 16]; 3];
         for k in (0..n).step_by(width) {
-            for j in 0..width.min(n - k) {
-                let i = k + j;
+            for (j, i) in (k..n.min(k + width)).enumerate() {
                 let [dx, dy, dz] = [0, 1, 2].map(|c| l.xyz[c][i] - x[c]);
                 let r = dz.mul_add(dz, dy.mul_add(dy, dx * dx)).sqrt();
                 let t = 1.0 - r;
                 let w = phi_fused::<K>(if t > 0.0 { t } else { 0.0 }, r);
-                for c in 0..3 {
-                    acc[c][j] = w.mul_add(l.alpha[c][i], acc[c][j]);
+                for (acc, alpha) in acc.iter_mut().zip(l.alpha) {
+                    acc[j] = w.mul_add(alpha[i], acc[j]);
                 }
             }
         }
