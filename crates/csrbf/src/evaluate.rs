@@ -194,18 +194,14 @@ impl Blocks {
             };
         }
         let parallel = n >= PARALLEL_SORT;
-        let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        let widen = |(lo, hi): (DVec3, DVec3), p: &P| {
-            let p = p.to_dvec3();
-            (lo.min(p), hi.max(p))
-        };
         let (lo, hi) = if parallel {
+            let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
             points
-                .par_iter()
-                .fold(|| empty, widen)
+                .par_chunks(PARALLEL_SORT)
+                .map(point_bounds)
                 .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
         } else {
-            points.iter().fold(empty, widen)
+            point_bounds(points)
         };
         let extent = (hi - lo).max(DVec3::ZERO);
         let cap = (4 * n).clamp(64, 1 << 23) as f64;
@@ -229,12 +225,20 @@ impl Blocks {
         // A multiplication a point, not three divisions (a point on a
         // cell's face may land in its neighbour: either is right).
         let inv_h = 1.0 / h;
+        let last = dims - 1.0;
         let key = |p: DVec3| -> usize {
-            let c = (p - lo) * inv_h;
-            // `as` saturates: NaN goes to 0, overflow to the last cell.
-            let ix = (c.x as usize).min(d[0] - 1);
-            let iy = (c.y as usize).min(d[1] - 1);
-            let iz = (c.z as usize).min(d[2] - 1);
+            // Clamped as floats (`max` and `min` ignore NaN: NaN goes to
+            // cell 0, infinities to the first or last), so the conversions
+            // need no checks and the key no branch.
+            let c = ((p - lo) * inv_h).max(DVec3::ZERO).min(last);
+            let [ix, iy, iz] = c.to_array().map(|v| {
+                debug_assert!((0.0..=last.max_element()).contains(&v));
+                // SAFETY: `v` is finite and in 0..=d - 1 (clamped above),
+                // and d - 1 < 2^23 (the cap), so it fits a u32.
+                #[allow(unsafe_code)]
+                let v = unsafe { v.to_int_unchecked::<u32>() };
+                v as usize
+            });
             ix + d[0] * (iy + d[1] * iz)
         };
         let buckets = d[0] * d[1] * d[2];
@@ -279,6 +283,57 @@ impl Blocks {
         }
         slices
     }
+}
+
+/// The bounds of `points` (NaN ignored, infinities kept), eight points at
+/// a time in their own precision, so that the comparisons run in vectors.
+fn point_bounds<P: Point>(points: &[P]) -> (DVec3, DVec3) {
+    match P::slice(points) {
+        Points::F32(p) => {
+            let (lo, hi) = bounds_of(p, |p| p.to_array(), f32::INFINITY, f32::min, f32::max);
+            (Vec3::from(lo).as_dvec3(), Vec3::from(hi).as_dvec3())
+        }
+        Points::F64(p) => {
+            let (lo, hi) = bounds_of(p, |p| p.to_array(), f64::INFINITY, f64::min, f64::max);
+            (DVec3::from(lo), DVec3::from(hi))
+        }
+    }
+}
+
+/// The bounds of `points` by coordinate, each of eight lanes of
+/// accumulators taking every eighth point (`min` and `max` ignore NaN).
+#[inline(always)]
+fn bounds_of<T, E: Copy + std::ops::Neg<Output = E>>(
+    points: &[T],
+    coords: impl Fn(&T) -> [E; 3],
+    infinity: E,
+    min: impl Fn(E, E) -> E,
+    max: impl Fn(E, E) -> E,
+) -> ([E; 3], [E; 3]) {
+    const W: usize = 8;
+    let (mut lo, mut hi) = ([infinity; 3 * W], [-infinity; 3 * W]);
+    let chunks = points.chunks_exact(W);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        let mut c = [infinity; 3 * W];
+        for (k, p) in chunk.iter().enumerate() {
+            c[3 * k..3 * k + 3].copy_from_slice(&coords(p));
+        }
+        for k in 0..3 * W {
+            lo[k] = min(lo[k], c[k]);
+            hi[k] = max(hi[k], c[k]);
+        }
+    }
+    let (mut l, mut h) = ([infinity; 3], [-infinity; 3]);
+    for (k, (&a, &b)) in lo.iter().zip(&hi).enumerate() {
+        (l[k % 3], h[k % 3]) = (min(l[k % 3], a), max(h[k % 3], b));
+    }
+    for p in rest {
+        for (k, v) in coords(p).into_iter().enumerate() {
+            (l[k], h[k]) = (min(l[k], v), max(h[k], v));
+        }
+    }
+    (l, h)
 }
 
 /// Runs of points counted apart by a parallel sort into cells, at most.

@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 
 use super::{Binding, Cell, Group, Rest, Support};
 use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points};
-use crate::lanes::{centre, finite_bounds, for_each_candidate, local, narrow, pad_far};
+use crate::lanes::{centre, finite_bounds, gather_candidates, local, narrow};
 
 /// Builds a binding; `recycled` are groups of an earlier binding whose
 /// arrays (already in memory, their pages touched) the new groups reuse.
@@ -160,19 +160,13 @@ fn group<P: Point>(
         // values bit for bit.
         let bounds = finite_bounds(rest[s..e].iter().map(|p| p.to_dvec3()));
         let narrow = narrow(bounds, support.radius);
-        let (id, lane, first) = (g.ids.len(), g.xyz[0].len(), g.local.len());
+        let (id, first) = (g.ids.len(), g.local.len());
         let centre = centre(bounds);
         if narrow {
             let inv_radius = 1.0 / support.radius;
             let frame = |p: &P| local(centre, inv_radius, p.to_dvec3());
             g.local.extend(rest[s..e].iter().map(frame));
-            for_each_candidate(support.octree, bounds, support.radius, |i, u| {
-                g.ids.push(i);
-                for (v, c) in g.xyz.iter_mut().zip(u) {
-                    v.push(c);
-                }
-            });
-            pad_far(&mut g.xyz, lane);
+            gather_candidates(support.octree, bounds, support.radius, &mut g.ids, &mut g.xyz);
         }
         cells.push(Cell {
             point: s,
@@ -180,8 +174,6 @@ fn group<P: Point>(
             group: k,
             id,
             candidates: g.ids.len() - id,
-            lane,
-            lanes: g.xyz[0].len() - lane,
             local: first,
             narrow,
         });

@@ -36,7 +36,8 @@ use crate::system::Shared;
 /// centre), as [`Deformation::displacements_f32`] gathers them. A new
 /// deformation then costs, per cell, its candidates' coefficients put in
 /// lanes, and per point the evaluation's kernel sum (eight or sixteen
-/// candidates at a time, in f32): the weights are computed again, not stored. So a binding
+/// points at a time, in f32): the weights are computed again, not stored.
+/// So a binding
 /// gives [`Deformation::displacements_f32`]'s displacements bit for bit
 /// (its error against [`Deformation::displacements`] is the f32
 /// evaluation's; a cell whose coefficients would cancel in f32 is summed
@@ -45,7 +46,7 @@ use crate::system::Shared;
 /// coordinates: a product does not convert them again), their order (4)
 /// and per cell 16 bytes a candidate: about 33 bytes a point at 1M points
 /// on a sphere with 43 starts in reach of each (cells of about 240 points
-/// and 80 candidates), more with fewer points a cell or more starts in
+/// and 76 candidates), more with fewer points a cell or more starts in
 /// reach.
 ///
 /// Measured at 1M points and 10,000 starts (about 43 in reach of each
@@ -86,9 +87,8 @@ pub struct Binding {
 struct Group {
     /// Each cell's candidate starts.
     ids: Vec<u32>,
-    /// Their coordinates, in units of R about their cell's centre, each
-    /// cell's padded to a multiple of eight lanes with far starts
-    /// ([`crate::lanes`]).
+    /// Their coordinates, in units of R about their cell's centre
+    /// ([`crate::lanes`]), beside `ids`.
     xyz: [Vec<f32>; 3],
     /// The points of each narrow cell in that cell's frame (as the
     /// evaluation computes them), so that a product does not convert them
@@ -106,14 +106,10 @@ struct Cell {
     points: usize,
     /// Its group.
     group: usize,
-    /// First candidate in `ids`.
+    /// First candidate in `ids` and `xyz`.
     id: usize,
     /// Candidates.
     candidates: usize,
-    /// First lane in `xyz`.
-    lane: usize,
-    /// Lanes (candidates padded to a multiple of eight).
-    lanes: usize,
     /// First of its points in `local` (narrow cells only).
     local: usize,
     /// Whether the kernel sum may run in f32 lanes (the cell is narrow:

@@ -12,23 +12,17 @@
 //! the caller's buffer (the binding's `order`), so a refit allocates
 //! nothing and makes one pass. Those places are scattered when the
 //! caller's order is not the cells' (a point a cache line), so a cell sums
-//! its points sixteen at a time and asks for the next sixteen places' lines
+//! its points a chunk at a time and asks for the next chunk's places' lines
 //! meanwhile.
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::{Binding, Cell, Rest};
-use crate::deformation::{Deformation, Linear};
-use crate::evaluate::{Candidates, PARALLEL_POINTS, Point, Scatter};
-use crate::lanes::{Sums, View};
+use crate::deformation::Deformation;
+use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter};
+use crate::lanes::{Narrow, Sums, View};
 use crate::simd::Avx2Fma;
-
-/// Points summed at a time: the places of the next chunk's points are
-/// fetched into the cache while a chunk sums, so that writing a point where
-/// the caller's order puts it (a cache line of its own, when the caller's
-/// order is not the cells') does not wait for memory.
-const CHUNK: usize = 16;
 
 /// Per-thread scratch: a cell's coefficients in lanes, and the candidates
 /// of a cell summed in f64.
@@ -74,13 +68,13 @@ fn cell(
     let places = b.order.as_deref().map(|o| &o[points.clone()]);
     let mut narrow = c.narrow;
     if narrow {
-        // The coefficients in lanes (the padding's zero), and the sum of
-        // their sizes in the evaluation's order.
+        // The coefficients in lanes, and the sum of their sizes in the
+        // evaluation's order.
         let ids = &g.ids[c.id..c.id + c.candidates];
         let mut reach = 0.0;
         for v in &mut s.alpha {
             v.clear();
-            v.resize(c.lanes, 0.0);
+            v.resize(c.candidates, 0.0);
         }
         let [ax, ay, az] = s.alpha.each_mut().map(|v| &mut v[..ids.len()]);
         for (k, &j) in ids.iter().enumerate() {
@@ -108,7 +102,9 @@ fn cell(
                 Vec3::NAN
             };
             let place = places.map_or(c.point + k, |p| p[k] as usize);
-            // SAFETY: as in `Narrow::write`.
+            // SAFETY: each place belongs to this cell alone, and `order`
+            // maps places to points one to one (a permutation, see
+            // `Blocks`).
             #[allow(unsafe_code)]
             unsafe {
                 out.write(place, v)
@@ -116,7 +112,7 @@ fn cell(
         }
         return;
     }
-    let lanes = c.lane..c.lane + c.lanes;
+    let lanes = c.id..c.id + c.candidates;
     let view = View {
         xyz: g.xyz.each_ref().map(|v| &v[lanes.clone()]),
         alpha: s.alpha.each_ref().map(Vec::as_slice),
@@ -132,58 +128,5 @@ fn cell(
     match &b.rest {
         Rest::F32(p) => narrow.write(&p[points], out),
         Rest::F64(p) => narrow.write(&p[points], out),
-    }
-}
-
-/// A narrow cell's sums: its lanes, the kernel sum chosen for them, the
-/// polynomial part, its points in its frame and its places.
-struct Narrow<'a> {
-    view: View<'a>,
-    sums: Sums,
-    linear: Option<Linear>,
-    /// The cell's points in its lanes' frame (the binding's copy).
-    local: &'a [[f32; 3]],
-    /// The cell's places in the caller's order (`None`: its own, from
-    /// `first`).
-    places: Option<&'a [u32]>,
-    first: usize,
-}
-
-impl Narrow<'_> {
-    /// Writes the displacement of each of the cell's `points` at its place.
-    fn write<P: Point>(&self, points: &[P], out: &Scatter<'_, Vec3>) {
-        let place = |k: usize| self.places.map_or(self.first + k, |p| p[k] as usize);
-        let ahead = |from: usize| {
-            if let Some(p) = self.places {
-                for &i in &p[from.min(p.len())..(from + CHUNK).min(p.len())] {
-                    out.prefetch(i as usize);
-                }
-            }
-        };
-        ahead(0);
-        let mut sums = [[0.0f32; 3]; CHUNK];
-        debug_assert_eq!(self.local.len(), points.len(), "a frame point a point");
-        let locals = self.local.chunks(CHUNK);
-        for (n, (chunk, local)) in points.chunks(CHUNK).zip(locals).enumerate() {
-            // The next chunk's places are fetched while this one sums.
-            ahead((n + 1) * CHUNK);
-            self.sums.run(self.view, local, &mut sums[..chunk.len()]);
-            for (k, (x, sum)) in chunk.iter().zip(&sums).enumerate() {
-                let x = x.to_dvec3();
-                let v = if x.is_finite() {
-                    let v = self.linear.map_or(DVec3::ZERO, |l| l.eval(x));
-                    (v + DVec3::from_array(sum.map(f64::from))).as_vec3()
-                } else {
-                    Vec3::NAN
-                };
-                // SAFETY: each place belongs to this cell alone, and
-                // `order` maps places to points one to one (a permutation,
-                // see `Blocks`).
-                #[allow(unsafe_code)]
-                unsafe {
-                    out.write(place(n * CHUNK + k), v)
-                };
-            }
-        }
     }
 }

@@ -1,15 +1,14 @@
 //! The kernel sum over a cell's lanes ([`super::View`]): one plain
 //! reference and two vector copies of it, chosen once per kernel and CPU.
 //!
-//! [`sum_body`] is the reference: the arithmetic one lane at a time (without
-//! fused multiply-adds), what a CPU without AVX2 and FMA runs. The vector
-//! copies (`super::vector`) compute eight lanes a register with AVX2 and
-//! sixteen with AVX-512, with fused multiply-adds; the sixteen-lane copy
-//! sums a lane's blocks in another order than the others (every other
-//! block, then the halves added), so the three agree to f32 rounding, not
-//! bit for bit. Each gives a point the same sums alone or paired, and the
-//! evaluation and a binding's product choose the same copy
-//! ([`Sums::of`]), so they agree bit for bit.
+//! [`sum_body`] is the reference: the arithmetic one point at a time
+//! (without fused multiply-adds), what a CPU without AVX2 and FMA runs.
+//! The vector copies (`super::vector`) hold a point a lane, eight points a
+//! register with AVX2 and sixteen with AVX-512, and do the reference's
+//! operations in its order with fused multiply-adds: so the two widths
+//! give every point the same sums bit for bit, and agree with the
+//! reference to f32 rounding. The evaluation and a binding's product
+//! choose the same copy ([`Sums::of`]), so they agree bit for bit.
 //!
 //! Sixteen lanes pay where the CPU runs 512-bit vectors at full width (AMD
 //! Zen 5: a `vsqrtps` and an FMA take the same time at 256 and 512 bits, so
@@ -21,7 +20,19 @@ use crate::simd::{Avx2Fma, Avx512};
 
 #[cfg(target_arch = "x86_64")]
 use super::vector::{sums_avx2_fma, sums_avx512};
-use super::{LANES, View};
+use super::View;
+
+/// Accumulators a point keeps for each of its three sums: candidate `j`
+/// goes to accumulator `j % ACCUMULATORS`, and they are added at the end
+/// ([`combine`]). Two halve the rounding's growth with the candidates and
+/// the chains of dependent additions.
+pub(super) const ACCUMULATORS: usize = 2;
+
+/// The sum of a point's accumulators, in order.
+#[inline(always)]
+pub(super) fn combine<T: Copy>(acc: [T; ACCUMULATORS], add: impl Fn(T, T) -> T) -> T {
+    acc.into_iter().reduce(add).expect("at least one accumulator")
+}
 
 /// The kernel sums of one kernel on this CPU, chosen once: with AVX-512
 /// where the CPU has it, else AVX2 and FMA when the proof is given, else
@@ -31,6 +42,8 @@ pub(crate) struct Sums {
     /// The copy chosen. Unsafe to call: a vector copy needs its
     /// instruction set, which the token [`Sums::choose`] was given proves.
     sums: SumsFn,
+    /// Points a register of the copy holds (1 for the plain one).
+    width: usize,
 }
 
 /// One copy of the sums for one kernel.
@@ -53,23 +66,42 @@ impl Sums {
     /// The copy for `kernel`: sixteen lanes with the AVX-512 proof, eight
     /// with the AVX2 one, else the plain reference.
     fn choose(cpu: Option<Avx2Fma>, wide: Option<Avx512>, kernel: Kernel) -> Sums {
-        fn copy<const K: u8>(cpu: Option<Avx2Fma>, wide: Option<Avx512>) -> SumsFn {
+        fn copy<const K: u8>(cpu: Option<Avx2Fma>, wide: Option<Avx512>) -> Sums {
             #[cfg(target_arch = "x86_64")]
             match (wide, cpu) {
-                (Some(_), _) => return sums_avx512::<K>,
-                (None, Some(_)) => return sums_avx2_fma::<K>,
+                (Some(_), _) => {
+                    return Sums {
+                        sums: sums_avx512::<K>,
+                        width: 16,
+                    };
+                }
+                (None, Some(_)) => {
+                    return Sums {
+                        sums: sums_avx2_fma::<K>,
+                        width: 8,
+                    };
+                }
                 (None, None) => {}
             }
             let _ = (cpu, wide);
-            sums_plain::<K>
+            Sums {
+                sums: sums_plain::<K>,
+                width: 1,
+            }
         }
-        let sums = match kernel {
+        match kernel {
             Kernel::C0 => copy::<0>(cpu, wide),
             Kernel::C2 => copy::<2>(cpu, wide),
             Kernel::C4 => copy::<4>(cpu, wide),
             Kernel::C6 => copy::<6>(cpu, wide),
-        };
-        Sums { sums }
+        }
+    }
+
+    /// Points a register holds: a call computes its points rounded up to a
+    /// multiple of this (the lanes past them sum at the cell's centre and
+    /// are dropped).
+    pub(crate) fn width(self) -> usize {
+        self.width
     }
 
     /// sum_j alpha_j phi(|x - s_j| / R) over a cell's lanes at each point
@@ -102,34 +134,25 @@ fn phi<const K: u8>(t: f32, r: f32) -> f32 {
     }
 }
 
-/// The sum, eight lanes of accumulators over the padded arrays, in the
-/// order the eight-lane vector copy computes it (which fuses the
-/// multiply-adds).
+/// The sum at one point, candidate by candidate into [`ACCUMULATORS`]
+/// accumulators, in the order the vector copies compute it (which fuse
+/// the multiply-adds).
 fn sum_body<const K: u8>(l: View<'_>, x: [f32; 3]) -> [f32; 3] {
     let fma = |a: f32, b: f32, c: f32| a * b + c;
-    let mut acc = [[0.0f32; LANES]; 3];
+    let mut acc = [[0.0f32; 3]; ACCUMULATORS];
     let [xs, ys, zs] = l.xyz;
-    let [ax, ay, az] = l.alpha;
-    let chunks = xs
-        .chunks_exact(LANES)
-        .zip(ys.chunks_exact(LANES))
-        .zip(zs.chunks_exact(LANES))
-        .zip(ax.chunks_exact(LANES))
-        .zip(ay.chunks_exact(LANES))
-        .zip(az.chunks_exact(LANES));
-    for (((((cx, cy), cz), ax), ay), az) in chunks {
-        for k in 0..LANES {
-            let (dx, dy, dz) = (cx[k] - x[0], cy[k] - x[1], cz[k] - x[2]);
-            let r = fma(dz, dz, fma(dy, dy, dx * dx)).sqrt();
-            let t = 1.0 - r;
-            let t = if t > 0.0 { t } else { 0.0 };
-            let w = phi::<K>(t, r);
-            acc[0][k] = fma(w, ax[k], acc[0][k]);
-            acc[1][k] = fma(w, ay[k], acc[1][k]);
-            acc[2][k] = fma(w, az[k], acc[2][k]);
+    for j in 0..l.len() {
+        let (dx, dy, dz) = (xs[j] - x[0], ys[j] - x[1], zs[j] - x[2]);
+        let r = fma(dz, dz, fma(dy, dy, dx * dx)).sqrt();
+        let t = 1.0 - r;
+        let t = if t > 0.0 { t } else { 0.0 };
+        let w = phi::<K>(t, r);
+        let acc = &mut acc[j % ACCUMULATORS];
+        for (acc, alpha) in acc.iter_mut().zip(l.alpha) {
+            *acc = fma(w, alpha[j], *acc);
         }
     }
-    acc.map(|a| ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7])))
+    [0, 1, 2].map(|c| combine(acc.map(|a| a[c]), |a, b| a + b))
 }
 
 /// [`sum_body`] for every point of `xs`, into `out`.
@@ -144,7 +167,7 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
-    use crate::lanes::{FAR, Lanes};
+    use crate::lanes::Lanes;
     use crate::octree::Octree;
     use crate::synthetic::Rng;
 
@@ -160,11 +183,11 @@ mod tests {
     /// Every copy this CPU runs agrees with the f64 sum to f32 accuracy
     /// (relative to the sum of |alpha_j| within R, the scale of the
     /// rounding) and with the plain one, for every kernel, start counts
-    /// from none to a few hundred (lane counts odd and even multiples of
-    /// eight), starts far from the origin; and gives a point the same sums
-    /// alone as in a pair. Where the CPU lacks AVX2 or AVX-512 the copies it
-    /// lacks fall back to the narrower one, checked the same way
-    /// ([`the_vector_copies_are_their_scalar_models_bit_for_bit`] says which
+    /// from none to a few hundred, starts far from the origin; and gives a
+    /// point the same sums alone as among others. Where the CPU lacks AVX2
+    /// or AVX-512 the copies it lacks fall back to the narrower one, checked
+    /// the same way
+    /// ([`the_vector_copies_are_their_scalar_model_bit_for_bit`] says which
     /// ran).
     #[test]
     fn every_copy_agrees_with_the_f64_sum() {
@@ -184,10 +207,10 @@ mod tests {
                 let (lo, hi) = (offset + 0.1, offset + 0.1 + r * 0.5);
                 let mut lanes = Lanes::default();
                 lanes.gather(&octree, &alpha, (lo, hi), r);
-                assert_eq!(lanes.lanes() % LANES, 0);
-                assert!(lanes.candidates() <= n && lanes.lanes() < lanes.candidates() + LANES);
-                // Points in one call (an odd count: pairs and one alone).
-                let xs: Vec<DVec3> = (0..21).map(|_| lo + (hi - lo) * rng.vec3()).collect();
+                assert!(lanes.candidates() <= n);
+                assert_eq!(lanes.view().len(), lanes.candidates());
+                // Points in one call: a block of two registers and a tail.
+                let xs: Vec<DVec3> = (0..37).map(|_| lo + (hi - lo) * rng.vec3()).collect();
                 let local: Vec<[f32; 3]> = xs.iter().map(|x| lanes.local(*x)).collect();
                 let sums = copies.map(|(_, c)| {
                     let mut out = vec![[0.0f32; 3]; xs.len()];
@@ -212,7 +235,7 @@ mod tests {
                         let err = (got - want).length() / scale;
                         assert!(err < 2e-6, "{kernel:?} n {n} {what}: error {err:e}");
                         assert!((got - plain).length() / scale < 2e-6, "{what}");
-                        // A point's sums alone are its sums in a pair.
+                        // A point's sums alone are its sums among others.
                         let mut alone = [[0.0f32; 3]];
                         copy.run(lanes.view(), &local[k..=k], &mut alone);
                         let bits = |v: [f32; 3]| v.map(f32::to_bits);
@@ -237,47 +260,31 @@ mod tests {
         }
     }
 
-    /// The vector copies' arithmetic one lane at a time: `width` lanes of
-    /// accumulators, each taking every `width`-th candidate (an odd last
-    /// eight in the low lanes), then with sixteen the high eight added to
-    /// the low, then the eight summed as [`sum_body`] sums them.
-    fn model<const K: u8>(l: View<'_>, x: [f32; 3], width: usize) -> [f32; 3] {
-        let n = l
-            .xyz
-            .iter()
-            .chain(&l.alpha)
-            .map(|v| v.len())
-            .min()
-            .unwrap_or(0);
-        let n = n - n % LANES;
-        let mut acc = [[0.0f32; 16]; 3];
-        for k in (0..n).step_by(width) {
-            for (j, i) in (k..n.min(k + width)).enumerate() {
-                let [dx, dy, dz] = [0, 1, 2].map(|c| l.xyz[c][i] - x[c]);
-                let r = dz.mul_add(dz, dy.mul_add(dy, dx * dx)).sqrt();
-                let t = 1.0 - r;
-                let w = phi_fused::<K>(if t > 0.0 { t } else { 0.0 }, r);
-                for (acc, alpha) in acc.iter_mut().zip(l.alpha) {
-                    acc[j] = w.mul_add(alpha[i], acc[j]);
-                }
+    /// The vector copies' arithmetic at one point: [`sum_body`]'s order,
+    /// with fused multiply-adds.
+    fn model<const K: u8>(l: View<'_>, x: [f32; 3]) -> [f32; 3] {
+        let mut acc = [[0.0f32; 3]; ACCUMULATORS];
+        for j in 0..l.len() {
+            let [dx, dy, dz] = [0, 1, 2].map(|c| l.xyz[c][j] - x[c]);
+            let r = dz.mul_add(dz, dy.mul_add(dy, dx * dx)).sqrt();
+            let t = 1.0 - r;
+            let w = phi_fused::<K>(if t > 0.0 { t } else { 0.0 }, r);
+            for (acc, alpha) in acc[j % ACCUMULATORS].iter_mut().zip(l.alpha) {
+                *acc = w.mul_add(alpha[j], *acc);
             }
         }
-        acc.map(|a| {
-            let h: [f32; 8] =
-                std::array::from_fn(|j| if width == 16 { a[j] + a[j + 8] } else { a[j] });
-            ((h[0] + h[1]) + (h[2] + h[3])) + ((h[4] + h[5]) + (h[6] + h[7]))
-        })
+        [0, 1, 2].map(|c| combine(acc.map(|a| a[c]), |a, b| a + b))
     }
 
     /// Each vector copy this CPU runs gives its scalar model's sums bit for
-    /// bit (so the eight-lane copy gives every AVX2 machine the values it
-    /// gave before the sixteen-lane one came), over lanes of 8 to 72
-    /// (sixteen-lane registers full and with a masked last half), with
-    /// points near and far, alone and in pairs. The lanes are views of
-    /// longer buffers holding NaN past their end: a load past a view's
-    /// length would make the sums NaN.
+    /// bit, so the eight- and sixteen-lane copies give every point the same
+    /// sums: candidate counts of 0 to 71 (a last pair of candidates whole
+    /// or half), point counts of 1 to 40 (blocks of one register and two,
+    /// full and not), points near and far. The lanes are views of longer
+    /// buffers holding NaN past their end: a read past a view's length
+    /// would make the sums NaN.
     #[test]
-    fn the_vector_copies_are_their_scalar_models_bit_for_bit() {
+    fn the_vector_copies_are_their_scalar_model_bit_for_bit() {
         let cpu = Avx2Fma::detect();
         let wide = cpu.and(Avx512::detect()).is_some();
         if cpu.is_none() {
@@ -293,10 +300,10 @@ mod tests {
                 (Sums::eight_lanes(cpu, kernel), 8),
                 (Sums::of(cpu, kernel), if wide { 16 } else { 8 }),
             ];
-            for n in [8, 16, 24, 40, 64, 72] {
+            for (n, points) in [(0, 3), (1, 1), (2, 17), (7, 8), (16, 16), (33, 40), (71, 33)] {
                 // Coordinates within 1.6 R of the cell's centre (hits and
                 // misses), coefficients of either sign; NaN past `n`.
-                let mut buffers: Vec<Vec<f32>> = (0..6)
+                let buffers: Vec<Vec<f32>> = (0..6)
                     .map(|c| {
                         let mut v: Vec<f32> = (0..n)
                             .map(|_| (rng.f64() * 3.2 - 1.6) as f32 * if c < 3 { 1.0 } else { 2.0 })
@@ -305,28 +312,23 @@ mod tests {
                         v
                     })
                     .collect();
-                // A few far starts of zero coefficient, as the padding.
-                for i in (n - 3)..n {
-                    for (c, b) in buffers.iter_mut().enumerate() {
-                        b[i] = if c < 3 { FAR } else { 0.0 };
-                    }
-                }
                 let view = View {
                     xyz: [0, 1, 2].map(|c| &buffers[c][..n]),
                     alpha: [3, 4, 5].map(|c| &buffers[c][..n]),
                 };
-                let xs: Vec<[f32; 3]> = (0..5)
+                let xs: Vec<[f32; 3]> = (0..points)
                     .map(|_| [0; 3].map(|_| (rng.f64() - 0.5) as f32))
                     .collect();
                 for (copy, width) in &copies {
+                    assert_eq!(copy.width(), *width);
                     let mut out = vec![[0.0f32; 3]; xs.len()];
                     copy.run(view, &xs, &mut out);
                     for (x, got) in xs.iter().zip(&out) {
                         let want = match kernel {
-                            Kernel::C0 => model::<0>(view, *x, *width),
-                            Kernel::C2 => model::<2>(view, *x, *width),
-                            Kernel::C4 => model::<4>(view, *x, *width),
-                            Kernel::C6 => model::<6>(view, *x, *width),
+                            Kernel::C0 => model::<0>(view, *x),
+                            Kernel::C2 => model::<2>(view, *x),
+                            Kernel::C4 => model::<4>(view, *x),
+                            Kernel::C6 => model::<6>(view, *x),
                         };
                         let bits = |v: [f32; 3]| v.map(f32::to_bits);
                         assert_eq!(bits(*got), bits(want), "{kernel:?} n {n} width {width}");

@@ -1,15 +1,14 @@
 //! The kernel sum in vector registers, written once over [`Vector`] and
-//! compiled twice: eight lanes a register with AVX2 and FMA
+//! compiled twice: eight points a register with AVX2 and FMA
 //! ([`sums_avx2_fma`]), sixteen with AVX-512 ([`sums_avx512`]).
 //!
-//! Every lane does [`super::sums::sum_body`]'s operations in its order, with
-//! fused multiply-adds; two points go at a time (they share the lanes'
-//! loads; four at a time measured no faster), each with its own
-//! accumulators, so a point's sums are the same alone or paired. Sixteen
-//! lanes take a cell's blocks of eight two at a time, an odd last one in
-//! the low half with far starts of zero coefficient above it, and add the
-//! halves before the eight-lane reduction: the two widths agree to f32
-//! rounding, not bit for bit.
+//! Each lane is a point: a block of points (two registers' worth) goes
+//! through the cell's candidates one at a time, each candidate's
+//! coordinates and coefficients broadcast, so no lane ever meets another
+//! and a sum needs no reduction across lanes. Every lane does
+//! [`super::sums::sum_body`]'s operations in its order, with fused
+//! multiply-adds; so every copy, at either width, gives a point the same
+//! sums bit for bit, whatever its block.
 //!
 //! The generic functions are `#[inline(always)]` and reached only from the
 //! two `#[target_feature]` entry points, so each is compiled whole for its
@@ -21,7 +20,8 @@
 
 use std::arch::x86_64::*;
 
-use super::{FAR, LANES, View};
+use super::View;
+use super::sums::{ACCUMULATORS, combine};
 
 /// The operations of the kernel sum at one width. Each is an intrinsic of
 /// the width's instruction set.
@@ -33,138 +33,87 @@ trait Vector: Copy {
     /// Lanes a register.
     const WIDTH: usize;
     unsafe fn splat(v: f32) -> Self;
-    /// Lanes `k..k + WIDTH` of `v`; lanes at `n` and beyond (`n` a multiple
-    /// of eight, `k + 8 <= n <= v.len()`) are `fill`, and not read.
-    unsafe fn load(v: &[f32], k: usize, n: usize, fill: f32) -> Self;
+    /// The first `WIDTH` values of `v` (at least that many).
+    unsafe fn load(v: &[f32]) -> Self;
+    /// Into the first `WIDTH` values of `v` (at least that many).
+    unsafe fn store(self, v: &mut [f32]);
+    unsafe fn add(self, b: Self) -> Self;
     unsafe fn sub(self, b: Self) -> Self;
     unsafe fn mul(self, b: Self) -> Self;
     /// `self * b + c`, fused.
     unsafe fn mul_add(self, b: Self, c: Self) -> Self;
     unsafe fn sqrt(self) -> Self;
     unsafe fn max(self, b: Self) -> Self;
-    /// A point's three sums from its accumulators.
-    unsafe fn reduce(acc: [Self; 3]) -> [f32; 3];
 }
 
-impl Vector for __m256 {
-    const WIDTH: usize = 8;
-    #[inline(always)]
-    unsafe fn splat(v: f32) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm256_set1_ps(v) }
-    }
-    #[inline(always)]
-    unsafe fn load(v: &[f32], k: usize, n: usize, _fill: f32) -> Self {
-        debug_assert!(k + 8 <= n && n <= v.len());
-        // SAFETY: k + 8 <= n <= v.len() (the caller's promise).
-        unsafe { _mm256_loadu_ps(v.as_ptr().add(k)) }
-    }
-    #[inline(always)]
-    unsafe fn sub(self, b: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm256_sub_ps(self, b) }
-    }
-    #[inline(always)]
-    unsafe fn mul(self, b: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm256_mul_ps(self, b) }
-    }
-    #[inline(always)]
-    unsafe fn mul_add(self, b: Self, c: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm256_fmadd_ps(self, b, c) }
-    }
-    #[inline(always)]
-    unsafe fn sqrt(self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm256_sqrt_ps(self) }
-    }
-    #[inline(always)]
-    unsafe fn max(self, b: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm256_max_ps(self, b) }
-    }
-    /// Two horizontal adds of x with y and z with itself, one of those,
-    /// then the halves.
-    #[inline(always)]
-    unsafe fn reduce(acc: [Self; 3]) -> [f32; 3] {
-        let mut v = [0.0f32; 4];
-        // SAFETY: the CPU has AVX (the trait's promise); `v` holds four f32.
-        unsafe {
-            let xyz = _mm256_hadd_ps(
-                _mm256_hadd_ps(acc[0], acc[1]),
-                _mm256_hadd_ps(acc[2], acc[2]),
-            );
-            let sums = _mm_add_ps(_mm256_castps256_ps128(xyz), _mm256_extractf128_ps::<1>(xyz));
-            _mm_storeu_ps(v.as_mut_ptr(), sums);
-        }
-        [v[0], v[1], v[2]]
-    }
-}
-
-impl Vector for __m512 {
-    const WIDTH: usize = 16;
-    #[inline(always)]
-    unsafe fn splat(v: f32) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm512_set1_ps(v) }
-    }
-    #[inline(always)]
-    unsafe fn load(v: &[f32], k: usize, n: usize, fill: f32) -> Self {
-        debug_assert!(k + 8 <= n && n <= v.len() && n.is_multiple_of(8));
-        // SAFETY: k + 16 <= n <= v.len(), or k + 8 <= n and the masked
-        // load reads only the low eight lanes (the caller's promise).
-        unsafe {
-            let at = v.as_ptr().add(k);
-            if k + 16 <= n {
-                _mm512_loadu_ps(at)
-            } else {
-                _mm512_mask_loadu_ps(_mm512_set1_ps(fill), 0x00ff, at)
+/// One intrinsic per method, at one width.
+macro_rules! vector {
+    ($t:ty, $width:expr, $set1:ident, $loadu:ident, $storeu:ident, $add:ident, $sub:ident,
+     $mul:ident, $fmadd:ident, $sqrt:ident, $max:ident) => {
+        impl Vector for $t {
+            const WIDTH: usize = $width;
+            #[inline(always)]
+            unsafe fn splat(v: f32) -> Self {
+                // SAFETY: the CPU has the instruction set (the trait's promise).
+                unsafe { $set1(v) }
+            }
+            #[inline(always)]
+            unsafe fn load(v: &[f32]) -> Self {
+                assert!(v.len() >= $width);
+                // SAFETY: `WIDTH` values are there (checked); the CPU has
+                // the instruction set (the trait's promise).
+                unsafe { $loadu(v.as_ptr()) }
+            }
+            #[inline(always)]
+            unsafe fn store(self, v: &mut [f32]) {
+                assert!(v.len() >= $width);
+                // SAFETY: as in `load`.
+                unsafe { $storeu(v.as_mut_ptr(), self) }
+            }
+            #[inline(always)]
+            unsafe fn add(self, b: Self) -> Self {
+                // SAFETY: the CPU has the instruction set (the trait's promise).
+                unsafe { $add(self, b) }
+            }
+            #[inline(always)]
+            unsafe fn sub(self, b: Self) -> Self {
+                // SAFETY: as above.
+                unsafe { $sub(self, b) }
+            }
+            #[inline(always)]
+            unsafe fn mul(self, b: Self) -> Self {
+                // SAFETY: as above.
+                unsafe { $mul(self, b) }
+            }
+            #[inline(always)]
+            unsafe fn mul_add(self, b: Self, c: Self) -> Self {
+                // SAFETY: as above.
+                unsafe { $fmadd(self, b, c) }
+            }
+            #[inline(always)]
+            unsafe fn sqrt(self) -> Self {
+                // SAFETY: as above.
+                unsafe { $sqrt(self) }
+            }
+            #[inline(always)]
+            unsafe fn max(self, b: Self) -> Self {
+                // SAFETY: as above.
+                unsafe { $max(self, b) }
             }
         }
-    }
-    #[inline(always)]
-    unsafe fn sub(self, b: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm512_sub_ps(self, b) }
-    }
-    #[inline(always)]
-    unsafe fn mul(self, b: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm512_mul_ps(self, b) }
-    }
-    #[inline(always)]
-    unsafe fn mul_add(self, b: Self, c: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm512_fmadd_ps(self, b, c) }
-    }
-    #[inline(always)]
-    unsafe fn sqrt(self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm512_sqrt_ps(self) }
-    }
-    #[inline(always)]
-    unsafe fn max(self, b: Self) -> Self {
-        // SAFETY: the CPU has the instruction set (the trait's promise).
-        unsafe { _mm512_max_ps(self, b) }
-    }
-    /// The high eight lanes added to the low, then the eight-lane
-    /// reduction.
-    #[inline(always)]
-    unsafe fn reduce(acc: [Self; 3]) -> [f32; 3] {
-        // SAFETY: the CPU has AVX-512F (the trait's promise), and so the
-        // AVX the eight-lane reduction uses.
-        unsafe {
-            let half = |v: __m512| {
-                let high = _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(v)));
-                _mm256_add_ps(_mm512_castps512_ps256(v), high)
-            };
-            <__m256 as Vector>::reduce([half(acc[0]), half(acc[1]), half(acc[2])])
-        }
-    }
+    };
 }
 
-/// [`super::sums::sum_body`] with AVX2 and FMA, eight lanes a register.
+vector!(
+    __m256, 8, _mm256_set1_ps, _mm256_loadu_ps, _mm256_storeu_ps, _mm256_add_ps, _mm256_sub_ps,
+    _mm256_mul_ps, _mm256_fmadd_ps, _mm256_sqrt_ps, _mm256_max_ps
+);
+vector!(
+    __m512, 16, _mm512_set1_ps, _mm512_loadu_ps, _mm512_storeu_ps, _mm512_add_ps, _mm512_sub_ps,
+    _mm512_mul_ps, _mm512_fmadd_ps, _mm512_sqrt_ps, _mm512_max_ps
+);
+
+/// [`super::sums::sum_body`] with AVX2 and FMA, eight points a register.
 ///
 /// # Safety
 /// The CPU has AVX2 and FMA.
@@ -178,7 +127,7 @@ pub(super) unsafe fn sums_avx2_fma<const K: u8>(
     unsafe { sums::<__m256, K>(l, xs, out) }
 }
 
-/// [`super::sums::sum_body`] with AVX-512, sixteen lanes a register.
+/// [`super::sums::sum_body`] with AVX-512, sixteen points a register.
 ///
 /// # Safety
 /// The CPU has AVX-512F, AVX2 and FMA.
@@ -188,81 +137,98 @@ pub(super) unsafe fn sums_avx512<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out:
     unsafe { sums::<__m512, K>(l, xs, out) }
 }
 
-/// The sums of every point of `xs` into `out`, two points at a time.
+/// Points a block holds at most: two registers of sixteen.
+const BLOCK: usize = 32;
+
+/// The sums of every point of `xs` into `out`, a block of two registers
+/// at a time (one when no more points are left).
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
 #[inline(always)]
 unsafe fn sums<V: Vector, const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
-    let lanes = [
-        l.xyz[0], l.xyz[1], l.xyz[2], l.alpha[0], l.alpha[1], l.alpha[2],
-    ];
-    let n = lanes.map(<[f32]>::len).into_iter().min().unwrap_or(0);
-    let n = n - n % LANES;
-    let two = xs.len() / 2 * 2;
-    let (xs2, xs1) = xs.split_at(two);
-    let (out2, out1) = out.split_at_mut(two);
-    for (x, o) in xs2.chunks_exact(2).zip(out2.chunks_exact_mut(2)) {
-        // SAFETY: n is a multiple of eight, at most every array's length;
-        // the CPU's instruction set is the caller's promise.
-        let sums = unsafe { points::<V, K, 2>(lanes, n, [x[0], x[1]]) };
-        o.copy_from_slice(&sums);
-    }
-    for (x, o) in xs1.iter().zip(out1) {
-        // SAFETY: as above.
-        *o = unsafe { points::<V, K, 1>(lanes, n, [*x])[0] };
+    let block = 2 * V::WIDTH;
+    debug_assert!(block <= BLOCK);
+    for (xs, out) in xs.chunks(block).zip(out.chunks_mut(block)) {
+        // The block's coordinates by axis; lanes past its points sum at the
+        // cell's centre, and are not written.
+        let mut at = [[0.0f32; BLOCK]; 3];
+        for (k, x) in xs.iter().enumerate() {
+            for c in 0..3 {
+                at[c][k] = x[c];
+            }
+        }
+        // SAFETY: the CPU's instruction set is the caller's promise.
+        let sums = unsafe {
+            if xs.len() > V::WIDTH {
+                block_sums::<V, K, 2>(l, &at)
+            } else {
+                block_sums::<V, K, 1>(l, &at)
+            }
+        };
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = [sums[0][k], sums[1][k], sums[2][k]];
+        }
     }
 }
 
-/// The sums of `P` points over the first `n` lanes, each point with its own
-/// accumulators.
+/// The sums of the first `P` registers of points of `at` (by axis) over
+/// every candidate of `l`.
 ///
 /// # Safety
-/// The CPU has `V`'s instruction set; `n` is a multiple of eight and at
-/// most the length of every array of `lanes`.
+/// The CPU has `V`'s instruction set.
 #[inline(always)]
-unsafe fn points<V: Vector, const K: u8, const P: usize>(
-    lanes: [&[f32]; 6],
-    n: usize,
-    xs: [[f32; 3]; P],
-) -> [[f32; 3]; P] {
-    // SAFETY (the whole body): the caller's promises.
+unsafe fn block_sums<V: Vector, const K: u8, const P: usize>(
+    l: View<'_>,
+    at: &[[f32; BLOCK]; 3],
+) -> [[f32; BLOCK]; 3] {
+    let n = l.len();
+    // Each array cut to `n`, so the indices below need no checks.
+    let [xs, ys, zs] = l.xyz.map(|v| &v[..n]);
+    let [ax, ay, az] = l.alpha.map(|v| &v[..n]);
+    // SAFETY (the whole body): the caller's promise; every index below is
+    // under `n`, at most each array's length (`View::len`).
     unsafe {
-        let mut at = [[V::splat(0.0); 3]; P];
-        for (a, x) in at.iter_mut().zip(&xs) {
-            *a = [V::splat(x[0]), V::splat(x[1]), V::splat(x[2])];
-        }
-        let mut acc = [[V::splat(0.0); 3]; P];
-        for k in (0..n).step_by(V::WIDTH) {
-            let c = [
-                V::load(lanes[0], k, n, FAR),
-                V::load(lanes[1], k, n, FAR),
-                V::load(lanes[2], k, n, FAR),
-            ];
-            let a = [
-                V::load(lanes[3], k, n, 0.0),
-                V::load(lanes[4], k, n, 0.0),
-                V::load(lanes[5], k, n, 0.0),
-            ];
-            for (acc, p) in acc.iter_mut().zip(&at) {
-                let w = weight::<V, K>(c, *p);
-                *acc = [
-                    w.mul_add(a[0], acc[0]),
-                    w.mul_add(a[1], acc[1]),
-                    w.mul_add(a[2], acc[2]),
-                ];
+        let points: [[V; 3]; P] = std::array::from_fn(|q| {
+            [0, 1, 2].map(|c| V::load(&at[c][q * V::WIDTH..]))
+        });
+        let mut acc = [[[V::splat(0.0); 3]; P]; ACCUMULATORS];
+        let candidate = |j: usize| {
+            (
+                [xs[j], ys[j], zs[j]].map(|v| V::splat(v)),
+                [ax[j], ay[j], az[j]].map(|v| V::splat(v)),
+            )
+        };
+        let whole = n - n % ACCUMULATORS;
+        for j in (0..whole).step_by(ACCUMULATORS) {
+            for (s, acc) in acc.iter_mut().enumerate() {
+                let (c, a) = candidate(j + s);
+                for (acc, p) in acc.iter_mut().zip(&points) {
+                    let w = weight::<V, K>(c, *p);
+                    *acc = [0, 1, 2].map(|k| w.mul_add(a[k], acc[k]));
+                }
             }
         }
-        let mut out = [[0.0; 3]; P];
-        for (o, acc) in out.iter_mut().zip(acc) {
-            *o = V::reduce(acc);
+        for (s, j) in (whole..n).enumerate() {
+            let (c, a) = candidate(j);
+            for (acc, p) in acc[s].iter_mut().zip(&points) {
+                let w = weight::<V, K>(c, *p);
+                *acc = [0, 1, 2].map(|k| w.mul_add(a[k], acc[k]));
+            }
+        }
+        let mut out = [[0.0f32; BLOCK]; 3];
+        for q in 0..P {
+            for c in 0..3 {
+                let sum = combine(std::array::from_fn(|s| acc[s][q][c]), |a, b| a.add(b));
+                sum.store(&mut out[c][q * V::WIDTH..]);
+            }
         }
         out
     }
 }
 
-/// Phi of a register of candidates' coordinates `c` at a point `p`
-/// (broadcast): [`super::sums::sum_body`]'s operations, in its order.
+/// Phi of the candidate `c` (broadcast) at a register of points `p`:
+/// [`super::sums::sum_body`]'s operations, in its order.
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.

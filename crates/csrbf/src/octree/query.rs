@@ -53,14 +53,90 @@ impl Octree {
         mut f: impl FnMut(u32, DVec3),
     ) {
         let r2 = radius * radius;
-        self.visit(
-            |nmin, nmax| box_box_distance2(min, max, nmin, nmax) < r2,
-            |p, id| {
+        self.for_each_leaf_near_box(min, max, radius, |points, ids| {
+            for (&p, &id) in points.iter().zip(ids) {
                 if box_distance2(p, min, max) < r2 {
                     f(id, p);
                 }
-            },
-        );
+            }
+        });
+    }
+
+    /// Appends the index of every point closer than `radius` to the box
+    /// `[min, max]` to `ids` and its coordinates in `frame` to `coords`,
+    /// in [`Octree::for_each_near_box`]'s order: the same points, each
+    /// written and kept or not with no branch.
+    pub(crate) fn near_box_into(
+        &self,
+        (min, max): (DVec3, DVec3),
+        radius: f64,
+        ids: &mut Vec<u32>,
+        coords: &mut [Vec<f32>; 3],
+        frame: impl Fn(DVec3) -> [f32; 3],
+    ) {
+        let r2 = radius * radius;
+        self.for_each_leaf_near_box(min, max, radius, |points, leaf_ids| {
+            // Every point written at the end, the end advanced past the
+            // near ones: room for all first, the rest cut after.
+            let mut end = ids.len();
+            let room = end + points.len();
+            ids.resize(room, 0);
+            for v in coords.iter_mut() {
+                v.resize(room, 0.0);
+            }
+            for (&p, &id) in points.iter().zip(leaf_ids) {
+                let u = frame(p);
+                ids[end] = id;
+                for (v, u) in coords.iter_mut().zip(u) {
+                    v[end] = u;
+                }
+                end += usize::from(box_distance2(p, min, max) < r2);
+            }
+            ids.truncate(end);
+            for v in coords.iter_mut() {
+                v.truncate(end);
+            }
+        });
+    }
+
+    /// Calls `leaf(points, indices)` for every leaf whose bounds are closer
+    /// than `radius` to the box `[min, max]` (its points may be farther:
+    /// the caller tests each, [`box_distance2`]), in the order
+    /// [`Octree::for_each_near_box`] meets them.
+    pub(crate) fn for_each_leaf_near_box(
+        &self,
+        min: DVec3,
+        max: DVec3,
+        radius: f64,
+        mut leaf: impl FnMut(&[DVec3], &[u32]),
+    ) {
+        let r2 = radius * radius;
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
+        let near = |n: &super::Node| box_box_distance2(min, max, n.min, n.max) < r2;
+        if !near(root) {
+            return;
+        }
+        // Depth first, as `visit`; a child is tested when its parent is
+        // opened and pushed only when near, with no branch (the test fails
+        // about as often as it passes, which a branch would mispredict).
+        let mut stack = [0u32; 8 * (Self::MAX_DEPTH as usize + 1)];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = self.nodes[stack[top] as usize];
+            if node.children == 0 {
+                let r = node.start as usize..node.end as usize;
+                leaf(&self.points[r.clone()], &self.ids[r]);
+                continue;
+            }
+            for c in 0..node.children {
+                let child = node.first_child + c;
+                stack[top] = child;
+                top += usize::from(near(&self.nodes[child as usize]));
+            }
+        }
     }
 
     /// Every leaf: its points' indices, the points, and its tight bounds.
