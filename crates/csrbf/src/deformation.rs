@@ -53,10 +53,44 @@ pub(crate) struct Linear {
 }
 
 impl Linear {
+    /// The map that is 0 at every finite point (+0.0, as no polynomial
+    /// part: c0 is +0, so c0 + M (x - center) is +0 whatever the signs of
+    /// M's zero products).
+    pub(crate) const ZERO: Linear = Linear {
+        center: DVec3::ZERO,
+        c0: DVec3::ZERO,
+        m: glam::DMat3::ZERO,
+    };
+
     /// p(x).
     #[inline]
     pub(crate) fn eval(&self, x: DVec3) -> DVec3 {
         self.c0 + self.m * (x - self.center)
+    }
+
+    /// p(x) + `sums` rounded to f32 at each of a chunk's points (given by
+    /// coordinate, `x[axis][k]`), into `out` likewise: [`Linear::eval`]'s
+    /// operations in its order (so the same values), over arrays the
+    /// compiler vectorises. NaN at a point not finite.
+    #[inline(always)]
+    pub(crate) fn eval_plus<const N: usize>(
+        &self,
+        x: &[[f64; N]; 3],
+        sums: &[[f32; N]; 3],
+        out: &mut [[f32; N]; 3],
+    ) {
+        let (c, c0) = (self.center.to_array(), self.c0.to_array());
+        let m = [self.m.x_axis, self.m.y_axis, self.m.z_axis].map(|v| v.to_array());
+        for k in 0..N {
+            let d = [0, 1, 2].map(|a| x[a][k] - c[a]);
+            // x * 0 sums to 0 exactly when every coordinate is finite.
+            let finite = x[0][k] * 0.0 + x[1][k] * 0.0 + x[2][k] * 0.0 == 0.0;
+            for a in 0..3 {
+                let v = c0[a] + ((m[0][a] * d[0] + m[1][a] * d[1]) + m[2][a] * d[2]);
+                let v = (v + f64::from(sums[a][k])) as f32;
+                out[a][k] = if finite { v } else { f32::NAN };
+            }
+        }
     }
 }
 

@@ -225,14 +225,15 @@ impl Blocks {
         // A multiplication a point, not three divisions (a point on a
         // cell's face may land in its neighbour: either is right).
         let inv_h = 1.0 / h;
-        let last = dims - 1.0;
-        let key = |p: DVec3| -> usize {
-            // Clamped as floats (`max` and `min` ignore NaN: NaN goes to
-            // cell 0, infinities to the first or last), so the conversions
-            // need no checks and the key no branch.
-            let c = ((p - lo) * inv_h).max(DVec3::ZERO).min(last);
-            let [ix, iy, iz] = c.to_array().map(|v| {
-                debug_assert!((0.0..=last.max_element()).contains(&v));
+        let (lo, last) = (lo.to_array(), (dims - 1.0).to_array());
+        let key = move |p: DVec3| -> usize {
+            let p = p.to_array();
+            let [ix, iy, iz] = std::array::from_fn(|a| {
+                // Clamped as floats (`f64::max` and `min` ignore NaN: NaN
+                // goes to cell 0, infinities to the first or last), so the
+                // conversion needs no check and the key no branch.
+                let v = ((p[a] - lo[a]) * inv_h).max(0.0).min(last[a]);
+                debug_assert!((0.0..=last[a]).contains(&v));
                 // SAFETY: `v` is finite and in 0..=d - 1 (clamped above),
                 // and d - 1 < 2^23 (the cap), so it fits a u32.
                 #[allow(unsafe_code)]
@@ -384,10 +385,14 @@ fn counting_sort_parallel<P: Point>(
         .par_chunks(size)
         .zip(keys.par_chunks_mut(size))
         .map(|(ps, ks)| {
-            let mut counts = vec![0u32; buckets];
-            for (p, k) in ps.iter().zip(ks) {
+            // The keys first, then the counts: apart, each loop runs
+            // without waiting on the other's memory.
+            for (p, k) in ps.iter().zip(ks.iter_mut()) {
                 *k = key(p.to_dvec3()) as u32;
-                counts[*k as usize] += 1;
+            }
+            let mut counts = vec![0u32; buckets];
+            for &k in ks.iter() {
+                counts[k as usize] += 1;
             }
             counts
         })

@@ -48,6 +48,8 @@ fn build<P: Point>(
     mut recycled: Vec<Group>,
 ) -> Binding {
     let blocks = Blocks::for_starts(points, support.radius, support.starts);
+    // The starts' grid built before the groups ask for it at once.
+    support.octree.grid(support.radius);
     let parallel = points.len() >= PARALLEL_POINTS;
     let tasks = if parallel {
         GROUPS_PER_THREAD * rayon::current_num_threads()

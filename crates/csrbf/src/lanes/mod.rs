@@ -123,7 +123,8 @@ pub(crate) fn gather_candidates(
     xyz: &mut [Vec<f32>; 3],
 ) {
     let (centre, inv) = (centre((lo, hi)), 1.0 / radius);
-    octree.near_box_into((lo, hi), radius, ids, xyz, |p| local(centre, inv, p));
+    let grid = octree.grid(radius);
+    grid.near_box_into((lo, hi), ids, xyz, |p| local(centre, inv, p));
 }
 
 /// Where a cell's lanes are centred: the middle of its points' bounds.
@@ -208,7 +209,6 @@ impl Narrow<'_> {
     /// write it (the places of all cells a permutation: see `Blocks`).
     pub(crate) fn write<P: Point>(&self, points: &[P], out: &Scatter<'_, Vec3>) {
         debug_assert_eq!(self.local.len(), points.len(), "a frame point a point");
-        let place = |k: usize| self.places.map_or(self.first + k, |p| p[k] as usize);
         let ahead = |from: usize| {
             if let Some(p) = self.places {
                 for &i in &p[from.min(p.len())..(from + CHUNK).min(p.len())] {
@@ -217,6 +217,8 @@ impl Narrow<'_> {
             }
         };
         ahead(0);
+        let linear = self.linear.unwrap_or(Linear::ZERO);
+        let cpu = Avx2Fma::detect();
         let mut sums = [[0.0f32; 3]; CHUNK];
         let mut values = [Vec3::ZERO; CHUNK];
         let locals = self.local.chunks(CHUNK);
@@ -224,25 +226,80 @@ impl Narrow<'_> {
             ahead((n + 1) * CHUNK);
             let sums = &mut sums[..chunk.len()];
             self.sums.run(self.view, local, sums);
-            for ((v, x), sum) in values.iter_mut().zip(chunk).zip(&*sums) {
-                let x = x.to_dvec3();
-                *v = if x.is_finite() {
-                    let p = self.linear.map_or(DVec3::ZERO, |l| l.eval(x));
-                    (p + DVec3::from_array(sum.map(f64::from))).as_vec3()
-                } else {
-                    Vec3::NAN
-                };
+            // By coordinate (past the chunk's points: 0, and not written).
+            let mut x = [[0.0f64; CHUNK]; 3];
+            let mut by_axis = [[0.0f32; CHUNK]; 3];
+            for (k, (p, sum)) in chunk.iter().zip(&*sums).enumerate() {
+                let p = p.to_dvec3();
+                [x[0][k], x[1][k], x[2][k]] = p.to_array();
+                [by_axis[0][k], by_axis[1][k], by_axis[2][k]] = *sum;
             }
-            for (k, v) in values[..chunk.len()].iter().enumerate() {
-                // SAFETY: the place is this cell's alone (the caller's
-                // promise, above).
-                #[allow(unsafe_code)]
-                unsafe {
-                    out.write(place(n * CHUNK + k), *v)
-                };
+            let mut v = [[0.0f32; CHUNK]; 3];
+            eval_plus(cpu, &linear, &x, &by_axis, &mut v);
+            for (k, value) in values.iter_mut().enumerate().take(chunk.len()) {
+                *value = Vec3::new(v[0][k], v[1][k], v[2][k]);
+            }
+            let values = &values[..chunk.len()];
+            let from = n * CHUNK;
+            match self.places {
+                Some(places) => {
+                    for (&i, v) in places[from..from + chunk.len()].iter().zip(values) {
+                        // SAFETY: the place is this cell's alone (the
+                        // caller's promise, above).
+                        #[allow(unsafe_code)]
+                        unsafe {
+                            out.write(i as usize, *v)
+                        };
+                    }
+                }
+                None => {
+                    for (k, v) in values.iter().enumerate() {
+                        // SAFETY: as above.
+                        #[allow(unsafe_code)]
+                        unsafe {
+                            out.write(self.first + from + k, *v)
+                        };
+                    }
+                }
             }
         }
     }
+}
+
+/// [`Linear::eval_plus`] with AVX2 where the CPU has it (`cpu`).
+#[inline]
+fn eval_plus(
+    cpu: Option<Avx2Fma>,
+    linear: &Linear,
+    x: &[[f64; CHUNK]; 3],
+    sums: &[[f32; CHUNK]; 3],
+    out: &mut [[f32; CHUNK]; 3],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if cpu.is_some() {
+        /// `Linear::eval_plus` compiled with AVX2.
+        ///
+        /// # Safety
+        /// The CPU has AVX2.
+        #[target_feature(enable = "avx2,fma")]
+        #[allow(unsafe_code)]
+        unsafe fn avx2(
+            linear: &Linear,
+            x: &[[f64; CHUNK]; 3],
+            sums: &[[f32; CHUNK]; 3],
+            out: &mut [[f32; CHUNK]; 3],
+        ) {
+            linear.eval_plus(x, sums, out);
+        }
+        // SAFETY: an `Avx2Fma` exists only where the CPU has AVX2 and FMA.
+        #[allow(unsafe_code)]
+        unsafe {
+            avx2(linear, x, sums, out)
+        };
+        return;
+    }
+    let _ = cpu;
+    linear.eval_plus(x, sums, out);
 }
 
 /// Per-thread scratch of the evaluation: a cell's points, in f64 and in its
@@ -264,6 +321,8 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let linear = d.affine().map(|a| a.linear());
     let sums = Sums::of(Avx2Fma::detect(), kernel);
     let reach = d.f32_reach();
+    // The starts' grid built before the cells ask for it at once.
+    d.octree().grid(radius);
     let out = Scatter::new(out);
     let cell = |s: &mut Scratch, &(first, end): &(usize, usize)| {
         let idx = &blocks.order[first..end];

@@ -11,6 +11,7 @@ impl Octree {
             points: points.to_vec(),
             ids: (0..points.len() as u32).collect(),
             nodes: Vec::with_capacity(points.len() / 4 + 1),
+            grid: std::sync::OnceLock::new(),
         };
         if points.is_empty() {
             return tree;

@@ -6,9 +6,15 @@
 //! is reached.
 
 mod build;
+mod grid;
 mod query;
 
+use std::borrow::Cow;
+use std::sync::OnceLock;
+
 use glam::DVec3;
+
+pub(crate) use grid::Grid;
 
 /// An octree over a fixed set of points. Points are referred to by their index
 /// in the slice the tree was built from.
@@ -19,6 +25,9 @@ pub struct Octree {
     /// `ids[i]` is the caller's index of `points[i]`.
     ids: Vec<u32>,
     nodes: Vec<Node>,
+    /// The points in a grid for box queries of one radius, built when
+    /// first asked ([`Octree::grid`]).
+    grid: OnceLock<Grid>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -40,6 +49,20 @@ impl Octree {
     pub const LEAF_SIZE: usize = 12;
     /// Deepest level; below it points are left in one leaf.
     pub const MAX_DEPTH: u32 = 24;
+
+    /// The points in a grid for box queries of `radius`: built on the first
+    /// call and kept (a tree serves one radius, its system's), built anew
+    /// for another radius.
+    pub(crate) fn grid(&self, radius: f64) -> Cow<'_, Grid> {
+        let grid = self
+            .grid
+            .get_or_init(|| Grid::new(&self.points, &self.ids, radius));
+        if grid.radius() == radius {
+            Cow::Borrowed(grid)
+        } else {
+            Cow::Owned(Grid::new(&self.points, &self.ids, radius))
+        }
+    }
 
     /// Depth of the deepest leaf (the root has depth 0).
     #[cfg(test)]

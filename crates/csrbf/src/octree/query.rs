@@ -62,43 +62,6 @@ impl Octree {
         });
     }
 
-    /// Appends the index of every point closer than `radius` to the box
-    /// `[min, max]` to `ids` and its coordinates in `frame` to `coords`,
-    /// in [`Octree::for_each_near_box`]'s order: the same points, each
-    /// written and kept or not with no branch.
-    pub(crate) fn near_box_into(
-        &self,
-        (min, max): (DVec3, DVec3),
-        radius: f64,
-        ids: &mut Vec<u32>,
-        coords: &mut [Vec<f32>; 3],
-        frame: impl Fn(DVec3) -> [f32; 3],
-    ) {
-        let r2 = radius * radius;
-        self.for_each_leaf_near_box(min, max, radius, |points, leaf_ids| {
-            // Every point written at the end, the end advanced past the
-            // near ones: room for all first, the rest cut after.
-            let mut end = ids.len();
-            let room = end + points.len();
-            ids.resize(room, 0);
-            for v in coords.iter_mut() {
-                v.resize(room, 0.0);
-            }
-            for (&p, &id) in points.iter().zip(leaf_ids) {
-                let u = frame(p);
-                ids[end] = id;
-                for (v, u) in coords.iter_mut().zip(u) {
-                    v[end] = u;
-                }
-                end += usize::from(box_distance2(p, min, max) < r2);
-            }
-            ids.truncate(end);
-            for v in coords.iter_mut() {
-                v.truncate(end);
-            }
-        });
-    }
-
     /// Calls `leaf(points, indices)` for every leaf whose bounds are closer
     /// than `radius` to the box `[min, max]` (its points may be farther:
     /// the caller tests each, [`box_distance2`]), in the order

@@ -87,3 +87,54 @@ fn nearest_matches_brute_force() {
         assert_eq!(points[i as usize].distance_squared(q), want);
     }
 }
+
+/// The grid's box query gives the tree's points, each once, with their
+/// coordinates in the caller's frame: on clouds uniform, clustered (many
+/// points a cell), flat (a plane, as a surface's starts) and far from the
+/// origin, with boxes inside, across and outside the cloud, radii from a
+/// fraction of a cell to past the cloud, and the grid's cap on cells met
+/// (cells wider than R/2).
+#[test]
+fn the_grid_box_query_gives_the_tree_s_points() {
+    let mut rng = Rng::new(71);
+    for (case, n) in [10, 500, 3000, 3000, 20_000].into_iter().enumerate() {
+        let offset = DVec3::new(1e3, -2e3, 5e2);
+        let points: Vec<DVec3> = (0..n)
+            .map(|k| match case {
+                1 => DVec3::splat(0.5) + rng.vec3() * 0.01,
+                2 => DVec3::new(rng.f64(), rng.f64(), 0.25),
+                3 => offset + rng.vec3(),
+                _ if k % 7 == 0 => points_cluster(&mut rng),
+                _ => rng.vec3(),
+            })
+            .collect();
+        let base = if case == 3 { offset } else { DVec3::ZERO };
+        let tree = Octree::new(&points);
+        for r in [1e-3, 0.02, 0.1, 0.4, 3.0] {
+            let grid = tree.grid(r);
+            for _ in 0..20 {
+                let lo = base + rng.vec3() * 1.4 - 0.2;
+                let hi = lo + rng.vec3() * r;
+                let mut want = Vec::new();
+                tree.for_each_near_box(lo, hi, r, |i, _| want.push(i));
+                want.sort_unstable();
+                let (mut ids, mut xyz) = (vec![7u32], [vec![0.5f32], vec![0.5], vec![0.5]]);
+                let frame = |p: DVec3| (p - lo).as_vec3().to_array();
+                grid.near_box_into((lo, hi), &mut ids, &mut xyz, frame);
+                // Appended after what was there.
+                assert_eq!((ids[0], xyz[0][0]), (7, 0.5));
+                for (k, &i) in ids.iter().enumerate().skip(1) {
+                    let u = frame(points[i as usize]);
+                    assert_eq!([xyz[0][k], xyz[1][k], xyz[2][k]], u, "case {case} r {r}");
+                }
+                let mut got = ids[1..].to_vec();
+                got.sort_unstable();
+                assert_eq!(got, want, "case {case} r {r} box {lo}..{hi}");
+            }
+        }
+    }
+}
+
+fn points_cluster(rng: &mut Rng) -> DVec3 {
+    DVec3::splat(0.3) + rng.vec3() * 1e-3
+}
