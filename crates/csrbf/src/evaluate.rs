@@ -235,9 +235,10 @@ impl Blocks {
                 let v = ((p[a] - lo[a]) * inv_h).max(0.0).min(last[a]);
                 debug_assert!((0.0..=last[a]).contains(&v));
                 // SAFETY: `v` is finite and in 0..=d - 1 (clamped above),
-                // and d - 1 < 2^23 (the cap), so it fits a u32.
+                // and d - 1 < 2^23 (the cap), so it fits an i32 (whose
+                // conversion vectorises).
                 #[allow(unsafe_code)]
-                let v = unsafe { v.to_int_unchecked::<u32>() };
+                let v = unsafe { v.to_int_unchecked::<i32>() };
                 v as usize
             });
             ix + d[0] * (iy + d[1] * iz)
@@ -337,6 +338,36 @@ fn bounds_of<T, E: Copy + std::ops::Neg<Output = E>>(
     (l, h)
 }
 
+/// `keys[k] = key(points[k])`, compiled again with AVX2 where the CPU has
+/// it (the keys' arithmetic vectorises four points at a time).
+fn fill_keys<P: Point>(points: &[P], keys: &mut [u32], key: &impl Fn(DVec3) -> usize) {
+    #[inline(always)]
+    fn body<P: Point>(points: &[P], keys: &mut [u32], key: &impl Fn(DVec3) -> usize) {
+        for (p, k) in points.iter().zip(keys) {
+            *k = key(p.to_dvec3()) as u32;
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if crate::simd::Avx2Fma::detect().is_some() {
+        /// `body` with AVX2.
+        ///
+        /// # Safety
+        /// The CPU has AVX2 and FMA.
+        #[target_feature(enable = "avx2,fma")]
+        #[allow(unsafe_code)]
+        unsafe fn avx2<P: Point>(points: &[P], keys: &mut [u32], key: &impl Fn(DVec3) -> usize) {
+            body(points, keys, key);
+        }
+        // SAFETY: an `Avx2Fma` exists only where the CPU has both.
+        #[allow(unsafe_code)]
+        unsafe {
+            avx2(points, keys, key)
+        };
+        return;
+    }
+    body(points, keys, key);
+}
+
 /// Runs of points counted apart by a parallel sort into cells, at most.
 const MAX_SORT_RUNS: usize = 8;
 
@@ -387,9 +418,7 @@ fn counting_sort_parallel<P: Point>(
         .map(|(ps, ks)| {
             // The keys first, then the counts: apart, each loop runs
             // without waiting on the other's memory.
-            for (p, k) in ps.iter().zip(ks.iter_mut()) {
-                *k = key(p.to_dvec3()) as u32;
-            }
+            fill_keys(ps, ks, &key);
             let mut counts = vec![0u32; buckets];
             for &k in ks.iter() {
                 counts[k as usize] += 1;
