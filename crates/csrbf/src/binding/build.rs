@@ -147,7 +147,9 @@ fn group<P: Point>(
 ) -> (Group, Vec<Cell>) {
     // A recycled group's arrays keep their memory.
     g.ids.clear();
-    g.local.clear();
+    for v in &mut g.local {
+        v.clear();
+    }
     for v in &mut g.xyz {
         v.clear();
     }
@@ -155,19 +157,25 @@ fn group<P: Point>(
     // At most every point of the group in a frame: one allocation, not a
     // doubling series of copies.
     let points: usize = all_cells[range.clone()].iter().map(|(s, e)| e - s).sum();
-    g.local.reserve(points);
+    for v in &mut g.local {
+        v.reserve(points);
+    }
     for &(s, e) in &all_cells[range] {
         // The evaluation's cell, its frame and its candidates
         // (`crate::lanes::displacements`), so that a product gives its
         // values bit for bit.
         let bounds = finite_bounds(rest[s..e].iter().map(|p| p.to_dvec3()));
         let narrow = narrow(bounds, support.radius);
-        let (id, first) = (g.ids.len(), g.local.len());
+        let (id, first) = (g.ids.len(), g.local[0].len());
         let centre = centre(bounds);
         if narrow {
             let inv_radius = 1.0 / support.radius;
             let frame = |p: &P| local(centre, inv_radius, p.to_dvec3());
-            g.local.extend(rest[s..e].iter().map(frame));
+            for p in &rest[s..e] {
+                for (v, u) in g.local.iter_mut().zip(frame(p)) {
+                    v.push(u);
+                }
+            }
             gather_candidates(support.octree, bounds, support.radius, &mut g.ids, &mut g.xyz);
         }
         cells.push(Cell {

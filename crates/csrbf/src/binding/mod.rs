@@ -93,7 +93,7 @@ struct Group {
     /// The points of each narrow cell in that cell's frame (as the
     /// evaluation computes them), so that a product does not convert them
     /// again.
-    local: Vec<[f32; 3]>,
+    local: [Vec<f32>; 3],
 }
 
 /// One cell of points: its group, where its candidates start in the
@@ -250,7 +250,7 @@ impl Binding {
             .map(|g| {
                 size_of_val(g.ids.as_slice())
                     + 3 * size_of_val(g.xyz[0].as_slice())
-                    + size_of_val(g.local.as_slice())
+                    + g.local.iter().map(|v| size_of_val(v.as_slice())).sum::<usize>()
             })
             .sum();
         size_of_val(self.cells.as_slice())

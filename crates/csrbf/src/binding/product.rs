@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use super::{Binding, Cell, Rest};
 use crate::deformation::Deformation;
 use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter};
-use crate::lanes::{Narrow, Sums, View};
+use crate::lanes::{Local, Narrow, Sums, View};
 use crate::simd::Avx2Fma;
 
 /// Per-thread scratch: a cell's coefficients in lanes, and the candidates
@@ -121,7 +121,7 @@ fn cell(
         view,
         sums,
         linear: d.affine().map(|a| a.linear()),
-        local: &g.local[c.local..c.local + c.points],
+        local: Local::Kept(g.local.each_ref().map(|v| &v[c.local..c.local + c.points])),
         places,
         first: c.point,
     };

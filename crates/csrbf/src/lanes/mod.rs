@@ -93,8 +93,17 @@ impl Lanes {
     }
 
     /// x in the lanes' frame (units of R about the centre).
+    #[cfg(test)]
     pub(crate) fn local(&self, x: DVec3) -> [f32; 3] {
         local(self.centre, self.inv_radius, x)
+    }
+
+    /// The lanes' frame, for [`Narrow`].
+    pub(crate) fn frame(&self) -> Local<'static> {
+        Local::Frame {
+            centre: self.centre,
+            inv_radius: self.inv_radius,
+        }
     }
 
     fn view(&self) -> View<'_> {
@@ -189,11 +198,20 @@ pub(crate) struct Narrow<'a> {
     pub(crate) sums: Sums,
     pub(crate) linear: Option<Linear>,
     /// The cell's points in its lanes' frame.
-    pub(crate) local: &'a [[f32; 3]],
+    pub(crate) local: Local<'a>,
     /// The cell's places in the caller's order (`None`: its own, from
     /// `first`).
     pub(crate) places: Option<&'a [u32]>,
     pub(crate) first: usize,
+}
+
+/// A narrow cell's points in its lanes' frame: kept (a binding's copy, by
+/// axis), or computed a chunk at a time from the frame's centre and 1 / R
+/// ([`local`]'s operations: the same values).
+#[derive(Clone, Copy)]
+pub(crate) enum Local<'a> {
+    Kept([&'a [f32]; 3]),
+    Frame { centre: DVec3, inv_radius: f64 },
 }
 
 impl Narrow<'_> {
@@ -208,7 +226,9 @@ impl Narrow<'_> {
     /// Each place must belong to this cell alone, and no other task may
     /// write it (the places of all cells a permutation: see `Blocks`).
     pub(crate) fn write<P: Point>(&self, points: &[P], out: &Scatter<'_, Vec3>) {
-        debug_assert_eq!(self.local.len(), points.len(), "a frame point a point");
+        if let Local::Kept(local) = self.local {
+            debug_assert!(local.iter().all(|v| v.len() == points.len()));
+        }
         let ahead = |from: usize| {
             if let Some(p) = self.places {
                 for &i in &p[from.min(p.len())..(from + CHUNK).min(p.len())] {
@@ -219,28 +239,37 @@ impl Narrow<'_> {
         ahead(0);
         let linear = self.linear.unwrap_or(Linear::ZERO);
         let cpu = Avx2Fma::detect();
-        let mut sums = [[0.0f32; 3]; CHUNK];
         let mut values = [Vec3::ZERO; CHUNK];
-        let locals = self.local.chunks(CHUNK);
-        for (n, (chunk, local)) in points.chunks(CHUNK).zip(locals).enumerate() {
+        for (n, chunk) in points.chunks(CHUNK).enumerate() {
             ahead((n + 1) * CHUNK);
-            let sums = &mut sums[..chunk.len()];
-            self.sums.run(self.view, local, sums);
+            let from = n * CHUNK;
             // By coordinate (past the chunk's points: 0, and not written).
             let mut x = [[0.0f64; CHUNK]; 3];
-            let mut by_axis = [[0.0f32; CHUNK]; 3];
-            for (k, (p, sum)) in chunk.iter().zip(&*sums).enumerate() {
-                let p = p.to_dvec3();
-                [x[0][k], x[1][k], x[2][k]] = p.to_array();
-                [by_axis[0][k], by_axis[1][k], by_axis[2][k]] = *sum;
+            for (k, p) in chunk.iter().enumerate() {
+                [x[0][k], x[1][k], x[2][k]] = p.to_dvec3().to_array();
             }
+            let mut frame = [[0.0f32; CHUNK]; 3];
+            let local = match self.local {
+                Local::Kept(local) => local.map(|v| &v[from..from + chunk.len()]),
+                Local::Frame { centre, inv_radius } => {
+                    let c = centre.to_array();
+                    for ((u, x), c) in frame.iter_mut().zip(&x).zip(c) {
+                        for (u, x) in u.iter_mut().zip(x) {
+                            *u = ((x - c) * inv_radius) as f32;
+                        }
+                    }
+                    frame.each_ref().map(|u| &u[..chunk.len()])
+                }
+            };
+            let mut sums = [[0.0f32; CHUNK]; 3];
+            let [sx, sy, sz] = &mut sums;
+            self.sums.run(self.view, local, [&mut sx[..], sy, sz]);
             let mut v = [[0.0f32; CHUNK]; 3];
-            eval_plus(cpu, &linear, &x, &by_axis, &mut v);
+            eval_plus(cpu, &linear, &x, &sums, &mut v);
             for (k, value) in values.iter_mut().enumerate().take(chunk.len()) {
                 *value = Vec3::new(v[0][k], v[1][k], v[2][k]);
             }
             let values = &values[..chunk.len()];
-            let from = n * CHUNK;
             match self.places {
                 Some(places) => {
                     for (&i, v) in places[from..from + chunk.len()].iter().zip(values) {
@@ -307,7 +336,6 @@ fn eval_plus(
 #[derive(Default)]
 struct Scratch {
     points: Vec<DVec3>,
-    local: Vec<[f32; 3]>,
     lanes: Lanes,
     candidates: Candidates,
 }
@@ -344,14 +372,12 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
             narrow = s.lanes.reach() <= reach;
         }
         if narrow {
-            s.local.clear();
             let lanes = &s.lanes;
-            s.local.extend(cell_points.iter().map(|&x| lanes.local(x)));
             let narrow = Narrow {
                 view: lanes.view(),
                 sums,
                 linear,
-                local: &s.local,
+                local: lanes.frame(),
                 places,
                 first,
             };

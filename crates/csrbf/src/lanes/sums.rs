@@ -46,8 +46,14 @@ pub(crate) struct Sums {
     width: usize,
 }
 
+/// Points by axis: `x[axis][k]` is point `k`'s coordinate.
+pub(crate) type Axes<'a> = [&'a [f32]; 3];
+
+/// Sums by axis, written: `out[axis][k]` is point `k`'s.
+pub(crate) type AxesMut<'a> = [&'a mut [f32]; 3];
+
 /// One copy of the sums for one kernel.
-type SumsFn = unsafe fn(View<'_>, &[[f32; 3]], &mut [[f32; 3]]);
+type SumsFn = unsafe fn(View<'_>, Axes<'_>, AxesMut<'_>);
 
 impl Sums {
     /// The widest sums this CPU runs (none but the plain reference without
@@ -105,8 +111,9 @@ impl Sums {
     }
 
     /// sum_j alpha_j phi(|x - s_j| / R) over a cell's lanes at each point
-    /// of `xs` (in the lanes' frame, [`super::local`]), into `out`.
-    pub(crate) fn run(self, l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
+    /// of `xs` (by axis, in the lanes' frame, [`super::local`]), into `out`
+    /// (by axis), for as many points as the shortest of the six arrays.
+    pub(crate) fn run(self, l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
         // SAFETY: `choose` took a vector copy only with the proof that the
         // CPU has its instruction set (an `Avx2Fma` or `Avx512` exists only
         // then).
@@ -156,9 +163,11 @@ fn sum_body<const K: u8>(l: View<'_>, x: [f32; 3]) -> [f32; 3] {
 }
 
 /// [`sum_body`] for every point of `xs`, into `out`.
-fn sums_plain<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
-    for (x, o) in xs.iter().zip(out) {
-        *o = sum_body::<K>(l, *x);
+fn sums_plain<const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
+    let n = xs.iter().map(|v| v.len()).chain(out.iter().map(|v| v.len())).min().unwrap_or(0);
+    let [ox, oy, oz] = out;
+    for k in 0..n {
+        [ox[k], oy[k], oz[k]] = sum_body::<K>(l, [xs[0][k], xs[1][k], xs[2][k]]);
     }
 }
 
@@ -170,6 +179,15 @@ mod tests {
     use crate::lanes::Lanes;
     use crate::octree::Octree;
     use crate::synthetic::Rng;
+
+    /// `copy`'s sums at points given one by one, one by one.
+    fn run(copy: Sums, l: View<'_>, xs: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        let axes: [Vec<f32>; 3] = [0, 1, 2].map(|c| xs.iter().map(|x| x[c]).collect());
+        let mut out = [0; 3].map(|_| vec![0.0f32; xs.len()]);
+        let [ox, oy, oz] = &mut out;
+        copy.run(l, axes.each_ref().map(|v| &v[..]), [&mut ox[..], oy, oz]);
+        (0..xs.len()).map(|k| out.each_ref().map(|v| v[k])).collect()
+    }
 
     /// The plain f64 sum over every start within R of `x`.
     fn reference(starts: &[DVec3], alpha: &[DVec3], kernel: Kernel, r: f64, x: DVec3) -> DVec3 {
@@ -212,11 +230,7 @@ mod tests {
                 // Points in one call: a block of two registers and a tail.
                 let xs: Vec<DVec3> = (0..37).map(|_| lo + (hi - lo) * rng.vec3()).collect();
                 let local: Vec<[f32; 3]> = xs.iter().map(|x| lanes.local(*x)).collect();
-                let sums = copies.map(|(_, c)| {
-                    let mut out = vec![[0.0f32; 3]; xs.len()];
-                    c.run(lanes.view(), &local, &mut out);
-                    out
-                });
+                let sums = copies.map(|(_, c)| run(c, lanes.view(), &local));
                 for (k, x) in xs.iter().enumerate() {
                     let want = reference(&starts, &alpha, kernel, r, *x);
                     // f32 rounds r and phi by about 1e-7 (phi and its slope
@@ -236,8 +250,7 @@ mod tests {
                         assert!(err < 2e-6, "{kernel:?} n {n} {what}: error {err:e}");
                         assert!((got - plain).length() / scale < 2e-6, "{what}");
                         // A point's sums alone are its sums among others.
-                        let mut alone = [[0.0f32; 3]];
-                        copy.run(lanes.view(), &local[k..=k], &mut alone);
+                        let alone = run(*copy, lanes.view(), &local[k..=k]);
                         let bits = |v: [f32; 3]| v.map(f32::to_bits);
                         assert_eq!(bits(alone[0]), bits(sums[k]), "{what}");
                     }
@@ -321,8 +334,7 @@ mod tests {
                     .collect();
                 for (copy, width) in &copies {
                     assert_eq!(copy.width(), *width);
-                    let mut out = vec![[0.0f32; 3]; xs.len()];
-                    copy.run(view, &xs, &mut out);
+                    let out = run(*copy, view, &xs);
                     for (x, got) in xs.iter().zip(&out) {
                         let want = match kernel {
                             Kernel::C0 => model::<0>(view, *x),

@@ -21,7 +21,8 @@
 use std::arch::x86_64::*;
 
 use super::View;
-use super::sums::{ACCUMULATORS, combine};
+use super::sums::{Axes, AxesMut};
+use super::sums::ACCUMULATORS;
 
 /// The operations of the kernel sum at one width. Each is an intrinsic of
 /// the width's instruction set.
@@ -118,11 +119,7 @@ vector!(
 /// # Safety
 /// The CPU has AVX2 and FMA.
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn sums_avx2_fma<const K: u8>(
-    l: View<'_>,
-    xs: &[[f32; 3]],
-    out: &mut [[f32; 3]],
-) {
+pub(super) unsafe fn sums_avx2_fma<const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
     // SAFETY: the CPU has AVX2 and FMA (the caller's promise).
     unsafe { sums::<__m256, K>(l, xs, out) }
 }
@@ -132,7 +129,7 @@ pub(super) unsafe fn sums_avx2_fma<const K: u8>(
 /// # Safety
 /// The CPU has AVX-512F, AVX2 and FMA.
 #[target_feature(enable = "avx512f,avx2,fma")]
-pub(super) unsafe fn sums_avx512<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
+pub(super) unsafe fn sums_avx512<const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
     // SAFETY: the CPU has AVX-512F, AVX2 and FMA (the caller's promise).
     unsafe { sums::<__m512, K>(l, xs, out) }
 }
@@ -141,89 +138,138 @@ pub(super) unsafe fn sums_avx512<const K: u8>(l: View<'_>, xs: &[[f32; 3]], out:
 const BLOCK: usize = 32;
 
 /// The sums of every point of `xs` into `out`, a block of two registers
-/// at a time (one when no more points are left).
+/// at a time (one when no more points are left), each register loaded from
+/// and stored to the arrays straight, a last part-filled one through a
+/// copy (its lanes past the points sum at the cell's centre, and are not
+/// written).
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
 #[inline(always)]
-unsafe fn sums<V: Vector, const K: u8>(l: View<'_>, xs: &[[f32; 3]], out: &mut [[f32; 3]]) {
-    let block = 2 * V::WIDTH;
-    debug_assert!(block <= BLOCK);
-    for (xs, out) in xs.chunks(block).zip(out.chunks_mut(block)) {
-        // The block's coordinates by axis; lanes past its points sum at the
-        // cell's centre, and are not written.
-        let mut at = [[0.0f32; BLOCK]; 3];
-        for (k, x) in xs.iter().enumerate() {
-            for c in 0..3 {
-                at[c][k] = x[c];
-            }
-        }
-        // SAFETY: the CPU's instruction set is the caller's promise.
-        let sums = unsafe {
-            if xs.len() > V::WIDTH {
-                block_sums::<V, K, 2>(l, &at)
+unsafe fn sums<V: Vector, const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
+    let w = V::WIDTH;
+    let n = xs.iter().map(|v| v.len()).chain(out.iter().map(|v| v.len())).min().unwrap_or(0);
+    let [ox, oy, oz] = out;
+    let mut out = [ox, oy, oz].map(|v| &mut v[..n]);
+    let xs = xs.map(|v| &v[..n]);
+    let mut k = 0;
+    while k < n {
+        let left = n - k;
+        // SAFETY (both arms): the CPU's instruction set is the caller's
+        // promise; `load` and `store` check their lengths.
+        unsafe {
+            if left >= 2 * w {
+                let at = xs.map(|v| &v[k..]);
+                let sums = block_sums::<V, K, 2>(l, at);
+                for (o, s) in out.iter_mut().zip(sums) {
+                    s[0].store(&mut o[k..]);
+                    s[1].store(&mut o[k + w..]);
+                }
+                k += 2 * w;
             } else {
-                block_sums::<V, K, 1>(l, &at)
+                // The last points, fewer than two registers: through a copy.
+                let mut at = [[0.0f32; BLOCK]; 3];
+                for (a, v) in at.iter_mut().zip(&xs) {
+                    a[..left].copy_from_slice(&v[k..]);
+                }
+                let mut to = [[0.0f32; BLOCK]; 3];
+                if left > w {
+                    let sums = block_sums::<V, K, 2>(l, at.each_ref().map(|a| &a[..]));
+                    for (t, s) in to.iter_mut().zip(sums) {
+                        s[0].store(&mut t[..]);
+                        s[1].store(&mut t[w..]);
+                    }
+                } else {
+                    let sums = block_sums::<V, K, 1>(l, at.each_ref().map(|a| &a[..]));
+                    for (t, s) in to.iter_mut().zip(sums) {
+                        s[0].store(&mut t[..]);
+                    }
+                }
+                for (o, t) in out.iter_mut().zip(&to) {
+                    o[k..].copy_from_slice(&t[..left]);
+                }
+                k = n;
             }
-        };
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = [sums[0][k], sums[1][k], sums[2][k]];
         }
     }
 }
 
-/// The sums of the first `P` registers of points of `at` (by axis) over
-/// every candidate of `l`.
+/// The sums of the first `P` registers of points of `at` (by axis, each
+/// at least `P` registers long) over every candidate of `l`, by axis and
+/// register.
 ///
 /// # Safety
 /// The CPU has `V`'s instruction set.
 #[inline(always)]
 unsafe fn block_sums<V: Vector, const K: u8, const P: usize>(
     l: View<'_>,
-    at: &[[f32; BLOCK]; 3],
-) -> [[f32; BLOCK]; 3] {
+    at: [&[f32]; 3],
+) -> [[V; P]; 3] {
     let n = l.len();
     // Each array cut to `n`, so the indices below need no checks.
     let [xs, ys, zs] = l.xyz.map(|v| &v[..n]);
     let [ax, ay, az] = l.alpha.map(|v| &v[..n]);
     // SAFETY (the whole body): the caller's promise; every index below is
     // under `n`, at most each array's length (`View::len`).
+    // (Loops, not closures: a closure is compiled without the entry
+    // point's instruction set, and one left out of line calls each
+    // intrinsic.)
     unsafe {
-        let points: [[V; 3]; P] = std::array::from_fn(|q| {
-            [0, 1, 2].map(|c| V::load(&at[c][q * V::WIDTH..]))
-        });
+        let mut points = [[V::splat(0.0); 3]; P];
+        for (q, p) in points.iter_mut().enumerate() {
+            for (p, v) in p.iter_mut().zip(at) {
+                *p = V::load(&v[q * V::WIDTH..]);
+            }
+        }
         let mut acc = [[[V::splat(0.0); 3]; P]; ACCUMULATORS];
-        let candidate = |j: usize| {
-            (
-                [xs[j], ys[j], zs[j]].map(|v| V::splat(v)),
-                [ax[j], ay[j], az[j]].map(|v| V::splat(v)),
-            )
-        };
+        // Candidate j into accumulator j % ACCUMULATORS: whole groups, then
+        // the last few into the first accumulators.
+        let lanes = [xs, ys, zs, ax, ay, az];
         let whole = n - n % ACCUMULATORS;
         for j in (0..whole).step_by(ACCUMULATORS) {
             for (s, acc) in acc.iter_mut().enumerate() {
-                let (c, a) = candidate(j + s);
-                for (acc, p) in acc.iter_mut().zip(&points) {
-                    let w = weight::<V, K>(c, *p);
-                    *acc = [0, 1, 2].map(|k| w.mul_add(a[k], acc[k]));
-                }
+                candidate::<V, K, P>(acc, &points, lanes, j + s);
             }
         }
         for (s, j) in (whole..n).enumerate() {
-            let (c, a) = candidate(j);
-            for (acc, p) in acc[s].iter_mut().zip(&points) {
-                let w = weight::<V, K>(c, *p);
-                *acc = [0, 1, 2].map(|k| w.mul_add(a[k], acc[k]));
-            }
+            candidate::<V, K, P>(&mut acc[s], &points, lanes, j);
         }
-        let mut out = [[0.0f32; BLOCK]; 3];
-        for q in 0..P {
-            for c in 0..3 {
-                let sum = combine(std::array::from_fn(|s| acc[s][q][c]), |a, b| a.add(b));
-                sum.store(&mut out[c][q * V::WIDTH..]);
+        let mut out = [[V::splat(0.0); P]; 3];
+        for (c, out) in out.iter_mut().enumerate() {
+            for (q, out) in out.iter_mut().enumerate() {
+                let mut sum = acc[0][q][c];
+                for acc in &acc[1..] {
+                    sum = sum.add(acc[q][c]);
+                }
+                *out = sum;
             }
         }
         out
+    }
+}
+
+/// Candidate `j` of `lanes` (coordinates and coefficients, by axis)
+/// added into `acc` at each register of `points`.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[inline(always)]
+unsafe fn candidate<V: Vector, const K: u8, const P: usize>(
+    acc: &mut [[V; 3]; P],
+    points: &[[V; 3]; P],
+    lanes: [&[f32]; 6],
+    j: usize,
+) {
+    // SAFETY (the whole body): the caller's promise.
+    unsafe {
+        let c = [V::splat(lanes[0][j]), V::splat(lanes[1][j]), V::splat(lanes[2][j])];
+        let a = [V::splat(lanes[3][j]), V::splat(lanes[4][j]), V::splat(lanes[5][j])];
+        for (acc, p) in acc.iter_mut().zip(points) {
+            let w = weight::<V, K>(c, *p);
+            acc[0] = w.mul_add(a[0], acc[0]);
+            acc[1] = w.mul_add(a[1], acc[1]);
+            acc[2] = w.mul_add(a[2], acc[2]);
+        }
     }
 }
 
