@@ -142,7 +142,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         let r = run(&s, args.runs as usize)?;
         if !args.json {
             out_line!(
-                "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",
+                "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms ({:.1}x roofline) | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",
                 s.name,
                 s.points.len(),
                 s.starts.len(),
@@ -152,6 +152,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
                 r["fit_ms"].as_f64().unwrap_or(0.0),
                 r["bind_ms"].as_f64().unwrap_or(0.0),
                 r["evaluate_ms"].as_f64().unwrap_or(0.0),
+                r["roofline"]["evaluate_over_bound"].as_f64().unwrap_or(0.0),
                 r["fit_evaluate_ms"].as_f64().unwrap_or(0.0),
                 r["refit_ms"].as_f64().unwrap_or(0.0),
                 r["frame_ms"].as_f64().unwrap_or(0.0),
@@ -179,8 +180,10 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         Ok((sys, def))
     })?;
     let (evaluate_ms, disp) = time(runs, || Ok(def.displacements_f32(&s.points)))?;
-    // What the evaluation did, counted in a pass of its own (not timed).
+    // What the evaluation did, counted in a pass of its own (not timed),
+    // and the machine's arithmetic rate measured now, for its roofline.
     let counts = def.evaluation_counts(&s.points);
+    let roofline = def.roofline(&counts);
     let (fit_evaluate_ms, _) = time(runs, || {
         let d = System::new(&s.starts, s.options)?.solve(&s.targets)?;
         Ok(d.displacements_f32(&s.points))
@@ -231,6 +234,14 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
             "hits": counts.hits,
             "candidates_per_s": counts.candidates as f64 / (evaluate_ms * 1e-3),
             "kernel_evaluations_per_s": counts.kernel_evaluations as f64 / (evaluate_ms * 1e-3),
+        },
+        "roofline": {
+            "lanes": roofline.lanes,
+            "threads": roofline.threads,
+            "fma_per_ns": roofline.fma_per_ns,
+            "operations_per_register": roofline.operations,
+            "bound_ms": roofline.bound_ms,
+            "evaluate_over_bound": evaluate_ms / roofline.bound_ms,
         },
         "fit_evaluate_ms": fit_evaluate_ms,
         "refit_ms": refit_ms,

@@ -242,6 +242,15 @@ fn bench_prints_every_phase() {
     ] {
         assert!(v[key].as_f64().is_some(), "missing {key}: {v}");
     }
+    // The roofline measured in the same run: the evaluation's time over
+    // its bound, both there.
+    let r = &v["roofline"];
+    let (bound, ratio) = (r["bound_ms"].as_f64(), r["evaluate_over_bound"].as_f64());
+    let evaluate = v["evaluate_ms"].as_f64().unwrap_or(0.0);
+    match (bound, ratio) {
+        (Some(b), Some(q)) => assert!(b > 0.0 && (q - evaluate / b).abs() <= 1e-9 * q, "{r}"),
+        _ => panic!("no roofline: {v}"),
+    }
     let mesh = root().join("assets/models/cgal_head.off");
     let controls = root().join("assets/controls/head_smile.json");
     let v: serde_json::Value = serde_json::from_str(&ok(&[

@@ -241,7 +241,7 @@ pub use folds::{Folds, folds};
 pub use handle::{Handle, HandleControls, Rotation};
 pub use jacobian::{det_cubic, fold_phase};
 pub use kernel::{Kernel, Polynomial};
-pub use lanes::EvaluationCounts;
+pub use lanes::{EvaluationCounts, Roofline};
 pub use ordering::Ordering;
 pub use pipeline::{
     Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,

@@ -25,10 +25,12 @@
 //! the coordinates and fills each new deformation's coefficients into lanes
 //! beside them.
 
+mod roofline;
 mod sums;
 #[cfg(target_arch = "x86_64")]
 mod vector;
 
+pub use roofline::Roofline;
 pub(crate) use sums::Sums;
 
 use glam::{DVec3, Vec3};

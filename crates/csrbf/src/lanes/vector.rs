@@ -305,3 +305,52 @@ unsafe fn weight<V: Vector, const K: u8>(c: [V; 3], p: [V; 3]) -> V {
         }
     }
 }
+
+/// `iterations` rounds of twelve independent fused multiply-adds in
+/// registers of `V` (enough chains to hide an FMA's latency on two pipes);
+/// returns a value that depends on every one, so none is left out.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
+#[inline(always)]
+unsafe fn fma_chains<V: Vector>(iterations: usize) -> f32 {
+    // SAFETY (the whole body): the caller's promise.
+    unsafe {
+        // Values the compiler cannot see, so it cannot fold the rounds.
+        let [a, b, one] = std::hint::black_box([0.999_9f32, 1.0e-4, 1.0]);
+        let (a, b) = (V::splat(a), V::splat(b));
+        let mut acc = [V::splat(one); 12];
+        for _ in 0..iterations {
+            for acc in &mut acc {
+                *acc = acc.mul_add(a, b);
+            }
+        }
+        let mut sum = acc[0];
+        for v in &acc[1..] {
+            sum = sum.add(*v);
+        }
+        let mut out = [0.0f32; 16];
+        sum.store(&mut out);
+        out[0]
+    }
+}
+
+/// [`fma_chains`] eight lanes wide.
+///
+/// # Safety
+/// The CPU has AVX2 and FMA.
+#[target_feature(enable = "avx2,fma")]
+pub(super) unsafe fn fma_chains_avx2(iterations: usize) -> f32 {
+    // SAFETY: the caller's promise.
+    unsafe { fma_chains::<__m256>(iterations) }
+}
+
+/// [`fma_chains`] sixteen lanes wide.
+///
+/// # Safety
+/// The CPU has AVX-512F, AVX2 and FMA.
+#[target_feature(enable = "avx512f,avx2,fma")]
+pub(super) unsafe fn fma_chains_avx512(iterations: usize) -> f32 {
+    // SAFETY: the caller's promise.
+    unsafe { fma_chains::<__m512>(iterations) }
+}
