@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use super::{Binding, Cell, Rest};
 use crate::deformation::Deformation;
 use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter};
-use crate::lanes::{Local, Narrow, Sums, View};
+use crate::lanes::{Coefficients, Local, Narrow, Sums, View};
 use crate::simd::Avx2Fma;
 
 /// Per-thread scratch: a cell's coefficients in lanes, and the candidates
@@ -38,9 +38,10 @@ pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
     assert_eq!(out.len(), b.len(), "one displacement per bound point");
     // The evaluation's choice of kernel sum (so the same values).
     let sums = Sums::of(Avx2Fma::detect(), b.kernel);
+    let coefficients = Coefficients::new(d.coefficients());
     let parallel = out.len() >= PARALLEL_POINTS;
     let out = Scatter::new(out);
-    let work = |s: &mut Scratch, c: &Cell| cell(b, d, sums, c, s, &out);
+    let work = |s: &mut Scratch, c: &Cell| cell(b, d, (sums, &coefficients), c, s, &out);
     if parallel {
         b.cells
             .par_iter()
@@ -56,7 +57,7 @@ pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
 fn cell(
     b: &Binding,
     d: &Deformation,
-    sums: Sums,
+    (sums, coefficients): (Sums, &Coefficients),
     c: &Cell,
     s: &mut Scratch,
     out: &Scatter<'_, Vec3>,
@@ -71,17 +72,7 @@ fn cell(
         // The coefficients in lanes, and the sum of their sizes in the
         // evaluation's order.
         let ids = &g.ids[c.id..c.id + c.candidates];
-        let mut reach = 0.0;
-        for v in &mut s.alpha {
-            v.clear();
-            v.resize(c.candidates, 0.0);
-        }
-        let [ax, ay, az] = s.alpha.each_mut().map(|v| &mut v[..ids.len()]);
-        for (k, &j) in ids.iter().enumerate() {
-            let a = alpha[j as usize];
-            reach += a.abs().element_sum();
-            (ax[k], ay[k], az[k]) = (a.x as f32, a.y as f32, a.z as f32);
-        }
+        let reach = coefficients.fill(ids, &mut s.alpha);
         // Coefficients far larger than the moves cancel: f32 sums would
         // keep only their rounding.
         narrow = reach <= d.f32_reach();

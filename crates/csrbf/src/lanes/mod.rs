@@ -63,25 +63,18 @@ impl Lanes {
     pub(crate) fn gather(
         &mut self,
         octree: &Octree,
-        coefficients: &[DVec3],
+        coefficients: &Coefficients,
         (lo, hi): (DVec3, DVec3),
         radius: f64,
     ) {
         self.ids.clear();
-        for v in self.xyz.iter_mut().chain(&mut self.alpha) {
+        for v in &mut self.xyz {
             v.clear();
         }
         self.centre = centre((lo, hi));
         self.inv_radius = 1.0 / radius;
         gather_candidates(octree, (lo, hi), radius, &mut self.ids, &mut self.xyz);
-        self.reach = 0.0;
-        for &i in &self.ids {
-            let a = coefficients[i as usize];
-            self.reach += a.abs().element_sum();
-            for (v, a) in self.alpha.iter_mut().zip(a.to_array()) {
-                v.push(a as f32);
-            }
-        }
+        self.reach = coefficients.fill(&self.ids, &mut self.alpha);
     }
 
     /// The sum of the candidates' |coefficient|.
@@ -113,6 +106,41 @@ impl Lanes {
             xyz: [&self.xyz[0], &self.xyz[1], &self.xyz[2]],
             alpha: [&self.alpha[0], &self.alpha[1], &self.alpha[2]],
         }
+    }
+}
+
+/// Each start's coefficient as a cell's lanes take it (in f32) and its
+/// size (|x| + |y| + |z| in f64: the scale of the f32 sums' rounding),
+/// made once for an evaluation or a binding's product, not once for each
+/// cell a start is a candidate of.
+pub(crate) struct Coefficients {
+    lanes: Vec<[f32; 3]>,
+    sizes: Vec<f64>,
+}
+
+impl Coefficients {
+    pub(crate) fn new(alpha: &[DVec3]) -> Coefficients {
+        Coefficients {
+            lanes: alpha.iter().map(|a| a.as_vec3().to_array()).collect(),
+            sizes: alpha.iter().map(|a| a.abs().element_sum()).collect(),
+        }
+    }
+
+    /// The coefficients of the starts `ids` into `out` by axis (cleared
+    /// first); returns the sum of their sizes, added in `ids`' order.
+    pub(crate) fn fill(&self, ids: &[u32], out: &mut [Vec<f32>; 3]) -> f64 {
+        for v in out.iter_mut() {
+            v.clear();
+            v.resize(ids.len(), 0.0);
+        }
+        let [ax, ay, az] = out.each_mut().map(|v| &mut v[..]);
+        let mut reach = 0.0;
+        for (k, &j) in ids.iter().enumerate() {
+            let a = self.lanes[j as usize];
+            reach += self.sizes[j as usize];
+            (ax[k], ay[k], az[k]) = (a[0], a[1], a[2]);
+        }
+        reach
     }
 }
 
@@ -351,6 +379,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let linear = d.affine().map(|a| a.linear());
     let sums = Sums::of(Avx2Fma::detect(), kernel);
     let reach = d.f32_reach();
+    let coefficients = Coefficients::new(alpha);
     // The starts' grid built before the cells ask for it at once.
     d.octree().grid(radius);
     let out = Scatter::new(out);
@@ -368,7 +397,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
         let cell = finite_bounds(cell_points.iter().copied());
         let mut narrow = narrow(cell, radius);
         if narrow {
-            s.lanes.gather(d.octree(), alpha, cell, radius);
+            s.lanes.gather(d.octree(), &coefficients, cell, radius);
             // Coefficients far larger than the moves cancel: f32 would
             // keep only their rounding.
             narrow = s.lanes.reach() <= reach;
@@ -455,6 +484,7 @@ impl Deformation {
         };
         let parallel = points.len() >= PARALLEL_POINTS;
         let width = Sums::of(Avx2Fma::detect(), self.kernel()).width() as u64;
+        let coefficients = Coefficients::new(self.coefficients());
         for_each_cell_with(
             &one_each,
             &mut counts,
@@ -465,7 +495,7 @@ impl Deformation {
                 let cell = bounds(points, idx);
                 let narrow = narrow(cell, radius);
                 let gathered = if narrow {
-                    lanes.gather(self.octree(), self.coefficients(), cell, radius);
+                    lanes.gather(self.octree(), &coefficients, cell, radius);
                     lanes.candidates()
                 } else {
                     let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());

@@ -176,7 +176,7 @@ mod tests {
     use glam::DVec3;
 
     use super::*;
-    use crate::lanes::Lanes;
+    use crate::lanes::{Coefficients, Lanes};
     use crate::octree::Octree;
     use crate::synthetic::Rng;
 
@@ -224,7 +224,7 @@ mod tests {
                 let octree = Octree::new(&starts);
                 let (lo, hi) = (offset + 0.1, offset + 0.1 + r * 0.5);
                 let mut lanes = Lanes::default();
-                lanes.gather(&octree, &alpha, (lo, hi), r);
+                lanes.gather(&octree, &Coefficients::new(&alpha), (lo, hi), r);
                 assert!(lanes.candidates() <= n);
                 assert_eq!(lanes.view().len(), lanes.candidates());
                 // Points in one call: a block of two registers and a tail.
