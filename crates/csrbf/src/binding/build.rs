@@ -176,7 +176,13 @@ fn group<P: Point>(
                     v.push(u);
                 }
             }
-            gather_candidates(support.octree, bounds, support.radius, &mut g.ids, &mut g.xyz);
+            gather_candidates(
+                support.octree,
+                bounds,
+                support.radius,
+                &mut g.ids,
+                &mut g.xyz,
+            );
         }
         cells.push(Cell {
             point: s,

@@ -250,7 +250,10 @@ impl Binding {
             .map(|g| {
                 size_of_val(g.ids.as_slice())
                     + 3 * size_of_val(g.xyz[0].as_slice())
-                    + g.local.iter().map(|v| size_of_val(v.as_slice())).sum::<usize>()
+                    + g.local
+                        .iter()
+                        .map(|v| size_of_val(v.as_slice()))
+                        .sum::<usize>()
             })
             .sum();
         size_of_val(self.cells.as_slice())

@@ -415,7 +415,8 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
             narrow.write(cell_points, &out);
             return;
         }
-        s.candidates.gather(d.octree(), cell_points.iter().copied(), radius);
+        s.candidates
+            .gather(d.octree(), cell_points.iter().copied(), radius);
         for (k, &x) in cell_points.iter().enumerate() {
             let v = if x.is_finite() {
                 let mut v = linear.map_or(DVec3::ZERO, |l| l.eval(x));

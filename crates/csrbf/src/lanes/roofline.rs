@@ -145,8 +145,7 @@ mod tests {
         assert!(r.fma_per_ns.is_finite() && r.fma_per_ns > 0.0);
         assert!([1, 8, 16].contains(&r.lanes));
         assert_eq!(r.operations, operations(d.kernel()));
-        let want = counts.kernel_evaluations as f64 / f64::from(r.lanes)
-            * f64::from(r.operations)
+        let want = counts.kernel_evaluations as f64 / f64::from(r.lanes) * f64::from(r.operations)
             / r.fma_per_ns
             * 1e-6;
         assert!((r.bound_ms - want).abs() <= 1e-12 * want);

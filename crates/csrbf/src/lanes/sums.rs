@@ -18,9 +18,9 @@
 use crate::kernel::Kernel;
 use crate::simd::{Avx2Fma, Avx512};
 
+use super::View;
 #[cfg(target_arch = "x86_64")]
 use super::vector::{sums_avx2_fma, sums_avx512};
-use super::View;
 
 /// Accumulators a point keeps for each of its three sums: candidate `j`
 /// goes to accumulator `j % ACCUMULATORS`, and they are added at the end
@@ -31,7 +31,9 @@ pub(super) const ACCUMULATORS: usize = 2;
 /// The sum of a point's accumulators, in order.
 #[inline(always)]
 pub(super) fn combine<T: Copy>(acc: [T; ACCUMULATORS], add: impl Fn(T, T) -> T) -> T {
-    acc.into_iter().reduce(add).expect("at least one accumulator")
+    acc.into_iter()
+        .reduce(add)
+        .expect("at least one accumulator")
 }
 
 /// The kernel sums of one kernel on this CPU, chosen once: with AVX-512
@@ -164,7 +166,12 @@ fn sum_body<const K: u8>(l: View<'_>, x: [f32; 3]) -> [f32; 3] {
 
 /// [`sum_body`] for every point of `xs`, into `out`.
 fn sums_plain<const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
-    let n = xs.iter().map(|v| v.len()).chain(out.iter().map(|v| v.len())).min().unwrap_or(0);
+    let n = xs
+        .iter()
+        .map(|v| v.len())
+        .chain(out.iter().map(|v| v.len()))
+        .min()
+        .unwrap_or(0);
     let [ox, oy, oz] = out;
     for k in 0..n {
         [ox[k], oy[k], oz[k]] = sum_body::<K>(l, [xs[0][k], xs[1][k], xs[2][k]]);
@@ -186,7 +193,9 @@ mod tests {
         let mut out = [0; 3].map(|_| vec![0.0f32; xs.len()]);
         let [ox, oy, oz] = &mut out;
         copy.run(l, axes.each_ref().map(|v| &v[..]), [&mut ox[..], oy, oz]);
-        (0..xs.len()).map(|k| out.each_ref().map(|v| v[k])).collect()
+        (0..xs.len())
+            .map(|k| out.each_ref().map(|v| v[k]))
+            .collect()
     }
 
     /// The plain f64 sum over every start within R of `x`.
@@ -313,7 +322,15 @@ mod tests {
                 (Sums::eight_lanes(cpu, kernel), 8),
                 (Sums::of(cpu, kernel), if wide { 16 } else { 8 }),
             ];
-            for (n, points) in [(0, 3), (1, 1), (2, 17), (7, 8), (16, 16), (33, 40), (71, 33)] {
+            for (n, points) in [
+                (0, 3),
+                (1, 1),
+                (2, 17),
+                (7, 8),
+                (16, 16),
+                (33, 40),
+                (71, 33),
+            ] {
                 // Coordinates within 1.6 R of the cell's centre (hits and
                 // misses), coefficients of either sign; NaN past `n`.
                 let buffers: Vec<Vec<f32>> = (0..6)

@@ -21,8 +21,8 @@
 use std::arch::x86_64::*;
 
 use super::View;
-use super::sums::{Axes, AxesMut};
 use super::sums::ACCUMULATORS;
+use super::sums::{Axes, AxesMut};
 
 /// The operations of the kernel sum at one width. Each is an intrinsic of
 /// the width's instruction set.
@@ -106,12 +106,30 @@ macro_rules! vector {
 }
 
 vector!(
-    __m256, 8, _mm256_set1_ps, _mm256_loadu_ps, _mm256_storeu_ps, _mm256_add_ps, _mm256_sub_ps,
-    _mm256_mul_ps, _mm256_fmadd_ps, _mm256_sqrt_ps, _mm256_max_ps
+    __m256,
+    8,
+    _mm256_set1_ps,
+    _mm256_loadu_ps,
+    _mm256_storeu_ps,
+    _mm256_add_ps,
+    _mm256_sub_ps,
+    _mm256_mul_ps,
+    _mm256_fmadd_ps,
+    _mm256_sqrt_ps,
+    _mm256_max_ps
 );
 vector!(
-    __m512, 16, _mm512_set1_ps, _mm512_loadu_ps, _mm512_storeu_ps, _mm512_add_ps, _mm512_sub_ps,
-    _mm512_mul_ps, _mm512_fmadd_ps, _mm512_sqrt_ps, _mm512_max_ps
+    __m512,
+    16,
+    _mm512_set1_ps,
+    _mm512_loadu_ps,
+    _mm512_storeu_ps,
+    _mm512_add_ps,
+    _mm512_sub_ps,
+    _mm512_mul_ps,
+    _mm512_fmadd_ps,
+    _mm512_sqrt_ps,
+    _mm512_max_ps
 );
 
 /// [`super::sums::sum_body`] with AVX2 and FMA, eight points a register.
@@ -148,7 +166,12 @@ const BLOCK: usize = 32;
 #[inline(always)]
 unsafe fn sums<V: Vector, const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
     let w = V::WIDTH;
-    let n = xs.iter().map(|v| v.len()).chain(out.iter().map(|v| v.len())).min().unwrap_or(0);
+    let n = xs
+        .iter()
+        .map(|v| v.len())
+        .chain(out.iter().map(|v| v.len()))
+        .min()
+        .unwrap_or(0);
     let [ox, oy, oz] = out;
     let mut out = [ox, oy, oz].map(|v| &mut v[..n]);
     let xs = xs.map(|v| &v[..n]);
@@ -262,8 +285,16 @@ unsafe fn candidate<V: Vector, const K: u8, const P: usize>(
 ) {
     // SAFETY (the whole body): the caller's promise.
     unsafe {
-        let c = [V::splat(lanes[0][j]), V::splat(lanes[1][j]), V::splat(lanes[2][j])];
-        let a = [V::splat(lanes[3][j]), V::splat(lanes[4][j]), V::splat(lanes[5][j])];
+        let c = [
+            V::splat(lanes[0][j]),
+            V::splat(lanes[1][j]),
+            V::splat(lanes[2][j]),
+        ];
+        let a = [
+            V::splat(lanes[3][j]),
+            V::splat(lanes[4][j]),
+            V::splat(lanes[5][j]),
+        ];
         for (acc, p) in acc.iter_mut().zip(points) {
             let w = weight::<V, K>(c, *p);
             acc[0] = w.mul_add(a[0], acc[0]);
