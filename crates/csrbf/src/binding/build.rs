@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 
 use super::{Binding, Cell, Group, Rest, Support};
 use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points};
-use crate::lanes::{centre, finite_bounds, gather_candidates, local, narrow};
+use crate::lanes::{centre, finite_bounds, gather_candidates, narrow};
 
 /// Builds a binding; `recycled` are groups of an earlier binding whose
 /// arrays (already in memory, their pages touched) the new groups reuse.
@@ -49,7 +49,7 @@ fn build<P: Point>(
 ) -> Binding {
     let blocks = Blocks::for_starts(points, support.radius, support.starts);
     // The starts' grid built before the groups ask for it at once.
-    support.octree.grid(support.radius);
+    support.octree.prepare_box_queries(support.radius);
     let parallel = points.len() >= PARALLEL_POINTS;
     let tasks = if parallel {
         GROUPS_PER_THREAD * rayon::current_num_threads()
@@ -147,35 +147,18 @@ fn group<P: Point>(
 ) -> (Group, Vec<Cell>) {
     // A recycled group's arrays keep their memory.
     g.ids.clear();
-    for v in &mut g.local {
-        v.clear();
-    }
     for v in &mut g.xyz {
         v.clear();
     }
     let mut cells = Vec::with_capacity(range.len());
-    // At most every point of the group in a frame: one allocation, not a
-    // doubling series of copies.
-    let points: usize = all_cells[range.clone()].iter().map(|(s, e)| e - s).sum();
-    for v in &mut g.local {
-        v.reserve(points);
-    }
     for &(s, e) in &all_cells[range] {
         // The evaluation's cell, its frame and its candidates
         // (`crate::lanes::displacements`), so that a product gives its
         // values bit for bit.
         let bounds = finite_bounds(rest[s..e].iter().map(|p| p.to_dvec3()));
         let narrow = narrow(bounds, support.radius);
-        let (id, first) = (g.ids.len(), g.local[0].len());
-        let centre = centre(bounds);
+        let id = g.ids.len();
         if narrow {
-            let inv_radius = 1.0 / support.radius;
-            let frame = |p: &P| local(centre, inv_radius, p.to_dvec3());
-            for p in &rest[s..e] {
-                for (v, u) in g.local.iter_mut().zip(frame(p)) {
-                    v.push(u);
-                }
-            }
             gather_candidates(
                 support.octree,
                 bounds,
@@ -190,7 +173,7 @@ fn group<P: Point>(
             group: k,
             id,
             candidates: g.ids.len() - id,
-            local: first,
+            centre: centre(bounds),
             narrow,
         });
     }

@@ -42,12 +42,12 @@ use crate::system::Shared;
 /// (its error against [`Deformation::displacements`] is the f32
 /// evaluation's; a cell whose coefficients would cancel in f32 is summed
 /// in f64 by both). It costs the points' copy (12 bytes a point, 24 with
-/// f64 points), the points in their cell's frame (12, the f32 lanes'
-/// coordinates: a product does not convert them again), their order (4)
-/// and per cell 16 bytes a candidate: about 33 bytes a point at 1M points
-/// on a sphere with 43 starts in reach of each (cells of about 240 points
-/// and 76 candidates), more with fewer points a cell or more starts in
-/// reach.
+/// f64 points), their order (4) and per cell 16 bytes a candidate and the
+/// centre of its frame (a product computes its points' frame from it a
+/// chunk at a time, as the evaluation does): about 21 bytes a point at 1M
+/// points on a sphere with 43 starts in reach of each (cells of about 240
+/// points and 76 candidates), more with fewer points a cell or more starts
+/// in reach.
 ///
 /// Measured at 1M points and 10,000 starts (about 43 in reach of each
 /// point, `csrbf bench --scene 1m`): a bind costs less than one
@@ -90,14 +90,10 @@ struct Group {
     /// Their coordinates, in units of R about their cell's centre
     /// ([`crate::lanes`]), beside `ids`.
     xyz: [Vec<f32>; 3],
-    /// The points of each narrow cell in that cell's frame (as the
-    /// evaluation computes them), so that a product does not convert them
-    /// again.
-    local: [Vec<f32>; 3],
 }
 
 /// One cell of points: its group, where its candidates start in the
-/// group's arrays, and where its points in its lanes' frame start.
+/// group's arrays, and the centre of its lanes' frame.
 #[derive(Clone, Copy, Debug)]
 struct Cell {
     /// First point (cell order).
@@ -110,8 +106,9 @@ struct Cell {
     id: usize,
     /// Candidates.
     candidates: usize,
-    /// First of its points in `local` (narrow cells only).
-    local: usize,
+    /// The centre of its lanes' frame (its points' frame is computed from
+    /// it a chunk at a time, as the evaluation computes it).
+    centre: DVec3,
     /// Whether the kernel sum may run in f32 lanes (the cell is narrow:
     /// see [`crate::lanes`]); else in f64, as the evaluation does.
     narrow: bool,
@@ -247,14 +244,7 @@ impl Binding {
         let groups: usize = self
             .groups
             .iter()
-            .map(|g| {
-                size_of_val(g.ids.as_slice())
-                    + 3 * size_of_val(g.xyz[0].as_slice())
-                    + g.local
-                        .iter()
-                        .map(|v| size_of_val(v.as_slice()))
-                        .sum::<usize>()
-            })
+            .map(|g| size_of_val(g.ids.as_slice()) + 3 * size_of_val(g.xyz[0].as_slice()))
             .sum();
         size_of_val(self.cells.as_slice())
             + groups

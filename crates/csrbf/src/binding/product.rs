@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use super::{Binding, Cell, Rest};
 use crate::deformation::Deformation;
 use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter};
-use crate::lanes::{Coefficients, Local, Narrow, Sums, View};
+use crate::lanes::{ChunkScratch, Coefficients, Narrow, Sums, View};
 use crate::simd::Avx2Fma;
 
 /// Per-thread scratch: a cell's coefficients in lanes, and the candidates
@@ -30,6 +30,7 @@ use crate::simd::Avx2Fma;
 struct Scratch {
     alpha: [Vec<f32>; 3],
     candidates: Candidates,
+    chunk: ChunkScratch,
 }
 
 /// Writes D of `d` at every bound point into `out` (point order; `out`
@@ -112,12 +113,13 @@ fn cell(
         view,
         sums,
         linear: d.affine().map(|a| a.linear()),
-        local: Local::Kept(g.local.each_ref().map(|v| &v[c.local..c.local + c.points])),
+        centre: c.centre,
+        inv_radius: 1.0 / b.radius,
         places,
         first: c.point,
     };
     match &b.rest {
-        Rest::F32(p) => narrow.write(&p[points], out),
-        Rest::F64(p) => narrow.write(&p[points], out),
+        Rest::F32(p) => narrow.write(&p[points], out, &mut s.chunk),
+        Rest::F64(p) => narrow.write(&p[points], out, &mut s.chunk),
     }
 }

@@ -93,14 +93,6 @@ impl Lanes {
         local(self.centre, self.inv_radius, x)
     }
 
-    /// The lanes' frame, for [`Narrow`].
-    pub(crate) fn frame(&self) -> Local<'static> {
-        Local::Frame {
-            centre: self.centre,
-            inv_radius: self.inv_radius,
-        }
-    }
-
     fn view(&self) -> View<'_> {
         View {
             xyz: [&self.xyz[0], &self.xyz[1], &self.xyz[2]],
@@ -162,8 +154,7 @@ pub(crate) fn gather_candidates(
     xyz: &mut [Vec<f32>; 3],
 ) {
     let (centre, inv) = (centre((lo, hi)), 1.0 / radius);
-    let grid = octree.grid(radius);
-    grid.near_box_into((lo, hi), ids, xyz, |p| local(centre, inv, p));
+    octree.near_box_into((lo, hi), radius, ids, xyz, |p| local(centre, inv, p));
 }
 
 /// Where a cell's lanes are centred: the middle of its points' bounds.
@@ -227,21 +218,14 @@ pub(crate) struct Narrow<'a> {
     pub(crate) view: View<'a>,
     pub(crate) sums: Sums,
     pub(crate) linear: Option<Linear>,
-    /// The cell's points in its lanes' frame.
-    pub(crate) local: Local<'a>,
+    /// The centre of the cell's lanes' frame and 1 / R: its points' frame
+    /// is computed a chunk at a time ([`local`]'s operations).
+    pub(crate) centre: DVec3,
+    pub(crate) inv_radius: f64,
     /// The cell's places in the caller's order (`None`: its own, from
     /// `first`).
     pub(crate) places: Option<&'a [u32]>,
     pub(crate) first: usize,
-}
-
-/// A narrow cell's points in its lanes' frame: kept (a binding's copy, by
-/// axis), or computed a chunk at a time from the frame's centre and 1 / R
-/// ([`local`]'s operations: the same values).
-#[derive(Clone, Copy)]
-pub(crate) enum Local<'a> {
-    Kept([&'a [f32]; 3]),
-    Frame { centre: DVec3, inv_radius: f64 },
 }
 
 impl Narrow<'_> {
@@ -255,10 +239,19 @@ impl Narrow<'_> {
     ///
     /// Each place must belong to this cell alone, and no other task may
     /// write it (the places of all cells a permutation: see `Blocks`).
-    pub(crate) fn write<P: Point>(&self, points: &[P], out: &Scatter<'_, Vec3>) {
-        if let Local::Kept(local) = self.local {
-            debug_assert!(local.iter().all(|v| v.len() == points.len()));
-        }
+    pub(crate) fn write<P: Point>(
+        &self,
+        points: &[P],
+        out: &Scatter<'_, Vec3>,
+        scratch: &mut ChunkScratch,
+    ) {
+        let ChunkScratch {
+            x,
+            frame,
+            sums,
+            v,
+            values,
+        } = scratch;
         let ahead = |from: usize| {
             if let Some(p) = self.places {
                 for &i in &p[from.min(p.len())..(from + CHUNK).min(p.len())] {
@@ -269,33 +262,26 @@ impl Narrow<'_> {
         ahead(0);
         let linear = self.linear.unwrap_or(Linear::ZERO);
         let cpu = Avx2Fma::detect();
-        let mut values = [Vec3::ZERO; CHUNK];
         for (n, chunk) in points.chunks(CHUNK).enumerate() {
             ahead((n + 1) * CHUNK);
             let from = n * CHUNK;
-            // By coordinate (past the chunk's points: 0, and not written).
-            let mut x = [[0.0f64; CHUNK]; 3];
+            // By coordinate (past the chunk's points: an earlier chunk's,
+            // computed and not written).
             for (k, p) in chunk.iter().enumerate() {
                 [x[0][k], x[1][k], x[2][k]] = p.to_dvec3().to_array();
             }
-            let mut frame = [[0.0f32; CHUNK]; 3];
-            let local = match self.local {
-                Local::Kept(local) => local.map(|v| &v[from..from + chunk.len()]),
-                Local::Frame { centre, inv_radius } => {
-                    let c = centre.to_array();
-                    for ((u, x), c) in frame.iter_mut().zip(&x).zip(c) {
-                        for (u, x) in u.iter_mut().zip(x) {
-                            *u = ((x - c) * inv_radius) as f32;
-                        }
-                    }
-                    frame.each_ref().map(|u| &u[..chunk.len()])
+            // The frame (`local`'s operations, so the values a cell's lanes
+            // were gathered about).
+            let c = self.centre.to_array();
+            for ((u, x), c) in frame.iter_mut().zip(&*x).zip(c) {
+                for (u, x) in u.iter_mut().zip(x) {
+                    *u = ((x - c) * self.inv_radius) as f32;
                 }
-            };
-            let mut sums = [[0.0f32; CHUNK]; 3];
-            let [sx, sy, sz] = &mut sums;
+            }
+            let local = frame.each_ref().map(|u| &u[..chunk.len()]);
+            let [sx, sy, sz] = &mut *sums;
             self.sums.run(self.view, local, [&mut sx[..], sy, sz]);
-            let mut v = [[0.0f32; CHUNK]; 3];
-            eval_plus(cpu, &linear, &x, &sums, &mut v);
+            eval_plus(cpu, &linear, x, sums, v);
             for (k, value) in values.iter_mut().enumerate().take(chunk.len()) {
                 *value = Vec3::new(v[0][k], v[1][k], v[2][k]);
             }
@@ -321,6 +307,30 @@ impl Narrow<'_> {
                     }
                 }
             }
+        }
+    }
+}
+
+/// A chunk's arrays for [`Narrow::write`], kept by a thread from cell to
+/// cell: zeroed once, not for each chunk (a cell of a few points must not
+/// pay for clearing them).
+#[derive(Clone)]
+pub(crate) struct ChunkScratch {
+    x: [[f64; CHUNK]; 3],
+    frame: [[f32; CHUNK]; 3],
+    sums: [[f32; CHUNK]; 3],
+    v: [[f32; CHUNK]; 3],
+    values: [Vec3; CHUNK],
+}
+
+impl Default for ChunkScratch {
+    fn default() -> ChunkScratch {
+        ChunkScratch {
+            x: [[0.0; CHUNK]; 3],
+            frame: [[0.0; CHUNK]; 3],
+            sums: [[0.0; CHUNK]; 3],
+            v: [[0.0; CHUNK]; 3],
+            values: [Vec3::ZERO; CHUNK],
         }
     }
 }
@@ -366,6 +376,7 @@ fn eval_plus(
 #[derive(Default)]
 struct Scratch {
     points: Vec<DVec3>,
+    chunk: ChunkScratch,
     lanes: Lanes,
     candidates: Candidates,
 }
@@ -381,7 +392,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
     let reach = d.f32_reach();
     let coefficients = Coefficients::new(alpha);
     // The starts' grid built before the cells ask for it at once.
-    d.octree().grid(radius);
+    d.octree().prepare_box_queries(radius);
     let out = Scatter::new(out);
     let cell = |s: &mut Scratch, &(first, end): &(usize, usize)| {
         let idx = &blocks.order[first..end];
@@ -408,11 +419,12 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
                 view: lanes.view(),
                 sums,
                 linear,
-                local: lanes.frame(),
+                centre: lanes.centre,
+                inv_radius: lanes.inv_radius,
                 places,
                 first,
             };
-            narrow.write(cell_points, &out);
+            narrow.write(cell_points, &out, &mut s.chunk);
             return;
         }
         s.candidates

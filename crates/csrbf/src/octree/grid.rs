@@ -7,14 +7,15 @@
 
 use glam::DVec3;
 
-use super::query::box_distance2;
+use super::query::append_near;
 
 /// Most cells a grid has, for `n` points: a few per point (the cells' first
-/// points are 4 bytes a cell), at least a small block, at most 4M cells
-/// (16 MB). Past that the cells grow wider than R/2, and a query tests
-/// more points.
+/// points are 4 bytes a cell, and a grid is built with each new system's
+/// first evaluation: a few dozen starts must not pay for thousands of
+/// cells), at most 4M cells (16 MB). Past that the cells grow wider than
+/// R/2, and a query tests more points.
 fn max_cells(n: usize) -> usize {
-    (8 * n).clamp(4096, 1 << 22)
+    (8 * n).clamp(64, 1 << 22)
 }
 
 /// The points of an [`super::Octree`] in a uniform grid, for box queries of
@@ -127,8 +128,7 @@ impl Grid {
     /// Appends the index of every point closer than the grid's radius to
     /// the box `[min, max]` to `ids` and its coordinates in `frame` to
     /// `coords`: the rows of cells within reach, cell by cell, each cell's
-    /// points in the grid's order. Every point of a row is written and the
-    /// end advanced past the near ones, with no branch.
+    /// points in the grid's order, a row's points tested with no branch.
     pub(crate) fn near_box_into(
         &self,
         (min, max): (DVec3, DVec3),
@@ -154,24 +154,12 @@ impl Grid {
                 }
                 let from = self.first[self.key([a[0], y, z])] as usize;
                 let to = self.first[self.key([b[0], y, z]) + 1] as usize;
-                let mut end = ids.len();
-                let room = end + (to - from);
-                ids.resize(room, 0);
-                for v in coords.iter_mut() {
-                    v.resize(room, 0.0);
+                if from == to {
+                    continue;
                 }
-                for (&p, &id) in self.points[from..to].iter().zip(&self.ids[from..to]) {
-                    let u = frame(p);
-                    ids[end] = id;
-                    for (v, u) in coords.iter_mut().zip(u) {
-                        v[end] = u;
-                    }
-                    end += usize::from(box_distance2(p, min, max) < r2);
-                }
-                ids.truncate(end);
-                for v in coords.iter_mut() {
-                    v.truncate(end);
-                }
+                let r = from..to;
+                let near = (&self.points[r.clone()], &self.ids[r]);
+                append_near(near.0, near.1, (min, max), r2, (ids, coords), &frame);
             }
         }
     }

@@ -130,6 +130,16 @@ fn the_grid_box_query_gives_the_tree_s_points() {
                 let mut got = ids[1..].to_vec();
                 got.sort_unstable();
                 assert_eq!(got, want, "case {case} r {r} box {lo}..{hi}");
+                // The tree's own answer (its walk below `GRID_POINTS`
+                // points, its grid from there), the same points.
+                let (mut ids, mut xyz) = (Vec::new(), [vec![], vec![], vec![]]);
+                tree.near_box_into((lo, hi), r, &mut ids, &mut xyz, frame);
+                for (k, &i) in ids.iter().enumerate() {
+                    let u = frame(points[i as usize]);
+                    assert_eq!([xyz[0][k], xyz[1][k], xyz[2][k]], u, "case {case} r {r}");
+                }
+                ids.sort_unstable();
+                assert_eq!(ids, want, "case {case} r {r}: the tree's answer");
             }
         }
     }
