@@ -205,7 +205,7 @@ impl PyBinding {
     /// Binds `points` ((N, 3)) to the starts of `deformation` (a
     /// Deformation or a System). Results have the points' dtype (float32
     /// stays float32). It keeps the points sorted into cells and each cell's
-    /// starts in reach (about 33 bytes a point at a million points, 45 with
+    /// starts in reach (about 21 bytes a point at a million points, 33 with
     /// float64 points; more with fewer points a cell or more starts in
     /// reach), and sums the kernel in float32 lanes, for float64 points too:
     /// displacements agree with `Deformation.displacements` (float64) to the
