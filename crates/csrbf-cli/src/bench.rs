@@ -142,7 +142,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         let r = run(&s, args.runs as usize)?;
         if !args.json {
             out_line!(
-                "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms ({:.1}x roofline) | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",
+                "{:<10} V {:>8} N {:>6} R {:.4} | {} {:>4} nbrs | fit {:>9.3} ms | bind {:>9.3} ms | evaluate {:>9.3} ms ({}) | fit+evaluate {:>9.3} ms | refit {:>8.3} ms | frame {:>7.3} ms | peak {:>6.0} MB",
                 s.name,
                 s.points.len(),
                 s.starts.len(),
@@ -152,7 +152,9 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
                 r["fit_ms"].as_f64().unwrap_or(0.0),
                 r["bind_ms"].as_f64().unwrap_or(0.0),
                 r["evaluate_ms"].as_f64().unwrap_or(0.0),
-                r["roofline"]["evaluate_over_bound"].as_f64().unwrap_or(0.0),
+                r["roofline"]["evaluate_over_bound"]
+                    .as_f64()
+                    .map_or("no roofline".to_string(), |q| format!("{q:.1}x roofline")),
                 r["fit_evaluate_ms"].as_f64().unwrap_or(0.0),
                 r["refit_ms"].as_f64().unwrap_or(0.0),
                 r["frame_ms"].as_f64().unwrap_or(0.0),
@@ -241,7 +243,8 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
             "fma_per_ns": roofline.fma_per_ns,
             "operations_per_register": roofline.operations,
             "bound_ms": roofline.bound_ms,
-            "evaluate_over_bound": evaluate_ms / roofline.bound_ms,
+            // None (null) when nothing was counted: no kernel evaluations.
+            "evaluate_over_bound": (roofline.bound_ms > 0.0).then(|| evaluate_ms / roofline.bound_ms),
         },
         "fit_evaluate_ms": fit_evaluate_ms,
         "refit_ms": refit_ms,

@@ -399,7 +399,7 @@ impl Deformation {
 
     /// D at every point as f32 vectors, for vertex buffers. Where points are
     /// sorted into cells (more than a few dozen starts), the kernel sum runs
-    /// in f32 eight or sixteen starts at a time: it agrees with
+    /// in f32 eight or sixteen points at a time: it agrees with
     /// [`Deformation::displacements`] to about 1e-7 of the sum of |alpha_j|
     /// over the starts within R (the tests allow 2e-6); the polynomial part
     /// is added in f64. A cell whose starts in reach have coefficients

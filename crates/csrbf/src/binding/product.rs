@@ -1,9 +1,9 @@
 //! The product a new deformation costs: per cell, its candidates'
 //! coefficients put in f32 lanes beside the coordinates the binding keeps;
 //! per point, the evaluation's kernel sum over those lanes
-//! ([`crate::lanes`]) from the point's coordinates in the cell's frame,
-//! which the binding keeps too, plus the polynomial part in f64. The same cells,
-//! frames, candidates and arithmetic as
+//! ([`crate::lanes::Narrow`]) from the point's coordinates in the cell's
+//! frame (computed from the centre the binding keeps), plus the polynomial
+//! part in f64. The same cells, frames, candidates and arithmetic as
 //! [`Deformation::displacements_f32`], so the same values, bit for bit;
 //! a cell that is not narrow, or whose coefficients would cancel in f32,
 //! is summed in f64 as the evaluation sums it.
@@ -24,8 +24,8 @@ use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter};
 use crate::lanes::{ChunkScratch, Coefficients, Narrow, Sums, View};
 use crate::simd::Avx2Fma;
 
-/// Per-thread scratch: a cell's coefficients in lanes, and the candidates
-/// of a cell summed in f64.
+/// Per-thread scratch: a cell's coefficients in lanes, the candidates of a
+/// cell summed in f64, and a chunk's arrays.
 #[derive(Default)]
 struct Scratch {
     alpha: [Vec<f32>; 3],
@@ -118,8 +118,13 @@ fn cell(
         places,
         first: c.point,
     };
-    match &b.rest {
-        Rest::F32(p) => narrow.write(&p[points], out, &mut s.chunk),
-        Rest::F64(p) => narrow.write(&p[points], out, &mut s.chunk),
+    // SAFETY: the cell's places are its own: `order` is a permutation and
+    // the cells' ranges do not overlap (see `Blocks`).
+    #[allow(unsafe_code)]
+    unsafe {
+        match &b.rest {
+            Rest::F32(p) => narrow.write(&p[points], out, &mut s.chunk),
+            Rest::F64(p) => narrow.write(&p[points], out, &mut s.chunk),
+        }
     }
 }

@@ -32,17 +32,26 @@ fn reach(d: &Deformation, p: DVec3) -> (f64, usize) {
 }
 
 /// A binding gives the f32 evaluation's displacements bit for bit and the
-/// f64 evaluation's within the f32 sums' rounding: with cells (many starts)
-/// and without (few), f32 and f64 points, a point that is not finite,
+/// f64 evaluation's within the f32 sums' rounding: with cells (many starts,
+/// their candidates from the octree's walk or from the starts' grid) and
+/// without (few), f32 and f64 points, a point that is not finite,
 /// points out of every start's reach, cells of hundreds of points, every
 /// kernel, with and without the polynomial part; and it counts every pair
 /// within R once.
 #[test]
 fn a_binding_is_the_f32_evaluation_issue_18() {
     let mut rng = Rng::new(20);
-    // The last: 3000 points in a few cells (hundreds a cell: a cell's points
-    // are summed in chunks).
-    for (starts, radius, spread) in [(30, 0.5, 1.6), (400, 0.2, 1.6), (60, 0.5, 0.3)] {
+    // The third: 3000 points in a few cells (hundreds a cell: a cell's
+    // points are summed in chunks). The last: enough starts that their
+    // grid, not the octree's walk, gives each cell's candidates.
+    let grid = crate::octree::GRID_POINTS + 452;
+    let cases = [
+        (30, 0.5, 1.6),
+        (400, 0.2, 1.6),
+        (60, 0.5, 0.3),
+        (grid, 0.1, 1.2),
+    ];
+    for (starts, radius, spread) in cases {
         for kernel in Kernel::ALL {
             for poly in [Polynomial::None, Polynomial::Linear] {
                 let s: Vec<DVec3> = (0..starts).map(|_| rng.vec3()).collect();

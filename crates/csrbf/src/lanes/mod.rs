@@ -211,7 +211,7 @@ pub(crate) fn narrow((lo, hi): (DVec3, DVec3), radius: f64) -> bool {
 }
 
 /// A narrow cell's sums, ready to write: its lanes, the kernel sum chosen
-/// for them, the polynomial part, its points in its frame and its places.
+/// for them, the polynomial part, its frame's centre and its places.
 /// The evaluation and a binding's product both write a narrow cell with
 /// it, so they give the same values bit for bit.
 pub(crate) struct Narrow<'a> {
@@ -230,16 +230,20 @@ pub(crate) struct Narrow<'a> {
 
 impl Narrow<'_> {
     /// Writes the displacement of each of the cell's `points` (in cell
-    /// order, beside `local`) at its place: the kernel sum a chunk at a
-    /// time, then each point's polynomial part, then the chunk's writes.
-    /// While a chunk sums, the next chunk's places are fetched into the
-    /// cache, so that writing a point where the caller's order puts it (a
-    /// cache line of its own, when that order is not the cells') does not
-    /// wait for memory.
+    /// order) at its place: a chunk at a time, the points' frame, the
+    /// kernel sums, the polynomial part, then the chunk's writes. While a
+    /// chunk sums, the next chunk's places are fetched into the cache, so
+    /// that writing a point where the caller's order puts it (a cache line
+    /// of its own, when that order is not the cells') does not wait for
+    /// memory.
     ///
-    /// Each place must belong to this cell alone, and no other task may
-    /// write it (the places of all cells a permutation: see `Blocks`).
-    pub(crate) fn write<P: Point>(
+    /// # Safety
+    /// Each of the cell's places (`places`, or `first..first + points.len()`)
+    /// belongs to this call alone: no other task reads or writes `out` there
+    /// while it runs (the cells' places are a permutation and do not
+    /// overlap: see `Blocks`).
+    #[allow(unsafe_code)]
+    pub(crate) unsafe fn write<P: Point>(
         &self,
         points: &[P],
         out: &Scatter<'_, Vec3>,
@@ -289,7 +293,7 @@ impl Narrow<'_> {
             match self.places {
                 Some(places) => {
                     for (&i, v) in places[from..from + chunk.len()].iter().zip(values) {
-                        // SAFETY: the place is this cell's alone (the
+                        // SAFETY: the place is this call's alone (the
                         // caller's promise, above).
                         #[allow(unsafe_code)]
                         unsafe {
@@ -311,9 +315,11 @@ impl Narrow<'_> {
     }
 }
 
-/// A chunk's arrays for [`Narrow::write`], kept by a thread from cell to
-/// cell: zeroed once, not for each chunk (a cell of a few points must not
-/// pay for clearing them).
+/// A chunk's arrays for [`Narrow::write`], kept in a task's scratch from
+/// cell to cell: zeroed when the scratch is made (once a task, as rayon
+/// splits the cells), not for each chunk (a cell of a few points must not
+/// pay for clearing them). Lanes past a chunk's points hold an earlier
+/// chunk's values: computed, never written.
 #[derive(Clone)]
 pub(crate) struct ChunkScratch {
     x: [[f64; CHUNK]; 3],
@@ -424,7 +430,13 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
                 places,
                 first,
             };
-            narrow.write(cell_points, &out, &mut s.chunk);
+            // SAFETY: the cell's places are its own: `Blocks::order` is a
+            // permutation and the cells do not overlap (or, points in their
+            // own order, the cell's range is its own).
+            #[allow(unsafe_code)]
+            unsafe {
+                narrow.write(cell_points, &out, &mut s.chunk)
+            };
             return;
         }
         s.candidates
@@ -498,6 +510,7 @@ impl Deformation {
         let parallel = points.len() >= PARALLEL_POINTS;
         let width = Sums::of(Avx2Fma::detect(), self.kernel()).width() as u64;
         let coefficients = Coefficients::new(self.coefficients());
+        self.octree().prepare_box_queries(radius);
         for_each_cell_with(
             &one_each,
             &mut counts,

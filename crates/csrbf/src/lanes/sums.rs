@@ -302,9 +302,11 @@ mod tests {
     /// bit, so the eight- and sixteen-lane copies give every point the same
     /// sums: candidate counts of 0 to 71 (a last pair of candidates whole
     /// or half), point counts of 1 to 40 (blocks of one register and two,
-    /// full and not), points near and far. The lanes are views of longer
-    /// buffers holding NaN past their end: a read past a view's length
-    /// would make the sums NaN.
+    /// full and not, at either width: 12 and 29 leave a last block of more
+    /// than one eight-lane register), points near and far. The lanes are
+    /// views of longer buffers holding NaN past their end: a read past a
+    /// view's length that slipped past the slices' checks would make the
+    /// sums NaN.
     #[test]
     fn the_vector_copies_are_their_scalar_model_bit_for_bit() {
         let cpu = Avx2Fma::detect();
@@ -330,6 +332,8 @@ mod tests {
                 (16, 16),
                 (33, 40),
                 (71, 33),
+                (5, 12),
+                (9, 29),
             ] {
                 // Coordinates within 1.6 R of the cell's centre (hits and
                 // misses), coefficients of either sign; NaN past `n`.

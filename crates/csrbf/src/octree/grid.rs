@@ -28,6 +28,11 @@ pub(crate) struct Grid {
     /// The cells' width and its inverse.
     h: f64,
     inv_h: f64,
+    /// What a slab's distance from a box is lowered by before it prunes a
+    /// row: more than the rounding of the slabs' bounds and of the points'
+    /// cells, so a row is never pruned while one of its points is within
+    /// R of the box.
+    slack: f64,
     dims: [usize; 3],
     /// Cell `c`'s points are `first[c]..first[c + 1]` of the arrays below
     /// (cells x fastest, then y, then z).
@@ -51,19 +56,24 @@ impl Grid {
             (DVec3::ZERO, DVec3::ZERO)
         };
         let cap = max_cells(points.len()) as f64;
-        let mut h = if radius > 0.0 && radius.is_finite() {
-            0.5 * radius
-        } else {
-            extent.max_element().max(1.0)
-        };
-        let dims_of = |h: f64| (extent / h).floor() + 1.0;
+        // Cells R/2 wide; one cell when that half is not a positive finite
+        // width (a radius that underflows), and when the points span more
+        // than f64 holds (an infinite width: `dims_of` gives 1, as NaN
+        // counts as 0).
+        let mut h = 0.5 * radius;
+        if !(h > 0.0 && h.is_finite()) {
+            h = extent.max_element().max(1.0);
+        }
+        let dims_of = |h: f64| (extent / h).floor().max(DVec3::ZERO) + 1.0;
         let mut dims = dims_of(h);
+        // Each round widens the cells by 1 % at least (or to infinity, one
+        // cell), so the loop ends.
         while !(dims.x * dims.y * dims.z <= cap) {
             let grow = ((dims.x * dims.y * dims.z) / cap).cbrt().max(1.01);
-            h = if grow.is_finite() {
+            h = if (h * grow).is_finite() {
                 h * grow
             } else {
-                extent.max_element().max(1.0)
+                f64::INFINITY
             };
             dims = dims_of(h);
         }
@@ -73,6 +83,7 @@ impl Grid {
             lo,
             h,
             inv_h: 1.0 / h,
+            slack: 1e-12 * (lo.abs().max_element() + extent.max_element() + h),
             dims,
             first: Vec::new(),
             points: Vec::with_capacity(points.len()),
@@ -118,11 +129,13 @@ impl Grid {
     }
 
     /// How far the slab of cells `i` along axis `a` lies from `lo..hi` on
-    /// that axis (0 when they overlap).
+    /// that axis, less the slack (0 when they overlap).
     fn gap(&self, a: usize, i: usize, (lo, hi): (f64, f64)) -> f64 {
         let below = self.lo[a] + i as f64 * self.h;
         let above = below + self.h;
-        (lo - above).max(below - hi).max(0.0)
+        // `f64::max` ignores NaN: a NaN slab (infinite cells) prunes
+        // nothing.
+        ((lo - above).max(below - hi) - self.slack).max(0.0)
     }
 
     /// Appends the index of every point closer than the grid's radius to

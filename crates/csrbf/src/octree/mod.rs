@@ -9,12 +9,13 @@ mod build;
 mod grid;
 mod query;
 
-use std::borrow::Cow;
 use std::sync::OnceLock;
 
 use glam::DVec3;
 
 pub(crate) use grid::Grid;
+#[cfg(test)]
+pub(crate) use query::GRID_POINTS;
 
 /// An octree over a fixed set of points. Points are referred to by their index
 /// in the slice the tree was built from.
@@ -51,17 +52,15 @@ impl Octree {
     pub const MAX_DEPTH: u32 = 24;
 
     /// The points in a grid for box queries of `radius`: built on the first
-    /// call and kept (a tree serves one radius, its system's), built anew
-    /// for another radius.
-    pub(crate) fn grid(&self, radius: f64) -> Cow<'_, Grid> {
+    /// call, for its radius, and kept. `None` for any other radius: a tree
+    /// serves one radius (its system's, and its bindings', which share it),
+    /// and a caller asking for another walks the tree rather than build a
+    /// grid a query.
+    pub(crate) fn grid(&self, radius: f64) -> Option<&Grid> {
         let grid = self
             .grid
             .get_or_init(|| Grid::new(&self.points, &self.ids, radius));
-        if grid.radius() == radius {
-            Cow::Borrowed(grid)
-        } else {
-            Cow::Owned(Grid::new(&self.points, &self.ids, radius))
-        }
+        (grid.radius() == radius).then_some(grid)
     }
 
     /// Depth of the deepest leaf (the root has depth 0).

@@ -65,10 +65,11 @@ impl Octree {
     /// Appends the index of every point closer than `radius` to the box
     /// `[min, max]` to `ids` and its coordinates in `frame` to `coords`:
     /// from the tree's grid ([`Octree::grid`]) when the tree holds
-    /// [`GRID_POINTS`] points or more, else from its walk, leaf by leaf.
-    /// Either way each point of a run is written and kept or not with no
-    /// branch. The order depends on which answers (so every caller that
-    /// must agree with another asks the same way).
+    /// [`GRID_POINTS`] points or more and its grid is for `radius`, else
+    /// from its walk, leaf by leaf. Either way each point of a run is
+    /// written and kept or not with no branch. The order depends on which
+    /// answers, and that on the tree and the radius alone (so two callers
+    /// with the same tree and radius agree).
     pub(crate) fn near_box_into(
         &self,
         (min, max): (DVec3, DVec3),
@@ -77,9 +78,10 @@ impl Octree {
         coords: &mut [Vec<f32>; 3],
         frame: impl Fn(DVec3) -> [f32; 3],
     ) {
-        if self.points.len() >= GRID_POINTS {
-            self.grid(radius)
-                .near_box_into((min, max), ids, coords, frame);
+        if self.points.len() >= GRID_POINTS
+            && let Some(grid) = self.grid(radius)
+        {
+            grid.near_box_into((min, max), ids, coords, frame);
             return;
         }
         let r2 = radius * radius;

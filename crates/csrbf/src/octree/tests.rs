@@ -1,6 +1,6 @@
 use glam::DVec3;
 
-use super::Octree;
+use super::{Grid, Octree};
 use crate::testing::Rng;
 
 fn brute(points: &[DVec3], q: DVec3, r: f64) -> Vec<u32> {
@@ -111,7 +111,7 @@ fn the_grid_box_query_gives_the_tree_s_points() {
         let base = if case == 3 { offset } else { DVec3::ZERO };
         let tree = Octree::new(&points);
         for r in [1e-3, 0.02, 0.1, 0.4, 3.0] {
-            let grid = tree.grid(r);
+            let grid = Grid::new(&tree.points, &tree.ids, r);
             for _ in 0..20 {
                 let lo = base + rng.vec3() * 1.4 - 0.2;
                 let hi = lo + rng.vec3() * r;
@@ -147,4 +147,40 @@ fn the_grid_box_query_gives_the_tree_s_points() {
 
 fn points_cluster(rng: &mut Rng) -> DVec3 {
     DVec3::splat(0.3) + rng.vec3() * 1e-3
+}
+
+/// A grid of points spanning more than f64 holds, or for a radius whose
+/// half underflows, is one cell (its sizing ends) and still answers as the
+/// tree does; a NaN or zero radius, too.
+#[test]
+fn a_grid_of_extreme_points_or_radii_answers_as_the_tree() {
+    let mut rng = Rng::new(5);
+    let wide: Vec<DVec3> = (0..40)
+        .map(|k| DVec3::new(if k % 2 == 0 { 1e308 } else { -1e308 }, rng.f64(), 0.0))
+        .collect();
+    let flat: Vec<DVec3> = (0..40)
+        .map(|_| DVec3::new(rng.f64(), rng.f64(), 0.0))
+        .collect();
+    let tiny = f64::from_bits(1); // the smallest subnormal: its half is 0
+    for (points, radius) in [
+        (&wide, 1.0),
+        (&wide, 1e300),
+        (&flat, tiny),
+        (&flat, 0.0),
+        (&flat, f64::NAN),
+        (&flat, 0.3),
+    ] {
+        let tree = Octree::new(points);
+        let grid = Grid::new(&tree.points, &tree.ids, radius);
+        for lo in [DVec3::ZERO, DVec3::splat(0.4), DVec3::new(1e308, 0.0, 0.0)] {
+            let hi = lo + 0.1;
+            let mut want = Vec::new();
+            tree.for_each_near_box(lo, hi, radius, |i, _| want.push(i));
+            want.sort_unstable();
+            let (mut ids, mut xyz) = (Vec::new(), [vec![], vec![], vec![]]);
+            grid.near_box_into((lo, hi), &mut ids, &mut xyz, |p| p.as_vec3().to_array());
+            ids.sort_unstable();
+            assert_eq!(ids, want, "radius {radius} box at {lo}");
+        }
+    }
 }
