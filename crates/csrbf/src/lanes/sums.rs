@@ -164,14 +164,18 @@ fn sum_body<const K: u8>(l: View<'_>, x: [f32; 3]) -> [f32; 3] {
     [0, 1, 2].map(|c| combine(acc.map(|a| a[c]), |a, b| a + b))
 }
 
-/// [`sum_body`] for every point of `xs`, into `out`.
-fn sums_plain<const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
-    let n = xs
+/// The points a call sums: as many as the shortest of its six arrays.
+pub(super) fn points_of(xs: &Axes<'_>, out: &AxesMut<'_>) -> usize {
+    let lens = xs
         .iter()
         .map(|v| v.len())
-        .chain(out.iter().map(|v| v.len()))
-        .min()
-        .unwrap_or(0);
+        .chain(out.iter().map(|v| v.len()));
+    lens.min().unwrap_or(0)
+}
+
+/// [`sum_body`] for every point of `xs`, into `out`.
+fn sums_plain<const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
+    let n = points_of(&xs, &out);
     let [ox, oy, oz] = out;
     for k in 0..n {
         [ox[k], oy[k], oz[k]] = sum_body::<K>(l, [xs[0][k], xs[1][k], xs[2][k]]);

@@ -22,7 +22,7 @@ use std::arch::x86_64::*;
 
 use super::View;
 use super::sums::ACCUMULATORS;
-use super::sums::{Axes, AxesMut};
+use super::sums::{Axes, AxesMut, points_of};
 
 /// The operations of the kernel sum at one width. Each is an intrinsic of
 /// the width's instruction set.
@@ -166,12 +166,7 @@ const BLOCK: usize = 32;
 #[inline(always)]
 unsafe fn sums<V: Vector, const K: u8>(l: View<'_>, xs: Axes<'_>, out: AxesMut<'_>) {
     let w = V::WIDTH;
-    let n = xs
-        .iter()
-        .map(|v| v.len())
-        .chain(out.iter().map(|v| v.len()))
-        .min()
-        .unwrap_or(0);
+    let n = points_of(&xs, &out);
     let [ox, oy, oz] = out;
     let mut out = [ox, oy, oz].map(|v| &mut v[..n]);
     let xs = xs.map(|v| &v[..n]);
