@@ -150,6 +150,10 @@ fn a_binding_sums_cancelling_coefficients_as_the_evaluation_does() {
     let total: f64 = d.coefficients().iter().map(|a| a.abs().element_sum()).sum();
     assert!(total > d.f32_reach(), "the cells are summed in f64");
     let points: Vec<Vec3> = (0..2000).map(|_| rng.vec3().as_vec3()).collect();
+    // And counted as summed: a kernel evaluation a hit, none in lanes
+    // (1999 points: lanes would count a register's worth more).
+    let counts = d.evaluation_counts(&points[..1999]);
+    assert_eq!(counts.kernel_evaluations, counts.hits);
     same_bits(&d, &points);
 }
 

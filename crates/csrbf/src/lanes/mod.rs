@@ -519,9 +519,12 @@ impl Deformation {
                 let (s, e) = blocks.cells[c];
                 let idx = &blocks.order[s..e];
                 let cell = bounds(points, idx);
-                let narrow = narrow(cell, radius);
+                let mut narrow = narrow(cell, radius);
                 let gathered = if narrow {
                     lanes.gather(self.octree(), &coefficients, cell, radius);
+                    // Coefficients that would cancel in f32 are summed in
+                    // f64, hit by hit, as the evaluation sums them.
+                    narrow = lanes.reach() <= self.f32_reach();
                     lanes.candidates()
                 } else {
                     let xs = idx.iter().map(|&i| points[i as usize].to_dvec3());
