@@ -603,6 +603,26 @@ pub(crate) fn for_each_cell<T: Send>(
     for_each_cell_with(blocks, out, parallel, work);
 }
 
+/// Runs `work(scratch, cell)` for every one of `cells`, on the pool's
+/// threads when `parallel` (a few cells a task at least, scratch made once
+/// a task), else in order with one scratch: the loop over cells that writes
+/// its own places (the f32 evaluation, a binding's product).
+pub(crate) fn for_each_with_scratch<C: Sync, S: Default>(
+    cells: &[C],
+    parallel: bool,
+    work: impl Fn(&mut S, &C) + Sync + Send,
+) {
+    if parallel {
+        cells
+            .par_iter()
+            .with_min_len(2)
+            .for_each_init(S::default, work);
+    } else {
+        let mut scratch = S::default();
+        cells.iter().for_each(|c| work(&mut scratch, c));
+    }
+}
+
 /// [`for_each_cell`] with scratch of any kind (one per thread).
 pub(crate) fn for_each_cell_with<T: Send, S: Default>(
     blocks: &Blocks,

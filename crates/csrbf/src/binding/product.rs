@@ -16,11 +16,10 @@
 //! meanwhile.
 
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 
 use super::{Binding, Cell, Rest};
 use crate::deformation::Deformation;
-use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter};
+use crate::evaluate::{Candidates, PARALLEL_POINTS, Scatter, for_each_with_scratch};
 use crate::lanes::{ChunkScratch, Coefficients, Narrow, Sums, View};
 use crate::simd::Avx2Fma;
 
@@ -43,15 +42,7 @@ pub(super) fn displacements(b: &Binding, d: &Deformation, out: &mut [Vec3]) {
     let parallel = out.len() >= PARALLEL_POINTS;
     let out = Scatter::new(out);
     let work = |s: &mut Scratch, c: &Cell| cell(b, d, (sums, &coefficients), c, s, &out);
-    if parallel {
-        b.cells
-            .par_iter()
-            .with_min_len(2)
-            .for_each_init(Scratch::default, work);
-    } else {
-        let mut scratch = Scratch::default();
-        b.cells.iter().for_each(|c| work(&mut scratch, c));
-    }
+    for_each_with_scratch(&b.cells, parallel, work);
 }
 
 /// One cell's points.

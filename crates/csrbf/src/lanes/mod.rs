@@ -36,9 +36,10 @@ pub(crate) use sums::Sums;
 use glam::{DVec3, Vec3};
 
 use crate::deformation::{Deformation, Linear};
-use rayon::prelude::*;
 
-use crate::evaluate::{Blocks, Candidates, PARALLEL_POINTS, Point, Scatter, for_each_cell_with};
+use crate::evaluate::{
+    Blocks, Candidates, PARALLEL_POINTS, Point, Scatter, for_each_cell_with, for_each_with_scratch,
+};
 use crate::octree::Octree;
 use crate::simd::Avx2Fma;
 
@@ -459,16 +460,7 @@ pub(crate) fn displacements<P: Point>(d: &Deformation, points: &[P], out: &mut [
             };
         }
     };
-    if points.len() >= PARALLEL_POINTS {
-        blocks
-            .cells
-            .par_iter()
-            .with_min_len(2)
-            .for_each_init(Scratch::default, cell);
-    } else {
-        let mut scratch = Scratch::default();
-        blocks.cells.iter().for_each(|c| cell(&mut scratch, c));
-    }
+    for_each_with_scratch(&blocks.cells, points.len() >= PARALLEL_POINTS, cell);
 }
 
 /// What [`Deformation::displacements_f32`] does at some points, counted
