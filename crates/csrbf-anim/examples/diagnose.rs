@@ -16,7 +16,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let runs: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(7);
     let mesh = csrbf_mesh::read(mesh.as_ref())?;
-    let file = csrbf::controls::ControlFile::parse(&std::fs::read_to_string(&controls)?)?;
+    let file = csrbf_edit::controls::ControlFile::parse(&std::fs::read_to_string(&controls)?)?;
     let lookup = |n: &str| mesh.part_vertices(n);
     let mut stages = Vec::new();
     for spec in &file.deformations {

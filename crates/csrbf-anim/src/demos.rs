@@ -5,8 +5,8 @@
 //! walls bulge where it hits, the system rebuilt and solved every frame;
 //! figure 9) and `brick` (the same control vectors with three radii; figure 2).
 
-use csrbf::controls::{ControlFile, ControlSpec};
 use csrbf::{Combine, FitOptions, Kernel, Polynomial};
+use csrbf_edit::controls::{ControlFile, ControlSpec};
 use csrbf_mesh::shapes::{subdivided_box, uv_sphere};
 use csrbf_mesh::{Format, Mesh};
 use glam::{DVec3, Vec3};

@@ -234,8 +234,8 @@ fn default_reach() -> f64 {
 impl SceneFile {
     /// Parses a scene file; errors carry the JSON path of the problem.
     pub fn parse(text: &str) -> Result<SceneFile, ParseError> {
-        let text = csrbf::json::strip_bom(text);
-        csrbf::json::check_duplicate_keys(text).map_err(|e| ParseError {
+        let text = csrbf_edit::json::strip_bom(text);
+        csrbf_edit::json::check_duplicate_keys(text).map_err(|e| ParseError {
             at: format!("line {}", e.second_line),
             message: e.to_string(),
         })?;

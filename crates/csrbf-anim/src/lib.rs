@@ -25,7 +25,6 @@
 // why a value is there with `expect`, or handles its absence.
 #![warn(clippy::unwrap_used)]
 
-pub mod apply;
 pub mod camera;
 pub mod demos;
 mod export;

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use csrbf::controls::ControlFile;
+use csrbf_edit::controls::ControlFile;
 use csrbf_mesh::Mesh;
 use glam::Vec3;
 

@@ -366,7 +366,7 @@ fn scenes_combine_deformations_as_compose_does() {
             .replace(r#""trajectory": [{"time": 0, "position": [0, 0, 0]}, {"time": 2, "position": [1, 0, 0], "tension": 0.5}],"#, "")
             .replace(r#""orientation": [{"time": 0, "axis": [0, 1, 0], "angle": 0}, {"time": 2, "euler": [0, 30, 0]}]"#, r#""orientation": []"#);
         let scene = Scene::load(&d.scene(&text)).expect("scene");
-        let file = csrbf::controls::ControlFile::parse(&two(combine)).expect("controls");
+        let file = csrbf_edit::controls::ControlFile::parse(&two(combine)).expect("controls");
         for (time, track) in [(1.0, 1.0f64), (0.5, 0.5)] {
             let stages: Vec<_> = file
                 .deformations
@@ -411,7 +411,7 @@ fn scenes_take_meshes_and_controls_as_values_and_update_one_object() {
     for p in &mut head.positions {
         p.y += 100.0;
     }
-    let smile = csrbf::controls::ControlFile::parse(
+    let smile = csrbf_edit::controls::ControlFile::parse(
         &std::fs::read_to_string(d.0.join("smile.json")).expect("smile"),
     )
     .expect("controls");

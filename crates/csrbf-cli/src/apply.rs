@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use csrbf::format;
 
 use crate::common::{CheckArgs, Progress, check_output, check_phase, read_mesh};
-use crate::deform::move_and_write;
+use crate::deform::write_deformed;
 
 pub fn apply(
     mesh: &Path,
@@ -32,16 +32,11 @@ pub fn apply(
     let mut m = read_mesh(mesh, progress)?;
     if let Some(stamp) = &replay.mesh {
         stamp
-            .check(&csrbf_anim::apply::mesh_stamp(&m))
+            .check(&csrbf_edit::apply::mesh_stamp(&m))
             .with_context(|| format!("{} on {}", deformation.display(), mesh.display()))?;
     }
-    move_and_write(
-        &mut m,
-        &replay.stages,
-        (None, replay.combine),
-        phase,
-        (mesh, out, force),
-        (json, &checks),
-        progress,
-    )
+    let (moved, report) =
+        csrbf_edit::apply::compose_report(&m, &replay.stages, replay.combine, phase, &checks)
+            .with_context(|| mesh.display().to_string())?;
+    write_deformed(&mut m, moved, &report, (out, force, json), progress)
 }

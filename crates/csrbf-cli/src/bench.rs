@@ -7,9 +7,9 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use csrbf::Combine;
-use csrbf::controls::{ControlFile, ControlSpec};
 use csrbf::synthetic::SyntheticScene;
 use csrbf::{Binding, SolverChoice, System, frame};
+use csrbf_edit::controls::{ControlFile, ControlSpec};
 use glam::{DVec3, Vec3};
 use serde_json::json;
 

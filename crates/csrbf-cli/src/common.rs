@@ -5,8 +5,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use csrbf::controls::{ControlFile, ControlSpec};
-use csrbf::{FittedStage, System};
+use csrbf_edit::{ControlFile, EditError, Note};
 use csrbf_mesh::{Format, Mesh};
 
 /// Progress lines on standard error, unless quiet.
@@ -72,144 +71,29 @@ pub fn read_controls(path: &Path, progress: &Progress) -> Result<ControlFile> {
     Ok(file)
 }
 
-/// Fits every deformation of a control file, naming the file and the
-/// deformation in errors.
-pub fn fit_all(
-    specs: &[ControlSpec],
+/// Resolves a control file on the mesh and fits every deformation (the
+/// edit layer's road), its progress on standard error and its warnings as
+/// `warning: ...`; errors name the file and the deformation.
+pub fn fit_edit(
+    file: &ControlFile,
     path: &Path,
     mesh: Option<&Mesh>,
     allow_large: bool,
     progress: &Progress,
-) -> Result<Vec<FittedStage>> {
-    let mut specs = resolve_all(specs, path, mesh, progress)?;
-    if let Some(m) = mesh {
-        for (i, s) in specs.iter().enumerate() {
-            csrbf_anim::apply::check_region(&s.region, m)
-                .map_err(anyhow::Error::msg)
-                .with_context(|| format!("{}: region", stage_name(path, i, specs.len())))?;
+) -> Result<csrbf_edit::Edit> {
+    let source = path.display().to_string();
+    let mut notes = |n: Note| match n {
+        Note::Progress(t) => progress.say(t),
+        Note::Warning(t) => err_line!("warning: {t}"),
+        _ => {}
+    };
+    csrbf_edit::fit(file, &source, mesh, allow_large, &mut notes).map_err(|e| match e {
+        // The library says "give the mesh"; here it is a flag.
+        EditError::NeedsMesh { at, what } => {
+            anyhow::anyhow!("{at}: {}", what.replace("give the mesh", "give --mesh"))
         }
-    }
-    if allow_large {
-        for s in &mut specs {
-            s.options = s.options.with_memory_limit(u64::MAX);
-        }
-    }
-    let mut out = Vec::with_capacity(specs.len());
-    for (i, s) in specs.iter().enumerate() {
-        let at = stage_name(path, i, specs.len());
-        warn_if_dense(s, &at);
-        let t = Instant::now();
-        if s.starts.is_empty() {
-            // Work in progress (the reader warned): moves nothing, and the
-            // deformations after it keep their numbers.
-            out.extend(s.fit().with_context(|| at.clone())?);
-            continue;
-        }
-        if let Some(options) = s.sweep {
-            let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)
-                .with_context(|| at.clone())?;
-            progress.say(format_args!(
-                "swept {} controls ({}, R {}) in {} step(s), each step's |dD/dx| <= {:.3} (the single map's bound: {:.3}), {:.2} ms",
-                s.starts.len(),
-                s.options.kernel,
-                csrbf::plain_number(s.options.radius),
-                sweep.len(),
-                sweep.bound(),
-                sweep.plain_bound,
-                t.elapsed().as_secs_f64() * 1e3
-            ));
-            if !sweep.certified() {
-                err_line!(
-                    "warning: {at}: a step of the sweep's {} has a gradient bound of {:.3} (>= 1), so it may fold: leave out \"steps\" and csrbf takes as many as it needs",
-                    sweep.len(),
-                    sweep.bound()
-                );
-            }
-            out.extend(FittedStage::sweep(sweep, s.region.clone(), s.phase));
-            continue;
-        }
-        let sys = System::new(&s.starts, s.options).with_context(|| at.clone())?;
-        let def = sys.solve(&s.targets).with_context(|| at.clone())?;
-        let st = sys.stats();
-        progress.say(format_args!(
-            "fitted {} controls ({}, R {}, {}): {} solver, band {} -> {}, {:.2} ms",
-            st.controls,
-            s.options.kernel,
-            csrbf::plain_number(s.options.radius),
-            s.options.polynomial,
-            st.solver,
-            st.bandwidth_before,
-            st.bandwidth,
-            t.elapsed().as_secs_f64() * 1e3
-        ));
-        out.push(
-            FittedStage::new(def)
-                .with_region(s.region.clone())
-                .with_phase(s.phase),
-        );
-    }
-    Ok(out)
-}
-
-fn stage_name(path: &Path, i: usize, count: usize) -> String {
-    if count > 1 {
-        format!("{}: deformations[{i}]", path.display())
-    } else {
-        path.display().to_string()
-    }
-}
-
-/// Turns every handle into control vectors and every connected region into
-/// vertex weights on the mesh (which they need); other deformations are
-/// kept as they are.
-pub fn resolve_all(
-    specs: &[ControlSpec],
-    path: &Path,
-    mesh: Option<&Mesh>,
-    progress: &Progress,
-) -> Result<Vec<ControlSpec>> {
-    let mut out = Vec::with_capacity(specs.len());
-    for (i, s) in specs.iter().enumerate() {
-        if !s.needs_mesh() {
-            out.push(s.clone());
-            continue;
-        }
-        let at = stage_name(path, i, specs.len());
-        let Some(m) = mesh else {
-            if s.handle.is_some() {
-                bail!("{at}: handle: a handle is sampled on the mesh; give --mesh");
-            }
-            bail!("{at}: region: a connected region is measured along the mesh; give --mesh");
-        };
-        let t = Instant::now();
-        let triangles = if s.region.needs_surface() {
-            m.faces.triangles()
-        } else {
-            Vec::new()
-        };
-        let r = s
-            .resolve_on(&m.positions, &triangles, &|n| m.part_vertices(n))
-            .with_context(|| at.clone())?;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        if s.handle.is_some() {
-            progress.say(format_args!(
-                "{at}: handle made {} control vectors",
-                r.starts.len() - s.starts.len(),
-            ));
-        }
-        if let csrbf::Region::Weights { vertices, weights } = &r.region
-            && s.region.needs_surface()
-        {
-            progress.say(format_args!(
-                "{at}: connected region: {} vertices ({} fully)",
-                vertices.len(),
-                weights.iter().filter(|&&w| w == 1.0).count()
-            ));
-        }
-        progress.say(format_args!("{at}: resolved on the mesh ({ms:.1} ms)"));
-        out.push(r);
-    }
-    Ok(out)
+        e => anyhow::Error::new(e),
+    })
 }
 
 /// What `deform` and `apply` check of the result beyond moves and folds.
@@ -225,8 +109,8 @@ pub struct CheckArgs {
 
 impl CheckArgs {
     /// The checks these flags ask for; a bad stretch limit names its flag.
-    pub fn checks(&self) -> Result<csrbf_anim::apply::Checks> {
-        let checks = csrbf_anim::apply::Checks::default()
+    pub fn checks(&self) -> Result<csrbf_edit::Checks> {
+        let checks = csrbf_edit::Checks::default()
             .with_stretch_limit(self.stretch_limit)
             .with_self_intersections(match self.self_intersections.as_str() {
                 "on" => Some(true),
@@ -341,18 +225,4 @@ pub fn extension_in(out: &Path, allowed: &[&str], what: &str) -> Result<String> 
         );
     }
     Ok(ext)
-}
-
-/// Warns before a long fit when R reaches most of the starts: the system is
-/// then nearly dense (N^2 memory, N^3 work). The estimate is the engine's.
-fn warn_if_dense(s: &ControlSpec, at: &str) {
-    let e = csrbf::estimate(&s.starts, s.options.radius);
-    if e.nearly_dense() {
-        err_line!(
-            "warning: {at}: R = {} reaches about {:.0} % of the {} starts, so the system is nearly dense and the fit will be slow and large; a smaller R keeps it sparse",
-            csrbf::plain_number(s.options.radius),
-            e.fraction * 100.0,
-            e.starts
-        );
-    }
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 use anyhow::Result;
 use csrbf::format;
 
-use crate::common::{Progress, check_output, fit_all, read_controls, read_mesh};
+use crate::common::{Progress, check_output, fit_edit, read_controls, read_mesh};
 
 pub fn fit(
     controls: &Path,
@@ -20,19 +20,13 @@ pub fn fit(
     let ext = crate::common::extension_in(out, &["csrbf", "json"], "deformation format")?;
     let file = read_controls(controls, progress)?;
     let m = mesh.map(|p| read_mesh(p, progress)).transpose()?;
-    let stages = fit_all(
-        &file.deformations,
-        controls,
-        m.as_ref(),
-        allow_large,
-        progress,
-    )?;
+    let stages = fit_edit(&file, controls, m.as_ref(), allow_large, progress)?.stages();
     // Regions that list vertices (resolved on the mesh) hold for that mesh
     // alone: the file names it, and `apply` refuses another.
     let stamp = m
         .as_ref()
         .filter(|_| format::Replay::lists_vertices(&stages))
-        .map(csrbf_anim::apply::mesh_stamp);
+        .map(csrbf_edit::apply::mesh_stamp);
     let bytes = if ext == "json" {
         let mut value = format::to_json(&stages, file.combine);
         if let Some(s) = stamp {

@@ -3,12 +3,12 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use csrbf::{System, format};
+use csrbf::format;
 use serde_json::{Value, json};
 
 use glam::Vec3;
 
-use crate::common::{Progress, read_controls, read_mesh, resolve_all};
+use crate::common::{Progress, read_controls, read_mesh};
 
 pub fn info(
     mesh: Option<&Path>,
@@ -102,10 +102,16 @@ fn mesh_info(path: &Path) -> Result<Value> {
 fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
     let quiet = Progress::new(false);
     let file = read_controls(path, &quiet)?;
-    let specs = file.deformations;
     let mesh = mesh_path.map(|m| read_mesh(m, &quiet)).transpose()?;
-    let generated: Vec<usize> = specs.iter().map(|s| s.starts.len()).collect();
-    let specs = resolve_all(&specs, path, mesh.as_ref(), &quiet)?;
+    let generated: Vec<usize> = file.deformations.iter().map(|s| s.starts.len()).collect();
+    let source = path.display().to_string();
+    let specs =
+        csrbf_edit::resolve(&file, &source, mesh.as_ref(), &mut |_| {}).map_err(|e| match e {
+            csrbf_edit::EditError::NeedsMesh { at, what } => {
+                anyhow::anyhow!("{at}: {}", what.replace("give the mesh", "give --mesh"))
+            }
+            e => anyhow::Error::new(e),
+        })?;
     let mut stages = Vec::new();
     for (i, s) in specs.iter().enumerate() {
         if s.starts.is_empty() {
@@ -118,75 +124,56 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
             }));
             continue;
         }
-        let sys = System::new(&s.starts, s.options)
+        // The edit layer's one fit: the single map (with its system's
+        // figures) or the sweep.
+        let fitted = csrbf_edit::fit_spec(s)
             .with_context(|| format!("{}: deformation {i}", path.display()))?;
-        let st = sys.stats();
         let (lo, hi) = s
             .starts
             .iter()
             .fold((s.starts[0], s.starts[0]), |(a, b), p| {
                 (a.min(*p), b.max(*p))
             });
-        stages.push(json!({
-            "controls": st.controls,
+        let mut stage = json!({
+            "controls": s.starts.len(),
             "kernel": s.options.kernel.name(),
             "radius": s.options.radius,
             "polynomial": s.options.polynomial.name(),
             "bounds": { "min": lo.to_array(), "max": hi.to_array() },
-            "neighbours": { "min": st.neighbours_min, "mean": st.neighbours_mean, "max": st.neighbours_max },
-            "nonzeros": st.nonzeros,
-            "bandwidth_before": st.bandwidth_before,
-            "envelope_before": st.envelope_before,
-            "bandwidth": st.bandwidth,
-            "envelope": st.envelope,
-            "ordering": st.ordering,
-            "orderings": st.orderings.iter().map(|o| json!({ "ordering": o.ordering, "bandwidth": o.bandwidth, "envelope": o.envelope })).collect::<Vec<_>>(),
-            "profile_bytes": st.profile_bytes,
-            "dense_bytes": st.dense_bytes,
-            "factor_bytes": st.factor_bytes,
-            "solver": st.solver,
-        }));
-        let stage = stages
-            .last_mut()
-            .and_then(Value::as_object_mut)
-            .context("stage")?;
+        });
+        let sys = match &fitted.stats {
+            Some(st) => st.clone(),
+            // A sweep: the figures of the system of its starts.
+            None => csrbf::System::new(&s.starts, s.options)
+                .with_context(|| format!("{}: deformation {i}", path.display()))?
+                .stats()
+                .clone(),
+        };
+        if let Some(o) = stage.as_object_mut() {
+            o.extend(system_json(&sys));
+        }
+        let stage_obj = stage.as_object_mut().context("stage")?;
         if s.starts.len() > generated[i] {
             // The vectors a handle made, after the file's own.
             let made: Vec<Value> = (generated[i]..s.starts.len())
                 .map(|j| json!({ "from": s.starts[j].to_array(), "to": s.targets[j].to_array() }))
                 .collect();
-            stage.insert("handle_vectors".into(), json!(made));
+            stage_obj.insert("handle_vectors".into(), json!(made));
         }
         // The fold-free certificate: the single map's bound of |dD/dx| (below
         // 1: it cannot fold), and a sweep's steps and their bound.
-        let at = || format!("{}: deformation {i}", path.display());
-        let stages1: Vec<csrbf::FittedStage> = match s.sweep {
-            None => {
-                let def = System::new(&s.starts, s.options)
-                    .and_then(|sys| sys.solve(&s.targets))
-                    .with_context(at)?;
-                stage.insert("gradient_bound".into(), json!(def.gradient_bound()));
-                vec![
-                    csrbf::FittedStage::new(def)
-                        .with_region(s.region.clone())
-                        .with_phase(s.phase),
-                ]
-            }
-            Some(options) => {
-                let sweep = csrbf::Sweep::fit(&s.starts, &s.targets, &s.paths, s.options, options)
-                    .with_context(at)?;
-                stage.insert("gradient_bound".into(), json!(sweep.plain_bound));
-                stage.insert(
-                    "sweep".into(),
-                    json!({ "steps": sweep.len(), "step_bound": sweep.bound(), "certified": sweep.certified() }),
-                );
-                csrbf::FittedStage::sweep(sweep, s.region.clone(), s.phase)
-            }
-        };
+        stage_obj.insert("gradient_bound".into(), json!(fitted.gradient_bound()));
+        if let Some(sw) = &fitted.sweep {
+            stage_obj.insert(
+                "sweep".into(),
+                json!({ "steps": sw.steps, "step_bound": sw.bound, "certified": sw.certified }),
+            );
+        }
+        let stages1 = fitted.stages;
         if let Some(m) = &mesh {
             // Per control: the vertices within R of its start.
             let within = csrbf::vertices_within(&m.positions, &s.starts, s.options.radius);
-            stage.insert("vertices_within_r".into(), json!(within));
+            stage_obj.insert("vertices_within_r".into(), json!(within));
             let lookup = |n: &str| m.part_vertices(n);
             let moved =
                 csrbf::compose_with_groups(&m.positions, &stages1, csrbf::Combine::Chain, &lookup)?;
@@ -198,7 +185,7 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                 csrbf::Combine::Chain,
                 &lookup,
             )?;
-            stage.insert(
+            stage_obj.insert(
                 "diagnostics".into(),
                 json!({
                     "moved": report.moved,
@@ -210,6 +197,7 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
                 }),
             );
         }
+        stages.push(stage);
     }
     // The first deformation's figures at the top level; every one under "deformations".
     let mut top = json!({ "file": path.display().to_string(), "deformations_count": stages.len() });
@@ -220,6 +208,28 @@ fn controls_info(path: &Path, mesh_path: Option<&Path>) -> Result<Value> {
         top["deformations"] = json!(stages);
     }
     Ok(top)
+}
+
+/// A system's figures as `info` prints them.
+fn system_json(st: &csrbf::SystemStats) -> serde_json::Map<String, Value> {
+    let v = json!({
+        "neighbours": { "min": st.neighbours_min, "mean": st.neighbours_mean, "max": st.neighbours_max },
+        "nonzeros": st.nonzeros,
+        "bandwidth_before": st.bandwidth_before,
+        "envelope_before": st.envelope_before,
+        "bandwidth": st.bandwidth,
+        "envelope": st.envelope,
+        "ordering": st.ordering,
+        "orderings": st.orderings.iter().map(|o| json!({ "ordering": o.ordering, "bandwidth": o.bandwidth, "envelope": o.envelope })).collect::<Vec<_>>(),
+        "profile_bytes": st.profile_bytes,
+        "dense_bytes": st.dense_bytes,
+        "factor_bytes": st.factor_bytes,
+        "solver": st.solver,
+    });
+    match v {
+        Value::Object(o) => o,
+        _ => serde_json::Map::new(),
+    }
 }
 
 fn deformation_info(path: &Path) -> Result<Value> {

@@ -3,8 +3,7 @@
 
 use std::path::PathBuf;
 
-use csrbf::Diagnostics;
-use csrbf::controls::ControlFile;
+use csrbf_edit::controls::ControlFile;
 use csrbf_mesh::{Faces, Mesh};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -360,93 +359,142 @@ fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
     )
 }
 
-/// What `deform_mesh` did, as `csrbf deform` reports it.
+/// What `deform_mesh` did: the edit layer's one report, as `csrbf deform`
+/// prints it (`to_dict()` is its `--json` form), remedies included.
 #[pyclass(name = "Report", module = "csrbf", frozen)]
 pub struct PyReport {
+    inner: csrbf_edit::Report,
+}
+
+#[pymethods]
+impl PyReport {
     /// Number of vertices.
-    #[pyo3(get)]
-    vertices: usize,
+    #[getter]
+    fn vertices(&self) -> usize {
+        self.inner.vertices
+    }
+
     /// Vertices that moved (by more than 1e-6 of the rest diagonal).
-    #[pyo3(get)]
-    moved: usize,
+    #[getter]
+    fn moved(&self) -> usize {
+        self.inner.diagnostics.moved
+    }
+
     /// The largest move.
-    #[pyo3(get)]
-    largest_move: f64,
+    #[getter]
+    fn largest_move(&self) -> f64 {
+        self.inner.diagnostics.largest_move
+    }
+
     /// The vertex that moved most, or None.
-    #[pyo3(get)]
-    largest_move_vertex: Option<u32>,
-    flipped: Vec<u32>,
-    inside_out: Vec<u32>,
+    #[getter]
+    fn largest_move_vertex(&self) -> Option<u32> {
+        self.inner.diagnostics.largest_move_vertex
+    }
+
     /// The phase (of the one asked for) at which the first face folds, or
     /// None when none does.
-    #[pyo3(get)]
-    fold_phase: Option<f64>,
+    #[getter]
+    fn fold_phase(&self) -> Option<f64> {
+        self.inner.fold_phase()
+    }
+
     /// The largest stretch of a triangle: the largest singular value of the
     /// map from its rest shape to its deformed one, in its plane (1 when
     /// none grew).
-    #[pyo3(get)]
-    largest_stretch: f64,
+    #[getter]
+    fn largest_stretch(&self) -> f64 {
+        self.inner.diagnostics.largest_stretch
+    }
+
     /// The triangle stretched most, or None.
-    #[pyo3(get)]
-    largest_stretch_face: Option<u32>,
+    #[getter]
+    fn largest_stretch_face(&self) -> Option<u32> {
+        self.inner.diagnostics.largest_stretch_face
+    }
+
     /// The limit `stretched` was judged by (`stretch_limit=`).
-    #[pyo3(get)]
-    stretch_limit: f64,
-    stretched: Vec<u32>,
-    self_intersections: Option<Vec<[u32; 2]>>,
+    #[getter]
+    fn stretch_limit(&self) -> f64 {
+        self.inner.diagnostics.stretch_limit
+    }
+
     /// What to worry about, one sentence each (past the fold-free bound,
     /// starts out of reach, empty regions, seams, a polynomial that moved
     /// the whole model).
-    #[pyo3(get)]
-    warnings: Vec<String>,
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.inner.warnings()
+    }
+
     /// A stable name for each warning, in the same order, to filter on:
     /// "empty_region", "past_fold_free_bound", "ill_conditioned",
     /// "starts_far_from_mesh",
     /// "support_crosses_region", "polynomial_leak", "flipped_faces",
     /// "inside_out", "stretched", "self_intersecting".
-    #[pyo3(get)]
-    warning_kinds: Vec<&'static str>,
-}
+    #[getter]
+    fn warning_kinds(&self) -> Vec<&'static str> {
+        self.inner
+            .diagnostics
+            .warnings
+            .iter()
+            .map(|w| w.kind())
+            .collect()
+    }
 
-#[pymethods]
-impl PyReport {
+    /// When the edit folds: what would keep it from folding, as one
+    /// sentence (a radius that folds no face, or a sweep, each with its
+    /// cost), the line `csrbf deform` prints; "" otherwise.
+    #[getter]
+    fn advice(&self) -> String {
+        self.inner.advice()
+    }
+
+    /// When the edit folds, the remedies as a dict (radius_scale,
+    /// radius_ms, sweep_steps, sweep_ms, plain_ms, searched_ms, complete,
+    /// advice), else None: `to_dict()["remedies"]`.
+    #[getter]
+    fn remedies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_value(py, &self.inner.to_json()["remedies"])
+    }
+
     /// Triangles the map turns inside out (det J <= 0 at their centroid;
     /// indices into `Mesh.triangles`), uint32: the folds.
     #[getter]
     fn inside_out<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
-        PyArray1::from_slice(py, &self.inside_out)
+        PyArray1::from_slice(py, &self.inner.diagnostics.inside_out)
     }
 
     /// How many triangles are inside out.
     #[getter]
     fn inside_out_faces(&self) -> usize {
-        self.inside_out.len()
+        self.inner.diagnostics.inside_out.len()
     }
 
     /// Triangles turned against their neighbours where the map does not
     /// fold (creases; indices into `Mesh.triangles`), uint32.
     #[getter]
     fn flipped<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
-        PyArray1::from_slice(py, &self.flipped)
+        PyArray1::from_slice(py, &self.inner.diagnostics.flipped)
     }
 
     /// How many triangles turned over.
     #[getter]
     fn flipped_faces(&self) -> usize {
-        self.flipped.len()
+        self.inner.diagnostics.flipped.len()
     }
 
     /// Triangles stretched more than `stretch_limit` (indices into
     /// `Mesh.triangles`), uint32.
     #[getter]
     fn stretched<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
-        PyArray1::from_slice(py, &self.stretched)
+        PyArray1::from_slice(py, &self.inner.diagnostics.stretched)
     }
 
     /// How many triangles are stretched more than `stretch_limit`.
     #[getter]
     fn stretched_faces(&self) -> usize {
-        self.stretched.len()
+        self.inner.diagnostics.stretched.len()
     }
 
     /// Pairs of triangles (indices into `Mesh.triangles`, one pair a row,
@@ -454,7 +502,7 @@ impl PyReport {
     /// mesh but not at rest; None when not looked for (`self_intersections=`).
     #[getter]
     fn self_intersections<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<u32>>> {
-        self.self_intersections.as_ref().map(|p| {
+        self.inner.diagnostics.self_intersections.as_ref().map(|p| {
             let a = PyArray2::<u32>::zeros(py, [p.len(), 2], false);
             {
                 let mut w = a.readwrite();
@@ -466,87 +514,26 @@ impl PyReport {
         })
     }
 
-    /// The figures as `csrbf deform --json` prints them (without the output
-    /// path and the time).
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        d.set_item("vertices", self.vertices)?;
-        d.set_item("moved", self.moved)?;
-        d.set_item("largest_move", self.largest_move)?;
-        d.set_item("largest_move_vertex", self.largest_move_vertex)?;
-        d.set_item("inside_out_faces", self.inside_out.len())?;
-        d.set_item(
-            "inside_out",
-            self.inside_out.iter().take(1000).collect::<Vec<_>>(),
-        )?;
-        d.set_item("fold_phase", self.fold_phase)?;
-        d.set_item("flipped_faces", self.flipped.len())?;
-        d.set_item(
-            "flipped",
-            self.flipped.iter().take(1000).collect::<Vec<_>>(),
-        )?;
-        d.set_item("largest_stretch", self.largest_stretch)?;
-        d.set_item("largest_stretch_face", self.largest_stretch_face)?;
-        d.set_item("stretch_limit", self.stretch_limit)?;
-        d.set_item("stretched_faces", self.stretched.len())?;
-        d.set_item(
-            "stretched",
-            self.stretched.iter().take(1000).collect::<Vec<_>>(),
-        )?;
-        d.set_item(
-            "self_intersections",
-            self.self_intersections.as_ref().map(Vec::len),
-        )?;
-        d.set_item(
-            "self_intersecting",
-            self.self_intersections
-                .as_ref()
-                .map(|p| p.iter().take(1000).map(|x| x.to_vec()).collect::<Vec<_>>()),
-        )?;
-        d.set_item("warnings", &self.warnings)?;
-        Ok(d)
+    /// The report's one serialised form, as `csrbf deform --json` prints it
+    /// (without the output's files): the figures, the warnings and their
+    /// kinds, the remedies, the times.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_value(py, &self.inner.to_json())
     }
 
     fn __repr__(&self) -> String {
         format!(
-            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) inside out{}, largest stretch {:.2}x, {} warning(s))",
-            self.vertices,
-            self.moved,
-            self.largest_move,
-            self.largest_move_vertex
-                .map(|v| format!(" (vertex {v})"))
-                .unwrap_or_default(),
-            self.inside_out.len(),
-            self.fold_phase
-                .map(|p| format!(", folds from phase {p:.2} on"))
-                .unwrap_or_default(),
-            self.largest_stretch,
-            self.warnings.len()
+            "Report({} vertices, {})",
+            self.inner.vertices,
+            self.inner.summary()
         )
     }
 }
 
-impl PyReport {
-    /// The report of a deformation at `phase` (the engine's fold phase is a
-    /// share of the phases given: scaled as `csrbf deform` scales it).
-    fn new(vertices: usize, d: Diagnostics, phase: f64) -> PyReport {
-        PyReport {
-            inside_out: d.inside_out,
-            fold_phase: d.fold_phase.map(|s| s * phase),
-            vertices,
-            moved: d.moved,
-            largest_move: d.largest_move,
-            largest_move_vertex: d.largest_move_vertex,
-            flipped: d.flipped,
-            largest_stretch: d.largest_stretch,
-            largest_stretch_face: d.largest_stretch_face,
-            stretch_limit: d.stretch_limit,
-            stretched: d.stretched,
-            self_intersections: d.self_intersections,
-            warnings: d.warnings.iter().map(ToString::to_string).collect(),
-            warning_kinds: d.warnings.iter().map(|w| w.kind()).collect(),
-        }
-    }
+/// A JSON value as Python objects (through the `json` module: one parser of
+/// the one serialised form).
+fn json_value<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (v.to_string(),))
 }
 
 /// A control file, from a path or a dict in the file's form; its unknown
@@ -609,16 +596,19 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
 ///     self_intersections: look for faces passing through each other that
 ///         did not at rest: None (meshes of at most 2M triangles), True or
 ///         False.
+///     remedies: when a face folds, search for a radius and a sweep that
+///         would not: "bounded" (at most the edit's own time, or 0.2 s),
+///         "full" (to the smallest radius) or "off".
 ///
 /// Returns:
 ///     (the deformed Mesh, a Report: moved, largest_move, inside_out,
-///     largest_stretch, stretched, self_intersections, warnings); the
-///     input mesh is not changed.
+///     largest_stretch, stretched, self_intersections, warnings, advice,
+///     remedies); the input mesh is not changed.
 ///
 /// >>> out, report = csrbf.deform_mesh(mesh, "smile.json", phase=1.0)
 /// >>> report.moved, report.warnings
 #[pyfunction]
-#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false, stretch_limit = csrbf::STRETCH_LIMIT, self_intersections = None))]
+#[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false, stretch_limit = csrbf::STRETCH_LIMIT, self_intersections = None, remedies = "bounded"))]
 pub fn deform_mesh(
     py: Python<'_>,
     mesh: &Bound<'_, PyAny>,
@@ -627,8 +617,9 @@ pub fn deform_mesh(
     allow_large: bool,
     stretch_limit: f64,
     self_intersections: Option<bool>,
+    remedies: &str,
 ) -> PyResult<(PyMesh, PyReport)> {
-    let checks = csrbf_anim::apply::Checks::default()
+    let checks = csrbf_edit::Checks::default()
         .with_stretch_limit(stretch_limit)
         .with_self_intersections(self_intersections);
     checks
@@ -650,17 +641,30 @@ pub fn deform_mesh(
             m.positions[i]
         )));
     }
-    let mut file = control_file(py, controls)?;
-    if allow_large {
-        for spec in &mut file.deformations {
-            spec.options = spec.options.with_memory_limit(u64::MAX);
+    let file = control_file(py, controls)?;
+    let search = csrbf_edit::RemedySearch::parse(remedies).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "remedies must be \"bounded\", \"full\" or \"off\", got {remedies:?}"
+        ))
+    })?;
+    // The edit layer's road: resolved, fitted, deformed, checked, one
+    // report; its notes' warnings become Python warnings.
+    let mut notes = Vec::new();
+    let result = py.detach(|| {
+        let edit = csrbf_edit::fit(&file, "controls", Some(&m), allow_large, &mut |n| {
+            notes.push(n)
+        })?;
+        let (moved, report) = edit.deform(&m, phase, &checks, search)?;
+        m.move_vertices(moved);
+        Ok::<_, csrbf_edit::EditError>(report)
+    });
+    for n in notes {
+        if let csrbf_edit::Note::Warning(w) = n {
+            warn(py, &w)?;
         }
     }
-    let report = py
-        .detach(|| csrbf_anim::apply::deform_mesh_checked(&mut m, &file, phase, &checks))
-        .map_err(|e| error(&e))?;
-    let n = m.positions.len();
-    Ok((PyMesh { inner: m }, PyReport::new(n, report, phase)))
+    let report = result.map_err(|e| error(&e))?;
+    Ok((PyMesh { inner: m }, PyReport { inner: report }))
 }
 
 /// Adds the mesh classes and functions to the module.

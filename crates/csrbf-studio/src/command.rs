@@ -4,7 +4,7 @@
 //! drag into one step.
 
 use csrbf::Kernel;
-use csrbf::controls::ControlSpec;
+use csrbf_edit::controls::ControlSpec;
 use glam::DVec3;
 
 use crate::EditError;
@@ -388,7 +388,7 @@ impl Command {
     /// active layer with them as its anchor or its region.
     pub fn use_vertices(
         doc: &Document,
-        spec: &csrbf::controls::ControlSpec,
+        spec: &csrbf_edit::controls::ControlSpec,
         vertices: Vec<u32>,
         target: crate::tools::VertexTarget,
     ) -> Command {

@@ -7,9 +7,9 @@
 //! new start or radius rebuilds only that layer's system. The tree is built
 //! once and refitted to the moved positions.
 
-use csrbf::controls::SurfaceCache;
 use csrbf::glam::Vec3;
 use csrbf::{Diagnostics, Pipeline, Stage, diagnose};
+use csrbf_edit::controls::SurfaceCache;
 use csrbf_mesh::Bvh;
 
 use crate::state::Document;
@@ -86,7 +86,7 @@ impl Live {
         let mut report = report;
         // Faces the edit made pass through each other (as `csrbf deform`
         // checks them: up to its limit of triangles).
-        if self.triangles.len() <= csrbf_anim::apply::SELF_INTERSECTION_TRIANGLES {
+        if self.triangles.len() <= csrbf_edit::apply::SELF_INTERSECTION_TRIANGLES {
             report.set_self_intersections(csrbf_mesh::intersect::new_self_intersections(
                 &doc.mesh.positions,
                 &self.positions,
@@ -299,7 +299,7 @@ mod tests {
 
         // The cached result is the one a fresh fit of the same file gives.
         let mut fresh = (*doc.mesh).clone();
-        csrbf_anim::apply::deform_mesh(&mut fresh, &doc.controls, doc.phase).expect("fresh fit");
+        csrbf_edit::apply::deform_mesh(&mut fresh, &doc.controls, doc.phase).expect("fresh fit");
         for (a, b) in live.positions().iter().zip(&fresh.positions) {
             assert!((*a - *b).length() < 1e-5, "{a} vs {b}");
         }
@@ -372,7 +372,7 @@ mod tests {
             "{report:?}"
         );
         let mut fresh = (*doc.mesh).clone();
-        csrbf_anim::apply::deform_mesh(&mut fresh, &doc.controls, doc.phase).expect("fresh fit");
+        csrbf_edit::apply::deform_mesh(&mut fresh, &doc.controls, doc.phase).expect("fresh fit");
         for (a, b) in live.positions().iter().zip(&fresh.positions) {
             assert!((*a - *b).length() < 1e-5, "{a} vs {b}");
         }

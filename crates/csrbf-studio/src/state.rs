@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use csrbf::controls::{ControlFile, ControlSpec};
 use csrbf::glam::Vec3;
 use csrbf::{Combine, FitOptions};
+use csrbf_edit::controls::{ControlFile, ControlSpec};
 use csrbf_mesh::Mesh;
 
 /// Which control vectors are selected: (layer, index) pairs, in order.
@@ -103,7 +103,7 @@ mod tests {
         assert_eq!(back.deformations, doc.controls.deformations);
         assert_eq!(back.warnings.len(), 1, "{:?}", back.warnings);
         let mut moved = (*doc.mesh).clone();
-        csrbf_anim::apply::deform_mesh(&mut moved, &back, 1.0).expect("deform");
+        csrbf_edit::apply::deform_mesh(&mut moved, &back, 1.0).expect("deform");
         assert_eq!(moved.positions, doc.mesh.positions);
     }
 }

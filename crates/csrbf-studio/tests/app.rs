@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use csrbf::controls::ControlFile;
 use csrbf::glam::{Vec2, Vec3};
+use csrbf_edit::controls::ControlFile;
 use csrbf_studio::app::{Args, StudioApp};
 use csrbf_studio::{Live, vertices_in_box};
 use eframe::egui;
@@ -287,7 +287,7 @@ fn what_the_studio_saves_the_cli_reads_back_to_the_same_document() {
     // What `csrbf deform` computes from it (its library path) is what the
     // studio shows (the CLI binary itself is checked in csrbf-cli's tests).
     let mut mesh = (*doc.mesh).clone();
-    csrbf_anim::apply::deform_mesh(&mut mesh, &file, 1.0).expect("deform");
+    csrbf_edit::apply::deform_mesh(&mut mesh, &file, 1.0).expect("deform");
     let diag = doc.diagonal() as f32;
     for (a, b) in mesh
         .positions
@@ -1316,7 +1316,7 @@ fn every_file_the_picker_writes_reads_back_to_what_it_shows() {
     let fitted = dir.join("nose.csrbf");
     h.state_mut().export_fitted(&fitted);
     h.run_steps(1);
-    let replay = csrbf_anim::apply::load_replay(&fitted).expect("apply reads it");
+    let replay = csrbf_edit::apply::load_replay(&fitted).expect("apply reads it");
     let again = csrbf::compose(&doc.mesh.positions, &replay.stages, replay.combine).expect("apply");
     for (a, b) in again.iter().zip(&shown) {
         assert!(a.distance(*b) <= 1e-6 * diag, "csrbf: {a} vs {b}");
@@ -1332,7 +1332,7 @@ fn every_file_the_picker_writes_reads_back_to_what_it_shows() {
     assert_eq!(file.deformations.len(), 2);
     assert!(file.deformations[1].starts.is_empty());
     let mut mesh = (*doc.mesh).clone();
-    csrbf_anim::apply::deform_mesh(&mut mesh, &file, 1.0).expect("deform");
+    csrbf_edit::apply::deform_mesh(&mut mesh, &file, 1.0).expect("deform");
     for (a, b) in mesh.positions.iter().zip(&shown) {
         assert!(a.distance(*b) <= 1e-6 * diag, "wip: {a} vs {b}");
     }

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use csrbf::controls::ControlFile;
+use csrbf_edit::controls::ControlFile;
 
 struct Killed(Child);
 

@@ -399,7 +399,7 @@ pub struct Diagnostics {
     /// other in the deformed mesh but not at rest; None when not checked.
     /// The engine does not look (it knows no mesh structure to search
     /// with): `csrbf_mesh::intersect` does, and the callers that hold a mesh
-    /// (`csrbf_anim::apply`, so the CLI and the Python package) set it with
+    /// (the edit layer, `csrbf_edit::compose_checked`, so every front end) set it with
     /// [`Diagnostics::set_self_intersections`].
     pub self_intersections: Option<Vec<[u32; 2]>>,
     /// Everything worth a warning, in the order found.

@@ -370,6 +370,22 @@ mod tests {
 
     use crate::testing::grid;
 
+    /// The region within `distance` along the grid of its one start at its
+    /// middle, blended over `falloff`, resolved into weights.
+    fn connected(rest: &[Vec3], tris: &[[u32; 3]], distance: f64, falloff: f64) -> Region {
+        let surface = crate::Surface::new(rest, tris).expect("surface");
+        let seeds = surface.seeds_at(&[DVec3::new(0.5, 0.5, 0.0)]);
+        Region::Falloff {
+            inner: Box::new(Region::Connected {
+                distance,
+                from: crate::Origin::Starts,
+            }),
+            width: falloff,
+        }
+        .on_surface(&surface, &seeds)
+        .expect("region")
+    }
+
     /// A dense reference: det J of the composed map at each centroid by
     /// central differences of the composition itself.
     fn reference(
@@ -525,15 +541,16 @@ mod tests {
     #[test]
     fn a_sweeps_folds_walked_step_by_step_match_the_scan() {
         let (rest, tris) = grid(40);
-        let text = r#"{"radius": 0.3, "kernel": "c2", "sweep": {"steps": 12},
-            "controls": [{"from": [0.5, 0.5, 0], "to": [0.8, 0.5, 0]}],
-            "region": {"connected": {"distance": 0.08}, "falloff": 0.05}}"#;
-        let spec = crate::controls::ControlFile::parse(text)
-            .expect("parse")
-            .deformations[0]
-            .resolve_on(&rest, &tris, &|_| None)
-            .expect("resolve");
-        let stages = spec.fit().expect("fit");
+        let region = connected(&rest, &tris, 0.08, 0.05);
+        let sweep = crate::Sweep::fit(
+            &[DVec3::new(0.5, 0.5, 0.0)],
+            &[DVec3::new(0.8, 0.5, 0.0)],
+            &crate::Paths::default(),
+            FitOptions::new(0.3).with_kernel(Kernel::C2),
+            crate::SweepOptions { steps: Some(12) },
+        )
+        .expect("sweep");
+        let stages = FittedStage::sweep(sweep, region, 1.0);
         assert_eq!(stages.len(), 12);
         let rest64: Vec<DVec3> = rest.iter().map(|p| p.as_dvec3()).collect();
         let centroids: Vec<DVec3> = tris
@@ -566,22 +583,21 @@ mod tests {
     #[test]
     fn a_connected_region_folds_as_its_weighted_map() {
         let (rest, tris) = grid(40);
-        let text = r#"{"radius": 0.3, "kernel": "c2",
-            "controls": [{"from": [0.5, 0.5, 0], "to": [0.75, 0.5, 0]}],
-            "region": {"connected": {"distance": 0.1}, "falloff": 0.12}}"#;
-        let spec = crate::controls::ControlFile::parse(text)
-            .expect("parse")
-            .deformations[0]
-            .resolve_on(&rest, &tris, &|_| None)
-            .expect("resolve");
-        let Region::Weights { vertices, weights } = &spec.region else {
+        let region = connected(&rest, &tris, 0.1, 0.12);
+        let Region::Weights { vertices, weights } = &region else {
             panic!("not resolved");
         };
         let mut wv = vec![0.0f64; rest.len()];
         for (&v, &w) in vertices.iter().zip(weights) {
             wv[v as usize] = w as f64;
         }
-        let stages = spec.fit().expect("fit");
+        let d = Deformation::fit(
+            &[DVec3::new(0.5, 0.5, 0.0)],
+            &[DVec3::new(0.75, 0.5, 0.0)],
+            FitOptions::new(0.3).with_kernel(Kernel::C2),
+        )
+        .expect("fit");
+        let stages = [FittedStage::new(d).with_region(region.clone())];
         let none = |_: &str| None;
         let got = folds(&rest, &tris, &stages, Combine::Chain, &none).expect("folds");
         let d = &stages[0].deformation;

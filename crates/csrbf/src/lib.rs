@@ -141,10 +141,9 @@
 //! The engine reads no mesh file. `csrbf-mesh` reads and writes OBJ, PLY,
 //! STL, OFF and glTF (`csrbf_mesh::read(path)` gives a `Mesh` whose
 //! `positions` are the `Vec3`s every call here takes), and
-//! `csrbf_anim::apply::deform_mesh(&mut mesh, &control_file, phase)` deforms
-//! a mesh by a control file in one call (handles, regions by part name,
-//! normals carried, the diagnostics `csrbf deform` prints). Control files
-//! are [`controls::ControlFile`]; `.csrbf` files are [`mod@format`].
+//! the edit layer `csrbf-edit` owns the JSON control file and the road from
+//! it to a deformed mesh (handles sampled, regions resolved, fitted, composed,
+//! checked, one report with its remedies). `.csrbf` files are [`mod@format`].
 //!
 //! # Speed in a debug build
 //!
@@ -189,8 +188,6 @@
 pub use glam;
 
 mod binding;
-#[cfg(feature = "serde")]
-pub mod controls;
 mod deformation;
 mod diagnose;
 mod error;
@@ -201,15 +198,12 @@ pub mod format;
 pub mod fuzz;
 pub mod handle;
 mod jacobian;
-#[cfg(feature = "serde")]
-pub mod json;
 mod kernel;
 mod lanes;
 mod octree;
 pub mod ordering;
 mod pipeline;
 mod region;
-mod remedy;
 mod simd;
 pub mod skyline;
 mod solver;
@@ -220,8 +214,6 @@ pub mod synthetic;
 mod system;
 mod triangular;
 
-#[cfg(test)]
-mod connected_tests;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]
@@ -247,7 +239,6 @@ pub use pipeline::{
     Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,
 };
 pub use region::{Origin, Region};
-pub use remedy::{Remedies, remedies};
 pub use solver::SolverChoice;
 pub use stretch::{STRETCH_LIMIT, face_stretches};
 pub use surface::Surface;

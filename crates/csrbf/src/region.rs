@@ -47,7 +47,7 @@ pub enum Region {
     /// deformation takes hold ([`Origin`]): a limb's edit then leaves the
     /// torso beside it alone, however near in space, and other pieces of
     /// the mesh never move. It needs the mesh's faces:
-    /// [`crate::controls::ControlSpec::resolve_on`] turns it into
+    /// the edit layer (`csrbf_edit::controls::ControlSpec::resolve_on`) turns it into
     /// [`Region::Weights`] (see [`Region::on_surface`]); in a
     /// [`Region::Falloff`] the blend is measured along the surface too.
     Connected {

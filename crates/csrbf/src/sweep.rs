@@ -683,13 +683,20 @@ mod tests {
         let starts = vec![DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.1, 0.9, 0.0)];
         let targets = vec![DVec3::new(0.8, 0.55, 0.0), DVec3::new(0.1, 0.9, 0.0)];
         let options = FitOptions::new(0.3);
-        let spec = crate::controls::ControlSpec {
-            sweep: Some(SweepOptions::default()),
-            ..crate::controls::ControlSpec::new(starts.clone(), targets.clone(), options)
-        };
         let mut p = crate::Pipeline::new(rest.clone());
-        p.push(spec.to_stage().expect("stage"));
-        let steps = spec.fit().expect("fit");
+        p.push(
+            crate::Stage::new(starts.clone(), targets.clone(), options)
+                .with_sweep(Some(SweepOptions::default()), Paths::default()),
+        );
+        let sweep = Sweep::fit(
+            &starts,
+            &targets,
+            &Paths::default(),
+            options,
+            SweepOptions::default(),
+        )
+        .expect("fit");
+        let steps = FittedStage::sweep(sweep, crate::Region::All, 1.0);
         assert!(steps.len() > 1);
         for phase in [1.0, 0.6, 0.25, 0.0] {
             p.set_phase(0, phase).expect("phase");

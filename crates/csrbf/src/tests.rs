@@ -832,28 +832,13 @@ fn starts_out_of_range_are_named_for_what_they_are() {
         .collect();
     let e = Deformation::fit(&tiny, &tiny, opts).expect_err("subnormal");
     assert!(e.to_string().contains("rescale the model"), "{e}");
-    let text = r#"{"radius": 1, "controls": [{"from": [0, 0, 0], "to": [1e300, 0, 0]}]}"#;
-    let e = controls::ControlFile::parse(text).expect_err("1e300");
-    assert!(
-        e.to_string().contains("controls[0].to[0]") && e.to_string().contains("beyond the range"),
-        "{e}"
-    );
 }
 
-/// Issue 7: seeded mutations of control files and `.csrbf` files give an
-/// error or a valid value, never a panic.
+/// Issue 7: seeded mutations of `.csrbf` files give an error or a valid
+/// value, never a panic (control files: the edit layer's tests).
 #[test]
-fn control_and_replay_readers_survive_thousands_of_mutations() {
+fn the_replay_reader_survives_thousands_of_mutations() {
     use crate::fuzz::mutate;
-    let controls = [
-        std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/controls/head_smile.json")).expect("smile"),
-        br#"{"combine": "add", "deformations": [
-            {"radius": 1, "kernel": "c4", "phase": 0.5, "region": {"box": {"min": [0,0,0], "max": [1,1,1]}, "falloff": 0.2},
-             "controls": [{"from": [0,0,0], "to": [0,0,1]}]},
-            {"radius": 2, "handle": {"select": {"group": "ear"}, "rotate": {"axis": [0,0,1], "angle_deg": 30, "pivot": [1,2,3]}, "scale": 1.1},
-             "anchor": {"vertices": [1, 2, 3]}}]}"#
-            .to_vec(),
-    ];
     let (s, t) = scene(40, 3);
     let lin = FitOptions::new(0.4).with_polynomial(Polynomial::Linear);
     let stages = vec![
@@ -869,26 +854,23 @@ fn control_and_replay_readers_survive_thousands_of_mutations() {
         ),
     ];
     let replay = format::encode(&stages, Combine::Add);
-    let all: Vec<&[u8]> = vec![&controls[0], &controls[1], &replay];
+    let all: Vec<&[u8]> = vec![&replay];
     let mut rng = Rng::new(4242);
     let (mut read, mut refused) = (0, 0);
-    for case in 0..6000 {
-        let seed = all[case % all.len()];
-        let input = mutate(seed, &mut rng, &all);
-        let result = std::panic::catch_unwind(|| {
-            if case % all.len() == 2 {
-                format::decode(&input).is_ok()
-            } else {
-                controls::ControlFile::parse(&String::from_utf8_lossy(&input)).is_ok()
-            }
-        });
-        match result {
+    for case in 0..3000 {
+        let input = mutate(&replay, &mut rng, &all);
+        match std::panic::catch_unwind(|| format::decode(&input).is_ok()) {
             Ok(true) => read += 1,
             Ok(false) => refused += 1,
             Err(_) => panic!("case {case} panicked"),
         }
     }
-    assert!(read > 0 && refused > 0, "{read} read, {refused} refused");
+    // A checksummed file: most mutations are refused, and the reader
+    // still reads the file itself.
+    assert!(
+        format::decode(&replay).is_ok() && refused > 0,
+        "{read} read, {refused} refused"
+    );
 }
 
 /// Issue 21: the library as a caller uses it.

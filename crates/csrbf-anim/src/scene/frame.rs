@@ -327,7 +327,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use csrbf::controls::ControlFile;
+    use csrbf_edit::controls::ControlFile;
 
     /// The frame as it was computed before the lanes: rest `Vec3`s, each
     /// stage scattered (a chain evaluated in fresh buffers), contact, then

@@ -415,7 +415,7 @@ fn make_part(mesh: &Mesh, pf: &PartFile, dir: &Path, at: &dyn Fn(&str) -> String
         }
         other => {
             // A region: faces whose every corner lies in it.
-            let region = csrbf::controls::parse_region(other, &at("select")).map_err(|e| {
+            let region = csrbf_edit::controls::parse_region(other, &at("select")).map_err(|e| {
                 scene_err(
                     at("select"),
                     format!(
@@ -510,7 +510,7 @@ fn load_deformation(
     } else {
         Vec::new()
     };
-    let fitted = |spec: &csrbf::controls::ControlSpec| {
+    let fitted = |spec: &csrbf_edit::controls::ControlSpec| {
         // Handles become control vectors on the rest mesh, connected regions
         // weights along it.
         let spec = spec.resolve_on(&mesh.positions, &triangles, &lookup)?;
@@ -551,7 +551,7 @@ fn load_deformation(
 fn bind_stage(
     mesh: &Mesh,
     part: &Part,
-    spec: &csrbf::controls::ControlSpec,
+    spec: &csrbf_edit::controls::ControlSpec,
     step: csrbf::FittedStage,
     name: Option<String>,
     per_frame: bool,

@@ -12,8 +12,8 @@ mod texture;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use csrbf::controls::ControlFile;
 use csrbf::{Binding, Combine, Deformation, Kernel};
+use csrbf_edit::controls::ControlFile;
 use csrbf_mesh::Mesh;
 use glam::{DQuat, DVec3, Vec3};
 
@@ -268,7 +268,7 @@ pub enum AssetError {
         /// The control file.
         path: PathBuf,
         /// What is wrong, where.
-        source: csrbf::controls::ControlError,
+        source: csrbf_edit::controls::ControlError,
     },
 }
 

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use csrbf::controls::ControlFile;
+use csrbf_edit::controls::ControlFile;
 use csrbf_mesh::Mesh;
 use eframe::egui;
 
@@ -215,15 +215,23 @@ impl StudioApp {
         let Some(m) = self.picker.model.as_ref() else {
             return;
         };
-        let result = csrbf_anim::apply::fit_file(&m.doc.mesh, &m.doc.controls).and_then(|s| {
-            let s: Vec<_> = s
+        let fitted = csrbf_edit::fit(
+            &m.doc.controls,
+            "controls",
+            Some(&m.doc.mesh),
+            false,
+            &mut |_| {},
+        );
+        let result = fitted.and_then(|edit| {
+            let s: Vec<_> = edit
+                .stages()
                 .into_iter()
                 .map(|s| {
                     let phase = s.phase * m.doc.phase;
                     s.with_phase(phase)
                 })
                 .collect();
-            csrbf_anim::apply::save_replay(path, &s, m.doc.controls.combine, &m.doc.mesh)
+            csrbf_edit::apply::save_replay(path, &s, m.doc.controls.combine, &m.doc.mesh)
         });
         match result {
             Ok(()) => self.picker.status = format!("Exported {}", path.display()),

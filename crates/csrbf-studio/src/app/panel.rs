@@ -490,7 +490,11 @@ impl std::ops::Deref for RadiusEdit {
 
 /// The active layer's radius of support, on a log slider; a drag of it is
 /// one undo step.
-fn radius_ui(ui: &mut egui::Ui, m: &mut Model, spec: &csrbf::controls::ControlSpec) -> RadiusEdit {
+fn radius_ui(
+    ui: &mut egui::Ui,
+    m: &mut Model,
+    spec: &csrbf_edit::controls::ControlSpec,
+) -> RadiusEdit {
     let diag = m.doc.diagonal().max(1e-12);
     let mut radius = spec.options.radius;
     // The range takes in the radius in use, however far out (a file's
@@ -523,7 +527,11 @@ fn radius_ui(ui: &mut egui::Ui, m: &mut Model, spec: &csrbf::controls::ControlSp
 
 /// The active layer's kernel, polynomial, phase, region and sweep: the commands
 /// their changes make.
-fn options_ui(ui: &mut egui::Ui, m: &Model, spec: &csrbf::controls::ControlSpec) -> Vec<Command> {
+fn options_ui(
+    ui: &mut egui::Ui,
+    m: &Model,
+    spec: &csrbf_edit::controls::ControlSpec,
+) -> Vec<Command> {
     let l = m.doc.active_layer;
     let diag = m.doc.diagonal().max(1e-12);
     let mut commands = Vec::new();
@@ -723,7 +731,7 @@ fn control_ui(ui: &mut egui::Ui, m: &Model, (layer, index): (usize, usize)) -> V
 
 /// The chosen vertices made what the vertex target says (see
 /// [`Command::use_vertices`]); a new handle layer becomes the active one.
-fn apply_chosen(m: &mut Model, spec: &csrbf::controls::ControlSpec) -> Command {
+fn apply_chosen(m: &mut Model, spec: &csrbf_edit::controls::ControlSpec) -> Command {
     let chosen = std::mem::take(&mut m.picked_vertices);
     let command = Command::use_vertices(&m.doc, spec, chosen, m.vertex_target);
     if let Command::InsertLayer { layer, .. } = &command {

@@ -75,7 +75,7 @@ mod tests {
             "{text}"
         );
         // An error whose message already holds its source says it once.
-        let parse = csrbf::controls::ControlFile::parse("{").expect_err("broken");
+        let parse = csrbf_edit::controls::ControlFile::parse("{").expect_err("broken");
         let text = reason(&parse);
         assert_eq!(text.matches(&parse.to_string()).count(), 1, "{text}");
     }

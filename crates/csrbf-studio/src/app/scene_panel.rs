@@ -408,14 +408,14 @@ fn select_region(select: &serde_json::Value) -> Option<csrbf::Region> {
     if select.as_str() == Some("all") {
         return Some(csrbf::Region::All);
     }
-    csrbf::controls::parse_region(select, "select").ok()
+    csrbf_edit::controls::parse_region(select, "select").ok()
 }
 
 /// A region as a part's `select` writes it.
 fn select_json(region: &csrbf::Region) -> serde_json::Value {
     match region {
         csrbf::Region::All => "all".into(),
-        r => csrbf::controls::region_json(r),
+        r => csrbf_edit::controls::region_json(r),
     }
 }
 

@@ -1,15 +1,21 @@
-//! The common cases in one call, for library users: deform a
-//! [`csrbf_mesh::Mesh`] in place by a control file (handles sampled on it,
-//! its deformations combined as the file says, normals carried by
-//! `Mesh::move_vertices`), and save or load a fitted deformation by path.
+//! The road's second half: fitted stages composed on a mesh at a phase
+//! and checked ([`Edit::deform`], [`compose_report`]); a region checked
+//! against the mesh it acts on; replay files by path; and the common case in
+//! one call ([`deform_mesh`]).
 
 use std::path::Path;
+use std::time::Instant;
 
-use csrbf::controls::ControlFile;
 use csrbf::format::{self, Replay};
 use csrbf::{Combine, DiagnoseOptions, Diagnostics, FittedStage, compose_diagnosed_with};
 use csrbf_mesh::Mesh;
 use glam::Vec3;
+
+use crate::controls::ControlFile;
+use crate::error::EditError;
+use crate::fit::Edit;
+use crate::remedy::{RemedySearch, remedies};
+use crate::report::Report;
 
 /// Meshes of at most this many triangles are searched for faces passing
 /// through each other unless told otherwise ([`Checks::self_intersections`]).
@@ -80,78 +86,87 @@ pub fn compose_checked(
     Ok((moved, report))
 }
 
-/// What can go wrong in these calls.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum ApplyError {
-    /// The engine refused (the deformation's index names which one).
-    #[error("deformation {index}")]
-    Engine {
-        /// Which deformation of the file.
-        index: usize,
-        /// Why.
-        source: csrbf::Error,
-    },
-    /// Reading or writing a file.
-    #[error(transparent)]
-    Mesh(#[from] csrbf_mesh::MeshError),
-    /// A replay file that does not decode.
-    #[error("{}", path.display())]
-    Replay {
-        /// The file.
-        path: std::path::PathBuf,
-        /// Why.
-        source: csrbf::Error,
-    },
+/// Composes fitted `stages` on `mesh` at `phase` (each stage at its own
+/// phase times this one) and checks the result ([`compose_checked`]): the
+/// positions and the [`Report`] (without remedies: a replay has no control
+/// document to change). `csrbf apply` and [`Edit::deform`] use it.
+pub fn compose_report(
+    mesh: &Mesh,
+    stages: &[FittedStage],
+    combine: Combine,
+    phase: f64,
+    checks: &Checks,
+) -> Result<(Vec<Vec3>, Report), EditError> {
+    let t = Instant::now();
+    if !(0.0..=1.0).contains(&phase) {
+        return Err(EditError::Deform(csrbf::Error::BadPhase(phase)));
+    }
+    let stages: Vec<FittedStage> = stages
+        .iter()
+        .map(|s| s.clone().with_phase(s.phase * phase))
+        .collect();
+    let (moved, diagnostics) =
+        compose_checked(mesh, &stages, combine, checks).map_err(EditError::Deform)?;
+    let mut report = Report::new(mesh.positions.len(), phase, diagnostics);
+    report.deform_ms = t.elapsed().as_secs_f64() * 1e3;
+    Ok((moved, report))
 }
 
-/// Fits every deformation of `file` on `mesh` (handles sampled on it,
-/// connected regions measured along it).
-pub fn fit_file(mesh: &Mesh, file: &ControlFile) -> Result<Vec<FittedStage>, ApplyError> {
-    let lookup = |n: &str| mesh.part_vertices(n);
-    let triangles = if file.deformations.iter().any(|s| s.region.needs_surface()) {
-        mesh.faces.triangles()
-    } else {
-        Vec::new()
-    };
-    let mut out = Vec::with_capacity(file.deformations.len());
-    for (index, spec) in file.deformations.iter().enumerate() {
-        let engine = |source| ApplyError::Engine { index, source };
-        let spec = spec
-            .resolve_on(&mesh.positions, &triangles, &lookup)
-            .map_err(engine)?;
-        out.extend(spec.fit().map_err(engine)?);
+impl Edit {
+    /// The mesh's positions deformed at `phase` (each deformation at its own
+    /// phase times this one) and checked as `checks` says, with the
+    /// remedies searched as `search` says when a face turns inside out. The
+    /// mesh is not changed ([`Mesh::move_vertices`] carries its normals to
+    /// the positions given).
+    pub fn deform(
+        &self,
+        mesh: &Mesh,
+        phase: f64,
+        checks: &Checks,
+        search: RemedySearch,
+    ) -> Result<(Vec<Vec3>, Report), EditError> {
+        let (moved, mut report) =
+            compose_report(mesh, &self.stages(), self.combine, phase, checks)?;
+        report.fit_ms = self.fit_ms;
+        if !report.diagnostics.inside_out.is_empty() && search != RemedySearch::Off {
+            let triangles = mesh.faces.triangles();
+            let lookup = |n: &str| mesh.part_vertices(n);
+            // A search the engine cannot carry out (a radius past the memory
+            // limit, say) leaves the report without remedies.
+            report.remedies = remedies(
+                &mesh.positions,
+                &triangles,
+                &self.specs,
+                self.combine,
+                phase,
+                &lookup,
+                search,
+                self.fit_ms + report.deform_ms,
+            )
+            .ok();
+        }
+        Ok((moved, report))
     }
-    Ok(out)
 }
 
 /// Deforms `mesh` in place by `file` at `phase` (each deformation at its own
-/// phase times this one), recomputes its normals, and says what moved and
-/// what may be wrong ([`Checks::default`]).
-pub fn deform_mesh(
-    mesh: &mut Mesh,
-    file: &ControlFile,
-    phase: f64,
-) -> Result<Diagnostics, ApplyError> {
-    deform_mesh_checked(mesh, file, phase, &Checks::default())
+/// phase times this one), carries its normals, and says what moved and
+/// what may be wrong ([`Checks::default`], remedies bounded).
+pub fn deform_mesh(mesh: &mut Mesh, file: &ControlFile, phase: f64) -> Result<Report, EditError> {
+    deform_mesh_checked(mesh, file, phase, &Checks::default(), RemedySearch::Bounded)
 }
 
-/// [`deform_mesh`], checked as `checks` says.
+/// [`deform_mesh`], checked as `checks` says and remedies searched as
+/// `search` says.
 pub fn deform_mesh_checked(
     mesh: &mut Mesh,
     file: &ControlFile,
     phase: f64,
     checks: &Checks,
-) -> Result<Diagnostics, ApplyError> {
-    let stages: Vec<_> = fit_file(mesh, file)?
-        .into_iter()
-        .map(|s| {
-            let scaled = s.phase * phase;
-            s.with_phase(scaled)
-        })
-        .collect();
-    let (moved, report) = compose_checked(mesh, &stages, file.combine, checks)
-        .map_err(|source| ApplyError::Engine { index: 0, source })?;
+    search: RemedySearch,
+) -> Result<Report, EditError> {
+    let edit = crate::fit(file, "controls", Some(mesh), false, &mut |_| {})?;
+    let (moved, report) = edit.deform(mesh, phase, checks, search)?;
     // The file's normals carried through the move (seams and hard edges
     // kept), or recomputed when it had none.
     mesh.move_vertices(moved);
@@ -204,7 +219,7 @@ pub fn save_replay(
     stages: &[FittedStage],
     combine: csrbf::Combine,
     mesh: &Mesh,
-) -> Result<(), ApplyError> {
+) -> Result<(), EditError> {
     let stamp = Replay::lists_vertices(stages).then(|| mesh_stamp(mesh));
     Ok(csrbf_mesh::write_atomic(
         path,
@@ -220,12 +235,12 @@ pub fn mesh_stamp(mesh: &Mesh) -> format::MeshStamp {
 }
 
 /// Loads a `.csrbf` file.
-pub fn load_replay(path: &Path) -> Result<Replay, ApplyError> {
+pub fn load_replay(path: &Path) -> Result<Replay, EditError> {
     let bytes = std::fs::read(path).map_err(|source| csrbf_mesh::MeshError::Io {
         path: path.to_owned(),
         source,
     })?;
-    format::decode(&bytes).map_err(|source| ApplyError::Replay {
+    format::decode(&bytes).map_err(|source| EditError::Replay {
         path: path.to_owned(),
         source,
     })
@@ -244,17 +259,16 @@ mod tests {
             std::fs::read_to_string(root.join("assets/controls/head_smile.json")).expect("smile");
         let file = ControlFile::parse(&text).expect("controls");
         let report = deform_mesh(&mut head, &file, 1.0).expect("deform");
-        assert!(report.moved > 100 && report.flipped.is_empty());
+        assert!(report.diagnostics.moved > 100 && report.diagnostics.flipped.is_empty());
         assert!(head.normals.as_ref().is_some_and(|n| n.len() == rest.len()));
         assert_ne!(head.positions, rest);
         let dir = std::env::temp_dir().join(format!("csrbf-apply-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let path = dir.join("smile.csrbf");
-        let stages = fit_file(
-            &csrbf_mesh::read(&root.join("assets/models/cgal_head.off")).expect("head"),
-            &file,
-        )
-        .expect("fit");
+        let rest_head = csrbf_mesh::read(&root.join("assets/models/cgal_head.off")).expect("head");
+        let stages = crate::fit(&file, "smile", Some(&rest_head), false, &mut |_| {})
+            .expect("fit")
+            .stages();
         save_replay(&path, &stages, file.combine, &head).expect("save");
         let back = load_replay(&path).expect("load");
         assert_eq!(back.stages, stages);

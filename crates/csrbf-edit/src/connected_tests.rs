@@ -4,9 +4,9 @@
 use glam::{DVec3, Vec3};
 
 use crate::controls::ControlFile;
-use crate::pipeline::{Combine, compose};
-use crate::region::{Origin, Region};
-use crate::testing::{grid, hairpin};
+use csrbf::synthetic::{grid, hairpin};
+use csrbf::{Combine, compose};
+use csrbf::{Origin, Region};
 
 /// Pulls the arm leg of a hairpin outward near its bottom with R wide
 /// enough to reach the torso leg across the gap.

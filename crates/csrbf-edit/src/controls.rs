@@ -13,14 +13,14 @@
 use glam::{DVec3, Vec3};
 use serde_json::{Map, Value};
 
-use crate::handle::{Handle, Rotation};
-use crate::kernel::{Kernel, Polynomial};
-use crate::ordering::Ordering;
-use crate::pipeline::Combine;
-use crate::region::{Origin, Region};
-use crate::solver::SolverChoice;
-use crate::sweep::{Path, Paths, Sweep, SweepOptions};
-use crate::system::{FitOptions, System};
+use csrbf::Combine;
+use csrbf::FitOptions;
+use csrbf::Ordering;
+use csrbf::SolverChoice;
+use csrbf::handle::{Handle, Rotation};
+use csrbf::{Kernel, Polynomial};
+use csrbf::{Origin, Region};
+use csrbf::{Path, Paths, SweepOptions};
 
 /// A problem in a control file, with where it is.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -65,7 +65,7 @@ pub struct ControlSpec {
 /// vertices they grew from.
 #[derive(Default)]
 pub struct SurfaceCache {
-    surface: Option<crate::Surface>,
+    surface: Option<csrbf::Surface>,
     regions: Vec<Resolved>,
     walks: usize,
 }
@@ -88,23 +88,23 @@ impl SurfaceCache {
         &mut self,
         points: &[Vec3],
         triangles: &[[u32; 3]],
-    ) -> crate::Result<&crate::Surface> {
+    ) -> csrbf::Result<&csrbf::Surface> {
         if self
             .surface
             .as_ref()
             .is_none_or(|s| s.len() != points.len())
         {
             self.regions.clear();
-            self.surface = Some(crate::Surface::new(points, triangles)?);
+            self.surface = Some(csrbf::Surface::new(points, triangles)?);
         }
         self.surface
             .as_ref()
-            .ok_or_else(|| crate::RegionError::NeedsSurface.into())
+            .ok_or_else(|| csrbf::RegionError::NeedsSurface.into())
     }
 
     /// `region` grown from `seeds` on the surface, or the same resolved
     /// before.
-    fn region(&mut self, region: &Region, seeds: Vec<(u32, f64)>) -> crate::Result<Region> {
+    fn region(&mut self, region: &Region, seeds: Vec<(u32, f64)>) -> csrbf::Result<Region> {
         if let Some(r) = self
             .regions
             .iter()
@@ -115,7 +115,7 @@ impl SurfaceCache {
         let surface = self
             .surface
             .as_ref()
-            .ok_or(crate::RegionError::NeedsSurface)?;
+            .ok_or(csrbf::RegionError::NeedsSurface)?;
         let done = region.on_surface(surface, &seeds)?;
         self.walks += 1;
         if self.regions.len() == Self::REGIONS {
@@ -145,12 +145,12 @@ impl ControlSpec {
 
     /// [`ControlSpec::resolve_on`] without faces: a handle is sampled on
     /// `points`, but a connected region is refused
-    /// ([`crate::RegionError::NeedsSurface`]).
+    /// ([`csrbf::RegionError::NeedsSurface`]).
     pub fn resolve(
         &self,
         points: &[Vec3],
         groups: &dyn Fn(&str) -> Option<Vec<u32>>,
-    ) -> crate::Result<ControlSpec> {
+    ) -> csrbf::Result<ControlSpec> {
         self.resolve_on(points, &[], groups)
     }
 
@@ -165,7 +165,7 @@ impl ControlSpec {
         points: &[Vec3],
         triangles: &[[u32; 3]],
         groups: &dyn Fn(&str) -> Option<Vec<u32>>,
-    ) -> crate::Result<ControlSpec> {
+    ) -> csrbf::Result<ControlSpec> {
         self.resolve_cached(points, triangles, groups, &mut SurfaceCache::default())
     }
 
@@ -180,7 +180,7 @@ impl ControlSpec {
         triangles: &[[u32; 3]],
         groups: &dyn Fn(&str) -> Option<Vec<u32>>,
         cache: &mut SurfaceCache,
-    ) -> crate::Result<ControlSpec> {
+    ) -> csrbf::Result<ControlSpec> {
         let mut out = self.clone();
         if let Some(h) = out.handle.take() {
             let v = h.controls(
@@ -199,13 +199,13 @@ impl ControlSpec {
             return Ok(out);
         };
         if triangles.is_empty() {
-            return Err(crate::RegionError::NeedsSurface.into());
+            return Err(csrbf::RegionError::NeedsSurface.into());
         }
         let surface = cache.surface(points, triangles)?;
         let seeds = match origin {
             Origin::Handle => {
                 let h = self.handle.as_ref().ok_or_else(|| {
-                    crate::Error::BadHandle(
+                    csrbf::Error::BadHandle(
                         "the region is connected to the handle's selection, but there is no handle"
                             .into(),
                     )
@@ -227,47 +227,21 @@ impl ControlSpec {
                     .collect();
                 surface.seeds_at(&moving)
             }
+            other => {
+                return Err(csrbf::Error::BadHandle(format!(
+                    "a connected region measured from {other:?}, which this version cannot resolve"
+                )));
+            }
         };
         out.region = cache.region(&self.region, seeds)?;
         Ok(out)
     }
 
     /// Fits the deformation (a handle must be resolved first): one stage,
-    /// or a sweep's steps, on its region at its phase.
-    pub fn fit(&self) -> crate::Result<Vec<crate::FittedStage>> {
-        if self.handle.is_some() {
-            return Err(crate::Error::BadHandle(
-                "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
-            ));
-        }
-        if self.starts.is_empty() && self.targets.is_empty() {
-            // Work in progress: no control vectors yet (the parser warned).
-            return Ok(vec![
-                crate::FittedStage::new(crate::Deformation::identity(self.options))
-                    .with_region(self.region.clone())
-                    .with_phase(self.phase),
-            ]);
-        }
-        let Some(sweep) = self.sweep else {
-            let d = System::new(&self.starts, self.options)?.solve(&self.targets)?;
-            return Ok(vec![
-                crate::FittedStage::new(d)
-                    .with_region(self.region.clone())
-                    .with_phase(self.phase),
-            ]);
-        };
-        let fitted = Sweep::fit(
-            &self.starts,
-            &self.targets,
-            &self.paths,
-            self.options,
-            sweep,
-        )?;
-        Ok(crate::FittedStage::sweep(
-            fitted,
-            self.region.clone(),
-            self.phase,
-        ))
+    /// or a sweep's steps, on its region at its phase ([`crate::fit_spec`]
+    /// with the fit's figures).
+    pub fn fit(&self) -> csrbf::Result<Vec<csrbf::FittedStage>> {
+        Ok(crate::fit_spec(self)?.stages)
     }
 }
 
@@ -303,14 +277,14 @@ pub struct ControlFile {
 impl ControlSpec {
     /// The pipeline stage of this deformation (a sweep's too). A handle
     /// must be resolved on the mesh first ([`ControlSpec::resolve`]).
-    pub fn to_stage(&self) -> crate::Result<crate::Stage> {
+    pub fn to_stage(&self) -> csrbf::Result<csrbf::Stage> {
         if self.handle.is_some() {
-            return Err(crate::Error::BadHandle(
+            return Err(csrbf::Error::BadHandle(
                 "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
             ));
         }
         Ok(
-            crate::Stage::new(self.starts.clone(), self.targets.clone(), self.options)
+            csrbf::Stage::new(self.starts.clone(), self.targets.clone(), self.options)
                 .with_region(self.region.clone())
                 .with_phase(self.phase)
                 .with_sweep(self.sweep, self.paths.clone()),
@@ -426,13 +400,16 @@ pub fn region_json(r: &Region) -> Value {
         Region::Weights { vertices, weights } => {
             json!({ "weights": { "vertices": vertices, "weights": weights } })
         }
+        // A kind this writer does not know is written so that the reader
+        // refuses it, naming it, rather than lost.
+        other => json!({ "unknown region": other.to_string() }),
     }
 }
 
-impl From<&crate::Stage> for ControlSpec {
+impl From<&csrbf::Stage> for ControlSpec {
     /// The control-file form of a pipeline stage (for saving what a
     /// pipeline holds).
-    fn from(s: &crate::Stage) -> ControlSpec {
+    fn from(s: &csrbf::Stage) -> ControlSpec {
         let mut spec = ControlSpec::new(s.starts.clone(), s.targets.clone(), s.options);
         spec.region = s.region.clone();
         spec.phase = s.phase;
@@ -734,13 +711,13 @@ fn parse_sweep(
                 None | Some(Value::Null) => None,
                 Some(k) => Some(
                     k.as_u64()
-                        .filter(|&k| k >= 1 && k as usize <= crate::MAX_STEPS)
+                        .filter(|&k| k >= 1 && k as usize <= csrbf::MAX_STEPS)
                         .ok_or_else(|| {
                             err(
                                 &join(at, "steps"),
                                 format!(
                                     "must be a whole number from 1 to {}, got {k}",
-                                    crate::MAX_STEPS
+                                    csrbf::MAX_STEPS
                                 ),
                             )
                         })? as usize,
@@ -1395,12 +1372,12 @@ mod tests {
             glam::Vec3::new(0.1, 0.0, 0.0),
             glam::Vec3::new(5.0, 5.0, 5.0),
         ];
-        let alone = crate::compose(&pts, &stages[..1], Combine::Chain).expect("compose");
+        let alone = csrbf::compose(&pts, &stages[..1], Combine::Chain).expect("compose");
         assert_eq!(alone, pts);
-        let both = crate::compose(&pts, &stages, Combine::Chain).expect("compose");
+        let both = csrbf::compose(&pts, &stages, Combine::Chain).expect("compose");
         assert!(both[0].z > 0.3 && both[1] == pts[1]);
         let back =
-            crate::format::decode(&crate::format::encode(&stages, Combine::Chain)).expect("decode");
+            csrbf::format::decode(&csrbf::format::encode(&stages, Combine::Chain)).expect("decode");
         assert_eq!(back.stages, stages);
         // What a writer makes of it reads back the same.
         let again = ControlFile::parse(&f.to_text()).expect("parse again");

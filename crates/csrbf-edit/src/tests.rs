@@ -1,0 +1,203 @@
+//! The edit layer's own tests: the control reader under mutation, the one
+//! road (fit, deform, report) against the engine's plain calls, and the
+//! remedies' budget.
+
+use csrbf::synthetic::{Rng, grid};
+use csrbf::{Combine, FittedStage, compose_with_groups};
+use csrbf_mesh::{Faces, Mesh};
+use glam::DVec3;
+
+use crate::{Checks, ControlFile, RemedySearch, fit, remedies};
+
+/// A flat grid of `n` x `n` cells as a mesh.
+fn grid_mesh(n: usize) -> Mesh {
+    let (positions, tris) = grid(n);
+    let mut faces = Faces::new();
+    for t in &tris {
+        faces.push(t);
+    }
+    Mesh {
+        positions,
+        faces,
+        ..Mesh::default()
+    }
+}
+
+/// A pull at the grid's middle that folds it at R 0.25 (C2).
+const FOLDING: &str = r#"{"radius": 0.25, "kernel": "c2",
+    "controls": [{"from": [0.5, 0.5, 0], "to": [0.8, 0.5, 0]}]}"#;
+
+#[test]
+fn a_destination_beyond_the_range_of_numbers_is_named() {
+    let text = r#"{"radius": 1, "controls": [{"from": [0, 0, 0], "to": [1e300, 0, 0]}]}"#;
+    let e = ControlFile::parse(text).expect_err("1e300");
+    assert!(
+        e.to_string().contains("controls[0].to[0]") && e.to_string().contains("beyond the range"),
+        "{e}"
+    );
+}
+
+/// Issue 7: seeded mutations of control files give an error or a valid
+/// value, never a panic.
+#[test]
+fn the_control_reader_survives_thousands_of_mutations() {
+    use csrbf::fuzz::mutate;
+    let controls = [
+        std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/controls/head_smile.json")).expect("smile"),
+        br#"{"combine": "add", "deformations": [
+            {"radius": 1, "kernel": "c4", "phase": 0.5, "region": {"box": {"min": [0,0,0], "max": [1,1,1]}, "falloff": 0.2},
+             "controls": [{"from": [0,0,0], "to": [0,0,1]}]},
+            {"radius": 2, "handle": {"select": {"group": "ear"}, "rotate": {"axis": [0,0,1], "angle_deg": 30, "pivot": [1,2,3]}, "scale": 1.1},
+             "anchor": {"vertices": [1, 2, 3]}}]}"#
+            .to_vec(),
+    ];
+    let all: Vec<&[u8]> = vec![&controls[0], &controls[1]];
+    let mut rng = Rng::new(4242);
+    let (mut read, mut refused) = (0, 0);
+    for case in 0..4000 {
+        let input = mutate(all[case % all.len()], &mut rng, &all);
+        let result = std::panic::catch_unwind(|| {
+            ControlFile::parse(&String::from_utf8_lossy(&input)).is_ok()
+        });
+        match result {
+            Ok(true) => read += 1,
+            Ok(false) => refused += 1,
+            Err(_) => panic!("case {case} panicked"),
+        }
+    }
+    assert!(read > 0 && refused > 0, "{read} read, {refused} refused");
+}
+
+/// The road gives the positions of the engine's own calls bit for bit, and
+/// its report's serialised form says what the diagnostics say, the fold
+/// phase scaled to the phase asked for.
+#[test]
+fn the_road_deforms_as_the_engine_does_and_reports_it_once() {
+    let mesh = grid_mesh(30);
+    let file = ControlFile::parse(FOLDING).expect("parse");
+    let mut notes = Vec::new();
+    let edit = fit(&file, "pull.json", Some(&mesh), false, &mut |n| {
+        notes.push(n)
+    })
+    .expect("fit");
+    assert!(
+        notes
+            .iter()
+            .any(|n| matches!(n, crate::Note::Progress(t) if t.starts_with("fitted 1 controls"))),
+        "{notes:?}"
+    );
+    let (moved, report) = edit
+        .deform(&mesh, 0.9, &Checks::default(), RemedySearch::Full)
+        .expect("deform");
+    let d = csrbf::Deformation::fit(
+        &[DVec3::new(0.5, 0.5, 0.0)],
+        &[DVec3::new(0.8, 0.5, 0.0)],
+        csrbf::FitOptions::new(0.25).with_kernel(csrbf::Kernel::C2),
+    )
+    .expect("fit");
+    let plain = compose_with_groups(
+        &mesh.positions,
+        &[FittedStage::new(d).with_phase(0.9)],
+        Combine::Chain,
+        &|_| None,
+    )
+    .expect("compose");
+    assert_eq!(moved, plain);
+    let v = report.to_json();
+    assert_eq!(v["vertices"], mesh.positions.len());
+    assert_eq!(v["inside_out_faces"], report.diagnostics.inside_out.len());
+    assert!(
+        !report.diagnostics.inside_out.is_empty(),
+        "the pull must fold"
+    );
+    let fold = v["fold_phase"].as_f64().expect("folds");
+    assert!(fold > 0.0 && fold <= 0.9, "{fold}");
+    assert_eq!(
+        v["warning_kinds"].as_array().map(Vec::len),
+        Some(report.diagnostics.warnings.len())
+    );
+    // Folded, so the remedies were searched to the end and are in the form.
+    let r = &v["remedies"];
+    assert_eq!(r["complete"], true, "{r}");
+    assert!(r["radius_scale"].as_f64().expect("scale") > 1.0, "{r}");
+    assert!(r["sweep_steps"].as_u64().expect("steps") > 1, "{r}");
+    let advice = r["advice"].as_str().expect("advice");
+    assert!(
+        advice.starts_with("to keep it from folding: a radius"),
+        "{advice}"
+    );
+    assert_eq!(advice, report.advice());
+}
+
+/// A search with no time finds nothing and says it stopped; a bounded one
+/// gets at least the floor, and a full one has no bound.
+#[test]
+fn the_remedies_search_keeps_to_its_budget() {
+    let mesh = grid_mesh(30);
+    let file = ControlFile::parse(FOLDING).expect("parse");
+    let edit = fit(&file, "pull.json", Some(&mesh), false, &mut |_| {}).expect("fit");
+    let tris = mesh.faces.triangles();
+    let none = |_: &str| None;
+    let r = remedies(
+        &mesh.positions,
+        &tris,
+        &edit.specs,
+        Combine::Chain,
+        1.0,
+        &none,
+        RemedySearch::Off,
+        1.0,
+    )
+    .expect("remedies");
+    assert!(!r.found() && !r.complete, "{r:?}");
+    assert!(
+        r.advice().starts_with("no remedy found in time"),
+        "{}",
+        r.advice()
+    );
+    let floor = RemedySearch::FLOOR_MS / 1e3;
+    assert_eq!(
+        RemedySearch::Bounded.budget(1.0).map(|b| b.as_secs_f64()),
+        Some(floor)
+    );
+    assert_eq!(
+        RemedySearch::Bounded
+            .budget(5000.0)
+            .map(|b| b.as_secs_f64()),
+        Some(5.0)
+    );
+    assert_eq!(RemedySearch::Full.budget(1.0), None);
+    // Off in a deform: no search at all.
+    let (_, report) = edit
+        .deform(&mesh, 1.0, &Checks::default(), RemedySearch::Off)
+        .expect("deform");
+    assert!(report.remedies.is_none() && report.to_json()["remedies"].is_null());
+}
+
+/// A deformation that needs the mesh is refused without one, naming the
+/// document and the deformation; a part the mesh lacks is named with the
+/// parts it has.
+#[test]
+fn what_the_mesh_must_give_is_named() {
+    let handle = ControlFile::parse(
+        r#"{"deformations": [{"radius": 1, "controls": []},
+            {"radius": 1, "handle": {"select": {"sphere": {"center": [0, 0, 0], "radius": 0.2}},
+             "translate": [0, 0, 0.1]}}]}"#,
+    )
+    .expect("parse");
+    let e = fit(&handle, "h.json", None, false, &mut |_| {}).expect_err("no mesh");
+    assert_eq!(
+        e.to_string(),
+        "h.json: deformations[1]: handle: a handle is sampled on the mesh; give the mesh"
+    );
+    let part = ControlFile::parse(
+        r#"{"radius": 1, "region": {"group": "nose"}, "controls": [{"from": [0, 0, 0], "to": [0, 0, 1]}]}"#,
+    )
+    .expect("parse");
+    let e = fit(&part, "p.json", Some(&grid_mesh(4)), false, &mut |_| {}).expect_err("no nose");
+    assert!(
+        e.to_string()
+            .starts_with("p.json: region: names part \"nose\""),
+        "{e}"
+    );
+}
