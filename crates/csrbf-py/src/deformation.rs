@@ -119,24 +119,26 @@ pub(crate) fn check_lengths(starts: usize, targets: usize) -> PyResult<()> {
     }
 }
 
-/// D at `points` into `out`, whichever the dtypes (the caller made them equal).
+/// D at `points` into `out`, whichever the dtypes (the caller made them
+/// equal). float32 points go through the engine's f32 lanes
+/// (`Deformation::displacements_f32`, what `csrbf bench` and a `Binding`
+/// run): their sums agree with the f64 evaluation to about 1e-7 of the sum
+/// of |alpha| within R of a point; float64 points keep f64.
 fn displacements_into(
     d: &Deformation,
     points: View<'_>,
     out: &mut OutData<'_>,
 ) -> csrbf::Result<()> {
     match (points, out) {
-        (View::F32(p), OutData::F32(o)) => rounded(o, |wide| d.displacements_into(p, wide)),
+        (View::F32(p), OutData::F32(o)) => d.displacements_f32_into(p, o),
         (View::F64(p), OutData::F64(o)) => d.displacements_into(p, o),
         (View::F64(p), OutData::F32(o)) => rounded(o, |wide| d.displacements_into(p, wide)),
         (View::F32(p), OutData::F64(o)) => d.displacements_into(p, o),
     }
 }
 
-/// D evaluated in f64 (by `fill`) and rounded once into `out`: the package
-/// gives the values it always has, to f32's last bit. The engine's faster
-/// f32 lanes (`Deformation::displacements_f32`) agree only to about 1e-7 of
-/// the sum of |alpha| within R (as a `Binding` does: its sums are f32).
+/// D evaluated in f64 (by `fill`) and rounded once into `out` (float64
+/// points with a float32 output).
 fn rounded(
     out: &mut [Vec3],
     fill: impl FnOnce(&mut [DVec3]) -> csrbf::Result<()>,
