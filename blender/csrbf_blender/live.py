@@ -54,7 +54,9 @@ class _State:
             import csrbf
 
             mesh = csrbf.Mesh(self.rest, core.triangles(obj))
-            out, report = csrbf.deform_mesh(mesh, core.resolve_groups(core.control_file(obj, s), obj))
+            # No remedies while dragging: Deform searches them.
+            out, report = csrbf.deform_mesh(mesh, core.resolve_groups(core.control_file(obj, s), obj),
+                                            remedies="off")
             out = out.vertices
             _set(s, "moved", report.moved)
             _set(s, "inside_out", report.inside_out_faces)

@@ -86,7 +86,9 @@ def apply_spec(op, obj, spec: dict, source: str, problems=()) -> bool:
     settings.inside_out = report.inside_out_faces
     settings.fold_phase = -1.0 if report.fold_phase is None else report.fold_phase
     settings.largest_move = report.largest_move
-    warnings = list(problems) + report.warnings
+    # The remedies' advice ("a radius 2.28x as large folds no face, or a
+    # sweep cannot fold"), as `csrbf deform` prints it, when the edit folds.
+    warnings = list(problems) + report.warnings + ([report.advice] if report.advice else [])
     settings.warnings = "\n".join(warnings)
     level = {"WARNING"} if warnings else {"INFO"}
     op.report(level, f"csrbf: {report.moved} of {len(rest)} vertices moved into shape key {name!r}"

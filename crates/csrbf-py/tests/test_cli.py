@@ -54,6 +54,44 @@ def test_deform_mesh_equals_csrbf_deform(model, tmp_path, cli):
     assert np.array_equal(mesh.vertices, csrbf.read_mesh(model).vertices)
 
 
+def _untimed(report):
+    """A report's serialised form without its times (they differ run to run)."""
+    out = {k: v for k, v in report.items() if not k.endswith("_ms")}
+    if out.get("remedies") is not None:
+        out["remedies"] = {k: v for k, v in out["remedies"].items() if not k.endswith("_ms")}
+        # The advice quotes the times too.
+        out["remedies"]["advice"] = out["remedies"]["advice"].split(" (fit + deform")[0]
+    return out
+
+
+def test_the_report_is_one_form_in_python_and_the_cli(tmp_path, cli):
+    """Issue 39: a shove that folds the head: Python's Report.to_dict() is
+    `csrbf deform --json`'s report (the output's files aside, times aside),
+    remedies included, and the positions are the same bit for bit."""
+    shove = {"radius": 2, "controls": [
+        {"from": [0.9, 12.9, 4.5], "to": [0.9, 10.5, 4.5]},
+        {"from": [-5.89911, 7.551, -1.42866], "to": [-2.9, 9.05, -1.42866]}]}
+    path = tmp_path / "shove.json"
+    path.write_text(json.dumps(shove))
+    out, report = csrbf.deform_mesh(HEAD, path, phase=1.0, remedies="full")
+    figures = cli("deform", "--mesh", HEAD, "--controls", path, "--out", tmp_path / "cli.ply",
+                  "--json", "--remedies", "full")
+    for key in ("output", "files", "write_warnings"):
+        figures.pop(key)
+    mine = report.to_dict()
+    assert _untimed(mine) == _untimed(figures)
+    assert mine["inside_out_faces"] > 0 and mine["remedies"]["complete"] is True
+    assert report.advice.startswith("to keep it from folding: a radius"), report.advice
+    assert report.remedies == mine["remedies"]
+    theirs = csrbf.read_mesh(tmp_path / "cli.ply")
+    assert np.array_equal(out.vertices, theirs.vertices)
+    # Off: no search, no remedies.
+    _, quiet = csrbf.deform_mesh(HEAD, path, remedies="off")
+    assert quiet.remedies is None and quiet.advice == ""
+    with pytest.raises(ValueError, match="remedies must be"):
+        csrbf.deform_mesh(HEAD, path, remedies="some")
+
+
 @pytest.mark.parametrize("model", MODEL_FILES, ids=lambda p: p.name)
 def test_fit_and_displacements_equal_the_cli(model, tmp_path, cli):
     """Python's fit writes the bytes `csrbf fit` writes; `csrbf apply` replays
