@@ -8,7 +8,7 @@ use crate::remedy::Remedies;
 
 /// How many indices a list of faces or pairs keeps in the serialised form
 /// (the counts are whole).
-pub const LISTED: usize = 1000;
+pub(crate) const LISTED: usize = 1000;
 
 /// What a deformation did to a mesh: the engine's figures (moves, folds,
 /// stretch, faces passing through each other, warnings) at the phase asked
@@ -74,7 +74,7 @@ impl Report {
 
     /// The one serialised form: what `csrbf deform --json` prints after the
     /// output's files, and Python's `Report.to_dict()`. Lists of faces keep
-    /// their first [`LISTED`]; counts are whole.
+    /// their first 1000 (`LISTED`); counts are whole.
     pub fn to_json(&self) -> Value {
         let d = &self.diagnostics;
         let first = |v: &[u32]| v.iter().take(LISTED).copied().collect::<Vec<_>>();

@@ -522,10 +522,27 @@ impl PyReport {
     }
 
     fn __repr__(&self) -> String {
+        let d = &self.inner.diagnostics;
         format!(
-            "Report({} vertices, {})",
+            "Report({} vertices, {} moved, largest move {:.6}{}, {} face(s) inside out{}, largest stretch {:.2}x, {} warning(s){})",
             self.inner.vertices,
-            self.inner.summary()
+            d.moved,
+            d.largest_move,
+            d.largest_move_vertex
+                .map(|v| format!(" (vertex {v})"))
+                .unwrap_or_default(),
+            d.inside_out.len(),
+            self.inner
+                .fold_phase()
+                .map(|p| format!(", folds from phase {p:.2} on"))
+                .unwrap_or_default(),
+            d.largest_stretch,
+            d.warnings.len(),
+            if self.inner.advice().is_empty() {
+                ""
+            } else {
+                ", advice"
+            }
         )
     }
 }
@@ -607,6 +624,8 @@ fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Control
 ///
 /// >>> out, report = csrbf.deform_mesh(mesh, "smile.json", phase=1.0)
 /// >>> report.moved, report.warnings
+// Each argument is a keyword of the Python function.
+#[allow(clippy::too_many_arguments)]
 #[pyfunction]
 #[pyo3(signature = (mesh, controls, phase = 1.0, *, allow_large = false, stretch_limit = csrbf::STRETCH_LIMIT, self_intersections = None, remedies = "bounded"))]
 pub fn deform_mesh(
