@@ -478,10 +478,44 @@ fn a_fold_says_its_remedies_and_a_sweep_folds_nowhere() {
         .as_f64()
         .expect("a radius that does not fold");
     assert!(scale > 1.0 && scale <= 4.0, "{remedies}");
+    // The bounded search (the default) ran to its end on a mesh this small,
+    // and names the sweep without timing it; a full search times it.
+    assert_eq!(remedies["complete"], true, "{remedies}");
+    assert_eq!(remedies["sweep_untried"], true, "{remedies}");
+    let full = json(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&plain),
+        "--out",
+        arg(&out),
+        "--force",
+        "--json",
+        "--remedies",
+        "full",
+    ]);
     assert!(
-        remedies["sweep_steps"].as_u64().expect("steps") > 1,
-        "{remedies}"
+        full["remedies"]["sweep_steps"].as_u64().expect("steps") > 1,
+        "{full}"
     );
+    // Issue 39: `--remedies off` searches nothing (clap refuses another word).
+    let off = json(&[
+        "deform",
+        "-q",
+        "--mesh",
+        arg(&head),
+        "--controls",
+        arg(&plain),
+        "--out",
+        arg(&out),
+        "--force",
+        "--json",
+        "--remedies",
+        "off",
+    ]);
+    assert!(off["inside_out_faces"].as_u64().expect("count") > 0 && off["remedies"].is_null());
     // The radius it names folds nothing.
     let mut larger = shove.clone();
     larger["radius"] = (2.0 * scale).into();

@@ -9,10 +9,12 @@
 //!
 //! The search is bounded ([`RemedySearch::Bounded`], the default): it
 //! starts no trial past the time the edit's own fit and deformation took
-//! (or [`RemedySearch::FLOOR_MS`], when that is less), the sweep first (one
-//! trial, and it cannot fold), then radii growing from 1.25x, then the
-//! bisection to 2 %. What it found by then is true (the radius named folds
-//! no face), only perhaps not the smallest; [`Remedies::complete`] says.
+//! (or [`RemedySearch::FLOOR_MS`], when that is less): radii growing from
+//! 1.25x, then the bisection to 2 %. What it found by then is true (the
+//! radius named folds no face), only perhaps not the smallest;
+//! [`Remedies::complete`] says. The sweep (certified, so it cannot fold) is
+//! named without a trial: its steps can cost seconds where a radius costs
+//! the edit's own time; a full search ([`RemedySearch::Full`]) times it.
 
 use std::time::{Duration, Instant};
 
@@ -82,6 +84,9 @@ pub struct Remedies {
     /// sweep cannot be made (paths that meet, `"combine": "add"`) or was not
     /// tried.
     pub sweep: Option<(usize, f64)>,
+    /// Whether a sweep could be made but was not tried (a bounded search
+    /// leaves it out: its steps can cost far more than the edit).
+    pub sweep_untried: bool,
     /// The milliseconds of the plain edit's fit and deformation, for
     /// comparison.
     pub plain_ms: f64,
@@ -119,6 +124,11 @@ impl Remedies {
             ways.push(format!(
                 "\"sweep\": true cannot fold ({steps} step(s), fit + deform {ms:.2} ms)"
             ));
+        } else if self.sweep_untried {
+            ways.push(
+                "\"sweep\": true, which cannot fold (not timed; `--remedies full` or remedies=\"full\" times it)"
+                    .to_owned(),
+            );
         }
         let cut = if self.complete {
             String::new()
@@ -129,7 +139,7 @@ impl Remedies {
             )
         };
         if ways.is_empty() {
-            if self.complete {
+            if self.complete && !self.sweep_untried {
                 return String::new();
             }
             return format!("no remedy found in time{cut}");
@@ -246,14 +256,6 @@ pub fn remedies(
         last: Duration::from_secs_f64(plain_ms / 1e3),
         stopped: false,
     };
-    // The sweep first: one trial, and it cannot fold.
-    let mut sweep = None;
-    if combine == Combine::Chain && clock.another() {
-        let t = Instant::now();
-        let swept = |spec: &mut ControlSpec| spec.sweep = Some(csrbf::SweepOptions::default());
-        sweep = edit.trial(&swept).ok().map(|(_, steps, ms)| (steps, ms));
-        clock.ran(t);
-    }
     // Grow until nothing folds, then bisect between the last that folded
     // and the first that did not. A radius that the engine refuses (too
     // large a system) counts as not found.
@@ -291,6 +293,15 @@ pub fn remedies(
         }
         found = Some((hi, ms));
     }
+    // The sweep last, and only in a full search: one trial, but its steps
+    // (hundreds for a handle's turn) can cost seconds where a radius costs
+    // the edit's own time. A bounded search names it untimed.
+    let mut sweep = None;
+    let sweep_possible = combine == Combine::Chain;
+    if sweep_possible && search == RemedySearch::Full {
+        let swept = |spec: &mut ControlSpec| spec.sweep = Some(csrbf::SweepOptions::default());
+        sweep = edit.trial(&swept).ok().map(|(_, steps, ms)| (steps, ms));
+    }
     Ok(Remedies {
         radius_scale: found,
         radii: specs
@@ -299,6 +310,7 @@ pub fn remedies(
             .map(|s| s.options.radius)
             .collect(),
         sweep,
+        sweep_untried: sweep_possible && search != RemedySearch::Full,
         plain_ms,
         searched_ms: clock.start.elapsed().as_secs_f64() * 1e3,
         complete: !clock.stopped,

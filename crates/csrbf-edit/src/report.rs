@@ -108,6 +108,7 @@ impl Report {
                 "radius_ms": r.radius_scale.map(|x| x.1),
                 "sweep_steps": r.sweep.map(|x| x.0),
                 "sweep_ms": r.sweep.map(|x| x.1),
+                "sweep_untried": r.sweep_untried,
                 "plain_ms": r.plain_ms,
                 "searched_ms": r.searched_ms,
                 "complete": r.complete,

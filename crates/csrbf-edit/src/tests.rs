@@ -149,11 +149,28 @@ fn the_remedies_search_keeps_to_its_budget() {
         1.0,
     )
     .expect("remedies");
-    assert!(!r.found() && !r.complete, "{r:?}");
+    assert!(!r.found() && !r.complete && r.sweep_untried, "{r:?}");
     assert!(
-        r.advice().starts_with("no remedy found in time"),
+        r.advice()
+            .contains("\"sweep\": true, which cannot fold (not timed"),
         "{}",
         r.advice()
+    );
+    // A bounded search leaves the sweep untimed but finds the radius here.
+    let r = remedies(
+        &mesh.positions,
+        &tris,
+        &edit.specs,
+        Combine::Chain,
+        1.0,
+        &none,
+        RemedySearch::Bounded,
+        1.0,
+    )
+    .expect("remedies");
+    assert!(
+        r.radius_scale.is_some() && r.sweep.is_none() && r.sweep_untried,
+        "{r:?}"
     );
     let floor = RemedySearch::FLOOR_MS / 1e3;
     assert_eq!(
