@@ -1,8 +1,11 @@
 """Live posing: while a destination empty moves, the shape key follows.
 
-The factored system and the vertices' binding are kept per object (as the
-studio keeps them): a moved destination costs one solve and the kernel
-sums through the binding; a moved start, a new control or other settings rebuild them.
+Each object keeps a `csrbf.Session` (the edit layer's live session, which
+the studio's preview uses too): it keeps every layer's factored system and
+the vertices' binding, so a moved destination costs one solve and the kernel
+sums; a moved start, a new control or other settings refit. Regions, sweeps
+and the refusal of a start that reaches no vertex are the session's, as
+Deform's are `deform_mesh`'s: the same positions and the same report.
 
 The handlers are persistent: Blender keeps them through File > Open and
 File > New, so the Live toggle, which is saved in the .blend, means what it
@@ -25,57 +28,48 @@ class _State:
     def __init__(self, obj, controls):
         import csrbf
 
-        s = obj.csrbf
         self.key = _settings_key(obj)
-        self.starts, self.targets = controls.starts, controls.targets
+        self.starts = controls.starts
         self.rest = core.rest_positions(obj)
-        idx = None
-        if s.vertex_group:
-            idx = core.group_vertices(obj, s.vertex_group)
-            if idx is None:
-                raise ValueError(f"{obj.name!r} has no vertex group {s.vertex_group!r}")
-        self.region = idx
-        pts = self.rest if idx is None else self.rest[idx]
-        self.system = csrbf.System(self.starts, s.radius, kernel=s.kernel, polynomial=s.polynomial)
-        far = self.system.starts_out_of_reach(pts)
-        if far:  # what Deform refuses, refused alike (the key is left as it was)
-            where = "onto the mesh, inside the Region," if idx is not None else "onto the mesh"
-            names = ", ".join(repr(controls.names[k]) for k in far)
-            raise ValueError(f"the start {names} lies farther than R = {s.radius:.4g} from every vertex it acts on, "
-                             f"so it moves nothing (move the start {where} or raise the radius)")
-        self.binding = self.system.bind(pts)
+        self.session = csrbf.Session(csrbf.Mesh(self.rest, core.triangles(obj)))
         self.shown = None  # the targets last written
+        self.checked = False  # whether the session's last update was checked
 
-    def update(self, obj, targets, problems) -> None:
+    def update(self, obj, controls, problems) -> None:
+        """Poses the shape key from the controls: checked (a start that
+        reaches no vertex refused) when the session was just made or the
+        layer is a sweep, else a solve and the sums alone. Only a sweep's
+        figures are shown live (they are checked each move); Deform shows
+        the others."""
         s = obj.csrbf
+        spec = core.resolve_groups(core.control_file(obj, s), obj)
+        if not self.checked or s.sweep:
+            # No remedies while posing: Deform searches them.
+            report = self.session.update(spec, remedies="off")
+            far = [c for k, c in zip(report.warning_kinds, report.warning_controls) if k == "starts_far_from_mesh"]
+            if far:  # what Deform refuses, refused alike (the key is left as it was)
+                where = "onto the mesh, inside the Region," if s.vertex_group else "onto the mesh"
+                names = ", ".join(repr(controls.names[k]) for k in (far[0] or []) if k < len(controls.names))
+                raise ValueError(f"the start {names} lies farther than R = {s.radius:.4g} from every vertex it acts on, "
+                                 f"so it moves nothing (move the start {where} or raise the radius)")
+            self.checked = True
+            out = self.session.vertices
+        else:
+            out = self.session.update_positions(spec)
         if s.sweep:
-            # A sweep's steps move with the destinations: fitted anew each
-            # move, so its figures are the pose's own (as Deform's are).
-            import csrbf
-
-            mesh = csrbf.Mesh(self.rest, core.triangles(obj))
-            # No remedies while dragging: Deform searches them.
-            out, report = csrbf.deform_mesh(mesh, core.resolve_groups(core.control_file(obj, s), obj),
-                                            remedies="off")
-            out = out.vertices
+            # A sweep's steps move with the destinations: checked each move,
+            # so its figures are the pose's own (as Deform's are).
             _set(s, "moved", report.moved)
             _set(s, "inside_out", report.inside_out_faces)
             _set(s, "fold_phase", -1.0 if report.fold_phase is None else report.fold_phase)
             _set(s, "largest_move", report.largest_move)
             _set(s, "warnings", "\n".join(problems + report.warnings))
         else:
-            d = self.system.solve(targets)
-            disp = self.binding.displacements(d)
-            out = self.rest.copy()
-            if self.region is None:
-                out += disp
-            else:
-                out[self.region] += disp
             # The last Deform's figures are not this pose's: cleared, not shown as current.
             _set(s, "moved", -1)
             _set(s, "warnings", "\n".join(problems))
         core.write_shape_key(obj, s.layer, out)
-        self.shown = targets.copy()
+        self.shown = controls.targets.copy()
 
 
 def _set(settings, name, value) -> None:
@@ -112,7 +106,7 @@ def refresh(obj) -> str:
             did = "rebuilt"
         elif st.shown is not None and np.array_equal(st.shown, targets):
             return "unchanged"
-        st.update(obj, targets, controls.problems)
+        st.update(obj, controls, controls.problems)
     except Exception as e:  # the engine's refusal: shown, never raised into Blender's handler loop
         _states.pop(uid, None)
         _set(obj.csrbf, "warnings", f"live: {e}")

@@ -17,6 +17,9 @@
 //! - [`Report`]: what a deformation did, with one serialised form
 //!   ([`Report::to_json`]) that `csrbf deform --json`, Python's
 //!   `Report.to_dict()` and Blender's panel all read;
+//! - [`Session`]: a live edit (the studio's preview, Blender's Live,
+//!   Python's `Session`): each layer's factored system and binding kept, a
+//!   destination move a solve and the sums, a start or radius a refit;
 //! - [`apply`]: replay files by path and the checks of a region against a
 //!   mesh.
 //!
@@ -54,6 +57,7 @@ mod fit;
 pub mod json;
 mod remedy;
 mod report;
+mod session;
 
 #[cfg(test)]
 mod connected_tests;
@@ -65,4 +69,5 @@ pub use controls::{ControlError, ControlFile, ControlSpec};
 pub use error::EditError;
 pub use fit::{Edit, FittedSpec, Note, SweepFigures, fit, fit_spec, resolve};
 pub use remedy::{Remedies, RemedySearch, remedies};
-pub use report::Report;
+pub use report::{Report, warning_controls};
+pub use session::{Session, SessionError};

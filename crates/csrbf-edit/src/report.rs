@@ -101,6 +101,7 @@ impl Report {
                 .map(|p| p.iter().take(LISTED).collect::<Vec<_>>()),
             "warnings": self.warnings(),
             "warning_kinds": d.warnings.iter().map(|w| w.kind()).collect::<Vec<_>>(),
+            "warning_controls": d.warnings.iter().map(warning_controls).collect::<Vec<_>>(),
             "fit_ms": self.fit_ms,
             "deform_ms": self.deform_ms,
             "remedies": self.remedies.as_ref().map(|r| json!({
@@ -137,6 +138,18 @@ impl Report {
             stretch_said(d),
             intersections_said(d),
         )
+    }
+}
+
+/// The controls a warning names (its first few, by index in the layer's
+/// control vectors), or None for a warning about faces or the whole map.
+pub fn warning_controls(w: &csrbf::Warning) -> Option<&[usize]> {
+    use csrbf::Warning;
+    match w {
+        Warning::PastFoldFreeBound { controls, .. }
+        | Warning::StartsFarFromMesh { controls, .. }
+        | Warning::SupportCrossesRegion { controls, .. } => Some(controls),
+        _ => None,
     }
 }
 

@@ -27,6 +27,7 @@ pub mod arrays;
 mod cast;
 pub mod deformation;
 pub mod mesh;
+mod session;
 pub mod system;
 
 pyo3::create_exception!(
@@ -74,5 +75,6 @@ fn _csrbf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     deformation::register(m)?;
     system::register(m)?;
     mesh::register(m)?;
+    session::register(m)?;
     Ok(())
 }

@@ -294,7 +294,10 @@ fn vec2_rows<'py>(
 }
 
 /// An (N, 3) float32 array of vectors (a copy).
-fn vec3_rows<'py>(py: Python<'py>, v: &[csrbf::glam::Vec3]) -> Bound<'py, PyArray2<f32>> {
+pub(crate) fn vec3_rows<'py>(
+    py: Python<'py>,
+    v: &[csrbf::glam::Vec3],
+) -> Bound<'py, PyArray2<f32>> {
     let a = PyArray2::<f32>::zeros(py, [v.len(), 3], false);
     {
         let mut w = a.readwrite();
@@ -350,7 +353,7 @@ pub fn write_mesh(
     Ok(())
 }
 
-fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
+pub(crate) fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
     PyErr::warn(
         py,
         &py.get_type::<pyo3::exceptions::PyUserWarning>(),
@@ -363,7 +366,7 @@ fn warn(py: Python<'_>, text: &str) -> PyResult<()> {
 /// prints it (`to_dict()` is its `--json` form), remedies included.
 #[pyclass(name = "Report", module = "csrbf", frozen)]
 pub struct PyReport {
-    inner: csrbf_edit::Report,
+    pub(crate) inner: csrbf_edit::Report,
 }
 
 #[pymethods]
@@ -439,6 +442,19 @@ impl PyReport {
             .warnings
             .iter()
             .map(|w| w.kind())
+            .collect()
+    }
+
+    /// The controls each warning names (its first few, indices into the
+    /// layer's control vectors), in the same order as `warnings`; None for
+    /// a warning about faces or the whole map.
+    #[getter]
+    fn warning_controls(&self) -> Vec<Option<Vec<usize>>> {
+        self.inner
+            .diagnostics
+            .warnings
+            .iter()
+            .map(|w| csrbf_edit::warning_controls(w).map(<[usize]>::to_vec))
             .collect()
     }
 
@@ -553,9 +569,53 @@ fn json_value<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py
     py.import("json")?.call_method1("loads", (v.to_string(),))
 }
 
+/// The checks `stretch_limit=` and `self_intersections=` ask for.
+pub(crate) fn checks(
+    stretch_limit: f64,
+    self_intersections: Option<bool>,
+) -> PyResult<csrbf_edit::Checks> {
+    let checks = csrbf_edit::Checks::default()
+        .with_stretch_limit(stretch_limit)
+        .with_self_intersections(self_intersections);
+    checks
+        .diagnose
+        .check()
+        .map_err(|e| PyValueError::new_err(format!("stretch_limit: {e}")))?;
+    Ok(checks)
+}
+
+/// The search `remedies=` asks for.
+pub(crate) fn remedy_search(remedies: &str) -> PyResult<csrbf_edit::RemedySearch> {
+    csrbf_edit::RemedySearch::parse(remedies).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "remedies must be \"bounded\", \"full\" or \"off\", got {remedies:?}"
+        ))
+    })
+}
+
+/// A mesh given as a `csrbf.Mesh` or a path, with finite positions.
+pub(crate) fn mesh_arg(py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<Mesh> {
+    let m = match mesh.cast::<PyMesh>() {
+        Ok(m) => m.borrow().inner.clone(),
+        Err(_) => {
+            let path: PathBuf = mesh.extract().map_err(|_| {
+                PyTypeError::new_err("mesh must be a csrbf.Mesh or a path to a mesh file")
+            })?;
+            read_mesh(py, path)?.inner
+        }
+    };
+    if let Some(i) = m.positions.iter().position(|p| !p.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "mesh: vertex {i} has a coordinate that is not finite ({}): a mesh to deform needs finite positions",
+            m.positions[i]
+        )));
+    }
+    Ok(m)
+}
+
 /// A control file, from a path or a dict in the file's form; its unknown
 /// keys are warned about.
-fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<ControlFile> {
+pub(crate) fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<ControlFile> {
     let (text, name) = if controls.is_instance_of::<PyDict>() {
         // numpy numbers and arrays (a radius from a computation, a start
         // from a mesh's vertices) are written as the numbers they hold.
@@ -638,34 +698,10 @@ pub fn deform_mesh(
     self_intersections: Option<bool>,
     remedies: &str,
 ) -> PyResult<(PyMesh, PyReport)> {
-    let checks = csrbf_edit::Checks::default()
-        .with_stretch_limit(stretch_limit)
-        .with_self_intersections(self_intersections);
-    checks
-        .diagnose
-        .check()
-        .map_err(|e| PyValueError::new_err(format!("stretch_limit: {e}")))?;
-    let mut m = match mesh.cast::<PyMesh>() {
-        Ok(m) => m.borrow().inner.clone(),
-        Err(_) => {
-            let path: PathBuf = mesh.extract().map_err(|_| {
-                PyTypeError::new_err("mesh must be a csrbf.Mesh or a path to a mesh file")
-            })?;
-            read_mesh(py, path)?.inner
-        }
-    };
-    if let Some(i) = m.positions.iter().position(|p| !p.is_finite()) {
-        return Err(PyValueError::new_err(format!(
-            "mesh: vertex {i} has a coordinate that is not finite ({}): a mesh to deform needs finite positions",
-            m.positions[i]
-        )));
-    }
+    let checks = checks(stretch_limit, self_intersections)?;
+    let mut m = mesh_arg(py, mesh)?;
     let file = control_file(py, controls)?;
-    let search = csrbf_edit::RemedySearch::parse(remedies).ok_or_else(|| {
-        PyValueError::new_err(format!(
-            "remedies must be \"bounded\", \"full\" or \"off\", got {remedies:?}"
-        ))
-    })?;
+    let search = remedy_search(remedies)?;
     // The edit layer's road: resolved, fitted, deformed, checked, one
     // report; its notes' warnings become Python warnings.
     let mut notes = Vec::new();

@@ -277,3 +277,36 @@ def test_seamed_texture_coordinates_are_per_corner(tmp_path):
     np.testing.assert_array_equal(
         m.corner_uvs, [[0, 0], [1, 0], [0, 1], [0.5, 0.5], [1, 0], [0, 1]]
     )
+
+
+def test_a_session_deforms_as_deform_mesh_and_the_cli_do(tmp_path, cli):
+    """Issue 39: a live Session gives deform_mesh's positions bit for bit and
+    the same report; a destination's move solves again without refactoring;
+    a refused layer keeps the last positions and names the layer."""
+    head = csrbf.read_mesh(HEAD)
+    spec = json.loads(SMILE.read_text())
+    session = csrbf.Session(head)
+    assert np.array_equal(session.vertices, head.vertices) and session.report is None
+    report = session.update(spec, phase=0.7)
+    out, theirs = csrbf.deform_mesh(head, spec, phase=0.7)
+    assert np.array_equal(session.vertices, out.vertices)
+    assert _untimed(report.to_dict()) == _untimed(theirs.to_dict())
+    path = tmp_path / "smile.json"
+    path.write_text(json.dumps(spec))
+    cli("deform", "--mesh", HEAD, "--controls", path, "--phase", 0.7, "--out", tmp_path / "cli.ply")
+    assert np.array_equal(session.vertices, csrbf.read_mesh(tmp_path / "cli.ply").vertices)
+    assert session.factorisations == 1
+    for k in range(1, 4):
+        moved = json.loads(json.dumps(spec))
+        moved["controls"][0]["to"][1] += 0.05 * k
+        shown = session.update_positions(moved, phase=0.7)
+        assert session.report is None
+    assert session.factorisations == 1, "a destination's move must not refactor"
+    fresh, _ = csrbf.deform_mesh(head, moved, phase=0.7)
+    assert np.array_equal(shown, fresh.vertices)
+    twice = json.loads(json.dumps(spec))
+    twice["controls"].append(dict(twice["controls"][0]))
+    with pytest.raises(csrbf.Error, match="layer 0"):
+        session.update(twice)
+    assert np.array_equal(session.vertices, shown)
+    assert "Session(1487 vertices" in repr(session)

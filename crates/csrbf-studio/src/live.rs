@@ -1,36 +1,21 @@
-//! The live preview of a [`Document`]: the deformed positions, what the
-//! diagnostics say about them, and a picking tree over them.
-//!
-//! The layers run through a [`Pipeline`], which keeps each one's factored
-//! system, solved deformation and binding: moving destinations, the drag,
-//! costs one solve per changed layer and a product through the bindings; a
-//! new start or radius rebuilds only that layer's system. The tree is built
-//! once and refitted to the moved positions.
+//! The live preview of a [`Document`]: the edit layer's [`Session`] (each
+//! layer's factored system, solve and binding kept; the one report) and a
+//! picking tree over the deformed positions, built once and refitted.
 
+use csrbf::Diagnostics;
 use csrbf::glam::Vec3;
-use csrbf::{Diagnostics, Pipeline, Stage, diagnose};
-use csrbf_edit::controls::SurfaceCache;
+use csrbf_edit::{Checks, RemedySearch, Report, Session};
 use csrbf_mesh::Bvh;
 
 use crate::state::Document;
 
+/// A layer the engine refused, and why (the edit layer's).
+pub use csrbf_edit::SessionError as LiveError;
+
 /// The deformed document, kept up to date by [`Live::update`].
 pub struct Live {
-    pipeline: Pipeline,
-    /// The layer of each pipeline stage (layers without controls have none).
-    layers: Vec<usize>,
-    /// Systems factored by pipelines replaced since.
-    earlier_systems: usize,
-    triangles: Vec<[u32; 3]>,
-    positions: Vec<Vec3>,
-    diagnostics: Option<Diagnostics>,
+    session: Session,
     bvh: Option<Bvh>,
-    /// Control vectors in use: the file's and those its handles make.
-    controls: usize,
-    /// The surface's graph and the connected regions resolved lately: a
-    /// drag step that moves destinations only walks the surface again for
-    /// none of them.
-    surface: SurfaceCache,
 }
 
 impl Live {
@@ -38,7 +23,7 @@ impl Live {
     /// with a picking tree.
     pub fn new(doc: &Document) -> Live {
         let mut live = Live::without_picking(doc);
-        live.bvh = Some(Bvh::new(&doc.mesh.positions, &live.triangles));
+        live.bvh = Some(Bvh::new(&doc.mesh.positions, live.session.triangles()));
         live
     }
 
@@ -46,173 +31,49 @@ impl Live {
     /// own, as the app's worker does: on a 2M-triangle mesh the tree is the
     /// largest thing the preview would hold).
     pub fn without_picking(doc: &Document) -> Live {
-        let triangles = doc.mesh.faces.triangles();
-        let bvh = None;
         Live {
-            pipeline: Pipeline::new(Vec::new()),
-            layers: Vec::new(),
-            earlier_systems: 0,
-            controls: 0,
-            surface: SurfaceCache::default(),
-            triangles,
-            positions: doc.mesh.positions.clone(),
-            diagnostics: None,
-            bvh,
+            session: Session::new(&doc.mesh),
+            bvh: None,
         }
     }
 
-    /// Deforms the document as it now stands and diagnoses the result. On
-    /// error (a layer the engine refuses: coincident starts, a radius too
-    /// small for the mesh) the previous preview stays and the error says
-    /// which layer.
+    /// Deforms the document as it now stands and checks the result as
+    /// `csrbf deform` does (its report, remedies within their bound when a
+    /// face folds). On error (a layer the engine refuses: coincident starts,
+    /// a radius too small for the mesh) the previous preview stays and the
+    /// error says which layer.
     pub fn update(&mut self, doc: &Document) -> Result<(), LiveError> {
-        self.update_positions(doc)?;
-        let lookup = |n: &str| doc.mesh.part_vertices(n);
-        // Every layer's fitted stages (a sweep's every step).
-        let fitted: Vec<_> = (0..self.layers.len())
-            .filter_map(|k| self.pipeline.fitted_stages(k))
-            .flatten()
-            .collect();
-        let layer = self.layers.first().copied().unwrap_or(0);
-        let report = diagnose(
-            &doc.mesh.positions,
-            &self.positions,
-            &self.triangles,
-            &fitted,
-            self.pipeline.combine(),
-            &lookup,
-        )
-        .map_err(|source| LiveError { layer, source })?;
-        let mut report = report;
-        // Faces the edit made pass through each other (as `csrbf deform`
-        // checks them: up to its limit of triangles).
-        if self.triangles.len() <= csrbf_edit::apply::SELF_INTERSECTION_TRIANGLES {
-            report.set_self_intersections(csrbf_mesh::intersect::new_self_intersections(
-                &doc.mesh.positions,
-                &self.positions,
-                &self.triangles,
-            ));
-        }
-        self.diagnostics = Some(report);
+        self.session.update(
+            &doc.mesh,
+            &doc.controls,
+            doc.phase,
+            &Checks::default(),
+            RemedySearch::Bounded,
+        )?;
         if let Some(b) = self.bvh.as_mut() {
-            b.refit(&self.positions);
+            b.refit(self.session.positions());
         }
         Ok(())
     }
 
-    /// [`Live::update`] without the diagnostics, which then read None, and
+    /// [`Live::update`] without the checks, which then read None, and
     /// without refitting the picking tree: for the steps of a drag, where
     /// they would cost more than the deformation (on a 1M-vertex mesh, 90
     /// and 26 ms against 30 ms); call `update` on release.
     pub fn update_positions(&mut self, doc: &Document) -> Result<(), LiveError> {
-        let lookup = |n: &str| doc.mesh.part_vertices(n);
-        let mut stages = Vec::new();
-        let mut layers = Vec::new();
-        let mut controls = 0;
-        for (layer, spec) in doc.controls.deformations.iter().enumerate() {
-            // A connected region is measured along the surface: the
-            // triangles go with the points.
-            let spec = spec
-                .resolve_cached(
-                    &doc.mesh.positions,
-                    &self.triangles,
-                    &lookup,
-                    &mut self.surface,
-                )
-                .map_err(|source| LiveError { layer, source })?;
-            controls += spec.starts.len();
-            if !spec.starts.is_empty() {
-                let stage = spec
-                    .to_stage()
-                    .map_err(|source| LiveError { layer, source })?;
-                stages.push(stage.with_phase(spec.phase * doc.phase));
-                layers.push(layer);
-            }
-        }
-        self.controls = controls;
-        self.sync(doc, stages, layers);
-        for (k, &layer) in self.layers.iter().enumerate() {
-            self.pipeline
-                .deformation(k)
-                .map_err(|source| LiveError { layer, source })?;
-        }
-        let layer = self.layers.first().copied().unwrap_or(0);
-        let moved = self
-            .pipeline
-            .evaluate()
-            .map_err(|source| LiveError { layer, source })?
-            .to_vec();
-        self.positions = moved;
-        self.diagnostics = None;
+        self.session
+            .update_positions(&doc.mesh, &doc.controls, doc.phase)?;
         Ok(())
-    }
-
-    /// Brings the pipeline to these stages, telling it only what changed (a
-    /// new set of layers or a new combine starts a new pipeline).
-    fn sync(&mut self, doc: &Document, stages: Vec<Stage>, layers: Vec<usize>) {
-        let same_shape = layers == self.layers
-            && self.pipeline.combine() == doc.controls.combine
-            && self.pipeline.rest().len() == doc.mesh.positions.len();
-        if !same_shape {
-            self.earlier_systems += self.pipeline.work().systems;
-            let groups = doc
-                .mesh
-                .parts
-                .iter()
-                .filter_map(|p| Some((p.name.clone(), doc.mesh.part_vertices(&p.name)?)))
-                .collect();
-            self.pipeline = Pipeline::new(doc.mesh.positions.clone())
-                .with_combine(doc.controls.combine)
-                .with_groups(groups);
-            for stage in stages {
-                self.pipeline.push(stage);
-            }
-            self.layers = layers;
-            return;
-        }
-        for (k, new) in stages.into_iter().enumerate() {
-            let Some(old) = self.pipeline.stage(k) else {
-                continue;
-            };
-            let sweep = old.sweep != new.sweep || old.paths != new.paths;
-            let (starts, targets, options, region, phase) = (
-                old.starts != new.starts,
-                old.targets != new.targets,
-                old.options != new.options,
-                old.region != new.region,
-                old.phase != new.phase,
-            );
-            // The index exists (checked above), so these calls cannot fail;
-            // a phase outside [0, 1] is refused by the evaluation instead.
-            let p = &mut self.pipeline;
-            if starts {
-                let _ = p.set_controls(k, new.starts, new.targets);
-            } else if targets {
-                let _ = p.set_targets(k, new.targets);
-            }
-            if options {
-                let _ = p.set_options(k, new.options);
-            }
-            if region {
-                let _ = p.set_region(k, new.region);
-            }
-            if phase {
-                let _ = p.set_phase(k, new.phase);
-            }
-            if sweep {
-                let _ = p.set_sweep(k, new.sweep, new.paths.clone());
-            }
-        }
     }
 
     /// The deformed positions (the rest ones before the first update).
     pub fn positions(&self) -> &[Vec3] {
-        &self.positions
+        self.session.positions()
     }
 
     /// The triangles of the mesh, as the picking tree and the renderer see them.
     pub fn triangles(&self) -> &[[u32; 3]] {
-        &self.triangles
+        self.session.triangles()
     }
 
     /// The picking tree, fitted to [`Live::positions`] as of the last
@@ -224,30 +85,25 @@ impl Live {
 
     /// What the last update found (folds, starts out of reach), if any.
     pub fn diagnostics(&self) -> Option<&Diagnostics> {
-        self.diagnostics.as_ref()
+        self.session.report().map(|r| &r.diagnostics)
+    }
+
+    /// The last update's whole report (the diagnostics, the remedies'
+    /// advice), as `csrbf deform` makes it.
+    pub fn report(&self) -> Option<&Report> {
+        self.session.report()
     }
 
     /// How many control vectors the last update used: the file's, and those
     /// its handles made on the mesh.
     pub fn controls(&self) -> usize {
-        self.controls
+        self.session.controls()
     }
 
     /// How many systems were factored so far (a drag should not add any).
     pub fn factorisations(&self) -> usize {
-        self.earlier_systems + self.pipeline.work().systems
+        self.session.factorisations()
     }
-}
-
-/// A layer the engine refused, and why.
-#[derive(Debug, thiserror::Error)]
-#[error("layer {layer}")]
-pub struct LiveError {
-    /// Which layer.
-    pub layer: usize,
-    /// Why.
-    #[source]
-    pub source: csrbf::Error,
 }
 
 #[cfg(test)]

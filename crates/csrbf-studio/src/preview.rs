@@ -32,6 +32,9 @@ pub struct PreviewFrame {
     pub normals: Arc<Vec<Vec3>>,
     /// What the diagnostics found (None for a drag step).
     pub diagnostics: Option<Arc<Diagnostics>>,
+    /// When the edit folds: what would keep it from folding, as `csrbf
+    /// deform` says it (the report's advice); "" otherwise.
+    pub advice: String,
     /// Why the engine refused the document (the positions are then the last
     /// good ones).
     pub error: Option<String>,
@@ -348,6 +351,7 @@ fn serve(
             positions: Arc::new(l.positions().to_vec()),
             normals: last_normals.clone().unwrap_or_default(),
             diagnostics: l.diagnostics().cloned().map(Arc::new),
+            advice: l.report().map(|r| r.advice()).unwrap_or_default(),
             error,
             took: started.elapsed(),
             factorisations: l.factorisations(),

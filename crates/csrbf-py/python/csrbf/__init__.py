@@ -14,6 +14,9 @@ numpy arrays, keeps float32 as float32, and releases the GIL while it works.
 >>> mesh = csrbf.read_mesh("head.off")
 >>> out, report = csrbf.deform_mesh(mesh, "smile.json")
 >>> csrbf.write_mesh(out, "smile.ply")
+>>> live = csrbf.Session(mesh)                         # a live edit:
+>>> live.update_positions(controls)                    # a drag step, solved again
+>>> report = live.update(controls)                     # on release, checked
 
 Concepts:
 
@@ -36,6 +39,7 @@ from ._csrbf import (
     Error,
     Mesh,
     Report,
+    Session,
     System,
     __version__,
     build_profile,
@@ -52,6 +56,7 @@ __all__ = [
     "Error",
     "Mesh",
     "Report",
+    "Session",
     "System",
     "__version__",
     "build_profile",

@@ -350,6 +350,12 @@ impl Picker {
                 format!("! {}", w.numbered(csrbf::Numbering::Editor)),
             );
         }
+        if !f.advice.is_empty() {
+            ui.colored_label(
+                egui::Color32::from_rgb(255, 200, 80),
+                format!("! {}", f.advice),
+            );
+        }
         let dense = m.doc.controls.deformations.iter().any(|s| {
             let n = s.starts.len() as f64;
             n > 500.0 && s.options.radius > m.doc.diagonal() * 0.5
