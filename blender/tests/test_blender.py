@@ -224,3 +224,30 @@ def test_a_folding_edit_says_so_in_the_panel():
     got = core.shape_key_positions(obj, obj.csrbf.layer)
     assert np.allclose(got[north], [0.6, 0.0, 1.0], atol=1e-4), got[north]
     assert obj.csrbf.inside_out == 0
+
+
+ROAD = sorted((ROOT / "assets" / "controls" / "road").glob("*.json"))
+
+
+@pytest.mark.parametrize("controls", ROAD, ids=lambda p: p.name)
+def test_the_road_files_deform_as_the_package_does(controls):
+    """Issue 39: Deform from File gives csrbf.deform_mesh's positions bit for
+    bit and its figures for every file of assets/controls/road (the package,
+    in turn, gives `csrbf deform`'s: crates/csrbf-py/tests), the remedies'
+    advice in the panel when the edit folds."""
+    duck = controls.name.startswith("duck")
+    model = csrbf.read_mesh(ROOT / "assets" / "models" / ("pybullet_duck.obj" if duck else "cgal_head.off"))
+    obj = mesh_object(model, "duck" if duck else "head")
+    if duck:  # the file's part, as a vertex group of the whole duck
+        obj.vertex_groups.new(name="LOD3sp_LOD3spShape").add(list(range(len(model))), 1.0, "REPLACE")
+    assert bpy.ops.csrbf.deform_from_file(filepath=str(controls)) == {"FINISHED"}
+    rest = core.rest_positions(obj)
+    spec = core.resolve_groups(json.loads(controls.read_text()), obj)
+    want, report = csrbf.deform_mesh(csrbf.Mesh(rest, core.triangles(obj)), spec)
+    key = obj.data.shape_keys.key_blocks[1]
+    assert np.array_equal(core.shape_key_positions(obj, key.name), want.vertices)
+    assert obj.csrbf.moved == report.moved and obj.csrbf.inside_out == report.inside_out_faces
+    for w in report.warnings:
+        assert w in obj.csrbf.warnings
+    if report.inside_out_faces:
+        assert "to keep it from folding" in obj.csrbf.warnings, obj.csrbf.warnings

@@ -8,6 +8,7 @@ mod intersections;
 mod limits;
 mod meaning;
 mod pictures;
+mod road;
 mod side_files;
 mod stretch;
 mod support;

@@ -310,3 +310,46 @@ def test_a_session_deforms_as_deform_mesh_and_the_cli_do(tmp_path, cli):
         session.update(twice)
     assert np.array_equal(session.vertices, shown)
     assert "Session(1487 vertices" in repr(session)
+
+
+ROAD = sorted((HEAD.parents[1] / "controls" / "road").glob("*.json"))
+
+
+def _road_mesh(path):
+    return HEAD.parent / "pybullet_duck.obj" if path.name.startswith("duck") else HEAD
+
+
+def _road_untimed(report):
+    """As `_untimed`, and without the radius of a bounded search that
+    stopped early (it depends on the machine's speed)."""
+    out = _untimed(report)
+    for key in ("output", "files", "write_warnings"):
+        out.pop(key, None)
+    r = out.get("remedies")
+    if r is not None:
+        r.pop("advice", None)
+        if not r.get("complete"):
+            r.pop("radius_scale", None)
+            r.pop("complete", None)
+    return out
+
+
+@pytest.mark.parametrize("controls", ROAD, ids=lambda p: p.name)
+def test_the_road_files_deform_alike_in_python_and_the_cli(controls, tmp_path, cli):
+    """Issue 39: deform_mesh and a Session give `csrbf deform`'s positions bit
+    for bit and its report (times aside) for every file of
+    assets/controls/road (regions, handles, sweeps, chains, an empty layer,
+    a fold)."""
+    assert len(ROAD) >= 12, ROAD
+    model = _road_mesh(controls)
+    mesh = csrbf.read_mesh(model)
+    figures = cli("deform", "--mesh", model, "--controls", controls, "--phase", 0.7,
+                  "--out", tmp_path / "cli.ply", "--json")
+    theirs = csrbf.read_mesh(tmp_path / "cli.ply").vertices
+    out, report = csrbf.deform_mesh(mesh, controls, phase=0.7)
+    assert np.array_equal(out.vertices, theirs)
+    assert _road_untimed(report.to_dict()) == _road_untimed(figures)
+    session = csrbf.Session(mesh)
+    live = session.update(controls, phase=0.7)
+    assert np.array_equal(session.vertices, theirs)
+    assert _road_untimed(live.to_dict()) == _road_untimed(figures)
