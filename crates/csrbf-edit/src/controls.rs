@@ -369,8 +369,10 @@ impl ControlSpec {
         }
         match self.sweep {
             None => {}
-            Some(SweepOptions { steps: None }) => v["sweep"] = true.into(),
-            Some(SweepOptions { steps: Some(k) }) => v["sweep"] = serde_json::json!({ "steps": k }),
+            Some(o) => match o.steps {
+                None => v["sweep"] = true.into(),
+                Some(k) => v["sweep"] = serde_json::json!({ "steps": k }),
+            },
         }
         v
     }
@@ -723,7 +725,7 @@ fn parse_sweep(
                         })? as usize,
                 ),
             };
-            Ok(Some(SweepOptions { steps }))
+            Ok(Some(SweepOptions::default().with_steps(steps)))
         }
         Some(other) => Err(err(
             at,

@@ -184,17 +184,19 @@ impl Session {
         self.controls = controls;
         self.specs = specs;
         self.sync(mesh, file, stages, layers);
-        for (k, &layer) in self.layers.iter().enumerate() {
-            self.pipeline
-                .deformation(k)
-                .map_err(|source| SessionError { layer, source })?;
-        }
-        let layer = self.layers.first().copied().unwrap_or(0);
-        let moved = self
-            .pipeline
-            .evaluate()
-            .map_err(|source| SessionError { layer, source })?
-            .to_vec();
+        let layers = &self.layers;
+        let named = |e: csrbf::Error| {
+            // The pipeline names its stage; a stage is a layer with controls.
+            let layer = e
+                .stage()
+                .and_then(|k| layers.get(k).copied())
+                .unwrap_or_else(|| layers.first().copied().unwrap_or(0));
+            SessionError {
+                layer,
+                source: e.without_stage(),
+            }
+        };
+        let moved = self.pipeline.evaluate().map_err(named)?.to_vec();
         self.positions = moved;
         self.report = None;
         self.update_ms = t.elapsed().as_secs_f64() * 1e3;

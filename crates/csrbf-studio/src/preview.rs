@@ -335,7 +335,7 @@ fn serve(
         let error = result.err().map(|e| {
             use std::error::Error as _;
             match e.source() {
-                Some(s) => format!("layer {}: {s}", e.layer + 1),
+                Some(s) => format!("layer {}: {s}", e.layer),
                 None => e.to_string(),
             }
         });
@@ -430,7 +430,7 @@ mod tests {
         assert!(preview.wait(Duration::from_secs(20)));
         let frame = preview.latest().expect("a frame");
         let error = frame.error.as_deref().expect("refused");
-        assert!(error.starts_with("layer 1"), "{error}");
+        assert!(error.starts_with("layer 0"), "{error}");
         assert_eq!(&frame.positions[..], live.positions());
     }
 

@@ -1259,8 +1259,9 @@ fn a_regions_falloff_is_shown_and_edited() {
     }
 }
 
-/// Issue 23, bug 1: warnings number layers and controls as the panel does
-/// (layer 1, control 2), not as the file's JSON indices.
+/// Issue 39: warnings number layers and controls as the panel and the
+/// control file's JSON paths do, from 0 (issue 23 had the panel count from
+/// 1 while the CLI counted from 0).
 #[test]
 fn warnings_number_layers_and_controls_as_the_panel_does() {
     let dir = state_dir("warn-numbers-files");
@@ -1282,10 +1283,10 @@ fn warnings_number_layers_and_controls_as_the_panel_does() {
     settle(&mut h);
     let shown = h.get_by_label_contains("start(s) lie farther than R");
     let text = format!("{shown:?}");
-    // Both starts are off the head: the file would say "deformation 0" and
-    // "controls 0, 1".
+    // Both starts are off the head: the CLI says "deformation 0" and
+    // "controls 0, 1", the panel "layer 0" and "controls 0, 1".
     assert!(
-        text.contains("layer 1: ") && text.contains("controls 1, 2"),
+        text.contains("layer 0: ") && text.contains("controls 0, 1"),
         "{text}"
     );
 }

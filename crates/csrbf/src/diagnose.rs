@@ -195,16 +195,18 @@ impl fmt::Display for Warning {
     }
 }
 
-/// How a warning numbers deformations and controls: from 0 with the control
-/// file's words, as its JSON paths do (`deformation 0`, `controls 3`), or
-/// from 1 with an editor's (`layer 1`, `controls 4`, as the studio's panel
-/// names them). Mesh vertices and triangles are indices either way.
+/// How a warning words deformations: the control file's (`deformation 0`)
+/// or an editor's (`layer 0`, as the studio's panel names them). Either way
+/// deformations and controls are numbered from 0, as the control file's
+/// JSON paths number them (`deformations[1].controls[3]` is `deformation 1`,
+/// `controls 3`): one rule for every front end. Mesh vertices and triangles
+/// are indices too.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum Numbering {
-    /// `deformation 0`, controls from 0: the file's JSON indices.
+    /// `deformation 0`, `controls 3`: the file's words.
     File,
-    /// `layer 1`, controls from 1: what an editor shows.
+    /// `layer 0`, `controls 3`: an editor's words, the same numbers.
     Editor,
 }
 
@@ -230,7 +232,7 @@ impl fmt::Display for Numbered<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let (first, word) = match self.numbering {
             Numbering::File => (0, "deformation"),
-            Numbering::Editor => (1, "layer"),
+            Numbering::Editor => (0, "layer"),
         };
         let stage = |s: &usize| format!("{word} {}", s + first);
         let controls = |v: &[usize], count: usize| {
@@ -969,7 +971,7 @@ mod tests {
         assert_eq!(w.numbered(Numbering::File).to_string(), file);
         let editor = w.numbered(Numbering::Editor).to_string();
         assert!(
-            editor.starts_with("layer 1: ") && editor.ends_with("controls 3, 6"),
+            editor.starts_with("layer 0: ") && editor.ends_with("controls 2, 5"),
             "{editor}"
         );
         // Mesh indices are indices either way.

@@ -41,6 +41,16 @@ pub enum Error {
         /// Points given.
         got: usize,
     },
+    /// A pipeline stage that failed (its index in the pipeline), and why:
+    /// "stages[1]: radius of support must be ...".
+    #[error("stages[{index}]")]
+    Stage {
+        /// The stage's index.
+        index: usize,
+        /// Why it failed.
+        #[source]
+        source: Box<Error>,
+    },
     /// A pipeline stage that does not exist.
     #[error("stage {index} does not exist: the pipeline has {count} stage(s)")]
     StageIndex {
@@ -323,6 +333,35 @@ pub enum RegionError {
 
 /// The engine's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// The pipeline stage the error is about, when it names one.
+    pub fn stage(&self) -> Option<usize> {
+        match self {
+            Error::Stage { index, .. } | Error::SweepAdded { stage: index } => Some(*index),
+            _ => None,
+        }
+    }
+
+    /// The error without the stage it names ([`Error::Stage`]'s source).
+    pub fn without_stage(self) -> Error {
+        match self {
+            Error::Stage { source, .. } => *source,
+            e => e,
+        }
+    }
+}
+
+/// Names pipeline stage `index` in an error that does not already.
+pub(crate) fn at_stage(index: usize) -> impl FnOnce(Error) -> Error {
+    move |e| match e {
+        e @ (Error::Stage { .. } | Error::StageIndex { .. } | Error::SweepAdded { .. }) => e,
+        e => Error::Stage {
+            index,
+            source: Box::new(e),
+        },
+    }
+}
 
 /// The one check of a phase: within [0, 1] (NaN is not).
 pub(crate) fn check_phase(phase: f64) -> Result<()> {

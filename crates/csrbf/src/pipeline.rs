@@ -18,7 +18,7 @@ use glam::{DVec3, Vec3};
 use crate::binding::Binding;
 use crate::deformation::Deformation;
 use crate::diagnose::StageReach;
-use crate::error::{Error, NameError, Result};
+use crate::error::{Error, NameError, Result, at_stage};
 use crate::region::Region;
 use crate::sweep::{Paths, SweepOptions};
 use crate::system::{FitOptions, System};
@@ -472,8 +472,11 @@ impl Pipeline {
         Ok(())
     }
 
-    /// A new region for stage `i`.
+    /// A new region for stage `i`, refused at once when no point could be
+    /// in it ([`Region::check`]: a sphere or box not finite, a falloff of no
+    /// width).
     pub fn set_region(&mut self, i: usize, region: Region) -> Result<()> {
+        region.check()?;
         let g = self.bump();
         let s = self.state(i)?;
         s.stage.region = region;
@@ -503,7 +506,7 @@ impl Pipeline {
 
     /// The deformation of stage `i`, fitting it if needed.
     pub fn deformation(&mut self, i: usize) -> Result<&Deformation> {
-        self.refresh_deformation(i)?;
+        self.refresh_deformation(i).map_err(at_stage(i))?;
         // refresh_deformation filled it, or returned the error.
         Ok(&self.stages[i]
             .deformation
@@ -514,7 +517,7 @@ impl Pipeline {
 
     /// The system of stage `i`, building it if needed.
     pub fn system(&mut self, i: usize) -> Result<&System> {
-        self.refresh_system(i)?;
+        self.refresh_system(i).map_err(at_stage(i))?;
         // refresh_system filled it, or returned the error.
         Ok(&self.stages[i].system.as_ref().expect("just refreshed").1)
     }
@@ -562,7 +565,7 @@ impl Pipeline {
     pub fn to_replay(&mut self) -> Result<crate::format::Replay> {
         let mut stages = Vec::with_capacity(self.stages.len());
         for i in 0..self.stages.len() {
-            self.refresh_deformation(i)?;
+            self.refresh_deformation(i).map_err(at_stage(i))?;
             stages.extend(self.fitted_stages(i).expect("just refreshed"));
         }
         // The points alone: the faces are the caller's (a file saved from
@@ -581,8 +584,8 @@ impl Pipeline {
     pub fn evaluate(&mut self) -> Result<&[Vec3]> {
         let mut input_gen = self.gen_rest;
         for i in 0..self.stages.len() {
-            self.refresh_deformation(i)?;
-            input_gen = self.refresh_output(i, input_gen)?;
+            self.refresh_deformation(i).map_err(at_stage(i))?;
+            input_gen = self.refresh_output(i, input_gen).map_err(at_stage(i))?;
         }
         self.current = true;
         Ok(self.last_points())
@@ -765,9 +768,13 @@ pub(crate) fn deformation_index(stages: &[FittedStage], at: usize) -> usize {
 /// at the rest points. A region naming a part needs
 /// [`compose_with_groups`].
 ///
-/// It evaluates in f64 and rounds once; a [`Pipeline`] goes through a
-/// [`Binding`] (the f32 evaluation's sums), so the two differ by about 1e-7
-/// of the sum of |coefficient| over the starts within R (see [`Binding`]).
+/// What it computes, per stage: the displacement by the f32 evaluation
+/// ([`Deformation::displacements_f32`]), times the stage's phase and the
+/// point's region weight, added to the point in f32 (p + D(p) t w). A
+/// [`Pipeline`] computes the same through its [`Binding`]s (whose product is
+/// the f32 evaluation's, bit for bit), so the two give the same positions
+/// bit for bit. A sweep's steps carry the region's points in f64 through
+/// the f64 evaluation and round once after each stage's last step.
 pub fn compose(rest: &[Vec3], stages: &[FittedStage], combine: Combine) -> Result<Vec<Vec3>> {
     compose_traced(rest, stages, combine, &|_| None, None)
 }

@@ -32,12 +32,29 @@ use crate::octree::Octree;
 use crate::system::{FitOptions, System};
 
 /// How a sweep chooses its steps (the control file's `"sweep"`).
+///
+/// ```
+/// use csrbf::SweepOptions;
+/// let certified = SweepOptions::default(); // the fewest steps that cannot fold
+/// let fixed = SweepOptions::default().with_steps(Some(8));
+/// assert_eq!((certified.steps, fixed.steps), (None, Some(8)));
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[non_exhaustive]
 pub struct SweepOptions {
-    /// A fixed number of steps (`"sweep": {"steps": k}`); None: the fewest
-    /// whose every step is certified (`"sweep": true`).
+    /// A fixed number of steps (`"sweep": {"steps": k}`, 1 to
+    /// [`MAX_STEPS`]); None (the default): the fewest whose every step is
+    /// certified (`"sweep": true`).
     pub steps: Option<usize>,
+}
+
+impl SweepOptions {
+    /// With a fixed number of steps, or (None) the fewest certified.
+    pub fn with_steps(mut self, steps: Option<usize>) -> SweepOptions {
+        self.steps = steps;
+        self
+    }
 }
 
 /// The most steps a sweep takes before it gives up.

@@ -671,10 +671,25 @@ fn stage_indices_phases_and_bindings_are_named() {
     let opts = FitOptions::new(0.5);
     let mut p = Pipeline::new(vec![Vec3::ZERO; 4]);
     p.push(Stage::new(s.clone(), t.clone(), opts).with_phase(7.0));
-    assert_eq!(p.evaluate().err(), Some(Error::BadPhase(7.0)));
+    // The stage is named (issue 39: "stages[0]: phase must be ...").
+    let e = p.evaluate().err();
+    assert_eq!(
+        e,
+        Some(Error::Stage {
+            index: 0,
+            source: Box::new(Error::BadPhase(7.0))
+        })
+    );
+    assert_eq!(e.and_then(|e| e.stage()), Some(0));
     assert_eq!(p.set_phase(0, 2.0), Err(Error::BadPhase(2.0)));
     p.set_phase(0, 0.5).expect("phase");
     assert!(p.evaluate().is_ok());
+    // A region no point could be in is refused when it is set.
+    let bad = Region::Sphere {
+        center: DVec3::ZERO,
+        radius: f64::NAN,
+    };
+    assert!(matches!(p.set_region(0, bad), Err(Error::Region(_))));
     assert_eq!(
         p.set_phase(9, 0.5),
         Err(Error::StageIndex { index: 9, count: 1 })

@@ -107,9 +107,7 @@ impl Picker {
         let spec = m.doc.controls.deformations[l].clone();
         ui.heading(format!(
             "{} parameters",
-            spec.name
-                .clone()
-                .unwrap_or_else(|| format!("Layer {}", l + 1))
+            spec.name.clone().unwrap_or_else(|| format!("Layer {l}"))
         ));
         let r = radius_ui(ui, m, &spec);
         self.view.all_spheres = r.dragged() || r.has_focus();
@@ -222,16 +220,16 @@ impl Picker {
             said = Some(match target {
                 VertexTarget::Handle => format!(
                     "Layer {} is a handle of {n} vertices: turn it with its rings (Vertices tool)",
-                    m.doc.active_layer + 1
+                    m.doc.active_layer
                 ),
-                VertexTarget::Anchor => format!("{n} vertices anchor layer {}", l + 1),
-                VertexTarget::Region => format!("Layer {} acts on {n} vertices", l + 1),
+                VertexTarget::Anchor => format!("{n} vertices anchor layer {l}"),
+                VertexTarget::Region => format!("Layer {l} acts on {n} vertices"),
             });
         }
         if let Some(h) = spec.handle.clone() {
             ui.label(format!(
                 "Layer {} is a handle: with the Vertices tool, drag an axis ring to turn it, or inside the yellow ring to rotate, scale or move it",
-                l + 1
+                l
             ));
             ui.horizontal(|ui| {
                 ui.radio_value(&mut self.handle_mode, HandleMode::Rotate, "rotate");
@@ -254,7 +252,7 @@ impl Picker {
             {
                 said = Some(format!(
                     "Layer {}'s handle turns about its selection's centre again",
-                    l + 1
+                    l
                 ));
             }
             if pick {
@@ -380,10 +378,7 @@ fn layer_row(ui: &mut egui::Ui, m: &mut Model, l: usize) -> Option<Option<Comman
     } else {
         ""
     };
-    let name = spec
-        .name
-        .clone()
-        .unwrap_or_else(|| format!("Layer {}", l + 1));
+    let name = spec.name.clone().unwrap_or_else(|| format!("Layer {l}"));
     if ui
         .selectable_label(m.doc.active_layer == l, format!("{name} ({count}{handle})"))
         .on_hover_text("New controls go to the active layer")
@@ -430,7 +425,7 @@ fn layer_name_ui(ui: &mut egui::Ui, m: &Model) -> Option<Command> {
         ui.label("name");
         let r = ui.add(
             egui::TextEdit::singleline(&mut name)
-                .hint_text(format!("Layer {}", active + 1))
+                .hint_text(format!("Layer {active}"))
                 .desired_width(160.0),
         );
         if r.lost_focus() && name != old {
@@ -695,7 +690,7 @@ fn control_ui(ui: &mut egui::Ui, m: &Model, (layer, index): (usize, usize)) -> V
         return commands;
     };
     let (mut s, mut t) = (start, target);
-    ui.label(format!("Layer {}, control {}", layer + 1, index + 1));
+    ui.label(format!("Layer {layer}, control {index}"));
     let speed = m.doc.diagonal() * 1e-3;
     let changed_s = vec3_ui(ui, "start", &mut s, speed);
     let changed_t = vec3_ui(ui, "destination", &mut t, speed);

@@ -340,10 +340,7 @@ impl Picker {
         );
         self.status = format!(
             "Pivot of layer {} at ({:.4}, {:.4}, {:.4})",
-            layer + 1,
-            hit.rest.x,
-            hit.rest.y,
-            hit.rest.z
+            layer, hit.rest.x, hit.rest.y, hit.rest.z
         );
     }
 
@@ -393,12 +390,7 @@ impl Picker {
         }
         self.status = format!(
             "Control {} of layer {} at ({:.4}, {:.4}, {:.4}), triangle {}: drag to set its destination",
-            index + 1,
-            layer + 1,
-            hit.rest.x,
-            hit.rest.y,
-            hit.rest.z,
-            hit.triangle
+            index, layer, hit.rest.x, hit.rest.y, hit.rest.z, hit.triangle
         );
     }
 
@@ -900,14 +892,13 @@ fn made_status(m: &Model, (layer, index): (usize, usize), end: End) -> String {
     if length == 0.0 {
         format!(
             "Control {} of layer {}: a pin (its destination is its start)",
-            index + 1,
-            layer + 1
+            index, layer
         )
     } else {
         format!(
             "Control {} of layer {}: {moved} set; it moves {length:.4} ({:.1} % of R)",
-            index + 1,
-            layer + 1,
+            index,
+            layer,
             length / s.options.radius * 100.0
         )
     }

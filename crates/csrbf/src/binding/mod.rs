@@ -51,10 +51,7 @@ use crate::system::Shared;
 ///
 /// Measured at 1M points and 10,000 starts (about 43 in reach of each
 /// point, `csrbf bench --scene 1m`): a bind costs less than one
-/// evaluation, a product about half of one. Storing each pair's weight
-/// (this type's earlier form: 3.3 bytes a pair, 160 MB) made a refit
-/// (solve and product) about as fast at 1M points (30 % faster at 100k,
-/// whose weights stayed in the caches) and a bind 2.6 times an evaluation.
+/// evaluation, a product about half of one.
 ///
 /// A binding remembers the fingerprint of the starts, kernel and radius it
 /// was made for and refuses any other deformation

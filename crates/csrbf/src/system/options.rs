@@ -50,8 +50,8 @@ impl FitOptions {
     /// assert_eq!((o.radius, o.kernel), (0.3, Kernel::C4));
     /// ```
     ///
-    /// There is no `Default`: a radius must be chosen (issue 21; forgetting
-    /// it once moved 5806 of a 6200-vertex model).
+    /// There is no `Default`: a radius must be chosen for the model's size
+    /// (a radius that does not fit the model moves all of it or none).
     ///
     /// ```compile_fail
     /// let o = csrbf::FitOptions::default();
