@@ -55,11 +55,7 @@ impl PySession {
         let file = control_file(py, controls)?;
         let (mesh, inner) = (&self.mesh, &mut self.inner);
         let report = py
-            .detach(|| {
-                inner
-                    .update(mesh, &file, phase, &checks, search)
-                    .map(Clone::clone)
-            })
+            .detach(|| inner.update(mesh, &file, phase, &checks, search).cloned())
             .map_err(|e| error(&e))?;
         Ok(PyReport { inner: report })
     }

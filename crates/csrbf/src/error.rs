@@ -42,7 +42,7 @@ pub enum Error {
         got: usize,
     },
     /// A pipeline stage that failed (its index in the pipeline), and why:
-    /// "stages[1]: radius of support must be ...".
+    /// `stages[1]: radius of support must be ...`.
     #[error("stages[{index}]")]
     Stage {
         /// The stage's index.
