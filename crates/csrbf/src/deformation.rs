@@ -1,14 +1,34 @@
-//! A fitted deformation: the space map T(x) = x + D(x), evaluated anywhere.
+//! A fitted deformation: the space map T(x) = x + D(x), as data. The
+//! fitted values every other module reads (its evaluation is `displace`,
+//! its bytes `format`, its checks `diagnose`, its fit `system`); this
+//! module imports none of them.
 
 use std::sync::Arc;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, DVec4};
 
-use crate::error::{Error, FitError, Result};
-use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, Points, PointsMut, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
-use crate::system::{FitOptions, System, prow};
+use crate::options::FitOptions;
+
+/// Row (1, u) of P for a start, with u = (s - centre) / scale.
+#[inline]
+pub(crate) fn prow(s: DVec3, center: DVec3, scale: f64) -> DVec4 {
+    let u = (s - center) / scale;
+    DVec4::new(1.0, u.x, u.y, u.z)
+}
+
+/// What every deformation a system solves shares with it: the starts, their
+/// order and octree, and the fingerprint a [`crate::Binding`] checks.
+#[derive(Debug)]
+pub(crate) struct Shared {
+    pub(crate) kernel: Kernel,
+    pub(crate) radius: f64,
+    pub(crate) starts: Arc<[DVec3]>,
+    pub(crate) order: Arc<[u32]>,
+    pub(crate) octree: Arc<Octree>,
+    pub(crate) fingerprint: u64,
+}
 
 /// The linear part p(x) = c0 + c1 u.x + c2 u.y + c3 u.z, with
 /// u = (x - center) / scale (centred and scaled for conditioning).
@@ -105,17 +125,17 @@ impl Linear {
 /// whether a deformation is one it was made for.
 #[derive(Clone, Debug)]
 pub struct Deformation {
-    kernel: Kernel,
-    radius: f64,
-    starts: Arc<[DVec3]>,
-    coefficients: Vec<DVec3>,
-    affine: Option<Affine>,
-    order: Arc<[u32]>,
-    octree: Arc<Octree>,
-    fingerprint: u64,
+    pub(crate) kernel: Kernel,
+    pub(crate) radius: f64,
+    pub(crate) starts: Arc<[DVec3]>,
+    pub(crate) coefficients: Vec<DVec3>,
+    pub(crate) affine: Option<Affine>,
+    pub(crate) order: Arc<[u32]>,
+    pub(crate) octree: Arc<Octree>,
+    pub(crate) fingerprint: u64,
     /// The largest move it makes at a start (destination less start): the
     /// scale against which f32 sums are judged ([`Deformation::f32_reach`]).
-    moves: f64,
+    pub(crate) moves: f64,
 }
 
 /// How many times the largest move the coefficients within reach of a
@@ -161,35 +181,6 @@ impl PartialEq for Deformation {
 }
 
 impl Deformation {
-    /// Fits the deformation carrying each start to its destination. Use
-    /// [`System`] directly to solve again for new destinations cheaply.
-    ///
-    /// ```
-    /// use csrbf::{Deformation, FitOptions, Kernel, Polynomial};
-    /// use glam::DVec3;
-    ///
-    /// let starts = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
-    /// let targets = [DVec3::new(0.0, 0.0, 0.1), DVec3::X, DVec3::Y, DVec3::Z];
-    /// let opts = FitOptions::new(1.5).with_polynomial(Polynomial::None);
-    /// let d = Deformation::fit(&starts, &targets, opts)?;
-    /// assert!((d.map(DVec3::ZERO) - targets[0]).length() < 1e-12);
-    /// assert_eq!(d.displacement_at(DVec3::splat(10.0)), DVec3::ZERO);
-    /// # Ok::<(), csrbf::Error>(())
-    /// ```
-    pub fn fit<P: Point>(
-        starts: &[P],
-        targets: &[P],
-        options: FitOptions,
-    ) -> Result<Deformation, FitError> {
-        if starts.len() != targets.len() {
-            return Err(FitError::LengthMismatch {
-                starts: starts.len(),
-                targets: targets.len(),
-            });
-        }
-        System::new(starts, options)?.solve(targets)
-    }
-
     /// Puts a deformation together from its stored parts (the replay file):
     /// the octree and fingerprint are computed here.
     pub(crate) fn from_parts(
@@ -238,7 +229,7 @@ impl Deformation {
 
     /// A deformation of a system's shared starts and octree (no copy).
     pub(crate) fn from_shared(
-        shared: &crate::system::Shared,
+        shared: &Shared,
         coefficients: Vec<DVec3>,
         affine: Option<Affine>,
         moves: f64,
@@ -270,14 +261,6 @@ impl Deformation {
         self.moves = moves;
     }
 
-    /// The starts farther than R from every one of `points`, by index: they
-    /// move none of them (the diagnostics' `StartsFarFromMesh`, for a
-    /// caller that checks before fitting or posing). f32 or f64 points,
-    /// compared as they are.
-    pub fn starts_out_of_reach<P: Point>(&self, points: &[P]) -> Vec<usize> {
-        crate::diagnose::out_of_reach(&self.octree, self.starts.len(), self.radius, points)
-    }
-
     /// The largest move it makes at a start (a destination less its
     /// start): the scale its coefficients are judged against.
     pub fn largest_move(&self) -> f64 {
@@ -295,36 +278,6 @@ impl Deformation {
     /// equal for every deformation solved from one [`System`].
     pub fn fingerprint(&self) -> u64 {
         self.fingerprint
-    }
-
-    /// Encodes it alone as a `.csrbf` file's bytes (over every point, at
-    /// full phase): what `csrbf fit` writes for a file of one deformation.
-    pub fn to_bytes(&self) -> Vec<u8> {
-        crate::format::encode(
-            &[crate::FittedStage::new(self.clone())],
-            crate::Combine::Chain,
-        )
-    }
-
-    /// Decodes a `.csrbf` file of one deformation over every point at full
-    /// phase (what [`Deformation::to_bytes`] writes). A file of several
-    /// deformations, or of one with a region or another phase, is refused:
-    /// read it with [`crate::format::decode`].
-    pub fn from_bytes(bytes: &[u8]) -> Result<Deformation> {
-        let replay = crate::format::decode(bytes)?;
-        let n = replay.stages.len();
-        let mut stages = replay.stages.into_iter();
-        match (stages.next(), n) {
-            (Some(s), 1) if s.region == crate::Region::All && s.phase == 1.0 => Ok(s.deformation),
-            (Some(s), 1) => Err(crate::error::FormatError::NotSingle(format!(
-                "its deformation has region {} and phase {}",
-                s.region, s.phase
-            ))
-            .into()),
-            _ => Err(
-                crate::error::FormatError::NotSingle(format!("it holds {n} deformations")).into(),
-            ),
-        }
     }
 
     /// The kernel.
@@ -367,230 +320,5 @@ impl Deformation {
     /// The octree over the starts, shared (a [`crate::Binding`] keeps it).
     pub(crate) fn octree_shared(&self) -> &Arc<Octree> {
         &self.octree
-    }
-
-    /// The displacement D(x) = sum alpha_j phi(|x - s_j| / R) + p(x); NaN
-    /// for a point with a non-finite coordinate.
-    pub fn displacement_at(&self, x: DVec3) -> DVec3 {
-        if !x.is_finite() {
-            return DVec3::NAN;
-        }
-        let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
-        let inv = 1.0 / self.radius;
-        self.octree.for_each_within(x, self.radius, |j, d2| {
-            d += self.coefficients[j as usize] * self.kernel.eval(d2.sqrt() * inv);
-        });
-        d
-    }
-
-    /// The mapped point T(x) = x + D(x).
-    pub fn map(&self, x: DVec3) -> DVec3 {
-        x + self.displacement_at(x)
-    }
-
-    /// D at every point, in parallel for large inputs. A point with a
-    /// non-finite coordinate gets a NaN displacement (NaN in, NaN out), with
-    /// or without the polynomial part; the other points are not affected.
-    pub fn displacements<P: Point>(&self, points: &[P]) -> Vec<DVec3> {
-        let mut out = vec![DVec3::ZERO; points.len()];
-        self.fill_f64(P::slice(points), &mut out);
-        out
-    }
-
-    /// D at every point as f32 vectors, for vertex buffers. Where points are
-    /// sorted into cells (more than a few dozen starts), the kernel sum runs
-    /// in f32 eight or sixteen points at a time: it agrees with
-    /// [`Deformation::displacements`] to about 1e-7 of the sum of |alpha_j|
-    /// over the starts within R (the tests allow 2e-6); the polynomial part
-    /// is added in f64. A cell whose starts in reach have coefficients
-    /// summing past 1000 times [`Deformation::largest_move`] (a nearly
-    /// singular system) is summed in f64: f32 would keep only the rounding
-    /// of coefficients that cancel.
-    /// [`Deformation::evaluation_counts`] says how much work it does.
-    pub fn displacements_f32<P: Point>(&self, points: &[P]) -> Vec<Vec3> {
-        let mut out = vec![Vec3::ZERO; points.len()];
-        self.fill_f32(P::slice(points), &mut out);
-        out
-    }
-
-    /// D at every point written into `out` (no allocation when the points
-    /// are evaluated in their own order, one buffer of `out`'s size when
-    /// they are sorted into cells). Fails when the lengths differ.
-    pub fn displacements_into<P: Point>(&self, points: &[P], out: &mut [DVec3]) -> Result<()> {
-        check_len("displacement buffer", points.len(), out.len())?;
-        self.fill_f64(P::slice(points), out);
-        Ok(())
-    }
-
-    /// [`Deformation::displacements_into`] with f32 vectors.
-    pub fn displacements_f32_into<P: Point>(&self, points: &[P], out: &mut [Vec3]) -> Result<()> {
-        check_len("displacement buffer", points.len(), out.len())?;
-        self.fill_f32(P::slice(points), out);
-        Ok(())
-    }
-
-    /// Moves every point to x + phase * D(x), in place. The displacements
-    /// are evaluated at the points as given (into one temporary buffer) and
-    /// then added, so the result does not depend on the order of the points.
-    ///
-    /// ```
-    /// use csrbf::{Deformation, FitOptions};
-    /// use csrbf::glam::Vec3;
-    ///
-    /// let d = Deformation::fit(&[Vec3::ZERO], &[Vec3::Z], FitOptions::new(1.0))?;
-    /// let mut mesh = vec![Vec3::ZERO, Vec3::X * 2.0];
-    /// d.deform_in_place(&mut mesh, 0.5)?;
-    /// assert!((mesh[0].z - 0.5).abs() < 1e-6 && mesh[1] == Vec3::X * 2.0);
-    /// # Ok::<(), csrbf::Error>(())
-    /// ```
-    pub fn deform_in_place<P: Point>(&self, points: &mut [P], phase: f64) -> Result<()> {
-        crate::error::check_phase(phase)?;
-        match P::slice_mut(points) {
-            PointsMut::F32(p) => {
-                let mut d = vec![Vec3::ZERO; p.len()];
-                self.fill_f32(Points::F32(p), &mut d);
-                let t = phase as f32;
-                for (p, d) in p.iter_mut().zip(d) {
-                    *p += d * t;
-                }
-            }
-            PointsMut::F64(p) => {
-                let mut d = vec![DVec3::ZERO; p.len()];
-                self.fill_f64(Points::F64(p), &mut d);
-                for (p, d) in p.iter_mut().zip(d) {
-                    *p += d * phase;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    // The hot loops, compiled here (not in the caller's crate) for each kind.
-    fn fill_f64(&self, points: Points<'_>, out: &mut [DVec3]) {
-        match points {
-            Points::F32(p) => self.f64_of_f32(p, out),
-            Points::F64(p) => self.f64_of_f64(p, out),
-        }
-    }
-
-    fn fill_f32(&self, points: Points<'_>, out: &mut [Vec3]) {
-        match points {
-            Points::F32(p) => self.f32_of_f32(p, out),
-            Points::F64(p) => self.f32_of_f64(p, out),
-        }
-    }
-
-    #[inline(never)]
-    fn f64_of_f32(&self, points: &[Vec3], out: &mut [DVec3]) {
-        self.displacements_sorted(points, out, |d, _| d, |_| {});
-    }
-
-    #[inline(never)]
-    fn f64_of_f64(&self, points: &[DVec3], out: &mut [DVec3]) {
-        self.displacements_sorted(points, out, |d, _| d, |_| {});
-    }
-
-    #[inline(never)]
-    fn f32_of_f32(&self, points: &[Vec3], out: &mut [Vec3]) {
-        crate::lanes::displacements(self, points, out);
-    }
-
-    #[inline(never)]
-    fn f32_of_f64(&self, points: &[DVec3], out: &mut [Vec3]) {
-        crate::lanes::displacements(self, points, out);
-    }
-
-    /// D at every point as f32 vectors, with what the diagnostics need from
-    /// the same pass: whether each point lies within R of some start, and
-    /// whether each start lies within R of some point.
-    pub(crate) fn displacements_reach(&self, points: &[Vec3]) -> (Vec<Vec3>, Vec<bool>, Vec<bool>) {
-        use std::sync::atomic::{AtomicBool, Ordering};
-        let touched: Vec<AtomicBool> = self.starts.iter().map(|_| AtomicBool::new(false)).collect();
-        let mut out = vec![(Vec3::ZERO, false); points.len()];
-        self.displacements_sorted(
-            points,
-            &mut out,
-            |d, near| (d.as_vec3(), near),
-            |j| {
-                // A read first: a start hit by many points is written once.
-                let t = &touched[j as usize];
-                if !t.load(Ordering::Relaxed) {
-                    t.store(true, Ordering::Relaxed);
-                }
-            },
-        );
-        let (d, near) = out.into_iter().unzip();
-        (
-            d,
-            near,
-            touched.into_iter().map(AtomicBool::into_inner).collect(),
-        )
-    }
-
-    /// Evaluates by cells and writes `conv(D, near)` into `out` (point
-    /// order), `near` telling whether any start lay within R; `hit(j)` is
-    /// called for every start within R of a point.
-    fn displacements_sorted<P: Point, T: Copy + Send + Sync + Default>(
-        &self,
-        points: &[P],
-        out: &mut [T],
-        conv: impl Fn(DVec3, bool) -> T + Sync + Send,
-        hit: impl Fn(u32) + Sync + Send,
-    ) {
-        let blocks = Blocks::for_starts(points, self.radius, self.starts.len());
-        let mut buffer = Vec::new();
-        let sorted = if blocks.identity {
-            &mut *out
-        } else {
-            buffer.resize(points.len(), T::default());
-            &mut buffer[..]
-        };
-        let (kernel, radius) = (self.kernel, self.radius);
-        for_each_cell(
-            &blocks,
-            sorted,
-            points.len() >= PARALLEL_POINTS,
-            |(s, e), out, cand| {
-                let idx = &blocks.order[s..e];
-                cand.gather(
-                    &self.octree,
-                    idx.iter().map(|&i| points[i as usize].to_dvec3()),
-                    radius,
-                );
-                for (o, &i) in out.iter_mut().zip(idx) {
-                    let x = points[i as usize].to_dvec3();
-                    if !x.is_finite() {
-                        *o = conv(DVec3::NAN, false);
-                        continue;
-                    }
-                    let mut d = self.affine.map_or(DVec3::ZERO, |a| a.eval(x));
-                    let mut near = false;
-                    cand.for_each_weight(x, kernel, radius, |j, w| {
-                        d += self.coefficients[j as usize] * w;
-                        near = true;
-                        hit(j);
-                    });
-                    *o = conv(d, near);
-                }
-            },
-        );
-        if !blocks.identity {
-            for (k, &i) in blocks.order.iter().enumerate() {
-                out[i as usize] = buffer[k];
-            }
-        }
-    }
-}
-
-/// `Ok` when a buffer has the length its points need.
-pub(crate) fn check_len(what: &'static str, expected: usize, got: usize) -> Result<()> {
-    if expected == got {
-        Ok(())
-    } else {
-        Err(Error::PointCount {
-            what,
-            expected,
-            got,
-        })
     }
 }

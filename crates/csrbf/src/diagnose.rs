@@ -32,6 +32,7 @@ use crate::evaluate::{Blocks, PARALLEL_POINTS, Point, for_each_cell};
 use crate::kernel::{Kernel, Polynomial};
 use crate::octree::Octree;
 use crate::region::Region;
+use crate::stage::StageReach;
 
 /// How many times its largest move a deformation's largest coefficient may
 /// be before it is warned of as nearly singular. Well-posed edits stay far
@@ -513,7 +514,7 @@ pub fn compose_diagnosed_with(
 ) -> Result<(Vec<Vec3>, Diagnostics)> {
     options.check()?;
     let mut traced = Vec::with_capacity(stages.len());
-    let moved = crate::pipeline::compose_traced(rest, stages, combine, groups, Some(&mut traced))?;
+    let moved = crate::stage::compose_traced(rest, stages, combine, groups, Some(&mut traced))?;
     let report = diagnose_with(
         rest,
         &moved,
@@ -524,17 +525,6 @@ pub fn compose_diagnosed_with(
         Some(&traced),
     )?;
     Ok((moved, report))
-}
-
-/// What one stage's evaluation saw: the points of its region, which of them
-/// lie within R of a start, which starts lie within R of one of them.
-pub(crate) struct StageReach {
-    /// The region's points, ascending.
-    pub(crate) selected: Vec<u32>,
-    /// Per selected point.
-    pub(crate) near: Vec<bool>,
-    /// Per start.
-    pub(crate) touched: Vec<bool>,
 }
 
 fn diagnose_with(
@@ -584,7 +574,7 @@ fn diagnose_with(
         let (def, region, phase) = (&stage.deformation, &stage.region, &stage.applied_phase());
         // Warnings name the deformation as the user numbers them: a sweep's
         // steps are one deformation, and its first step speaks for it.
-        let k = crate::pipeline::deformation_index(stages, at);
+        let k = crate::stage::deformation_index(stages, at);
         let later_step = stage.sweep.is_some_and(|s| s.index > 0);
         any_linear |= def.polynomial() == Polynomial::Linear;
         let own;
@@ -951,6 +941,25 @@ fn flipped_faces(
             agreed && own_r.dot(around_r) > 0.0 && own_m.dot(around_m) < 0.0
         })
         .collect()
+}
+
+impl crate::System {
+    /// The starts farther than R from every one of `points`, by index
+    /// ([`Deformation::starts_out_of_reach`], before any solve).
+    pub fn starts_out_of_reach<P: Point>(&self, points: &[P]) -> Vec<usize> {
+        let s = &self.shared;
+        out_of_reach(&s.octree, s.starts.len(), s.radius, points)
+    }
+}
+
+impl Deformation {
+    /// The starts farther than R from every one of `points`, by index: they
+    /// move none of them (the diagnostics' `StartsFarFromMesh`, for a
+    /// caller that checks before fitting or posing). f32 or f64 points,
+    /// compared as they are.
+    pub fn starts_out_of_reach<P: Point>(&self, points: &[P]) -> Vec<usize> {
+        crate::diagnose::out_of_reach(&self.octree, self.starts.len(), self.radius, points)
+    }
 }
 
 #[cfg(test)]

@@ -208,8 +208,8 @@ pub enum FitError {
         /// What was given.
         got: usize,
     },
-    /// A sweep's step count is 0 or above [`crate::MAX_STEPS`].
-    #[error("a sweep takes 1 to {} steps, got {steps}", crate::MAX_STEPS)]
+    /// A sweep's step count is 0 or above [`MAX_STEPS`].
+    #[error("a sweep takes 1 to {} steps, got {steps}", MAX_STEPS)]
     SweepSteps {
         /// The count asked for.
         steps: usize,
@@ -349,6 +349,22 @@ impl Error {
             Error::Stage { source, .. } => *source,
             e => e,
         }
+    }
+}
+
+/// The most steps a sweep takes before it gives up.
+pub const MAX_STEPS: usize = 1024;
+
+/// `Ok` when a buffer has the length its points need.
+pub(crate) fn check_len(what: &'static str, expected: usize, got: usize) -> Result<()> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(Error::PointCount {
+            what,
+            expected,
+            got,
+        })
     }
 }
 

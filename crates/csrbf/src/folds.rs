@@ -21,8 +21,8 @@ use rayon::prelude::*;
 
 use crate::error::Result;
 use crate::jacobian::fold_phase;
-use crate::pipeline::{Combine, FittedStage};
 use crate::region::Region;
+use crate::stage::{Combine, FittedStage};
 
 /// What [`folds`] found.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -39,9 +39,9 @@ use glam::DVec3;
 use crate::deformation::{Affine, Deformation};
 use crate::error::{Error, FormatError, Result};
 use crate::kernel::{Kernel, Polynomial};
-use crate::pipeline::Combine;
-use crate::pipeline::{FittedStage, SweepStep};
 use crate::region::{Origin, Region};
+use crate::stage::Combine;
+use crate::stage::{FittedStage, SweepStep};
 
 /// The file's first bytes.
 pub const MAGIC: &[u8; 6] = b"CSRBF\0";
@@ -147,7 +147,7 @@ impl Replay {
         rest: &[glam::Vec3],
         groups: &dyn Fn(&str) -> Option<Vec<u32>>,
     ) -> Result<Vec<glam::Vec3>> {
-        crate::pipeline::compose_with_groups(rest, &self.stages, self.combine, groups)
+        crate::stage::compose_with_groups(rest, &self.stages, self.combine, groups)
     }
 }
 
@@ -626,6 +626,38 @@ pub fn to_json(stages: &[FittedStage], combine: Combine) -> serde_json::Value {
         })
         .collect();
     serde_json::json!({ "format": "csrbf", "version": VERSION, "combine": combine, "deformations": list })
+}
+
+impl Deformation {
+    /// Encodes it alone as a `.csrbf` file's bytes (over every point, at
+    /// full phase): what `csrbf fit` writes for a file of one deformation.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        crate::format::encode(
+            &[crate::FittedStage::new(self.clone())],
+            crate::Combine::Chain,
+        )
+    }
+
+    /// Decodes a `.csrbf` file of one deformation over every point at full
+    /// phase (what [`Deformation::to_bytes`] writes). A file of several
+    /// deformations, or of one with a region or another phase, is refused:
+    /// read it with [`crate::format::decode`].
+    pub fn from_bytes(bytes: &[u8]) -> Result<Deformation> {
+        let replay = crate::format::decode(bytes)?;
+        let n = replay.stages.len();
+        let mut stages = replay.stages.into_iter();
+        match (stages.next(), n) {
+            (Some(s), 1) if s.region == crate::Region::All && s.phase == 1.0 => Ok(s.deformation),
+            (Some(s), 1) => Err(crate::error::FormatError::NotSingle(format!(
+                "its deformation has region {} and phase {}",
+                s.region, s.phase
+            ))
+            .into()),
+            _ => Err(
+                crate::error::FormatError::NotSingle(format!("it holds {n} deformations")).into(),
+            ),
+        }
+    }
 }
 
 #[cfg(test)]

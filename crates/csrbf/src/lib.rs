@@ -190,6 +190,7 @@ pub use glam;
 mod binding;
 mod deformation;
 mod diagnose;
+mod displace;
 mod error;
 mod evaluate;
 mod folds;
@@ -201,12 +202,14 @@ mod jacobian;
 mod kernel;
 mod lanes;
 mod octree;
+mod options;
 pub mod ordering;
 mod pipeline;
 mod region;
 mod simd;
 pub mod skyline;
 mod solver;
+mod stage;
 mod stretch;
 mod surface;
 mod sweep;
@@ -214,6 +217,8 @@ pub mod synthetic;
 mod system;
 mod triangular;
 
+#[cfg(test)]
+mod layering_tests;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]
@@ -235,11 +240,10 @@ pub use jacobian::{det_cubic, fold_phase};
 pub use kernel::{Kernel, Polynomial};
 pub use lanes::{EvaluationCounts, Roofline};
 pub use ordering::Ordering;
-pub use pipeline::{
-    Combine, FittedStage, Pipeline, Stage, SweepStep, Work, compose, compose_with_groups,
-};
+pub use pipeline::{Pipeline, Stage, Work};
 pub use region::{Origin, Region};
 pub use solver::SolverChoice;
+pub use stage::{Combine, FittedStage, SweepStep, compose, compose_with_groups};
 pub use stretch::{STRETCH_LIMIT, face_stretches};
 pub use surface::Surface;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};

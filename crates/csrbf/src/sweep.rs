@@ -57,8 +57,9 @@ impl SweepOptions {
     }
 }
 
-/// The most steps a sweep takes before it gives up.
-pub const MAX_STEPS: usize = 1024;
+/// The most steps a sweep takes before it gives up (its home is the
+/// errors, the lowest module that names it).
+pub use crate::error::MAX_STEPS;
 
 /// A step whose bound is below this is certified with a margin; the
 /// automatic choice aims here.

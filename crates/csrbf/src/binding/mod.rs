@@ -16,11 +16,12 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::deformation::Deformation;
+use crate::deformation::Shared;
 use crate::error::{Error, Result};
 use crate::evaluate::{PARALLEL_POINTS, Point};
 use crate::kernel::Kernel;
 use crate::octree::Octree;
-use crate::system::Shared;
+use crate::system::System;
 
 /// A set of points bound to the starts of one [`crate::System`]: what does
 /// not change when only the destinations do, found once.
@@ -337,6 +338,14 @@ pub fn frame(rest: &[Vec3], displacement: &[Vec3], phase: f64, out: &mut [Vec3])
         kernel((out, (rest, displacement)));
     }
     Ok(())
+}
+
+impl System {
+    /// Binds these points to the system's starts: their cells and the starts
+    /// in reach, found once, serve every deformation the system solves.
+    pub fn bind<P: Point>(&self, points: &[P]) -> Binding {
+        Binding::of_shared(&self.shared, points)
+    }
 }
 
 #[cfg(test)]

@@ -9,7 +9,6 @@
 mod assemble;
 mod estimate;
 mod graph;
-mod options;
 mod poly;
 
 use std::sync::Arc;
@@ -17,35 +16,24 @@ use std::sync::Arc;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::binding::Binding;
-use crate::deformation::{Affine, Deformation};
+use crate::deformation::{Affine, Deformation, Shared};
 use crate::error::{Error, FitError, Result};
 use crate::evaluate::Point;
-use crate::kernel::{Kernel, Polynomial};
+use crate::kernel::Polynomial;
 use crate::octree::Octree;
 use crate::ordering;
 use crate::skyline::Envelope;
 use crate::solver::Factor;
 
+pub use crate::options::{
+    DEFAULT_MEMORY_LIMIT, FitOptions, FitPhases, OrderingFigures, SystemStats,
+};
 pub use estimate::{Estimate, estimate};
-pub use options::{DEFAULT_MEMORY_LIMIT, FitOptions, FitPhases, OrderingFigures, SystemStats};
 pub(crate) use poly::prow;
 
 use assemble::factor;
 use graph::{neighbour_counts, neighbour_graph, validate};
 use poly::{PolyBlock, poly_block};
-
-/// What every deformation a system solves shares with it: the starts, their
-/// order and octree, and the fingerprint a [`Binding`] checks.
-#[derive(Debug)]
-pub(crate) struct Shared {
-    pub(crate) kernel: Kernel,
-    pub(crate) radius: f64,
-    pub(crate) starts: Arc<[DVec3]>,
-    pub(crate) order: Arc<[u32]>,
-    pub(crate) octree: Arc<Octree>,
-    pub(crate) fingerprint: u64,
-}
 
 /// The symbolic and numeric state for one set of start points.
 ///
@@ -70,7 +58,7 @@ pub(crate) struct Shared {
 #[derive(Debug)]
 pub struct System {
     options: FitOptions,
-    shared: Shared,
+    pub(crate) shared: Shared,
     factor: Factor,
     poly: Option<PolyBlock>,
     stats: SystemStats,
@@ -231,19 +219,6 @@ impl System {
             .collect()
     }
 
-    /// The starts farther than R from every one of `points`, by index
-    /// ([`Deformation::starts_out_of_reach`], before any solve).
-    pub fn starts_out_of_reach<P: crate::Point>(&self, points: &[P]) -> Vec<usize> {
-        let s = &self.shared;
-        crate::diagnose::out_of_reach(&s.octree, s.starts.len(), s.radius, points)
-    }
-
-    /// Binds these points to the system's starts: their cells and the starts
-    /// in reach, found once, serve every deformation the system solves.
-    pub fn bind<P: Point>(&self, points: &[P]) -> Binding {
-        Binding::of_shared(&self.shared, points)
-    }
-
     /// The coefficients and polynomial part for these destinations, and the
     /// largest move (a destination less its start).
     fn solution<P: Point>(
@@ -366,5 +341,36 @@ impl Clock {
         let ms = (now - self.0).as_secs_f64() * 1e3;
         self.0 = now;
         ms
+    }
+}
+
+impl Deformation {
+    /// Fits the deformation carrying each start to its destination. Use
+    /// [`System`] directly to solve again for new destinations cheaply.
+    ///
+    /// ```
+    /// use csrbf::{Deformation, FitOptions, Kernel, Polynomial};
+    /// use glam::DVec3;
+    ///
+    /// let starts = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+    /// let targets = [DVec3::new(0.0, 0.0, 0.1), DVec3::X, DVec3::Y, DVec3::Z];
+    /// let opts = FitOptions::new(1.5).with_polynomial(Polynomial::None);
+    /// let d = Deformation::fit(&starts, &targets, opts)?;
+    /// assert!((d.map(DVec3::ZERO) - targets[0]).length() < 1e-12);
+    /// assert_eq!(d.displacement_at(DVec3::splat(10.0)), DVec3::ZERO);
+    /// # Ok::<(), csrbf::Error>(())
+    /// ```
+    pub fn fit<P: Point>(
+        starts: &[P],
+        targets: &[P],
+        options: FitOptions,
+    ) -> Result<Deformation, FitError> {
+        if starts.len() != targets.len() {
+            return Err(FitError::LengthMismatch {
+                starts: starts.len(),
+                targets: targets.len(),
+            });
+        }
+        System::new(starts, options)?.solve(targets)
     }
 }

@@ -2,6 +2,7 @@
 
 use glam::{DMat4, DVec3, DVec4};
 
+pub(crate) use crate::deformation::prow;
 use crate::error::FitError;
 use crate::solver::Factor;
 
@@ -13,13 +14,6 @@ pub(super) struct PolyBlock {
     pub(super) s_inv: DMat4,
     pub(super) center: DVec3,
     pub(super) scale: f64,
-}
-
-/// Row (1, u) of P for a start, with u = (s - centre) / scale.
-#[inline]
-pub(crate) fn prow(s: DVec3, center: DVec3, scale: f64) -> DVec4 {
-    let u = (s - center) / scale;
-    DVec4::new(1.0, u.x, u.y, u.z)
 }
 
 pub(super) fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock, FitError> {
