@@ -359,7 +359,7 @@ fn writing_stl_warns_what_it_loses() {
 #[test]
 fn what_the_studio_saves_csrbf_deform_turns_into_the_mesh_the_studio_shows() {
     use csrbf::glam::DVec3;
-    use csrbf_studio::{Command, Document, History, Live};
+    use csrbf_studio_core::{Command, Document, History, Live};
     let path = root().join("assets/models/cgal_head.off");
     let mesh = csrbf_mesh::read(&path).expect("the bundled head");
     let diag = mesh.diagonal() as f64;

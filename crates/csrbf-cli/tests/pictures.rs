@@ -480,7 +480,7 @@ pub fn image_rgba(path: &std::path::Path) -> (u32, u32, Vec<[u8; 4]>) {
 /// animate` frame for frame as the studio's scene renders.
 #[test]
 fn what_the_composer_saves_csrbf_animate_renders_as_the_studio_does() {
-    use csrbf_studio::compose::{KeyValue, SceneDoc, SceneEdit, SceneHistory, Track};
+    use csrbf_studio_core::compose::{KeyValue, SceneDoc, SceneEdit, SceneHistory, Track};
     let dir = TempDir::new("composer");
     let mut doc = SceneDoc::empty();
     let mut h = SceneHistory::default();

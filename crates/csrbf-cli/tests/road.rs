@@ -58,7 +58,7 @@ pub fn untimed(v: &Value) -> Value {
 
 #[test]
 fn every_front_end_deforms_the_road_files_alike() {
-    use csrbf_studio::{Document, Live};
+    use csrbf_studio_core::{Document, Live};
     let dir = TempDir::new("road");
     for (mesh_path, controls) in road_cases() {
         let name = controls

@@ -108,16 +108,17 @@ pub fn pick_object(
         .map(|(k, _)| k)
 }
 
-/// A scene for the tests of the Composer's pointer (here and in the app).
-#[cfg(test)]
-pub(crate) mod fixture {
+/// A scene for the tests of the Composer's pointer (here and in the app's,
+/// which turn on the `fixtures` feature).
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixture {
     use super::*;
     use crate::compose::{KeyValue, Loaded, SceneEdit};
     use std::path::Path;
 
     /// The face scene with position keys at 0 s (at the origin) and 2 s
     /// (2 up), the playhead at 0, looked at from the front.
-    pub(crate) fn face() -> (SceneDoc, Loaded, Camera) {
+    pub fn face() -> (SceneDoc, Loaded, Camera) {
         let path =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/scenes/face.scene.json");
         let mut doc = SceneDoc::open(&path).expect("face");

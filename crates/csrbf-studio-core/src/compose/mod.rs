@@ -26,8 +26,8 @@ mod tests;
 pub use history::SceneHistory;
 pub use keys::{key_value, orientation_quaternion};
 pub use loaded::{Loaded, scene_bounds, world_centre};
-#[cfg(test)]
-pub(crate) use pick::fixture;
+#[cfg(any(test, feature = "fixtures"))]
+pub use pick::fixture;
 pub use pick::{KeyHit, pick_camera_end, pick_key, pick_object};
 pub use playback::Playback;
 
