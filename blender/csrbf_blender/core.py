@@ -229,22 +229,17 @@ def resolve_groups(spec, obj):
 
 def control_file(obj, settings) -> dict:
     """The object's control vectors and panel settings as a control file in
-    the CLI's format (local coordinates)."""
+    the CLI's format (local coordinates), written by the package's edit
+    layer (`csrbf.control_file`), which checks it as `csrbf deform` would."""
+    import csrbf
+
     starts, targets = controls(obj)
-    spec = {
-        "name": settings.layer,
-        "kernel": settings.kernel,
-        "radius": settings.radius,
-        "polynomial": settings.polynomial,
-        "controls": [
-            {"from": [float(x) for x in s], "to": [float(x) for x in t]} for s, t in zip(starts, targets)
-        ],
-    }
-    if settings.vertex_group:
-        spec["region"] = {"group": settings.vertex_group}
-    if settings.sweep:
-        spec["sweep"] = True
-    return spec
+    return csrbf.control_file(
+        starts, targets, settings.radius,
+        kernel=settings.kernel, polynomial=settings.polynomial,
+        region={"group": settings.vertex_group} if settings.vertex_group else None,
+        sweep=bool(settings.sweep), name=settings.layer or None,
+    )
 
 
 def read_control_file(path: str) -> dict:

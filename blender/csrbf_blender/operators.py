@@ -189,8 +189,14 @@ class CSRBF_OT_deform(bpy.types.Operator):
         if settings.vertex_group and obj.vertex_groups.get(settings.vertex_group) is None:
             self.report({"ERROR"}, f"csrbf: {obj.name!r} has no vertex group {settings.vertex_group!r}")
             return {"CANCELLED"}
+        csrbf = _engine()
+        try:
+            spec = core.control_file(obj, settings)
+        except (csrbf.Error, ValueError, TypeError) as e:
+            self.report({"ERROR"}, f"csrbf: {obj.name}: {e}")
+            return {"CANCELLED"}
         with _ObjectMode(obj):
-            ok = apply_spec(self, obj, core.control_file(obj, settings), obj.name, controls.problems)
+            ok = apply_spec(self, obj, spec, obj.name, controls.problems)
         return {"FINISHED"} if ok else {"CANCELLED"}
 
 
@@ -233,7 +239,12 @@ class CSRBF_OT_export_controls(bpy.types.Operator, ExportHelper):
         obj = _mesh_object(self, context)
         if obj is None:
             return {"CANCELLED"}
-        spec = core.control_file(obj, obj.csrbf)
+        csrbf = _engine()
+        try:
+            spec = core.control_file(obj, obj.csrbf)
+        except (csrbf.Error, ValueError, TypeError) as e:
+            self.report({"ERROR"}, f"csrbf: {obj.name}: {e}")
+            return {"CANCELLED"}
         if not spec["controls"]:
             self.report({"ERROR"}, f"csrbf: {obj.name!r} has no control vectors to export")
             return {"CANCELLED"}

@@ -25,6 +25,7 @@ use pyo3::prelude::*;
 
 pub mod arrays;
 mod cast;
+mod controls;
 pub mod deformation;
 pub mod mesh;
 mod session;
@@ -76,5 +77,6 @@ fn _csrbf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     system::register(m)?;
     mesh::register(m)?;
     session::register(m)?;
+    controls::register(m)?;
     Ok(())
 }

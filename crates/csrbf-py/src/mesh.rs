@@ -565,7 +565,10 @@ impl PyReport {
 
 /// A JSON value as Python objects (through the `json` module: one parser of
 /// the one serialised form).
-fn json_value<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn json_value<'py>(
+    py: Python<'py>,
+    v: &serde_json::Value,
+) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (v.to_string(),))
 }
 

@@ -353,3 +353,27 @@ def test_the_road_files_deform_alike_in_python_and_the_cli(controls, tmp_path, c
     live = session.update(controls, phase=0.7)
     assert np.array_equal(session.vertices, theirs)
     assert _road_untimed(live.to_dict()) == _road_untimed(figures)
+
+
+def test_control_file_is_written_by_the_edit_layer_and_checked(tmp_path, cli):
+    """Issue 39: csrbf.control_file gives the dict a control file holds (the
+    edit layer writes it; Blender builds none by hand), refuses what the
+    reader refuses by its JSON path, and deforms as the same file does."""
+    spec = json.loads(SMILE.read_text())
+    starts = np.array([c["from"] for c in spec["controls"]])
+    targets = np.array([c["to"] for c in spec["controls"]])
+    made = csrbf.control_file(starts, targets, spec["radius"], kernel="c2", name="smile",
+                              region={"sphere": {"center": [-6, 8, -1], "radius": 4.0}, "falloff": 1.0})
+    assert made["name"] == "smile" and made["region"]["falloff"] == 1.0 and len(made["controls"]) == len(starts)
+    path = tmp_path / "made.json"
+    path.write_text(json.dumps(made))
+    out, _ = csrbf.deform_mesh(HEAD, made)
+    cli("deform", "--mesh", HEAD, "--controls", path, "--out", tmp_path / "cli.ply")
+    assert np.array_equal(out.vertices, csrbf.read_mesh(tmp_path / "cli.ply").vertices)
+    with pytest.raises(csrbf.Error, match="radius"):
+        csrbf.control_file(starts, targets, -1.0)
+    with pytest.raises(csrbf.Error, match="region"):
+        csrbf.control_file(starts, targets, 1.0, region={"sphere": {"center": [0, 0], "radius": 1}})
+    with pytest.raises(ValueError, match="one row per start"):
+        csrbf.control_file(starts, targets[:2], 1.0)
+    assert csrbf.control_file(np.empty((0, 3)), np.empty((0, 3)), 1.0)["controls"] == []

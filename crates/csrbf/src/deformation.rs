@@ -119,7 +119,7 @@ impl Linear {
 /// octree over the starts for evaluation.
 ///
 /// The starts and the octree are shared (reference-counted) with the
-/// [`System`] that solved it and with every other deformation it solves, so
+/// [`System`](crate::System) that solved it and with every other deformation it solves, so
 /// a solve copies only the coefficients. A fingerprint of the starts, kernel
 /// and radius, computed once when the system is built, tells a [`crate::Binding`]
 /// whether a deformation is one it was made for.
@@ -275,7 +275,7 @@ impl Deformation {
     }
 
     /// The fingerprint of its starts, kernel and radius (see [`Deformation`]):
-    /// equal for every deformation solved from one [`System`].
+    /// equal for every deformation solved from one [`System`](crate::System).
     pub fn fingerprint(&self) -> u64 {
         self.fingerprint
     }

@@ -183,7 +183,7 @@ pub(crate) fn deformation_index(stages: &[FittedStage], at: usize) -> usize {
 /// What it computes, per stage: the displacement by the f32 evaluation
 /// ([`Deformation::displacements_f32`]), times the stage's phase and the
 /// point's region weight, added to the point in f32 (p + D(p) t w). A
-/// [`Pipeline`] computes the same through its [`Binding`]s (whose product is
+/// [`Pipeline`](crate::Pipeline) computes the same through its [`Binding`](crate::Binding)s (whose product is
 /// the f32 evaluation's, bit for bit), so the two give the same positions
 /// bit for bit. A sweep's steps carry the region's points in f64 through
 /// the f64 evaluation and round once after each stage's last step.

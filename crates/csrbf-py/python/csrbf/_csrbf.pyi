@@ -224,6 +224,18 @@ class Session:
     @property
     def controls(self) -> int: ...
 
+def control_file(
+    starts: npt.ArrayLike,
+    targets: npt.ArrayLike,
+    radius: float,
+    *,
+    kernel: Literal["c0", "c2", "c4", "c6"] = "c2",
+    polynomial: Literal["none", "linear"] = "none",
+    region: dict[str, Any] | None = None,
+    phase: float = 1.0,
+    sweep: bool = False,
+    name: str | None = None,
+) -> dict[str, Any]: ...
 def read_mesh(path: PathLike) -> Mesh: ...
 def write_mesh(mesh: Mesh, path: PathLike, *, force: bool = False) -> None: ...
 def deform_mesh(
