@@ -466,22 +466,19 @@ pub fn deform_many<'py>(
         None => arrays::zeros(py, p.dtype(), &[k, n, 3]),
     };
     let view = p.view();
+    // The engine's batch: factored once, K solves, bound once
+    // (`System::displacements_many`); here only the dtypes are placed.
     let run = |o: OutVariants<'_>| -> csrbf::Result<()> {
-        csrbf::frame(&[], &[], phase, &mut [])?; // the engine's check of the phase
+        csrbf::check_phase(phase)?;
         let sys = System::new(&s, options)?;
-        let ds = sys.solve_many(&sets)?;
-        let binding = match view {
-            View::F32(v) => sys.bind(v),
-            View::F64(v) => sys.bind(v),
-        };
         match (o, view) {
             (OutVariants::F32(o), View::F32(rest)) => {
-                binding.displacements_many(&ds, o)?;
+                sys.displacements_many(rest, &sets, o)?;
                 place(o, rest, phase, |p, d, t| *p + d * t as f32)
             }
             (OutVariants::F64(o), View::F64(rest)) => {
                 let mut d = vec![Vec3::ZERO; o.len()];
-                binding.displacements_many(&ds, &mut d)?;
+                sys.displacements_many(rest, &sets, &mut d)?;
                 o.par_iter_mut().zip(d).for_each(|(o, d)| *o = d.as_dvec3());
                 place(o, rest, phase, |p, d, t| *p + d * t)
             }

@@ -379,8 +379,9 @@ pub(crate) fn at_stage(index: usize) -> impl FnOnce(Error) -> Error {
     }
 }
 
-/// The one check of a phase: within [0, 1] (NaN is not).
-pub(crate) fn check_phase(phase: f64) -> Result<()> {
+/// The one check of a phase: within [0, 1] (NaN is not), else
+/// [`Error::BadPhase`].
+pub fn check_phase(phase: f64) -> Result<()> {
     if (0.0..=1.0).contains(&phase) {
         Ok(())
     } else {

@@ -231,7 +231,8 @@ pub use diagnose::{
     compose_diagnosed_with, diagnose, vertices_within,
 };
 pub use error::{
-    Error, FitError, FormatError, NameError, RegionError, Result, number as plain_number,
+    Error, FitError, FormatError, NameError, RegionError, Result, check_phase,
+    number as plain_number,
 };
 pub use evaluate::{Point, Points, PointsMut};
 pub use folds::{Folds, folds};

@@ -341,6 +341,22 @@ pub fn frame(rest: &[Vec3], displacement: &[Vec3], phase: f64, out: &mut [Vec3])
 }
 
 impl System {
+    /// One point set deformed by K sets of destinations of these starts, in
+    /// one call on all cores (dataset augmentation: one mesh, many edits):
+    /// the K solves in parallel, the points bound once, every variant the
+    /// kernel sums alone. `out` holds K blocks of `points.len()`
+    /// displacements (the f32 evaluation's, as [`Binding`] gives them); the
+    /// positions at a phase t are points + t D (see [`frame`]).
+    pub fn displacements_many<P: Point, T: AsRef<[DVec3]> + Sync>(
+        &self,
+        points: &[P],
+        target_sets: &[T],
+        out: &mut [Vec3],
+    ) -> Result<()> {
+        let ds = self.solve_many(target_sets)?;
+        self.bind(points).displacements_many(&ds, out)
+    }
+
     /// Binds these points to the system's starts: their cells and the starts
     /// in reach, found once, serve every deformation the system solves.
     pub fn bind<P: Point>(&self, points: &[P]) -> Binding {
