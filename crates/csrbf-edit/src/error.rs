@@ -49,3 +49,21 @@ pub enum EditError {
         source: csrbf::Error,
     },
 }
+
+/// The message of `e` and of every source below it, as one line ("smile.json:
+/// deformations[1]: radius of support must be ..."): what a front end that
+/// has no error chain of its own (Python, a scene's loader) shows.
+pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = s.to_string();
+        // Some errors print their source themselves; do not say it twice.
+        if !text.ends_with(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
+}

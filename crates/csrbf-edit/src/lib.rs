@@ -66,7 +66,7 @@ mod tests;
 
 pub use apply::{Checks, SELF_INTERSECTION_TRIANGLES, compose_checked};
 pub use controls::{ControlError, ControlFile, ControlSpec};
-pub use error::EditError;
+pub use error::{EditError, error_chain};
 pub use fit::{Edit, FittedSpec, Note, SweepFigures, fit, fit_spec, resolve};
 pub use remedy::{Remedies, RemedySearch, remedies};
 pub use report::{Report, warning_controls};

@@ -44,20 +44,9 @@ pub(crate) fn error(e: &(dyn std::error::Error + 'static)) -> PyErr {
     Error::new_err(chain(e))
 }
 
-/// The message of `e` and of every source below it.
+/// The message of `e` and of every source below it (the edit layer's).
 pub(crate) fn chain(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        let more = s.to_string();
-        // Some errors print their source themselves; do not say it twice.
-        if !text.ends_with(&more) {
-            text.push_str(": ");
-            text.push_str(&more);
-        }
-        source = s.source();
-    }
-    text
+    csrbf_edit::error_chain(e)
 }
 
 /// The extension module `csrbf._csrbf`; `csrbf/__init__.py` re-exports it.

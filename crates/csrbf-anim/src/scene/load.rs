@@ -503,33 +503,23 @@ fn load_deformation(
     let cf = assets
         .controls(&path)
         .map_err(|e| scene_err(at("controls"), e.to_string()))?;
+    // The edit layer's road: handles become control vectors on the rest
+    // mesh, connected regions weights along it, regions are checked against
+    // it, each deformation is fitted (single map or sweep) in one place.
+    let source = path.display().to_string();
+    let edit = csrbf_edit::fit(&cf, &source, Some(mesh), false, &mut |_| {})
+        .map_err(|e| scene_err(at("controls"), csrbf_edit::error_chain(&e)))?;
     let mut stages = Vec::new();
-    let lookup = |n: &str| mesh.part_vertices(n);
-    let triangles = if cf.deformations.iter().any(|s| s.region.needs_surface()) {
-        mesh.faces.triangles()
-    } else {
-        Vec::new()
-    };
-    let fitted = |spec: &csrbf_edit::controls::ControlSpec| {
-        // Handles become control vectors on the rest mesh, connected regions
-        // weights along it.
-        let spec = spec.resolve_on(&mesh.positions, &triangles, &lookup)?;
-        let steps = spec.fit()?;
-        Ok::<_, csrbf::Error>((spec, steps))
-    };
-    for spec in &cf.deformations {
-        let name = spec.name.clone();
-        let (spec, steps) = fitted(spec)
-            .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?;
-        for step in steps {
+    for ((spec, fitted), given) in edit.specs.iter().zip(edit.fitted).zip(&cf.deformations) {
+        for step in fitted.stages {
             let si = stages.len();
             stages.push(
                 bind_stage(
                     mesh,
                     part,
-                    &spec,
+                    spec,
                     step,
-                    name.clone(),
+                    given.name.clone(),
                     si > 0 && cf.combine == Combine::Chain,
                 )
                 .map_err(|e| scene_err(at("controls"), format!("{}: {e}", path.display())))?,
