@@ -3,9 +3,10 @@
 Each object keeps a `csrbf.Session` (the edit layer's live session, which
 the studio's preview uses too): it keeps every layer's factored system and
 the vertices' binding, so a moved destination costs one solve and the kernel
-sums; a moved start, a new control or other settings refit. Regions, sweeps
-and the refusal of a start that reaches no vertex are the session's, as
-Deform's are `deform_mesh`'s: the same positions and the same report.
+sums; a moved start, a new control or other settings refit. Regions and
+sweeps are the session's, as Deform's are `deform_mesh`'s: the same
+positions and the same report, whose warnings name a start that reaches no
+vertex (refused here as Deform refuses it).
 
 The handlers are persistent: Blender keeps them through File > Open and
 File > New, so the Live toggle, which is saved in the .blend, means what it

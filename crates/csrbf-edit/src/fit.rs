@@ -234,16 +234,21 @@ pub fn fit(
     notes: &mut dyn FnMut(Note),
 ) -> Result<Edit, EditError> {
     let t = Instant::now();
-    let mut specs = resolve(file, source, mesh, notes)?;
-    if allow_large {
-        for s in &mut specs {
-            s.options = s.options.with_memory_limit(u64::MAX);
-        }
-    }
+    let specs = resolve(file, source, mesh, notes)?;
     let mut fitted = Vec::with_capacity(specs.len());
     for (i, s) in specs.iter().enumerate() {
         let at = stage_name(source, i, specs.len());
         warn_if_dense(s, &at, notes);
+        // The limit is lifted for this fit alone: the remedies' larger radii
+        // keep it (a trial 4x as large could be dense).
+        let mut lifted;
+        let s = if allow_large {
+            lifted = s.clone();
+            lifted.options = lifted.options.with_memory_limit(u64::MAX);
+            &lifted
+        } else {
+            s
+        };
         let f = fit_spec(s).map_err(|source| EditError::Engine {
             at: at.clone(),
             source,

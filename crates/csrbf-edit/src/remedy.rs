@@ -172,7 +172,8 @@ impl Edit<'_> {
         let mut stages: Vec<FittedStage> = Vec::new();
         for spec in self.specs {
             let mut spec = spec.clone();
-            if spec.sweep.is_none() {
+            // Layers without controls move nothing, whatever their radius.
+            if spec.sweep.is_none() && !spec.starts.is_empty() {
                 change(&mut spec);
             }
             stages.extend(crate::fit_spec(&spec)?.stages.into_iter().map(|s| {
@@ -281,14 +282,16 @@ pub fn remedies(
         while hi - lo > 0.02 * lo && clock.another() {
             let mid = 0.5 * (lo + hi);
             let t = Instant::now();
-            let tried = edit.scaled(mid)?;
+            let tried = edit.scaled(mid);
             clock.ran(t);
             match tried {
-                (0, _, t) => {
+                Ok((0, _, t)) => {
                     hi = mid;
                     ms = t;
                 }
-                _ => lo = mid,
+                Ok(_) => lo = mid,
+                // A radius the engine refuses: keep the one found.
+                Err(_) => break,
             }
         }
         found = Some((hi, ms));
@@ -306,7 +309,7 @@ pub fn remedies(
         radius_scale: found,
         radii: specs
             .iter()
-            .filter(|s| s.sweep.is_none())
+            .filter(|s| s.sweep.is_none() && !s.starts.is_empty())
             .map(|s| s.options.radius)
             .collect(),
         sweep,

@@ -22,8 +22,9 @@ pub struct Report {
     pub vertices: usize,
     /// The phase asked for (each deformation at its own phase times it).
     pub phase: f64,
-    /// The engine's figures. Its `fold_phase` is a share of the phases
-    /// given; [`Report::fold_phase`] is the phase itself.
+    /// The engine's figures at the phase asked for: its `fold_phase` (and
+    /// the inside-out warning's) is the phase itself, of the one asked for
+    /// (the engine gives a share of the phases it was given).
     pub diagnostics: Diagnostics,
     /// What would keep the edit from folding, when it folds and they were
     /// searched for.
@@ -35,8 +36,18 @@ pub struct Report {
 }
 
 impl Report {
-    /// A report of `diagnostics` of a mesh of `vertices` deformed at `phase`.
-    pub fn new(vertices: usize, phase: f64, diagnostics: Diagnostics) -> Report {
+    /// A report of `diagnostics` of a mesh of `vertices` deformed at
+    /// `phase` (each deformation at its own phase times it): the engine's
+    /// fold phase, a share of the phases given, becomes the phase itself,
+    /// in the figures and in the warning alike.
+    pub fn new(vertices: usize, phase: f64, mut diagnostics: Diagnostics) -> Report {
+        let scale = |p: &mut Option<f64>| *p = p.map(|s| s * phase);
+        scale(&mut diagnostics.fold_phase);
+        for w in &mut diagnostics.warnings {
+            if let csrbf::Warning::InsideOut { fold_phase, .. } = w {
+                scale(fold_phase);
+            }
+        }
         Report {
             vertices,
             phase,
@@ -50,7 +61,7 @@ impl Report {
     /// The phase (of the one asked for) at which the first face folds, or
     /// None when none does.
     pub fn fold_phase(&self) -> Option<f64> {
-        self.diagnostics.fold_phase.map(|s| s * self.phase)
+        self.diagnostics.fold_phase
     }
 
     /// The engine's warnings as sentences, in order (the remedies' advice

@@ -11,11 +11,11 @@
 
 use std::time::Instant;
 
-use csrbf::{Pipeline, Stage, diagnose};
+use csrbf::{Pipeline, Stage};
 use csrbf_mesh::Mesh;
 use glam::Vec3;
 
-use crate::apply::Checks;
+use crate::apply::{Checks, check_region, compose_checked};
 use crate::controls::{ControlFile, ControlSpec, SurfaceCache};
 use crate::remedy::{RemedySearch, remedies};
 use crate::report::Report;
@@ -107,32 +107,39 @@ impl Session {
         self.update_positions(mesh, file, phase)?;
         let t = Instant::now();
         let lookup = |n: &str| mesh.part_vertices(n);
-        // Every layer's fitted stages (a sweep's every step).
-        let fitted: Vec<_> = (0..self.layers.len())
-            .filter_map(|k| self.pipeline.fitted_stages(k))
-            .flatten()
-            .collect();
-        let layer = self.layers.first().copied().unwrap_or(0);
-        let mut diagnostics = diagnose(
-            &mesh.positions,
-            &self.positions,
-            &self.triangles,
-            &fitted,
-            self.pipeline.combine(),
-            &lookup,
-        )
-        .map_err(|source| SessionError { layer, source })?;
-        // Faces the edit made pass through each other (as `csrbf deform`
-        // checks them).
-        if checks.searches(self.triangles.len()) {
-            diagnostics.set_self_intersections(csrbf_mesh::intersect::new_self_intersections(
-                &mesh.positions,
-                &self.positions,
-                &self.triangles,
-            ));
+        // The document's stages as `csrbf deform` fits them: each layer's
+        // (a sweep's every step), a layer without controls the map that
+        // moves nothing, so that warnings number layers as the file does.
+        let mut fitted = Vec::new();
+        let mut k = 0;
+        for (layer, spec) in self.specs.iter().enumerate() {
+            if self.layers.get(k) == Some(&layer) {
+                fitted.extend(self.pipeline.fitted_stages(k).unwrap_or_default());
+                k += 1;
+            } else {
+                fitted.push(
+                    csrbf::FittedStage::new(csrbf::Deformation::identity(spec.options))
+                        .with_region(spec.region.clone())
+                        .with_phase(spec.phase * phase),
+                );
+            }
         }
+        // Checked as `csrbf deform` checks (the same composition, the same
+        // options): the same report.
+        let (_, diagnostics) =
+            compose_checked(mesh, &fitted, file.combine, checks).map_err(|e| {
+                let layer = e
+                    .stage()
+                    .and_then(|k| self.layers.get(k).copied())
+                    .unwrap_or_else(|| self.layers.first().copied().unwrap_or(0));
+                SessionError {
+                    layer,
+                    source: e.without_stage(),
+                }
+            })?;
         let mut report = Report::new(self.positions.len(), phase, diagnostics);
-        report.deform_ms = self.update_ms + t.elapsed().as_secs_f64() * 1e3;
+        report.fit_ms = self.update_ms;
+        report.deform_ms = t.elapsed().as_secs_f64() * 1e3;
         if !report.diagnostics.inside_out.is_empty() && search != RemedySearch::Off {
             report.remedies = remedies(
                 &mesh.positions,
@@ -142,7 +149,7 @@ impl Session {
                 phase,
                 &lookup,
                 search,
-                report.deform_ms,
+                report.fit_ms + report.deform_ms,
             )
             .ok();
         }
@@ -160,6 +167,7 @@ impl Session {
         phase: f64,
     ) -> Result<&[Vec3], SessionError> {
         let t = Instant::now();
+        csrbf::check_phase(phase).map_err(|source| SessionError { layer: 0, source })?;
         let lookup = |n: &str| mesh.part_vertices(n);
         let mut stages = Vec::new();
         let mut layers = Vec::new();
@@ -171,6 +179,12 @@ impl Session {
             let spec = spec
                 .resolve_cached(&mesh.positions, &self.triangles, &lookup, &mut self.surface)
                 .map_err(|source| SessionError { layer, source })?;
+            // As `csrbf deform` checks a region: a part the mesh lacks, a
+            // vertex past its end.
+            check_region(&spec.region, mesh).map_err(|m| SessionError {
+                layer,
+                source: csrbf::RegionError::Invalid(m).into(),
+            })?;
             controls += spec.starts.len();
             if !spec.starts.is_empty() {
                 let stage = spec
@@ -183,7 +197,7 @@ impl Session {
         }
         self.controls = controls;
         self.specs = specs;
-        self.sync(mesh, file, stages, layers);
+        self.sync(mesh, file, stages, layers)?;
         let layers = &self.layers;
         let named = |e: csrbf::Error| {
             // The pipeline names its stage; a stage is a layer with controls.
@@ -205,7 +219,13 @@ impl Session {
 
     /// Brings the pipeline to these stages, telling it only what changed (a
     /// new set of layers or a new combine starts a new pipeline).
-    fn sync(&mut self, mesh: &Mesh, file: &ControlFile, stages: Vec<Stage>, layers: Vec<usize>) {
+    fn sync(
+        &mut self,
+        mesh: &Mesh,
+        file: &ControlFile,
+        stages: Vec<Stage>,
+        layers: Vec<usize>,
+    ) -> Result<(), SessionError> {
         let same_shape = layers == self.layers
             && self.pipeline.combine() == file.combine
             && self.pipeline.rest().len() == mesh.positions.len();
@@ -223,7 +243,7 @@ impl Session {
                 self.pipeline.push(stage);
             }
             self.layers = layers;
-            return;
+            return Ok(());
         }
         for (k, new) in stages.into_iter().enumerate() {
             let Some(old) = self.pipeline.stage(k) else {
@@ -237,27 +257,29 @@ impl Session {
                 old.region != new.region,
                 old.phase != new.phase,
             );
-            // The index exists (checked above), so these calls cannot fail;
-            // a phase outside [0, 1] is refused by the evaluation instead.
+            // A phase or region the pipeline refuses is the layer's error.
+            let layer = self.layers[k];
+            let at = |source| SessionError { layer, source };
             let p = &mut self.pipeline;
             if starts {
-                let _ = p.set_controls(k, new.starts, new.targets);
+                p.set_controls(k, new.starts, new.targets).map_err(at)?;
             } else if targets {
-                let _ = p.set_targets(k, new.targets);
+                p.set_targets(k, new.targets).map_err(at)?;
             }
             if options {
-                let _ = p.set_options(k, new.options);
+                p.set_options(k, new.options).map_err(at)?;
             }
             if region {
-                let _ = p.set_region(k, new.region);
+                p.set_region(k, new.region).map_err(at)?;
             }
             if phase {
-                let _ = p.set_phase(k, new.phase);
+                p.set_phase(k, new.phase).map_err(at)?;
             }
             if sweep {
-                let _ = p.set_sweep(k, new.sweep, new.paths.clone());
+                p.set_sweep(k, new.sweep, new.paths.clone()).map_err(at)?;
             }
         }
+        Ok(())
     }
 
     /// The deformed positions (the rest ones before the first update).

@@ -24,16 +24,23 @@ use crate::mesh::{PyReport, checks, control_file, mesh_arg, remedy_search, vec3_
 pub struct PySession {
     mesh: Mesh,
     inner: csrbf_edit::Session,
+    allow_large: bool,
 }
 
 #[pymethods]
 impl PySession {
-    /// A session on `mesh` (a csrbf.Mesh or a path to a mesh file), at rest.
+    /// A session on `mesh` (a csrbf.Mesh or a path to a mesh file), at rest;
+    /// `allow_large` fits even systems estimated past the 4 GiB limit.
     #[new]
-    fn new(py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<PySession> {
+    #[pyo3(signature = (mesh, *, allow_large = false))]
+    fn new(py: Python<'_>, mesh: &Bound<'_, PyAny>, allow_large: bool) -> PyResult<PySession> {
         let mesh = mesh_arg(py, mesh)?;
         let inner = csrbf_edit::Session::new(&mesh);
-        Ok(PySession { mesh, inner })
+        Ok(PySession {
+            mesh,
+            inner,
+            allow_large,
+        })
     }
 
     /// Deforms the mesh by `controls` at `phase`, checks the result as
@@ -52,7 +59,7 @@ impl PySession {
     ) -> PyResult<PyReport> {
         let checks = checks(stretch_limit, self_intersections)?;
         let search = remedy_search(remedies)?;
-        let file = control_file(py, controls)?;
+        let file = self.file(py, controls)?;
         let (mesh, inner) = (&self.mesh, &mut self.inner);
         let report = py
             .detach(|| inner.update(mesh, &file, phase, &checks, search).cloned())
@@ -70,7 +77,7 @@ impl PySession {
         controls: &Bound<'py, PyAny>,
         phase: f64,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let file = control_file(py, controls)?;
+        let file = self.file(py, controls)?;
         let (mesh, inner) = (&self.mesh, &mut self.inner);
         py.detach(|| inner.update_positions(mesh, &file, phase).map(|_| ()))
             .map_err(|e| error(&e))?;
@@ -110,6 +117,24 @@ impl PySession {
             self.inner.controls(),
             self.inner.factorisations()
         )
+    }
+}
+
+impl PySession {
+    /// The control file, with the memory limit lifted when the session
+    /// allows large systems.
+    fn file(
+        &self,
+        py: Python<'_>,
+        controls: &Bound<'_, PyAny>,
+    ) -> PyResult<csrbf_edit::ControlFile> {
+        let mut file = control_file(py, controls)?;
+        if self.allow_large {
+            for spec in &mut file.deformations {
+                spec.options = spec.options.with_memory_limit(u64::MAX);
+            }
+        }
+        Ok(file)
     }
 }
 

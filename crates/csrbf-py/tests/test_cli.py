@@ -310,6 +310,11 @@ def test_a_session_deforms_as_deform_mesh_and_the_cli_do(tmp_path, cli):
         session.update(twice)
     assert np.array_equal(session.vertices, shown)
     assert "Session(1487 vertices" in repr(session)
+    # A phase outside [0, 1] is refused every time, never shown as the last pose.
+    for _ in range(2):
+        with pytest.raises(csrbf.Error, match="phase"):
+            session.update(moved, phase=1.5)
+    assert np.array_equal(session.vertices, shown)
 
 
 ROAD = sorted((HEAD.parents[1] / "controls" / "road").glob("*.json"))

@@ -202,7 +202,7 @@ class Session:
     """A control file deformed live on one mesh: each layer's factored system
     and binding kept; a moved destination costs a solve and the sums."""
 
-    def __init__(self, mesh: Mesh | PathLike) -> None: ...
+    def __init__(self, mesh: Mesh | PathLike, *, allow_large: bool = False) -> None: ...
     def update(
         self,
         controls: PathLike | dict[str, Any],
