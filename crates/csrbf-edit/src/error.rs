@@ -50,8 +50,8 @@ pub enum EditError {
     },
 }
 
-/// The message of `e` and of every source below it, as one line ("smile.json:
-/// deformations[1]: radius of support must be ..."): what a front end that
+/// The message of `e` and of every source below it, as one line (`smile.json:
+/// deformations[1]: radius of support must be ...`): what a front end that
 /// has no error chain of its own (Python, a scene's loader) shows.
 pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
     let mut text = e.to_string();
