@@ -5,7 +5,7 @@ fits in memory, and deform_many with K = 100 target sets on 100k points.
 
     pip install crates/csrbf-py scipy          # a release build of the package
     cargo build --release -p csrbf-cli
-    python crates/csrbf-py/bench/bench.py [--scenes 100k 1m] [--runs 5] [--json out.json]
+    python crates/csrbf-py/bench/bench.py [--scenes 100k 1m] [--runs 5] [--json out.json] [--no-peers]
 
 The scenes are `csrbf bench --scene NAME --export DIR` (points on a sphere,
 C2, linear polynomial): the CLI times them from the same PLY and JSON files
@@ -94,7 +94,7 @@ def cli_bench(binary, mesh, ctl, runs):
     return json.loads(out)
 
 
-def scene_figures(binary, directory, name, runs):
+def scene_figures(binary, directory, name, runs, peers=True):
     mesh_path, ctl_path = directory / f"{name}.ply", directory / f"{name}.json"
     points = csrbf.read_mesh(mesh_path).vertices  # float32, as the CLI's
     starts, targets, radius, kernel, poly = controls(ctl_path)
@@ -117,6 +117,8 @@ def scene_figures(binary, directory, name, runs):
         rounds["py_fit_evaluate_out_ms"].append(median_ms(lambda: fit().displacements(points, out=out), runs))
     row.update({k: statistics.median(v) for k, v in rounds.items()})
     row["py_vs_cli"] = row["py_fit_evaluate_ms"] / row["cli_fit_evaluate_ms"] - 1
+    if not peers:
+        return row
     reference = d.displacements(points.astype(np.float64))
 
     p64 = points.astype(np.float64)
@@ -161,6 +163,15 @@ def many_figures(directory, k, runs):
             "per_variant_ms": total / k, "one_fit_deform_ms": one}
 
 
+def rows_only(rows):
+    """The Python-against-CLI table alone (--no-peers)."""
+    print("\n| scene | csrbf bench fit + evaluate | Python fit + displacements | difference |")
+    print("|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['scene']} | {r['cli_fit_evaluate_ms']:.1f} ms | {r['py_fit_evaluate_ms']:.1f} ms | "
+              f"{100 * r['py_vs_cli']:+.0f} % |")
+
+
 def main():
     a = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     a.add_argument("--scenes", nargs="+", default=["100k", "1m"])
@@ -168,6 +179,9 @@ def main():
     a.add_argument("--variants", type=int, default=100)
     a.add_argument("--csrbf", default=str(ROOT / "target" / "release" / "csrbf"), help="the release binary")
     a.add_argument("--json", help="also write the figures here")
+    a.add_argument("--peers", action=argparse.BooleanOptionalAction, default=True,
+                   help="also time SciPy, the dense RBF and deform_many (--no-peers: Python against "
+                        "`csrbf bench` alone, no SciPy needed)")
     args = a.parse_args()
     binary = Path(args.csrbf)
     if not binary.exists():
@@ -186,9 +200,12 @@ def main():
         directory = Path(tmp)
         for name in args.scenes:
             subprocess.run([str(binary), "-q", "bench", "--scene", name, "--export", tmp], check=True)
-            row = scene_figures(binary, directory, name, args.runs)
+            row = scene_figures(binary, directory, name, args.runs, args.peers)
             rows.append(row)
             print(json.dumps(row), flush=True)
+        if not args.peers:
+            rows_only(rows)
+            return
         if "100k" not in args.scenes:
             subprocess.run([str(binary), "-q", "bench", "--scene", "100k", "--export", tmp], check=True)
         many = many_figures(directory, args.variants, max(1, args.runs // 2))
