@@ -53,13 +53,13 @@ pub enum EditError {
 /// The message of `e` and of every source below it, as one line (`smile.json:
 /// deformations[1]: radius of support must be ...`): what a front end that
 /// has no error chain of its own (Python, a scene's loader) shows.
-pub fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
+pub fn error_chain(e: &dyn std::error::Error) -> String {
     let mut text = e.to_string();
     let mut source = e.source();
     while let Some(s) = source {
         let more = s.to_string();
         // Some errors print their source themselves; do not say it twice.
-        if !text.ends_with(&more) {
+        if !text.contains(&more) {
             text.push_str(": ");
             text.push_str(&more);
         }

@@ -44,19 +44,9 @@ impl Outbox {
 
 /// An error and its sources as one line, as the CLI prints them: "x.obj: No
 /// such file or directory (os error 2)", where `to_string` would keep only
-/// "x.obj". A source whose text the error already shows is not repeated.
+/// "x.obj" (the edit layer's `error_chain`, every front end's).
 pub(super) fn reason(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        let more = s.to_string();
-        if !text.contains(&more) {
-            text.push_str(": ");
-            text.push_str(&more);
-        }
-        source = s.source();
-    }
-    text
+    csrbf_edit::error_chain(e)
 }
 
 #[cfg(test)]
