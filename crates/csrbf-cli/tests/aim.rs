@@ -482,39 +482,13 @@ fn a_fold_says_its_remedies_and_a_sweep_folds_nowhere() {
     // and names the sweep without timing it; a full search times it.
     assert_eq!(remedies["complete"], true, "{remedies}");
     assert_eq!(remedies["sweep_untried"], true, "{remedies}");
-    let full = json(&[
-        "deform",
-        "-q",
-        "--mesh",
-        arg(&head),
-        "--controls",
-        arg(&plain),
-        "--out",
-        arg(&out),
-        "--force",
-        "--json",
-        "--remedies",
-        "full",
-    ]);
+    let full = deform_json(&head, &plain, &out, &["--force", "--remedies", "full"]);
     assert!(
         full["remedies"]["sweep_steps"].as_u64().expect("steps") > 1,
         "{full}"
     );
     // Issue 39: `--remedies off` searches nothing (clap refuses another word).
-    let off = json(&[
-        "deform",
-        "-q",
-        "--mesh",
-        arg(&head),
-        "--controls",
-        arg(&plain),
-        "--out",
-        arg(&out),
-        "--force",
-        "--json",
-        "--remedies",
-        "off",
-    ]);
+    let off = deform_json(&head, &plain, &out, &["--force", "--remedies", "off"]);
     assert!(off["inside_out_faces"].as_u64().expect("count") > 0 && off["remedies"].is_null());
     // The radius it names folds nothing.
     let mut larger = shove.clone();

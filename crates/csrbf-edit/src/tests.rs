@@ -138,17 +138,20 @@ fn the_remedies_search_keeps_to_its_budget() {
     let edit = fit(&file, "pull.json", Some(&mesh), false, &mut |_| {}).expect("fit");
     let tris = mesh.faces.triangles();
     let none = |_: &str| None;
-    let r = remedies(
-        &mesh.positions,
-        &tris,
-        &edit.specs,
-        Combine::Chain,
-        1.0,
-        &none,
-        RemedySearch::Off,
-        1.0,
-    )
-    .expect("remedies");
+    let search = |s| {
+        remedies(
+            &mesh.positions,
+            &tris,
+            &edit.specs,
+            Combine::Chain,
+            1.0,
+            &none,
+            s,
+            1.0,
+        )
+        .expect("remedies")
+    };
+    let r = search(RemedySearch::Off);
     assert!(!r.found() && !r.complete && r.sweep_untried, "{r:?}");
     assert!(
         r.advice()
@@ -157,17 +160,7 @@ fn the_remedies_search_keeps_to_its_budget() {
         r.advice()
     );
     // A bounded search leaves the sweep untimed but finds the radius here.
-    let r = remedies(
-        &mesh.positions,
-        &tris,
-        &edit.specs,
-        Combine::Chain,
-        1.0,
-        &none,
-        RemedySearch::Bounded,
-        1.0,
-    )
-    .expect("remedies");
+    let r = search(RemedySearch::Bounded);
     assert!(
         r.radius_scale.is_some() && r.sweep.is_none() && r.sweep_untried,
         "{r:?}"
