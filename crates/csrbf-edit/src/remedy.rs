@@ -84,8 +84,10 @@ pub struct Remedies {
     /// sweep cannot be made (paths that meet, `"combine": "add"`) or was not
     /// tried.
     pub sweep: Option<(usize, f64)>,
-    /// Whether a sweep could be made but was not tried (a bounded search
-    /// leaves it out: its steps can cost far more than the edit).
+    /// Whether a sweep, which cannot fold, could be made but was not tried
+    /// (a bounded search leaves it out: its steps can cost far more than
+    /// the edit). Not said of an edit with a region, whose cut edge a
+    /// sweep does not keep from folding: only a full search's trial can.
     pub sweep_untried: bool,
     /// The milliseconds of the plain edit's fit and deformation, timed as
     /// the trials are (without the checks), for comparison; the edit's own
@@ -311,10 +313,19 @@ pub fn remedies(
     // (hundreds for a handle's turn) can cost seconds where a radius costs
     // the edit's own time. A bounded search names it untimed.
     let mut sweep = None;
+    // A sweep is certified over all of space; a region's cut edge can still
+    // fold, so with a region only a trial that folds nothing counts.
+    let regions = specs
+        .iter()
+        .any(|s| !s.starts.is_empty() && s.region != csrbf::Region::All);
     let sweep_possible = combine == Combine::Chain;
     if sweep_possible && search == RemedySearch::Full {
         let swept = |spec: &mut ControlSpec| spec.sweep = Some(csrbf::SweepOptions::default());
-        sweep = edit.trial(&swept).ok().map(|(_, steps, ms)| (steps, ms));
+        sweep = edit
+            .trial(&swept)
+            .ok()
+            .filter(|(folded, _, _)| *folded == 0)
+            .map(|(_, steps, ms)| (steps, ms));
     }
     Ok(Remedies {
         radius_scale: found,
@@ -324,7 +335,7 @@ pub fn remedies(
             .map(|s| s.options.radius)
             .collect(),
         sweep,
-        sweep_untried: sweep_possible && search != RemedySearch::Full,
+        sweep_untried: sweep_possible && !regions && search != RemedySearch::Full,
         plain_ms,
         searched_ms: clock.start.elapsed().as_secs_f64() * 1e3,
         complete: !clock.stopped,

@@ -211,3 +211,41 @@ fn what_the_mesh_must_give_is_named() {
         "{e}"
     );
 }
+
+/// From a new user's trial: with a region, a sweep does not keep the
+/// region's cut edge from folding, so it is never named untried, and a full
+/// search names it only when its trial folds nothing.
+#[test]
+fn a_sweep_is_advised_for_a_region_only_when_its_trial_folds_nothing() {
+    let mesh = grid_mesh(30);
+    let text = r#"{"radius": 0.25, "kernel": "c2",
+        "region": {"sphere": {"center": [0.5, 0.5, 0], "radius": 0.2}},
+        "controls": [{"from": [0.5, 0.5, 0], "to": [0.8, 0.5, 0]}]}"#;
+    let file = ControlFile::parse(text).expect("parse");
+    let edit = fit(&file, "cut.json", Some(&mesh), false, &mut |_| {}).expect("fit");
+    let tris = mesh.faces.triangles();
+    let none = |_: &str| None;
+    let search = |s| {
+        remedies(
+            &mesh.positions,
+            &tris,
+            &edit.specs,
+            Combine::Chain,
+            1.0,
+            &none,
+            s,
+            1.0,
+        )
+        .expect("remedies")
+    };
+    assert!(!search(RemedySearch::Bounded).sweep_untried);
+    if search(RemedySearch::Full).sweep.is_some() {
+        let mut swept = file.clone();
+        swept.deformations[0].sweep = Some(csrbf::SweepOptions::default());
+        let edit = fit(&swept, "cut.json", Some(&mesh), false, &mut |_| {}).expect("fit");
+        let (_, report) = edit
+            .deform(&mesh, 1.0, &Checks::default(), RemedySearch::Off)
+            .expect("deform");
+        assert!(report.diagnostics.inside_out.is_empty());
+    }
+}
