@@ -6,10 +6,11 @@
 # built in this same workspace build; the Blender extension by its headless
 # tests (scripts/test_blender.sh, bpy in a venv kept in the user's cache).
 # The real models are read from ../shared/models when present, else from assets/models.
-# Last, the Windows build under Wine against this Linux build (issue 22:
+# Then the Windows build under Wine against this Linux build (issue 22:
 # scripts/test_windows.sh, which installs Debian's Rust, mingw-w64 and Wine);
 # CSRBF_SKIP_WINDOWS=1 leaves it out on a machine without them, except in CI
-# (CSRBF_CI=1, set by .ci/run), where that is an error.
+# (CSRBF_CI=1, set by .ci/run), where that is an error. Last, the release
+# artifacts in the dev profile (scripts/test_release.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh --tests
@@ -27,4 +28,11 @@ if [ -n "${CSRBF_SKIP_WINDOWS:-}" ]; then
   echo "test: the Windows tests are left out (CSRBF_SKIP_WINDOWS is set)"
 else
   scripts/test_windows.sh
+fi
+# The release artifacts in the dev profile (scripts/release.sh --dev): needs
+# the Windows toolchain too, so it follows the Windows tests.
+if [ -n "${CSRBF_SKIP_WINDOWS:-}" ]; then
+  echo "test: the release tests are left out (they cross-build for Windows; CSRBF_SKIP_WINDOWS is set)"
+else
+  scripts/test_release.sh
 fi

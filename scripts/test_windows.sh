@@ -15,7 +15,6 @@ build_args=()
 [ "${1:-}" = "--dev" ] && build_args=(--dev)
 
 need=()
-command -v wine >/dev/null 2>&1 || need+=(wine64)
 command -v Xvfb >/dev/null 2>&1 || need+=(xvfb)
 command -v compare >/dev/null 2>&1 || need+=(imagemagick)
 if [ ${#need[@]} -gt 0 ]; then
@@ -51,20 +50,10 @@ linux=$(echo "$built" | sed -n 's/^linux=//p')
 cli_tests=$(echo "$built" | sed -n 's/^cli_tests=//p')
 [ -x "$linux" ] && [ -x "$cli_tests" ] || { echo "test-windows: cargo test --no-run gave no csrbf or CLI tests: $built" >&2; exit 1; }
 
-# The test helpers for Wine, and a prefix of our own.
-wine_dir="$tdir/wine"
-mkdir -p "$wine_dir"
-x86_64-w64-mingw32-gcc -shared -O2 -o "$wine_dir/bcryptprimitives.dll" scripts/windows/prng_shim.c -ladvapi32
+# A prefix of our own (with the ProcessPrng shim), and the test helpers.
+CARGO_TARGET_DIR="$tdir" source scripts/windows/wine_prefix.sh
 x86_64-w64-mingw32-gcc -O2 -o "$wine_dir/hold.exe" scripts/windows/hold.c
 x86_64-w64-mingw32-gcc -O2 -o "$wine_dir/fake_ffmpeg.exe" scripts/windows/fake_ffmpeg.c
-export WINEPREFIX="$wine_dir/prefix" WINEDEBUG=-all
-if [ ! -d "$WINEPREFIX/drive_c/windows/system32" ]; then
-  echo "test-windows: making a Wine prefix in $WINEPREFIX"
-  wineboot -i >/dev/null 2>&1 || true
-  wineserver -w
-fi
-[ -d "$WINEPREFIX/drive_c/windows/system32" ] || { echo "test-windows: wineboot made no prefix" >&2; exit 1; }
-cp "$wine_dir/bcryptprimitives.dll" "$WINEPREFIX/drive_c/windows/system32/"
 
 work="$tdir/wine-tests"
 rm -rf "$work"

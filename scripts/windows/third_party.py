@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
-"""Prints the licences of every crate linked into csrbf.exe and
-csrbf-studio.exe for TARGET (default x86_64-pc-windows-gnu): name, version,
-licence expression, and the licence files the crate ships. Used by
-scripts/build-windows.sh for the zip's licences/third-party.txt."""
+"""Prints the licences of every crate linked into csrbf and csrbf-studio for
+TARGET (default x86_64-pc-windows-gnu): name, version, licence expression,
+and the licence files the crate ships. Used by scripts/build-windows.sh for
+the zip's licences/third-party.txt and by scripts/release.sh for the Linux
+archive's."""
 import glob
 import json
 import os
@@ -27,10 +28,16 @@ while todo:
     for d in nodes[i]["deps"]:
         if any(k["kind"] is None for k in d["dep_kinds"]):
             todo.append(d["pkg"])
-out = ["Third-party code linked into csrbf.exe and csrbf-studio.exe",
-       "(crates from crates.io; Rust's standard library is MIT OR Apache-2.0;",
-       "mingw-w64's runtime start-up code and libwinpthread are under the ZPL 2.1 / MIT-style",
-       "licences of the mingw-w64 project; libgcc under the GCC Runtime Library Exception).", ""]
+if "windows" in target:
+    out = ["Third-party code linked into csrbf.exe and csrbf-studio.exe",
+           "(crates from crates.io; Rust's standard library is MIT OR Apache-2.0;",
+           "mingw-w64's runtime start-up code and libwinpthread are under the ZPL 2.1 / MIT-style",
+           "licences of the mingw-w64 project; libgcc under the GCC Runtime Library Exception).", ""]
+else:
+    out = ["Third-party code linked into csrbf and csrbf-studio",
+           "(crates from crates.io; Rust's standard library is MIT OR Apache-2.0; the",
+           "programs load the system's own glibc, libgcc_s, X11/Wayland and Vulkan libraries,",
+           "which are not shipped here).", ""]
 crates = sorted((packages[i] for i in seen - members), key=lambda p: (p["name"], p["version"]))
 for p in crates:
     out.append(f"{p['name']} {p['version']}: {p.get('license') or 'see its licence file'}")

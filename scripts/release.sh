@@ -1,0 +1,202 @@
+#!/usr/bin/env bash
+# Builds every release artifact of csrbf into dist/, checked, with SHA256SUMS:
+#
+#   csrbf-V-cp39-abi3-manylinux2014_x86_64.manylinux_2_17_x86_64.whl  Python, Linux x86_64, glibc 2.17+
+#   csrbf-V-cp39-abi3-win_amd64.whl                                    Python, Windows x86_64
+#   csrbf-V.tar.gz                                                     Python sdist (builds with a Rust toolchain)
+#   csrbf-blender-V-linux_x64.zip, csrbf-blender-V-windows_x64.zip      Blender 4.2+ extensions
+#   csrbf-V-linux-x86_64.tar.gz                                        csrbf and csrbf-studio, glibc 2.17+
+#   csrbf-V-windows-x86_64.zip                                         csrbf.exe and csrbf-studio.exe
+#   SHA256SUMS
+#
+#   scripts/release.sh                 # release profile, into dist/
+#   scripts/release.sh --dev           # dev profile, wheels, sdist and Blender zips only, into
+#                                      # target/release-dev/ (what scripts/test_release.sh runs in CI)
+#   ... --out DIR                      # into DIR instead
+#
+# Installs what it needs (sudo when not root): a venv .venv-release/ with
+# maturin, zig (PyPI's ziglang, the linker that targets glibc 2.17),
+# cargo-zigbuild, auditwheel and twine (scripts/release/requirements.txt);
+# Debian's Rust and mingw-w64 for the Windows builds (scripts/windows/env.sh);
+# headless Blender for its extension tool (scripts/blender_venv.sh, CPython 3.11).
+#
+# Every artifact is checked before it is kept: the wheels' tags, metadata and
+# imports (scripts/release/check_wheel.py: auditwheel's manylinux_2_17 for
+# Linux, python3.dll and Windows' own DLLs only for Windows), `twine check`,
+# Blender's own validation of each zip, the programs' glibc symbols; then the
+# Linux wheel is installed with no compiler on PATH and runs the README's
+# example and the smoke tests; the Windows wheel runs under Wine in
+# python.org's Windows CPython and gives the Linux wheel's results bit for
+# bit (scripts/release/windows_wheel_test.sh); the Linux Blender zip is
+# installed into headless Blender and deforms a mesh. A failed step stops the run naming
+# the step; the artifacts are built in a stage and moved into DIR only when
+# all of them passed, each written whole (a temporary name, then renamed).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+profile=release
+out=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --dev) profile=dev; shift ;;
+    --out) out=$2; shift 2 ;;
+    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
+    *) echo "release: unknown argument $1 (--dev, --out DIR)" >&2; exit 2 ;;
+  esac
+done
+[ -n "$out" ] || { [ "$profile" = release ] && out=dist || out=target/release-dev; }
+cargo_profile=(--release)
+[ "$profile" = dev ] && cargo_profile=(--profile dev)
+
+step="starting"
+started=$(date +%s)
+stage=$(mktemp -d "${TMPDIR:-/tmp}/csrbf-release.XXXXXX")
+trap 'status=$?; rm -rf "$stage"; [ $status -eq 0 ] || echo "release: FAILED at: $step (nothing was written to $out)" >&2' EXIT
+mkdir -p "$stage/out"
+times=()
+begin() { step=$1; step_start=$(date +%s); echo "release: $step"; }
+done_step() { times+=("$step: $(( $(date +%s) - step_start )) s"); }
+fail() { echo "release: $step: $*" >&2; exit 1; }
+
+begin "checking the version and the tools"
+version=$(sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
+manifest_version=$(sed -n 's/^version = "\(.*\)"/\1/p' blender/csrbf_blender/blender_manifest.toml)
+[ "$manifest_version" = "$version" ] || fail "the Blender manifest says $manifest_version, Cargo.toml $version"
+grep -q "^## \[$version\]" CHANGELOG.md || fail "CHANGELOG.md has no section ## [$version]"
+for f in LICENSE-MIT LICENSE-APACHE; do
+  cmp -s "$f" "crates/csrbf-py/$f" || fail "crates/csrbf-py/$f differs from $f (the package's copy must be the workspace's)"
+done
+command -v cargo >/dev/null || fail "cargo is missing: install Rust (https://rustup.rs)"
+command -v python3 >/dev/null || fail "python3 is missing"
+tools=.venv-release
+[ -x "$tools/bin/python" ] || python3 -m venv "$tools" || fail "could not make the venv $tools (python3-venv missing?)"
+if ! cmp -s scripts/release/requirements.txt "$tools/.requirements"; then
+  "$tools/bin/python" -m pip install -q --disable-pip-version-check -r scripts/release/requirements.txt \
+    || fail "could not install scripts/release/requirements.txt from PyPI"
+  cp scripts/release/requirements.txt "$tools/.requirements"
+fi
+export PATH="$root/$tools/bin:$PATH"
+for t in maturin cargo-zigbuild auditwheel twine python-zig; do
+  command -v "$t" >/dev/null || fail "$t is missing from $tools"
+done
+# The csrbf-py cdylib is a Python extension: pyo3 must not link libpython.
+export PYO3_BUILD_EXTENSION_MODULE=1
+echo "release: csrbf $version, $profile profile, into $out"
+done_step
+
+begin "the Linux wheel (manylinux2014, zig)"
+strip=(); [ "$profile" = release ] && strip=(--strip)
+maturin build -q "${cargo_profile[@]}" "${strip[@]}" --locked --zig --compatibility manylinux2014 \
+  --target x86_64-unknown-linux-gnu -m crates/csrbf-py/Cargo.toml -o "$stage/linux" || fail "maturin failed"
+linux_wheel=$(ls "$stage"/linux/csrbf-*.whl)
+python3 scripts/release/check_wheel.py "$linux_wheel" --version "$version" --platform linux || fail "the Linux wheel was refused"
+done_step
+
+begin "the sdist"
+maturin sdist -m crates/csrbf-py/Cargo.toml -o "$stage/sdist" >/dev/null || fail "maturin sdist failed"
+sdist=$(ls "$stage"/sdist/csrbf-*.tar.gz)
+[ "$(basename "$sdist")" = "csrbf-$version.tar.gz" ] || fail "the sdist is $(basename "$sdist"), not csrbf-$version.tar.gz"
+listing=$(tar tzf "$sdist")
+for f in PKG-INFO pyproject.toml Cargo.toml Cargo.lock LICENSE-MIT LICENSE-APACHE python/csrbf/__init__.py \
+    crates/csrbf-py/Cargo.toml crates/csrbf/Cargo.toml crates/csrbf-edit/Cargo.toml; do
+  grep -qx "csrbf-$version/$f" <<< "$listing" || fail "the sdist holds no $f"
+done
+# Its workspace (the Python package's crates only) resolves offline, and
+# every crate keeps the version this lock file pins (cargo drops the other
+# members' dependencies from the lock, nothing else).
+sd="$stage/sdist-check/csrbf-$version"
+mkdir -p "$stage/sdist-check" && tar -C "$stage/sdist-check" -xzf "$sdist"
+cp "$sd/Cargo.lock" "$stage/sdist-check/Cargo.lock.shipped"
+cargo metadata -q --format-version 1 --offline --manifest-path "$sd/Cargo.toml" >/dev/null \
+  || fail "the sdist's workspace does not resolve offline"
+python3 - "$stage/sdist-check/Cargo.lock.shipped" "$sd/Cargo.lock" <<'PY' || fail "the sdist's build would change a locked version"
+import sys, tomllib
+shipped, resolved = (tomllib.load(open(p, "rb"))["package"] for p in sys.argv[1:])
+pinned = {(p["name"], p["version"]) for p in shipped}
+moved = [f"{p['name']} {p['version']}" for p in resolved if (p["name"], p["version"]) not in pinned]
+if moved:
+    sys.exit("release: the sdist resolves versions its Cargo.lock does not pin: " + ", ".join(moved))
+PY
+done_step
+
+begin "the Windows wheel (mingw-w64, Debian's Rust)"
+(
+  source scripts/windows/env.sh
+  maturin build -q "${cargo_profile[@]}" "${strip[@]}" --locked --target "$windows_target" -Zbuild-std=std,panic_abort \
+    -m crates/csrbf-py/Cargo.toml -o "$stage/windows"
+) || fail "the Windows build failed"
+windows_wheel=$(ls "$stage"/windows/csrbf-*.whl)
+python3 scripts/release/check_wheel.py "$windows_wheel" --version "$version" --platform windows || fail "the Windows wheel was refused"
+done_step
+
+begin "twine check"
+twine check --strict "$linux_wheel" "$windows_wheel" "$sdist" >/dev/null || { twine check --strict "$linux_wheel" "$windows_wheel" "$sdist"; fail "twine refused the packages"; }
+cp "$linux_wheel" "$windows_wheel" "$sdist" "$stage/out/"
+done_step
+
+begin "the Blender extensions (Blender's own tool)"
+scripts/build-blender-extension.sh --wheel "$linux_wheel" --wheel "$windows_wheel" --out "$stage/out" \
+  || fail "build-blender-extension.sh failed"
+source scripts/blender_venv.sh
+done_step
+
+if [ "$profile" = release ]; then
+  begin "the Linux programs (glibc 2.17, zig)"
+  cargo-zigbuild build -q --release --locked --target x86_64-unknown-linux-gnu.2.17 -p csrbf-cli -p csrbf-studio \
+    || fail "cargo zigbuild failed"
+  bin=target/x86_64-unknown-linux-gnu/release
+  pack="$stage/programs/csrbf-$version-linux-x86_64"
+  mkdir -p "$pack/licences" "$pack/examples"
+  for exe in csrbf csrbf-studio; do
+    strip --strip-debug -o "$pack/$exe" "$bin/$exe"
+    newest=$(objdump -T "$pack/$exe" | grep -o 'GLIBC_[0-9.]*' | sed 's/GLIBC_//' | sort -V | tail -1)
+    [ "$(printf '%s\n2.17\n' "$newest" | sort -V | tail -1)" = 2.17 ] || fail "$exe needs GLIBC_$newest, newer than 2.17"
+    echo "release: $exe: newest glibc symbol $newest"
+  done
+  cp scripts/release/README-linux.txt "$pack/README.txt"
+  cp LICENSE-MIT LICENSE-APACHE "$pack/licences/"
+  cp assets/ATTRIBUTION.md "$pack/licences/bundled-models.md"
+  python3 scripts/windows/third_party.py x86_64-unknown-linux-gnu > "$pack/licences/third-party.txt"
+  cp assets/models/cgal_head.off assets/controls/head_smile.json "$pack/examples/"
+  # The packed programs run: a deform of the example, from a copy outside the repository.
+  "$pack/csrbf" -q deform --mesh "$pack/examples/cgal_head.off" --controls "$pack/examples/head_smile.json" --out "$stage/smile.ply" \
+    || fail "the packed csrbf could not deform its example"
+  tar -C "$stage/programs" -czf "$stage/out/csrbf-$version-linux-x86_64.tar.gz" "csrbf-$version-linux-x86_64"
+  done_step
+
+  begin "the Windows programs"
+  scripts/build-windows.sh --out "$stage/out" || fail "scripts/build-windows.sh failed"
+  done_step
+fi
+
+begin "installing the Linux wheel without a compiler"
+mkdir -p "$stage/linux-only" && cp "$linux_wheel" "$stage/linux-only/"
+scripts/release/python_install_test.sh "$stage/linux-only" "$profile" || fail "the installed wheel failed"
+done_step
+
+begin "the Windows wheel under Wine (python.org's Windows CPython), against the Linux wheel"
+scripts/release/windows_wheel_test.sh "$windows_wheel" "$linux_wheel" || fail "the Windows wheel failed under Wine"
+done_step
+
+begin "installing the Linux Blender extension into headless Blender"
+"$blender_python" -m pip uninstall -q -y csrbf
+home=$(mktemp -d "$stage/home.XXXXXX")
+HOME="$home" "$blender_python" scripts/release/blender_install_test.py "$stage/out/csrbf-blender-$version-linux_x64.zip" \
+  --profile "$profile" 2>&1 | grep -v -E '^(Info|Warning|STATUS)' || fail "Blender could not install or use the zip"
+done_step
+
+begin "writing $out"
+(cd "$stage/out" && sha256sum -- * > SHA256SUMS)
+mkdir -p "$out"
+for f in "$stage"/out/*; do
+  name=$(basename "$f")
+  [ "$name" = SHA256SUMS ] && continue
+  cp "$f" "$out/$name.tmp" && mv "$out/$name.tmp" "$out/$name"
+done
+cp "$stage/out/SHA256SUMS" "$out/SHA256SUMS.tmp" && mv "$out/SHA256SUMS.tmp" "$out/SHA256SUMS"
+(cd "$out" && sha256sum -c --quiet SHA256SUMS) || fail "the copies in $out do not match SHA256SUMS"
+done_step
+
+echo "release: csrbf $version ($profile) in $(( $(date +%s) - started )) s:"
+(cd "$out" && while read -r _ name; do printf '  %-72s %s\n' "$name" "$(du -h "$name" | cut -f1)"; done < SHA256SUMS)
+printf 'release: %s\n' "${times[@]}"
