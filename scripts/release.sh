@@ -3,15 +3,18 @@
 #
 #   csrbf-V-cp39-abi3-manylinux2014_x86_64.manylinux_2_17_x86_64.whl  Python, Linux x86_64, glibc 2.17+
 #   csrbf-V-cp39-abi3-win_amd64.whl                                    Python, Windows x86_64
+#   csrbf-V-cp39-abi3-macosx_11_0_arm64.whl, ..._10_12_x86_64.whl       Python, macOS (built here, untested on a Mac)
 #   csrbf-V.tar.gz                                                     Python sdist (builds with a Rust toolchain)
-#   csrbf-blender-V-linux_x64.zip, csrbf-blender-V-windows_x64.zip      Blender 4.2+ extensions
+#   csrbf-blender-V-linux_x64.zip, -windows_x64.zip, -macos_arm64.zip,  Blender 4.2+ extensions
+#     -macos_x64.zip
 #   csrbf-V-linux-x86_64.tar.gz                                        csrbf and csrbf-studio, glibc 2.17+
 #   csrbf-V-windows-x86_64.zip                                         csrbf.exe and csrbf-studio.exe
 #   SHA256SUMS
 #
 #   scripts/release.sh                 # release profile, into dist/
-#   scripts/release.sh --dev           # dev profile, wheels, sdist and Blender zips only, into
+#   scripts/release.sh --dev           # dev profile, wheels, sdist and Blender zips only (no macOS), into
 #                                      # target/release-dev/ (what scripts/test_release.sh runs in CI)
+#   ... --macos / --no-macos           # with or without the macOS wheels (default: with, but not with --dev)
 #   ... --out DIR                      # into DIR instead
 #
 # Installs what it needs (sudo when not root): a venv .venv-release/ with
@@ -36,15 +39,19 @@ cd "$(dirname "$0")/.."
 root=$PWD
 profile=release
 out=""
+macos=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --dev) profile=dev; shift ;;
     --out) out=$2; shift 2 ;;
-    -h|--help) sed -n '2,32p' "$0"; exit 0 ;;
-    *) echo "release: unknown argument $1 (--dev, --out DIR)" >&2; exit 2 ;;
+    --macos) macos=1; shift ;;
+    --no-macos) macos=0; shift ;;
+    -h|--help) sed -n '2,36p' "$0"; exit 0 ;;
+    *) echo "release: unknown argument $1 (--dev, --out DIR, --macos, --no-macos)" >&2; exit 2 ;;
   esac
 done
 [ -n "$out" ] || { [ "$profile" = release ] && out=dist || out=target/release-dev; }
+[ -n "$macos" ] || { [ "$profile" = release ] && macos=1 || macos=0; }
 cargo_profile=(--release)
 [ "$profile" = dev ] && cargo_profile=(--profile dev)
 
@@ -129,13 +136,43 @@ windows_wheel=$(ls "$stage"/windows/csrbf-*.whl)
 python3 scripts/release/check_wheel.py "$windows_wheel" --version "$version" --platform windows || fail "the Windows wheel was refused"
 done_step
 
+macos_wheels=()
+if [ "$macos" = 1 ]; then
+  begin "the macOS wheels (zig; arm64 and x86_64; untested on a Mac)"
+  if ! command -v llvm-nm >/dev/null; then
+    sudo=""; [ "$(id -u)" = 0 ] || sudo="sudo"
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq llvm >/dev/null || fail "llvm-nm is missing (Debian: llvm)"
+  fi
+  (
+    # Debian's Rust with the standard library built for the target (as for
+    # Windows), zig's linker and its macOS libSystem stubs; no macOS SDK.
+    source scripts/windows/env.sh
+    export CARGO_TARGET_DIR="${CSRBF_MACOS_TARGET_DIR:-$root/target-macos}"
+    export PATH="$root/$tools/bin:$PATH"
+    for target in aarch64-apple-darwin x86_64-apple-darwin; do
+      maturin build -q "${cargo_profile[@]}" "${strip[@]}" --locked --zig --target "$target" -Zbuild-std=std,panic_abort \
+        -m crates/csrbf-py/Cargo.toml -o "$stage/macos" || exit 1
+    done
+  ) || fail "the macOS build failed"
+  for arch in arm64 x86_64; do
+    w=$(ls "$stage"/macos/csrbf-*_"$arch".whl)
+    python3 scripts/release/check_wheel.py "$w" --version "$version" --platform "macos-${arch/x86_64/x64}" \
+      || fail "the macOS $arch wheel was refused"
+    macos_wheels+=("$w")
+  done
+  done_step
+fi
+
 begin "twine check"
-twine check --strict "$linux_wheel" "$windows_wheel" "$sdist" >/dev/null || { twine check --strict "$linux_wheel" "$windows_wheel" "$sdist"; fail "twine refused the packages"; }
-cp "$linux_wheel" "$windows_wheel" "$sdist" "$stage/out/"
+packages=("$linux_wheel" "$windows_wheel" "${macos_wheels[@]}" "$sdist")
+twine check --strict "${packages[@]}" >/dev/null || { twine check --strict "${packages[@]}"; fail "twine refused the packages"; }
+cp "${packages[@]}" "$stage/out/"
 done_step
 
 begin "the Blender extensions (Blender's own tool)"
-scripts/build-blender-extension.sh --wheel "$linux_wheel" --wheel "$windows_wheel" --out "$stage/out" \
+blender_wheels=()
+for w in "$linux_wheel" "$windows_wheel" "${macos_wheels[@]}"; do blender_wheels+=(--wheel "$w"); done
+scripts/build-blender-extension.sh "${blender_wheels[@]}" --out "$stage/out" \
   || fail "build-blender-extension.sh failed"
 source scripts/blender_venv.sh
 done_step

@@ -14,7 +14,8 @@
   agreeing on manylinux_2_17; on Windows an x86-64 PE importing python3.dll
   (the stable ABI, never python3X.dll) and Windows' own DLLs only, exporting
   PyInit__csrbf; on macOS a Mach-O of the platform's architecture linking
-  only /usr/lib/libSystem (Python's symbols looked up when loaded).
+  only macOS's own libraries (libSystem, iconv; Python's symbols looked up
+  when loaded) and needing no macOS newer than its tag says.
 
 Prints what it checked; exits 1 naming the first problem.
 """
@@ -136,27 +137,48 @@ def check_windows(path: Path) -> str:
 
 
 MACHO_CPU = {"macos-arm64": 0x0100000C, "macos-x64": 0x01000007}
-LC_LOAD_DYLIB, LC_LOAD_WEAK_DYLIB, LC_REEXPORT_DYLIB = 0xC, 0x80000018, 0x8000001F
+LC_LOAD_DYLIB, LC_LOAD_WEAK_DYLIB, LC_REEXPORT_DYLIB, LC_BUILD_VERSION = 0xC, 0x80000018, 0x8000001F, 0x32
+# Libraries every macOS has (in the dyld shared cache): libSystem, and the
+# iconv that Rust's libc crate links on Apple platforms.
+MACOS_LIBS = re.compile(r"^/usr/lib/(libSystem\.B|libiconv\.2|libcharset\.1)\.dylib$")
 
 
-def check_macos(path: Path, platform: str) -> str:
+def check_macos(path: Path, platform: str, tag: str) -> str:
     data = path.read_bytes()
     magic, cpu, _sub, _ftype, ncmds, _size, _flags = struct.unpack_from("<7I", data, 0)
     if magic != 0xFEEDFACF:
         raise Refused(f"{path.name} is not a 64-bit Mach-O (magic {magic:#x})")
     if cpu != MACHO_CPU[platform]:
         raise Refused(f"{path.name} is for CPU {cpu:#x}, not {platform}")
-    offset, dylibs = 32, []
+    offset, dylibs, minos = 32, [], None
     for _ in range(ncmds):
         cmd, size = struct.unpack_from("<2I", data, offset)
         if cmd in (LC_LOAD_DYLIB, LC_LOAD_WEAK_DYLIB, LC_REEXPORT_DYLIB):
             name_at = struct.unpack_from("<I", data, offset + 8)[0]
             dylibs.append(data[offset + name_at: offset + size].split(b"\0")[0].decode())
+        elif cmd == LC_BUILD_VERSION:
+            version = struct.unpack_from("<I", data, offset + 12)[0]
+            minos = (version >> 16, (version >> 8) & 0xFF)
         offset += size
-    bad = [d for d in dylibs if not d.startswith("/usr/lib/libSystem")]
+    bad = [d for d in dylibs if not MACOS_LIBS.match(d)]
     if bad:
-        raise Refused(f"{path.name} links {bad}: only /usr/lib/libSystem may be linked (Python's symbols are looked up when loaded)")
-    return f"Mach-O {platform}, links {' '.join(dylibs)}"
+        raise Refused(f"{path.name} links {bad}: only macOS's own libSystem and iconv may be linked "
+                      "(Python's symbols are looked up when loaded, never linked)")
+    if minos is None:
+        raise Refused(f"{path.name} has no LC_BUILD_VERSION (its minimum macOS)")
+    tagged = tuple(int(x) for x in re.match(r"macosx_(\d+)_(\d+)_", tag).groups())
+    if minos > tagged:
+        raise Refused(f"{path.name} needs macOS {minos[0]}.{minos[1]}, newer than its tag's {tagged[0]}.{tagged[1]}")
+    # The symbols it imports: from those libraries, or Python's C API looked
+    # up in the interpreter that loads it (two-level namespace otherwise).
+    undefined = re.findall(r"\(undefined\) (?:weak )?external (\S+)(?: \(from (\S+)\))?", run("llvm-nm", "-u", "-m", str(path)))
+    strays = [name for name, lib in undefined if not lib and not re.match(r"_{1,2}Py", name)]
+    if strays:
+        raise Refused(f"{path.name} imports {strays[:8]} from no library (only Python's API may be looked up when loaded)")
+    libs = sorted({lib for _, lib in undefined if lib})
+    python_api = sum(1 for _, lib in undefined if not lib)
+    return (f"Mach-O {platform} for macOS {minos[0]}.{minos[1]}+, links {' '.join(dylibs)}; imports "
+            f"{len(undefined) - python_api} symbols from {', '.join(libs)} and {python_api} of Python's API")
 
 
 def check(wheel: Path, version: str, platform: str) -> str:
@@ -191,7 +213,7 @@ def check(wheel: Path, version: str, platform: str) -> str:
             elif platform == "windows":
                 what = check_windows(path)
             else:
-                what = check_macos(path, platform)
+                what = check_macos(path, platform, tag)
     return f"{wheel.name}: tags {sorted(wheel_tags)}, metadata and RECORD sound; {what}"
 
 

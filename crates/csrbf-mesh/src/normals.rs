@@ -50,10 +50,12 @@ use glam::{Mat3, Vec3};
 
 /// Vertices a pass of the way out handles at a time (eight f32 in an AVX2
 /// register).
+#[cfg(target_arch = "x86_64")]
 const LANES: usize = 8;
 
 /// Blocks of eight whose square roots and divisions the way out issues
 /// before it finishes the block at hand.
+#[cfg(target_arch = "x86_64")]
 const AHEAD: usize = 2;
 
 /// Floats a point or a sum takes: x y z and one the passes never read.

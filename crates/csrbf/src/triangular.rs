@@ -226,6 +226,8 @@ macro_rules! on_cpu {
 struct Passes<'a> {
     symbolic: &'a SymbolicSupernodalCholesky<u32>,
     values: &'a [f64],
+    /// The CPU's proof of AVX2 and FMA, read only on x86-64.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     cpu: Option<Avx2Fma>,
     /// Values from which a supernode goes a panel at a time
     /// ([`WIDE_NODE`] in a split factor's solve, never in another's).
