@@ -74,7 +74,12 @@ text = text.replace(placeholder, listed + ",\n]\n\nplatforms = [" + ", ".join(f'
 open(target, "w").write(text)
 print("build-blender-extension: platforms " + " ".join(platforms))
 PY
-"$blender_python" "$blender_ext_cli" build --source-dir "$src" --output-dir "$stage/out" --split-platforms >/dev/null
+# (The tool writes its errors to stdout: shown when it fails.)
+if ! "$blender_python" "$blender_ext_cli" build --source-dir "$src" --output-dir "$stage/out" --split-platforms > "$stage/build.log" 2>&1; then
+  echo "build-blender-extension: Blender's tool could not build the zips:" >&2
+  cat "$stage/build.log" >&2
+  exit 1
+fi
 mkdir -p "$out_dir"
 zips=("$stage"/out/*.zip)
 [ -e "${zips[0]}" ] || { echo "build-blender-extension: Blender's tool wrote no zip" >&2; exit 1; }

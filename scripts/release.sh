@@ -16,6 +16,7 @@
 #                                      # target/release-dev/ (what scripts/test_release.sh runs in CI)
 #   ... --macos / --no-macos           # with or without the macOS wheels (default: with, but not with --dev)
 #   ... --out DIR                      # into DIR instead
+#   ... --keep-others                  # go on although DIR holds another version's files
 #
 # Installs what it needs (sudo when not root): a venv .venv-release/ with
 # maturin, zig (PyPI's ziglang, the linker that targets glibc 2.17),
@@ -31,23 +32,29 @@
 # example and the smoke tests; the Windows wheel runs under Wine in
 # python.org's Windows CPython and gives the Linux wheel's results bit for
 # bit (scripts/release/windows_wheel_test.sh); the Linux Blender zip is
-# installed into headless Blender and deforms a mesh. A failed step stops the run naming
-# the step; the artifacts are built in a stage and moved into DIR only when
-# all of them passed, each written whole (a temporary name, then renamed).
+# installed into headless Blender and deforms a mesh. A failed step stops the
+# run naming the step; the artifacts are built in a stage and moved into DIR
+# only when all of them passed, each written whole (a temporary name, then
+# renamed), SHA256SUMS last (the old one removed first, so DIR never has one
+# that does not match its files). A DIR holding another version's files is
+# refused (--keep-others goes on).
 set -euo pipefail
-cd "$(dirname "$0")/.."
+self=$(realpath "$0")
+cd "$(dirname "$self")/.."
 root=$PWD
 profile=release
 out=""
 macos=""
+keep_others=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --dev) profile=dev; shift ;;
     --out) out=$2; shift 2 ;;
     --macos) macos=1; shift ;;
     --no-macos) macos=0; shift ;;
-    -h|--help) sed -n '2,36p' "$0"; exit 0 ;;
-    *) echo "release: unknown argument $1 (--dev, --out DIR, --macos, --no-macos)" >&2; exit 2 ;;
+    --keep-others) keep_others=1; shift ;;
+    -h|--help) sed -n '2,40p' "$self"; exit 0 ;;
+    *) echo "release: unknown argument $1 (--dev, --out DIR, --macos, --no-macos, --keep-others)" >&2; exit 2 ;;
   esac
 done
 [ -n "$out" ] || { [ "$profile" = release ] && out=dist || out=target/release-dev; }
@@ -58,7 +65,8 @@ cargo_profile=(--release)
 step="starting"
 started=$(date +%s)
 stage=$(mktemp -d "${TMPDIR:-/tmp}/csrbf-release.XXXXXX")
-trap 'status=$?; rm -rf "$stage"; [ $status -eq 0 ] || echo "release: FAILED at: $step (nothing was written to $out)" >&2' EXIT
+written="nothing was written to $out"
+trap 'status=$?; rm -rf "$stage"; [ $status -eq 0 ] || echo "release: FAILED at: $step ($written)" >&2' EXIT
 mkdir -p "$stage/out"
 times=()
 begin() { step=$1; step_start=$(date +%s); echo "release: $step"; }
@@ -75,6 +83,13 @@ for f in LICENSE-MIT LICENSE-APACHE; do
 done
 command -v cargo >/dev/null || fail "cargo is missing: install Rust (https://rustup.rs)"
 command -v python3 >/dev/null || fail "python3 is missing"
+# Blender's extension tool comes with bpy 5.0.1, which is for CPython 3.11 only.
+python3 -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' \
+  || fail "python3 is $(python3 --version 2>&1); Blender's tool (bpy 5.0.1) needs CPython 3.11 (set PATH so python3 is a 3.11)"
+if [ -d "$out" ] && [ -z "$keep_others" ]; then
+  others=$(cd "$out" && for f in *; do [ -e "$f" ] || continue; case "$f" in SHA256SUMS|*-"$version"[-.]*) ;; *) echo "$f" ;; esac; done)
+  [ -z "$others" ] || fail "$out holds files of another release: $(echo $others) (move them away, or pass --keep-others)"
+fi
 tools=.venv-release
 [ -x "$tools/bin/python" ] || python3 -m venv "$tools" || fail "could not make the venv $tools (python3-venv missing?)"
 if ! cmp -s scripts/release/requirements.txt "$tools/.requirements"; then
@@ -127,10 +142,11 @@ PY
 done_step
 
 begin "the Windows wheel (mingw-w64, Debian's Rust)"
+# (A subshell followed by || runs without set -e: each command says || exit.)
 (
-  source scripts/windows/env.sh
+  source scripts/windows/env.sh || exit 1
   maturin build -q "${cargo_profile[@]}" "${strip[@]}" --locked --target "$windows_target" -Zbuild-std=std,panic_abort \
-    -m crates/csrbf-py/Cargo.toml -o "$stage/windows"
+    -m crates/csrbf-py/Cargo.toml -o "$stage/windows" || exit 1
 ) || fail "the Windows build failed"
 windows_wheel=$(ls "$stage"/windows/csrbf-*.whl)
 python3 scripts/release/check_wheel.py "$windows_wheel" --version "$version" --platform windows || fail "the Windows wheel was refused"
@@ -141,12 +157,13 @@ if [ "$macos" = 1 ]; then
   begin "the macOS wheels (zig; arm64 and x86_64; untested on a Mac)"
   if ! command -v llvm-nm >/dev/null; then
     sudo=""; [ "$(id -u)" = 0 ] || sudo="sudo"
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq llvm >/dev/null || fail "llvm-nm is missing (Debian: llvm)"
+    { DEBIAN_FRONTEND=noninteractive $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq llvm >/dev/null; } \
+      || fail "llvm-nm is missing and could not be installed (Debian: llvm)"
   fi
   (
     # Debian's Rust with the standard library built for the target (as for
     # Windows), zig's linker and its macOS libSystem stubs; no macOS SDK.
-    source scripts/windows/env.sh
+    source scripts/windows/env.sh || exit 1
     export CARGO_TARGET_DIR="${CSRBF_MACOS_TARGET_DIR:-$root/target-macos}"
     export PATH="$root/$tools/bin:$PATH"
     for target in aarch64-apple-darwin x86_64-apple-darwin; do
@@ -225,13 +242,21 @@ done_step
 begin "writing $out"
 (cd "$stage/out" && sha256sum -- * > SHA256SUMS)
 mkdir -p "$out"
+# The old SHA256SUMS goes first: until the new one is in place, $out has none
+# rather than one that does not match its files.
+rm -f "$out/SHA256SUMS"
+written="some of this release's files are in $out, without SHA256SUMS: run again"
 for f in "$stage"/out/*; do
   name=$(basename "$f")
   [ "$name" = SHA256SUMS ] && continue
-  cp "$f" "$out/$name.tmp" && mv "$out/$name.tmp" "$out/$name"
+  cp "$f" "$out/$name.tmp" || fail "could not copy $name into $out"
+  mv "$out/$name.tmp" "$out/$name" || fail "could not rename $name.tmp in $out"
 done
-cp "$stage/out/SHA256SUMS" "$out/SHA256SUMS.tmp" && mv "$out/SHA256SUMS.tmp" "$out/SHA256SUMS"
+cp "$stage/out/SHA256SUMS" "$out/SHA256SUMS.tmp" && mv "$out/SHA256SUMS.tmp" "$out/SHA256SUMS" || fail "could not write SHA256SUMS"
 (cd "$out" && sha256sum -c --quiet SHA256SUMS) || fail "the copies in $out do not match SHA256SUMS"
+written="$out holds this release and its SHA256SUMS"
+others=$(cd "$out" && for f in *; do grep -q "  $f\$" SHA256SUMS || [ "$f" = SHA256SUMS ] || echo "$f"; done)
+[ -z "$others" ] || echo "release: WARNING: $out also holds files this run did not make (not in SHA256SUMS; do not publish them): $(echo $others)"
 done_step
 
 echo "release: csrbf $version ($profile) in $(( $(date +%s) - started )) s:"

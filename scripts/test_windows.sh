@@ -51,7 +51,8 @@ cli_tests=$(echo "$built" | sed -n 's/^cli_tests=//p')
 [ -x "$linux" ] && [ -x "$cli_tests" ] || { echo "test-windows: cargo test --no-run gave no csrbf or CLI tests: $built" >&2; exit 1; }
 
 # A prefix of our own (with the ProcessPrng shim), and the test helpers.
-CARGO_TARGET_DIR="$tdir" source scripts/windows/wine_prefix.sh
+wine_target_dir=$tdir
+source scripts/windows/wine_prefix.sh
 x86_64-w64-mingw32-gcc -O2 -o "$wine_dir/hold.exe" scripts/windows/hold.c
 x86_64-w64-mingw32-gcc -O2 -o "$wine_dir/fake_ffmpeg.exe" scripts/windows/fake_ffmpeg.c
 

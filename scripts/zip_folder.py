@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Packs the folder STAGE into the zip OUT, whole or not at all: written
 beside OUT as OUT.tmp, then renamed. Paths in the zip are relative to STAGE.
-Used by build-blender-extension.sh and build-windows.sh."""
+Used by build-windows.sh."""
 import os
 import sys
 import zipfile

