@@ -191,14 +191,38 @@ blender_wheels=()
 for w in "$linux_wheel" "$windows_wheel" "${macos_wheels[@]}"; do blender_wheels+=(--wheel "$w"); done
 scripts/build-blender-extension.sh "${blender_wheels[@]}" --out "$stage/out" \
   || fail "build-blender-extension.sh failed"
+# Each zip is for one platform and holds that platform's wheel, byte for byte
+# the one checked above.
+python3 - "$stage/out" "$version" "$linux_wheel" "$windows_wheel" "${macos_wheels[@]}" <<'PY' || fail "a Blender zip is not what it should be"
+import hashlib, os, sys, tomllib, zipfile
+out, version, *wheels = sys.argv[1:]
+def platform_of(tag):
+    system = "linux" if "linux" in tag else "windows" if tag.startswith("win") else "macos"
+    return f"{system}-{'arm64' if tag.endswith('arm64') else 'x64'}"
+for w in wheels:
+    name = os.path.basename(w)
+    platform = platform_of(name[:-len(".whl")].split("-")[-1])
+    zip_path = os.path.join(out, f"csrbf-blender-{version}-{platform.replace('-', '_')}.zip")
+    with zipfile.ZipFile(zip_path) as z:
+        generated = tomllib.loads(z.read("blender_manifest.toml").decode())["build"]["generated"]
+        if generated["platforms"] != [platform] or generated["wheels"] != [f"./wheels/{name}"]:
+            sys.exit(f"release: {zip_path} names {generated}, not {platform} and {name}")
+        inside = hashlib.sha256(z.read(f"wheels/{name}")).hexdigest()
+    if inside != hashlib.sha256(open(w, "rb").read()).hexdigest():
+        sys.exit(f"release: the wheel in {zip_path} is not the checked {name}")
+    print(f"release: {os.path.basename(zip_path)}: {platform}, the checked {name}")
+PY
 source scripts/blender_venv.sh
 done_step
 
 if [ "$profile" = release ]; then
   begin "the Linux programs (glibc 2.17, zig)"
-  cargo-zigbuild build -q --release --locked --target x86_64-unknown-linux-gnu.2.17 -p csrbf-cli -p csrbf-studio \
-    || fail "cargo zigbuild failed"
-  bin=target/x86_64-unknown-linux-gnu/release
+  # A target folder of its own: maturin's zig build of the wheel sets other
+  # flags, and the two would rebuild each other's dependencies every run.
+  programs_target="$root/target/zig-programs"
+  CARGO_TARGET_DIR="$programs_target" cargo-zigbuild build -q --release --locked \
+    --target x86_64-unknown-linux-gnu.2.17 -p csrbf-cli -p csrbf-studio || fail "cargo zigbuild failed"
+  bin="$programs_target/x86_64-unknown-linux-gnu/release"
   pack="$stage/programs/csrbf-$version-linux-x86_64"
   mkdir -p "$pack/licences" "$pack/examples"
   for exe in csrbf csrbf-studio; do

@@ -137,7 +137,11 @@ def check_windows(path: Path) -> str:
 
 
 MACHO_CPU = {"macos-arm64": 0x0100000C, "macos-x64": 0x01000007}
-LC_LOAD_DYLIB, LC_LOAD_WEAK_DYLIB, LC_REEXPORT_DYLIB, LC_BUILD_VERSION = 0xC, 0x80000018, 0x8000001F, 0x32
+LC_LOAD_DYLIB, LC_LOAD_WEAK_DYLIB, LC_REEXPORT_DYLIB = 0xC, 0x80000018, 0x8000001F
+# The minimum macOS: LC_BUILD_VERSION (macOS 10.14+ targets: platform, minos,
+# ...) or the older LC_VERSION_MIN_MACOSX (version, sdk), which x86_64
+# builds for 10.12 carry; the offset of the version in each.
+MIN_VERSION_AT = {0x32: 12, 0x24: 8}
 # Libraries every macOS has (in the dyld shared cache): libSystem, and the
 # iconv that Rust's libc crate links on Apple platforms.
 MACOS_LIBS = re.compile(r"^/usr/lib/(libSystem\.B|libiconv\.2|libcharset\.1)\.dylib$")
@@ -156,8 +160,8 @@ def check_macos(path: Path, platform: str, tag: str) -> str:
         if cmd in (LC_LOAD_DYLIB, LC_LOAD_WEAK_DYLIB, LC_REEXPORT_DYLIB):
             name_at = struct.unpack_from("<I", data, offset + 8)[0]
             dylibs.append(data[offset + name_at: offset + size].split(b"\0")[0].decode())
-        elif cmd == LC_BUILD_VERSION:
-            version = struct.unpack_from("<I", data, offset + 12)[0]
+        elif cmd in MIN_VERSION_AT:
+            version = struct.unpack_from("<I", data, offset + MIN_VERSION_AT[cmd])[0]
             minos = (version >> 16, (version >> 8) & 0xFF)
         offset += size
     bad = [d for d in dylibs if not MACOS_LIBS.match(d)]
@@ -165,7 +169,7 @@ def check_macos(path: Path, platform: str, tag: str) -> str:
         raise Refused(f"{path.name} links {bad}: only macOS's own libSystem and iconv may be linked "
                       "(Python's symbols are looked up when loaded, never linked)")
     if minos is None:
-        raise Refused(f"{path.name} has no LC_BUILD_VERSION (its minimum macOS)")
+        raise Refused(f"{path.name} has neither LC_BUILD_VERSION nor LC_VERSION_MIN_MACOSX (its minimum macOS)")
     tagged = tuple(int(x) for x in re.match(r"macosx_(\d+)_(\d+)_", tag).groups())
     if minos > tagged:
         raise Refused(f"{path.name} needs macOS {minos[0]}.{minos[1]}, newer than its tag's {tagged[0]}.{tagged[1]}")
