@@ -131,6 +131,17 @@ mkdir -p "$stage/sdist-check" && tar -C "$stage/sdist-check" -xzf "$sdist"
 cp "$sd/Cargo.lock" "$stage/sdist-check/Cargo.lock.shipped"
 cargo metadata -q --format-version 1 --offline --manifest-path "$sd/Cargo.toml" >/dev/null \
   || fail "the sdist's workspace does not resolve offline"
+# Every file a crate in it includes at compile time (include_bytes!,
+# include_str!) is in it: a crate reaching outside the sdist breaks pip's build.
+python3 - "$sd" <<'PY' || fail "the sdist lacks files its crates include"
+import pathlib, re, sys
+root = pathlib.Path(sys.argv[1])
+missing = [f"{rs.relative_to(root)}: {lit}" for rs in root.rglob("*.rs")
+           for lit in re.findall(r'include_(?:bytes|str)!\(\s*"([^"]+)"', rs.read_text(errors="replace"))
+           if not (rs.parent / lit).is_file()]
+if missing:
+    sys.exit("release: the sdist lacks what its crates include: " + "; ".join(missing))
+PY
 python3 - "$stage/sdist-check/Cargo.lock.shipped" "$sd/Cargo.lock" <<'PY' || fail "the sdist's build would change a locked version"
 import sys, tomllib
 shipped, resolved = (tomllib.load(open(p, "rb"))["package"] for p in sys.argv[1:])
@@ -244,6 +255,17 @@ if [ "$profile" = release ]; then
 
   begin "the Windows programs"
   scripts/build-windows.sh --out "$stage/out" || fail "scripts/build-windows.sh failed"
+  done_step
+fi
+
+if [ "$profile" = release ]; then
+  # The sdist builds as pip builds it (maturin from PyPI, a release compile).
+  begin "building the sdist as pip does"
+  python3 -m venv "$stage/sdist-venv" && "$stage/sdist-venv/bin/python" -m pip install -q --disable-pip-version-check numpy \
+    || fail "could not make a venv for the sdist"
+  "$stage/sdist-venv/bin/python" -m pip install -q --disable-pip-version-check "$sdist" || fail "pip could not build and install the sdist"
+  "$stage/sdist-venv/bin/python" -c 'import csrbf, sys; assert csrbf.build_profile == "release"; m = csrbf.read_mesh(sys.argv[1]); print(f"release: the sdist built and read {len(m)} vertices")' \
+    assets/models/cgal_head.off || fail "the csrbf built from the sdist does not work"
   done_step
 fi
 
