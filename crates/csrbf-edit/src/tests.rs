@@ -7,9 +7,25 @@ use csrbf::{Combine, FittedStage, compose_with_groups};
 use csrbf_mesh::{Faces, Mesh};
 use glam::DVec3;
 
-use crate::{Checks, ControlFile, RemedySearch, fit, remedies};
+use crate::{Checks, ControlFile, Edit, Remedies, RemedySearch, fit, remedies};
 
 /// A flat grid of `n` x `n` cells as a mesh.
+/// The remedies of `edit` on `mesh` at phase 1, chained, with the search `s`.
+fn search_remedies(mesh: &Mesh, edit: &Edit, s: RemedySearch) -> Remedies {
+    let tris = mesh.faces.triangles();
+    remedies(
+        &mesh.positions,
+        &tris,
+        &edit.specs,
+        Combine::Chain,
+        1.0,
+        &|_| None,
+        s,
+        1.0,
+    )
+    .expect("remedies")
+}
+
 fn grid_mesh(n: usize) -> Mesh {
     let (positions, tris) = grid(n);
     let mut faces = Faces::new();
@@ -136,21 +152,7 @@ fn the_remedies_search_keeps_to_its_budget() {
     let mesh = grid_mesh(30);
     let file = ControlFile::parse(FOLDING).expect("parse");
     let edit = fit(&file, "pull.json", Some(&mesh), false, &mut |_| {}).expect("fit");
-    let tris = mesh.faces.triangles();
-    let none = |_: &str| None;
-    let search = |s| {
-        remedies(
-            &mesh.positions,
-            &tris,
-            &edit.specs,
-            Combine::Chain,
-            1.0,
-            &none,
-            s,
-            1.0,
-        )
-        .expect("remedies")
-    };
+    let search = |s| search_remedies(&mesh, &edit, s);
     let r = search(RemedySearch::Off);
     assert!(!r.found() && !r.complete && r.sweep_untried, "{r:?}");
     assert!(
@@ -223,21 +225,7 @@ fn a_sweep_is_advised_for_a_region_only_when_its_trial_folds_nothing() {
         "controls": [{"from": [0.5, 0.5, 0], "to": [0.8, 0.5, 0]}]}"#;
     let file = ControlFile::parse(text).expect("parse");
     let edit = fit(&file, "cut.json", Some(&mesh), false, &mut |_| {}).expect("fit");
-    let tris = mesh.faces.triangles();
-    let none = |_: &str| None;
-    let search = |s| {
-        remedies(
-            &mesh.positions,
-            &tris,
-            &edit.specs,
-            Combine::Chain,
-            1.0,
-            &none,
-            s,
-            1.0,
-        )
-        .expect("remedies")
-    };
+    let search = |s| search_remedies(&mesh, &edit, s);
     assert!(!search(RemedySearch::Bounded).sweep_untried);
     if search(RemedySearch::Full).sweep.is_some() {
         let mut swept = file.clone();
