@@ -547,9 +547,14 @@ fn err(location: &str, message: impl Into<String>) -> ControlError {
     }
 }
 
+/// How a warning of [`ControlFile::warnings`] about a key the reader does
+/// not know ends (`"handle.rotat: unknown key ignored"`): a file is read
+/// with it, a front end building a file refuses it.
+pub const UNKNOWN_KEY: &str = "unknown key ignored";
+
 fn unknown_keys(obj: &Map<String, Value>, known: &[&str], base: &str, warnings: &mut Vec<String>) {
     for k in obj.keys().filter(|k| !known.contains(&k.as_str())) {
-        warnings.push(format!("{}: unknown key ignored", join(base, k)));
+        warnings.push(format!("{}: {UNKNOWN_KEY}", join(base, k)));
     }
 }
 

@@ -21,7 +21,10 @@
 //!   Python's `Session`): each layer's factored system and binding kept, a
 //!   destination move a solve and the sums, a start or radius a refit;
 //! - [`apply`]: replay files by path and the checks of a region against a
-//!   mesh.
+//!   mesh;
+//! - [`symmetry`]: the plane a model is mirror-symmetric about, where a
+//!   mirror puts the images of control vectors (the studio's Mirror,
+//!   Python's `symmetry_plane`, Blender's Mirror Controls).
 //!
 //! ```
 //! use csrbf_edit::{ControlFile, Checks, RemedySearch};
@@ -58,6 +61,7 @@ pub mod json;
 mod remedy;
 mod report;
 mod session;
+pub mod symmetry;
 
 #[cfg(test)]
 mod connected_tests;

@@ -1,35 +1,40 @@
 //! `csrbf.control_file`: a control file's dict made by the edit layer (its
 //! one writer), so a front end (Blender's panel) builds none by hand.
 
-use csrbf_edit::controls::{ControlFile, ControlSpec, parse_region};
+use csrbf_edit::controls::{ControlFile, ControlSpec, UNKNOWN_KEY};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::deformation::{check_lengths, options, vectors_f64};
-use crate::mesh::json_value;
+use crate::mesh::{PyMesh, json_text, json_value};
 
 /// A control file of one deformation, as a dict in the file's form (what
 /// `deform_mesh`, `Session` and `csrbf deform` read), written by the edit
 /// layer and checked as a file is: every problem named by its JSON path.
 ///
 /// Args:
-///     starts: (M, 3) start points of the control vectors.
+///     starts: (M, 3) start points of the control vectors ((0, 3) for a
+///         handle alone).
 ///     targets: (M, 3) destinations, one per start.
 ///     radius: radius of support R.
 ///     kernel: "c0", "c2" (default), "c4" or "c6".
 ///     polynomial: "none" (default) or "linear".
 ///     region: where it acts, in the file's form ({"group": name},
-///         {"vertices": [...]}, {"sphere": {...}}, {"box": {...}},
-///         {"connected": {...}}, with "falloff" beside), or None (the whole
-///         mesh).
+///         {"vertices": [...]}, {"weights": {...}}, {"sphere": {...}},
+///         {"box": {...}}, {"connected": {...}}, with "falloff" beside), or
+///         None (the whole mesh).
 ///     phase: the deformation's own phase, in [0, 1].
 ///     sweep: a fold-free sweep instead of the single map.
 ///     name: a name for people.
+///     handle: a part that moves as one, in the file's form
+///         ({"select": <region>, "rotate": {"axis": [..], "angle_deg": a,
+///         "pivot": [..]}, "scale": s, "translate": [..]}), or None.
+///     anchor: with a handle, a part held still (a region), or None.
 ///
 /// >>> spec = csrbf.control_file(starts, targets, 0.3, region={"group": "lips"})
 /// >>> out, report = csrbf.deform_mesh(mesh, spec)
 #[pyfunction]
-#[pyo3(signature = (starts, targets, radius, *, kernel = "c2", polynomial = "none", region = None, phase = 1.0, sweep = false, name = None))]
+#[pyo3(signature = (starts, targets, radius, *, kernel = "c2", polynomial = "none", region = None, phase = 1.0, sweep = false, name = None, handle = None, anchor = None))]
 #[allow(clippy::too_many_arguments)] // each is a keyword of the Python function
 pub fn control_file<'py>(
     py: Python<'py>,
@@ -42,30 +47,81 @@ pub fn control_file<'py>(
     phase: f64,
     sweep: bool,
     name: Option<String>,
+    handle: Option<&Bound<'py, PyAny>>,
+    anchor: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let s = vectors_f64(starts, "starts")?;
-    let t = vectors_f64(targets, "targets")?;
+    // No controls may be given as [] (a handle alone), not only as (0, 3).
+    let vectors = |v: &Bound<'py, PyAny>, name| match v.len() {
+        Ok(0) => Ok(Vec::new()),
+        _ => vectors_f64(v, name),
+    };
+    let s = vectors(starts, "starts")?;
+    let t = vectors(targets, "targets")?;
     check_lengths(s.len(), t.len())?;
     let mut spec = ControlSpec::new(s, t, options(radius, kernel, polynomial, false)?);
-    if let Some(r) = region {
-        let text: String = py.import("json")?.call_method1("dumps", (r,))?.extract()?;
-        let value: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| PyValueError::new_err(format!("region: {e}")))?;
-        spec.region =
-            parse_region(&value, "region").map_err(|e| crate::Error::new_err(e.to_string()))?;
-    }
     spec.phase = phase;
     spec.sweep = sweep.then(csrbf::SweepOptions::default);
     spec.name = name;
-    let value = ControlFile::new(vec![spec], csrbf::Combine::Chain).to_json();
-    // Read back as any file is: a radius, a phase or a point the reader
-    // refuses is refused here, by its JSON path.
-    ControlFile::parse(&value.to_string())
+    let mut value = ControlFile::new(vec![spec], csrbf::Combine::Chain).to_json();
+    // The region, handle and anchor go in as the file has them, and the
+    // whole is read back as any file is: a radius, a phase, a point or a
+    // part the reader refuses is refused here, by its JSON path.
+    for (key, part) in [("region", region), ("handle", handle), ("anchor", anchor)] {
+        if let Some(part) = part.filter(|p| !p.is_none()) {
+            let text = json_text(py, part)?;
+            value[key] = serde_json::from_str(&text)
+                .map_err(|e| PyValueError::new_err(format!("{key}: {e}")))?;
+        }
+    }
+    let file = ControlFile::parse(&value.to_string())
         .map_err(|e| crate::Error::new_err(format!("controls: {e}")))?;
-    json_value(py, &value)
+    // A key a file would only be warned of (in a region or a handle) is a
+    // mistake in the caller's code here: refused.
+    if let Some(w) = file.warnings.iter().find(|w| w.ends_with(UNKNOWN_KEY)) {
+        return Err(crate::Error::new_err(format!("controls: {w}")));
+    }
+    json_value(py, &file.to_json())
 }
 
-/// Adds `control_file` to the module.
+/// The plane normal to an axis that a model is most nearly mirror-symmetric
+/// about (found from its vertices, as the studio's Mirror finds it: extra
+/// parts such as a tail or a prop do not pull it off): its offset along the
+/// axis, so the plane is `x = offset` for axis "x".
+///
+/// Args:
+///     mesh: a Mesh, or (N, 3) points.
+///     axis: "x" (default), "y" or "z".
+///
+/// Raises:
+///     csrbf.Error: no finite point.
+///
+/// >>> x = csrbf.symmetry_plane(mesh)  # mirror a start s: (2 * x - s[0], s[1], s[2])
+#[pyfunction]
+#[pyo3(signature = (mesh, axis = "x"))]
+pub fn symmetry_plane(mesh: &Bound<'_, PyAny>, axis: &str) -> PyResult<f64> {
+    let k = match axis {
+        "x" | "X" => 0,
+        "y" | "Y" => 1,
+        "z" | "Z" => 2,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "axis: expected \"x\", \"y\" or \"z\", got {other:?}"
+            )));
+        }
+    };
+    let points: Vec<glam::Vec3> = match mesh.cast::<PyMesh>() {
+        Ok(m) => m.borrow().inner.positions.clone(),
+        Err(_) => vectors_f64(mesh, "mesh")?
+            .iter()
+            .map(|p| p.as_vec3())
+            .collect(),
+    };
+    csrbf_edit::symmetry::symmetry_plane(&points, k)
+        .ok_or_else(|| crate::Error::new_err("symmetry_plane: the mesh has no finite point"))
+}
+
+/// Adds `control_file` and `symmetry_plane` to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(control_file, m)?)
+    m.add_function(wrap_pyfunction!(control_file, m)?)?;
+    m.add_function(wrap_pyfunction!(symmetry_plane, m)?)
 }

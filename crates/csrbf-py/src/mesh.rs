@@ -618,31 +618,36 @@ pub(crate) fn mesh_arg(py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<Mesh
 
 /// A control file, from a path or a dict in the file's form; its unknown
 /// keys are warned about.
+/// A Python value in a control file's form (dicts, lists, numbers,
+/// strings) as JSON text: numpy numbers and arrays (a radius from a
+/// computation, a start from a mesh's vertices) are written as the numbers
+/// they hold; anything else is refused by its type.
+pub(crate) fn json_text(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<String> {
+    let numbers = PyCFunction::new_closure(
+        py,
+        None,
+        None,
+        |args: &Bound<'_, PyTuple>, _: Option<&Bound<'_, PyDict>>| -> PyResult<Py<PyAny>> {
+            let value = args.get_item(0)?;
+            if value.hasattr("tolist")? {
+                return Ok(value.call_method0("tolist")?.unbind());
+            }
+            Err(PyTypeError::new_err(format!(
+                "controls: a value of type {} cannot be part of a control file (give numbers, lists of numbers, strings and dicts)",
+                value.get_type().name()?
+            )))
+        },
+    )?;
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("default", numbers)?;
+    py.import("json")?
+        .call_method("dumps", (value,), Some(&kwargs))?
+        .extract()
+}
+
 pub(crate) fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<ControlFile> {
     let (text, name) = if controls.is_instance_of::<PyDict>() {
-        // numpy numbers and arrays (a radius from a computation, a start
-        // from a mesh's vertices) are written as the numbers they hold.
-        let numbers = PyCFunction::new_closure(
-            py,
-            None,
-            None,
-            |args: &Bound<'_, PyTuple>, _: Option<&Bound<'_, PyDict>>| -> PyResult<Py<PyAny>> {
-                let value = args.get_item(0)?;
-                if value.hasattr("tolist")? {
-                    return Ok(value.call_method0("tolist")?.unbind());
-                }
-                Err(PyTypeError::new_err(format!(
-                    "controls: a value of type {} cannot be part of a control file (give numbers, lists of numbers, strings and dicts)",
-                    value.get_type().name()?
-                )))
-            },
-        )?;
-        let kwargs = PyDict::new(py);
-        kwargs.set_item("default", numbers)?;
-        let json = py
-            .import("json")?
-            .call_method("dumps", (controls,), Some(&kwargs))?;
-        (json.extract::<String>()?, "controls".to_string())
+        (json_text(py, controls)?, "controls".to_string())
     } else {
         let path: PathBuf = controls.extract().map_err(|_| {
             PyTypeError::new_err("controls must be a path to a control file or a dict in its form")

@@ -382,3 +382,52 @@ def test_control_file_is_written_by_the_edit_layer_and_checked(tmp_path, cli):
     with pytest.raises(ValueError, match="one row per start"):
         csrbf.control_file(starts, targets[:2], 1.0)
     assert csrbf.control_file(np.empty((0, 3)), np.empty((0, 3)), 1.0)["controls"] == []
+
+
+def test_control_file_takes_a_handle_and_an_anchor(tmp_path, cli):
+    """Issue 41: Blender's handles are written by the edit layer too: a
+    handle and its anchor in the file's form, checked as the reader checks
+    them (a misspelt key refused, not only warned of), deforming as the same
+    file does through `csrbf deform`."""
+    mesh = csrbf.read_mesh(HEAD)
+    p = mesh.vertices
+    top = np.flatnonzero(p[:, 2] > np.percentile(p[:, 2], 85))
+    low = np.flatnonzero(p[:, 2] < np.percentile(p[:, 2], 20))
+    handle = {"select": {"vertices": top}, "rotate": {"axis": np.array([1.0, 0, 0]), "angle_deg": 12.0,
+              "pivot": p[top].mean(axis=0)}, "scale": 1.0, "translate": [0.0, 0.0, 0.0]}
+    made = csrbf.control_file(np.empty((0, 3)), np.empty((0, 3)), 0.3 * mesh.diagonal, handle=handle,
+                              anchor={"vertices": low.tolist()}, name="nod")
+    assert made["handle"]["select"] == {"vertices": top.tolist()} and made["anchor"] == {"vertices": low.tolist()}
+    path = tmp_path / "nod.json"
+    path.write_text(json.dumps(made))
+    out, report = csrbf.deform_mesh(HEAD, made)
+    assert report.moved > len(top)
+    cli("deform", "--mesh", HEAD, "--controls", path, "--out", tmp_path / "cli.ply")
+    assert np.array_equal(out.vertices, csrbf.read_mesh(tmp_path / "cli.ply").vertices)
+    with pytest.raises(csrbf.Error, match="handle.rotate.axis: the axis must not be zero"):
+        csrbf.control_file([], [], 1.0, handle={**handle, "rotate": {"axis": [0, 0, 0], "angle_deg": 5}})
+    with pytest.raises(csrbf.Error, match="rotat"):
+        csrbf.control_file([[0, 0, 0]], [[0, 0, 1]], 1.0, handle={**handle, "rotat": 1})
+    with pytest.raises(csrbf.Error, match="an anchor needs a handle"):
+        csrbf.control_file([[0, 0, 0]], [[0, 0, 1]], 1.0, anchor={"vertices": [1]})
+    with pytest.raises(TypeError, match="cannot be part of a control file"):
+        csrbf.control_file([], [], 1.0, handle={**handle, "select": {"vertices": object()}})
+
+
+def test_symmetry_plane_is_found_beside_a_prop():
+    """Issue 41: the plane the studio's Mirror finds, for Python and
+    Blender's Mirror Controls: a sphere about x = 0.3 with a stick along +X
+    (its mean and its box's centre are off the plane)."""
+    mesh = csrbf.read_mesh(HEAD)
+    sphere = np.random.default_rng(5).normal(size=(4000, 3))
+    sphere = sphere / np.linalg.norm(sphere, axis=1, keepdims=True) + [0.3, -0.2, 0.1]
+    stick = np.column_stack([np.linspace(1.3, 3.3, 200), np.full(200, -0.2), np.full(200, 0.1)])
+    points = np.vstack([sphere, stick])
+    x = csrbf.symmetry_plane(points)
+    assert abs(x - 0.3) < 0.02, x
+    assert abs(csrbf.symmetry_plane(points, "y") + 0.2) < 0.02
+    assert isinstance(csrbf.symmetry_plane(mesh), float)
+    with pytest.raises(ValueError, match="axis"):
+        csrbf.symmetry_plane(points, "w")
+    with pytest.raises(csrbf.Error, match="no finite point"):
+        csrbf.symmetry_plane(np.full((3, 3), np.nan))

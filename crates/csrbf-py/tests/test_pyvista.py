@@ -48,3 +48,24 @@ def test_quads_and_other_datasets():
         grid.csrbf.deform(str(SMILE))
     with pytest.raises(TypeError, match="radius= is required"):
         plane.csrbf.deform(starts, targets)
+
+
+@pytest.mark.parametrize("kind", ["ImageData", "RectilinearGrid"])
+def test_grids_with_implicit_points_come_back_as_structured_grids(kind):
+    """Issue 41: an ImageData's points are its origin and spacing, which no
+    deformation keeps; it comes back as the StructuredGrid of the same
+    points and cells, its data kept, moved as an UnstructuredGrid is."""
+    grid = (pv.ImageData(dimensions=(5, 4, 3), spacing=(0.5, 0.5, 0.5)) if kind == "ImageData"
+            else pv.RectilinearGrid(np.linspace(0, 2, 5), np.linspace(0, 1.5, 4), np.linspace(0, 1, 3)))
+    grid.point_data["t"] = np.arange(grid.n_points, dtype=float)
+    grid.cell_data["c"] = np.arange(grid.n_cells, dtype=float)
+    starts, targets = np.array([[1.0, 0.5, 0.5]]), np.array([[1.0, 0.5, 0.8]])
+    warped = grid.csrbf.deform(starts, targets, radius=1.0)
+    assert isinstance(warped, pv.StructuredGrid) and warped.dimensions == grid.dimensions
+    assert warped.n_cells == grid.n_cells
+    assert np.array_equal(warped.point_data["t"], grid.point_data["t"])
+    assert np.array_equal(warped.cell_data["c"], grid.cell_data["c"])
+    want = grid.cast_to_unstructured_grid().csrbf.deform(starts, targets, radius=1.0)
+    assert np.array_equal(warped.points, want.points)
+    assert np.abs(warped.points - grid.points).max() == pytest.approx(0.3, abs=1e-6)
+    assert type(grid).__name__ == kind  # the input is not changed

@@ -48,7 +48,7 @@ pub mod live;
 pub mod orbit;
 pub mod preview;
 pub mod state;
-pub mod symmetry;
+pub use csrbf_edit::symmetry;
 pub mod tools;
 
 pub use command::{Command, History};

@@ -48,6 +48,7 @@ from ._csrbf import (
     deform_mesh,
     fit,
     read_mesh,
+    symmetry_plane,
     write_mesh,
 )
 
@@ -66,5 +67,6 @@ __all__ = [
     "deform_mesh",
     "fit",
     "read_mesh",
+    "symmetry_plane",
     "write_mesh",
 ]

@@ -8,8 +8,11 @@
 >>> smiled, report = head.csrbf.deform("smile.json", return_report=True)
 
 The result is a new dataset of the same kind (a deep copy: point data, cell
-data and faces kept) with moved points; the input is not changed. No
-rendering is involved, so it works without a display.
+data and faces kept) with moved points; the input is not changed. Grids
+whose points are implicit (``ImageData``, ``RectilinearGrid``: an origin and
+spacings, which no deformation keeps) come back as the ``StructuredGrid``
+of the same points and cells, data kept. No rendering is involved, so it
+works without a display.
 """
 
 from __future__ import annotations
@@ -39,6 +42,20 @@ def _mesh_of(poly: pv.PolyData) -> Mesh:
     return Mesh(points, faces=faces)
 
 
+def _movable_copy(dataset: pv.DataSet) -> pv.DataSet:
+    """A deep copy of `dataset` whose points can be set: the StructuredGrid
+    of a grid whose points are implicit (ImageData, RectilinearGrid)."""
+    if isinstance(dataset, (pv.ImageData, pv.RectilinearGrid)):
+        return dataset.cast_to_structured_grid()
+    out = dataset.copy(deep=True)
+    if not hasattr(out, "points") or isinstance(out, pv.MultiBlock):
+        raise TypeError(
+            f"csrbf deforms datasets with points (PolyData, UnstructuredGrid, StructuredGrid, "
+            f"ImageData and RectilinearGrid as a StructuredGrid), not {type(dataset).__name__}"
+        )
+    return out
+
+
 @pv.register_dataset_accessor("csrbf", pv.DataSet)
 class CsrbfAccessor:
     """``dataset.csrbf``: csrbf deformations of a PyVista dataset."""
@@ -65,9 +82,10 @@ class CsrbfAccessor:
         in the file's form), as ``csrbf.deform_mesh`` (PolyData only: regions,
         handles and the turned-over face check need its faces). With
         ``return_report=True`` the control-file form returns
-        ``(dataset, csrbf.Report)``.
+        ``(dataset, csrbf.Report)``. An ImageData or a RectilinearGrid
+        comes back as a StructuredGrid (its points are no longer a grid).
         """
-        out = self._dataset.copy(deep=True)
+        out = _movable_copy(self._dataset)
         points = np.asarray(self._dataset.points)
         if targets is None:
             if radius is not None:

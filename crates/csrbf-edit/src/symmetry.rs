@@ -1,5 +1,6 @@
 //! The plane a model is most nearly mirror-symmetric about, normal to an
-//! axis: where Mirror puts the images of control vectors. The bounding
+//! axis: where a mirror puts the images of control vectors (the studio's
+//! Mirror, Python's `csrbf.symmetry_plane`, Blender's Mirror Controls). The bounding
 //! box's centre is not that plane for a scan with more hair on one side or a
 //! shoulder in the frame (the second mouth corner of a face scan landed on
 //! the cheek); the plane is fitted instead, as the reflection-only case of
@@ -9,7 +10,7 @@
 
 use std::collections::HashMap;
 
-use csrbf::glam::Vec3;
+use glam::Vec3;
 
 /// Most vertices sampled for the pairs (spread evenly over the array).
 const SAMPLES: usize = 4000;
