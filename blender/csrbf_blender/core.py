@@ -83,8 +83,28 @@ def control_empties(obj):
     return out
 
 
-def control_pairs(obj) -> Controls:
-    """The object's control vectors. A start and a destination pair when
+def handles(obj) -> list:
+    """The object's handles: empties (role "handle") whose owner is the
+    object, in the order they were made."""
+    seen, out = set(), []
+    col = _collection(obj)
+    for e in list(obj.children) + (list(col.objects) if col is not None else []):
+        if e.name not in seen and e.get(ROLE) == "handle" and owner_of(e) == obj:
+            seen.add(e.name)
+            out.append(e)
+    return sorted(out, key=lambda e: (int(e.get(PAIR, -1)), e.name))
+
+
+def world(x, depsgraph=None):
+    """An object's world matrix: as evaluated in `depsgraph` when given (a
+    frame of a render or of playback, whose animated values the original
+    objects do not hold), else the object's own."""
+    return (x if depsgraph is None else x.evaluated_get(depsgraph)).matrix_world
+
+
+def control_pairs(obj, depsgraph=None) -> Controls:
+    """The object's control vectors (positions as evaluated in `depsgraph`
+    when given: see `world`). A start and a destination pair when
     each is the other's partner (so duplicating both empties makes a new
     pair, its partners the copies); empties from files made before the
     partners were kept pair by their number when that is unambiguous. Every
@@ -120,9 +140,9 @@ def control_pairs(obj) -> Controls:
             problems.append(f"destination {e.name!r} has no start of its own (copied alone, or its start "
                             "deleted?): left out; delete it or Add Control Vector for a whole pair")
     pairs.sort(key=lambda p: (int(p[0].get(PAIR, -1)), p[0].name))
-    inv = obj.matrix_world.inverted()
-    starts_xyz = np.array([tuple(inv @ s.matrix_world.translation) for s, _ in pairs], dtype=np.float64)
-    targets_xyz = np.array([tuple(inv @ t.matrix_world.translation) for _, t in pairs], dtype=np.float64)
+    inv = world(obj, depsgraph).inverted()
+    starts_xyz = np.array([tuple(inv @ world(s, depsgraph).translation) for s, _ in pairs], dtype=np.float64)
+    targets_xyz = np.array([tuple(inv @ world(t, depsgraph).translation) for _, t in pairs], dtype=np.float64)
     return Controls(starts_xyz.reshape(-1, 3), targets_xyz.reshape(-1, 3), [s.name for s, _ in pairs], problems)
 
 
@@ -185,6 +205,12 @@ def _collection(obj):
     return obj.csrbf.collection or bpy.data.collections.get(collection_name(obj))
 
 
+def bpy_object(name: str):
+    import bpy
+
+    return bpy.data.objects[name]
+
+
 def owner_mesh(obj):
     """The mesh an operator acts on when `obj` is active: the object itself
     when a mesh, the control's mesh when one of its empties, else None."""
@@ -193,53 +219,224 @@ def owner_mesh(obj):
     return obj if obj is not None and obj.type == "MESH" else None
 
 
+class Groups:
+    """An object's vertex groups, read once (a pass over the vertices costs
+    about 30 ms for 50k of them, too much for each frame of playback): a
+    group's vertices with a weight above 0, and their weights. Make a new
+    one after the groups or their weights change."""
+
+    def __init__(self, obj):
+        self._obj = obj
+        self._read = None  # group name -> (vertices, weights)
+        self._rest = None
+
+    def get(self, name: str):
+        """(vertices uint32, weights float32) of the group, or None when the
+        object has no such group."""
+        obj = self._obj
+        if obj.vertex_groups.get(name) is None:
+            return None
+        if self._read is None or name not in self._read:
+            names = {g.index: g.name for g in obj.vertex_groups}
+            lists: dict[int, tuple[list, list]] = {i: ([], []) for i in names}
+            for v in obj.data.vertices:
+                for g in v.groups:
+                    if g.weight > 0.0 and g.group in lists:
+                        lists[g.group][0].append(v.index)
+                        lists[g.group][1].append(g.weight)
+            self._read = {names[i]: (np.asarray(a, dtype=np.uint32), np.asarray(b, dtype=np.float32))
+                          for i, (a, b) in lists.items()}
+        return self._read[name]
+
+    def vertices(self, name: str, what: str) -> np.ndarray:
+        """The group's vertices; ValueError naming `what` needs it when the
+        object has no such group or no vertex of it has a weight above 0."""
+        got = self.get(name)
+        obj = self._obj
+        if got is None:
+            have = ", ".join(repr(g.name) for g in obj.vertex_groups) or "none"
+            raise ValueError(f"{what}: {obj.name!r} has no vertex group {name!r} (its vertex groups: {have})")
+        if len(got[0]) == 0:
+            raise ValueError(f"{what}: vertex group {name!r} has no vertex with a weight above 0")
+        return got[0]
+
+    @property
+    def rest(self) -> np.ndarray:
+        if self._rest is None:
+            self._rest = rest_positions(self._obj)
+        return self._rest
+
+
 def group_vertices(obj, name: str) -> np.ndarray | None:
     """Indices of the vertices in a vertex group (any weight > 0), or None
     when the object has no such group."""
-    vg = obj.vertex_groups.get(name)
-    if vg is None:
-        return None
-    gi = vg.index
-    out = [v.index for v in obj.data.vertices if any(g.group == gi and g.weight > 0.0 for g in v.groups)]
-    return np.asarray(out, dtype=np.uint32)
+    got = Groups(obj).get(name)
+    return None if got is None else got[0]
 
 
-def resolve_groups(spec, obj):
+def resolve_groups(spec, obj, groups: Groups | None = None):
     """A control file (parsed JSON) with every region that names a part
     (`{"group": name}`, in `region`, a handle's `select` or an `anchor`)
-    turned into the vertex list of the object's vertex group of that name.
-    Raises ValueError naming a group the object does not have."""
+    turned into the vertex list of the object's vertex group of that name
+    (its vertices with a weight above 0). Raises ValueError naming a group
+    the object does not have."""
+    groups = groups or Groups(obj)
     if isinstance(spec, dict):
-        out = {}
-        for k, v in spec.items():
-            out[k] = resolve_groups(v, obj)
+        out = {k: resolve_groups(v, obj, groups) for k, v in spec.items()}
         name = out.get("group")
         if isinstance(name, str):
-            idx = group_vertices(obj, name)
-            if idx is None:
+            got = groups.get(name)
+            if got is None:
                 have = ", ".join(repr(g.name) for g in obj.vertex_groups) or "none"
                 raise ValueError(f"{obj.name!r} has no vertex group {name!r} (its vertex groups: {have})")
             del out["group"]
-            out["vertices"] = idx.tolist()
+            out["vertices"] = got[0].tolist()
         return out
     if isinstance(spec, list):
-        return [resolve_groups(v, obj) for v in spec]
+        return [resolve_groups(v, obj, groups) for v in spec]
     return spec
 
 
-def control_file(obj, settings) -> dict:
-    """The object's control vectors and panel settings as a control file in
-    the CLI's format (local coordinates), written by the package's edit
-    layer (`csrbf.control_file`), which checks it as `csrbf deform` would."""
+def region_spec(obj, settings, groups: Groups) -> dict | None:
+    """The panel's Region in the control file's form, or None for the whole
+    mesh. A vertex group with weights below 1 (and Use Weights on) is the
+    `weights` region, by vertex number: each vertex takes its weight's
+    share of the deformation. Raises ValueError for a group the object does
+    not have or one with no weight above 0 (it would move nothing)."""
+    s = settings
+    kind = s.region
+    if kind == "ALL" and s.vertex_group and not s.is_property_set("region"):
+        kind = "GROUP"  # a file from before the region kinds: a group was the only one
+    if kind == "ALL":
+        return None
+    if kind == "GROUP":
+        if not s.vertex_group:
+            raise ValueError("Region is Vertex Group, but no group is chosen")
+        idx = groups.vertices(s.vertex_group, "Region")
+        w = groups.get(s.vertex_group)[1]
+        if s.use_weights and bool((w < 1.0).any()):
+            return {"weights": {"vertices": idx.tolist(), "weights": w.tolist()}}
+        return {"group": s.vertex_group}
+    if kind == "SURFACE":
+        return {"connected": {"distance": s.surface_distance, "from": s.surface_from.lower()}}
+    if kind == "SPHERE":
+        region = {"sphere": {"center": list(s.sphere_center), "radius": s.sphere_radius}}
+    else:
+        region = {"box": {"min": list(s.box_min), "max": list(s.box_max)}}
+    if s.falloff > 0.0:
+        region["falloff"] = s.falloff
+    return region
+
+
+def rest_matrix(e):
+    """A handle's rest transform (in its mesh's local space)."""
+    from mathutils import Matrix
+
+    r = list(e.csrbf.rest)
+    return Matrix([r[0:4], r[4:8], r[8:12], r[12:16]])
+
+
+def set_rest(e, obj, depsgraph=None) -> None:
+    """Makes the handle's present transform its rest: it does not move now."""
+    m = world(obj, depsgraph).inverted() @ world(e, depsgraph)
+    e.csrbf.rest = [x for row in m for x in row]
+
+
+def handle_spec(obj, e, groups: Groups, depsgraph=None) -> tuple[dict, dict | None]:
+    """A handle's `handle` and `anchor` in the control file's form: its
+    vertex group moves by the empty's motion from its rest (a turn about the
+    rest position, an even scale, a move), its anchor group stays. Raises
+    ValueError naming the handle for a group that is missing or has no
+    vertex, a pivot far outside the mesh, or a motion that is not a turn,
+    an even scale and a move (a mirrored or unevenly scaled empty)."""
+    from mathutils import Matrix
+
+    what = f"handle {e.name!r}"
+    sel = groups.vertices(e.csrbf.handle_group, what) if e.csrbf.handle_group else None
+    if sel is None:
+        raise ValueError(f"{what}: no vertex group chosen for it to move")
+    rest = rest_matrix(e)
+    pivot = rest.translation
+    pts = groups.rest
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    size = float(np.linalg.norm(hi - lo)) or 1.0
+    outside = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - np.array(pivot), np.array(pivot) - hi))))
+    if outside > size:
+        raise ValueError(f"{what}: its pivot ({pivot.x:.4g}, {pivot.y:.4g}, {pivot.z:.4g}) lies {outside:.4g} outside "
+                         f"{obj.name!r}, farther than the object's size ({size:.4g}): put the handle's rest on the part it turns "
+                         "(move the empty there and Set Rest)")
+    t = world(obj, depsgraph).inverted() @ world(e, depsgraph) @ rest.inverted()
+    a = t.to_3x3()
+    det = a.determinant()
+    if not det > 0.0:
+        raise ValueError(f"{what}: its empty is mirrored or flattened (a negative or zero scale): "
+                         "a handle turns, scales evenly and moves")
+    scale = det ** (1.0 / 3.0)
+    rot = a * (1.0 / scale)
+    off = rot @ rot.transposed() - Matrix.Identity(3)
+    if max(abs(x) for row in off for x in row) > 1e-4:
+        raise ValueError(f"{what}: its empty is scaled unevenly ({tuple(round(x, 4) for x in e.scale)}): "
+                         "a handle scales the same in every direction")
+    axis, angle = rot.to_quaternion().to_axis_angle()
+    moved = t @ pivot - pivot
+    handle = {
+        "select": {"group": e.csrbf.handle_group},
+        "rotate": {"axis": list(axis), "angle_deg": float(np.degrees(angle)), "pivot": list(pivot)},
+        "scale": float(scale),
+        "translate": list(moved),
+    }
+    anchor = None
+    if e.csrbf.anchor_group:
+        groups.vertices(e.csrbf.anchor_group, f"{what}'s anchor")
+        anchor = {"group": e.csrbf.anchor_group}
+    return handle, anchor
+
+
+def control_file(obj, settings, depsgraph=None, groups: Groups | None = None, controls: Controls | None = None) -> dict:
+    """The object's control vectors, handles and panel settings as a control
+    file in the CLI's format (local coordinates, vertex groups by name but
+    a weighted Region by vertex number), written by the package's edit
+    layer (`csrbf.control_file`), which checks it as `csrbf deform` would.
+    Positions as evaluated in `depsgraph` when given (a frame). The control
+    vectors and the first handle make one deformation (fitted together);
+    each further handle one more, applied in turn. `controls`: the
+    object's `control_pairs` when already read."""
     import csrbf
 
-    starts, targets = controls(obj)
-    return csrbf.control_file(
-        starts, targets, settings.radius,
-        kernel=settings.kernel, polynomial=settings.polynomial,
-        region={"group": settings.vertex_group} if settings.vertex_group else None,
-        sweep=bool(settings.sweep), name=settings.layer or None,
-    )
+    groups = groups or Groups(obj)
+    c = controls if controls is not None else control_pairs(obj, depsgraph)
+    hs = handles(obj)
+    if len(c.starts) == 0 and not hs:
+        left = f" ({'; '.join(c.problems)})" if c.problems else ""
+        raise ValueError(f"{obj.name!r} has no control vectors or handles: add one first{left}")
+    s = settings
+    common = dict(kernel=s.kernel, polynomial=s.polynomial, region=region_spec(obj, s, groups), sweep=bool(s.sweep))
+    none = np.zeros((0, 3))
+    layers = []
+    for k, h in enumerate(hs or [None]):
+        handle, anchor = handle_spec(obj, h, groups, depsgraph) if h is not None else (None, None)
+        starts, targets = (c.starts, c.targets) if k == 0 else (none, none)
+        name = (s.layer or None) if k == 0 else h.name
+        layers.append(csrbf.control_file(starts, targets, s.radius, name=name, handle=handle, anchor=anchor, **common))
+    return layers[0] if len(layers) == 1 else {"deformations": layers}
+
+
+def nearest_on_surface(obj, points):
+    """The point of the object's rest surface nearest each of `points`
+    (local space), as Vectors: the rest shape's, not a posed one (a live
+    shape key moves the evaluated mesh that `closest_point_on_mesh` reads).
+    None for a point with no surface within the object's size."""
+    from mathutils import Vector
+    from mathutils.bvhtree import BVHTree
+
+    rest = rest_positions(obj)
+    tree = BVHTree.FromPolygons(rest.tolist(), triangles(obj).tolist())
+    size = diagonal(rest) or 1.0
+    out = []
+    for p in points:
+        hit = tree.find_nearest(Vector(p), size)
+        out.append(None if hit[0] is None else hit[0])
+    return out
 
 
 def read_control_file(path: str) -> dict:
@@ -247,16 +444,19 @@ def read_control_file(path: str) -> dict:
         return json.load(f)
 
 
-def write_shape_key(obj, name: str, positions: np.ndarray):
+def write_shape_key(obj, name: str, positions: np.ndarray, value: float | None = 1.0):
     """Writes `positions` into the shape key `name` (made, with a Basis
-    holding the rest shape, when missing) at value 1.0; returns the key."""
+    holding the rest shape, when missing) and sets its value (None: keeps
+    it, which may be keyframed; a new key's is 1); returns the key."""
     if obj.data.shape_keys is None:
         obj.shape_key_add(name="Basis", from_mix=False)
     key = obj.data.shape_keys.key_blocks.get(name)
     if key is None:
         key = obj.shape_key_add(name=name, from_mix=False)
+        value = 1.0 if value is None else value
     key.data.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
-    key.value = 1.0
+    if value is not None:
+        key.value = value
     obj.data.update()
     return key
 

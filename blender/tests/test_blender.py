@@ -256,4 +256,4 @@ def test_the_road_files_deform_as_the_package_does(controls):
     for w in report.warnings:
         assert w in obj.csrbf.warnings
     if report.inside_out_faces:
-        assert "to keep it from folding" in obj.csrbf.warnings, obj.csrbf.warnings
+        assert "to keep it from folding" in obj.csrbf.advice, obj.csrbf.advice
