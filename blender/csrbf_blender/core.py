@@ -260,11 +260,28 @@ class Groups:
             raise ValueError(f"{what}: vertex group {name!r} has no vertex with a weight above 0")
         return got[0]
 
+    def weights_region(self, name: str) -> dict | None:
+        """The group as a `weights` region (vertex numbers and weights, as
+        lists: made once, not on every frame), or None when every weight
+        is 1 (the group by name then means the same)."""
+        cache = self.__dict__.setdefault("_weights", {})
+        if name not in cache:
+            idx, w = self.get(name)
+            cache[name] = {"weights": {"vertices": idx.tolist(), "weights": w.tolist()}} if (w < 1.0).any() else None
+        return cache[name]
+
     @property
     def rest(self) -> np.ndarray:
         if self._rest is None:
             self._rest = rest_positions(self._obj)
         return self._rest
+
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rest shape's bounding box (lowest and highest corner)."""
+        if "_bounds" not in self.__dict__:
+            self._bounds = (self.rest.min(axis=0), self.rest.max(axis=0))
+        return self._bounds
 
 
 def group_vertices(obj, name: str) -> np.ndarray | None:
@@ -293,6 +310,8 @@ def resolve_groups(spec, obj, groups: Groups | None = None):
             out["vertices"] = got[0].tolist()
         return out
     if isinstance(spec, list):
+        if spec and not isinstance(spec[0], (dict, list)):
+            return spec  # numbers (a point, a vertex list): nothing to resolve
         return [resolve_groups(v, obj, groups) for v in spec]
     return spec
 
@@ -312,10 +331,11 @@ def region_spec(obj, settings, groups: Groups) -> dict | None:
     if kind == "GROUP":
         if not s.vertex_group:
             raise ValueError("Region is Vertex Group, but no group is chosen")
-        idx = groups.vertices(s.vertex_group, "Region")
-        w = groups.get(s.vertex_group)[1]
-        if s.use_weights and bool((w < 1.0).any()):
-            return {"weights": {"vertices": idx.tolist(), "weights": w.tolist()}}
+        groups.vertices(s.vertex_group, "Region")  # refused when missing or empty
+        if s.use_weights:
+            weighted = groups.weights_region(s.vertex_group)
+            if weighted is not None:
+                return weighted
         return {"group": s.vertex_group}
     if kind == "SURFACE":
         return {"connected": {"distance": s.surface_distance, "from": s.surface_from.lower()}}
@@ -357,8 +377,7 @@ def handle_spec(obj, e, groups: Groups, depsgraph=None) -> tuple[dict, dict | No
         raise ValueError(f"{what}: no vertex group chosen for it to move")
     rest = rest_matrix(e)
     pivot = rest.translation
-    pts = groups.rest
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    lo, hi = groups.bounds
     size = float(np.linalg.norm(hi - lo)) or 1.0
     outside = float(np.linalg.norm(np.maximum(0.0, np.maximum(lo - np.array(pivot), np.array(pivot) - hi))))
     if outside > size:

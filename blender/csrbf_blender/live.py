@@ -94,6 +94,8 @@ def _structure(spec):
     if isinstance(spec, dict):
         return {k: _structure(v) for k, v in spec.items() if k not in ("to", "rotate", "scale", "translate")}
     if isinstance(spec, list):
+        if spec and not isinstance(spec[0], (dict, list)):
+            return spec  # numbers (a point, a vertex list): kept as they are
         return [_structure(v) for v in spec]
     return spec
 

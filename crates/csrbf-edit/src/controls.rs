@@ -460,6 +460,12 @@ impl ControlFile {
             location: format!("line {}", e.second_line),
             message: e.to_string(),
         })?;
+        ControlFile::from_value(&root)
+    }
+
+    /// A control file already parsed as JSON (a front end's own structure:
+    /// Python's dict), read as [`ControlFile::parse`] reads a file's text.
+    pub fn from_value(root: &Value) -> Result<ControlFile, ControlError> {
         let mut warnings = Vec::new();
         let obj = root
             .as_object()
@@ -497,7 +503,7 @@ impl ControlFile {
                 .map(|(i, d)| spec(d, &format!("deformations[{i}]"), &mut warnings))
                 .collect::<Result<Vec<_>, _>>()?
         } else {
-            vec![spec(&root, "", &mut warnings)?]
+            vec![spec(root, "", &mut warnings)?]
         };
         if combine == Combine::Add
             && let Some(i) = deformations.iter().position(|d| d.sweep.is_some())

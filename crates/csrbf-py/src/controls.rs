@@ -6,7 +6,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::deformation::{check_lengths, options, vectors_f64};
-use crate::mesh::{PyMesh, json_text, json_value};
+use crate::mesh::{PyMesh, json_value, py_json};
 
 /// A control file of one deformation, as a dict in the file's form (what
 /// `deform_mesh`, `Session` and `csrbf deform` read), written by the edit
@@ -68,12 +68,10 @@ pub fn control_file<'py>(
     // part the reader refuses is refused here, by its JSON path.
     for (key, part) in [("region", region), ("handle", handle), ("anchor", anchor)] {
         if let Some(part) = part.filter(|p| !p.is_none()) {
-            let text = json_text(py, part)?;
-            value[key] = serde_json::from_str(&text)
-                .map_err(|e| PyValueError::new_err(format!("{key}: {e}")))?;
+            value[key] = py_json(part, key)?;
         }
     }
-    let file = ControlFile::parse(&value.to_string())
+    let file = ControlFile::from_value(&value)
         .map_err(|e| crate::Error::new_err(format!("controls: {e}")))?;
     // A key a file would only be warned of (in a region or a handle) is a
     // mistake in the caller's code here: refused.

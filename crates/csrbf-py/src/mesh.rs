@@ -8,7 +8,7 @@ use csrbf_mesh::{Faces, Mesh};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyCFunction, PyDict, PyList, PyTuple};
+use pyo3::types::{PyDict, PyList, PyTuple};
 
 use crate::arrays;
 use crate::cast::vectors_mut;
@@ -563,13 +563,38 @@ impl PyReport {
     }
 }
 
-/// A JSON value as Python objects (through the `json` module: one parser of
-/// the one serialised form).
+/// A JSON value as Python objects (dicts, lists, ints, floats, strings,
+/// booleans, None), built directly.
 pub(crate) fn json_value<'py>(
     py: Python<'py>,
     v: &serde_json::Value,
 ) -> PyResult<Bound<'py, PyAny>> {
-    py.import("json")?.call_method1("loads", (v.to_string(),))
+    use pyo3::IntoPyObjectExt;
+    use serde_json::Value;
+    Ok(match v {
+        Value::Null => py.None().into_bound(py),
+        Value::Bool(b) => b.into_bound_py_any(py)?,
+        Value::Number(n) => match (n.as_i64(), n.as_u64()) {
+            (Some(i), _) => i.into_bound_py_any(py)?,
+            (None, Some(u)) => u.into_bound_py_any(py)?,
+            _ => n.as_f64().unwrap_or(f64::NAN).into_bound_py_any(py)?,
+        },
+        Value::String(s) => s.into_bound_py_any(py)?,
+        Value::Array(a) => {
+            let list = PyList::empty(py);
+            for x in a {
+                list.append(json_value(py, x)?)?;
+            }
+            list.into_any()
+        }
+        Value::Object(o) => {
+            let dict = PyDict::new(py);
+            for (k, x) in o {
+                dict.set_item(k, json_value(py, x)?)?;
+            }
+            dict.into_any()
+        }
+    })
 }
 
 /// The checks `stretch_limit=` and `self_intersections=` ask for.
@@ -618,37 +643,83 @@ pub(crate) fn mesh_arg(py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<Mesh
 
 /// A control file, from a path or a dict in the file's form; its unknown
 /// keys are warned about.
-/// A Python value in a control file's form (dicts, lists, numbers,
-/// strings) as JSON text: numpy numbers and arrays (a radius from a
-/// computation, a start from a mesh's vertices) are written as the numbers
-/// they hold; anything else is refused by its type.
-pub(crate) fn json_text(py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<String> {
-    let numbers = PyCFunction::new_closure(
-        py,
-        None,
-        None,
-        |args: &Bound<'_, PyTuple>, _: Option<&Bound<'_, PyDict>>| -> PyResult<Py<PyAny>> {
-            let value = args.get_item(0)?;
-            if value.hasattr("tolist")? {
-                return Ok(value.call_method0("tolist")?.unbind());
-            }
-            Err(PyTypeError::new_err(format!(
-                "controls: a value of type {} cannot be part of a control file (give numbers, lists of numbers, strings and dicts)",
-                value.get_type().name()?
-            )))
-        },
-    )?;
-    let kwargs = PyDict::new(py);
-    kwargs.set_item("default", numbers)?;
-    py.import("json")?
-        .call_method("dumps", (value,), Some(&kwargs))?
-        .extract()
+/// A Python value in a control file's form (dicts with string keys, lists
+/// and tuples, numbers, strings, booleans, None) as JSON, walked directly
+/// (a live pose sends one every frame: no text in between). numpy numbers
+/// and arrays (a radius from a computation, a start from a mesh's
+/// vertices) are the numbers they hold; a number that is not finite, a key
+/// that is not a string or any other type is refused by its path
+/// (`controls.controls[2].to[1]`).
+pub(crate) fn py_json(value: &Bound<'_, PyAny>, at: &str) -> PyResult<serde_json::Value> {
+    use pyo3::types::{PyBool, PyFloat, PyInt, PyString};
+    use serde_json::Value;
+    if value.is_none() {
+        return Ok(Value::Null);
+    }
+    if let Ok(b) = value.cast::<PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
+    }
+    if value.is_instance_of::<PyInt>() {
+        if let Ok(i) = value.extract::<i64>() {
+            return Ok(i.into());
+        }
+        if let Ok(u) = value.extract::<u64>() {
+            return Ok(u.into());
+        }
+        let x: f64 = value.extract()?;
+        return finite(x, at);
+    }
+    if let Ok(f) = value.cast::<PyFloat>() {
+        return finite(f.value(), at);
+    }
+    if let Ok(s) = value.cast::<PyString>() {
+        return Ok(Value::String(s.to_cow()?.into_owned()));
+    }
+    if let Ok(d) = value.cast::<PyDict>() {
+        let mut map = serde_json::Map::with_capacity(d.len());
+        for (k, v) in d.iter() {
+            let key: String = k.extract().map_err(|_| {
+                PyTypeError::new_err(format!("{at}: a key must be a string, got {}", k.repr().map(|r| r.to_string()).unwrap_or_default()))
+            })?;
+            let here = format!("{at}.{key}");
+            let v = py_json(&v, &here)?;
+            map.insert(key, v);
+        }
+        return Ok(Value::Object(map));
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        let mut out = Vec::with_capacity(value.len()?);
+        for (k, item) in value.try_iter()?.enumerate() {
+            out.push(py_json(&item?, &format!("{at}[{k}]"))?);
+        }
+        return Ok(Value::Array(out));
+    }
+    if value.hasattr("tolist")? {
+        // numpy arrays and numbers: their Python lists and numbers.
+        return py_json(&value.call_method0("tolist")?, at);
+    }
+    Err(PyTypeError::new_err(format!(
+        "{at}: a value of type {} cannot be part of a control file (give numbers, lists of numbers, strings and dicts)",
+        value.get_type().name()?
+    )))
+}
+
+fn finite(x: f64, at: &str) -> PyResult<serde_json::Value> {
+    serde_json::Number::from_f64(x)
+        .map(serde_json::Value::Number)
+        .ok_or_else(|| crate::Error::new_err(format!("{at}: not a finite number ({x})")))
 }
 
 pub(crate) fn control_file(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<ControlFile> {
-    let (text, name) = if controls.is_instance_of::<PyDict>() {
-        (json_text(py, controls)?, "controls".to_string())
-    } else {
+    if controls.is_instance_of::<PyDict>() {
+        let file = ControlFile::from_value(&py_json(controls, "controls")?)
+            .map_err(|e| crate::Error::new_err(format!("controls: {}", crate::chain(&e))))?;
+        for w in &file.warnings {
+            warn(py, &format!("controls: {w}"))?;
+        }
+        return Ok(file);
+    }
+    let (text, name) = {
         let path: PathBuf = controls.extract().map_err(|_| {
             PyTypeError::new_err("controls must be a path to a control file or a dict in its form")
         })?;

@@ -431,3 +431,25 @@ def test_symmetry_plane_is_found_beside_a_prop():
         csrbf.symmetry_plane(points, "w")
     with pytest.raises(csrbf.Error, match="no finite point"):
         csrbf.symmetry_plane(np.full((3, 3), np.nan))
+
+
+def test_a_dict_is_read_as_a_file_with_its_faults_named_by_path():
+    """A control file given as a dict is walked directly (Blender sends one
+    every frame): numpy values are their numbers, and what no JSON file can
+    hold (NaN, a key that is not a string, an object) is refused by its
+    path."""
+    mesh = csrbf.read_mesh(HEAD)
+    tip = mesh.vertices[int(np.argmax(mesh.vertices[:, 1]))]
+    spec = {"radius": np.float32(0.3 * mesh.diagonal), "controls": [{"from": tip, "to": tip + np.float64(0.5)}],
+            "region": {"vertices": np.arange(len(mesh), dtype=np.int64)}, "name": "np"}
+    out, report = csrbf.deform_mesh(mesh, spec)
+    plain = json.loads(json.dumps(spec, default=lambda v: v.tolist()))
+    again, _ = csrbf.deform_mesh(mesh, plain)
+    assert report.moved > 0 and np.array_equal(out.vertices, again.vertices)
+    bad = {"radius": 1.0, "controls": [{"from": [0, 0, float("nan")], "to": [0, 0, 0]}]}
+    with pytest.raises(csrbf.Error, match=r"controls\.controls\[0\]\.from\[2\]: not a finite number"):
+        csrbf.deform_mesh(mesh, bad)
+    with pytest.raises(TypeError, match=r"controls\.region: a key must be a string"):
+        csrbf.deform_mesh(mesh, {**plain, "region": {1: [0]}})
+    with pytest.raises(TypeError, match=r"controls\.name: a value of type object"):
+        csrbf.deform_mesh(mesh, {**plain, "name": object()})
