@@ -170,7 +170,9 @@ def main():
     rebuild = median_ms(lambda: (setattr(obj.csrbf, "radius", obj.csrbf.radius * 1.0001), live.refresh(obj)), 10)
     print(f"live: a new radius (system and binding rebuilt): {rebuild:.1f} ms")
 
-    animated(rng)
+    csrbf_blender.unregister()
+    animated(rng)  # registers and unregisters on its own
+    csrbf_blender.register()
 
     csrbf_blender.unregister()
     bpy.ops.wm.read_factory_settings(use_empty=True)

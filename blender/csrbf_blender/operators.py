@@ -588,7 +588,7 @@ class CSRBF_OT_bake(bpy.types.Operator):
                     scene.frame_set(f)
                     depsgraph = context.evaluated_depsgraph_get()
                     spec = core.resolve_groups(core.control_file(obj, s, depsgraph, groups), obj, groups)
-                    report = session.update(spec, remedies="off")
+                    report = session.update(spec, remedies="off", self_intersections=False)
                     far = [w for w, k in zip(report.warnings, report.warning_kinds) if k == "starts_far_from_mesh"]
                     if far:
                         raise ValueError(f"frame {f}: {far[0]} (move the start onto the mesh or raise the radius)")
