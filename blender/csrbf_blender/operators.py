@@ -564,11 +564,15 @@ class CSRBF_OT_bake(bpy.types.Operator):
         csrbf = _engine()
         s, scene = obj.csrbf, context.scene
         first, last = scene.frame_start, scene.frame_end
+        still = False  # nothing animated: one pose, into the layer's own key
         if s.bake_frames == "KEYED":
-            frames = sorted(f for f in keyed_frames(obj) if first <= f <= last)
-            if not frames:
+            keyed = keyed_frames(obj)
+            frames = sorted(f for f in keyed if first <= f <= last)
+            if not keyed:
+                still, frames = True, [scene.frame_current]
+            elif not frames:
                 self.report({"ERROR"}, f"csrbf: no control, handle or the mesh {obj.name!r} has a keyframe within frames "
-                            f"{first}-{last}: key one (I), or bake Every Step")
+                            f"{first}-{last}: key one (I), widen the scene's range, or bake Every Step")
                 return {"CANCELLED"}
         else:
             frames = sorted(set(range(first, last + 1, s.bake_step)) | {last})
@@ -618,6 +622,16 @@ class CSRBF_OT_bake(bpy.types.Operator):
             s.live = was_live
             self.report({"ERROR"}, f"csrbf: {obj.name}: bake: {e}")
             return {"CANCELLED"}
+        if still:
+            # The controls do not move: the pose is one shape key, which
+            # plays without csrbf (its value, keyed or not, is the phase).
+            core.write_shape_key(obj, s.layer, poses[0], value=None)
+            scene.frame_set(now)
+            self.report({"WARNING"} if folds else {"INFO"},
+                        f"csrbf: nothing keyed moves the controls: the pose written into shape key {s.layer!r} "
+                        "(its value, keyed or not, is the phase); Live off"
+                        + (f"; faces inside out at {folds[0]}" if folds else ""))
+            return {"FINISHED"}
         # Whole or not at all: every pose made before the first key is written.
         pattern = re.compile(re.escape(s.layer) + r" f-?\d+")
         keys = obj.data.shape_keys

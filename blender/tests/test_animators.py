@@ -469,10 +469,42 @@ def test_bad_handles_and_groups_are_refused_and_change_nothing():
     after = state(obj)
     assert after[0] == before[0] and all(np.array_equal(x, y) for x, y in zip(after[1], before[1]))
     assert after[2] == g_names
-    # Bake with nothing keyed.
+    # Bake refuses as Deform does, and changes nothing.
     obj.csrbf.live = False
-    with pytest.raises(RuntimeError, match="keyframe"):
+    with pytest.raises(RuntimeError, match="outside"):
         bpy.ops.csrbf.bake()
+    after = state(obj)
+    assert after[0] == before[0] and all(np.array_equal(x, y) for x, y in zip(after[1], before[1]))
+    # Keys outside the scene's range only.
+    h.location = (0.5, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    bpy.ops.csrbf.handle_rest(handle=h.name)
+    h.keyframe_insert("rotation_axis_angle", frame=500)
+    with pytest.raises(RuntimeError, match="within frames 1-250"):
+        bpy.ops.csrbf.bake()
+
+
+def test_bake_with_only_the_phase_keyed_keeps_the_layers_key():
+    """Static controls and a keyed phase (the key's value): the bake is the
+    pose in the layer's own key, its value curve kept, playing without
+    csrbf."""
+    obj, h, rest = arm_with_handle()
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.csrbf.deform() == {"FINISHED"}
+    key = obj.data.shape_keys.key_blocks[obj.csrbf.layer]
+    key.value = 0.0
+    key.keyframe_insert("value", frame=1)
+    key.value = 1.0
+    key.keyframe_insert("value", frame=11)
+    full = core.shape_key_positions(obj, obj.csrbf.layer).copy()
+    core.write_shape_key(obj, obj.csrbf.layer, rest, value=None)  # a stale key: the bake writes the pose
+    assert bpy.ops.csrbf.bake() == {"FINISHED"}
+    assert [k.name for k in obj.data.shape_keys.key_blocks] == ["Basis", obj.csrbf.layer]
+    assert not key.mute and np.array_equal(core.shape_key_positions(obj, obj.csrbf.layer), full)
+    csrbf_blender.unregister()
+    bpy.context.scene.frame_set(6)
+    assert np.abs(posed(obj) - (rest + 0.5 * (full - rest))).max() <= 1e-6 * core.diagonal(rest)
+    csrbf_blender.register()
 
 
 class FakeLayout:
