@@ -268,31 +268,38 @@ class CSRBF_OT_add_handle(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def _handle(op, context, name: str):
-    """The handle empty named `name`, else the active object when a handle."""
-    e = bpy.data.objects.get(name) if name else context.active_object
-    if e is None or e.get(core.ROLE) != "handle":
-        op.report({"ERROR"}, f"csrbf: {'no handle named ' + repr(name) if name else 'the active object is not a handle'}")
-        return None
-    return e
+class _HandleOperator:
+    """An operator on one handle: the one named `handle`, else the active
+    object when a handle; and its mesh."""
+
+    handle: StringProperty(name="Handle", default="")
+
+    def handle_and_mesh(self, context):
+        """(the mesh, the handle's empty), or None with an error reported."""
+        name = self.handle
+        e = bpy.data.objects.get(name) if name else context.active_object
+        if e is None or e.get(core.ROLE) != "handle" or core.owner_of(e) is None:
+            self.report({"ERROR"}, f"csrbf: {'no handle named ' + repr(name) if name else 'the active object is not a handle'}")
+            return None
+        obj = core.owner_of(e)
+        core.migrate(obj)
+        return obj, e
 
 
-class CSRBF_OT_handle_anchor(bpy.types.Operator):
+class CSRBF_OT_handle_anchor(_HandleOperator, bpy.types.Operator):
     """Hold the selected vertices (Edit Mode) still while this handle moves: its anchor (a vertex group)"""
 
     bl_idname = "csrbf.handle_anchor"
     bl_label = "Anchor from Selection"
     bl_options = {"REGISTER", "UNDO"}
 
-    handle: StringProperty(name="Handle", default="")
-
     def execute(self, context):
-        obj = _mesh_object(self, context)
-        e = _handle(self, context, self.handle) if obj is not None else None
-        if e is None:
+        got = self.handle_and_mesh(context)
+        if got is None:
             return {"CANCELLED"}
+        obj, e = got
         if obj.mode != "EDIT":
-            self.report({"ERROR"}, "csrbf: select the vertices to hold still in Edit Mode first")
+            self.report({"ERROR"}, f"csrbf: select the vertices of {obj.name!r} to hold still in Edit Mode first")
             return {"CANCELLED"}
         idx = _selected_vertices(self, obj, "to hold still")
         if idx is None:
@@ -312,20 +319,18 @@ class CSRBF_OT_handle_anchor(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class CSRBF_OT_handle_rest(bpy.types.Operator):
+class CSRBF_OT_handle_rest(_HandleOperator, bpy.types.Operator):
     """Make the handle's present transform its rest (it then moves nothing): to put its pivot somewhere else, or start its motion over"""
 
     bl_idname = "csrbf.handle_rest"
     bl_label = "Set Rest"
     bl_options = {"REGISTER", "UNDO"}
 
-    handle: StringProperty(name="Handle", default="")
-
     def execute(self, context):
-        obj = _mesh_object(self, context)
-        e = _handle(self, context, self.handle) if obj is not None else None
-        if e is None:
+        got = self.handle_and_mesh(context)
+        if got is None:
             return {"CANCELLED"}
+        obj, e = got
         core.set_rest(e, obj)
         self.report({"INFO"}, f"csrbf: handle {e.name!r} at rest where it is")
         return {"FINISHED"}

@@ -9,42 +9,20 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import bpy
+import csrbf
 import numpy as np
 import pytest
+from test_blender import HEAD, ROOT, fresh, mesh_object  # noqa: F401 (fresh: the autouse fixture)
+from test_exports import csrbf_bin
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "blender"))
-import csrbf  # noqa: E402
-import csrbf_blender  # noqa: E402
+import csrbf_blender  # noqa: E402 (test_blender puts blender/ on the path)
 from csrbf_blender import core, operators  # noqa: E402
 
-HEAD = ROOT / "assets" / "models" / "cgal_head.off"
 SUZANNE = ROOT / "assets" / "models" / "assimp_Suzanne_248.obj"
-
-
-@pytest.fixture(autouse=True)
-def fresh():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    csrbf_blender.register()
-    yield
-    csrbf_blender.unregister()
-
-
-def mesh_object(mesh: csrbf.Mesh, name="head"):
-    me = bpy.data.meshes.new(name)
-    me.from_pydata(mesh.vertices.tolist(), [], [list(map(int, f)) for f in mesh.faces])
-    me.update()
-    obj = bpy.data.objects.new(name, me)
-    bpy.context.scene.collection.objects.link(obj)
-    bpy.context.view_layer.objects.active = obj
-    obj.select_set(True)
-    return obj
 
 
 def tube():
@@ -91,16 +69,6 @@ def posed(obj, depsgraph=None):
     co = np.empty(len(me.vertices) * 3, dtype=np.float32)
     me.vertices.foreach_get("co", co)
     return co.reshape(-1, 3)
-
-
-def csrbf_bin() -> Path:
-    given = os.environ.get("CSRBF_BIN")
-    if given:
-        return Path(given)
-    built = ROOT / "target" / "debug" / "csrbf"
-    if not built.exists():
-        subprocess.run(["cargo", "build", "-q", "-p", "csrbf-cli"], cwd=ROOT, check=True)
-    return built
 
 
 def cli_deform(obj, controls: Path, tmp: Path) -> np.ndarray:

@@ -679,7 +679,10 @@ pub(crate) fn py_json(value: &Bound<'_, PyAny>, at: &str) -> PyResult<serde_json
         let mut map = serde_json::Map::with_capacity(d.len());
         for (k, v) in d.iter() {
             let key: String = k.extract().map_err(|_| {
-                PyTypeError::new_err(format!("{at}: a key must be a string, got {}", k.repr().map(|r| r.to_string()).unwrap_or_default()))
+                PyTypeError::new_err(format!(
+                    "{at}: a key must be a string, got {}",
+                    k.repr().map(|r| r.to_string()).unwrap_or_default()
+                ))
             })?;
             let here = format!("{at}.{key}");
             let v = py_json(&v, &here)?;
