@@ -340,6 +340,26 @@ fn a_broken_file_is_refused_with_the_cli_message_and_the_document_kept() {
         "{text}"
     );
     assert_eq!(h.state().document().expect("open").controls, kept);
+    // Issue 42: a file that parses but that `csrbf deform` refuses on this
+    // mesh (two controls with one start) is refused alike, in its words,
+    // and the document stays as it was (so Save cannot write it).
+    h.get_by_label("OK").click();
+    h.run_steps(1);
+    let twice = dir.join("twice.json");
+    std::fs::write(
+        &twice,
+        "{\"radius\": 20, \"controls\": [{\"from\": [0, 0, 0], \"to\": [0, 0, 1]}, {\"from\": [0, 0, 0], \"to\": [0, 1, 0]}]}",
+    )
+    .expect("write");
+    h.state_mut().open_controls(&twice);
+    h.run_steps(2);
+    let (title, text) = h.state().message().expect("a dialog").clone();
+    assert!(title.contains("control file"), "{title}");
+    assert!(
+        text.contains("twice.json") && text.contains("controls 0 and 1"),
+        "{text}"
+    );
+    assert_eq!(h.state().document().expect("open").controls, kept);
 
     let mesh = dir.join("broken.off");
     std::fs::write(&mesh, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2 3\n").expect("write");

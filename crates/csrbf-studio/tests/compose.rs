@@ -416,7 +416,22 @@ fn bad_scene_files_are_refused_with_the_cli_message_and_the_open_scene_kept() {
             "objects[0].trajectory[1].time",
         ),
         ("zero", good.replace("\"duration\": 2", "\"duration\": 0"), "duration"),
+        // Issue 42: a deformation `csrbf deform` refuses (two controls with
+        // one start) is refused by the scene too.
+        (
+            "twice",
+            good.replace(
+                "\"mesh\": \"head.off\",",
+                "\"mesh\": \"head.off\", \"parts\": [{\"name\": \"a\", \"deformations\": [{\"controls\": \"twice.json\"}]}],",
+            ),
+            "controls 0 and 1",
+        ),
     ];
+    std::fs::write(
+        dir.join("twice.json"),
+        r#"{"radius": 20, "controls": [{"from": [0, 0, 0], "to": [0, 0, 1]}, {"from": [0, 0, 0], "to": [0, 1, 0]}]}"#,
+    )
+    .expect("write");
     for (name, text, names) in cases {
         let path = dir.join(format!("{name}.scene.json"));
         std::fs::write(&path, text).expect("write");

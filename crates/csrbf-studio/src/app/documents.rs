@@ -129,6 +129,14 @@ impl StudioApp {
                 format!("{}: it has no deformation", path.display()),
             );
         }
+        // What `csrbf deform` refuses on this mesh (starts that coincide, a
+        // region or a handle the mesh cannot hold, a radius that reaches
+        // nothing) is refused here too, in its words, before the document
+        // changes: a refused file is never loaded, so never saved again.
+        let source = path.display().to_string();
+        if let Err(e) = csrbf_edit::fit(&file, &source, Some(&m.doc.mesh), false, &mut |_| {}) {
+            return self.show_error("Cannot open the control file", reason(&e));
+        }
         // Replacing the controls is one undoable step.
         let mut batch = Vec::new();
         let old = m.doc.controls.deformations.len();
