@@ -560,7 +560,72 @@ pub const UNKNOWN_KEY: &str = "unknown key ignored";
 
 fn unknown_keys(obj: &Map<String, Value>, known: &[&str], base: &str, warnings: &mut Vec<String>) {
     for k in obj.keys().filter(|k| !known.contains(&k.as_str())) {
-        warnings.push(format!("{}: {UNKNOWN_KEY}", join(base, k)));
+        match nearest_known(k, known) {
+            Some(near) => warnings.push(format!(
+                "{} (did you mean \"{near}\"?): {UNKNOWN_KEY}",
+                join(base, k)
+            )),
+            None => warnings.push(format!("{}: {UNKNOWN_KEY}", join(base, k))),
+        }
+    }
+}
+
+/// The known key `key` is most likely a misspelling of (at most two letters
+/// changed, added, dropped or swapped), if any.
+fn nearest_known<'a>(key: &str, known: &[&'a str]) -> Option<&'a str> {
+    known
+        .iter()
+        .map(|k| (edit_distance(key, k), *k))
+        .filter(|&(d, k)| d <= 2 && d < k.len())
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, k)| k)
+}
+
+/// Letters changed, added, dropped or swapped (two side by side) to turn
+/// `a` into `b` (the optimal string alignment distance).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for j in 0..=b.len() {
+        d[0][j] = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            let mut best = (d[i - 1][j] + 1)
+                .min(d[i][j - 1] + 1)
+                .min(d[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                best = best.min(d[i - 2][j - 2] + 1);
+            }
+            d[i][j] = best;
+        }
+    }
+    d[a.len()][b.len()]
+}
+
+/// A key that is missing, said with the misspelling the object may hold
+/// instead (`radius: missing (the file has "raduis")`).
+fn missing(
+    obj: &Map<String, Value>,
+    at: &str,
+    key: &str,
+    known: &[&str],
+    says: &str,
+) -> ControlError {
+    let typo = obj
+        .keys()
+        .filter(|k| !known.contains(&k.as_str()))
+        .find(|k| nearest_known(k, known) == Some(key));
+    match typo {
+        Some(t) => err(
+            at,
+            format!("missing (the file has \"{t}\": a misspelling?): {says}"),
+        ),
+        None => err(at, format!("missing: {says}")),
     }
 }
 
@@ -606,9 +671,12 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
     };
     let radius = match obj.get("radius") {
         None => {
-            return Err(err(
+            return Err(missing(
+                obj,
                 &at("radius"),
-                "missing: give the radius of support in the mesh's units",
+                "radius",
+                KEYS,
+                "give the radius of support in the mesh's units",
             ));
         }
         Some(r) => r
@@ -653,9 +721,12 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
     let (starts, targets) = match obj.get("controls") {
         None if handle.is_some() => (Vec::new(), Vec::new()),
         None => {
-            return Err(err(
+            return Err(missing(
+                obj,
                 &at("controls"),
-                "missing: give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} or a \"handle\"",
+                "controls",
+                KEYS,
+                "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} or a \"handle\"",
             ));
         }
         Some(list) => vectors(list, &at("controls"), handle.is_some(), warnings)?,
@@ -1145,6 +1216,36 @@ mod tests {
         assert_eq!(f.deformations[0].options.kernel, Kernel::C2);
         assert_eq!(f.deformations[0].options.polynomial, Polynomial::None);
         assert_eq!(f.warnings, vec!["extra: unknown key ignored".to_owned()]);
+    }
+
+    #[test]
+    fn a_misspelt_key_is_named_with_the_key_it_stands_for() {
+        // Issue 42: `raduis` for `radius` is named where radius is missed.
+        let e =
+            ControlFile::parse(r#"{"raduis": 1, "controls": [{"from": [0,0,0], "to": [0,0,0]}]}"#)
+                .expect_err("no radius");
+        assert_eq!(e.location, "radius");
+        assert!(
+            e.message
+                .starts_with("missing (the file has \"raduis\": a misspelling?)"),
+            "{e}"
+        );
+        let e = ControlFile::parse(r#"{"radius": 1, "control": []}"#).expect_err("no controls");
+        assert!(e.message.contains("\"control\": a misspelling?"), "{e}");
+        let f = ControlFile::parse(
+            r#"{"radius": 1, "kernal": "c4", "controls": [{"from": [0,0,0], "to": [0,0,0]}], "notes": 1}"#,
+        )
+        .expect("parse");
+        assert_eq!(
+            f.warnings,
+            vec![
+                "kernal (did you mean \"kernel\"?): unknown key ignored".to_owned(),
+                "notes: unknown key ignored".to_owned()
+            ]
+        );
+        assert_eq!(edit_distance("raduis", "radius"), 1);
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(nearest_known("xy", KEYS), None);
     }
 
     #[test]

@@ -60,14 +60,26 @@ pub(crate) fn parse(bytes: &[u8], path: &Path, skipped: &mut Skipped) -> Result<
     let mut colors = Vec::new();
     let mut uvs = Vec::new();
     let mut normals = Vec::new();
+    // Vertex lines at the end that have a face line's shape (`3 0 1 2`): a
+    // vertex count too large reads the faces as vertices.
+    let mut face_shaped = 0usize;
     for v in 0..nv {
         let (l, s) = it.next().transpose()?.ok_or_else(|| {
-            MeshError::parse(
-                path,
-                None,
-                format!("truncated: expected {nv} vertices, found {v}"),
-            )
+            let message = if face_shaped > 0 {
+                format!(
+                    "truncated: expected {nv} vertices, found {} and then {face_shaped} face line(s) (if the file is whole, the header's vertex count is too large)",
+                    v - face_shaped
+                )
+            } else {
+                format!("truncated: expected {nv} vertices, found {v}")
+            };
+            MeshError::parse(path, None, message)
         })?;
+        face_shaped = if looks_like_face(s) {
+            face_shaped + 1
+        } else {
+            0
+        };
         let vals: Vec<f32> = s
             .split_ascii_whitespace()
             .map(|t| number::<f32>(Some(t), path, l, "vertex coordinate"))
@@ -221,4 +233,15 @@ pub(crate) fn encode(mesh: &Mesh) -> Vec<u8> {
         s.push('\n');
     }
     s.into_bytes()
+}
+
+/// Whether a line reads as a face (`n i j k ...`: whole numbers, the first
+/// at least 3 and the count of those after it).
+fn looks_like_face(line: &str) -> bool {
+    let tok: Vec<&str> = line.split_ascii_whitespace().collect();
+    let whole = |t: &str| t.parse::<usize>().ok();
+    match tok.first().and_then(|t| whole(t)) {
+        Some(n) => n >= 3 && tok.len() - 1 == n && tok[1..].iter().all(|t| whole(t).is_some()),
+        None => false,
+    }
 }

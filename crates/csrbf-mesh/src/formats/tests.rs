@@ -168,6 +168,12 @@ fn broken_files_are_errors_that_name_the_place() {
         (b"v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", Format::Obj, "vertex 0 has a coordinate that is not finite"),
         (b"# nothing\n", Format::Obj, "no vertices"),
         (b"OFF\n3 1 0\n0 0 0\n1 0 0\n", Format::Off, "truncated: expected 3 vertices, found 2"),
+        // Issue 42: a face line read as a vertex is not counted as one.
+        (
+            b"OFF\n5 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+            Format::Off,
+            "truncated: expected 5 vertices, found 3 and then 1 face line(s) (if the file is whole, the header's vertex count is too large)",
+        ),
         (b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", Format::Off, "bad.x:6: face 0 refers to vertex 7"),
         (b"PFF\n", Format::Off, "expected the OFF header"),
         (b"OFF\n", Format::Off, "no vertex and face counts"),
