@@ -10,7 +10,7 @@
 
 use std::collections::HashMap;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Most vertices sampled for the pairs (spread evenly over the array).
 const SAMPLES: usize = 4000;
@@ -97,6 +97,291 @@ pub fn symmetry_plane(positions: &[Vec3], axis: usize) -> Option<f64> {
     Some(c)
 }
 
+/// A plane of symmetry: a point on it and its unit normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    /// A point of the plane.
+    pub point: DVec3,
+    /// Its normal, of unit length.
+    pub normal: DVec3,
+}
+
+impl Plane {
+    /// The plane through `point` normal to `normal` (any length but zero);
+    /// None when either is not finite or the normal is zero.
+    pub fn new(point: DVec3, normal: DVec3) -> Option<Plane> {
+        let n = normal.try_normalize()?;
+        (point.is_finite() && n.is_finite()).then_some(Plane { point, normal: n })
+    }
+
+    /// The plane `p[axis] = offset` (axis 0 X, 1 Y, 2 Z).
+    pub fn axis(axis: usize, offset: f64) -> Option<Plane> {
+        let mut n = DVec3::ZERO;
+        *n.as_mut().get_mut(axis)? = 1.0;
+        Plane::new(n * offset, n)
+    }
+
+    /// The plane through three points; None when they are (nearly) on one
+    /// line.
+    pub fn through(a: DVec3, b: DVec3, c: DVec3) -> Option<Plane> {
+        let n = (b - a).cross(c - a);
+        let scale = (b - a).length().max((c - a).length()).max((c - b).length());
+        if !(n.length() > 1e-9 * scale * scale) {
+            return None;
+        }
+        Plane::new(a, n)
+    }
+
+    /// The signed distance of `p` from the plane (positive on the normal's
+    /// side).
+    pub fn distance(&self, p: DVec3) -> f64 {
+        (p - self.point).dot(self.normal)
+    }
+
+    /// The mirror image of a point.
+    pub fn reflect(&self, p: DVec3) -> DVec3 {
+        p - 2.0 * self.distance(p) * self.normal
+    }
+
+    /// The mirror image of a direction (a control's move).
+    pub fn reflect_vector(&self, v: DVec3) -> DVec3 {
+        v - 2.0 * v.dot(self.normal) * self.normal
+    }
+
+    /// The angle between two planes' normals, in degrees (0 to 90: a
+    /// plane's normal may point either way).
+    pub fn angle_deg(&self, other: &Plane) -> f64 {
+        self.normal
+            .dot(other.normal)
+            .abs()
+            .min(1.0)
+            .acos()
+            .to_degrees()
+    }
+}
+
+/// The plane of any orientation that `positions` are most nearly
+/// mirror-symmetric about (None for no finite position): of the planes
+/// normal to X, Y, Z and to the points' principal axes (a scan turned in
+/// its frame is symmetric about one of those), each at the best of 48
+/// offsets, the one whose images land nearest the model; then refined by
+/// reflection-only ICP that turns the plane too: each sampled vertex
+/// mirrored, paired with the vertex nearest its image, the normal moved to
+/// the main direction of the pairs' differences and the plane through the
+/// median of their midpoints, until it settles.
+pub fn find_plane(positions: &[Vec3]) -> Option<Plane> {
+    let finite: Vec<Vec3> = positions
+        .iter()
+        .copied()
+        .filter(|p| p.is_finite())
+        .collect();
+    if finite.is_empty() {
+        return None;
+    }
+    let (lo, hi) = finite
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    let diagonal = (hi - lo).length();
+    let mean = finite.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / finite.len() as f64;
+    if !(diagonal > 0.0) {
+        return Plane::new(mean, DVec3::X);
+    }
+    let grid = Grid::new(&finite, diagonal / CELLS);
+    let stride = finite.len().div_ceil(SAMPLES).max(1);
+    let samples: Vec<DVec3> = finite
+        .iter()
+        .step_by(stride)
+        .map(|p| p.as_dvec3())
+        .collect();
+    let few: Vec<DVec3> = samples.iter().step_by(8).copied().collect();
+    let reach = 2.0 * grid.cell;
+    let cost = |plane: &Plane, pts: &[DVec3]| -> f64 {
+        pts.iter()
+            .map(|v| {
+                let image = plane.reflect(*v).as_vec3();
+                grid.nearest(image, reach)
+                    .map_or(reach, |w| w.distance(image)) as f64
+            })
+            .sum::<f64>()
+            / pts.len().max(1) as f64
+    };
+    let mut normals = vec![DVec3::X, DVec3::Y, DVec3::Z];
+    normals.extend(principal_axes(&samples, mean));
+    let mut best: Option<(f64, Plane)> = None;
+    for n in normals {
+        let (a, b) = samples
+            .iter()
+            .map(|p| p.dot(n))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            });
+        let offsets = (0..CANDIDATES)
+            .map(|i| a + (b - a) * (i as f64 + 0.5) / CANDIDATES as f64)
+            .chain([mean.dot(n)]);
+        for c in offsets {
+            let Some(plane) = Plane::new(n * c, n) else {
+                continue;
+            };
+            let k = cost(&plane, &few);
+            if best.is_none_or(|(b, _)| k < b) {
+                best = Some((k, plane));
+            }
+        }
+    }
+    let (_, mut plane) = best?;
+    for _ in 0..ROUNDS {
+        let pairs: Vec<(DVec3, DVec3)> = samples
+            .iter()
+            .filter_map(|v| {
+                let w = grid.nearest(plane.reflect(*v).as_vec3(), reach)?.as_dvec3();
+                Some((*v, w))
+            })
+            .collect();
+        if pairs.len() < 3 {
+            break;
+        }
+        // The differences of true pairs all lie along the normal: the main
+        // direction of their outer products, turned to the old normal's side.
+        let mut m = [[0.0f64; 3]; 3];
+        for (v, w) in &pairs {
+            let d = *v - *w;
+            for (i, row) in m.iter_mut().enumerate() {
+                for (j, x) in row.iter_mut().enumerate() {
+                    *x += d[i] * d[j];
+                }
+            }
+        }
+        let mut n = main_axis(m).unwrap_or(plane.normal);
+        if n.dot(plane.normal) < 0.0 {
+            n = -n;
+        }
+        let mut along: Vec<f64> = pairs
+            .iter()
+            .map(|(v, w)| ((*v + *w) * 0.5).dot(n))
+            .collect();
+        let mid = along.len() / 2;
+        let (_, &mut c, _) = along.select_nth_unstable_by(mid, f64::total_cmp);
+        let Some(next) = Plane::new(n * c, n) else {
+            break;
+        };
+        let settled = next.angle_deg(&plane) < 1e-6
+            && (next.distance(plane.point)).abs() < 1e-7 * diagonal as f64;
+        // Kept only while the images land nearer.
+        if cost(&next, &samples) > cost(&plane, &samples) {
+            break;
+        }
+        plane = next;
+        if settled {
+            break;
+        }
+    }
+    Some(plane)
+}
+
+/// The eigenvectors of the points' covariance about `mean`.
+fn principal_axes(points: &[DVec3], mean: DVec3) -> Vec<DVec3> {
+    let mut m = [[0.0f64; 3]; 3];
+    for p in points {
+        let d = *p - mean;
+        for (i, row) in m.iter_mut().enumerate() {
+            for (j, x) in row.iter_mut().enumerate() {
+                *x += d[i] * d[j];
+            }
+        }
+    }
+    let (_, vectors) = jacobi(m);
+    vectors
+        .into_iter()
+        .filter_map(|v| v.try_normalize())
+        .collect()
+}
+
+/// The eigenvector of the largest eigenvalue of a symmetric matrix.
+fn main_axis(m: [[f64; 3]; 3]) -> Option<DVec3> {
+    let (values, vectors) = jacobi(m);
+    let k = (0..3).max_by(|&a, &b| values[a].total_cmp(&values[b]))?;
+    vectors[k].try_normalize()
+}
+
+/// Eigenvalues and eigenvectors of a symmetric 3x3 matrix (cyclic Jacobi
+/// rotations until the off-diagonal vanishes).
+fn jacobi(mut a: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..50 {
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        let scale = a[0][0].abs() + a[1][1].abs() + a[2][2].abs();
+        if !(off > 1e-15 * scale) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            for k in 0..3 {
+                let (akp, akq) = (a[k][p], a[k][q]);
+                a[k][p] = c * akp - s * akq;
+                a[k][q] = s * akp + c * akq;
+            }
+            for k in 0..3 {
+                let (apk, aqk) = (a[p][k], a[q][k]);
+                a[p][k] = c * apk - s * aqk;
+                a[q][k] = s * apk + c * aqk;
+            }
+            for row in v.iter_mut() {
+                let (vkp, vkq) = (row[p], row[q]);
+                row[p] = c * vkp - s * vkq;
+                row[q] = s * vkp + c * vkq;
+            }
+        }
+    }
+    let col = |j: usize| DVec3::new(v[0][j], v[1][j], v[2][j]);
+    ([a[0][0], a[1][1], a[2][2]], [col(0), col(1), col(2)])
+}
+
+/// Where a start mirrored across `plane` lands on a surface: the surface's
+/// point nearest its exact image, and how far that is from the image (more
+/// than a few percent of R says the model is not symmetric there).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Image {
+    /// The exact mirror image.
+    pub exact: DVec3,
+    /// The surface's point nearest it.
+    pub on_surface: DVec3,
+    /// Their distance.
+    pub gap: f64,
+}
+
+/// The images of `points` across `plane`, each put on the surface of
+/// `positions` and `triangles` (its nearest point); None for a point with
+/// no surface (no triangle) or not finite.
+pub fn mirror_onto(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    plane: &Plane,
+    points: &[DVec3],
+) -> Vec<Option<Image>> {
+    let bvh = csrbf_mesh::Bvh::new(positions, triangles);
+    points
+        .iter()
+        .map(|p| {
+            let exact = plane.reflect(*p);
+            let hit = bvh.nearest(positions, exact.as_vec3())?;
+            let on_surface = hit.point.as_dvec3();
+            Some(Image {
+                exact,
+                on_surface,
+                gap: on_surface.distance(exact),
+            })
+        })
+        .collect()
+}
+
 /// Vertices in cubic cells, for the nearest one to a point.
 struct Grid {
     cell: f32,
@@ -173,6 +458,103 @@ mod tests {
         // About the other axes too (the sphere's centre there).
         let y = symmetry_plane(&p, 1).expect("a plane");
         assert!((y + 0.2).abs() < 2e-3, "y = {y}");
+    }
+
+    /// An egg (an ellipsoid with a bump up and forward) symmetric about
+    /// x = 0 alone, turned by `turn` and moved by `shift`.
+    fn turned_egg(turn: glam::DQuat, shift: DVec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mesh = csrbf_mesh::shapes::uv_sphere(1.0, 48, 96);
+        let bump = DVec3::new(0.0, 0.6, 0.8);
+        let p = mesh
+            .positions
+            .iter()
+            .map(|v| {
+                let d = v.as_dvec3();
+                let out = 1.0 + 0.4 * (d.dot(bump) - 0.6).max(0.0);
+                let q = DVec3::new(d.x * 1.0, d.y * 0.7, d.z * 0.5) * out;
+                (turn * q + shift).as_vec3()
+            })
+            .collect();
+        (p, mesh.faces.triangles())
+    }
+
+    #[test]
+    fn a_plane_of_any_orientation_is_found_and_starts_mirror_onto_the_surface() {
+        // Issue 42: a model symmetric about a plane turned 12 and 17 degrees
+        // about two axes.
+        let turn = glam::DQuat::from_axis_angle(DVec3::Y, 12f64.to_radians())
+            * glam::DQuat::from_axis_angle(DVec3::Z, 17f64.to_radians());
+        let shift = DVec3::new(0.3, -0.2, 0.5);
+        let (p, t) = turned_egg(turn, shift);
+        let truth = Plane::new(shift, turn * DVec3::X).expect("plane");
+        let found = find_plane(&p).expect("a plane");
+        assert!(found.angle_deg(&truth) < 1.0, "{found:?} against {truth:?}");
+        let diagonal = {
+            let (lo, hi) = p
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), v| {
+                    (a.min(*v), b.max(*v))
+                });
+            (hi - lo).length() as f64
+        };
+        assert!(
+            found.distance(truth.point).abs() < 1e-3 * diagonal,
+            "{found:?}"
+        );
+        // Starts on one side, mirrored onto the surface: each within 1e-4 of
+        // the diagonal of the surface, and near the exact image.
+        let starts: Vec<DVec3> = (p.iter())
+            .map(|v| v.as_dvec3())
+            .filter(|v| truth.distance(*v) > 0.2)
+            .step_by(97)
+            .collect();
+        assert!(starts.len() > 10);
+        let bvh = csrbf_mesh::Bvh::new(&p, &t);
+        for (s, image) in starts.iter().zip(mirror_onto(&p, &t, &found, &starts)) {
+            let image = image.expect("a surface");
+            let off = bvh
+                .nearest(&p, image.on_surface.as_vec3())
+                .expect("near")
+                .distance;
+            assert!((off as f64) < 1e-4 * diagonal, "{s} -> {image:?}");
+            assert!(image.gap < 5e-3 * diagonal, "{s} -> {image:?}");
+            assert!((found.distance(image.exact) + found.distance(*s)).abs() < 1e-9);
+        }
+        // The axis-aligned planes of an unturned model are kept as they are.
+        let (q, _) = turned_egg(glam::DQuat::IDENTITY, DVec3::ZERO);
+        let plain = find_plane(&q).expect("a plane");
+        assert!(
+            plain.angle_deg(&Plane::axis(0, 0.0).expect("x")) < 0.05,
+            "{plain:?}"
+        );
+    }
+
+    #[test]
+    fn planes_from_points_and_normals() {
+        let p = Plane::through(DVec3::ZERO, DVec3::Y, DVec3::Z).expect("the plane x = 0");
+        assert!(p.angle_deg(&Plane::axis(0, 0.0).expect("x")) < 1e-9);
+        assert_eq!(
+            p.reflect(DVec3::new(2.0, 1.0, 3.0)),
+            DVec3::new(-2.0, 1.0, 3.0)
+        );
+        assert_eq!(
+            p.reflect_vector(DVec3::new(1.0, 1.0, 0.0)),
+            DVec3::new(-1.0, 1.0, 0.0)
+        );
+        assert_eq!(Plane::through(DVec3::ZERO, DVec3::X, DVec3::X * 2.0), None);
+        assert_eq!(Plane::new(DVec3::ZERO, DVec3::ZERO), None);
+        assert_eq!(Plane::new(DVec3::NAN, DVec3::X), None);
+        assert_eq!(Plane::axis(3, 0.0), None);
+        let q = Plane::axis(2, 1.5).expect("z = 1.5");
+        assert_eq!(q.distance(DVec3::new(4.0, 4.0, 2.0)), 0.5);
+        assert_eq!(find_plane(&[]), None);
+        // Jacobi against a known decomposition.
+        let (values, vectors) = jacobi([[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 5.0]]);
+        let mut pairs: Vec<(f64, DVec3)> = values.into_iter().zip(vectors).collect();
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        assert!((pairs[0].0 - 1.0).abs() < 1e-12 && (pairs[1].0 - 3.0).abs() < 1e-12);
+        assert!((pairs[2].0 - 5.0).abs() < 1e-12);
+        assert!(pairs[1].1.dot(DVec3::new(1.0, 1.0, 0.0).normalize()).abs() > 1.0 - 1e-12);
     }
 
     #[test]

@@ -279,6 +279,118 @@ impl Bvh {
     }
 }
 
+/// The point of the surface nearest a query: which triangle, where, and
+/// how far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Nearest {
+    /// Index of the triangle (into the triangles the tree was built on).
+    pub triangle: u32,
+    /// The nearest point.
+    pub point: Vec3,
+    /// Its distance from the query.
+    pub distance: f32,
+}
+
+impl Bvh {
+    /// The point of the surface nearest `p` (ties: the first found), or
+    /// None for an empty tree or a query that is not finite. Nodes are
+    /// visited nearest box first and skipped once farther than the best.
+    pub fn nearest(&self, positions: &[Vec3], p: Vec3) -> Option<Nearest> {
+        if self.order.is_empty() || !p.is_finite() {
+            return None;
+        }
+        let box_d2 = |n: &Node| (n.lo - p).max(p - n.hi).max(Vec3::ZERO).length_squared();
+        let mut best: Option<(f32, u32, Vec3)> = None;
+        let mut stack: Vec<(usize, f32)> = vec![(0, box_d2(&self.nodes[0]))];
+        while let Some((n, d2)) = stack.pop() {
+            if best.is_some_and(|b| d2 > b.0) {
+                continue;
+            }
+            let node = &self.nodes[n];
+            if node.is_leaf() {
+                let range = node.first as usize..(node.first + node.count) as usize;
+                for &t in &self.order[range] {
+                    let tri = self.triangles[t as usize].map(|v| positions[v as usize]);
+                    let q = closest_on_triangle(p, tri);
+                    let e2 = q.distance_squared(p);
+                    if best.is_none_or(|b| e2 < b.0) {
+                        best = Some((e2, t, q));
+                    }
+                }
+                continue;
+            }
+            let (a, b) = (node.first as usize, node.first as usize + 1);
+            let (da, db) = (box_d2(&self.nodes[a]), box_d2(&self.nodes[b]));
+            // The nearer child popped first.
+            if da <= db {
+                stack.push((b, db));
+                stack.push((a, da));
+            } else {
+                stack.push((a, da));
+                stack.push((b, db));
+            }
+        }
+        best.map(|(d2, triangle, point)| Nearest {
+            triangle,
+            point,
+            distance: d2.sqrt(),
+        })
+    }
+}
+
+/// The point of triangle `t` nearest `p` (Ericson, Real-Time Collision
+/// Detection, 5.1.5: by the Voronoi region of `p`).
+pub fn closest_on_triangle(p: Vec3, t: [Vec3; 3]) -> Vec3 {
+    let [a, b, c] = t;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if !(denom.abs() > 0.0) {
+        // A degenerate triangle: the nearest of its edges' points.
+        return [(a, b), (b, c), (c, a)]
+            .into_iter()
+            .map(|(u, v)| {
+                let e = v - u;
+                let l2 = e.length_squared();
+                let s = if l2 > 0.0 {
+                    ((p - u).dot(e) / l2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                u + e * s
+            })
+            .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+            .unwrap_or(a);
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    a + ab * v + ac * w
+}
+
 impl Bvh {
     /// Calls `f` with the triangles of every leaf whose box overlaps the box
     /// `[lo, hi]` (touching counts): every triangle that can meet that box,
@@ -420,6 +532,58 @@ pub(crate) mod tests {
                 }
             }
         }
+    }
+
+    /// The nearest point of a triangle by dense sampling of it (a plain
+    /// reference for `closest_on_triangle`).
+    fn sampled_nearest(p: Vec3, t: [Vec3; 3]) -> f32 {
+        let n = 200;
+        let mut best = f32::INFINITY;
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                let q = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+                best = best.min(q.distance(p));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn nearest_agrees_with_brute_force_and_sampling() {
+        let mut rng = Rng(0x51ed_2701);
+        // One triangle against dense samples of it: every Voronoi region.
+        for _ in 0..200 {
+            let t = [rng.v(), rng.v(), rng.v()];
+            let p = rng.v() * 2.0;
+            let q = closest_on_triangle(p, t);
+            let d = q.distance(p);
+            assert!(d <= sampled_nearest(p, t) + 1e-5, "{p:?} {t:?}");
+            assert!(d >= sampled_nearest(p, t) - 0.02, "{p:?} {t:?}");
+        }
+        // A degenerate triangle (a segment) and a point.
+        let seg = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert!(
+            (closest_on_triangle(Vec3::new(1.5, 1.0, 0.0), seg) - Vec3::new(1.5, 0.0, 0.0))
+                .length()
+                < 1e-6
+        );
+        // The tree against every triangle.
+        for n in [1, 5, 400] {
+            let (p, t) = soup(&mut rng, n);
+            let bvh = Bvh::new(&p, &t);
+            for _ in 0..300 {
+                let q = rng.v() * 6.0;
+                let got = bvh.nearest(&p, q).expect("a triangle");
+                let want = t
+                    .iter()
+                    .map(|tri| closest_on_triangle(q, tri.map(|v| p[v as usize])).distance(q))
+                    .fold(f32::INFINITY, f32::min);
+                assert_eq!(got.distance, want, "{q:?}");
+                assert!((got.point.distance(q) - got.distance).abs() < 1e-5);
+            }
+        }
+        assert!(Bvh::new(&[], &[]).nearest(&[], Vec3::ZERO).is_none());
     }
 
     #[test]

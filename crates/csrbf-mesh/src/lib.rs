@@ -38,7 +38,7 @@ mod normals;
 pub mod shapes;
 mod stand_in;
 
-pub use bvh::{Bvh, Hit, Ray};
+pub use bvh::{Bvh, Hit, Nearest, Ray};
 pub use carry::{SAME_NORMAL_COS, carry_normals, smooth_groups};
 pub use error::{MeshError, Result};
 pub use formats::Format;

@@ -349,13 +349,22 @@ impl Command {
     /// The selected controls (or every control of the active layer when
     /// none is selected) mirrored across the plane `p[axis] = plane` (axis
     /// 0 X, 1 Y, 2 Z; [`crate::symmetry::symmetry_plane`] finds the model's
-    /// own), as one step of new controls; with how many. A start on the
-    /// plane is its own image, and an image already there is not added
-    /// twice: None when nothing is left.
+    /// own), as one step of new controls; with how many: [`Command::mirror_across`]
+    /// of that plane.
     pub fn mirror(doc: &Document, axis: usize, plane: f64) -> Option<(Command, usize)> {
-        if axis > 2 || !plane.is_finite() {
-            return None;
-        }
+        let plane = crate::symmetry::Plane::axis(axis, plane)?;
+        Self::mirror_across(doc, &plane).map(|m| (m.command, m.added))
+    }
+
+    /// The selected controls (or every control of the active layer when
+    /// none is selected) mirrored across `plane`, of any orientation, as
+    /// one step of new controls. The image of a start on the surface is put
+    /// on the surface (its nearest point: a model is rarely exactly
+    /// symmetric), its destination moved as the original's, mirrored; a
+    /// start off the surface (placed in space) is mirrored exactly. A start
+    /// on the plane is its own image, and an image already there is not
+    /// added twice: None when nothing is left.
+    pub fn mirror_across(doc: &Document, plane: &crate::symmetry::Plane) -> Option<Mirrored> {
         let l = doc.active_layer;
         let sel: Vec<(usize, usize)> = if doc.selection.0.is_empty() {
             let n = doc.controls.deformations.get(l)?.starts.len();
@@ -363,23 +372,49 @@ impl Command {
         } else {
             doc.selection.0.clone()
         };
-        let flip = |p: DVec3| {
-            let mut q = p;
-            q[axis] = 2.0 * plane - p[axis];
-            q
+        let mesh = &doc.mesh;
+        let triangles = mesh.faces.triangles();
+        let bvh = csrbf_mesh::Bvh::new(&mesh.positions, &triangles);
+        let on_surface = |p: DVec3| {
+            bvh.nearest(&mesh.positions, p.as_vec3())
+                .map(|h| (h.point.as_dvec3(), h.distance as f64))
         };
+        let touch = 1e-4 * doc.diagonal().max(f64::MIN_POSITIVE);
         let mut batch = Vec::new();
+        let mut put: Vec<f64> = Vec::new();
+        let mut made: Vec<(usize, DVec3)> = Vec::new();
         for &(layer, i) in &sel {
             let s = doc.controls.deformations.get(layer)?;
-            let (a, b) = (flip(*s.starts.get(i)?), flip(*s.targets.get(i)?));
-            let r = s.options.radius;
-            let taken = s.starts.iter().any(|p| p.distance(a) < 1e-6 * r.max(1e-12));
+            let (start, target) = (*s.starts.get(i)?, *s.targets.get(i)?);
+            let r = s.options.radius.max(1e-12);
+            let exact = plane.reflect(start);
+            if exact.distance(start) < 1e-6 * r {
+                continue; // on the plane: its own image
+            }
+            let (a, gap) = match on_surface(start) {
+                Some((_, d)) if d <= touch => match on_surface(exact) {
+                    Some((q, _)) => (q, q.distance(exact)),
+                    None => (exact, 0.0),
+                },
+                _ => (exact, 0.0),
+            };
+            let b = a + plane.reflect_vector(target - start);
+            let taken = s.starts.iter().any(|p| p.distance(a) < 1e-6 * r)
+                || made
+                    .iter()
+                    .any(|&(k, p)| k == layer && p.distance(a) < 1e-6 * r);
             if !taken {
                 batch.push(Command::add(layer, a, b));
+                made.push((layer, a));
+                put.push(gap / r);
             }
         }
-        let n = batch.len();
-        (n > 0).then_some((Command::Batch(batch), n))
+        let added = batch.len();
+        (added > 0).then_some(Mirrored {
+            command: Command::Batch(batch),
+            added,
+            gaps: put,
+        })
     }
 
     /// The vertices chosen with the vertex tool made what `target` says,
@@ -605,6 +640,27 @@ impl History {
     }
 }
 
+/// What [`Command::mirror_across`] made: the step, how many controls it
+/// adds, and for each image how far it was put onto the surface, in units
+/// of its layer's R (0 when it was not: a start off the surface, or an
+/// exact image on it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mirrored {
+    /// The new controls, as one step.
+    pub command: Command,
+    /// How many.
+    pub added: usize,
+    /// Each image's move onto the surface, in R.
+    pub gaps: Vec<f64>,
+}
+
+impl Mirrored {
+    /// The largest move onto the surface, in R (0 for none).
+    pub fn largest_gap(&self) -> f64 {
+        self.gaps.iter().copied().fold(0.0, f64::max)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -649,6 +705,44 @@ mod tests {
             matches!(b[0], Command::Insert { start, .. } if start == DVec3::new(0.0, 0.2, 0.0))
         );
         assert_eq!(n, 1);
+    }
+
+    #[test]
+    fn an_image_of_a_start_on_the_surface_is_put_on_the_surface() {
+        // Issue 42: across a plane the sphere is not symmetric about (x =
+        // 0.05) and a tilted one, an image floats off the surface: it is
+        // put on the surface's nearest point, the move reported in R.
+        let mut d = doc();
+        let mut h = History::default();
+        let v = (d.mesh.positions.iter())
+            .map(|p| p.as_dvec3())
+            .max_by(|a, b| (a.x + 0.3 * a.y).total_cmp(&(b.x + 0.3 * b.y)))
+            .expect("vertices");
+        assert!(v.x > 0.2, "{v}");
+        h.apply(&mut d, Command::add(0, v, v * 1.1)).unwrap();
+        let bvh = csrbf_mesh::Bvh::new(&d.mesh.positions, &d.mesh.faces.triangles());
+        for plane in [
+            crate::symmetry::Plane::axis(0, 0.05).expect("x = 0.05"),
+            crate::symmetry::Plane::new(DVec3::ZERO, DVec3::new(1.0, 0.3, -0.2)).expect("tilted"),
+        ] {
+            let m = Command::mirror_across(&d, &plane).expect("an image");
+            assert_eq!(m.added, 1);
+            let Command::Batch(b) = &m.command else {
+                panic!("a batch")
+            };
+            let Command::Insert { start, target, .. } = b[0] else {
+                panic!("an insert")
+            };
+            let off = bvh
+                .nearest(&d.mesh.positions, start.as_vec3())
+                .expect("a face")
+                .distance;
+            assert!(off < 1e-6, "{start} is {off} off the surface");
+            assert!(m.largest_gap() > 0.0 && m.largest_gap() < 0.5, "{m:?}");
+            // The destination moved as the start's, mirrored.
+            let want = plane.reflect_vector(v * 0.1);
+            assert!((target - start - want).length() < 1e-12, "{target} {start}");
+        }
     }
 
     #[test]

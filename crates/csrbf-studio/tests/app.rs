@@ -1449,3 +1449,65 @@ fn suzanne_tall(test: &str) -> Harness<'static, StudioApp> {
         [1280.0, 1400.0],
     )
 }
+
+/// Issue 42: Mirror > Plane reflects across the model's own plane of
+/// symmetry of any orientation, and the image of a start on the surface is
+/// put on the surface, as the edit layer's mirror says.
+#[test]
+fn mirror_across_the_found_plane_puts_the_image_on_the_surface() {
+    let mesh = csrbf_mesh::read(&model("cgal_head.off")).expect("the head");
+    let plane = csrbf_edit::symmetry::find_plane(&mesh.positions).expect("a plane");
+    let far = (mesh.positions.iter())
+        .map(|p| p.as_dvec3())
+        .max_by(|a, b| plane.distance(*a).total_cmp(&plane.distance(*b)))
+        .expect("vertices");
+    let dir = state_dir("mirror-plane-files");
+    let controls = dir.join("cheek.json");
+    let to = far + csrbf::glam::DVec3::new(0.0, 0.5, 0.0);
+    std::fs::write(
+        &controls,
+        format!(
+            r#"{{"radius": 4, "controls": [{{"from": [{}, {}, {}], "to": [{}, {}, {}]}}]}}"#,
+            far.x, far.y, far.z, to.x, to.y, to.z
+        ),
+    )
+    .expect("write");
+    let mut h = open(
+        Args {
+            mesh: Some(model("cgal_head.off")),
+            controls: Some(controls),
+        },
+        "mirror-plane",
+    );
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::A);
+    h.run_steps(2);
+    let want = csrbf_studio::Command::mirror_across(h.state().document().expect("open"), &plane)
+        .expect("an image");
+    h.get_by_label("Plane").click();
+    h.run_steps(2);
+    settle(&mut h);
+    let doc = h.state().document().expect("open");
+    let starts = &doc.controls.deformations[0].starts;
+    assert_eq!(starts.len(), 2, "{}", h.state().status());
+    let csrbf_studio::Command::Batch(b) = &want.command else {
+        panic!("a batch")
+    };
+    let csrbf_studio::Command::Insert { start, .. } = b[0] else {
+        panic!("an insert")
+    };
+    assert_eq!(starts[1], start);
+    let bvh = csrbf_mesh::Bvh::new(&mesh.positions, &mesh.faces.triangles());
+    let off = bvh
+        .nearest(&mesh.positions, start.as_vec3())
+        .expect("a face")
+        .distance as f64;
+    assert!(
+        off < 1e-4 * mesh.diagonal() as f64,
+        "{start} is {off} off the surface"
+    );
+    assert!(
+        h.state()
+            .status()
+            .contains("Mirrored 1 control vector across the plane through")
+    );
+}

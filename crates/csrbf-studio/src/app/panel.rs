@@ -632,6 +632,13 @@ fn mirror_ui(ui: &mut egui::Ui, m: &mut Model, first: (usize, usize)) -> Option<
                 asked = Some(a);
             }
         }
+        if ui
+            .button("Plane")
+            .on_hover_text("Adds the mirror images across the plane of any orientation below: the model's own plane of symmetry (a scan turned in its frame), typed, or through three starts")
+            .clicked()
+        {
+            asked = Some(3);
+        }
     });
     egui::CollapsingHeader::new("mirror planes").show(ui, |ui| planes_ui(ui, m, first));
     asked
@@ -677,6 +684,53 @@ fn planes_ui(ui: &mut egui::Ui, m: &mut Model, first: (usize, usize)) {
             m.mirror_planes[a] = Some(plane);
         }
     }
+    any_plane_ui(ui, m);
+}
+
+/// The plane of any orientation: a point and a normal, typed; the model's
+/// own plane of symmetry; or the plane through the starts of the first
+/// three selected controls.
+fn any_plane_ui(ui: &mut egui::Ui, m: &mut Model) {
+    let Some(mut plane) = m.mirror_plane_any() else {
+        return;
+    };
+    let speed = m.doc.diagonal() * 1e-3;
+    ui.label("Plane (any orientation):");
+    let mut point = plane.point;
+    let mut normal = plane.normal;
+    let typed = vec3_ui(ui, "point", &mut point, speed) | vec3_ui(ui, "normal", &mut normal, 1e-3);
+    if typed && let Some(p) = crate::symmetry::Plane::new(point, normal) {
+        plane = p;
+    }
+    ui.horizontal(|ui| {
+        if ui
+            .small_button("symmetry")
+            .on_hover_text(
+                "The model's own plane of symmetry, of any orientation, found from the mesh",
+            )
+            .clicked()
+        {
+            m.mirror_any = None;
+            plane = m.mirror_plane_any().unwrap_or(plane);
+        }
+        let starts: Vec<DVec3> = (m.doc.selection.0.iter())
+            .filter_map(|&(l, i)| m.doc.controls.deformations.get(l)?.starts.get(i).copied())
+            .take(3)
+            .collect();
+        let through = (starts.len() == 3)
+            .then(|| crate::symmetry::Plane::through(starts[0], starts[1], starts[2]))
+            .flatten();
+        if ui
+            .add_enabled(through.is_some(), egui::Button::new("3 starts").small())
+            .on_hover_text("The plane through the starts of the first three selected controls")
+            .on_disabled_hover_text("Select three controls whose starts are not on one line")
+            .clicked()
+            && let Some(p) = through
+        {
+            plane = p;
+        }
+    });
+    m.mirror_any = Some(plane);
 }
 
 /// The one selected control's start and destination, typed, and Make it

@@ -59,6 +59,10 @@ pub(super) struct Model {
     /// The planes Mirror reflects across, normal to X, Y and Z (the model's
     /// plane of symmetry when first needed; set in the side panel).
     pub(super) mirror_planes: [Option<f64>; 3],
+    /// The plane of any orientation Mirror > Plane reflects across (the
+    /// model's plane of symmetry, found from the mesh when first needed;
+    /// typed, or through three starts, in the side panel).
+    pub(super) mirror_any: Option<crate::symmetry::Plane>,
     /// Vertices chosen with the vertex tool (for a handle, region or anchor).
     pub(super) picked_vertices: Vec<u32>,
     /// What the last box of the vertex tool is for.
@@ -91,6 +95,15 @@ impl Model {
             *slot = crate::symmetry::symmetry_plane(&self.doc.mesh.positions, axis);
         }
         *slot
+    }
+
+    /// The plane of any orientation Mirror > Plane reflects across: the one
+    /// set, else the model's plane of symmetry (found once).
+    pub(super) fn mirror_plane_any(&mut self) -> Option<crate::symmetry::Plane> {
+        if self.mirror_any.is_none() {
+            self.mirror_any = crate::symmetry::find_plane(&self.doc.mesh.positions);
+        }
+        self.mirror_any
     }
 
     /// The point to orbit about: the selected controls' starts' centre when
@@ -187,6 +200,7 @@ impl Model {
             orbit: Orbit::new(up.0, lo, hi, if aspect.is_finite() { aspect } else { 1.6 }),
             up,
             mirror_planes: [None; 3],
+            mirror_any: None,
             picked_vertices: Vec::new(),
             vertex_target: crate::tools::VertexTarget::Handle,
             shown_generation: 0,
@@ -532,26 +546,59 @@ impl Picker {
     }
 
     /// Mirrors the selected controls (or all of the active layer) across
-    /// the mirror plane normal to `axis` (0 X, 1 Y, 2 Z).
+    /// the mirror plane normal to `axis` (0 X, 1 Y, 2 Z), or with `axis` 3
+    /// across the plane of any orientation; the images of starts on the
+    /// surface are put on it, and the status says when that moved one far
+    /// (the model is not symmetric about the plane there).
     pub(super) fn mirror(&mut self, axis: usize) {
         let Some(m) = self.model.as_mut() else {
             return;
         };
-        let Some(plane) = m.mirror_plane(axis) else {
-            return;
+        let (plane, name) = if axis < 3 {
+            let Some(c) = m.mirror_plane(axis) else {
+                return;
+            };
+            let Some(plane) = crate::symmetry::Plane::axis(axis, c) else {
+                return;
+            };
+            (
+                plane,
+                format!("the plane {} = {c:.4}", ["X", "Y", "Z"][axis]),
+            )
+        } else {
+            let Some(plane) = m.mirror_plane_any() else {
+                return;
+            };
+            let (p, n) = (plane.point, plane.normal);
+            (
+                plane,
+                format!(
+                    "the plane through ({:.4}, {:.4}, {:.4}) normal to ({:.3}, {:.3}, {:.3})",
+                    p.x, p.y, p.z, n.x, n.y, n.z
+                ),
+            )
         };
-        let Some((batch, n)) = Command::mirror(&m.doc, axis, plane) else {
+        let Some(mirrored) = Command::mirror_across(&m.doc, &plane) else {
             self.status = "Nothing to mirror: every image is already there".into();
             return;
         };
-        self.edit(batch, true);
+        let (n, far) = (mirrored.added, mirrored.largest_gap());
+        self.edit(mirrored.command, true);
         self.status = format!(
-            "Mirrored {} across the plane {} = {plane:.4}",
-            count(n, "control vector", "control vectors"),
-            ["X", "Y", "Z"][axis]
+            "Mirrored {} across {name}",
+            count(n, "control vector", "control vectors")
         );
+        if far > MIRROR_GAP {
+            self.status += &format!(
+                "; an image lay {:.0} % of R off the surface and was put on it: is the model symmetric about this plane?",
+                100.0 * far
+            );
+        }
     }
 }
+
+/// How far (in R) an image may lie off the surface before Mirror says so.
+const MIRROR_GAP: f64 = 0.05;
 
 /// `n` things, named in the singular for one: "1 face", "2 faces".
 pub(super) fn count(n: usize, one: &str, many: &str) -> String {
