@@ -338,8 +338,9 @@ class CSRBF_OT_handle_rest(_HandleOperator, bpy.types.Operator):
 
 AXES = [("X", "X", "The plane normal to the object's X axis"), ("Y", "Y", "Normal to Y"), ("Z", "Z", "Normal to Z")]
 PLANES = [
-    ("FOUND", "Found", "The plane the model is most nearly mirror-symmetric about, found from its vertices (as the studio's Mirror)"),
-    ("ZERO", "At 0", "The plane through the object's origin"),
+    ("ANY", "Found, Any Orientation", "The plane the model is most nearly mirror-symmetric about, of any orientation (a scan turned in its frame), found from its vertices"),
+    ("FOUND", "Found, Normal to the Axis", "The plane normal to the axis the model is most nearly mirror-symmetric about, found from its vertices (as the studio's Mirror X, Y, Z)"),
+    ("ZERO", "At 0", "The plane through the object's origin normal to the axis"),
 ]
 
 
@@ -363,7 +364,7 @@ class CSRBF_OT_mirror(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     axis: EnumProperty(name="Axis", items=AXES, default="X")
-    plane: EnumProperty(name="Plane", items=PLANES, default="FOUND")
+    plane: EnumProperty(name="Plane", items=PLANES, default="ANY")
 
     def execute(self, context):
         obj = _mesh_object(self, context)
@@ -378,48 +379,60 @@ class CSRBF_OT_mirror(bpy.types.Operator):
             self.report({"ERROR"}, f"csrbf: {obj.name!r} has no control vectors to mirror")
             return {"CANCELLED"}
         rest = core.rest_positions(obj)
-        axis = "XYZ".index(self.axis)
-        at = csrbf.symmetry_plane(rest, self.axis.lower()) if self.plane == "FOUND" else 0.0
+        mesh = csrbf.Mesh(rest, core.triangles(obj))
+        axis = np.eye(3)["XYZ".index(self.axis)]
+        if self.plane == "ANY":
+            point, normal = csrbf.find_symmetry(mesh)
+            where = (f"the plane through ({point[0]:.4g}, {point[1]:.4g}, {point[2]:.4g}) normal to "
+                     f"({normal[0]:.3f}, {normal[1]:.3f}, {normal[2]:.3f})")
+        else:
+            at = csrbf.symmetry_plane(mesh, self.axis.lower()) if self.plane == "FOUND" else 0.0
+            point, normal = axis * at, axis
+            where = f"{self.axis} = {at:.6g}"
         r = obj.csrbf.radius if obj.csrbf.radius > 0 else core.diagonal(rest)
-
-        def flip(p):
-            q = np.array(p, dtype=np.float64)
-            q[axis] = 2.0 * at - q[axis]
-            return q
-
-        images = [flip(c.starts[i]) for i in chosen]
-        snapped = core.nearest_on_surface(obj, images)
         size = core.diagonal(rest) or 1.0
+
+        def flip(p, vector=False):
+            p = np.asarray(p, dtype=np.float64)
+            return p - 2.0 * ((p if vector else p - point) @ normal) * normal
+
+        sources = np.array([c.starts[i] for i in chosen])
+        # The images of starts on the surface go on the surface (its point
+        # nearest the exact image: the edit layer's mirror); a start placed
+        # in space is mirrored exactly.
+        onto, gaps = csrbf.mirror_onto_surface(mesh, sources, point, normal)
+        touching = [h is not None and (h - Vector(p)).length <= 1e-4 * size
+                    for h, p in zip(core.nearest_on_surface(obj, sources), sources)]
         made, far, skipped = [], [], 0
         with _ObjectMode(obj):
             col = _controls_collection(context, obj)
-            for i, image, onto in zip(chosen, images, snapped):
+            for k, i in enumerate(chosen):
                 start = c.starts[i]
-                if abs(start[axis] - at) < 1e-6 * r or onto is None:
+                side = float((start - point) @ normal)
+                if abs(side) < 0.5e-6 * r:
                     skipped += 1  # on the plane: its own image
                     continue
-                onto = np.array(onto)
+                image = onto[k] if touching[k] else flip(start)
+                gap = float(gaps[k]) if touching[k] else 0.0
                 s_e = core.bpy_object(c.names[i])
                 # Mirrored before: its image is where it lands, or (put on
                 # the surface of a model not quite symmetric) the start of
                 # its flipped name.
                 twin = bpy.utils.flip_name(s_e.name)
-                taken = np.linalg.norm(c.starts - onto, axis=1).min() < 1e-6 * r or (twin != s_e.name and twin in c.names)
-                if taken or any(np.linalg.norm(np.array(m[0]) - onto) < 1e-6 * r for m in made):
+                taken = np.linalg.norm(c.starts - image, axis=1).min() < 1e-6 * r or (twin != s_e.name and twin in c.names)
+                if taken or any(np.linalg.norm(np.array(m[0]) - image) < 1e-6 * r for m in made):
                     skipped += 1
                     continue
-                target = onto + (flip(c.targets[i]) - image)
+                target = image + flip(c.targets[i] - start, vector=True)
                 t_e = s_e.csrbf.partner
-                s_own, s_img = _side_names(s_e.name, start[axis] > at)
-                t_own, t_img = _side_names(t_e.name, start[axis] > at)
+                s_own, s_img = _side_names(s_e.name, side > 0)
+                t_own, t_img = _side_names(t_e.name, side > 0)
                 if s_e.name != s_own:
                     s_e.name, t_e.name = s_own, t_own
-                _pair(col, obj, tuple(onto), tuple(target), size, names=(s_img, t_img))
-                gap = float(np.linalg.norm(onto - image))
-                made.append((tuple(onto), s_img))
+                _pair(col, obj, tuple(image), tuple(target), size, names=(s_img, t_img))
+                made.append((tuple(image), s_img))
                 if gap > 0.05 * r:
                     far.append(f"{s_img!r} {gap / r:.2f} R")
-        where = f"{self.axis} = {at:.6g}"
         if not made:
             self.report({"ERROR"}, f"csrbf: nothing to mirror across {where}: each start is on the plane or has its image")
             return {"CANCELLED"}

@@ -358,6 +358,40 @@ def test_mirror_lands_every_start_on_the_surface():
     assert len(core.control_pairs(obj).starts) == len(after.starts)
 
 
+def test_mirror_finds_a_tilted_plane():
+    """Issue 42 through Blender: a mesh symmetric about a plane turned 14
+    and 11 degrees about two axes; Mirror (its plane of any orientation by
+    default) puts each image on the surface, at the exact image."""
+    suzanne = csrbf.read_mesh(SUZANNE)
+    v = suzanne.vertices.astype(np.float64)
+    both = np.vstack([v, v * [-1.0, 1.0, 1.0]])
+    faces = np.vstack([suzanne.triangles, suzanne.triangles[:, ::-1] + len(v)])
+    from mathutils import Matrix
+
+    rot = np.array(Matrix.Rotation(math.radians(14), 3, "Y") @ Matrix.Rotation(math.radians(11), 3, "Z"))
+    moved = both @ rot.T + [0.4, -0.3, 0.2]
+    obj = mesh_object(csrbf.Mesh(moved.astype(np.float32), faces.astype(np.uint32)), "tilted")
+    rest = core.rest_positions(obj)
+    size = core.diagonal(rest)
+    obj.csrbf.radius = 0.2 * size
+    truth = rot @ [1.0, 0.0, 0.0]
+    side = np.flatnonzero((rest - [0.4, -0.3, 0.2]) @ truth > 0.3)[::60][:4]
+    for i in side:
+        add_pair(obj, rest[i], rest[i] + truth * 0.05 * size)
+    bpy.context.view_layer.update()
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.csrbf.mirror() == {"FINISHED"}
+    after = core.control_pairs(obj)
+    assert len(after.starts) == 2 * len(side)
+    for k in range(len(side), 2 * len(side)):
+        p = after.starts[k]
+        src = after.starts[after.names.index(bpy.utils.flip_name(after.names[k]))]
+        exact = src - 2 * ((src - [0.4, -0.3, 0.2]) @ truth) * truth
+        assert np.linalg.norm(p - exact) < 2e-3 * size, after.names[k]
+        d = after.targets[k] - p
+        assert np.allclose(d, -truth * 0.05 * size, atol=1e-3 * size)
+
+
 def test_add_control_keeps_edit_mode():
     head = csrbf.read_mesh(HEAD)
     obj = mesh_object(head)

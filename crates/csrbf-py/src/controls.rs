@@ -2,6 +2,7 @@
 //! one writer), so a front end (Blender's panel) builds none by hand.
 
 use csrbf_edit::controls::{ControlFile, ControlSpec, UNKNOWN_KEY};
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -107,19 +108,117 @@ pub fn symmetry_plane(mesh: &Bound<'_, PyAny>, axis: &str) -> PyResult<f64> {
             )));
         }
     };
-    let points: Vec<glam::Vec3> = match mesh.cast::<PyMesh>() {
+    let points = mesh_points(mesh)?;
+    csrbf_edit::symmetry::symmetry_plane(&points, k)
+        .ok_or_else(|| crate::Error::new_err("symmetry_plane: the mesh has no finite point"))
+}
+
+/// The plane of any orientation a model is most nearly mirror-symmetric
+/// about, found from its vertices (a scan turned in its frame included):
+/// (a point on it, its unit normal), two float64 arrays of 3.
+///
+/// Args:
+///     mesh: a Mesh, or (N, 3) points.
+///
+/// Raises:
+///     csrbf.Error: no finite point.
+///
+/// >>> point, normal = csrbf.find_symmetry(mesh)
+#[pyfunction]
+pub fn find_symmetry<'py>(
+    py: Python<'py>,
+    mesh: &Bound<'py, PyAny>,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    let points = mesh_points(mesh)?;
+    let plane = py
+        .detach(|| csrbf_edit::symmetry::find_plane(&points))
+        .ok_or_else(|| crate::Error::new_err("find_symmetry: the mesh has no finite point"))?;
+    Ok((
+        PyArray1::from_slice(py, &plane.point.to_array()),
+        PyArray1::from_slice(py, &plane.normal.to_array()),
+    ))
+}
+
+/// The mirror images of points across a plane, each put on the mesh's
+/// surface (its nearest point), as a mirror of control vectors places
+/// their starts: (the images on the surface, (K, 3) float64; how far each
+/// was from its exact image, (K,) float64: more than a few percent of R
+/// says the model is not symmetric there).
+///
+/// Args:
+///     mesh: a Mesh with faces.
+///     points: (K, 3) points (starts) to mirror.
+///     point, normal: the plane (as `find_symmetry` gives it; the normal
+///         of any length but zero).
+///
+/// >>> images, gaps = csrbf.mirror_onto_surface(mesh, starts, *csrbf.find_symmetry(mesh))
+#[pyfunction]
+pub fn mirror_onto_surface<'py>(
+    py: Python<'py>,
+    mesh: &Bound<'py, PyMesh>,
+    points: &Bound<'py, PyAny>,
+    point: &Bound<'py, PyAny>,
+    normal: &Bound<'py, PyAny>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>)> {
+    let pts = vectors_f64(points, "points")?;
+    let one = |v: &Bound<'py, PyAny>, name: &str| -> PyResult<glam::DVec3> {
+        let a: Vec<f64> = v
+            .extract()
+            .map_err(|_| PyValueError::new_err(format!("{name}: expected three numbers")))?;
+        match a[..] {
+            [x, y, z] => Ok(glam::DVec3::new(x, y, z)),
+            _ => Err(PyValueError::new_err(format!(
+                "{name}: expected three numbers, got {}",
+                a.len()
+            ))),
+        }
+    };
+    let plane = csrbf_edit::symmetry::Plane::new(one(point, "point")?, one(normal, "normal")?)
+        .ok_or_else(|| {
+            PyValueError::new_err("the plane needs a finite point and a non-zero finite normal")
+        })?;
+    let (positions, triangles) = {
+        let m = mesh.borrow();
+        if m.inner.faces.is_empty() {
+            return Err(crate::Error::new_err(
+                "mirror_onto_surface: the mesh has no faces to put the images on",
+            ));
+        }
+        (m.inner.positions.clone(), m.inner.faces.triangles())
+    };
+    let images =
+        py.detach(|| csrbf_edit::symmetry::mirror_onto(&positions, &triangles, &plane, &pts));
+    let mut out = Vec::with_capacity(images.len() * 3);
+    let mut gaps = Vec::with_capacity(images.len());
+    for (k, im) in images.iter().enumerate() {
+        let im = im.ok_or_else(|| {
+            crate::Error::new_err(format!(
+                "points[{k}]: not finite, or no surface to put it on"
+            ))
+        })?;
+        out.extend(im.on_surface.to_array());
+        gaps.push(im.gap);
+    }
+    let out = PyArray1::from_vec(py, out).reshape([images.len(), 3])?;
+    Ok((out, PyArray1::from_vec(py, gaps)))
+}
+
+/// The plane's points, from a Mesh or an (N, 3) array.
+fn mesh_points(mesh: &Bound<'_, PyAny>) -> PyResult<Vec<glam::Vec3>> {
+    Ok(match mesh.cast::<PyMesh>() {
         Ok(m) => m.borrow().inner.positions.clone(),
         Err(_) => vectors_f64(mesh, "mesh")?
             .iter()
             .map(|p| p.as_vec3())
             .collect(),
-    };
-    csrbf_edit::symmetry::symmetry_plane(&points, k)
-        .ok_or_else(|| crate::Error::new_err("symmetry_plane: the mesh has no finite point"))
+    })
 }
 
-/// Adds `control_file` and `symmetry_plane` to the module.
+/// Adds `control_file`, `symmetry_plane`, `find_symmetry` and
+/// `mirror_onto_surface` to the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(control_file, m)?)?;
-    m.add_function(wrap_pyfunction!(symmetry_plane, m)?)
+    m.add_function(wrap_pyfunction!(symmetry_plane, m)?)?;
+    m.add_function(wrap_pyfunction!(find_symmetry, m)?)?;
+    m.add_function(wrap_pyfunction!(mirror_onto_surface, m)?)
 }
