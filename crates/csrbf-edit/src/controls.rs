@@ -58,6 +58,76 @@ pub struct ControlSpec {
     /// The paths the starts follow in a sweep: straight, except a handle's
     /// moving samples, which [`ControlSpec::resolve`] sets on its motion.
     pub paths: Paths,
+    /// A resolved handle's rigid part: its own vertices, moved as one by
+    /// the handle's motion exactly (a stage of its own before this
+    /// deformation's, which then blends the rest of its region: the region
+    /// without the handle's vertices and the anchor's, which stay still).
+    pub rigid: Option<RigidPart>,
+}
+
+/// A handle's own vertices and the affine fit that moves them as one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigidPart {
+    /// The handle's vertices, ascending.
+    pub vertices: Vec<u32>,
+    /// The anchor's vertices (held still), ascending.
+    pub held: Vec<u32>,
+    /// Control vectors of the motion: the handle's samples and four points
+    /// around them (so the affine part is determined), each moved by it.
+    pub starts: Vec<DVec3>,
+    /// Their destinations.
+    pub targets: Vec<DVec3>,
+    /// The motion as a path (a sweep follows the turn).
+    pub path: Path,
+}
+
+impl RigidPart {
+    /// The options of its fit: the deformation's, with the linear
+    /// polynomial (which reproduces the motion exactly: every control moves
+    /// by the same affine map, so the kernel part is zero).
+    pub fn options(&self, of: FitOptions) -> FitOptions {
+        of.with_polynomial(Polynomial::Linear)
+    }
+
+    /// Its sweep's paths: every control on the motion.
+    pub fn paths(&self) -> Paths {
+        Paths {
+            moving: Some((0..self.starts.len(), self.path)),
+        }
+    }
+
+    /// Its region: the handle's vertices at weight 1, and the anchor's at
+    /// weight 0 (not moved: listed so that the checks know the blend after
+    /// it meets them on purpose).
+    pub fn region(&self) -> Region {
+        let vertices = self.vertices.iter().chain(&self.held).copied().collect();
+        let weights = (self.vertices.iter().map(|_| 1.0))
+            .chain(self.held.iter().map(|_| 0.0))
+            .collect();
+        Region::Weights { vertices, weights }
+    }
+
+    /// Its pipeline stage, on its vertices, at `phase`, a sweep when
+    /// `sweep` is.
+    pub fn to_stage(
+        &self,
+        of: FitOptions,
+        phase: f64,
+        sweep: Option<SweepOptions>,
+    ) -> csrbf::Stage {
+        csrbf::Stage::new(self.starts.clone(), self.targets.clone(), self.options(of))
+            .with_region(self.region())
+            .with_phase(phase)
+            .with_sweep(
+                sweep,
+                if sweep.is_some() {
+                    self.paths()
+                } else {
+                    Paths::default()
+                },
+            )
+            .as_rigid_part(true)
+    }
 }
 
 /// What [`ControlSpec::resolve_cached`] keeps between resolutions on one
@@ -182,20 +252,33 @@ impl ControlSpec {
         cache: &mut SurfaceCache,
     ) -> csrbf::Result<ControlSpec> {
         let mut out = self.clone();
+        // The handle's vertices and the anchor's: moved as one, and held,
+        // exactly (the rest of the region blends between them).
+        let mut exclude: Vec<u32> = Vec::new();
         if let Some(h) = out.handle.take() {
+            let anchor = out.anchor.take();
             let v = h.controls(
                 points,
-                out.anchor.take().as_ref(),
+                anchor.as_ref(),
                 self.options.radius,
                 self.options.polynomial,
                 groups,
             )?;
             let first = out.starts.len();
-            out.paths.moving = Some((first..first + v.moving, handle_path(&h, v.pivot)));
+            let path = handle_path(&h, v.pivot);
+            out.paths.moving = Some((first..first + v.moving, path));
+            let mut rigid = rigid_part(&h, &v, self.options.radius, path, points, groups)?;
+            if let Some(a) = &anchor {
+                rigid.held = a.select(points, groups)?;
+            }
+            rigid.vertices.sort_unstable();
+            exclude.extend(rigid.vertices.iter().chain(&rigid.held).copied());
+            out.rigid = Some(rigid);
             out.starts.extend(v.starts);
             out.targets.extend(v.targets);
         }
         let Some(origin) = self.region.origin() else {
+            out.region = without(&out.region, &exclude, points, groups)?;
             return Ok(out);
         };
         if triangles.is_empty() {
@@ -234,6 +317,7 @@ impl ControlSpec {
             }
         };
         out.region = cache.region(&self.region, seeds)?;
+        out.region = without(&out.region, &exclude, points, groups)?;
         Ok(out)
     }
 
@@ -243,6 +327,76 @@ impl ControlSpec {
     pub fn fit(&self) -> csrbf::Result<Vec<csrbf::FittedStage>> {
         Ok(crate::fit_spec(self)?.stages)
     }
+}
+
+/// A handle's rigid part: its vertices, and the control vectors of its
+/// motion (the samples the handle made and four points around them at R/2,
+/// all moved by the motion).
+fn rigid_part(
+    h: &Handle,
+    v: &csrbf::HandleControls,
+    radius: f64,
+    path: Path,
+    points: &[Vec3],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> csrbf::Result<RigidPart> {
+    let vertices = h.select.select(points, groups)?;
+    let motion = h.motion(v.pivot);
+    let mut starts: Vec<DVec3> = v.starts[..v.moving].to_vec();
+    let centre = starts.iter().copied().sum::<DVec3>() / starts.len().max(1) as f64;
+    // A tetrahedron's corners (turned off the axes, so they meet no grid
+    // of samples), so four points not in one plane determine the affine
+    // part even for a flat selection.
+    let r = 0.5137 * radius;
+    for c in [
+        DVec3::new(1.0, 1.0, 1.0),
+        DVec3::new(1.0, -1.0, -1.0),
+        DVec3::new(-1.0, 1.0, -1.0),
+        DVec3::new(-1.0, -1.0, 1.0),
+    ] {
+        let p = centre + c.normalize() * r;
+        if starts
+            .iter()
+            .all(|s| s.distance(p) > radius * csrbf::handle::MIN_SAMPLE_SPACING)
+        {
+            starts.push(p);
+        }
+    }
+    let targets = starts.iter().map(|&p| motion.transform_point3(p)).collect();
+    Ok(RigidPart {
+        vertices,
+        held: Vec::new(),
+        starts,
+        targets,
+        path,
+    })
+}
+
+/// `region` without the points `exclude` lists (a handle's and its
+/// anchor's, which the rigid part moves and the anchor holds): as weights,
+/// the same elsewhere.
+fn without(
+    region: &Region,
+    exclude: &[u32],
+    points: &[Vec3],
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> csrbf::Result<Region> {
+    if exclude.is_empty() {
+        return Ok(region.clone());
+    }
+    let mut out = vec![false; points.len()];
+    for &i in exclude {
+        if let Some(o) = out.get_mut(i as usize) {
+            *o = true;
+        }
+    }
+    let (active, weights) = region.weights(points, groups)?;
+    let (vertices, weights) = active
+        .into_iter()
+        .zip(weights)
+        .filter(|(i, _)| !out[*i as usize])
+        .unzip();
+    Ok(Region::Weights { vertices, weights })
 }
 
 /// A handle's motion as the path of its moving samples: the scale, turn
@@ -291,6 +445,44 @@ impl ControlSpec {
         )
     }
 
+    /// The pipeline stages of this deformation: a resolved handle's rigid
+    /// part first, then the deformation's own stage (both a sweep when
+    /// [`ControlSpec::sweep_to_use`] says so).
+    pub fn to_stages(&self) -> csrbf::Result<Vec<csrbf::Stage>> {
+        let Some(r) = &self.rigid else {
+            return Ok(vec![self.to_stage()?]);
+        };
+        let sweep = self.sweep_to_use();
+        let own = ControlSpec {
+            sweep,
+            ..self.clone()
+        }
+        .to_stage()?;
+        Ok(vec![r.to_stage(self.options, self.phase, sweep), own])
+    }
+
+    /// The sweep this deformation is taken as: its own, or for a resolved
+    /// handle whose turn passes the fold-free bound (some control moved
+    /// farther from a neighbour's move, a start within R, than the kernel
+    /// allows: where the single map may fold, as the report judges it) a
+    /// sweep along the turn, by itself.
+    pub fn sweep_to_use(&self) -> Option<SweepOptions> {
+        if self.sweep.is_some() || self.rigid.is_none() {
+            return self.sweep;
+        }
+        let r = self.options.radius;
+        let bound = self.options.kernel.fold_free_ratio() * r;
+        let moves: Vec<DVec3> = (self.starts.iter().zip(&self.targets))
+            .map(|(s, t)| *t - *s)
+            .collect();
+        let past = self.starts.iter().enumerate().any(|(i, a)| {
+            self.starts.iter().enumerate().any(|(j, b)| {
+                j != i && a.distance_squared(*b) < r * r && moves[i].distance(moves[j]) > bound
+            })
+        });
+        past.then(SweepOptions::default)
+    }
+
     /// A deformation of these control vectors over the whole mesh at full phase.
     pub fn new(starts: Vec<DVec3>, targets: Vec<DVec3>, options: FitOptions) -> ControlSpec {
         ControlSpec {
@@ -304,6 +496,7 @@ impl ControlSpec {
             name: None,
             sweep: None,
             paths: Paths::default(),
+            rigid: None,
         }
     }
 
@@ -776,6 +969,7 @@ fn spec(v: &Value, base: &str, warnings: &mut Vec<String>) -> Result<ControlSpec
         name,
         sweep,
         paths: Paths::default(),
+        rigid: None,
     })
 }
 

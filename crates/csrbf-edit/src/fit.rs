@@ -68,6 +68,37 @@ impl FittedSpec {
 /// place a control file's deformation becomes stages.
 pub fn fit_spec(spec: &ControlSpec) -> csrbf::Result<FittedSpec> {
     let t = Instant::now();
+    if let Some(rigid) = &spec.rigid {
+        // A handle: its own vertices moved as one (the rigid part's fit,
+        // exact), then the rest of the region blended by the deformation.
+        let part = ControlSpec {
+            starts: rigid.starts.clone(),
+            targets: rigid.targets.clone(),
+            options: rigid.options(spec.options),
+            region: rigid.region(),
+            paths: rigid.paths(),
+            rigid: None,
+            sweep: spec.sweep_to_use(),
+            ..spec.clone()
+        };
+        let mut stages: Vec<FittedStage> = fit_spec(&part)?
+            .stages
+            .into_iter()
+            .map(|s| s.as_rigid_part(true))
+            .collect();
+        let sweep = spec.sweep_to_use();
+        let own = fit_spec(&ControlSpec {
+            rigid: None,
+            sweep,
+            ..spec.clone()
+        })?;
+        stages.extend(own.stages);
+        return Ok(FittedSpec {
+            stages,
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            ..own
+        });
+    }
     if spec.handle.is_some() {
         return Err(csrbf::Error::BadHandle(
             "not resolved yet: call ControlSpec::resolve with the mesh first".into(),
@@ -268,6 +299,13 @@ pub fn fit(
 fn note_fit(s: &ControlSpec, f: &FittedSpec, at: &str, notes: &mut dyn FnMut(Note)) {
     let o = &s.options;
     if let Some(sw) = &f.sweep {
+        if s.sweep.is_none() {
+            notes(Note::Progress(format!(
+                "{at}: the handle's turn passes the fold-free bound of {} ({:.3} R): taken as a fold-free sweep along the turn",
+                o.kernel,
+                o.kernel.fold_free_ratio()
+            )));
+        }
         notes(Note::Progress(format!(
             "swept {} controls ({}, R {}) in {} step(s), each step's |dD/dx| <= {:.3} (the single map's bound: {:.3}), {:.2} ms",
             s.starts.len(),

@@ -114,8 +114,11 @@ impl Session {
         let mut k = 0;
         for (layer, spec) in self.specs.iter().enumerate() {
             if self.layers.get(k) == Some(&layer) {
-                fitted.extend(self.pipeline.fitted_stages(k).unwrap_or_default());
-                k += 1;
+                // A handle's layer has two stages: its rigid part, then its blend.
+                while self.layers.get(k) == Some(&layer) {
+                    fitted.extend(self.pipeline.fitted_stages(k).unwrap_or_default());
+                    k += 1;
+                }
             } else {
                 fitted.push(
                     csrbf::FittedStage::new(csrbf::Deformation::identity(spec.options))
@@ -187,11 +190,13 @@ impl Session {
             })?;
             controls += spec.starts.len();
             if !spec.starts.is_empty() {
-                let stage = spec
-                    .to_stage()
-                    .map_err(|source| SessionError { layer, source })?;
-                stages.push(stage.with_phase(spec.phase * phase));
-                layers.push(layer);
+                for stage in spec
+                    .to_stages()
+                    .map_err(|source| SessionError { layer, source })?
+                {
+                    stages.push(stage.with_phase(spec.phase * phase));
+                    layers.push(layer);
+                }
             }
             specs.push(spec);
         }

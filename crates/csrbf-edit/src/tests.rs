@@ -237,3 +237,106 @@ fn a_sweep_is_advised_for_a_region_only_when_its_trial_folds_nothing() {
         assert!(report.diagnostics.inside_out.is_empty());
     }
 }
+
+/// An arm: a box 4 long (X), 0.5 thick, finely divided.
+fn arm() -> Mesh {
+    csrbf_mesh::shapes::subdivided_box(glam::Vec3::new(4.0, 0.5, 0.5), [80, 8, 8])
+}
+
+/// The arm's right end (x > 1) turned 75 degrees about Z at x = 1, its left
+/// end (x < -1) the anchor; a sweep when asked.
+fn turned_arm(sweep: bool) -> String {
+    format!(
+        r#"{{"radius": 1.0, "sweep": {sweep},
+            "handle": {{"select": {{"box": {{"min": [1, -1, -1], "max": [3, 1, 1]}}}},
+                       "rotate": {{"axis": [0, 0, 1], "angle_deg": 75, "pivot": [1, 0, 0]}}}},
+            "anchor": {{"box": {{"min": [-3, -1, -1], "max": [-1, 1, 1]}}}}}}"#
+    )
+}
+
+/// Issue 42: a handle's vertices turn as a bone turns them (their mutual
+/// distances kept exactly at full phase, and at every phase in a sweep),
+/// no face among them turns inside out at any phase, the anchor's vertices
+/// stay exactly, and the report names no fold there; the live session and
+/// the saved file give the same positions.
+#[test]
+fn a_handle_turns_its_vertices_rigidly_and_holds_its_anchor() {
+    let mesh = arm();
+    let p: Vec<DVec3> = mesh.positions.iter().map(|v| v.as_dvec3()).collect();
+    let chosen: Vec<usize> = (0..p.len()).filter(|&i| p[i].x >= 1.0).collect();
+    let held: Vec<usize> = (0..p.len()).filter(|&i| p[i].x <= -1.0).collect();
+    let tris = mesh.faces.triangles();
+    let inside: Vec<[u32; 3]> = (tris.iter())
+        .filter(|t| t.iter().all(|&v| p[v as usize].x >= 1.0))
+        .copied()
+        .collect();
+    let diagonal = mesh.diagonal() as f64;
+    for sweep in [false, true] {
+        let file = ControlFile::parse(&turned_arm(sweep)).expect("parse");
+        for phase in [0.5, 1.0] {
+            let mut moved = mesh.clone();
+            let report = crate::apply::deform_mesh(&mut moved, &file, phase).expect("deform");
+            let q: Vec<DVec3> = moved.positions.iter().map(|v| v.as_dvec3()).collect();
+            // Distances among the handle's vertices: exact at full phase; a
+            // sweep follows the turn, a single map its chord between.
+            let worst = (chosen.iter().step_by(7))
+                .flat_map(|&a| chosen.iter().step_by(11).map(move |&b| (a, b)))
+                .filter(|(a, b)| a != b)
+                .map(|(a, b)| (q[a].distance(q[b]) / p[a].distance(p[b]) - 1.0).abs())
+                .fold(0.0, f64::max);
+            if phase == 1.0 || sweep {
+                assert!(worst < 0.01, "sweep {sweep} phase {phase}: {worst}");
+            }
+            if phase == 1.0 {
+                assert!(worst < 1e-5, "sweep {sweep}: {worst}");
+            }
+            // No face of the handle inside out, at any phase.
+            for t in &inside {
+                let [a, b, c] = t.map(|v| v as usize);
+                let n0 = (p[b] - p[a]).cross(p[c] - p[a]);
+                let n1 = (q[b] - q[a]).cross(q[c] - q[a]);
+                assert!(n0.dot(n1) > 0.0, "sweep {sweep} phase {phase}: face {t:?}");
+            }
+            let inside_ids: Vec<u32> = (0..tris.len() as u32)
+                .filter(|&f| tris[f as usize].iter().all(|&v| p[v as usize].x >= 1.0))
+                .collect();
+            assert!(
+                report
+                    .diagnostics
+                    .inside_out
+                    .iter()
+                    .all(|f| inside_ids.binary_search(f).is_err()),
+                "a face of the handle reported inside out"
+            );
+            // The anchor holds.
+            let held_move = held
+                .iter()
+                .map(|&i| q[i].distance(p[i]))
+                .fold(0.0, f64::max);
+            assert!(
+                held_move <= 1e-4 * diagonal,
+                "sweep {sweep} phase {phase}: {held_move}"
+            );
+            // The chosen vertices land where the turn puts them at full phase.
+            if phase == 1.0 {
+                let turn = glam::DQuat::from_axis_angle(DVec3::Z, 75f64.to_radians());
+                let off = (chosen.iter())
+                    .map(|&i| q[i].distance(DVec3::X + turn * (p[i] - DVec3::X)))
+                    .fold(0.0, f64::max);
+                assert!(off < 1e-5 * diagonal, "sweep {sweep}: {off}");
+            }
+            // The session (the studio's and Blender's Live) and the saved
+            // file give the same positions.
+            let mut session = crate::Session::new(&mesh);
+            let live = session
+                .update_positions(&mesh, &file, phase)
+                .expect("session")
+                .to_vec();
+            assert_eq!(live, moved.positions, "sweep {sweep} phase {phase}");
+            let again = ControlFile::parse(&file.to_text()).expect("saved");
+            let mut replayed = mesh.clone();
+            crate::apply::deform_mesh(&mut replayed, &again, phase).expect("deform");
+            assert_eq!(replayed.positions, moved.positions);
+        }
+    }
+}

@@ -570,6 +570,8 @@ fn diagnose_with(
     // Vertices within R of some start of a deformation acting on them.
     let mut near_any = vec![false; rest.len()];
     let mut any_linear = false;
+    // The points of the rigid part just before (a handle's).
+    let mut rigid_points: Vec<u32> = Vec::new();
     for (at, stage) in stages.iter().enumerate() {
         let (def, region, phase) = (&stage.deformation, &stage.region, &stage.applied_phase());
         // Warnings name the deformation as the user numbers them: a sweep's
@@ -593,12 +595,26 @@ fn diagnose_with(
             }
         };
         let (selected, near, touched) = (&seen.selected, &seen.near, &seen.touched);
-        if later_step {
+        // A handle's rigid part moves its own points as one (an affine map:
+        // no fold, no start out of reach to speak of); its deformation's
+        // blend, the stage after it, is judged.
+        if later_step || stage.rigid_part {
             for (&i, &x) in selected.iter().zip(near) {
                 near_any[i as usize] |= x;
             }
+            if stage.rigid_part {
+                // Its points, and the ones it lists at weight 0 (an
+                // anchor's, held still).
+                rigid_points = match region {
+                    Region::Weights { vertices, .. } => vertices.clone(),
+                    _ => selected.clone(),
+                };
+            }
             continue;
         }
+        // The blend after a rigid part meets it at the handle's points: no
+        // cut there (its map matches the rigid part's at the samples).
+        let joined = std::mem::take(&mut rigid_points);
         if selected.is_empty() {
             warnings.push(Warning::EmptyRegion {
                 stage: k,
@@ -663,7 +679,7 @@ fn diagnose_with(
         };
         if !all && !blends {
             let mut is_in = vec![false; rest.len()];
-            for &i in selected {
+            for &i in selected.iter().chain(&joined) {
                 is_in[i as usize] = true;
             }
             let outside: Vec<Vec3> = (0..rest.len())
@@ -1061,6 +1077,7 @@ mod tests {
             region: Region::All,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
         assert!(r.moved > 0 && r.moved < 41 * 41 / 5);
@@ -1087,6 +1104,7 @@ mod tests {
                 region: Region::All,
                 phase: 1.0,
                 sweep: None,
+                rigid_part: false,
             }]);
             let said: Vec<String> = r
                 .warnings
@@ -1146,6 +1164,7 @@ mod tests {
             region: Region::All,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(
             r.warnings
@@ -1165,6 +1184,7 @@ mod tests {
             region: Region::All,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(
             r.flipped.is_empty() && r.warnings.is_empty(),
@@ -1186,6 +1206,7 @@ mod tests {
             region: Region::All,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(
             matches!(
@@ -1204,6 +1225,7 @@ mod tests {
             region: empty,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(matches!(
             r.warnings[..],
@@ -1224,6 +1246,7 @@ mod tests {
             region: half,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(
             matches!(
@@ -1245,6 +1268,7 @@ mod tests {
             region: Region::All,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }]);
         assert!(
             r.warnings

@@ -55,6 +55,9 @@ pub fn folds(
     if triangles.is_empty() || stages.is_empty() {
         return Ok(Folds::default());
     }
+    if stages.iter().any(|s| s.rigid_part) {
+        return folds_with_rigid_parts(rest, triangles, stages, combine, groups);
+    }
     let centroids: Vec<DVec3> = triangles
         .iter()
         .map(|t| {
@@ -75,6 +78,78 @@ pub fn folds(
         return Ok(added(&centroids, stages, &weights));
     }
     Ok(chained(&centroids, stages, &weights))
+}
+
+/// [`folds`] of stages with handles' rigid parts. A rigid part moves its
+/// points as one (an affine map of positive determinant), so no face all of
+/// whose corners it moves can fold: those faces are left out. Its
+/// deformation's blend, the stages after it, stands for the rest: its map
+/// meets the rigid part at the handle's samples, so it is judged over the
+/// handle's points as well as its own region (a face with corners on both
+/// sides is where they meet).
+fn folds_with_rigid_parts(
+    rest: &[Vec3],
+    triangles: &[[u32; 3]],
+    stages: &[FittedStage],
+    combine: Combine,
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<Folds> {
+    let mut rigid = vec![false; rest.len()];
+    let mut kept: Vec<FittedStage> = Vec::with_capacity(stages.len());
+    let mut k = 0;
+    while k < stages.len() {
+        if !stages[k].rigid_part {
+            kept.push(stages[k].clone());
+            k += 1;
+            continue;
+        }
+        let mut moved = Vec::new();
+        while k < stages.len() && stages[k].rigid_part {
+            moved = stages[k].region.select(rest, groups)?;
+            k += 1;
+        }
+        for &i in &moved {
+            if let Some(r) = rigid.get_mut(i as usize) {
+                *r = true;
+            }
+        }
+        // The blend: the next deformation's stages (a sweep's every step).
+        let blend = match stages.get(k).and_then(|s| s.sweep) {
+            Some(step) => (step.count - step.index) as usize,
+            None => 1,
+        };
+        for s in stages.iter().skip(k).take(blend) {
+            let (mut idx, mut w) = s.region.weights(rest, groups)?;
+            idx.extend(moved.iter().copied());
+            w.extend(std::iter::repeat_n(1.0, moved.len()));
+            let mut both: Vec<(u32, f32)> = idx.into_iter().zip(w).collect();
+            both.sort_unstable_by_key(|x| x.0);
+            both.dedup_by_key(|x| x.0);
+            let (vertices, weights) = both.into_iter().unzip();
+            kept.push(s.clone().with_region(Region::Weights { vertices, weights }));
+        }
+        k += blend;
+    }
+    let faces: Vec<usize> = (0..triangles.len())
+        .filter(|&f| {
+            !triangles[f]
+                .iter()
+                .all(|&v| rigid.get(v as usize).copied().unwrap_or(false))
+        })
+        .collect();
+    let subset: Vec<[u32; 3]> = faces.iter().map(|&f| triangles[f]).collect();
+    if subset.is_empty() || kept.is_empty() {
+        return Ok(Folds::default());
+    }
+    let found = folds(rest, &subset, &kept, combine, groups)?;
+    Ok(Folds {
+        triangles: found
+            .triangles
+            .iter()
+            .map(|&t| faces[t as usize] as u32)
+            .collect(),
+        fold_phase: found.fold_phase,
+    })
 }
 
 fn face_weights(

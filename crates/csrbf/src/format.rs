@@ -176,11 +176,14 @@ pub fn encode_for(stages: &[FittedStage], combine: Combine, mesh: Option<MeshSta
         region,
         phase,
         sweep,
+        rigid_part,
     } in stages
     {
         w.push(d.kernel().code());
         w.push(d.polynomial() as u8);
-        w.extend_from_slice(&0u16.to_le_bytes());
+        // Flags (what was a reserved zero: older builds read it and ignore
+        // it): bit 0, a handle's rigid part.
+        w.extend_from_slice(&u16::from(*rigid_part).to_le_bytes());
         w.extend_from_slice(&d.radius().to_le_bytes());
         w.extend_from_slice(&phase.to_le_bytes());
         w.extend_from_slice(&(d.starts().len() as u32).to_le_bytes());
@@ -271,7 +274,7 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
                 return Err(damaged(format!("stage {s}: unknown polynomial code {c}")));
             }
         };
-        r.u16("reserved")?;
+        let flags = r.u16("flags")?;
         let radius = r.f64("radius")?;
         if !(radius > 0.0 && radius.is_finite()) {
             return Err(damaged(format!("stage {s}: radius {radius} is not valid")));
@@ -364,6 +367,7 @@ pub fn decode(bytes: &[u8]) -> Result<Replay> {
             region,
             phase,
             sweep,
+            rigid_part: flags & 1 == 1,
         });
     }
     let mesh = if version >= 5 {
@@ -610,8 +614,9 @@ pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
 pub fn to_json(stages: &[FittedStage], combine: Combine) -> serde_json::Value {
     let list: Vec<serde_json::Value> = stages
         .iter()
-        .map(|FittedStage { deformation: d, region, phase, sweep }| {
+        .map(|FittedStage { deformation: d, region, phase, sweep, rigid_part }| {
             serde_json::json!({
+                "rigid_part": rigid_part,
                 "kernel": d.kernel(),
                 "radius": d.radius(),
                 "phase": phase,

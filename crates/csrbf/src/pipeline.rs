@@ -41,6 +41,9 @@ pub struct Stage {
     pub sweep: Option<SweepOptions>,
     /// The paths the starts follow in a sweep (straight unless a handle's).
     pub paths: Paths,
+    /// A handle's rigid part, joined with the stage after it (see
+    /// [`FittedStage::rigid_part`]).
+    pub rigid_part: bool,
 }
 
 impl Stage {
@@ -54,7 +57,14 @@ impl Stage {
             phase: 1.0,
             sweep: None,
             paths: Paths::default(),
+            rigid_part: false,
         }
+    }
+
+    /// As a handle's rigid part (see [`FittedStage::rigid_part`]).
+    pub fn as_rigid_part(mut self, rigid: bool) -> Stage {
+        self.rigid_part = rigid;
+        self
     }
 
     /// As a fold-free sweep along `paths` (None: the single map).
@@ -207,13 +217,18 @@ impl Pipeline {
         let d = self.fitted(i)?;
         let s = &self.stages[i];
         let (region, phase) = (s.stage.region.clone(), s.stage.phase);
+        let rigid = s.stage.rigid_part;
         Some(if s.stage.sweep.is_some() {
             FittedStage::from_steps(s.steps.clone(), region, phase)
+                .into_iter()
+                .map(|f| f.as_rigid_part(rigid))
+                .collect()
         } else {
             vec![
                 FittedStage::new(d.clone())
                     .with_region(region)
-                    .with_phase(phase),
+                    .with_phase(phase)
+                    .as_rigid_part(rigid),
             ]
         })
     }

@@ -74,6 +74,12 @@ pub struct FittedStage {
     pub phase: f64,
     /// Which step of a sweep this is; None for a plain deformation.
     pub sweep: Option<SweepStep>,
+    /// A handle's rigid part: the affine map that moves the handle's own
+    /// points as one (exactly), joined with the stages after it (the blend
+    /// of the rest of its region) as one deformation of the document:
+    /// warnings number it with them and it never warns of folding (an
+    /// affine map of positive determinant cannot fold).
+    pub rigid_part: bool,
 }
 
 /// Step `index` of a sweep of `count` steps.
@@ -93,6 +99,7 @@ impl FittedStage {
             region: Region::All,
             phase: 1.0,
             sweep: None,
+            rigid_part: false,
         }
     }
 
@@ -120,6 +127,7 @@ impl FittedStage {
                     index: j as u32,
                     count,
                 }),
+                rigid_part: false,
             })
             .collect()
     }
@@ -151,6 +159,12 @@ impl FittedStage {
         self.phase = phase;
         self
     }
+
+    /// As a handle's rigid part (see [`FittedStage::rigid_part`]).
+    pub fn as_rigid_part(mut self, rigid: bool) -> FittedStage {
+        self.rigid_part = rigid;
+        self
+    }
 }
 
 /// What one stage's evaluation saw: the points of its region, which of them
@@ -169,7 +183,7 @@ pub(crate) struct StageReach {
 pub(crate) fn deformation_index(stages: &[FittedStage], at: usize) -> usize {
     stages[..at]
         .iter()
-        .filter(|s| s.sweep.is_none_or(|s| s.index + 1 == s.count))
+        .filter(|s| !s.rigid_part && s.sweep.is_none_or(|s| s.index + 1 == s.count))
         .count()
 }
 

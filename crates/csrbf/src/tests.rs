@@ -12,6 +12,7 @@ fn fitted(deformation: Deformation, region: Region, phase: f64) -> FittedStage {
         region,
         phase,
         sweep: None,
+        rigid_part: false,
     }
 }
 
