@@ -32,6 +32,10 @@ pub struct ControlError {
     pub message: String,
 }
 
+/// The most steps a handle's turn past the fold-free bound is swept in by
+/// itself ([`ControlSpec::sweep_to_use`]).
+pub const AUTO_SWEEP_STEPS: usize = 64;
+
 /// One deformation as a control file describes it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ControlSpec {
@@ -465,7 +469,10 @@ impl ControlSpec {
     /// handle whose turn passes the fold-free bound (some control moved
     /// farther from a neighbour's move, a start within R, than the kernel
     /// allows: where the single map may fold, as the report judges it) a
-    /// sweep along the turn, by itself.
+    /// sweep along the turn, by itself, of as many steps as bring each
+    /// step's moves within the bound (and one per 10 degrees of turn, so
+    /// the arc is followed), at most [`AUTO_SWEEP_STEPS`]: the papers' bound
+    /// step by step, not the certificate's search (seconds on a drag).
     pub fn sweep_to_use(&self) -> Option<SweepOptions> {
         if self.sweep.is_some() || self.rigid.is_none() {
             return self.sweep;
@@ -475,12 +482,27 @@ impl ControlSpec {
         let moves: Vec<DVec3> = (self.starts.iter().zip(&self.targets))
             .map(|(s, t)| *t - *s)
             .collect();
-        let past = self.starts.iter().enumerate().any(|(i, a)| {
-            self.starts.iter().enumerate().any(|(j, b)| {
-                j != i && a.distance_squared(*b) < r * r && moves[i].distance(moves[j]) > bound
-            })
-        });
-        past.then(SweepOptions::default)
+        let mut worst = 0.0f64;
+        for (i, a) in self.starts.iter().enumerate() {
+            for (j, b) in self.starts.iter().enumerate().skip(i + 1) {
+                if a.distance_squared(*b) < r * r {
+                    worst = worst.max(moves[i].distance(moves[j]));
+                }
+            }
+        }
+        if !(worst > bound) {
+            return None;
+        }
+        let turn = match self.rigid.as_ref().map(|p| p.path) {
+            Some(Path::Motion { axis, angle, .. }) if axis != DVec3::ZERO => {
+                angle.abs().to_degrees()
+            }
+            _ => 0.0,
+        };
+        let steps = ((worst / bound).ceil() as usize)
+            .max((turn / 10.0).ceil() as usize)
+            .clamp(2, AUTO_SWEEP_STEPS);
+        Some(SweepOptions::default().with_steps(Some(steps)))
     }
 
     /// A deformation of these control vectors over the whole mesh at full phase.

@@ -301,9 +301,10 @@ fn note_fit(s: &ControlSpec, f: &FittedSpec, at: &str, notes: &mut dyn FnMut(Not
     if let Some(sw) = &f.sweep {
         if s.sweep.is_none() {
             notes(Note::Progress(format!(
-                "{at}: the handle's turn passes the fold-free bound of {} ({:.3} R): taken as a fold-free sweep along the turn",
+                "{at}: the handle's motion passes the fold-free bound of {} ({:.3} R): taken as a sweep along it in {} steps, each within the bound",
                 o.kernel,
-                o.kernel.fold_free_ratio()
+                o.kernel.fold_free_ratio(),
+                sw.steps
             )));
         }
         notes(Note::Progress(format!(
@@ -316,7 +317,12 @@ fn note_fit(s: &ControlSpec, f: &FittedSpec, at: &str, notes: &mut dyn FnMut(Not
             sw.plain_bound,
             f.ms
         )));
-        if !sw.certified {
+        if !sw.certified && s.sweep.is_none() {
+            notes(Note::Warning(format!(
+                "{at}: the sweep along the handle's motion ({} steps) is not certified (a step's gradient bound is {:.3}, >= 1): the report's fold check says whether it folds; \"sweep\": true searches certified steps (slower)",
+                sw.steps, sw.bound
+            )));
+        } else if !sw.certified {
             notes(Note::Warning(format!(
                 "{at}: a step of the sweep's {} has a gradient bound of {:.3} (>= 1), so it may fold: leave out \"steps\" and csrbf takes as many as it needs",
                 sw.steps, sw.bound
