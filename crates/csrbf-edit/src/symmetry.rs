@@ -231,6 +231,7 @@ pub fn find_plane(positions: &[Vec3]) -> Option<Plane> {
         }
     }
     let (_, mut plane) = best?;
+    let mut now = cost(&plane, &samples);
     for _ in 0..ROUNDS {
         let pairs: Vec<(DVec3, DVec3)> = samples
             .iter()
@@ -269,10 +270,11 @@ pub fn find_plane(positions: &[Vec3]) -> Option<Plane> {
         let settled = next.angle_deg(&plane) < 1e-6
             && (next.distance(plane.point)).abs() < 1e-7 * diagonal as f64;
         // Kept only while the images land nearer.
-        if cost(&next, &samples) > cost(&plane, &samples) {
+        let then = cost(&next, &samples);
+        if then > now {
             break;
         }
-        plane = next;
+        (plane, now) = (next, then);
         if settled {
             break;
         }
