@@ -1051,6 +1051,21 @@ fn a_typed_number_applies_on_enter_and_a_refused_one_keeps_the_value_before() {
         Some("20.0 fps"),
         "the field shows the value kept"
     );
+    // Issue 42: once a value is taken, the refusal of the one before is
+    // not shown as if it still held.
+    assert!(
+        h.state_mut()
+            .scene_edit(csrbf_studio::compose::SceneEdit::SetTiming {
+                fps: 24.0,
+                duration: 4.0
+            })
+    );
+    h.run_steps(2);
+    assert!(
+        !h.state().status().contains("Not done"),
+        "{}",
+        h.state().status()
+    );
 }
 
 /// Issue 23, bug 5: closing the window during an export asks what to do

@@ -265,6 +265,10 @@ impl Composer {
                     return false;
                 }
                 self.install(scene, structural);
+                // A refusal of an earlier value no longer holds.
+                if self.status.starts_with("Not done") {
+                    self.status.clear();
+                }
                 true
             }
             Err(e) => {

@@ -411,6 +411,10 @@ impl Picker {
         match m.history.apply(&mut m.doc, command) {
             Ok(()) => {
                 m.hidden.resize(m.doc.controls.deformations.len(), false);
+                // A refusal of an earlier value no longer holds.
+                if self.status.starts_with("Not done") {
+                    self.status.clear();
+                }
                 self.refresh(full);
             }
             Err(e) => self.status = format!("Not done: {e}"),

@@ -967,7 +967,11 @@ impl StudioApp {
             if let Some(e) = self.screen.gpu.as_ref().and_then(gpu::last_error) {
                 ui.colored_label(egui::Color32::LIGHT_RED, format!("GPU: {e}"));
             }
-            ui.label(self.status());
+            // A long message is cut at the window's edge with an ellipsis
+            // and shown whole on hover, never lost.
+            let status = self.status().to_owned();
+            ui.add(egui::Label::new(status.as_str()).truncate())
+                .on_hover_text(status);
         });
     }
 
