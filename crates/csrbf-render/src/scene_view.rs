@@ -370,8 +370,10 @@ fn view_of<'a>(
             parts: &prep.parts,
         });
         if options.overlay != Overlay::Off {
+            let model = bounds_diagonal(&obj.positions);
             control_lines(
                 &obj.controls,
+                model,
                 options.overlay == Overlay::Full,
                 &mut overlay,
             );
@@ -441,14 +443,27 @@ pub fn axis_gizmo(camera: &Camera, size: [u32; 2], out: &mut Vec<Line>) {
     }
 }
 
-/// Overlay lines for control vectors (start, current, destination, R);
-/// `spheres`: also the support spheres of up to 16 moving ones.
-pub fn control_lines(controls: &[(Vec3, Vec3, Vec3, f32)], spheres: bool, out: &mut Vec<Line>) {
+/// Overlay lines for control vectors (start, current, destination, R) on a
+/// model of diagonal `model` (the start's cross is 6 % of the least R, at
+/// most 1.5 % of the model: a radius far larger than the model does not
+/// draw it across the view); `spheres`: also the support spheres of up to
+/// 16 moving ones.
+pub fn control_lines(
+    controls: &[(Vec3, Vec3, Vec3, f32)],
+    model: f32,
+    spheres: bool,
+    out: &mut Vec<Line>,
+) {
     const START: [f32; 4] = [1.0, 1.0, 1.0, 1.0];
     const NOW: [f32; 4] = [1.0, 0.55, 0.1, 1.0];
     const GOAL: [f32; 4] = [1.0, 0.85, 0.3, 0.45];
     const SUPPORT: [f32; 4] = [0.35, 0.7, 1.0, 0.35];
-    let size = controls.iter().map(|c| c.3).fold(f32::INFINITY, f32::min) * 0.06;
+    let least = controls.iter().map(|c| c.3).fold(f32::INFINITY, f32::min) * 0.06;
+    let size = if model > 0.0 && model.is_finite() {
+        least.min(0.015 * model)
+    } else {
+        least
+    };
     let (spheres_on, mut drawn) = (spheres, 0);
     for &(s, now, goal, r) in controls {
         let k = if size.is_finite() { size } else { 0.01 };
@@ -550,5 +565,19 @@ pub fn circle_lines(
 pub fn sphere_lines(centre: Vec3, radius: f32, color: [f32; 4], out: &mut Vec<Line>) {
     for plane in [(Vec3::X, Vec3::Y), (Vec3::Y, Vec3::Z), (Vec3::Z, Vec3::X)] {
         circle_lines(centre, plane, radius, 32, color, out);
+    }
+}
+
+/// The diagonal of the points' bounding box (0 for none).
+fn bounds_diagonal(points: &[Vec3]) -> f32 {
+    let (lo, hi) = points
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    if points.is_empty() {
+        0.0
+    } else {
+        (hi - lo).length()
     }
 }

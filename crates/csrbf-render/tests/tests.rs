@@ -288,3 +288,20 @@ fn a_camera_drawn_as_lines_frames_its_own_picture() {
         assert_eq!(lines[9].b, cam.target);
     }
 }
+
+/// Issue 42: a start's cross is 6 % of R, but never more than 1.5 % of the
+/// model: with R = 3000 on a head 20 across it was drawn as lines across
+/// the whole view.
+#[test]
+fn a_starts_marker_stays_small_beside_a_huge_radius() {
+    let start = Vec3::new(1.0, 2.0, 3.0);
+    let control = [(start, start, start + Vec3::X, 3000.0f32)];
+    let mut lines = Vec::new();
+    csrbf_render::control_lines(&control, 20.0, false, &mut lines);
+    let cross = lines[0].a.distance(lines[0].b);
+    assert!((cross - 2.0 * 0.3).abs() < 1e-5, "{cross}");
+    // A radius small for the model keeps its 6 %.
+    let mut lines = Vec::new();
+    csrbf_render::control_lines(&[(start, start, start, 2.0)], 20.0, false, &mut lines);
+    assert!((lines[0].a.distance(lines[0].b) - 2.0 * 0.12).abs() < 1e-5);
+}

@@ -684,6 +684,7 @@ impl Picker {
 /// Control vectors: start, arrow to the destination, support spheres of the
 /// selection (all of the active layer's while R changes).
 fn control_overlay(m: &Model, v: &ViewSettings, overlay: &mut Vec<Line>) {
+    let diag = m.doc.diagonal() as f32;
     for (layer, spec) in m.doc.controls.deformations.iter().enumerate() {
         if m.hidden.get(layer).copied().unwrap_or(false) {
             continue;
@@ -704,7 +705,7 @@ fn control_overlay(m: &Model, v: &ViewSettings, overlay: &mut Vec<Line>) {
         }
         let mut drawn = Vec::new();
         if v.arrows || v.starts {
-            control_lines(&plain, false, &mut drawn);
+            control_lines(&plain, diag, false, &mut drawn);
         }
         // Spheres are drawn for moving vectors only by the renderer's
         // helper; a pin's sphere is shown too here, so draw them as if
@@ -720,7 +721,7 @@ fn control_overlay(m: &Model, v: &ViewSettings, overlay: &mut Vec<Line>) {
                 (s, now, t, r)
             })
             .collect();
-        control_lines(&nudged, true, &mut drawn);
+        control_lines(&nudged, diag, true, &mut drawn);
         if !v.arrows {
             drawn.retain(|l| l.color[0] == 1.0 && l.color[1] == 1.0);
         }
