@@ -652,6 +652,11 @@ impl StudioApp {
                 egui::ProgressBar::new(done as f32 / total as f32)
                     .text(format!("frame {done} of {total}")),
             );
+            // How long it will take, from the frames done: a long export
+            // (90,001 frames at 3 a second) says so while it can be stopped.
+            if let Some(left) = time_left(done, total, job.started.elapsed()) {
+                ui.label(left);
+            }
             if job.cancel.load(Ordering::Relaxed) {
                 ui.label("Cancelling…");
             } else if ui.button("Cancel").clicked() {
@@ -798,5 +803,52 @@ impl StudioApp {
             }
         }
         ctx.request_repaint_after(Duration::from_secs(1));
+    }
+}
+
+/// "about 8 h 20 min left (3.0 frames a second)" once a frame is done and
+/// a second has passed, else None.
+pub(super) fn time_left(done: usize, total: usize, elapsed: Duration) -> Option<String> {
+    let secs = elapsed.as_secs_f64();
+    if done == 0 || secs < 1.0 || done >= total {
+        return None;
+    }
+    let rate = done as f64 / secs;
+    let left = (total - done) as f64 / rate;
+    let (h, m, s) = (
+        (left / 3600.0).floor(),
+        ((left % 3600.0) / 60.0).floor(),
+        (left % 60.0).round(),
+    );
+    let when = if h >= 1.0 {
+        format!("{h:.0} h {m:.0} min")
+    } else if m >= 1.0 {
+        format!("{m:.0} min {s:.0} s")
+    } else {
+        format!("{s:.0} s")
+    };
+    Some(format!("about {when} left ({rate:.1} frames a second)"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_time_left_is_said_in_hours_minutes_or_seconds() {
+        // Issue 42: 90,001 frames at 3 a second.
+        let t = time_left(30, 90_001, Duration::from_secs(10)).expect("an estimate");
+        assert_eq!(t, "about 8 h 19 min left (3.0 frames a second)");
+        assert_eq!(
+            time_left(10, 130, Duration::from_secs(2)).as_deref(),
+            Some("about 24 s left (5.0 frames a second)")
+        );
+        assert_eq!(
+            time_left(1, 200, Duration::from_secs(1)).as_deref(),
+            Some("about 3 min 19 s left (1.0 frames a second)")
+        );
+        assert_eq!(time_left(0, 10, Duration::from_secs(5)), None);
+        assert_eq!(time_left(5, 10, Duration::from_millis(500)), None);
+        assert_eq!(time_left(10, 10, Duration::from_secs(5)), None);
     }
 }
