@@ -113,6 +113,11 @@ pub fn symmetry_plane(mesh: &Bound<'_, PyAny>, axis: &str) -> PyResult<f64> {
         .ok_or_else(|| crate::Error::new_err("symmetry_plane: the mesh has no finite point"))
 }
 
+/// Two arrays a function returns.
+type Pair<'py, A> = (Bound<'py, A>, Bound<'py, A>);
+/// A float64 vector.
+type F64s<'py> = Bound<'py, PyArray1<f64>>;
+
 /// The plane of any orientation a model is most nearly mirror-symmetric
 /// about, found from its vertices (a scan turned in its frame included):
 /// (a point on it, its unit normal), two float64 arrays of 3.
@@ -128,7 +133,7 @@ pub fn symmetry_plane(mesh: &Bound<'_, PyAny>, axis: &str) -> PyResult<f64> {
 pub fn find_symmetry<'py>(
     py: Python<'py>,
     mesh: &Bound<'py, PyAny>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<Pair<'py, PyArray1<f64>>> {
     let points = mesh_points(mesh)?;
     let plane = py
         .detach(|| csrbf_edit::symmetry::find_plane(&points))
@@ -159,7 +164,7 @@ pub fn mirror_onto_surface<'py>(
     points: &Bound<'py, PyAny>,
     point: &Bound<'py, PyAny>,
     normal: &Bound<'py, PyAny>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<(Bound<'py, PyArray2<f64>>, F64s<'py>)> {
     let pts = vectors_f64(points, "points")?;
     let one = |v: &Bound<'py, PyAny>, name: &str| -> PyResult<glam::DVec3> {
         let a: Vec<f64> = v
