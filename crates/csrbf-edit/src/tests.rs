@@ -308,6 +308,20 @@ fn a_handle_turns_its_vertices_rigidly_and_holds_its_anchor() {
                     .all(|f| inside_ids.binary_search(f).is_err()),
                 "a face of the handle reported inside out"
             );
+            // The handle's far samples act through the rigid part: not
+            // "far from every vertex it acts on" (the blend's region lost
+            // the handle's vertices), nor a cut at the handle's edge.
+            let kinds: Vec<&str> = report
+                .diagnostics
+                .warnings
+                .iter()
+                .map(|w| w.kind())
+                .collect();
+            assert!(
+                !kinds.contains(&"starts_far_from_mesh")
+                    && !kinds.contains(&"support_crosses_region"),
+                "sweep {sweep} phase {phase}: {kinds:?}"
+            );
             // The anchor holds.
             let held_move = held
                 .iter()

@@ -662,7 +662,17 @@ fn diagnose_with(
         for (&i, &x) in selected.iter().zip(near) {
             near_any[i as usize] |= x;
         }
-        let far: Vec<usize> = (0..touched.len()).filter(|&j| !touched[j]).collect();
+        // The blend's samples on the handle (and its anchor's pins) act
+        // where the rigid part meets it: reaching those points is reaching.
+        let met: Vec<bool> = if joined.is_empty() {
+            Vec::new()
+        } else {
+            let points: Vec<Vec3> = joined.iter().map(|&i| rest[i as usize]).collect();
+            reach(def, &points).1
+        };
+        let far: Vec<usize> = (0..touched.len())
+            .filter(|&j| !touched[j] && !met.get(j).copied().unwrap_or(false))
+            .collect();
         if !far.is_empty() {
             warnings.push(Warning::StartsFarFromMesh {
                 stage: k,
