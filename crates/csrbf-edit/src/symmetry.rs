@@ -29,19 +29,10 @@ const ROUNDS: usize = 30;
 /// plane normal to `axis` gives that plane even when extra parts (a tail, a
 /// prop) move its box and its mean off it.
 pub fn symmetry_plane(positions: &[Vec3], axis: usize) -> Option<f64> {
-    let finite: Vec<Vec3> = positions
-        .iter()
-        .copied()
-        .filter(|p| p.is_finite())
-        .collect();
-    if finite.is_empty() || axis > 2 {
+    if axis > 2 {
         return None;
     }
-    let (lo, hi) = finite
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
-            (a.min(*p), b.max(*p))
-        });
+    let (finite, lo, hi) = finite_points(positions)?;
     let diagonal = (hi - lo).length();
     let mean = finite.iter().map(|p| p[axis] as f64).sum::<f64>() / finite.len() as f64;
     if diagonal <= 0.0 || hi[axis] <= lo[axis] {
@@ -170,19 +161,7 @@ impl Plane {
 /// the main direction of the pairs' differences and the plane through the
 /// median of their midpoints, until it settles.
 pub fn find_plane(positions: &[Vec3]) -> Option<Plane> {
-    let finite: Vec<Vec3> = positions
-        .iter()
-        .copied()
-        .filter(|p| p.is_finite())
-        .collect();
-    if finite.is_empty() {
-        return None;
-    }
-    let (lo, hi) = finite
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
-            (a.min(*p), b.max(*p))
-        });
+    let (finite, lo, hi) = finite_points(positions)?;
     let diagonal = (hi - lo).length();
     let mean = finite.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / finite.len() as f64;
     if !(diagonal > 0.0) {
@@ -382,6 +361,24 @@ pub fn mirror_onto(
             })
         })
         .collect()
+}
+
+/// The finite points and their bounding box; None when there is none.
+fn finite_points(positions: &[Vec3]) -> Option<(Vec<Vec3>, Vec3, Vec3)> {
+    let finite: Vec<Vec3> = positions
+        .iter()
+        .copied()
+        .filter(|p| p.is_finite())
+        .collect();
+    if finite.is_empty() {
+        return None;
+    }
+    let (lo, hi) = finite
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    Some((finite, lo, hi))
 }
 
 /// Vertices in cubic cells, for the nearest one to a point.
