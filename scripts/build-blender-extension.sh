@@ -90,6 +90,7 @@ for z in "${zips[@]}"; do
     exit 1
   }
 done
+source scripts/sums.sh
 # Whole or not at all: every zip was written and validated in the stage;
 # each is moved beside its final name, then renamed over it.
 for z in "${zips[@]}"; do
@@ -98,5 +99,6 @@ for z in "${zips[@]}"; do
   name=$(basename "$z"); name="csrbf-blender-${name#csrbf-}"
   mv "$z" "$out_dir/$name.tmp"
   mv "$out_dir/$name.tmp" "$out_dir/$name"
+  update_sums "$out_dir" "$name"
   echo "build-blender-extension: wrote $out_dir/$name ($(du -h "$out_dir/$name" | cut -f1)), validated by Blender's extension tool"
 done

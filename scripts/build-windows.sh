@@ -67,4 +67,6 @@ fi
 mkdir -p "$out_dir"
 out="$out_dir/csrbf-$version-windows-x86_64.zip"
 python3 scripts/zip_folder.py "$stage" "$out"
+source scripts/sums.sh
+update_sums "$out_dir" "$(basename "$out")"
 echo "build-windows: wrote $out ($(du -h "$out" | cut -f1)); csrbf.exe $(du -h "$pack/csrbf.exe" | cut -f1), csrbf-studio.exe $(du -h "$pack/csrbf-studio.exe" | cut -f1) stripped"

@@ -59,6 +59,16 @@ pub fn control_file<'py>(
     let s = vectors(starts, "starts")?;
     let t = vectors(targets, "targets")?;
     check_lengths(s.len(), t.len())?;
+    // Named here, where the arrays are the caller's (a file cannot hold a
+    // NaN, so the reader would only see a null).
+    for (name, v) in [("starts", &s), ("targets", &t)] {
+        if let Some(i) = v.iter().position(|p| !p.is_finite()) {
+            return Err(crate::Error::new_err(format!(
+                "{name}[{i}]: not a finite number ({}, {}, {})",
+                v[i].x, v[i].y, v[i].z
+            )));
+        }
+    }
     let mut spec = ControlSpec::new(s, t, options(radius, kernel, polynomial, false)?);
     spec.phase = phase;
     spec.sweep = sweep.then(csrbf::SweepOptions::default);

@@ -381,6 +381,10 @@ def test_control_file_is_written_by_the_edit_layer_and_checked(tmp_path, cli):
         csrbf.control_file(starts, targets, 1.0, region={"sphere": {"center": [0, 0], "radius": 1}})
     with pytest.raises(ValueError, match="one row per start"):
         csrbf.control_file(starts, targets[:2], 1.0)
+    bad = starts.copy()
+    bad[1, 0] = np.nan
+    with pytest.raises(csrbf.Error, match=r"starts\[1\]: not a finite number"):
+        csrbf.control_file(bad, targets, 1.0)
     assert csrbf.control_file(np.empty((0, 3)), np.empty((0, 3)), 1.0)["controls"] == []
 
 
