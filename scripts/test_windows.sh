@@ -26,7 +26,9 @@ if [ ${#need[@]} -gt 0 ]; then
   $sudo apt-get install -y -qq "${need[@]}" >/dev/null
 fi
 
-scripts/build-windows.sh "${build_args[@]}"
+# Built beside the tests' other outputs, never into dist/ (where a release's
+# zip, built in release, would be replaced by this one).
+scripts/build-windows.sh "${build_args[@]}" --out target/windows-test-zip
 tdir="${CSRBF_WINDOWS_TARGET_DIR:-$PWD/target-windows}"
 exe_dir="$tdir/x86_64-pc-windows-gnu/$([ "${1:-}" = "--dev" ] && echo debug || echo release)"
 # The Linux binary of this same commit and the CLI's test binary, as
