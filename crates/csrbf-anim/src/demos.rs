@@ -83,6 +83,7 @@ fn object(name: &str, mesh: &str, parts: Vec<PartFile>) -> ObjectFile {
         name: name.into(),
         mesh: mesh.into(),
         scale: 1.0,
+        rotation: None,
         parts,
         trajectory: vec![],
         orientation: vec![],

@@ -93,9 +93,16 @@ pub struct ObjectFile {
     pub name: String,
     /// Mesh file, relative to the scene file.
     pub mesh: String,
-    /// Uniform scale applied to the mesh in its local frame. Default 1.
+    /// Uniform scale that places the mesh in the scene. Default 1. The
+    /// object's control files and part regions stay in the mesh's own units.
     #[serde(default = "default_scale")]
     pub scale: f64,
+    /// Base rotation that places the mesh in the scene (after `scale`, about
+    /// the mesh's origin): stands up a model made with another up axis.
+    /// Orientation keys turn the object from there. The object's control
+    /// files and part regions stay in the mesh's own axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<RotationFile>,
     /// Parts with their look and deformations; one part of the whole mesh when empty.
     #[serde(default)]
     pub parts: Vec<PartFile>,
@@ -187,6 +194,51 @@ pub struct PositionKeyFile {
     /// Bias in [-1, 1]. Default 0.
     #[serde(default)]
     pub bias: f64,
+}
+
+/// A rotation: exactly one of a quaternion, an axis and angle, or Euler
+/// angles (an orientation key without its time).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotationFile {
+    /// Quaternion `[x, y, z, w]`; normalised with a warning when not unit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion: Option<[f64; 4]>,
+    /// Rotation axis, with `angle`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// Angle in degrees, with `axis`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle: Option<f64>,
+    /// Euler angles in degrees about X, Y, Z (applied in that order).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub euler: Option<[f64; 3]>,
+}
+
+impl RotationFile {
+    /// The rotation as Euler angles in degrees about X, Y, Z (applied in
+    /// that order), whichever way it is given; `None` unless exactly one
+    /// usable way is (the loader names what is wrong).
+    pub fn euler_degrees(&self) -> Option<[f64; 3]> {
+        use crate::rotation::OrientationKey;
+        let q = match (self.quaternion, self.axis, self.angle, self.euler) {
+            (None, None, None, Some(e)) => return Some(e),
+            (Some(q), None, None, None) => {
+                let q = glam::DQuat::from_array(q);
+                let len = q.length();
+                if !(len > 1e-9 && len.is_finite()) {
+                    return None;
+                }
+                q / len
+            }
+            (None, Some(axis), Some(angle), None) if glam::DVec3::from_array(axis).length() > 0.0 => {
+                OrientationKey::from_axis_angle(0.0, glam::DVec3::from_array(axis), angle).rotation
+            }
+            _ => return None,
+        };
+        let (z, y, x) = q.to_euler(glam::EulerRot::ZYX);
+        Some([x.to_degrees(), y.to_degrees(), z.to_degrees()])
+    }
 }
 
 /// An orientation key: exactly one of a quaternion, an axis and angle, or Euler angles.

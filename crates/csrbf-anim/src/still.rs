@@ -72,6 +72,7 @@ pub fn mesh_scene(
             name: "mesh".into(),
             mesh: mesh_path.display().to_string(),
             scale: 1.0,
+            rotation: None,
             parts: vec![PartFile {
                 name: "all".into(),
                 select: "all".into(),

@@ -456,6 +456,69 @@ fn scenes_take_meshes_and_controls_as_values_and_update_one_object() {
     );
 }
 
+/// An object's scale and base rotation place its mesh and its
+/// deformations together: control files and part regions stay in the
+/// mesh's own units and axes (the Picker edits them there).
+#[test]
+fn scale_and_base_rotation_place_the_mesh_with_its_deformations() {
+    let d = Dir::new("placed");
+    let object = |placing: &str| {
+        format!(
+            r#"{{"duration": 1, "camera": {{"eye": [-30, 10, 10], "target": [0, 9, 0]}},
+              "objects": [{{"name": "head", "mesh": "head.off"{placing},
+                "parts": [{{"name": "skin", "select": {{"sphere": {{"center": [-6, 8, -1], "radius": 5}}}},
+                  "deformations": [{{"controls": "smile.json"}}]}}]}}]}}"#
+        )
+    };
+    let plain = Scene::load(&d.scene(&object(""))).expect("plain");
+    let (scale, axis, angle) = (2.5f32, Vec3::new(1.0, 0.3, 0.0).normalize(), -90.0f32);
+    let placed = Scene::load(&d.scene(&object(
+        r#", "scale": 2.5, "rotation": {"axis": [1, 0.3, 0], "angle": -90}"#,
+    )))
+    .expect("placed");
+    let place = glam::Mat3::from_axis_angle(axis, angle.to_radians()) * scale;
+    let (a, b) = (plain.frame(1.0), placed.frame(1.0));
+    let (lo, hi) = plain.objects[0].mesh.bounds().expect("bounds");
+    let tol = 1e-5 * scale * lo.distance(hi);
+    let mut moved = 0;
+    for (i, (p, q)) in a.objects[0].positions.iter().zip(&b.objects[0].positions).enumerate() {
+        assert!((place * *p).distance(*q) < tol, "vertex {i}: {} vs {q}", place * *p);
+        moved += usize::from(p.distance(plain.objects[0].mesh.positions[i]) > 1e-3);
+    }
+    assert!(moved > 100, "the smile moves the head ({moved} vertices)");
+    // The controls drawn are placed too.
+    for (c, e) in a.objects[0].controls.iter().zip(&b.objects[0].controls) {
+        assert!((place * c.2).distance(e.2) < tol);
+    }
+    // A bad rotation is named by its place.
+    for (bad, want) in [
+        (r#", "rotation": {"axis": [0, 0, 0], "angle": 5}"#, "objects[0].rotation.axis"),
+        (r#", "rotation": {"axis": [1, 0, 0], "angle": 5, "euler": [0, 0, 1]}"#, "exactly one"),
+        (r#", "rotation": {"quaternion": [0, 0, 0, 0]}"#, "objects[0].rotation.quaternion"),
+        (r#", "rotation": {"turn": 5}"#, "turn"),
+    ] {
+        let e = Scene::load(&d.scene(&object(bad))).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains(want), "{bad}: {e}");
+    }
+    // Every way of giving it reads back as the Euler angles the Composer shows.
+    let given = placed.file.objects[0].rotation.expect("rotation");
+    let e = given.euler_degrees().expect("euler");
+    let as_euler = crate::file::RotationFile {
+        euler: Some(e),
+        ..Default::default()
+    };
+    let again = Scene::load(&d.scene(&object(&format!(
+        r#", "scale": 2.5, "rotation": {}"#,
+        serde_json::to_string(&as_euler).expect("json")
+    ))))
+    .expect("euler");
+    for (p, q) in b.objects[0].positions.iter().zip(&again.frame(1.0).objects[0].positions) {
+        assert!(p.distance(*q) < tol, "{p} vs {q}");
+    }
+    let round = SceneFile::parse(&placed.file.to_json()).expect("reparse");
+    assert_eq!(round, placed.file);
+}
+
 /// The Composer's cheap path: new keys on a loaded scene give the frames a
 /// fresh load of the same file gives; a change of anything else is left to a
 /// load, and a bad key leaves the scene as it was.

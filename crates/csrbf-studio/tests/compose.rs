@@ -697,6 +697,55 @@ fn contact_is_set_up_from_the_panel_and_plays() {
     assert!(moved(&h) > 1e-3);
 }
 
+/// Issue 42: an object's base orientation is set in the panel; it turns
+/// the mesh and its deformations together, is saved in the scene, and
+/// "None" takes it away.
+#[test]
+fn a_base_rotation_stands_a_model_up_with_its_deformations() {
+    let mut h = face("base-rotation");
+    let rest = |h: &Harness<'_, StudioApp>| {
+        h.state().loaded_scene().expect("loaded").objects[0]
+            .mesh
+            .positions
+            .clone()
+    };
+    let before = rest(&h);
+    let smile = |h: &Harness<'_, StudioApp>| {
+        let s = h.state().loaded_scene().expect("loaded");
+        // At 2 s the smile is full; what it moves, in the object's own frame.
+        let f = s.frame(2.0);
+        let (rot, shift) = s.objects[0].transform(2.0);
+        let inverse = rot.as_quat().inverse();
+        f.objects[0]
+            .positions
+            .iter()
+            .map(|p| inverse * (*p - shift.as_vec3()))
+            .collect::<Vec<_>>()
+    };
+    let smiled = smile(&h);
+    h.get_all_by_label("head").next().expect("listed").click();
+    h.run_steps(2);
+    h.get_by_label("Z-up to Y-up").click();
+    h.run_steps(3);
+    let file = h.state().scene_doc().expect("scene").file.clone();
+    assert_eq!(
+        file.objects[0].rotation.and_then(|r| r.euler),
+        Some([-90.0, 0.0, 0.0])
+    );
+    let turn = csrbf::glam::Mat3::from_rotation_x(-90f32.to_radians());
+    for (p, q) in before.iter().zip(rest(&h)) {
+        assert!((turn * *p).distance(q) < 1e-4, "{p} -> {q}");
+    }
+    // The smile turned with the head (its control file is in the mesh's axes).
+    for (p, q) in smiled.iter().zip(smile(&h)) {
+        assert!((turn * *p).distance(q) < 1e-3, "{p} -> {q}");
+    }
+    h.get_by_label("None").click();
+    h.run_steps(3);
+    assert_eq!(h.state().scene_doc().expect("scene").file.objects[0].rotation, None);
+    assert_eq!(rest(&h), before);
+}
+
 /// The "Pushed by" combo box of the selected object (the other is its
 /// turning's).
 fn contact_box<'a>(h: &'a Harness<'_, StudioApp>) -> egui_kittest::Node<'a> {

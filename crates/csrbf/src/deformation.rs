@@ -213,6 +213,47 @@ impl Deformation {
         d
     }
 
+    /// The same map seen after every point is placed by x -> s R x (a
+    /// uniform scale `scale` > 0 and a rotation `rotation`): the returned
+    /// map D' has D'(s R x) = s R D(x) for every x, with starts s R c,
+    /// radius s r, coefficients s R a and the linear part turned and scaled
+    /// alike. A Wendland fit commutes with such a placement, so this is
+    /// the deformation the placed controls would fit to (up to rounding),
+    /// without a new fit. How a scene puts an object's mesh, edited in its
+    /// own units and axes, at its scale and base rotation.
+    pub fn placed(&self, scale: f64, rotation: glam::DQuat) -> Deformation {
+        let r = glam::DMat3::from_quat(rotation.normalize());
+        let sr = r * scale;
+        let affine = self.affine.map(|a| {
+            // p'(y) = s R p(R^T y / s): centre s R c, scale s |.|, c0 s R c0,
+            // and the columns (c1 c2 c3) become s R C R^T.
+            let c = glam::DMat3::from_cols(
+                a.coefficients[1],
+                a.coefficients[2],
+                a.coefficients[3],
+            );
+            let turned = sr * c * r.transpose();
+            Affine {
+                center: sr * a.center,
+                scale: scale * a.scale,
+                coefficients: [
+                    sr * a.coefficients[0],
+                    turned.x_axis,
+                    turned.y_axis,
+                    turned.z_axis,
+                ],
+            }
+        });
+        Deformation::from_parts(
+            self.kernel,
+            self.radius * scale,
+            self.starts.iter().map(|&c| sr * c).collect(),
+            self.coefficients.iter().map(|&a| sr * a).collect(),
+            affine,
+            self.order.to_vec(),
+        )
+    }
+
     /// The map that moves nothing: a layer with no control vectors yet (work
     /// in progress in an editor), kept so that later layers keep their
     /// numbers.

@@ -135,6 +135,38 @@ fn linear_reproduces_affine_maps() {
 }
 
 #[test]
+fn a_placed_map_is_the_fit_of_the_placed_controls() {
+    // D'(s R x) = s R D(x) everywhere, and it is what fitting the placed
+    // starts and destinations with radius s r gives.
+    for seed in 0..4 {
+        let mut rng = Rng::new(100 + seed);
+        let (s, t) = scene(70, seed);
+        let scale = 0.01 + rng.vec3().x * 40.0;
+        let axis = (rng.vec3() - 0.5).normalize();
+        let rotation = glam::DQuat::from_axis_angle(axis, 6.0 * rng.vec3().y - 3.0);
+        let place = |p: DVec3| rotation * p * scale;
+        for poly in Polynomial::ALL {
+            let opts = options(Kernel::C2, poly, 0.4, SolverChoice::Auto);
+            let d = Deformation::fit(&s, &t, opts).expect("fit");
+            let placed = d.placed(scale, rotation);
+            let (ps, pt): (Vec<DVec3>, Vec<DVec3>) =
+                s.iter().zip(&t).map(|(a, b)| (place(*a), place(*b))).unzip();
+            let refit = Deformation::fit(&ps, &pt, opts.with_radius(0.4 * scale)).expect("fit");
+            assert_eq!(placed.radius(), 0.4 * scale);
+            for _ in 0..60 {
+                let x = rng.vec3() * 1.6 - 0.3;
+                let want = place(d.map(x) - x);
+                let tol = 1e-9 * scale;
+                let got = placed.map(place(x)) - place(x);
+                assert!((got - want).length() < tol, "{poly}: {got} vs {want}");
+                let fit = refit.map(place(x)) - place(x);
+                assert!((fit - want).length() < 1e-7 * scale, "{poly}: refit {fit} vs {want}");
+            }
+        }
+    }
+}
+
+#[test]
 fn none_is_exactly_zero_beyond_the_radius() {
     for seed in 0..5 {
         let (s, t) = scene(80, seed);

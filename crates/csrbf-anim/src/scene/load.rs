@@ -7,7 +7,7 @@ use csrbf::{Binding, Combine, Region};
 use csrbf_mesh::Mesh;
 use glam::{DQuat, DVec3, Vec3};
 
-use crate::file::{ObjectFile, PartFile, SceneFile};
+use crate::file::{ObjectFile, PartFile, RotationFile, SceneFile};
 use crate::rotation::{Orientation, OrientationKey};
 use crate::spline::{PositionKey, Trajectory};
 use crate::track::PhaseTrack;
@@ -175,7 +175,7 @@ pub(super) fn load_object(
     warnings: &mut Vec<String>,
 ) -> Result<Object> {
     let mesh_path = crate::path::resolve(dir, &of.mesh);
-    let mut mesh = assets
+    let mesh = assets
         .mesh(&mesh_path)
         .map_err(|e| scene_err(at("mesh"), e.to_string()))?;
     if !(of.scale > 0.0 && of.scale.is_finite()) {
@@ -184,12 +184,27 @@ pub(super) fn load_object(
             format!("must be > 0, got {}", of.scale),
         ));
     }
-    if of.scale != 1.0 {
-        for p in &mut mesh.positions {
-            *p *= of.scale as f32;
+    let rotation = match &of.rotation {
+        Some(r) => rotation_of(r, &at("rotation"), warnings)?,
+        None => DQuat::IDENTITY,
+    };
+    // Parts and control files are read against the mesh as its file has
+    // it; the object's scale and base rotation then place the mesh and
+    // every fitted map with it (`Deformation::placed`: the same map).
+    let placement = Placement {
+        scale: of.scale,
+        rotation,
+    };
+    let placed_mesh = (!placement.is_identity()).then(|| {
+        let m = (glam::DMat3::from_quat(rotation) * of.scale).as_mat3();
+        let mut placed = mesh.clone();
+        for p in &mut placed.positions {
+            *p = m * *p;
         }
-    }
-    let (center, radius) = center_of_gravity(&mesh);
+        placed
+    });
+    let placed = placed_mesh.as_ref().unwrap_or(&mesh);
+    let (center, radius) = center_of_gravity(placed);
     let parts = if of.parts.is_empty() {
         vec![make_part(
             &mesh,
@@ -217,11 +232,12 @@ pub(super) fn load_object(
         for (di, df) in pf.deformations.iter().enumerate() {
             let here = |k: &str| at(&format!("parts[{pi}].deformations[{di}].{k}"));
             deformations.push(load_deformation(
-                &mesh, &parts[pi], pi, df, dir, assets, &here,
+                &mesh, placed, placement, &parts[pi], pi, df, dir, assets, &here,
             )?);
         }
     }
     let (trajectory, orientation) = object_tracks(of, at, warnings)?;
+    let mesh = placed_mesh.unwrap_or(mesh);
     let triangles = mesh.faces.triangles();
     let lanes = super::RestLanes::new(&mesh.positions, &deformations);
     Ok(Object {
@@ -281,49 +297,92 @@ pub(super) fn object_tracks(
     let mut keys = Vec::new();
     for (i, k) in of.orientation.iter().enumerate() {
         let here = at(&format!("orientation[{i}]"));
-        let key = match (k.quaternion, k.axis, k.angle, k.euler) {
-            (Some(q), None, None, None) => {
-                let q = DQuat::from_array(q);
-                let len = q.length();
-                if !(len > 1e-9) || !len.is_finite() {
-                    return Err(scene_err(
-                        format!("{here}.quaternion"),
-                        "a zero quaternion is no rotation".into(),
-                    ));
-                }
-                if (len - 1.0).abs() > 1e-6 {
-                    warnings.push(format!(
-                        "{here}.quaternion: length {len}, not 1: normalised"
-                    ));
-                }
-                OrientationKey {
-                    time: k.time,
-                    rotation: q / len,
-                }
-            }
-            (None, Some(axis), Some(angle), None) => {
-                if DVec3::from_array(axis).length() == 0.0 {
-                    return Err(scene_err(
-                        format!("{here}.axis"),
-                        "the axis has zero length".into(),
-                    ));
-                }
-                OrientationKey::from_axis_angle(k.time, DVec3::from_array(axis), angle)
-            }
-            (None, None, None, Some(e)) => {
-                OrientationKey::from_euler_degrees(k.time, DVec3::from_array(e))
-            }
-            _ => {
-                return Err(scene_err(
-                    here,
-                    "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\""
-                        .into(),
-                ));
-            }
+        let given = RotationFile {
+            quaternion: k.quaternion,
+            axis: k.axis,
+            angle: k.angle,
+            euler: k.euler,
+        };
+        let key = OrientationKey {
+            time: k.time,
+            rotation: rotation_of(&given, &here, warnings)?,
         };
         keys.push(key);
     }
     Ok((trajectory, Orientation::new(keys, of.interpolation)))
+}
+
+/// The rotation a [`RotationFile`] gives (an orientation key's or an
+/// object's base rotation), checked; `here` is its place in the scene.
+fn rotation_of(r: &RotationFile, here: &str, warnings: &mut Vec<String>) -> Result<DQuat> {
+    Ok(match (r.quaternion, r.axis, r.angle, r.euler) {
+        (Some(q), None, None, None) => {
+            let q = DQuat::from_array(q);
+            let len = q.length();
+            if !(len > 1e-9) || !len.is_finite() {
+                return Err(scene_err(
+                    format!("{here}.quaternion"),
+                    "a zero quaternion is no rotation".into(),
+                ));
+            }
+            if (len - 1.0).abs() > 1e-6 {
+                warnings.push(format!(
+                    "{here}.quaternion: length {len}, not 1: normalised"
+                ));
+            }
+            q / len
+        }
+        (None, Some(axis), Some(angle), None) => {
+            let axis = DVec3::from_array(axis);
+            if axis.length() == 0.0 || !axis.is_finite() {
+                return Err(scene_err(
+                    format!("{here}.axis"),
+                    "the axis has zero length".into(),
+                ));
+            }
+            if !angle.is_finite() {
+                return Err(scene_err(
+                    format!("{here}.angle"),
+                    format!("must be a finite number of degrees, got {angle}"),
+                ));
+            }
+            OrientationKey::from_axis_angle(0.0, axis, angle).rotation
+        }
+        (None, None, None, Some(e)) => {
+            if !e.iter().all(|v| v.is_finite()) {
+                return Err(scene_err(
+                    format!("{here}.euler"),
+                    format!("must be finite degrees, got {e:?}"),
+                ));
+            }
+            OrientationKey::from_euler_degrees(0.0, DVec3::from_array(e)).rotation
+        }
+        _ => {
+            return Err(scene_err(
+                here.to_owned(),
+                "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\""
+                    .into(),
+            ));
+        }
+    })
+}
+
+/// How an object's mesh is placed in the scene: `x -> scale * rotation * x`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Placement {
+    scale: f64,
+    rotation: DQuat,
+}
+
+impl Placement {
+    fn is_identity(&self) -> bool {
+        self.scale == 1.0 && self.rotation == DQuat::IDENTITY
+    }
+
+    /// A point of the mesh's own frame, placed.
+    fn point(&self, p: DVec3) -> DVec3 {
+        self.rotation * p * self.scale
+    }
 }
 
 /// Area-weighted centroid of the surface (vertex mean when there is no
@@ -490,8 +549,11 @@ pub(super) fn phase_track(
     Ok(track)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn load_deformation(
     mesh: &Mesh,
+    placed: &Mesh,
+    placement: Placement,
     part: &Part,
     pi: usize,
     df: &crate::file::DeformationFile,
@@ -516,6 +578,8 @@ fn load_deformation(
             stages.push(
                 bind_stage(
                     mesh,
+                    placed,
+                    placement,
                     part,
                     spec,
                     step,
@@ -536,17 +600,27 @@ fn load_deformation(
     })
 }
 
-/// One fitted stage bound to the part's vertices in its region.
-/// `per_frame`: a chained stage after the first, evaluated every frame.
+/// One fitted stage bound to the part's vertices in its region: the
+/// region is chosen on `mesh` (the file's frame), the map placed with the
+/// mesh (`placed`). `per_frame`: a chained stage after the first, evaluated
+/// every frame.
+#[allow(clippy::too_many_arguments)]
 fn bind_stage(
     mesh: &Mesh,
+    placed: &Mesh,
+    placement: Placement,
     part: &Part,
     spec: &csrbf_edit::controls::ControlSpec,
     step: csrbf::FittedStage,
     name: Option<String>,
     per_frame: bool,
 ) -> std::result::Result<BoundStage, csrbf::Error> {
-    let deformation = step.deformation;
+    let deformation = if placement.is_identity() {
+        step.deformation
+    } else {
+        step.deformation
+            .placed(placement.scale, placement.rotation)
+    };
     {
         // The stage acts on the part's vertices that are also in its region,
         // each by its weight there (less than 1 in a falloff).
@@ -567,7 +641,10 @@ fn bind_stage(
                 .map(|v| (v, weight[v as usize]))
                 .unzip()
         };
-        let pts: Vec<Vec3> = region.iter().map(|&v| mesh.positions[v as usize]).collect();
+        let pts: Vec<Vec3> = region
+            .iter()
+            .map(|&v| placed.positions[v as usize])
+            .collect();
         let binding = Binding::new(&deformation, &pts);
         let (vertices, displacement) = if per_frame {
             (region.clone(), Vec::new())
@@ -592,7 +669,7 @@ fn bind_stage(
         // The overlay shows a sweep's controls once, from start to destination.
         let targets = match step.sweep {
             Some(s) if s.index > 0 => Vec::new(),
-            _ => spec.targets.clone(),
+            _ => spec.targets.iter().map(|&t| placement.point(t)).collect(),
         };
         Ok(BoundStage {
             deformation,

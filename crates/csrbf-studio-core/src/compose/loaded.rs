@@ -111,7 +111,10 @@ impl Loaded {
                     !structural
                         && a.objects.len() == b.objects.len()
                         && a.file.objects.iter().zip(&b.file.objects).all(|(x, y)| {
-                            x.mesh == y.mesh && x.parts == y.parts && x.scale == y.scale
+                            x.mesh == y.mesh
+                                && x.parts == y.parts
+                                && x.scale == y.scale
+                                && x.rotation == y.rotation
                         })
                 }
                 _ => false,

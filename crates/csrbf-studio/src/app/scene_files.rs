@@ -365,6 +365,7 @@ impl StudioApp {
             name: name.clone(),
             mesh: c.doc.name_of(path),
             scale: 1.0,
+            rotation: None,
             parts: vec![crate::compose::whole_part()],
             trajectory: Vec::new(),
             orientation: Vec::new(),
@@ -425,9 +426,9 @@ impl StudioApp {
         };
         let mesh = c.doc.resolve(&o.mesh);
         let controls = c.doc.resolve(&d.controls);
-        let scaled = (o.scale != 1.0).then(|| {
+        let scaled = (o.scale != 1.0 || o.rotation.is_some()).then(|| {
             format!(
-                "The Picker shows {} at its own size (the scene scales it by {}); control files are in the mesh's units",
+                "The Picker shows {} at its own size and axes (the scene scales it by {} and turns it by its base rotation); control files are in the mesh's own units and axes",
                 o.name, o.scale
             )
         });

@@ -130,6 +130,7 @@ impl Composer {
         };
         ui.label(format!("Mesh {}", object.mesh));
         scale_ui(ui, &mut object, &mut out);
+        base_rotation_ui(ui, &mut object, &mut out);
         let others: Vec<String> = (self.doc.file.objects.iter().enumerate())
             .filter(|(k, _)| *k != o)
             .map(|(_, x)| x.name.clone())
@@ -582,6 +583,48 @@ fn scale_ui(ui: &mut egui::Ui, object: &mut ObjectFile, out: &mut ObjectOut) {
                 }
             });
     });
+}
+
+/// The object's base rotation (its mesh placed before the orientation
+/// keys turn it) as Euler angles, and the usual fixes for a model made
+/// with another up axis.
+fn base_rotation_ui(ui: &mut egui::Ui, object: &mut ObjectFile, out: &mut ObjectOut) {
+    let given = object.rotation.and_then(|r| r.euler_degrees());
+    let mut euler = given.unwrap_or([0.0; 3]);
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        ui.label("Base rotation")
+            .on_hover_text("Turns the mesh in place before its orientation keys (degrees about X, then Y, then Z); its control files stay in the mesh's own axes");
+        for (v, axis) in euler.iter_mut().zip(["X", "Y", "Z"]) {
+            let drag = egui::DragValue::new(v)
+                .update_while_editing(false)
+                .prefix(format!("{axis} "))
+                .suffix("°")
+                .speed(1.0)
+                .range(-360.0..=360.0);
+            changed |= ui.add(drag).changed();
+        }
+    });
+    ui.horizontal(|ui| {
+        for (name, e, hint) in [
+            ("Z-up to Y-up", [-90.0, 0.0, 0.0], "A model made with +Z up (Blender, CAD) stands up in a +Y-up scene"),
+            ("-Z-up to Y-up", [90.0, 0.0, 0.0], "A model whose up is -Z stands up"),
+            ("X-up to Y-up", [0.0, 0.0, 90.0], "A model whose up is +X stands up"),
+            ("None", [0.0; 3], "No base rotation"),
+        ] {
+            if ui.button(name).on_hover_text(hint).clicked() {
+                euler = e;
+                changed = true;
+            }
+        }
+    });
+    if changed && Some(euler) != given {
+        object.rotation = (euler != [0.0; 3]).then(|| csrbf_anim::RotationFile {
+            euler: Some(euler),
+            ..Default::default()
+        });
+        out.tag = Some("rotation");
+    }
 }
 
 /// Contact: pushed by another object's bounding sphere, and its reach.
