@@ -102,18 +102,40 @@ impl std::str::FromStr for ViewPreset {
     }
 }
 
-/// Parses an axis: `x`, `y`, `z`, `-x`, `-y`, `-z` (also `+x`).
+/// Parses an axis: `x`, `y`, `z`, `-x`, `-y`, `-z` (also `+x`), or any
+/// direction as three numbers `X,Y,Z` (a scan that stands tilted in its
+/// frame), returned unit length.
 pub fn parse_axis(s: &str) -> Result<Vec3, String> {
-    Ok(match s.to_ascii_lowercase().trim_start_matches('+') {
+    Ok(match s.trim().to_ascii_lowercase().trim_start_matches('+') {
         "x" => Vec3::X,
         "y" => Vec3::Y,
         "z" => Vec3::Z,
         "-x" => Vec3::NEG_X,
         "-y" => Vec3::NEG_Y,
         "-z" => Vec3::NEG_Z,
+        t if t.contains(',') => {
+            let v: Vec<f32> = t
+                .split(',')
+                .map(|x| x.trim().parse::<f32>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| format!("axis {s:?}: expected three numbers X,Y,Z"))?;
+            let [x, y, z] = v[..] else {
+                return Err(format!(
+                    "axis {s:?}: expected three numbers X,Y,Z, got {}",
+                    v.len()
+                ));
+            };
+            let d = Vec3::new(x, y, z);
+            if !d.is_finite() || d.length() < 1e-6 {
+                return Err(format!(
+                    "axis {s:?}: a direction must be finite and not zero"
+                ));
+            }
+            d.normalize()
+        }
         _ => {
             return Err(format!(
-                "unknown axis {s:?}: expected x, y, z, -x, -y or -z"
+                "unknown axis {s:?}: expected x, y, z, -x, -y, -z or a direction X,Y,Z"
             ));
         }
     })
@@ -133,7 +155,7 @@ pub fn axis_name(v: Vec3) -> String {
             return n.to_owned();
         }
     }
-    format!("{v:?}")
+    format!("({:.3}, {:.3}, {:.3})", v.x, v.y, v.z)
 }
 
 /// The lights of a scene that lists none, as (direction travelled, grey
@@ -317,14 +339,15 @@ impl Camera {
     /// Z, and so on: the right-handed convention of the tools that wrote it.
     pub fn preset_direction(preset: ViewPreset, up: Vec3) -> Vec3 {
         let up = up.normalize_or(Vec3::Y);
-        // The model's front: +Z for Y-up, -Y for Z-up (Blender), +X... by rotation.
-        let front = if up.abs().y > 0.5 {
-            Vec3::Z
-        } else if up.abs().z > 0.5 {
+        // The model's front: +Z for Y-up, -Y for Z-up (Blender), +Z for
+        // X-up; for a tilted up, the nearest axis's front made square to it.
+        let a = up.abs();
+        let front = if a.z > a.y && a.z >= a.x {
             Vec3::NEG_Y * up.z.signum()
         } else {
             Vec3::Z
         };
+        let front = (front - up * front.dot(up)).normalize_or(Vec3::X);
         let right = up.cross(front);
         // The direction travelled by the eye's gaze (towards the model).
         match preset {
@@ -369,6 +392,28 @@ mod tests {
                 projection: Projection::Orthographic { height: 3.0 },
             },
         ]
+    }
+
+    #[test]
+    fn axes_are_named_or_typed_as_directions() {
+        assert_eq!(parse_axis("-Z"), Ok(Vec3::NEG_Z));
+        assert_eq!(parse_axis("+y"), Ok(Vec3::Y));
+        let d = parse_axis(" 0, 3, 4 ").expect("a direction");
+        assert!((d - Vec3::new(0.0, 0.6, 0.8)).length() < 1e-6);
+        assert_eq!(axis_name(d), "(0.000, 0.600, 0.800)");
+        for bad in ["up", "1,2", "1,2,3,4", "0,0,0", "1,nan,0", "a,b,c", "1e40,0,0"] {
+            let e = parse_axis(bad).expect_err(bad);
+            assert!(e.contains(bad), "{bad}: {e}");
+        }
+        // The views of any up are square to it: front and right across it.
+        for up in [Vec3::Y, Vec3::NEG_Z, Vec3::new(0.3, 0.2, -0.93).normalize()] {
+            let front = Camera::preset_direction(ViewPreset::Front, up);
+            let right = Camera::preset_direction(ViewPreset::Left, up);
+            assert!(front.dot(up).abs() < 1e-6 && right.dot(up).abs() < 1e-6, "{up}");
+            assert!((front.length() - 1.0).abs() < 1e-6 && (right.length() - 1.0).abs() < 1e-6);
+            assert!(front.dot(right).abs() < 1e-6);
+            assert_eq!(Camera::preset_direction(ViewPreset::Top, up), -up);
+        }
     }
 
     #[test]

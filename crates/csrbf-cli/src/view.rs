@@ -18,7 +18,7 @@ pub struct CameraArgs {
     /// Look from: front, back, left, right, top, bottom or iso (default iso).
     #[arg(long)]
     pub view: Option<String>,
-    /// The model's up axis: x, y, z, -x, -y, -z (default: guessed from the model, and said).
+    /// The model's up axis: x, y, z, -x, -y, -z or a direction X,Y,Z (default: guessed from the model, and said).
     #[arg(long, allow_hyphen_values = true)]
     pub up: Option<String>,
     /// Eye position X,Y,Z (overrides --view).

@@ -210,7 +210,13 @@ mod tests {
         // Every up axis the View menu offers, -Z and -X included (a horse
         // scanned with -Z up stood on its head).
         assert_eq!(UP_AXES.len(), 6);
-        for (_, up) in UP_AXES {
+        // And a typed direction: a scan standing tilted in its frame.
+        let tilted = [
+            Vec3::new(0.2, 0.95, -0.3).normalize(),
+            Vec3::new(-0.1, 0.35, 0.93).normalize(),
+            Vec3::new(0.7, -0.7, 0.1).normalize(),
+        ];
+        for up in UP_AXES.map(|(_, up)| up).into_iter().chain(tilted) {
             let mut o = orbit(up);
             for p in [
                 ViewPreset::Front,

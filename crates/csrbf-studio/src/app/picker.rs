@@ -54,6 +54,8 @@ pub(super) struct Model {
     pub(super) orbit: Orbit,
     /// The model's up axis and how it was found.
     pub(super) up: (Vec3, &'static str),
+    /// The up direction being typed in the View menu.
+    pub(super) up_text: String,
     /// Layers hidden from the preview (their phase taken as 0).
     pub(super) hidden: Vec<bool>,
     /// The planes Mirror reflects across, normal to X, Y and Z (the model's
@@ -201,6 +203,7 @@ impl Model {
             up,
             mirror_planes: [None; 3],
             mirror_any: None,
+            up_text: String::new(),
             picked_vertices: Vec::new(),
             vertex_target: crate::tools::VertexTarget::Handle,
             shown_generation: 0,

@@ -98,6 +98,32 @@ impl Picker {
                 }
             }
         });
+        // A scan standing tilted in its frame: any direction, typed.
+        let mut status = None;
+        ui.horizontal(|ui| {
+            ui.label("Up direction");
+            let r = ui
+                .add(
+                    egui::TextEdit::singleline(&mut m.up_text)
+                        .hint_text("X,Y,Z")
+                        .desired_width(120.0),
+                )
+                .on_hover_text("Any direction as three numbers (a scan standing tilted in its frame); Enter applies");
+            if r.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter)) {
+                status = Some(match csrbf_anim::camera::parse_axis(&m.up_text) {
+                    Ok(up) => {
+                        m.orbit.up = up;
+                        m.up.1 = "typed";
+                        m.orbit.preset(ViewPreset::Front);
+                        format!("Model up axis: {}", csrbf_anim::camera::axis_name(up))
+                    }
+                    Err(e) => format!("Not done: {e}"),
+                });
+            }
+        });
+        if let Some(s) = status {
+            self.status = s;
+        }
     }
 
     pub(super) fn viewport_ui(&mut self, ui: &mut egui::Ui, screen: &mut Screen) {
