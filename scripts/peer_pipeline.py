@@ -5,6 +5,8 @@ same run as `csrbf bench` (issue 18's ratio): SciPy's cKDTree, scipy.sparse and 
 
     target/release/csrbf bench --scene 1m --export DIR
     python scripts/peer_pipeline.py DIR/1m.ply DIR/1m.json [--runs 3] [--csrbf target/release/csrbf]
+    target/release/csrbf bench --scene scan --mesh MESH --export DIR    (starts on a real mesh)
+    python scripts/peer_pipeline.py DIR/scan-NAME.ply DIR/scan-NAME.json
 
 Fit: the pairs of starts within R (cKDTree.sparse_distance_matrix), the Wendland matrix
 A on them, CHOLMOD's Cholesky factor of A, and the linear polynomial by its Schur
@@ -12,8 +14,8 @@ complement (A c + P d = f, P^T c = 0: d from P^T A^-1 P d = P^T A^-1 f, then c).
 Evaluate: the points against the starts within R (a sparse matrix), the kernel on its
 entries, one sparse product, plus the polynomial. Then `csrbf bench` on the same scene
 (the synthetic scene of the same name) and, with --check, csrbf deform's output compared
-with the peer's. Needs (not in CI): apt libsuitesparse-dev; pip scipy "numpy<2"
-scikit-sparse==0.4.12 (0.5 needs SuiteSparse 7).
+with the peer's. Needs (not in CI): pip scipy cholespy (CHOLMOD bundled), or apt
+libsuitesparse-dev with pip "numpy<2" scikit-sparse==0.4.12 (0.5 needs SuiteSparse 7).
 """
 
 import argparse
@@ -26,7 +28,32 @@ import time
 import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
-from sksparse.cholmod import cholesky
+try:  # scikit-sparse needs SuiteSparse from apt; cholespy bundles CHOLMOD (pip)
+    from sksparse.cholmod import cholesky
+
+    CHOLMOD = "scikit-sparse"
+except ImportError:
+    import cholespy
+
+    CHOLMOD = "cholespy"
+
+    def cholesky(a):
+        a = a.tocoo()
+        solver = cholespy.CholeskySolverD(
+            a.shape[0],
+            a.row.astype(np.int32),
+            a.col.astype(np.int32),
+            a.data.astype(np.float64),
+            cholespy.MatrixType.COO,
+        )
+
+        def solve(b):
+            b = np.ascontiguousarray(b, dtype=np.float64)
+            x = np.empty_like(b)
+            solver.solve(b, x)
+            return x
+
+        return solve
 
 KERNELS = {
     "c0": lambda r: (1 - r) ** 2,
@@ -105,7 +132,10 @@ def main():
     ap.add_argument("controls")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--csrbf", default="target/release/csrbf")
-    ap.add_argument("--scene", default="1m", help="the synthetic scene csrbf bench runs")
+    ap.add_argument(
+        "--scene",
+        help="a synthetic scene for csrbf bench to run (default: the same mesh and controls)",
+    )
     ap.add_argument("--check", action="store_true", help="compare with csrbf deform's output")
     args = ap.parse_args()
 
@@ -123,11 +153,12 @@ def main():
         args.runs, lambda: evaluate(points, tree, c, dcoef, radius, kernel)
     )
     print(
-        f"peer (cKDTree + scipy.sparse + CHOLMOD): fit {fit_ms:.0f} ms, evaluate {eval_ms:.0f} ms "
+        f"peer (cKDTree + scipy.sparse + CHOLMOD via {CHOLMOD}): fit {fit_ms:.0f} ms, evaluate {eval_ms:.0f} ms "
         f"({nnz} kernel evaluations), fit + evaluate {fit_ms + eval_ms:.0f} ms (medians of {args.runs})"
     )
+    scene = ["--scene", args.scene] if args.scene else ["--mesh", args.mesh, "--controls", args.controls]
     out = subprocess.run(
-        [args.csrbf, "bench", "--scene", args.scene, "--runs", str(max(args.runs, 3)), "--json"],
+        [args.csrbf, "bench", *scene, "--runs", str(max(args.runs, 3)), "--json"],
         check=True,
         capture_output=True,
         text=True,
@@ -136,10 +167,13 @@ def main():
     r = r[0] if isinstance(r, list) else r
     ours = r["fit_evaluate_ms"]
     print(
-        f"csrbf bench --scene {args.scene}: fit {r['fit_ms']:.1f} ms, evaluate {r['evaluate_ms']:.1f} ms, "
+        f"csrbf bench {' '.join(scene)}: fit {r['fit_ms']:.1f} ms, evaluate {r['evaluate_ms']:.1f} ms, "
         f"fit + evaluate {ours:.1f} ms"
     )
-    print(f"ratio: fit + evaluate {(fit_ms + eval_ms) / ours:.1f}x, evaluate {eval_ms / r['evaluate_ms']:.1f}x")
+    print(
+        f"ratio: fit {fit_ms / r['fit_ms']:.1f}x, evaluate {eval_ms / r['evaluate_ms']:.1f}x, "
+        f"fit + evaluate {(fit_ms + eval_ms) / ours:.1f}x"
+    )
     if args.check:
         moved = args.mesh + ".csrbf.ply"
         subprocess.run(

@@ -106,39 +106,41 @@ impl std::str::FromStr for ViewPreset {
 /// direction as three numbers `X,Y,Z` (a scan that stands tilted in its
 /// frame), returned unit length.
 pub fn parse_axis(s: &str) -> Result<Vec3, String> {
-    Ok(match s.trim().to_ascii_lowercase().trim_start_matches('+') {
-        "x" => Vec3::X,
-        "y" => Vec3::Y,
-        "z" => Vec3::Z,
-        "-x" => Vec3::NEG_X,
-        "-y" => Vec3::NEG_Y,
-        "-z" => Vec3::NEG_Z,
-        t if t.contains(',') => {
-            let v: Vec<f32> = t
-                .split(',')
-                .map(|x| x.trim().parse::<f32>())
-                .collect::<Result<_, _>>()
-                .map_err(|_| format!("axis {s:?}: expected three numbers X,Y,Z"))?;
-            let [x, y, z] = v[..] else {
+    Ok(
+        match s.trim().to_ascii_lowercase().trim_start_matches('+') {
+            "x" => Vec3::X,
+            "y" => Vec3::Y,
+            "z" => Vec3::Z,
+            "-x" => Vec3::NEG_X,
+            "-y" => Vec3::NEG_Y,
+            "-z" => Vec3::NEG_Z,
+            t if t.contains(',') => {
+                let v: Vec<f32> = t
+                    .split(',')
+                    .map(|x| x.trim().parse::<f32>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("axis {s:?}: expected three numbers X,Y,Z"))?;
+                let [x, y, z] = v[..] else {
+                    return Err(format!(
+                        "axis {s:?}: expected three numbers X,Y,Z, got {}",
+                        v.len()
+                    ));
+                };
+                let d = Vec3::new(x, y, z);
+                if !d.is_finite() || d.length() < 1e-6 {
+                    return Err(format!(
+                        "axis {s:?}: a direction must be finite and not zero"
+                    ));
+                }
+                d.normalize()
+            }
+            _ => {
                 return Err(format!(
-                    "axis {s:?}: expected three numbers X,Y,Z, got {}",
-                    v.len()
-                ));
-            };
-            let d = Vec3::new(x, y, z);
-            if !d.is_finite() || d.length() < 1e-6 {
-                return Err(format!(
-                    "axis {s:?}: a direction must be finite and not zero"
+                    "unknown axis {s:?}: expected x, y, z, -x, -y, -z or a direction X,Y,Z"
                 ));
             }
-            d.normalize()
-        }
-        _ => {
-            return Err(format!(
-                "unknown axis {s:?}: expected x, y, z, -x, -y, -z or a direction X,Y,Z"
-            ));
-        }
-    })
+        },
+    )
 }
 
 /// Names an axis-aligned unit vector (`+Y`), or prints it.
@@ -401,7 +403,9 @@ mod tests {
         let d = parse_axis(" 0, 3, 4 ").expect("a direction");
         assert!((d - Vec3::new(0.0, 0.6, 0.8)).length() < 1e-6);
         assert_eq!(axis_name(d), "(0.000, 0.600, 0.800)");
-        for bad in ["up", "1,2", "1,2,3,4", "0,0,0", "1,nan,0", "a,b,c", "1e40,0,0"] {
+        for bad in [
+            "up", "1,2", "1,2,3,4", "0,0,0", "1,nan,0", "a,b,c", "1e40,0,0",
+        ] {
             let e = parse_axis(bad).expect_err(bad);
             assert!(e.contains(bad), "{bad}: {e}");
         }
@@ -409,7 +413,10 @@ mod tests {
         for up in [Vec3::Y, Vec3::NEG_Z, Vec3::new(0.3, 0.2, -0.93).normalize()] {
             let front = Camera::preset_direction(ViewPreset::Front, up);
             let right = Camera::preset_direction(ViewPreset::Left, up);
-            assert!(front.dot(up).abs() < 1e-6 && right.dot(up).abs() < 1e-6, "{up}");
+            assert!(
+                front.dot(up).abs() < 1e-6 && right.dot(up).abs() < 1e-6,
+                "{up}"
+            );
             assert!((front.length() - 1.0).abs() < 1e-6 && (right.length() - 1.0).abs() < 1e-6);
             assert!(front.dot(right).abs() < 1e-6);
             assert_eq!(Camera::preset_direction(ViewPreset::Top, up), -up);

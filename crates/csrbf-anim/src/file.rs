@@ -231,7 +231,9 @@ impl RotationFile {
                 }
                 q / len
             }
-            (None, Some(axis), Some(angle), None) if glam::DVec3::from_array(axis).length() > 0.0 => {
+            (None, Some(axis), Some(angle), None)
+                if glam::DVec3::from_array(axis).length() > 0.0 =>
+            {
                 OrientationKey::from_axis_angle(0.0, glam::DVec3::from_array(axis), angle).rotation
             }
             _ => return None,

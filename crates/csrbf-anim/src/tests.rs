@@ -481,8 +481,17 @@ fn scale_and_base_rotation_place_the_mesh_with_its_deformations() {
     let (lo, hi) = plain.objects[0].mesh.bounds().expect("bounds");
     let tol = 1e-5 * scale * lo.distance(hi);
     let mut moved = 0;
-    for (i, (p, q)) in a.objects[0].positions.iter().zip(&b.objects[0].positions).enumerate() {
-        assert!((place * *p).distance(*q) < tol, "vertex {i}: {} vs {q}", place * *p);
+    for (i, (p, q)) in a.objects[0]
+        .positions
+        .iter()
+        .zip(&b.objects[0].positions)
+        .enumerate()
+    {
+        assert!(
+            (place * *p).distance(*q) < tol,
+            "vertex {i}: {} vs {q}",
+            place * *p
+        );
         moved += usize::from(p.distance(plain.objects[0].mesh.positions[i]) > 1e-3);
     }
     assert!(moved > 100, "the smile moves the head ({moved} vertices)");
@@ -492,12 +501,24 @@ fn scale_and_base_rotation_place_the_mesh_with_its_deformations() {
     }
     // A bad rotation is named by its place.
     for (bad, want) in [
-        (r#", "rotation": {"axis": [0, 0, 0], "angle": 5}"#, "objects[0].rotation.axis"),
-        (r#", "rotation": {"axis": [1, 0, 0], "angle": 5, "euler": [0, 0, 1]}"#, "exactly one"),
-        (r#", "rotation": {"quaternion": [0, 0, 0, 0]}"#, "objects[0].rotation.quaternion"),
+        (
+            r#", "rotation": {"axis": [0, 0, 0], "angle": 5}"#,
+            "objects[0].rotation.axis",
+        ),
+        (
+            r#", "rotation": {"axis": [1, 0, 0], "angle": 5, "euler": [0, 0, 1]}"#,
+            "exactly one",
+        ),
+        (
+            r#", "rotation": {"quaternion": [0, 0, 0, 0]}"#,
+            "objects[0].rotation.quaternion",
+        ),
         (r#", "rotation": {"turn": 5}"#, "turn"),
     ] {
-        let e = Scene::load(&d.scene(&object(bad))).err().map(|e| e.to_string()).unwrap_or_default();
+        let e = Scene::load(&d.scene(&object(bad)))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains(want), "{bad}: {e}");
     }
     // Every way of giving it reads back as the Euler angles the Composer shows.
@@ -512,7 +533,11 @@ fn scale_and_base_rotation_place_the_mesh_with_its_deformations() {
         serde_json::to_string(&as_euler).expect("json")
     ))))
     .expect("euler");
-    for (p, q) in b.objects[0].positions.iter().zip(&again.frame(1.0).objects[0].positions) {
+    for (p, q) in b.objects[0]
+        .positions
+        .iter()
+        .zip(&again.frame(1.0).objects[0].positions)
+    {
         assert!(p.distance(*q) < tol, "{p} vs {q}");
     }
     let round = SceneFile::parse(&placed.file.to_json()).expect("reparse");

@@ -17,15 +17,22 @@ use crate::common::{Progress, read_controls, read_mesh};
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// A mesh to deform (with --controls).
-    #[arg(long, requires = "controls")]
+    /// A mesh to deform (with --controls, or the mesh of --scene scan).
+    #[arg(long)]
     mesh: Option<PathBuf>,
     /// A control file (with --mesh); its first deformation is measured.
     #[arg(long, requires = "mesh")]
     controls: Option<PathBuf>,
-    /// A synthetic scene: fish (975 V / 92 N), face (6158 V / 32 N), 100k (100k V / 1k N), 1m (1M V / 10k N).
+    /// A synthetic scene: fish (975 V / 92 N), face (6158 V / 32 N), 100k (100k V / 1k N), 1m (1M V / 10k N),
+    /// or scan: the vertices of --mesh with --starts of them spread over it, R --share of its diagonal.
     #[arg(long)]
     scene: Option<String>,
+    /// Starts of --scene scan.
+    #[arg(long, default_value_t = 4000, value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
+    starts: u32,
+    /// R of --scene scan as a share of the mesh's diagonal.
+    #[arg(long, default_value_t = 0.05)]
+    share: f64,
     /// Every synthetic scene in turn.
     #[arg(long)]
     all: bool,
@@ -100,11 +107,31 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
         return paper(args, progress);
     }
     let solver: SolverChoice = args.solver.parse().map_err(anyhow::Error::msg)?;
+    // The faces of --scene scan's mesh, for --export.
+    let mut scan_faces = None;
     let scenes: Vec<Scene> = if args.all {
         ["fish", "face", "100k", "1m"]
             .into_iter()
             .map(synthetic)
             .collect::<Result<_>>()?
+    } else if args.scene.as_deref() == Some("scan") {
+        let Some(m) = &args.mesh else {
+            bail!("--scene scan puts its starts on a mesh's surface: give --mesh M");
+        };
+        if !(args.share > 0.0 && args.share <= 1.0) {
+            bail!("--share {}: must be within (0, 1]", args.share);
+        }
+        let mesh = read_mesh(m, progress)?;
+        let name = m
+            .file_stem()
+            .map_or("scan".into(), |s| format!("scan-{}", s.to_string_lossy()));
+        scan_faces = Some(mesh.faces);
+        vec![csrbf::synthetic::scan_scene(
+            &name,
+            mesh.positions,
+            args.starts as usize,
+            args.share,
+        )]
     } else if let Some(s) = &args.scene {
         vec![synthetic(s)?]
     } else if let (Some(m), Some(c)) = (&args.mesh, &args.controls) {
@@ -125,7 +152,7 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
     };
     if let Some(dir) = &args.export {
         for s in &scenes {
-            export(s, dir)?;
+            export(s, scan_faces.clone(), dir)?;
         }
         return Ok(());
     }
@@ -226,6 +253,15 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         "pairs": binding.pairs(),
         "fit_ms": fit_ms,
         "fit_phases_ms": fit_phases(&sys),
+        "factor": {
+            "multiply_adds": st.factor_flops,
+            // At the machine's f64 rate on every thread (the roofline's
+            // measurement below): the numeric phase's time over this.
+            "bound_ms": roofline.f64_bound_ms(st.factor_flops),
+            "numeric_over_bound": (st.factor_flops > 0.0)
+                .then(|| sys.stats().phases.numeric_ms / roofline.f64_bound_ms(st.factor_flops)),
+            "multiply_adds_per_ns": st.factor_flops / (sys.stats().phases.numeric_ms * 1e6),
+        },
         "bind_ms": bind_ms,
         "evaluate_ms": evaluate_ms,
         "evaluation": {
@@ -271,11 +307,14 @@ fn fit_phases(sys: &System) -> serde_json::Value {
     })
 }
 
-fn export(s: &Scene, dir: &std::path::Path) -> Result<()> {
-    // The points lie on a sphere about (0.5, 0.5, 0.5): their faces are its
-    // Delaunay triangulation, so the export is a mesh a viewer can show.
+/// Writes a scene's points as a mesh and its controls; `faces` are the
+/// mesh's own (a scan scene), else the points' sphere's.
+fn export(s: &Scene, faces: Option<csrbf_mesh::Faces>, dir: &std::path::Path) -> Result<()> {
+    // The synthetic points lie on a sphere about (0.5, 0.5, 0.5): their faces
+    // are its Delaunay triangulation, so the export is a mesh a viewer can show.
     let mesh = csrbf_mesh::Mesh {
-        faces: csrbf_mesh::shapes::sphere_faces(&s.points, glam::Vec3::splat(0.5)),
+        faces: faces
+            .unwrap_or_else(|| csrbf_mesh::shapes::sphere_faces(&s.points, glam::Vec3::splat(0.5))),
         positions: s.points.clone(),
         ..Default::default()
     };

@@ -268,6 +268,50 @@ fn bench_prints_every_phase() {
     ]))
     .expect("json");
     assert_eq!(v["solver"], "supernodal");
+    // The factorisation's multiply-adds and its time against the
+    // machine's f64 rate.
+    let f = &v["factor"];
+    let (madds, bound) = (f["multiply_adds"].as_f64(), f["bound_ms"].as_f64());
+    assert!(
+        madds.is_some_and(|m| m > 0.0) && bound.is_some_and(|b| b > 0.0),
+        "{f}"
+    );
+    // A scan-like scene: starts spread over a real mesh, R a share of it.
+    let duck = root().join("assets/models/pybullet_duck.obj");
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "bench",
+        "-q",
+        "--scene",
+        "scan",
+        "--mesh",
+        arg(&duck),
+        "--starts",
+        "300",
+        "--share",
+        "0.1",
+        "--runs",
+        "1",
+        "--json",
+    ]))
+    .expect("json");
+    assert_eq!(v["controls"], 300);
+    assert_eq!(v["scene"], "scan-pybullet_duck");
+    let bounds = csrbf_mesh::read(&duck).expect("duck").diagonal() as f64;
+    let r = v["radius"].as_f64().unwrap_or(0.0);
+    assert!((r - 0.1 * bounds).abs() < 1e-4 * bounds, "{r} vs {bounds}");
+    fails(&["bench", "--scene", "scan"], &["--scene scan", "--mesh"]);
+    fails(
+        &[
+            "bench",
+            "--scene",
+            "scan",
+            "--mesh",
+            arg(&duck),
+            "--share",
+            "0",
+        ],
+        &["--share 0", "(0, 1]"],
+    );
 }
 
 #[test]

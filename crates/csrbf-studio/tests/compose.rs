@@ -742,7 +742,10 @@ fn a_base_rotation_stands_a_model_up_with_its_deformations() {
     }
     h.get_by_label("None").click();
     h.run_steps(3);
-    assert_eq!(h.state().scene_doc().expect("scene").file.objects[0].rotation, None);
+    assert_eq!(
+        h.state().scene_doc().expect("scene").file.objects[0].rotation,
+        None
+    );
     assert_eq!(rest(&h), before);
 }
 

@@ -227,11 +227,7 @@ impl Deformation {
         let affine = self.affine.map(|a| {
             // p'(y) = s R p(R^T y / s): centre s R c, scale s |.|, c0 s R c0,
             // and the columns (c1 c2 c3) become s R C R^T.
-            let c = glam::DMat3::from_cols(
-                a.coefficients[1],
-                a.coefficients[2],
-                a.coefficients[3],
-            );
+            let c = glam::DMat3::from_cols(a.coefficients[1], a.coefficients[2], a.coefficients[3]);
             let turned = sr * c * r.transpose();
             Affine {
                 center: sr * a.center,

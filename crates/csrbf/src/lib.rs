@@ -211,6 +211,7 @@ pub mod skyline;
 mod solver;
 mod stage;
 mod stretch;
+mod supernodal;
 mod surface;
 mod sweep;
 pub mod synthetic;

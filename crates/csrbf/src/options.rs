@@ -133,6 +133,10 @@ pub struct SystemStats {
     pub solver: String,
     /// Estimated multiply-adds of the profile factorisation.
     pub skyline_flops: f64,
+    /// Multiply-adds of the numeric factorisation made (the profile's, or
+    /// the supernodal factor's counted from its structure): what
+    /// [`FitPhases::numeric_ms`] is measured against.
+    pub factor_flops: f64,
     /// Bytes the factor's f64 values take.
     pub factor_bytes: usize,
     /// Where building the system spent its time.

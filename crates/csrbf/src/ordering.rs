@@ -153,14 +153,20 @@ pub struct Chosen {
 }
 
 /// The numbering `ordering` asks for, and its band. `Auto` takes the smallest
-/// envelope of the candidates, so it never widens the caller's order.
+/// envelope of the candidates, so it never widens the caller's order (up to
+/// [`AUTO_ONE_ORDERING`] starts; beyond, reverse Cuthill-McKee's).
 pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
     let pick = |o: Ordering| match o {
         Ordering::BreadthFirst => breadth_first(graph),
         Ordering::ReverseCuthillMcKee => reverse_cuthill_mckee(graph),
         _ => (0..graph.len() as u32).collect(),
     };
-    let candidates: &[Ordering] = if ordering == Ordering::Auto {
+    let candidates: &[Ordering] = if ordering == Ordering::Auto && graph.len() > AUTO_ONE_ORDERING {
+        // A system this big goes to the supernodal solver unless its band
+        // is narrow, which reverse Cuthill-McKee finds alone: the two
+        // other tries would cost two passes more for nothing.
+        &[Ordering::ReverseCuthillMcKee]
+    } else if ordering == Ordering::Auto {
         &[
             Ordering::ReverseCuthillMcKee,
             Ordering::BreadthFirst,
@@ -182,6 +188,9 @@ pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
     }
     best
 }
+
+/// Above this many starts `Auto` tries reverse Cuthill-McKee only.
+const AUTO_ONE_ORDERING: usize = 20_000;
 
 /// Bandwidth and envelope of the matrix with pattern `graph` under `perm`.
 pub fn band(graph: &Graph, perm: &[u32]) -> Band {
@@ -219,19 +228,24 @@ const DISSECTION_LEAF: usize = 32;
 /// take as separator the starts of one side (the one with fewer) that have a
 /// neighbour on the other, number the two halves (recursively) and the
 /// separator last. The halves then share no entry, so no fill joins them.
-pub(crate) fn geometric_dissection(graph: &Graph, points: &[glam::DVec3]) -> Vec<u32> {
-    dissection(graph, points).0
+///
+/// `reach`: no edge of `graph` is longer (the radius of support): only the
+/// starts within it of a cut are looked at for the separator. A longer edge
+/// costs fill, never correctness.
+pub(crate) fn geometric_dissection(graph: &Graph, points: &[glam::DVec3], reach: f64) -> Vec<u32> {
+    dissection(graph, points, reach).0
 }
 
 /// [`geometric_dissection`] and its splits: `(begin, middle, separator)`,
 /// positions in the numbering where a split's first half, second half and
 /// separator start (the separator runs to the end of the enclosing part).
-fn dissection(graph: &Graph, points: &[glam::DVec3]) -> (Vec<u32>, Vec<[usize; 3]>) {
+fn dissection(graph: &Graph, points: &[glam::DVec3], reach: f64) -> (Vec<u32>, Vec<[usize; 3]>) {
     let n = graph.len().min(points.len());
     let mut ids: Vec<u32> = (0..n as u32).collect();
     let mut d = Dissection {
         graph,
         points,
+        reach,
         perm: Vec::with_capacity(n),
         mark: vec![0; n],
         token: 0,
@@ -246,6 +260,7 @@ fn dissection(graph: &Graph, points: &[glam::DVec3]) -> (Vec<u32>, Vec<[usize; 3
 struct Dissection<'a> {
     graph: &'a Graph,
     points: &'a [glam::DVec3],
+    reach: f64,
     perm: Vec<u32>,
     mark: Vec<u32>,
     token: u32,
@@ -260,39 +275,32 @@ impl Dissection<'_> {
             self.perm.extend_from_slice(ids);
             return;
         }
-        let (lo, hi) = ids.iter().fold(
-            (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY),
-            |(lo, hi), &i| (lo.min(points[i as usize]), hi.max(points[i as usize])),
-        );
-        let extent = hi - lo;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
-        } else {
-            2
-        };
+        // Of the three axes' median cuts, the one with the smallest
+        // separator (on a surface, a cut along the widest axis may run
+        // along it; the count is one pass over the part's edges each).
         let m = ids.len() / 2;
-        ids.select_nth_unstable_by(m, |&a, &b| {
-            points[a as usize][axis].total_cmp(&points[b as usize][axis])
-        });
-        self.token += 2;
+        let mut best = (usize::MAX, 0);
+        for axis in 0..3 {
+            self.split_at_median(ids, axis);
+            let (on_left, on_right) = self.boundaries(ids, m, axis);
+            if on_left.min(on_right) < best.0 {
+                best = (on_left.min(on_right), axis);
+            }
+        }
+        if best.1 != 2 {
+            self.split_at_median(ids, best.1);
+        }
+        let (on_left, on_right) = self.boundaries(ids, m, best.1);
         let (left, right) = (self.token - 1, self.token);
-        let mark = &mut self.mark;
-        for &i in &ids[..m] {
-            mark[i as usize] = left;
-        }
-        for &i in &ids[m..] {
-            mark[i as usize] = right;
-        }
+        let (mark, reach) = (&self.mark, self.reach);
+        let cut = points[ids[m] as usize][best.1];
         let touches = |i: u32, other: u32| {
-            graph
-                .neighbours(i as usize)
-                .iter()
-                .any(|&j| mark[j as usize] == other)
+            (points[i as usize][best.1] - cut).abs() <= reach
+                && graph
+                    .neighbours(i as usize)
+                    .iter()
+                    .any(|&j| mark[j as usize] == other)
         };
-        let on_left = ids[..m].iter().filter(|&&i| touches(i, right)).count();
-        let on_right = ids[m..].iter().filter(|&&i| touches(i, left)).count();
         let (mut a, mut b, mut sep) = (Vec::new(), Vec::new(), Vec::new());
         if on_left <= on_right {
             for &i in &ids[..m] {
@@ -311,6 +319,50 @@ impl Dissection<'_> {
         self.dissect(&mut b);
         self.splits.push([begin, middle, self.perm.len()]);
         self.perm.extend_from_slice(&sep);
+    }
+}
+
+impl Dissection<'_> {
+    /// Puts the half of `ids` lower along `axis` first.
+    fn split_at_median(&self, ids: &mut [u32], axis: usize) {
+        let points = self.points;
+        ids.select_nth_unstable_by(ids.len() / 2, |&a, &b| {
+            points[a as usize][axis].total_cmp(&points[b as usize][axis])
+        });
+    }
+
+    /// Marks `ids[..m]` and `ids[m..]` (split at the median along `axis`)
+    /// with two fresh tokens and counts the starts of each side with a
+    /// neighbour on the other: of those within `reach` of the cut, the
+    /// others having none.
+    fn boundaries(&mut self, ids: &[u32], m: usize, axis: usize) -> (usize, usize) {
+        self.token += 2;
+        let (left, right) = (self.token - 1, self.token);
+        for &i in &ids[..m] {
+            self.mark[i as usize] = left;
+        }
+        for &i in &ids[m..] {
+            self.mark[i as usize] = right;
+        }
+        let (graph, mark, points) = (self.graph, &self.mark, self.points);
+        let cut = ids.get(m).map_or(0.0, |&i| points[i as usize][axis]);
+        let near = |i: u32| (points[i as usize][axis] - cut).abs() <= self.reach;
+        let touches = |i: u32, other: u32| {
+            graph
+                .neighbours(i as usize)
+                .iter()
+                .any(|&j| mark[j as usize] == other)
+        };
+        (
+            ids[..m]
+                .iter()
+                .filter(|&&i| near(i) && touches(i, right))
+                .count(),
+            ids[m..]
+                .iter()
+                .filter(|&&i| near(i) && touches(i, left))
+                .count(),
+        )
     }
 }
 
@@ -491,9 +543,9 @@ mod tests {
     fn geometric_dissection_is_a_permutation_whose_separators_separate() {
         for seed in 0..4 {
             let (p, g) = points_and_graph(700 + 300 * seed as usize, 0.08, seed);
-            let (perm, splits) = dissection(&g, &p);
+            let (perm, splits) = dissection(&g, &p, 0.08);
             assert!(is_permutation(&perm, g.len()));
-            assert_eq!(perm, geometric_dissection(&g, &p));
+            assert_eq!(perm, geometric_dissection(&g, &p, 0.08));
             assert!(splits.len() >= 8, "{} splits", splits.len());
             let inv = inverse(&perm);
             for &[begin, middle, sep] in &splits {

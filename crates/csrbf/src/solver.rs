@@ -168,6 +168,32 @@ impl Factor {
         symbolic: SymbolicCholesky<u32>,
         a: &LowerCsc,
     ) -> Result<Factor, FitError> {
+        // A supernodal structure is factored here, its two sets of
+        // subtrees at once (`crate::supernodal`); a simplicial one (a tiny
+        // system) by faer.
+        if let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() {
+            let split = Split::of(s, symbolic.len_val()).map(Box::new);
+            let mut values = vec![0.0; symbolic.len_val()];
+            let (forward, inverse) = match symbolic.perm() {
+                Some(p) => {
+                    let (f, i) = p.arrays();
+                    (Some(f), Some(i))
+                }
+                None => (None, None),
+            };
+            if let Err(column) =
+                crate::supernodal::factor(s, inverse, a, split.as_deref(), &mut values)
+            {
+                let control = forward.map_or(column, |f| f[column.min(a.n - 1)] as usize);
+                return Err(FitError::NotPositiveDefinite { control });
+            }
+            clear_upper_vector_state();
+            return Ok(Factor::Supernodal {
+                symbolic,
+                values,
+                split,
+            });
+        }
         let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
         let matrix = SparseColMatRef::new(pattern, &a.values);
         let mut values = vec![0.0; symbolic.len_val()];
@@ -363,7 +389,7 @@ pub(crate) mod tests {
     fn a_dissection_order_solves_as_amd_does() {
         for seed in 0..3 {
             let (s, g, a) = random_system(500 + 250 * seed as usize, 0.2, seed);
-            let order = geometric_dissection(&g, &s);
+            let order = geometric_dissection(&g, &s, 0.2);
             let amd = Factor::supernodal(Factor::supernodal_symbolic(&a, None).unwrap(), &a)
                 .expect("SPD");
             let nd = Factor::supernodal(Factor::supernodal_symbolic(&a, Some(&order)).unwrap(), &a)
@@ -388,7 +414,7 @@ pub(crate) mod tests {
     fn supernodal_flops_count_the_columns_of_l() {
         for (n, radius, seed) in [(40, 0.5, 1), (300, 0.25, 2), (600, 0.2, 3)] {
             let (s, g, a) = random_system(n, radius, seed);
-            let order = geometric_dissection(&g, &s);
+            let order = geometric_dissection(&g, &s, radius);
             for order in [None, Some(&order[..])] {
                 let symbolic = Factor::supernodal_symbolic(&a, order).unwrap();
                 let perm: Vec<u32> = match symbolic.perm() {

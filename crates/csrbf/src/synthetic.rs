@@ -161,6 +161,94 @@ pub fn scene_of(name: &str, points: usize, starts: usize, radius: Option<f64>) -
     }
 }
 
+/// A scan-like benchmark scene: the points of a real mesh (its vertices),
+/// `starts` of them chosen as starts spread evenly over it (seeded, by
+/// [`spread_subset`]'s spacing), R = `share` times the diagonal of
+/// the points' box, destinations smooth random moves of about 0.2 R. What a
+/// user does on a scan: controls on its surface, R a share of its size.
+/// Fewer starts than asked when the mesh has too few distinct vertices.
+pub fn scan_scene(
+    name: &str,
+    points: Vec<glam::Vec3>,
+    starts: usize,
+    share: f64,
+) -> SyntheticScene {
+    let (lo, hi) = points.iter().filter(|p| p.is_finite()).fold(
+        (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+        |(a, b), p| (a.min(*p), b.max(*p)),
+    );
+    let diagonal = if lo.cmple(hi).all() {
+        lo.as_dvec3().distance(hi.as_dvec3())
+    } else {
+        1.0
+    };
+    let chosen = spread_subset(&points, starts, diagonal);
+    let r = (share * diagonal).max(f64::MIN_POSITIVE);
+    let s: Vec<DVec3> = chosen.iter().map(|&i| points[i].as_dvec3()).collect();
+    let targets = s
+        .iter()
+        .zip(smooth_displacements(&s, 0.2 * r, 2))
+        .map(|(s, d)| *s + d)
+        .collect();
+    SyntheticScene {
+        name: name.to_owned(),
+        points,
+        starts: s,
+        targets,
+        options: crate::FitOptions::new(r)
+            .with_kernel(crate::Kernel::C2)
+            .with_polynomial(crate::Polynomial::Linear),
+    }
+}
+
+/// Up to `n` indices of finite `points`, spread evenly: visited in a seeded
+/// random order, each kept unless a kept one lies within `gap` of it, with
+/// `gap` halved until `n` are kept (a hash grid of cells `gap` wide: linear
+/// time).
+fn spread_subset(points: &[glam::Vec3], n: usize, diagonal: f64) -> Vec<usize> {
+    use std::collections::HashMap;
+    let mut order: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].is_finite())
+        .collect();
+    let mut rng = Rng::new(7);
+    for i in (1..order.len()).rev() {
+        order.swap(i, rng.below(i + 1));
+    }
+    // Even spacing on a surface of about a sphere's area for this box.
+    let mut gap = diagonal * (std::f64::consts::PI / n.max(1) as f64).sqrt() * 0.5;
+    loop {
+        let cell = |p: DVec3| (p / gap).floor().as_i64vec3();
+        let mut grid: HashMap<glam::I64Vec3, Vec<usize>> = HashMap::new();
+        let mut kept = Vec::with_capacity(n);
+        for &i in &order {
+            if kept.len() == n {
+                break;
+            }
+            let p = points[i].as_dvec3();
+            let c = cell(p);
+            let near = (-1..=1).any(|dx| {
+                (-1..=1).any(|dy| {
+                    (-1..=1).any(|dz| {
+                        grid.get(&(c + glam::I64Vec3::new(dx, dy, dz)))
+                            .is_some_and(|v| {
+                                v.iter().any(|&j| points[j].as_dvec3().distance(p) < gap)
+                            })
+                    })
+                })
+            });
+            if !near {
+                grid.entry(c).or_default().push(i);
+                kept.push(i);
+            }
+        }
+        if kept.len() == n || gap < diagonal * 1e-9 {
+            kept.sort_unstable();
+            return kept;
+        }
+        gap *= 0.5;
+    }
+}
+
 /// A grid of triangles in the plane z = 0, `n` x `n` cells over [0, 1]^2.
 pub fn grid(n: usize) -> (Vec<glam::Vec3>, Vec<[u32; 3]>) {
     let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
@@ -220,4 +308,41 @@ pub fn hairpin(gap: f32, length: f32) -> (Vec<glam::Vec3>, Vec<[u32; 3]>, Vec<bo
     }
     let torso = points.iter().map(|p| p.x < r && p.y < 0.0).collect();
     (points, tris, torso)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scan_scene_spreads_its_starts_over_the_mesh() {
+        // A grid of 200 x 200 points: 500 starts spread over it, none two
+        // alike, R the share of the diagonal.
+        let (points, _) = grid(199);
+        let s = scan_scene("scan-grid", points.clone(), 500, 0.05);
+        assert_eq!(s.starts.len(), 500);
+        assert!((s.options.radius - 0.05 * 2f64.sqrt()).abs() < 1e-6);
+        let mut nearest = f64::INFINITY;
+        for (i, a) in s.starts.iter().enumerate() {
+            assert!(
+                points.iter().any(|p| p.as_dvec3() == *a),
+                "a start is a vertex"
+            );
+            for b in &s.starts[i + 1..] {
+                nearest = nearest.min(a.distance(*b));
+            }
+        }
+        // Spread: no two closer than a quarter of an even spacing.
+        let even = (1.0 / 500.0f64).sqrt();
+        assert!(nearest > 0.25 * even, "{nearest} vs {even}");
+        // Fewer distinct vertices than starts asked: all of them, once.
+        let few = vec![
+            glam::Vec3::ZERO,
+            glam::Vec3::X,
+            glam::Vec3::X,
+            glam::Vec3::Y,
+        ];
+        let s = scan_scene("few", few, 10, 0.5);
+        assert_eq!(s.starts.len(), 3);
+    }
 }

@@ -149,8 +149,11 @@ fn a_placed_map_is_the_fit_of_the_placed_controls() {
             let opts = options(Kernel::C2, poly, 0.4, SolverChoice::Auto);
             let d = Deformation::fit(&s, &t, opts).expect("fit");
             let placed = d.placed(scale, rotation);
-            let (ps, pt): (Vec<DVec3>, Vec<DVec3>) =
-                s.iter().zip(&t).map(|(a, b)| (place(*a), place(*b))).unzip();
+            let (ps, pt): (Vec<DVec3>, Vec<DVec3>) = s
+                .iter()
+                .zip(&t)
+                .map(|(a, b)| (place(*a), place(*b)))
+                .unzip();
             let refit = Deformation::fit(&ps, &pt, opts.with_radius(0.4 * scale)).expect("fit");
             assert_eq!(placed.radius(), 0.4 * scale);
             for _ in 0..60 {
@@ -160,7 +163,10 @@ fn a_placed_map_is_the_fit_of_the_placed_controls() {
                 let got = placed.map(place(x)) - place(x);
                 assert!((got - want).length() < tol, "{poly}: {got} vs {want}");
                 let fit = refit.map(place(x)) - place(x);
-                assert!((fit - want).length() < 1e-7 * scale, "{poly}: refit {fit} vs {want}");
+                assert!(
+                    (fit - want).length() < 1e-7 * scale,
+                    "{poly}: refit {fit} vs {want}"
+                );
             }
         }
     }

@@ -360,8 +360,7 @@ fn rotation_of(r: &RotationFile, here: &str, warnings: &mut Vec<String>) -> Resu
         _ => {
             return Err(scene_err(
                 here.to_owned(),
-                "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\""
-                    .into(),
+                "give exactly one of \"quaternion\", \"axis\" with \"angle\", or \"euler\"".into(),
             ));
         }
     })
@@ -618,8 +617,7 @@ fn bind_stage(
     let deformation = if placement.is_identity() {
         step.deformation
     } else {
-        step.deformation
-            .placed(placement.scale, placement.rotation)
+        step.deformation.placed(placement.scale, placement.rotation)
     };
     {
         // The stage acts on the part's vertices that are also in its region,

@@ -105,20 +105,19 @@ impl Loaded {
     /// not `structural`), it gets a new GPU id from `next_id` and new
     /// stand-ins.
     pub fn install(&mut self, scene: Option<Scene>, structural: bool, next_id: &mut u64) {
-        let same_shape =
-            match (&self.scene, &scene) {
-                (Some(a), Some(b)) => {
-                    !structural
-                        && a.objects.len() == b.objects.len()
-                        && a.file.objects.iter().zip(&b.file.objects).all(|(x, y)| {
-                            x.mesh == y.mesh
-                                && x.parts == y.parts
-                                && x.scale == y.scale
-                                && x.rotation == y.rotation
-                        })
-                }
-                _ => false,
-            };
+        let same_shape = match (&self.scene, &scene) {
+            (Some(a), Some(b)) => {
+                !structural
+                    && a.objects.len() == b.objects.len()
+                    && a.file.objects.iter().zip(&b.file.objects).all(|(x, y)| {
+                        x.mesh == y.mesh
+                            && x.parts == y.parts
+                            && x.scale == y.scale
+                            && x.rotation == y.rotation
+                    })
+            }
+            _ => false,
+        };
         if !same_shape {
             self.gpu_id = *next_id;
             *next_id += 1;

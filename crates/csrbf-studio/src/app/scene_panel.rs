@@ -607,9 +607,21 @@ fn base_rotation_ui(ui: &mut egui::Ui, object: &mut ObjectFile, out: &mut Object
     });
     ui.horizontal(|ui| {
         for (name, e, hint) in [
-            ("Z-up to Y-up", [-90.0, 0.0, 0.0], "A model made with +Z up (Blender, CAD) stands up in a +Y-up scene"),
-            ("-Z-up to Y-up", [90.0, 0.0, 0.0], "A model whose up is -Z stands up"),
-            ("X-up to Y-up", [0.0, 0.0, 90.0], "A model whose up is +X stands up"),
+            (
+                "Z-up to Y-up",
+                [-90.0, 0.0, 0.0],
+                "A model made with +Z up (Blender, CAD) stands up in a +Y-up scene",
+            ),
+            (
+                "-Z-up to Y-up",
+                [90.0, 0.0, 0.0],
+                "A model whose up is -Z stands up",
+            ),
+            (
+                "X-up to Y-up",
+                [0.0, 0.0, 90.0],
+                "A model whose up is +X stands up",
+            ),
             ("None", [0.0; 3], "No base rotation"),
         ] {
             if ui.button(name).on_hover_text(hint).clicked() {

@@ -42,6 +42,17 @@ pub struct Roofline {
     pub bound_ms: f64,
 }
 
+impl Roofline {
+    /// Milliseconds `multiply_adds` double-precision multiply-adds take at
+    /// this machine's measured rate, every thread at once (a register holds
+    /// half as many f64 lanes as f32): the bound a numeric factorisation of
+    /// that many ([`crate::SystemStats::factor_flops`]) is measured against.
+    pub fn f64_bound_ms(&self, multiply_adds: f64) -> f64 {
+        let lanes = f64::from((self.lanes / 2).max(1));
+        multiply_adds / (self.fma_per_ns * lanes) * 1e-6
+    }
+}
+
 /// Vector operations a register of kernel evaluations of `kernel` costs
 /// (`vector::weight` and the sums' three fused multiply-adds).
 fn operations(kernel: Kernel) -> u32 {

@@ -16,12 +16,14 @@ pub(super) fn factor(
     envelope: Envelope,
     options: &FitOptions,
     phases: &mut FitPhases,
+    flops: &mut f64,
 ) -> Result<Factor, crate::error::FitError> {
     let mut clock = Clock::start();
     let kernel = options.kernel;
     let inv_r = 1.0 / options.radius;
     let phi = |i: usize, j: usize| kernel.eval(starts[i].distance(starts[j]) * inv_r);
     let skyline_flops = envelope.factor_flops();
+    *flops = skyline_flops;
     let choice = match options.solver {
         SolverChoice::Auto => {
             // Below some 30 million multiply-adds the profile factor takes a few
@@ -44,7 +46,7 @@ pub(super) fn factor(
     if choice == SolverChoice::Supernodal {
         let a = lower_csc(graph, &phi, kernel.eval(0.0));
         phases.assembly_ms = clock.lap();
-        let order = ordering::geometric_dissection(graph, starts);
+        let order = ordering::geometric_dissection(graph, starts, options.radius);
         let symbolic = Factor::supernodal_symbolic(&a, Some(&order))?;
         phases.symbolic_ms = clock.lap();
         // Take the profile unless the supernodal factor needs fewer
@@ -56,6 +58,7 @@ pub(super) fn factor(
         if options.solver == SolverChoice::Auto && skyline_flops <= supernodal_flops {
             return skyline(envelope, phases, clock);
         }
+        *flops = supernodal_flops;
         let factor = Factor::supernodal(symbolic, &a);
         phases.numeric_ms = clock.lap();
         return factor;

@@ -159,6 +159,7 @@ impl System {
             envelope,
             &options,
             &mut phases,
+            &mut stats.factor_flops,
         )?;
         clock.lap();
         stats.solver = factor.choice().name().to_owned();

@@ -1,0 +1,621 @@
+//! The numeric supernodal Cholesky factorisation on both cores.
+//!
+//! faer's own numeric factorisation goes supernode by supernode on one
+//! thread (its parallel mode splits each dense block and was slower on two
+//! cores at every size measured). Its structure says more: the elimination
+//! tree's two sets of whole subtrees ([`Split`]) change only their own
+//! columns and read only their own descendants, so the two sets are
+//! factored at once, then the supernodes above them (the top separators,
+//! dense and wide: their dense kernels run on the pool).
+//!
+//! Each supernode is made as faer makes it (left-looking): its columns of
+//! A, less the products of every descendant's rows that reach it, then a
+//! dense Cholesky of its diagonal block and a triangular solve for the
+//! rows below. The values land in faer's layout, so faer's symbolic
+//! structure and this crate's solves read them unchanged.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{
+    LltError, LltRegularization, cholesky_in_place, cholesky_in_place_scratch,
+};
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::{Accum, MatMut, MatRef, Par};
+
+use crate::solver::LowerCsc;
+use crate::triangular::Split;
+
+/// A supernode's columns at least this wide run their dense kernels on the
+/// pool (the top separators of a large system).
+const WIDE: usize = 192;
+
+/// For each supernode, the earlier supernodes whose rows reach its
+/// columns: `(descendant, first, count)`, the descendant's pattern rows
+/// `first..first + count` being in the supernode's columns.
+struct Updates {
+    ptr: Vec<usize>,
+    entries: Vec<(u32, u32, u32)>,
+}
+
+impl Updates {
+    fn new(symbolic: &SymbolicSupernodalCholesky<u32>, of_column: &[u32]) -> Updates {
+        let count = symbolic.n_supernodes();
+        let mut lists: Vec<(u32, u32, u32, u32)> = Vec::new();
+        for d in 0..count {
+            let pattern = symbolic.supernode(d).pattern();
+            let mut i = 0;
+            while i < pattern.len() {
+                let s = of_column[pattern[i] as usize];
+                let end = symbolic.supernode_end()[s as usize];
+                let mut j = i + 1;
+                while j < pattern.len() && pattern[j] < end {
+                    j += 1;
+                }
+                lists.push((s, d as u32, i as u32, (j - i) as u32));
+                i = j;
+            }
+        }
+        // Stable by supernode: descendants stay ascending.
+        lists.sort_by_key(|e| e.0);
+        let mut ptr = vec![0usize; count + 1];
+        for e in &lists {
+            ptr[e.0 as usize + 1] += 1;
+        }
+        for k in 0..count {
+            ptr[k + 1] += ptr[k];
+        }
+        Updates {
+            ptr,
+            entries: lists.into_iter().map(|(_, d, i, c)| (d, i, c)).collect(),
+        }
+    }
+
+    fn of(&self, s: usize) -> &[(u32, u32, u32)] {
+        &self.entries[self.ptr[s]..self.ptr[s + 1]]
+    }
+}
+
+/// A's lower triangle in the factor's numbering (`inverse[old] = new`), by
+/// columns: what each supernode's columns start from.
+struct Permuted {
+    col_ptr: Vec<usize>,
+    rows: Vec<u32>,
+    values: Vec<f64>,
+}
+
+impl Permuted {
+    fn new(a: &LowerCsc, inverse: Option<&[u32]>) -> Permuted {
+        let new = |i: usize| inverse.map_or(i, |v| v[i] as usize);
+        let mut col_ptr = vec![0usize; a.n + 1];
+        for j in 0..a.n {
+            for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
+                let (r, c) = (new(a.row_idx[k] as usize), new(j));
+                col_ptr[r.min(c) + 1] += 1;
+            }
+        }
+        for j in 0..a.n {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let mut next = col_ptr.clone();
+        let mut rows = vec![0u32; col_ptr[a.n]];
+        let mut values = vec![0.0; col_ptr[a.n]];
+        for j in 0..a.n {
+            for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
+                let (r, c) = (new(a.row_idx[k] as usize), new(j));
+                let at = &mut next[r.min(c)];
+                rows[*at] = r.max(c) as u32;
+                values[*at] = a.values[k];
+                *at += 1;
+            }
+        }
+        Permuted {
+            col_ptr,
+            rows,
+            values,
+        }
+    }
+}
+
+/// What a thread needs to make supernodes: the row of each column within
+/// the supernode being made, the product buffer, dense scratch.
+struct Work {
+    local: Vec<u32>,
+    product: Vec<f64>,
+    stack: MemBuffer,
+}
+
+impl Work {
+    fn new(n: usize, widest: usize) -> Work {
+        Work {
+            local: vec![u32::MAX; n],
+            product: Vec::new(),
+            stack: MemBuffer::new(cholesky_in_place_scratch::<f64>(
+                widest.max(1),
+                Par::rayon(0),
+                Default::default(),
+            )),
+        }
+    }
+}
+
+/// The shared, read-only parts of a factorisation.
+struct Plan<'a> {
+    symbolic: &'a SymbolicSupernodalCholesky<u32>,
+    a: Permuted,
+    updates: Updates,
+}
+
+/// Factors A (`a`, lower triangle in the caller's numbering) into `values`
+/// (faer's layout for `symbolic`, whose columns are A's under `inverse`:
+/// `inverse[old] = new`), the two sets of `split` at once when there is
+/// one. Fails with the column (factor numbering) of a pivot that is not
+/// positive.
+pub(crate) fn factor(
+    symbolic: &SymbolicSupernodalCholesky<u32>,
+    inverse: Option<&[u32]>,
+    a: &LowerCsc,
+    split: Option<&Split>,
+    values: &mut [f64],
+) -> Result<(), usize> {
+    let count = symbolic.n_supernodes();
+    let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+    let mut of_column = vec![0u32; symbolic.nrows()];
+    for k in 0..count {
+        of_column[begin[k] as usize..end[k] as usize].fill(k as u32);
+    }
+    let plan = Plan {
+        symbolic,
+        a: Permuted::new(a, inverse),
+        updates: Updates::new(symbolic, &of_column),
+    };
+    values.fill(0.0);
+    // Each supernode's block of values, taken out while it is made.
+    let ptr = symbolic.col_ptr_for_val();
+    let mut blocks: Vec<Option<&mut [f64]>> = Vec::with_capacity(count);
+    let mut rest = values;
+    for k in 0..count {
+        let (block, tail) = rest.split_at_mut((ptr[k + 1] - ptr[k]) as usize);
+        blocks.push(Some(block));
+        rest = tail;
+    }
+    let widest = (0..count)
+        .map(|k| (end[k] - begin[k]) as usize)
+        .max()
+        .unwrap_or(0);
+    let n = symbolic.nrows();
+    match split {
+        Some(split) => {
+            let [first, second] = split.sets();
+            // The second set's blocks move to its thread; the first's stay.
+            let mut theirs: Vec<Option<&mut [f64]>> = (0..count).map(|_| None).collect();
+            for &k in second {
+                theirs[k as usize] = blocks[k as usize].take();
+            }
+            let (a, b) = rayon::join(
+                || {
+                    let mut work = Work::new(n, widest);
+                    first
+                        .iter()
+                        .try_for_each(|&k| plan.make(k as usize, &mut blocks, &mut work, Par::Seq))
+                        .map(|()| blocks)
+                },
+                || {
+                    let mut work = Work::new(n, widest);
+                    second
+                        .iter()
+                        .try_for_each(|&k| plan.make(k as usize, &mut theirs, &mut work, Par::Seq))
+                        .map(|()| theirs)
+                },
+            );
+            let (mut blocks, mut theirs) = (a?, b?);
+            for &k in second {
+                blocks[k as usize] = theirs[k as usize].take();
+            }
+            let mut work = Work::new(n, widest);
+            for &k in split.top() {
+                plan.make(k as usize, &mut blocks, &mut work, Par::rayon(0))?;
+            }
+            Ok(())
+        }
+        None => {
+            let mut work = Work::new(n, widest);
+            (0..count).try_for_each(|k| plan.make(k, &mut blocks, &mut work, Par::Seq))
+        }
+    }
+}
+
+impl Plan<'_> {
+    /// Subtracts from `out` (the columns `columns.0..columns.1` of a
+    /// supernode of `rows` rows, column-major, its first column at
+    /// `columns.0`) every descendant's product that reaches them;
+    /// `local[row]` is a row's place in the supernode.
+    #[allow(clippy::too_many_arguments)]
+    fn update(
+        &self,
+        descendants: &[(u32, u32, u32)],
+        blocks: &[Option<&mut [f64]>],
+        local: &[u32],
+        columns: (usize, usize),
+        rows: usize,
+        out: &mut [f64],
+        product: &mut Vec<f64>,
+    ) {
+        let symbolic = self.symbolic;
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        for &(d, first, count) in descendants {
+            let d = d as usize;
+            let Some(ld) = blocks[d].as_deref() else {
+                continue; // cannot happen: a descendant is in the same set
+            };
+            let d_width = (end[d] - begin[d]) as usize;
+            let d_pattern = symbolic.supernode(d).pattern();
+            let d_rows = d_width + d_pattern.len();
+            let (first, count) = (first as usize, count as usize);
+            // Of its rows in the supernode's columns, those in `columns`.
+            let mine = &d_pattern[first..first + count];
+            let skip = mine.partition_point(|&c| (c as usize) < columns.0);
+            let take = mine.partition_point(|&c| (c as usize) < columns.1) - skip;
+            if take == 0 {
+                continue;
+            }
+            let first = first + skip;
+            let below = d_pattern.len() - first;
+            let lower = MatRef::from_column_major_slice_with_stride(
+                &ld[d_width + first..],
+                below,
+                d_width,
+                d_rows,
+            );
+            let upper = lower.subrows(0, take);
+            product.clear();
+            product.resize(below * take, 0.0);
+            let mut p = MatMut::from_column_major_slice_mut(&mut product[..], below, take);
+            // The square on top only below its diagonal (the scatter reads
+            // no more), the rows under it whole.
+            let (square, rest) = p.as_mut().split_at_row_mut(take);
+            let (lower_top, lower_rest) = lower.split_at_row(take);
+            triangular::matmul(
+                square,
+                BlockStructure::TriangularLower,
+                Accum::Replace,
+                lower_top,
+                BlockStructure::Rectangular,
+                upper.transpose(),
+                BlockStructure::Rectangular,
+                1.0,
+                Par::Seq,
+            );
+            if below > take {
+                faer::linalg::matmul::matmul(
+                    rest,
+                    Accum::Replace,
+                    lower_rest,
+                    upper.transpose(),
+                    1.0,
+                    Par::Seq,
+                );
+            }
+            let rows_at = &d_pattern[first..];
+            for (jj, &cj) in rows_at[..take].iter().enumerate() {
+                let col = (cj as usize - columns.0) * rows;
+                let p = &product[jj * below..(jj + 1) * below];
+                for (&ri, &v) in rows_at[jj..].iter().zip(&p[jj..]) {
+                    out[col + local[ri as usize] as usize] -= v;
+                }
+            }
+        }
+    }
+
+    /// Makes supernode `s`'s columns of L in its block, from A's and its
+    /// descendants' (already made, in `blocks`). `par`: the pool for a
+    /// wide supernode's dense kernels.
+    fn make(
+        &self,
+        s: usize,
+        blocks: &mut [Option<&mut [f64]>],
+        work: &mut Work,
+        par: Par,
+    ) -> Result<(), usize> {
+        let symbolic = self.symbolic;
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        let (start, stop) = (begin[s] as usize, end[s] as usize);
+        let width = stop - start;
+        let pattern = symbolic.supernode(s).pattern();
+        let rows = width + pattern.len();
+        for (i, &r) in pattern.iter().enumerate() {
+            work.local[r as usize] = (width + i) as u32;
+        }
+        for c in start..stop {
+            work.local[c] = (c - start) as u32;
+        }
+        let Some(block) = blocks[s].take() else {
+            return Ok(()); // not this thread's supernode: never asked
+        };
+        // A's columns.
+        for c in start..stop {
+            let col = (c - start) * rows;
+            for k in self.a.col_ptr[c]..self.a.col_ptr[c + 1] {
+                let r = self.a.rows[k] as usize;
+                block[col + work.local[r] as usize] += self.a.values[k];
+            }
+        }
+        // Less each descendant's product: its rows from the first in these
+        // columns down, times its rows in these columns. A wide supernode
+        // above both sets (`par`: the pool) has its columns cut in two of
+        // about equal work, each half updated by its own thread.
+        let descendants = self.updates.of(s);
+
+        let (blocks_ro, local) = (&*blocks, &work.local[..]);
+        let half = if width >= WIDE && matches!(par, Par::Rayon(_)) {
+            // Column c holds rows - c values: cut where half of them lie left.
+            let total = (rows * width - width * (width - 1) / 2) as f64;
+            let mut sum = 0.0;
+            (0..width)
+                .find(|&c| {
+                    sum += (rows - c) as f64;
+                    sum >= total * 0.5
+                })
+                .map_or(width, |c| c + 1)
+        } else {
+            width
+        };
+        if half < width {
+            let (left, right) = block.split_at_mut(half * rows);
+            let (mut p0, mut p1) = (std::mem::take(&mut work.product), Vec::new());
+            rayon::join(
+                || {
+                    self.update(
+                        descendants,
+                        blocks_ro,
+                        local,
+                        (start, start + half),
+                        rows,
+                        left,
+                        &mut p0,
+                    )
+                },
+                || {
+                    self.update(
+                        descendants,
+                        blocks_ro,
+                        local,
+                        (start + half, stop),
+                        rows,
+                        right,
+                        &mut p1,
+                    )
+                },
+            );
+            work.product = p0;
+        } else {
+            self.update(
+                descendants,
+                blocks_ro,
+                local,
+                (start, stop),
+                rows,
+                block,
+                &mut work.product,
+            );
+        }
+        for &r in pattern {
+            work.local[r as usize] = u32::MAX;
+        }
+        let dense = if width >= WIDE { par } else { Par::Seq };
+        let result = {
+            let mut ls = MatMut::from_column_major_slice_mut(&mut *block, rows, width);
+            let (mut top, bottom) = ls.as_mut().split_at_row_mut(width);
+            let factored = cholesky_in_place(
+                top.as_mut(),
+                LltRegularization {
+                    dynamic_regularization_delta: 0.0,
+                    dynamic_regularization_epsilon: 0.0,
+                },
+                dense,
+                MemStack::new(&mut work.stack),
+                Default::default(),
+            );
+            match factored {
+                Err(LltError::NonPositivePivot { index }) => Err(start + index),
+                Ok(_) => {
+                    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                        top.as_ref(),
+                        bottom.transpose_mut(),
+                        dense,
+                    );
+                    Ok(())
+                }
+            }
+        };
+        blocks[s] = Some(block);
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::sparse::linalg::SupernodalThreshold;
+    use faer::sparse::linalg::cholesky::{
+        CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+        factorize_symbolic_cholesky,
+    };
+    use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+    use faer::{Par, Side};
+
+    use super::*;
+    use crate::ordering::geometric_dissection;
+    use crate::solver::Factor;
+    use crate::solver::tests::random_system;
+    use crate::testing::Rng;
+
+    /// A supernodal structure of `a` (forced: faer takes a simplicial one
+    /// for most small systems), under a dissection order or faer's AMD.
+    fn structure(a: &LowerCsc, order: Option<&[u32]>) -> SymbolicCholesky<u32> {
+        let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
+        let inverse;
+        let ordering = match order {
+            Some(o) => {
+                inverse = crate::ordering::inverse(o);
+                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(o, &inverse, a.n))
+            }
+            None => SymmetricOrdering::Amd,
+        };
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        factorize_symbolic_cholesky(pattern, Side::Lower, ordering, params).expect("symbolic")
+    }
+
+    /// faer's own numeric factorisation: the reference.
+    fn faer_values(symbolic: &SymbolicCholesky<u32>, a: &LowerCsc) -> Result<Vec<f64>, usize> {
+        let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
+        let matrix = SparseColMatRef::new(pattern, &a.values);
+        let mut values = vec![0.0; symbolic.len_val()];
+        let mut mem = MemBuffer::new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
+        match symbolic.factorize_numeric_llt(
+            &mut values,
+            matrix,
+            Side::Lower,
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        ) {
+            Ok(_) => Ok(values),
+            Err(faer::linalg::solvers::LltError::NonPositivePivot { index }) => Err(index),
+        }
+    }
+
+    /// Ours, with or without a cut of the tree.
+    fn ours(
+        symbolic: &SymbolicCholesky<u32>,
+        a: &LowerCsc,
+        cut: bool,
+    ) -> (Result<Vec<f64>, usize>, bool) {
+        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+            unreachable!("forced supernodal")
+        };
+        let split = if cut { Split::cut(s) } else { None };
+        let inverse = symbolic.perm().map(|p| p.arrays().1);
+        let mut values = vec![f64::NAN; symbolic.len_val()];
+        let r = factor(s, inverse, a, split.as_ref(), &mut values).map(|()| values);
+        (r, split.is_some())
+    }
+
+    /// The lower triangle of every supernode's diagonal block and all rows
+    /// below it (faer leaves the upper triangle as it finds it).
+    fn lower_values(symbolic: &SymbolicCholesky<u32>, values: &[f64]) -> Vec<f64> {
+        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
+            unreachable!()
+        };
+        let mut out = Vec::new();
+        for k in 0..s.n_supernodes() {
+            let width = (s.supernode_end()[k] - s.supernode_begin()[k]) as usize;
+            let rows = width + s.supernode(k).pattern().len();
+            let at = s.col_ptr_for_val()[k] as usize;
+            for c in 0..width {
+                out.extend_from_slice(&values[at + c * rows + c..at + (c + 1) * rows]);
+            }
+        }
+        out
+    }
+
+    /// A x for the symmetric A whose lower triangle is `a`.
+    fn times(a: &LowerCsc, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; a.n];
+        for j in 0..a.n {
+            for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
+                let (i, v) = (a.row_idx[k] as usize, a.values[k]);
+                y[i] += v * x[j];
+                if i != j {
+                    y[j] += v * x[i];
+                }
+            }
+        }
+        y
+    }
+
+    #[test]
+    fn the_factor_is_faers_and_solves_a_on_one_thread_or_two() {
+        let mut cut_seen = false;
+        for (n, radius, seed) in [(300, 0.25, 1), (1500, 0.12, 2), (4000, 0.08, 3)] {
+            let (s, g, a) = random_system(n, radius, seed);
+            let order = geometric_dissection(&g, &s, radius);
+            for order in [Some(&order[..]), None] {
+                let symbolic = structure(&a, order);
+                let reference = lower_values(&symbolic, &faer_values(&symbolic, &a).expect("SPD"));
+                let (plain, _) = ours(&symbolic, &a, false);
+                let (two, cut) = ours(&symbolic, &a, true);
+                cut_seen |= cut;
+                let plain = plain.expect("SPD");
+                let scale = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                for (k, (r, (p, t))) in reference
+                    .iter()
+                    .zip(
+                        lower_values(&symbolic, &plain)
+                            .iter()
+                            .zip(lower_values(&symbolic, &two.expect("SPD"))),
+                    )
+                    .enumerate()
+                {
+                    assert!(
+                        (r - p).abs() <= 1e-12 * scale,
+                        "n {n} value {k}: {p} vs faer's {r}"
+                    );
+                    assert!(
+                        (p - t).abs() <= 1e-12 * scale,
+                        "n {n} value {k}: cut {t} vs {p}"
+                    );
+                }
+                // And it solves A: the residual of a random right-hand side.
+                let factor = Factor::Supernodal {
+                    symbolic,
+                    values: plain,
+                    split: None,
+                };
+                let mut rng = Rng::new(seed);
+                let b: Vec<f64> = (0..n).map(|_| rng.f64() - 0.5).collect();
+                let mut x = b.clone();
+                factor.solve_in_place(&mut x);
+                let r = times(&a, &x);
+                for (i, (ri, bi)) in r.iter().zip(&b).enumerate() {
+                    assert!(
+                        (ri - bi).abs() < 1e-9,
+                        "n {n} row {i}: A x = {ri}, b = {bi}"
+                    );
+                }
+            }
+        }
+        assert!(cut_seen, "some system was factored on two threads");
+    }
+
+    #[test]
+    fn a_pivot_that_is_not_positive_is_found_where_faer_finds_it() {
+        for seed in 0..3 {
+            let (s, g, mut a) = random_system(1200, 0.15, 10 + seed);
+            // Coupling too strong for a positive definite matrix.
+            for (k, v) in a.values.iter_mut().enumerate() {
+                if a.row_idx.get(k).is_some() && *v < 1.0 {
+                    *v *= 3.0;
+                }
+            }
+            let order = geometric_dissection(&g, &s, 0.15);
+            let symbolic = structure(&a, Some(&order));
+            let want = faer_values(&symbolic, &a).expect_err("not positive definite");
+            for cut in [false, true] {
+                let (got, _) = ours(&symbolic, &a, cut);
+                let got = got.expect_err("not positive definite");
+                if !cut {
+                    assert_eq!(got, want, "seed {seed}");
+                } else {
+                    // Two threads stop at the first failure of either set.
+                    assert!(got < a.n, "seed {seed}: {got}");
+                }
+            }
+        }
+    }
+}
