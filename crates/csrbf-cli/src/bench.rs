@@ -24,6 +24,7 @@ pub struct BenchArgs {
     #[arg(long, requires = "mesh")]
     controls: Option<PathBuf>,
     /// A synthetic scene: fish (975 V / 92 N), face (6158 V / 32 N), 100k (100k V / 1k N), 1m (1M V / 10k N),
+    /// V/N (any sizes, R for about 44 neighbours: 100000/100000 fits 100k starts),
     /// or scan: the vertices of --mesh with --starts of them spread over it, R --share of its diagonal.
     #[arg(long)]
     scene: Option<String>,
@@ -63,7 +64,7 @@ type Scene = SyntheticScene;
 fn synthetic(name: &str) -> Result<Scene> {
     csrbf::synthetic::scene(name).with_context(|| {
         format!(
-            "unknown scene {name:?}: expected {}",
+            "unknown scene {name:?}: expected {}, V/N (V points, N starts: 100000/100000) or scan",
             csrbf::synthetic::SCENES.join(", ")
         )
     })

@@ -219,6 +219,9 @@ pub fn inverse(perm: &[u32]) -> Vec<u32> {
     inv
 }
 
+/// Coordinates sampled to estimate a part's median along an axis.
+const SAMPLE: usize = 255;
+
 /// Parts of at most this many starts are not split further by
 /// [`geometric_dissection`]: they keep the order the splits left them in.
 const DISSECTION_LEAF: usize = 32;
@@ -275,21 +278,31 @@ impl Dissection<'_> {
             self.perm.extend_from_slice(ids);
             return;
         }
-        // Of the three axes' median cuts, the one with the smallest
-        // separator (on a surface, a cut along the widest axis may run
-        // along it; the count is one pass over the part's edges each).
+        // Of the three axes' median cuts, the one with the fewest starts
+        // within reach of it (the separator's candidates: on a surface, a
+        // cut across the widest axis may run along it). Each axis's median
+        // is estimated from a sample; the cut made is exact.
         let m = ids.len() / 2;
         let mut best = (usize::MAX, 0);
+        #[allow(clippy::needless_range_loop)] // `axis` indexes each point's coordinates
         for axis in 0..3 {
-            self.split_at_median(ids, axis);
-            let (on_left, on_right) = self.boundaries(ids, m, axis);
-            if on_left.min(on_right) < best.0 {
-                best = (on_left.min(on_right), axis);
+            let step = (ids.len() / SAMPLE).max(1);
+            let mut sample: Vec<f64> = ids
+                .iter()
+                .step_by(step)
+                .map(|&i| points[i as usize][axis])
+                .collect();
+            let half = sample.len() / 2;
+            let (_, &mut cut, _) = sample.select_nth_unstable_by(half, f64::total_cmp);
+            let slab = ids
+                .iter()
+                .filter(|&&i| (points[i as usize][axis] - cut).abs() <= self.reach)
+                .count();
+            if slab < best.0 {
+                best = (slab, axis);
             }
         }
-        if best.1 != 2 {
-            self.split_at_median(ids, best.1);
-        }
+        self.split_at_median(ids, best.1);
         let (on_left, on_right) = self.boundaries(ids, m, best.1);
         let (left, right) = (self.token - 1, self.token);
         let (mark, reach) = (&self.mark, self.reach);

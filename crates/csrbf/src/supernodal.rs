@@ -146,7 +146,7 @@ struct Plan<'a> {
 }
 
 /// Factors A (`a`, lower triangle in the caller's numbering) into `values`
-/// (faer's layout for `symbolic`, whose columns are A's under `inverse`:
+/// (any contents: every value is written; faer's layout for `symbolic`, whose columns are A's under `inverse`:
 /// `inverse[old] = new`), the two sets of `split` at once when there is
 /// one. Fails with the column (factor numbering) of a pivot that is not
 /// positive.
@@ -168,7 +168,6 @@ pub(crate) fn factor(
         a: Permuted::new(a, inverse),
         updates: Updates::new(symbolic, &of_column),
     };
-    values.fill(0.0);
     // Each supernode's block of values, taken out while it is made.
     let ptr = symbolic.col_ptr_for_val();
     let mut blocks: Vec<Option<&mut [f64]>> = Vec::with_capacity(count);
@@ -331,6 +330,9 @@ impl Plan<'_> {
         let Some(block) = blocks[s].take() else {
             return Ok(()); // not this thread's supernode: never asked
         };
+        // Zeroed here, not all at once before: a large factor's fresh pages
+        // are first touched by the thread that fills them, both at once.
+        block.fill(0.0);
         // A's columns.
         for c in start..stop {
             let col = (c - start) * rows;

@@ -123,6 +123,7 @@ pub const SCENES: [&str; 4] = ["fish", "face", "100k", "1m"];
 /// A named benchmark scene: `fish` (975 points, 92 starts, R 0.3) and `face`
 /// (6158, 32, R 0.2) the sizes of the papers' examples, `100k` (100,000,
 /// 1,000) and `1m` (1,000,000, 10,000) with R giving each start about 44
+/// neighbours; `V/N` (`100000/100000`) any other size, R for about 44
 /// neighbours. The one recipe `csrbf bench`, the examples and the tests use.
 pub fn scene(name: &str) -> Option<SyntheticScene> {
     let (v, n, radius) = match name {
@@ -130,7 +131,15 @@ pub fn scene(name: &str) -> Option<SyntheticScene> {
         "face" => (6158, 32, Some(0.2)),
         "100k" => (100_000, 1_000, None),
         "1m" => (1_000_000, 10_000, None),
-        _ => return None,
+        custom => {
+            // `V/N`: V points and N starts, R about 44 neighbours.
+            let (v, n) = custom.split_once('/')?;
+            let (v, n) = (v.parse().ok()?, n.parse().ok()?);
+            if n == 0 || v > 100_000_000 || n > 10_000_000 {
+                return None;
+            }
+            (v, n, None)
+        }
     };
     Some(scene_of(name, v, n, radius))
 }

@@ -8,12 +8,15 @@ use crate::ordering::{self, Graph};
 use crate::skyline::{Envelope, Profile};
 use crate::solver::{Factor, LowerCsc, SolverChoice};
 
-/// Chooses and runs the factorisation, timing its phases into `phases`.
+/// Chooses and runs the factorisation, timing its phases into `phases`;
+/// `dissection`: the supernodal solver's ordering when made already.
+#[allow(clippy::too_many_arguments)] // the build's state, passed on once
 pub(super) fn factor(
     starts: &[DVec3],
     graph: &Graph,
     perm: Vec<u32>,
     envelope: Envelope,
+    dissection: Option<Vec<u32>>,
     options: &FitOptions,
     phases: &mut FitPhases,
     flops: &mut f64,
@@ -46,7 +49,8 @@ pub(super) fn factor(
     if choice == SolverChoice::Supernodal {
         let a = lower_csc(graph, &phi, kernel.eval(0.0));
         phases.assembly_ms = clock.lap();
-        let order = ordering::geometric_dissection(graph, starts, options.radius);
+        let order = dissection
+            .unwrap_or_else(|| ordering::geometric_dissection(graph, starts, options.radius));
         let symbolic = Factor::supernodal_symbolic(&a, Some(&order))?;
         phases.symbolic_ms = clock.lap();
         // Take the profile unless the supernodal factor needs fewer

@@ -35,6 +35,10 @@ use assemble::factor;
 use graph::{neighbour_counts, neighbour_graph, validate};
 use poly::{PolyBlock, poly_block};
 
+/// From this many starts the supernodal solver's ordering is made beside
+/// the band orderings (on the other core), before the choice between them.
+const DISSECT_AHEAD: usize = 2000;
+
 /// The symbolic and numeric state for one set of start points.
 ///
 /// ```
@@ -121,8 +125,23 @@ impl System {
         }
         let n = starts.len();
         let identity: Vec<u32> = (0..n as u32).collect();
-        let before = ordering::band(&graph, &identity);
-        let chosen = ordering::order(&graph, options.ordering);
+        // The band orderings (the profile solver's) and, on the other core,
+        // the dissection the supernodal solver would take, when it is
+        // likely to be taken.
+        let bands = || {
+            (
+                ordering::band(&graph, &identity),
+                ordering::order(&graph, options.ordering),
+            )
+        };
+        let ((before, chosen), dissection) =
+            if n >= DISSECT_AHEAD && options.solver != crate::solver::SolverChoice::Skyline {
+                rayon::join(bands, || {
+                    Some(ordering::geometric_dissection(&graph, &starts, radius))
+                })
+            } else {
+                (bands(), None)
+            };
         let (perm, after, used) = (chosen.perm, chosen.band, chosen.ordering);
         let envelope = Envelope::new(&graph, &perm);
         let skyline_flops = envelope.factor_flops();
@@ -157,6 +176,7 @@ impl System {
             &graph,
             perm.clone(),
             envelope,
+            dissection,
             &options,
             &mut phases,
             &mut stats.factor_flops,
