@@ -139,6 +139,10 @@ pub struct SystemStats {
     pub factor_flops: f64,
     /// Bytes the factor's f64 values take.
     pub factor_bytes: usize,
+    /// The ordering and symbolic factorisation were taken from the system
+    /// before ([`crate::System::rebuild`]: its neighbour graph was the
+    /// same); the figures above are its.
+    pub reused: bool,
     /// Where building the system spent its time.
     pub phases: FitPhases,
 }

@@ -401,7 +401,12 @@ impl Pipeline {
     fn refresh_system(&mut self, i: usize) -> Result<()> {
         let s = self.state(i)?;
         if s.system.as_ref().is_none_or(|(g, _)| *g != s.gen_system) {
-            let sys = System::new(&s.stage.starts, s.stage.options)?;
+            // The system before keeps its ordering and structure when the
+            // starts moved within their neighbours (a drag).
+            let sys = match &s.system {
+                Some((_, before)) => before.rebuild(&s.stage.starts, s.stage.options)?,
+                None => System::new(&s.stage.starts, s.stage.options)?,
+            };
             s.system = Some((s.gen_system, sys));
             self.work.systems += 1;
         }

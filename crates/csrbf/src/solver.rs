@@ -3,6 +3,8 @@
 //! (faer) with a fill-reducing ordering for systems whose envelope grows too
 //! wide.
 
+use std::sync::Arc;
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
@@ -73,11 +75,13 @@ pub(crate) enum Factor {
     /// faer's supernodal (or simplicial, for tiny systems) factor; it keeps
     /// its own fill-reducing permutation.
     Supernodal {
-        symbolic: SymbolicCholesky<u32>,
+        /// Its structure, shared by the factors of every matrix with the
+        /// same pattern ([`crate::System::rebuild`]).
+        symbolic: Arc<SymbolicCholesky<u32>>,
         values: Vec<f64>,
-        /// Its subtrees cut in two for a solve on two threads (`None`: a
-        /// small or simplicial factor, solved on one).
-        split: Option<Box<Split>>,
+        /// Its subtrees cut in two for a factorisation and a solve on two
+        /// threads (`None`: a small or simplicial factor, made on one).
+        split: Option<Arc<Split>>,
     },
 }
 
@@ -168,61 +172,61 @@ impl Factor {
         symbolic: SymbolicCholesky<u32>,
         a: &LowerCsc,
     ) -> Result<Factor, FitError> {
-        // A supernodal structure is factored here, its two sets of
-        // subtrees at once (`crate::supernodal`); a simplicial one (a tiny
-        // system) by faer.
-        if let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() {
-            let split = Split::of(s, symbolic.len_val()).map(Box::new);
-            let mut values = vec![0.0; symbolic.len_val()];
-            let (forward, inverse) = match symbolic.perm() {
-                Some(p) => {
-                    let (f, i) = p.arrays();
-                    (Some(f), Some(i))
-                }
-                None => (None, None),
-            };
-            if let Err(column) =
-                crate::supernodal::factor(s, inverse, a, split.as_deref(), &mut values)
-            {
-                let control = forward.map_or(column, |f| f[column.min(a.n - 1)] as usize);
-                return Err(FitError::NotPositiveDefinite { control });
-            }
-            clear_upper_vector_state();
-            return Ok(Factor::Supernodal {
-                symbolic,
-                values,
-                split,
-            });
-        }
-        let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
-        let matrix = SparseColMatRef::new(pattern, &a.values);
+        let split = match symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Split::of(s, symbolic.len_val()).map(Arc::new),
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        };
+        Factor::supernodal_with(Arc::new(symbolic), split, a)
+    }
+
+    /// [`Factor::supernodal`] of a structure made before (shared with the
+    /// factor it came from) and its cut.
+    pub(crate) fn supernodal_with(
+        symbolic: Arc<SymbolicCholesky<u32>>,
+        split: Option<Arc<Split>>,
+        a: &LowerCsc,
+    ) -> Result<Factor, FitError> {
         let mut values = vec![0.0; symbolic.len_val()];
-        let par = parallelism(values.len() as f64 * 50.0);
-        let mut mem = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-        )
-        .map_err(|e| FitError::Solver(format!("{e:?}")))?;
-        let result = symbolic.factorize_numeric_llt(
-            &mut values,
-            matrix,
-            Side::Lower,
-            Default::default(),
-            par,
-            MemStack::new(&mut mem),
-            Default::default(),
-        );
-        if let Err(faer::linalg::solvers::LltError::NonPositivePivot { index }) = result {
+        let failed = match symbolic.raw() {
+            // A supernodal structure is factored here, its two sets of
+            // subtrees at once (`crate::supernodal`); a simplicial one (a
+            // tiny system) by faer.
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                let inverse = symbolic.perm().map(|p| p.arrays().1);
+                crate::supernodal::factor(s, inverse, a, split.as_deref(), &mut values).err()
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => {
+                let pattern =
+                    SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
+                let matrix = SparseColMatRef::new(pattern, &a.values);
+                let par = parallelism(values.len() as f64 * 50.0);
+                let mut mem = MemBuffer::try_new(
+                    symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+                )
+                .map_err(|e| FitError::Solver(format!("{e:?}")))?;
+                let result = symbolic.factorize_numeric_llt(
+                    &mut values,
+                    matrix,
+                    Side::Lower,
+                    Default::default(),
+                    par,
+                    MemStack::new(&mut mem),
+                    Default::default(),
+                );
+                match result {
+                    Err(faer::linalg::solvers::LltError::NonPositivePivot { index }) => Some(index),
+                    Ok(_) => None,
+                }
+            }
+        };
+        if let Some(column) = failed {
             let control = symbolic
                 .perm()
-                .map(|p| p.arrays().0[index.min(a.n - 1)] as usize)
-                .unwrap_or(index);
+                .map(|p| p.arrays().0[column.min(a.n - 1)] as usize)
+                .unwrap_or(column);
             return Err(FitError::NotPositiveDefinite { control });
         }
         clear_upper_vector_state();
-        let split = match symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(s) => Split::of(s, values.len()).map(Box::new),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
-        };
         Ok(Factor::Supernodal {
             symbolic,
             values,

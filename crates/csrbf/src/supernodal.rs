@@ -575,7 +575,7 @@ mod tests {
                 }
                 // And it solves A: the residual of a random right-hand side.
                 let factor = Factor::Supernodal {
-                    symbolic,
+                    symbolic: std::sync::Arc::new(symbolic),
                     values: plain,
                     split: None,
                 };

@@ -172,6 +172,36 @@ fn a_placed_map_is_the_fit_of_the_placed_controls() {
     }
 }
 
+/// A system rebuilt from the one before equals a new one: a start moved
+/// within its neighbours (the structure kept), another kernel (kept), a
+/// start moved across a neighbour's reach (made again), on both solvers.
+#[test]
+fn a_rebuilt_system_equals_a_new_one() {
+    for solver in SOLVERS {
+        let (s, t) = scene(400, 3);
+        let opts = options(Kernel::C2, Polynomial::Linear, 0.3, solver);
+        let sys = System::new(&s, opts).expect("fit");
+        let mut near = s.clone();
+        near[17] += DVec3::splat(1e-7);
+        let mut far = s.clone();
+        far[17] = DVec3::new(0.5, 0.5, 0.5);
+        let c4 = opts.with_kernel(Kernel::C4);
+        for (starts, o, kept) in [(&near, opts, true), (&s, c4, true), (&far, opts, false)] {
+            let again = sys.rebuild(starts, o).expect("rebuilt");
+            assert_eq!(again.stats().reused, kept, "{solver:?} kept {kept}");
+            let fresh = System::new(starts, o).expect("new");
+            let (a, b) = (again.solve(&t).expect("a"), fresh.solve(&t).expect("b"));
+            for _ in 0..3 {
+                for x in [DVec3::splat(0.3), DVec3::new(0.7, 0.2, 0.5), starts[17]] {
+                    assert_close(a.map(x).x, b.map(x).x, 1e-10, "rebuilt vs new");
+                    assert_close(a.map(x).z, b.map(x).z, 1e-10, "rebuilt vs new");
+                }
+            }
+            assert_eq!(a.fingerprint(), b.fingerprint());
+        }
+    }
+}
+
 #[test]
 fn none_is_exactly_zero_beyond_the_radius() {
     for seed in 0..5 {

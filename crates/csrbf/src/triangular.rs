@@ -790,7 +790,7 @@ mod tests {
             return;
         }
         let factor = Factor::Supernodal {
-            split: cut.map(Box::new),
+            split: cut.map(std::sync::Arc::new),
             symbolic,
             values,
         };

@@ -70,6 +70,46 @@ pub(super) fn factor(
     skyline(envelope, phases, clock)
 }
 
+/// A factor of the same structure as `previous` (same graph, ordering and
+/// symbolic analysis) for new values: other start positions with the same
+/// neighbours, or another kernel. Times assembly and numeric work.
+pub(super) fn refactor(
+    previous: &Factor,
+    starts: &[DVec3],
+    graph: &Graph,
+    options: &FitOptions,
+    phases: &mut FitPhases,
+) -> Result<Factor, crate::error::FitError> {
+    let mut clock = Clock::start();
+    let kernel = options.kernel;
+    let inv_r = 1.0 / options.radius;
+    let phi = |i: usize, j: usize| kernel.eval(starts[i].distance(starts[j]) * inv_r);
+    match previous {
+        Factor::Skyline { profile, perm } => {
+            let profile = assemble_profile(
+                graph,
+                perm,
+                profile.envelope().clone(),
+                &phi,
+                kernel.eval(0.0),
+            );
+            phases.assembly_ms = clock.lap();
+            let factor = Factor::skyline(profile, perm.clone());
+            phases.numeric_ms = clock.lap();
+            factor
+        }
+        Factor::Supernodal {
+            symbolic, split, ..
+        } => {
+            let a = lower_csc(graph, &phi, kernel.eval(0.0));
+            phases.assembly_ms = clock.lap();
+            let factor = Factor::supernodal_with(symbolic.clone(), split.clone(), &a);
+            phases.numeric_ms = clock.lap();
+            factor
+        }
+    }
+}
+
 fn assemble_profile(
     graph: &Graph,
     perm: &[u32],

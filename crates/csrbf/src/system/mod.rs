@@ -68,6 +68,9 @@ pub struct System {
     stats: SystemStats,
     /// Pairs of starts closer than [`graph::NEAR_FRACTION`] R.
     near: Vec<(u32, u32)>,
+    /// The neighbour graph its structure was made for
+    /// ([`System::rebuild`] compares it).
+    graph: Arc<crate::ordering::Graph>,
 }
 
 impl System {
@@ -78,10 +81,28 @@ impl System {
     /// plane.
     pub fn new<P: Point>(starts: &[P], options: FitOptions) -> Result<System, FitError> {
         let starts: Vec<DVec3> = starts.iter().map(|p| p.to_dvec3()).collect();
-        System::build(starts, options)
+        System::build(starts, options, None)
     }
 
-    fn build(starts: Vec<DVec3>, options: FitOptions) -> Result<System, FitError> {
+    /// The system for `starts` and `options`, taking this one's ordering
+    /// and symbolic factorisation when they fit: when the neighbour graph
+    /// comes out the same (starts moved without a neighbour gained or
+    /// lost, another kernel; the radius, solver and ordering asked alike).
+    /// Then only the matrix is assembled and factored again: a start
+    /// dragged costs the graph, assembly, numeric factorisation and
+    /// polynomial block, not the orderings and symbolic analysis
+    /// ([`SystemStats::reused`] says which was done). The result equals
+    /// [`System::new`]'s.
+    pub fn rebuild<P: Point>(&self, starts: &[P], options: FitOptions) -> Result<System, FitError> {
+        let starts: Vec<DVec3> = starts.iter().map(|p| p.to_dvec3()).collect();
+        System::build(starts, options, Some(self))
+    }
+
+    fn build(
+        starts: Vec<DVec3>,
+        options: FitOptions,
+        previous: Option<&System>,
+    ) -> Result<System, FitError> {
         let mut clock = Clock::start();
         let mut phases = FitPhases::default();
         validate(&starts, &options)?;
@@ -124,6 +145,14 @@ impl System {
             });
         }
         let n = starts.len();
+        if let Some(p) = previous.filter(|p| {
+            p.options.radius == radius
+                && p.options.solver == options.solver
+                && p.options.ordering == options.ordering
+                && *p.graph == graph
+        }) {
+            return System::refit(p, starts, options, octree, graph, near, clock, phases);
+        }
         let identity: Vec<u32> = (0..n as u32).collect();
         // The band orderings (the profile solver's) and, on the other core,
         // the dissection the supernodal solver would take, when it is
@@ -205,6 +234,50 @@ impl System {
             poly,
             stats,
             near,
+            graph: Arc::new(graph),
+        })
+    }
+
+    /// [`System::build`]'s end when `previous` has the same graph: its
+    /// ordering, structure and figures, new values.
+    #[allow(clippy::too_many_arguments)] // the build's state, passed on once
+    fn refit(
+        previous: &System,
+        starts: Vec<DVec3>,
+        options: FitOptions,
+        octree: Octree,
+        graph: crate::ordering::Graph,
+        near: Vec<(u32, u32)>,
+        mut clock: Clock,
+        mut phases: FitPhases,
+    ) -> Result<System, FitError> {
+        phases.ordering_ms = clock.lap();
+        let factor = assemble::refactor(&previous.factor, &starts, &graph, &options, &mut phases)?;
+        clock.lap();
+        let poly = match options.polynomial {
+            Polynomial::None => None,
+            Polynomial::Linear => Some(poly_block(&starts, &factor)?),
+        };
+        phases.polynomial_ms = clock.lap();
+        let mut stats = previous.stats.clone();
+        stats.phases = phases;
+        stats.reused = true;
+        let fingerprint = crate::deformation::fingerprint(options.kernel, options.radius, &starts);
+        Ok(System {
+            options,
+            shared: Shared {
+                kernel: options.kernel,
+                radius: options.radius,
+                starts: starts.into(),
+                order: previous.shared.order.clone(),
+                octree: Arc::new(octree),
+                fingerprint,
+            },
+            factor,
+            poly,
+            stats,
+            near,
+            graph: previous.graph.clone(),
         })
     }
 
