@@ -28,7 +28,7 @@
 # imports (scripts/release/check_wheel.py: auditwheel's manylinux_2_17 for
 # Linux, python3.dll and Windows' own DLLs only for Windows), `twine check`,
 # Blender's own validation of each zip, the programs' glibc symbols; then the
-# Linux wheel is installed with no compiler on PATH and runs the README's
+# Linux wheel is installed with no compiler on PATH and runs the guide's
 # example and the smoke tests; the Windows wheel runs under Wine in
 # python.org's Windows CPython and gives the Linux wheel's results bit for
 # bit (scripts/release/windows_wheel_test.sh); the Linux Blender zip is

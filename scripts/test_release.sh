@@ -3,7 +3,7 @@
 # the dev profile into target/release-dev/ (never dist/): the manylinux2014
 # and win_amd64 wheels, the sdist and the Blender zips, with every check
 # release.sh makes (tags, auditwheel, imports, twine, Blender's validation,
-# the wheel installed with no compiler on PATH running the README's example
+# the wheel installed with no compiler on PATH running the guide's Python example
 # and the smoke tests, the Windows wheel under Wine in a Windows CPython
 # agreeing with the Linux one, the Linux zip installed into headless Blender
 # and deforming). Then wheels that must be refused are: a host-linked build

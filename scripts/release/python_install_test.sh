@@ -8,9 +8,9 @@
 # `pip install --no-index --find-links DIR csrbf` (timed) in an empty
 # environment (`env -i`) whose PATH is the venv's bin alone: no cargo, no
 # rustc, no cc, and no index to fetch an sdist from, so a wheel that did not
-# fit this machine fails rather than being compiled. Then the
-# README's Python example runs (the first python block of its "Python"
-# section, beside the bundled assets) and the package's smoke tests.
+# fit this machine fails rather than being compiled. Then the guide's
+# Python example runs (the first python block of docs/python.md, beside the
+# bundled assets) and the package's smoke tests.
 set -euo pipefail
 dir=$(realpath "$1")
 cd "$(dirname "$0")/../.."
@@ -26,20 +26,19 @@ env -i HOME="$work" PATH="$work/venv/bin" "$work/venv/bin/python" -m pip install
   --no-index --find-links "$dir" csrbf
 took=$(( ($(date +%s%N) - start) / 1000000 ))
 "$work/venv/bin/python" -c 'import csrbf, sys; print(f"python install test: csrbf {csrbf.__version__} ({csrbf.build_profile}) installed from '"$dir"' in '"$took"' ms, no compiler on PATH; {csrbf.__file__}")'
-# The README's example, where its relative paths resolve (assets/), in a folder of its own.
+# The guide's example, where its relative paths resolve (assets/), in a folder of its own.
 mkdir -p "$work/example"
 ln -s "$PWD/assets" "$work/example/assets"
-"$py" - README.md > "$work/example/example.py" <<'PY'
+"$py" - docs/python.md > "$work/example/example.py" <<'PY'
 import re, sys
 text = open(sys.argv[1]).read()
-section = text.split("\n## Python\n", 1)[1].split("\n## ", 1)[0]
-blocks = re.findall(r"```python\n(.*?)```", section, re.S)
+blocks = re.findall(r"```python\n(.*?)```", text, re.S)
 if not blocks:
-    sys.exit("python install test: the README's Python section has no python block")
+    sys.exit("python install test: docs/python.md has no python block")
 print(blocks[0])
 PY
 (cd "$work/example" && "$work/venv/bin/python" example.py)
-echo "python install test: the README's Python example ran"
+echo "python install test: the guide's Python example ran"
 export CSRBF_EXPECT_BUILD_PROFILE="$profile"
 (cd "$work" && "$work/venv/bin/python" -m pytest -q -p no:cacheprovider -m smoke \
   "$root/crates/csrbf-py/tests/test_deformation.py" "$root/crates/csrbf-py/tests/test_system.py")

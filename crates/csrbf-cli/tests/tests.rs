@@ -4,6 +4,7 @@ mod aim;
 mod bad_input;
 mod commands;
 mod connected;
+mod docs;
 mod intersections;
 mod limits;
 mod meaning;

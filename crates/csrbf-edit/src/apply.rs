@@ -19,7 +19,7 @@ use crate::report::Report;
 
 /// Meshes of at most this many triangles are searched for faces passing
 /// through each other unless told otherwise ([`Checks::self_intersections`]).
-/// See the README's figures for what the search costs.
+/// See docs/performance.md and CHANGELOG.md for what the search costs.
 pub const SELF_INTERSECTION_TRIANGLES: usize = 2_000_000;
 
 /// What is checked of a deformed mesh beyond moves and folds.

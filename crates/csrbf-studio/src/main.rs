@@ -1,7 +1,7 @@
 //! `csrbf-studio [MESH] [CONTROLS]`: the Picker. Opens a mesh (and a control
 //! file on it) and lets a person place, drag and tune control vectors with a
 //! live preview; `csrbf-studio SCENE.scene.json` opens a scene in the
-//! Composer. See the README's sections "The studio" and "The Composer".
+//! Composer. See docs/studio.md and docs/composer.md.
 
 use std::path::PathBuf;
 
@@ -21,7 +21,7 @@ fn main() -> std::process::ExitCode {
                      The Picker: place, drag and tune control vectors on a mesh with a live preview.\n\
                      MESH: .obj .ply .stl .off .gltf .glb; CONTROLS: a control file as `csrbf deform` reads it.\n\
                      The Composer: a scene file as `csrbf animate` reads it opens in it (objects, keys, playback, export).\n\
-                     Keys: see the README, sections \"The studio\" and \"The Composer\"."
+                     Keys: see docs/studio.md and docs/composer.md."
                 );
                 return std::process::ExitCode::SUCCESS;
             }
