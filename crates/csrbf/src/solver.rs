@@ -97,7 +97,7 @@ pub(crate) struct LowerCsc {
 /// faer's parallelism for a numeric factorisation of this much work: its
 /// own threads only on a machine with more than two. On this project's
 /// two-core machine the parallel factorisation was slower at every size
-/// measured (`--example fit`, quiet, medians of 3: 10k controls 92 -> 47 ms
+/// measured (`--example bench_fit`, quiet, medians of 3: 10k controls 92 -> 47 ms
 /// on one thread, 40k 475 -> 345 ms); beyond two cores it is left to faer
 /// (not measured here).
 fn parallelism(work: f64) -> Par {

@@ -1,5 +1,5 @@
 //! Times binding and refitting alone on a synthetic scene, for profiling:
-//! `cargo run --release --example bind -p csrbf [-- SCENE REPEATS]` (SCENE:
+//! `cargo run --release --example bench_bind -p csrbf [-- SCENE REPEATS]` (SCENE:
 //! one of `csrbf::synthetic::SCENES`, default 1m). Prints the medians of
 //! bind, solve, refit through the binding (without the solve) and evaluate,
 //! the binding's size, and the largest difference between the binding and

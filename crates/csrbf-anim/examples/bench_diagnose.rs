@@ -1,6 +1,6 @@
 //! Times the diagnostics against the deformation alone, for the figure of
 //! issue 6 (diagnostics <= 10 % of a deform):
-//! `cargo run --release --example diagnose -p csrbf-anim -- MESH CONTROLS [RUNS]`.
+//! `cargo run --release --example bench_diagnose -p csrbf-anim -- MESH CONTROLS [RUNS]`.
 
 use std::time::Instant;
 

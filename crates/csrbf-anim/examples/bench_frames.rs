@@ -1,5 +1,5 @@
 //! Times `Scene::frame` for a demo, for profiling:
-//! `cargo run --release --example frames -p csrbf-anim -- fish 2000`.
+//! `cargo run --release --example bench_frames -p csrbf-anim -- fish 2000`.
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

@@ -1,5 +1,5 @@
 //! Times fitting alone on the synthetic sphere scenes, for profiling:
-//! `cargo run --release --example fit -p csrbf [-- STARTS REPEATS RADIUS]`.
+//! `cargo run --release --example bench_fit -p csrbf [-- STARTS REPEATS RADIUS]`.
 
 use csrbf::System;
 use csrbf::synthetic::scene_of;

@@ -1,5 +1,5 @@
 //! Times `Scene::frame` for a scene file:
-//! `cargo run --release --example scene_frames -p csrbf-anim -- SCENE [REPEATS]`.
+//! `cargo run --release --example bench_scene_frames -p csrbf-anim -- SCENE [REPEATS]`.
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

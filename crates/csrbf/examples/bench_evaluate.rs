@@ -1,5 +1,5 @@
 //! Times evaluation alone on the synthetic 1M-vertex scene, for profiling:
-//! `cargo run --release --example evaluate -p csrbf [-- VERTICES STARTS REPEATS [RADIUS]]`.
+//! `cargo run --release --example bench_evaluate -p csrbf [-- VERTICES STARTS REPEATS [RADIUS]]`.
 
 use csrbf::Deformation;
 use csrbf::synthetic::scene_of;
