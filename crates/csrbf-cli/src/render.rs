@@ -34,6 +34,11 @@ pub struct RenderArgs {
     /// Rest (left) and deformed (right) side by side, seen by one camera.
     #[arg(long)]
     pub before_after: bool,
+    /// Draw the faces the deformation turns inside out in red, through the
+    /// rest of the surface made see-through (the exact check `deform`
+    /// reports; needs --controls).
+    #[arg(long)]
+    pub folds: bool,
     /// Allow the output to replace an input file.
     #[arg(long)]
     pub force: bool,
@@ -58,6 +63,9 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
     if a.before_after && a.controls.is_none() {
         bail!("--before-after shows a deformation: give --controls too");
     }
+    if a.folds && a.controls.is_none() {
+        bail!("--folds shows where a deformation turns faces inside out: give --controls too");
+    }
     if a.before_after && size[0] < 2 {
         bail!("--before-after needs a picture at least 2 pixels wide");
     }
@@ -75,12 +83,24 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
         &a.camera,
         a.before_after,
     )?;
-    let scene = aimed.scene;
+    let mut scene = aimed.scene;
     progress.say(format_args!(
         "up {} ({})",
         csrbf_anim::camera::axis_name(aimed.up.0),
         aimed.up.1
     ));
+    if a.folds
+        && let Some(c) = &a.controls
+    {
+        let file = crate::common::read_controls(c, progress)?;
+        let faces = inside_out_faces(&aimed.mesh, &file, a.phase)?;
+        progress.say(format_args!(
+            "{} faces inside out{}",
+            faces.len(),
+            if faces.is_empty() { "" } else { ", drawn red" }
+        ));
+        paint(&mut scene.objects[0], &aimed.mesh, faces);
+    }
     // Through the exact camera the flags made (orthographic too); `pick` uses it.
     let mut look = a.look.options();
     look.camera = Some(aimed.camera);
@@ -110,6 +130,73 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
         t.elapsed().as_secs_f64() * 1e3
     ));
     Ok(())
+}
+
+/// The red of faces turned inside out.
+const FOLD_RED: [f32; 4] = [0.86, 0.08, 0.06, 1.0];
+
+/// The faces of `mesh` that `file` at `phase` turns inside out, as
+/// `csrbf deform` finds them (ascending).
+fn inside_out_faces(
+    mesh: &csrbf_mesh::Mesh,
+    file: &csrbf_edit::ControlFile,
+    phase: f64,
+) -> Result<Vec<u32>> {
+    let mut moved = mesh.clone();
+    let checks = csrbf_edit::Checks::default().with_self_intersections(Some(false));
+    let report = csrbf_edit::apply::deform_mesh_checked(
+        &mut moved,
+        file,
+        phase,
+        &checks,
+        csrbf_edit::RemedySearch::Off,
+    )?;
+    // Triangles to the faces they were cut from.
+    let mut face_of = Vec::with_capacity(mesh.faces.triangle_count());
+    for (f, corners) in mesh.faces.iter().enumerate() {
+        face_of.extend(std::iter::repeat_n(
+            f as u32,
+            corners.len().saturating_sub(2),
+        ));
+    }
+    let mut faces: Vec<u32> = report
+        .diagnostics
+        .inside_out
+        .iter()
+        .filter_map(|&t| face_of.get(t as usize).copied())
+        .collect();
+    faces.dedup();
+    Ok(faces)
+}
+
+/// The opacity of the rest of the surface when faces are shown inside out:
+/// a fold's turned faces lie between two layers of surface, seen through it.
+const SEE_THROUGH: f32 = 0.35;
+
+/// Moves `faces` out of the object's parts into a red part of their own
+/// (the last part: it owns them), and makes the rest see-through.
+fn paint(object: &mut csrbf_anim::Object, mesh: &csrbf_mesh::Mesh, faces: Vec<u32>) {
+    if faces.is_empty() {
+        return;
+    }
+    for part in &mut object.parts {
+        part.faces.retain(|f| faces.binary_search(f).is_err());
+        part.color[3] *= SEE_THROUGH;
+    }
+    let mut vertices: Vec<u32> = faces
+        .iter()
+        .flat_map(|&f| mesh.faces.face(f as usize).iter().copied())
+        .collect();
+    vertices.sort_unstable();
+    vertices.dedup();
+    object.parts.push(csrbf_anim::Part {
+        name: "inside out".into(),
+        faces,
+        vertices,
+        color: FOLD_RED,
+        texture: None,
+        wireframe: false,
+    });
 }
 
 /// Two pictures of one height next to each other in a picture `width` wide

@@ -460,6 +460,73 @@ fn render_shows_a_gltf_models_own_texture_upright() {
     assert!(blue_y / nb < green_y / ng, "the texture is upside down");
 }
 
+/// `render --folds` draws the faces a deformation turns inside out in red,
+/// and only those: none in a picture of an edit that does not fold.
+#[test]
+fn render_shows_inside_out_faces_in_red() {
+    let dir = TempDir::new("render-folds");
+    // The mouth's corner pushed 1.5 R sideways: the cheek folds.
+    let folding = dir.write(
+        "fold.json",
+        r#"{"radius": 2.0, "controls": [{"from": [-5.89911, 7.551, -1.42866], "to": [-5.89911, 7.551, 1.57134]}]}"#,
+    );
+    let head = head();
+    let red = |controls: &std::path::Path, folds: bool, name: &str| {
+        let out = dir.path(name);
+        let mut args = vec![
+            "render",
+            "-q",
+            "--mesh",
+            arg(&head),
+            "--controls",
+            arg(controls),
+            "--out",
+            arg(&out),
+            "--size",
+            "320x240",
+            "--view",
+            "left",
+            "--zoom",
+            "2.5",
+            "--target=-6,8,-0.5",
+        ];
+        if folds {
+            args.push("--folds");
+        }
+        ok(&args);
+        let (_, _, px) = image_rgba(&out);
+        px.iter()
+            .filter(|p| {
+                let (r, g, b) = (u16::from(p[0]), u16::from(p[1]), u16::from(p[2]));
+                r > 120 && g * 2 < r && b * 2 < r
+            })
+            .count()
+    };
+    let shown = red(&folding, true, "folds.png");
+    assert!(shown > 10, "{shown} red pixels where the cheek folds");
+    assert_eq!(
+        red(&folding, false, "plain.png"),
+        0,
+        "red only with --folds"
+    );
+    assert_eq!(
+        red(&smile(), true, "smile.png"),
+        0,
+        "the smile does not fold"
+    );
+    fails(
+        &[
+            "render",
+            "--mesh",
+            arg(&head),
+            "--out",
+            arg(&dir.path("x.png")),
+            "--folds",
+        ],
+        &["--folds", "--controls"],
+    );
+}
+
 /// Width, height and pixels of a PNG.
 pub fn image_rgba(path: &std::path::Path) -> (u32, u32, Vec<[u8; 4]>) {
     let decoder = png::Decoder::new(std::io::BufReader::new(

@@ -154,7 +154,7 @@ pub struct Chosen {
 
 /// The numbering `ordering` asks for, and its band. `Auto` takes the smallest
 /// envelope of the candidates, so it never widens the caller's order (up to
-/// [`AUTO_ONE_ORDERING`] starts; beyond, reverse Cuthill-McKee's).
+/// 20,000 starts; beyond, reverse Cuthill-McKee's).
 pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
     let pick = |o: Ordering| match o {
         Ordering::BreadthFirst => breadth_first(graph),

@@ -171,8 +171,8 @@ pub fn scene_of(name: &str, points: usize, starts: usize, radius: Option<f64>) -
 }
 
 /// A scan-like benchmark scene: the points of a real mesh (its vertices),
-/// `starts` of them chosen as starts spread evenly over it (seeded, by
-/// [`spread_subset`]'s spacing), R = `share` times the diagonal of
+/// `starts` of them chosen as starts spread evenly over it (seeded: visited
+/// in a random order, each kept unless a kept one is near), R = `share` times the diagonal of
 /// the points' box, destinations smooth random moves of about 0.2 R. What a
 /// user does on a scan: controls on its surface, R a share of its size.
 /// Fewer starts than asked when the mesh has too few distinct vertices.
