@@ -154,15 +154,21 @@ pub fn scene_of(name: &str, points: usize, starts: usize, radius: Option<f64>) -
         .map(|p| p.as_vec3())
         .collect();
     let s = fibonacci_sphere(starts, c, 0.4, 0.3, 1);
-    let targets = s
+    moved_scene(name, pts, s, r)
+}
+
+/// A scene of `points` and `starts` moved smoothly by about 0.2 R (seeded),
+/// C2 with the linear polynomial: the recipe of every benchmark scene.
+fn moved_scene(name: &str, points: Vec<glam::Vec3>, starts: Vec<DVec3>, r: f64) -> SyntheticScene {
+    let targets = starts
         .iter()
-        .zip(smooth_displacements(&s, 0.2 * r, 2))
+        .zip(smooth_displacements(&starts, 0.2 * r, 2))
         .map(|(s, d)| *s + d)
         .collect();
     SyntheticScene {
         name: name.to_owned(),
-        points: pts,
-        starts: s,
+        points,
+        starts,
         targets,
         options: crate::FitOptions::new(r)
             .with_kernel(crate::Kernel::C2)
@@ -194,20 +200,7 @@ pub fn scan_scene(
     let chosen = spread_subset(&points, starts, diagonal);
     let r = (share * diagonal).max(f64::MIN_POSITIVE);
     let s: Vec<DVec3> = chosen.iter().map(|&i| points[i].as_dvec3()).collect();
-    let targets = s
-        .iter()
-        .zip(smooth_displacements(&s, 0.2 * r, 2))
-        .map(|(s, d)| *s + d)
-        .collect();
-    SyntheticScene {
-        name: name.to_owned(),
-        points,
-        starts: s,
-        targets,
-        options: crate::FitOptions::new(r)
-            .with_kernel(crate::Kernel::C2)
-            .with_polynomial(crate::Polynomial::Linear),
-    }
+    moved_scene(name, points, s, r)
 }
 
 /// Up to `n` indices of finite `points`, spread evenly: visited in a seeded

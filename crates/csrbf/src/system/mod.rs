@@ -219,17 +219,9 @@ impl System {
         };
         phases.polynomial_ms = clock.lap();
         stats.phases = phases;
-        let fingerprint = crate::deformation::fingerprint(options.kernel, radius, &starts);
         Ok(System {
             options,
-            shared: Shared {
-                kernel: options.kernel,
-                radius,
-                starts: starts.into(),
-                order: perm.into(),
-                octree: Arc::new(octree),
-                fingerprint,
-            },
+            shared: Shared::new(&options, starts, perm.into(), octree),
             factor,
             poly,
             stats,
@@ -262,17 +254,9 @@ impl System {
         let mut stats = previous.stats.clone();
         stats.phases = phases;
         stats.reused = true;
-        let fingerprint = crate::deformation::fingerprint(options.kernel, options.radius, &starts);
         Ok(System {
             options,
-            shared: Shared {
-                kernel: options.kernel,
-                radius: options.radius,
-                starts: starts.into(),
-                order: previous.shared.order.clone(),
-                octree: Arc::new(octree),
-                fingerprint,
-            },
+            shared: Shared::new(&options, starts, previous.shared.order.clone(), octree),
             factor,
             poly,
             stats,
@@ -419,6 +403,22 @@ impl System {
     /// The ordering used (`order[new] = start index`).
     pub fn order(&self) -> &[u32] {
         &self.shared.order
+    }
+}
+
+impl Shared {
+    /// The block a system's deformations share, for these starts in the
+    /// order `order`.
+    fn new(options: &FitOptions, starts: Vec<DVec3>, order: Arc<[u32]>, octree: Octree) -> Shared {
+        let fingerprint = crate::deformation::fingerprint(options.kernel, options.radius, &starts);
+        Shared {
+            kernel: options.kernel,
+            radius: options.radius,
+            starts: starts.into(),
+            order,
+            octree: Arc::new(octree),
+            fingerprint,
+        }
     }
 }
 
