@@ -165,6 +165,34 @@ fn the_command_blocks_marked_to_run_run() {
     assert!(ran >= 3, "only {ran} commands marked to run");
 }
 
+/// Every `json` block marked to run is read as what its page describes: a
+/// control file (docs/control-files.md) or a scene file (docs/scenes.md),
+/// with no warning (a misspelt key would be one).
+#[test]
+fn the_json_blocks_marked_to_run_are_read_as_their_pages_say() {
+    let mut read = 0;
+    for page in pages() {
+        let text = std::fs::read_to_string(&page).expect("page");
+        let name = page.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        for block in marked_blocks(&text, "json") {
+            match name {
+                "control-files.md" => {
+                    let file = csrbf_edit::ControlFile::parse(&block)
+                        .unwrap_or_else(|e| panic!("{name}: {e}\n{block}"));
+                    assert!(file.warnings.is_empty(), "{name}: {:?}", file.warnings);
+                }
+                "scenes.md" => {
+                    csrbf_anim::SceneFile::parse(&block)
+                        .unwrap_or_else(|e| panic!("{name}: {e}\n{block}"));
+                }
+                other => panic!("{other}: a json block marked to run, but of what?"),
+            }
+            read += 1;
+        }
+    }
+    assert!(read >= 2, "only {read} json blocks marked to run");
+}
+
 /// The bodies of the code blocks of `language` marked to run.
 pub fn marked_blocks(text: &str, language: &str) -> Vec<String> {
     let mut out = Vec::new();
