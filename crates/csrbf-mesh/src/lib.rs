@@ -37,6 +37,7 @@ mod io;
 mod normals;
 pub mod shapes;
 mod stand_in;
+pub mod volume;
 
 pub use bvh::{Bvh, Hit, Nearest, Ray};
 pub use carry::{SAME_NORMAL_COS, carry_normals, smooth_groups};
