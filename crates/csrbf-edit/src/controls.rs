@@ -761,7 +761,7 @@ fn join(base: &str, key: &str) -> String {
     }
 }
 
-fn err(location: &str, message: impl Into<String>) -> ControlError {
+pub(crate) fn err(location: &str, message: impl Into<String>) -> ControlError {
     ControlError {
         location: location.to_owned(),
         message: message.into(),
@@ -773,7 +773,12 @@ fn err(location: &str, message: impl Into<String>) -> ControlError {
 /// with it, a front end building a file refuses it.
 pub const UNKNOWN_KEY: &str = "unknown key ignored";
 
-fn unknown_keys(obj: &Map<String, Value>, known: &[&str], base: &str, warnings: &mut Vec<String>) {
+pub(crate) fn unknown_keys(
+    obj: &Map<String, Value>,
+    known: &[&str],
+    base: &str,
+    warnings: &mut Vec<String>,
+) {
     for k in obj.keys().filter(|k| !known.contains(&k.as_str())) {
         match nearest_known(k, known) {
             Some(near) => warnings.push(format!(
@@ -1062,7 +1067,7 @@ fn vectors(
     Ok((starts, targets))
 }
 
-fn number(v: Option<&Value>, at: &str) -> Result<Option<f64>, ControlError> {
+pub(crate) fn number(v: Option<&Value>, at: &str) -> Result<Option<f64>, ControlError> {
     match v {
         None | Some(Value::Null) => Ok(None),
         Some(x) => x
@@ -1153,7 +1158,7 @@ fn parse_handle(v: &Value, at: &str, warnings: &mut Vec<String>) -> Result<Handl
     Ok(h)
 }
 
-fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
+pub(crate) fn point(v: Option<&Value>, at: &str) -> Result<DVec3, ControlError> {
     let v = v.ok_or_else(|| err(at, "missing: expected three numbers [x, y, z]"))?;
     let a = v
         .as_array()

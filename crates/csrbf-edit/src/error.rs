@@ -37,6 +37,11 @@ pub enum EditError {
         /// What needs it, and what to give.
         what: &'static str,
     },
+    /// A volume morph that cannot be made: a zone the mesh lacks, a
+    /// displacement file or morph document at fault (the message names the
+    /// file and the line or JSON path).
+    #[error("{0}")]
+    Morph(String),
     /// Reading or writing a file.
     #[error(transparent)]
     Mesh(#[from] csrbf_mesh::MeshError),

@@ -58,6 +58,7 @@ pub mod controls;
 mod error;
 mod fit;
 pub mod json;
+pub mod volume;
 mod remedy;
 mod report;
 mod session;

@@ -192,14 +192,29 @@ pub fn det_cubic(g: DMat3) -> [f64; 3] {
 /// positive holds the root.
 pub fn fold_phase(g: DMat3) -> Option<f64> {
     let [c1, c2, c3] = det_cubic(g);
-    if !(c1.is_finite() && c2.is_finite() && c3.is_finite()) {
+    first_nonpositive([1.0, c1, c2, c3])
+}
+
+/// The smallest t in (0, 1] at which c0 + c1 t + c2 t^2 + c3 t^3 <= 0, for
+/// c0 > 0; None when it stays positive on (0, 1] or a coefficient is not
+/// finite (and Some(0) when c0 <= 0 already). Exact up to bisection to
+/// 1e-12: the cubic is split at its turning points into monotone pieces, and
+/// the first piece whose end is not positive holds the root. A corner of a
+/// cell whose nodes move on straight lines has such a determinant.
+pub fn first_nonpositive(c: [f64; 4]) -> Option<f64> {
+    let [c0, c1, c2, c3] = c;
+    if !c.iter().all(|v| v.is_finite()) {
         return None;
     }
-    let f = |t: f64| 1.0 + t * (c1 + t * (c2 + t * c3));
+    if c0 <= 0.0 {
+        return Some(0.0);
+    }
+    let f = |t: f64| c0 + t * (c1 + t * (c2 + t * c3));
     // Turning points: roots of c1 + 2 c2 t + 3 c3 t^2 within (0, 1).
     let mut cuts = Vec::with_capacity(4);
     let (a, b, c) = (3.0 * c3, 2.0 * c2, c1);
-    if a.abs() > 1e-300 {
+    let tiny = 1e-300 * c0.max(1.0);
+    if a.abs() > tiny {
         let disc = b * b - 4.0 * a * c;
         if disc >= 0.0 {
             let q = -0.5 * (b + b.signum() * disc.sqrt());
@@ -209,7 +224,7 @@ pub fn fold_phase(g: DMat3) -> Option<f64> {
                 }
             }
         }
-    } else if b.abs() > 1e-300 {
+    } else if b.abs() > tiny {
         let r = -c / b;
         if r > 0.0 && r < 1.0 {
             cuts.push(r);

@@ -238,14 +238,14 @@ pub use error::{
 pub use evaluate::{Point, Points, PointsMut};
 pub use folds::{Folds, folds};
 pub use handle::{Handle, HandleControls, Rotation};
-pub use jacobian::{det_cubic, fold_phase};
+pub use jacobian::{det_cubic, first_nonpositive, fold_phase};
 pub use kernel::{Kernel, Polynomial};
 pub use lanes::{EvaluationCounts, Roofline};
 pub use ordering::Ordering;
 pub use pipeline::{Pipeline, Stage, Work};
 pub use region::{Origin, Region};
 pub use solver::SolverChoice;
-pub use stage::{Combine, FittedStage, SweepStep, compose, compose_with_groups};
+pub use stage::{Combine, FittedStage, SweepStep, compose, compose_f64, compose_with_groups};
 pub use stretch::{STRETCH_LIMIT, face_stretches};
 pub use surface::Surface;
 pub use sweep::{MAX_STEPS, Path, Paths, Sweep, SweepOptions, step_phase};

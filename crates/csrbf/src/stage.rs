@@ -216,6 +216,56 @@ pub fn compose_with_groups(
     compose_traced(rest, stages, combine, groups, None)
 }
 
+/// [`compose_with_groups`] in f64 throughout, for points that must come
+/// back as precise as they went in (a solver's volume mesh): each stage's
+/// displacement by the f64 evaluation ([`Deformation::displacements`]),
+/// times its phase and the point's region weight (the region chosen on the
+/// rest points rounded to f32, as every composition chooses it). A point
+/// no stage reaches keeps its coordinates bit for bit.
+pub fn compose_f64(
+    rest: &[DVec3],
+    stages: &[FittedStage],
+    combine: Combine,
+    groups: &dyn Fn(&str) -> Option<Vec<u32>>,
+) -> Result<Vec<DVec3>> {
+    let rest32: Vec<Vec3> = rest.iter().map(|p| p.as_vec3()).collect();
+    let mut points = rest.to_vec();
+    for (k, stage) in stages.iter().enumerate() {
+        crate::error::check_phase(stage.phase)?;
+        if combine == Combine::Add && stage.sweep.is_some() {
+            return Err(Error::SweepAdded {
+                stage: deformation_index(stages, k),
+            });
+        }
+        let t = stage.applied_phase();
+        if t == 0.0 {
+            continue;
+        }
+        let (active, weights) = stage.region.weights(&rest32, groups)?;
+        // A sweep's steps chain whatever the document's combination says.
+        let from = if combine == Combine::Chain || stage.sweep.is_some() {
+            &points
+        } else {
+            rest
+        };
+        let sub: Vec<DVec3> = active.iter().map(|&i| from[i as usize]).collect();
+        let d = stage.deformation.displacements(&sub);
+        for ((&i, d), w) in active.iter().zip(d).zip(weights) {
+            points[i as usize] += d * (t * w as f64);
+        }
+        if let Some(&i) = active
+            .iter()
+            .find(|&&i| !points[i as usize].is_finite() && rest[i as usize].is_finite())
+        {
+            return Err(Error::NonFiniteResult {
+                stage: deformation_index(stages, k),
+                point: i as usize,
+            });
+        }
+    }
+    Ok(points)
+}
+
 /// [`compose`], recording each stage's reach for the diagnostics when asked.
 pub(crate) fn compose_traced(
     rest: &[Vec3],

@@ -676,6 +676,45 @@ fn chain_and_add_mean_the_same_in_compose_and_the_pipeline() {
     assert!("blend".parse::<Combine>().is_err());
 }
 
+/// The f64 composition means what the f32 one means (to f32's rounding),
+/// both ways of combining, and leaves a point no stage reaches bit for bit.
+#[test]
+fn the_f64_composition_agrees_and_keeps_unreached_points_exactly() {
+    let mut rng = Rng::new(35);
+    let rest: Vec<DVec3> = (0..500).map(|_| rng.vec3() * 1.5 + 1e-9).collect();
+    let rest32: Vec<Vec3> = rest.iter().map(|p| p.as_vec3()).collect();
+    let (s1, t1) = scene(15, 6);
+    let (s2, t2) = scene(12, 7);
+    let opts = FitOptions::new(0.45);
+    let d1 = Deformation::fit(&s1, &t1, opts).expect("fit 1");
+    let d2 = Deformation::fit(&s2, &t2, opts).expect("fit 2");
+    let half = Region::Box {
+        min: DVec3::ZERO,
+        max: DVec3::new(0.6, 1.0, 1.0),
+    };
+    let stages = vec![fitted(d1, Region::All, 1.0), fitted(d2, half, 0.5)];
+    let none = |_: &str| None;
+    let mut unreached = 0;
+    for combine in [Combine::Add, Combine::Chain] {
+        let wide = compose_f64(&rest, &stages, combine, &none).expect("f64");
+        let narrow = compose(&rest32, &stages, combine).expect("f32");
+        for (i, ((a, b), r)) in wide.iter().zip(&narrow).zip(&rest).enumerate() {
+            assert!((*a - b.as_dvec3()).length() < 1e-5, "{combine}, point {i}");
+            if stages
+                .iter()
+                .all(|s| s.deformation.displacement_at(*r) == DVec3::ZERO)
+            {
+                assert_eq!(a, r, "point {i} is out of reach and must not move");
+                unreached += 1;
+            }
+        }
+    }
+    assert!(
+        unreached > 10,
+        "the scene leaves points out of reach ({unreached})"
+    );
+}
+
 /// Issue 6: a region's falloff scales the displacement by the weight the
 /// region gives each point, in `compose` and the `Pipeline` alike.
 #[test]

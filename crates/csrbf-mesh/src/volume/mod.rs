@@ -22,6 +22,7 @@
 //! ```
 
 pub mod quality;
+pub mod shapes;
 
 use std::collections::HashMap;
 use std::path::Path;
