@@ -13,10 +13,10 @@ use crate::common::{
 /// Options of `deform`.
 #[derive(clap::Args, Debug)]
 pub struct DeformArgs {
-    /// Input mesh (.obj, .ply, .stl, .off, .gltf, .glb).
+    /// Input mesh: a surface (.obj, .ply, .stl, .off, .gltf, .glb) or a volume mesh (.vtk, .vtu, .msh: every node moved, every cell checked).
     #[arg(long)]
     pub mesh: PathBuf,
-    /// Control file (JSON).
+    /// Control file (JSON); for a volume mesh, also a boundary-driven morph (a document with "boundary": zones moved and held).
     #[arg(long)]
     pub controls: PathBuf,
     /// Phase in [0, 1]: 0 is the rest shape, 1 the full deformation.
@@ -42,6 +42,9 @@ pub struct DeformArgs {
 }
 
 pub fn deform(a: &DeformArgs, progress: &Progress) -> Result<()> {
+    if crate::volume::is_volume(&a.mesh) {
+        return crate::volume::deform_volume(a, progress);
+    }
     let (mesh, controls, phase, out) = (&a.mesh, &a.controls, a.phase, &a.out);
     check_phase(phase)?;
     let checks = a.check.checks()?;

@@ -17,6 +17,7 @@ pub fn info(
     as_json: bool,
 ) -> Result<()> {
     let value = match (mesh, controls, deformation) {
+        (Some(m), None, None) if crate::volume::is_volume(m) => crate::volume::volume_info(m)?,
         (Some(m), None, None) => mesh_info(m)?,
         (m, Some(c), None) => controls_info(c, m)?,
         (None, None, Some(d)) => deformation_info(d)?,

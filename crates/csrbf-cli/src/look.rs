@@ -81,6 +81,18 @@ pub fn mesh_scene(
     phase: f64,
     size: [u32; 2],
 ) -> Result<(Scene, csrbf_mesh::Mesh)> {
+    if crate::volume::is_volume(mesh) {
+        // The boundary surface, morphed by the volume road; the scene shows
+        // it as it is (no controls of its own).
+        let p = crate::volume::picture(mesh, controls, phase)?;
+        let mut moved = p.rest.clone();
+        moved.positions = p.moved;
+        // The scene names its mesh by the path made whole (`..` resolved),
+        // and finds the surface given under that name.
+        let key = mesh.canonicalize().unwrap_or_else(|_| mesh.to_owned());
+        let scene = csrbf_anim::still::mesh_scene(&key, moved, None, 0.0, size)?;
+        return Ok((scene, p.rest));
+    }
     let m = csrbf_mesh::read(mesh)?;
     let quiet = Progress::new(false);
     let controls = controls

@@ -42,6 +42,7 @@ mod look;
 mod pick;
 mod render;
 mod view;
+mod volume;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

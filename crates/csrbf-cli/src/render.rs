@@ -92,8 +92,12 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
     if a.folds
         && let Some(c) = &a.controls
     {
-        let file = crate::common::read_controls(c, progress)?;
-        let faces = inside_out_faces(&aimed.mesh, &file, a.phase)?;
+        let faces = if crate::volume::is_volume(&a.mesh) {
+            crate::volume::picture(&a.mesh, Some(c), a.phase)?.inverted_faces
+        } else {
+            let file = crate::common::read_controls(c, progress)?;
+            inside_out_faces(&aimed.mesh, &file, a.phase)?
+        };
         progress.say(format_args!(
             "{} faces inside out{}",
             faces.len(),
@@ -174,7 +178,7 @@ fn inside_out_faces(
 const SEE_THROUGH: f32 = 0.35;
 
 /// Moves `faces` out of the object's parts into a red part of their own
-/// (the last part: it owns them), and makes the rest see-through.
+/// (the first part, opaque), and makes the rest see-through.
 fn paint(object: &mut csrbf_anim::Object, mesh: &csrbf_mesh::Mesh, faces: Vec<u32>) {
     if faces.is_empty() {
         return;
@@ -189,14 +193,19 @@ fn paint(object: &mut csrbf_anim::Object, mesh: &csrbf_mesh::Mesh, faces: Vec<u3
         .collect();
     vertices.sort_unstable();
     vertices.dedup();
-    object.parts.push(csrbf_anim::Part {
-        name: "inside out".into(),
-        faces,
-        vertices,
-        color: FOLD_RED,
-        texture: None,
-        wireframe: false,
-    });
+    // Drawn first: the see-through parts blend over it (drawn after them,
+    // a fold inside the volume would fail their depth test).
+    object.parts.insert(
+        0,
+        csrbf_anim::Part {
+            name: "inside out".into(),
+            faces,
+            vertices,
+            color: FOLD_RED,
+            texture: None,
+            wireframe: false,
+        },
+    );
 }
 
 /// Two pictures of one height next to each other in a picture `width` wide

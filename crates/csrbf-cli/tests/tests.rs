@@ -13,3 +13,4 @@ mod road;
 mod side_files;
 mod stretch;
 mod support;
+mod volume;

@@ -58,11 +58,11 @@ pub mod controls;
 mod error;
 mod fit;
 pub mod json;
-pub mod volume;
 mod remedy;
 mod report;
 mod session;
 pub mod symmetry;
+pub mod volume;
 
 #[cfg(test)]
 mod connected_tests;

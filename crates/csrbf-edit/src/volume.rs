@@ -271,6 +271,12 @@ pub struct BoundaryFigures {
     pub max_error: f64,
     /// Rounds of the greedy selection (1 with every node).
     pub rounds: usize,
+    /// The steps of a sweep (`"sweep": true`), None for the single map.
+    pub sweep_steps: Option<usize>,
+    /// Whether the sweep is certified to keep every cell positive at every
+    /// phase (its steps' gradient bounds times the cells' conditioning
+    /// below 1).
+    pub certified: bool,
 }
 
 impl VolumeReport {
@@ -289,6 +295,8 @@ impl VolumeReport {
                 "tolerance": b.tolerance,
                 "max_error": b.max_error,
                 "rounds": b.rounds,
+                "sweep_steps": b.sweep_steps,
+                "certified": b.certified,
             })),
             "cells": self.cells.to_json(),
             "advice": self.advice,
@@ -554,6 +562,9 @@ pub struct BoundaryMorph {
     pub moves: Vec<ZoneMove>,
     /// The zones held fixed (a node also in a moved zone moves).
     pub hold: Vec<String>,
+    /// Take the morph as a sweep of steps each certified to keep every
+    /// cell positive (`"sweep": true`; [`certified_sweep`]).
+    pub sweep: bool,
     /// Where the document is (relative file names are taken beside it).
     pub source: std::path::PathBuf,
 }
@@ -587,6 +598,7 @@ impl BoundaryMorph {
                 "tolerance",
                 "move",
                 "hold",
+                "sweep",
                 "comment",
             ],
             "boundary",
@@ -774,11 +786,22 @@ impl BoundaryMorph {
                 }
             }
         }
+        let sweep = match obj.get("sweep") {
+            None | Some(Value::Null) | Some(Value::Bool(false)) => false,
+            Some(Value::Bool(true)) => true,
+            Some(other) => {
+                return Err(err(
+                    "boundary.sweep",
+                    format!("expected true or false, found {other}"),
+                ));
+            }
+        };
         Ok(BoundaryMorph {
             options,
             tolerance,
             moves,
             hold,
+            sweep,
             source: source.to_owned(),
         })
     }
@@ -1009,32 +1032,57 @@ pub fn morph_boundary(
         at: at.clone(),
         source,
     };
-    let (def, controls, rounds, max_error) = match morph.tolerance {
+    let (def, picked, rounds, max_error) = match morph.tolerance {
         None => {
             let def = csrbf::Deformation::fit(&starts, &targets, morph.options)
                 .map_err(|e| engine(e.into()))?;
             let err = largest_error(&def, &starts, &disp);
-            (def, starts.len(), 1, err)
+            (def, (0..starts.len()).collect(), 1, err)
         }
         Some(tol) => {
             greedy_fit(&starts, &targets, &disp, morph.options, tol, notes).map_err(engine)?
         }
     };
+    let controls = picked.len();
     notes(Note::Progress(format!(
         "{at}: {controls} of {} boundary nodes as controls ({moved_nodes} moved, {held_nodes} held), {} round(s), largest miss {}",
         starts.len(),
         rounds,
         csrbf::plain_number(max_error)
     )));
+    let sweep = if morph.sweep {
+        let s: Vec<DVec3> = picked.iter().map(|&i| starts[i]).collect();
+        let t: Vec<DVec3> = picked.iter().map(|&i| targets[i]).collect();
+        let found = certified_sweep(mesh, &s, &t, morph.options).map_err(engine)?;
+        match &found {
+            Some(steps) => notes(Note::Progress(format!(
+                "{at}: a sweep of {} step(s), each certified to keep every cell positive",
+                steps.len()
+            ))),
+            None => notes(Note::Warning(format!(
+                "{at}: no sweep of at most {} steps is certified to keep every cell positive (a cell is too thin for the motion, or inside out at rest): the single map is used and checked",
+                csrbf::MAX_STEPS
+            ))),
+        }
+        found
+    } else {
+        None
+    };
     let fit_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let d = def.displacements(&mesh.points);
-    let mut out: Vec<DVec3> = mesh
-        .points
-        .iter()
-        .zip(&d)
-        .map(|(p, d)| *p + *d * phase)
-        .collect();
+    let mut out = match &sweep {
+        Some(steps) => walk(steps, &mesh.points, phase),
+        None => {
+            let d = def.displacements(&mesh.points);
+            mesh.points
+                .iter()
+                .zip(&d)
+                .map(|(p, d)| *p + *d * phase)
+                .collect()
+        }
+    };
+    // The prescribed nodes exactly where they were prescribed (the map puts
+    // them there to its solver's precision).
     for (&v, dv) in nodes.iter().zip(&disp) {
         out[v as usize] = mesh.points[v as usize] + *dv * phase;
     }
@@ -1043,7 +1091,9 @@ pub fn morph_boundary(
             "{at}: the morph put node {v} at a coordinate that is not a finite number"
         )));
     }
-    let cells = check_cells(mesh, &mesh.points, &out);
+    // A sweep's nodes do not move on straight lines: its certificate
+    // speaks for the phases, the check for the end.
+    let cells = check_cells_with(mesh, &mesh.points, &out, sweep.is_none());
     let mut report = VolumeReport::new(mesh, phase, &out, cells);
     report.controls = controls;
     report.boundary = Some(BoundaryFigures {
@@ -1052,6 +1102,8 @@ pub fn morph_boundary(
         tolerance: morph.tolerance,
         max_error,
         rounds,
+        sweep_steps: sweep.as_ref().map(Vec::len),
+        certified: sweep.is_some(),
     });
     report.fit_ms = fit_ms;
     report.morph_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -1071,8 +1123,8 @@ fn largest_error(def: &csrbf::Deformation, starts: &[DVec3], disp: &[DVec3]) -> 
 /// The greedy selection of the RBF mesh-morphing literature: a spread
 /// first set, then each round adds the nodes the map misses most (up to
 /// half as many again as it has), until every prescribed node is within
-/// `tol`. Returns the map, its control count, the rounds and the largest
-/// miss.
+/// `tol`. Returns the map, the controls chosen (indices), the rounds and
+/// the largest miss.
 fn greedy_fit(
     starts: &[DVec3],
     targets: &[DVec3],
@@ -1080,7 +1132,7 @@ fn greedy_fit(
     options: csrbf::FitOptions,
     tol: f64,
     notes: &mut dyn FnMut(Note),
-) -> csrbf::Result<(csrbf::Deformation, usize, usize, f64)> {
+) -> csrbf::Result<(csrbf::Deformation, Vec<usize>, usize, f64)> {
     let n = starts.len();
     let first = (n / 20).clamp(n.min(64), 2000.min(n));
     let mut chosen = vec![false; n];
@@ -1110,7 +1162,7 @@ fn greedy_fit(
             .map(|(a, b)| a.distance(*b))
             .fold(0.0, f64::max);
         if misses.is_empty() || picked.len() == n {
-            return Ok((def, picked.len(), rounds, worst));
+            return Ok((def, picked, rounds, worst));
         }
         notes(Note::Progress(format!(
             "round {rounds}: {} controls, {} node(s) missed by more than {}",
@@ -1124,6 +1176,144 @@ fn greedy_fit(
             chosen[i] = true;
             picked.push(i);
         }
+    }
+}
+
+/// What a volume mesh holds, as `csrbf info` prints it and Python's
+/// `VolumeMesh.info()` returns it: nodes, cells by kind, zones with their
+/// cells and nodes, bounds, and the cells' shape at rest (the least scaled
+/// Jacobian, cells already inside out or flat).
+pub fn describe(mesh: &VolumeMesh) -> Value {
+    let rest = check_cells_with(mesh, &mesh.points, &mesh.points, false);
+    let (lo, hi) = mesh.points.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let finite = |x: f64| x.is_finite().then_some(x);
+    let kinds: serde_json::Map<String, Value> = mesh
+        .cells
+        .counts()
+        .into_iter()
+        .map(|(k, n)| (k.name().to_owned(), json!(n)))
+        .collect();
+    json!({
+        "nodes": mesh.points.len(),
+        "cells": mesh.cells.len(),
+        "cell_kinds": kinds,
+        "bounds": if mesh.points.is_empty() { Value::Null } else { json!({"min": lo.to_array(), "max": hi.to_array()}) },
+        "diagonal": diagonal(&mesh.points),
+        "zones": mesh.zones.iter().map(|z| json!({
+            "name": z.name,
+            "tag": z.tag,
+            "dim": z.dim,
+            "cells": mesh.zone_cells(z.tag).len(),
+            "nodes": mesh.zone_nodes(z.tag).len(),
+        })).collect::<Vec<_>>(),
+        "solid_cells": rest.cells,
+        "min_scaled_jacobian": finite(rest.min_scaled_jacobian_before),
+        "inverted_or_flat": rest.inverted_at_rest.len(),
+        "first_inverted_or_flat": rest.inverted_at_rest.first(),
+        "boundary_faces": mesh.boundary_faces().len(),
+    })
+}
+
+/// The steps of a sweep applied one after the other at `phase` (step j
+/// of k by clamp(phase k - j, 0, 1) of its map).
+fn walk(steps: &[csrbf::Deformation], rest: &[DVec3], phase: f64) -> Vec<DVec3> {
+    let mut p = rest.to_vec();
+    for (j, step) in steps.iter().enumerate() {
+        let f = csrbf::step_phase(phase, j, steps.len());
+        if f > 0.0 {
+            let d = step.displacements(&p);
+            for (p, d) in p.iter_mut().zip(d) {
+                *p += d * f;
+            }
+        }
+    }
+    p
+}
+
+/// The largest conditioning bound of the cells' corners at `points`:
+/// ||E||_F^3 / (2 det E) over every corner's edge matrix E, an upper bound
+/// of ||E||_F / sigma_min(E) (sigma_1 sigma_2 <= ||E||_F^2 / 2, so
+/// sigma_min >= 2 det E / ||E||_F^2); +inf when a corner is flat or inside
+/// out.
+pub fn conditioning(mesh: &VolumeMesh, points: &[DVec3]) -> f64 {
+    (0..mesh.cells.len())
+        .into_par_iter()
+        .map(|c| {
+            let mut p = [DVec3::ZERO; 8];
+            let kind = corners_at(mesh, c, points, &mut p);
+            let mut worst = 0.0f64;
+            for &[o, a, b, cc] in quality::corners(kind) {
+                let e = [p[a] - p[o], p[b] - p[o], p[cc] - p[o]];
+                let det = quality::det3(e[0], e[1], e[2]);
+                let f2: f64 = e.iter().map(|v| v.length_squared()).sum();
+                let k = if det > 0.0 {
+                    f2 * f2.sqrt() / (2.0 * det)
+                } else {
+                    f64::INFINITY
+                };
+                worst = worst.max(k);
+            }
+            worst
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
+/// A sweep from `starts` to `targets` (straight paths) whose every step is
+/// certified to keep every cell of `mesh` positive at every phase: a step
+/// whose map has |dD/dx| <= L moves each edge e of a corner by at most
+/// L |e| (along the edge, the map's change is its gradient's integral), so
+/// a corner's edge matrix E becomes E (I + F) with ||F|| <= L ||E||_F /
+/// sigma_min(E), and stays invertible with positive determinant at every
+/// fraction of the step when that is below 1. The cells' shapes are taken
+/// at the start of each step (they change as the sweep goes). None when no
+/// sweep of at most `MAX_STEPS` steps is certified.
+pub fn certified_sweep(
+    mesh: &VolumeMesh,
+    starts: &[DVec3],
+    targets: &[DVec3],
+    options: csrbf::FitOptions,
+) -> csrbf::Result<Option<Vec<csrbf::Deformation>>> {
+    const AIM: f64 = 0.8;
+    let rest_kappa = conditioning(mesh, &mesh.points);
+    if !rest_kappa.is_finite() {
+        return Ok(None);
+    }
+    let plain = csrbf::Deformation::fit(starts, targets, options)?;
+    let mut k = ((plain.gradient_bound() * rest_kappa / AIM).ceil() as usize).max(1);
+    loop {
+        if k > csrbf::MAX_STEPS {
+            return Ok(None);
+        }
+        let sweep = csrbf::Sweep::fit(
+            starts,
+            targets,
+            &csrbf::Paths::default(),
+            options,
+            csrbf::SweepOptions::default().with_steps(Some(k)),
+        )?;
+        let mut p = mesh.points.clone();
+        let mut worst = 0.0f64;
+        for (step, bound) in sweep.steps.iter().zip(&sweep.bounds) {
+            worst = worst.max(bound * conditioning(mesh, &p));
+            if worst >= 1.0 {
+                break;
+            }
+            let d = step.displacements(&p);
+            for (p, d) in p.iter_mut().zip(d) {
+                *p += d;
+            }
+        }
+        if worst < 1.0 {
+            return Ok(Some(sweep.steps));
+        }
+        if k == csrbf::MAX_STEPS {
+            return Ok(None);
+        }
+        let next = (k as f64 * worst.min(1e6) / AIM).ceil() as usize;
+        k = next.max(k + k / 2 + 1).min(csrbf::MAX_STEPS);
     }
 }
 

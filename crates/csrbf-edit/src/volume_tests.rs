@@ -49,7 +49,12 @@ fn inverted_cells_are_the_references_on_random_morphs() {
         let (moved, report) =
             morph_volume(&mesh, &file, "case", 1.0, false, &mut |_| {}).expect("morph");
         let want = reference_inverted(&mesh, &moved);
-        assert!(report.cells.inverted == want, "case {case}: {} against {}", report.cells.inverted.len(), want.len());
+        assert!(
+            report.cells.inverted == want,
+            "case {case}: {} against {}",
+            report.cells.inverted.len(),
+            want.len()
+        );
         assert_eq!(report.cells.cells, mesh.zone_cells(shapes::FLUID).len());
         if want.is_empty() {
             assert_eq!(report.cells.inverted.len(), 0);
@@ -68,7 +73,7 @@ fn inverted_cells_are_the_references_on_random_morphs() {
         }
     }
     assert!(
-        folded >= 2 && folded <= 10,
+        (2..=10).contains(&folded),
         "the cases span both ({folded} fold)"
     );
 }
@@ -313,4 +318,50 @@ fn bad_boundary_morphs_are_refused_by_name() {
     );
     assert!(e.contains("absent.txt"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Issue 43's check: a certified morph of a tetrahedral box with a moved
+/// inner boundary has no inverted cell at phases 1/4, 1/2, 3/4 and 1 by
+/// the reference, where the single map with the same radius inverts some.
+#[test]
+fn a_certified_sweep_keeps_every_cell_positive_at_every_phase() {
+    let mesh = box_with_cavity(8, 0.26);
+    let doc = |sweep: bool| {
+        json!({"boundary": {"radius": 0.5, "sweep": sweep,
+            "move": [{"zone": "inner", "translate": [0.3, 0.1, 0.0]}], "hold": ["outer"]}})
+    };
+    let src = Path::new("certified.json");
+    let plain = BoundaryMorph::from_value(&doc(false), src).expect("parse");
+    let (moved, report) = morph_boundary(&mesh, &plain, 1.0, &mut |_| {}).expect("plain");
+    let plain_inverted = reference_inverted(&mesh, &moved).len();
+    assert_eq!(report.cells.inverted.len(), plain_inverted);
+    let swept = BoundaryMorph::from_value(&doc(true), src).expect("parse");
+    let mut said = Vec::new();
+    for phase in [0.25, 0.5, 0.75, 1.0] {
+        let (moved, report) = morph_boundary(&mesh, &swept, phase, &mut |n| {
+            let (Note::Progress(t) | Note::Warning(t)) = n;
+            said.push(t);
+        })
+        .expect("swept");
+        let b = report.boundary.as_ref().expect("figures");
+        assert!(b.certified, "{said:?}");
+        let steps = b.sweep_steps.expect("steps");
+        assert!(steps > 1, "the single map is not certified here ({steps})");
+        assert!(
+            reference_inverted(&mesh, &moved).is_empty(),
+            "phase {phase}: {}",
+            report.cells.summary()
+        );
+        assert!(report.cells.inverted.is_empty());
+        // The prescribed nodes are where they were told to be at that phase.
+        let inner = mesh.zone_nodes(shapes::INNER);
+        for &v in &inner {
+            let want = mesh.points[v as usize] + DVec3::new(0.3, 0.1, 0.0) * phase;
+            assert!(moved[v as usize].distance(want) < 1e-12);
+        }
+    }
+    assert!(
+        plain_inverted > 0,
+        "the single map inverts cells (so the sweep earns its steps): {plain_inverted}"
+    );
 }

@@ -26,6 +26,7 @@
 // why a value is there with `expect`, or handles its absence.
 #![warn(clippy::unwrap_used)]
 
+mod base64;
 pub mod bvh;
 mod carry;
 mod error;

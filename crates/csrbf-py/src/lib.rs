@@ -30,6 +30,7 @@ pub mod deformation;
 pub mod mesh;
 mod session;
 pub mod system;
+pub mod volume;
 
 pyo3::create_exception!(
     csrbf,
@@ -67,5 +68,6 @@ fn _csrbf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     mesh::register(m)?;
     session::register(m)?;
     controls::register(m)?;
+    volume::register(m)?;
     Ok(())
 }

@@ -314,18 +314,25 @@ pub(crate) fn vec3_rows<'py>(
 /// material library or texture missing, a text file cut off) and of what
 /// the file holds that a mesh does not keep (an OBJ's polylines and points,
 /// a PLY's other elements and properties, an OFF's face colours).
+///
+/// A volume mesh (.vtk, .vtu, .msh) comes back as a VolumeMesh: nodes,
+/// cells and zones.
 #[pyfunction]
-pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
+pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyAny>> {
+    if csrbf_mesh::volume::VolumeFormat::is_volume_path(&path) {
+        return Ok(Py::new(py, crate::volume::read(py, &path)?)?.into_any());
+    }
     let loaded = py
         .detach(|| csrbf_mesh::load(&path))
         .map_err(|e| error(&e))?;
     for w in &loaded.warnings {
         warn(py, w)?;
     }
-    Ok(PyMesh { inner: loaded.mesh })
+    Ok(Py::new(py, PyMesh { inner: loaded.mesh })?.into_any())
 }
 
-/// Writes a mesh file, the format by extension, whole or not at all
+/// Writes a mesh file (a Mesh, or a VolumeMesh as .vtk, .vtu or .msh),
+/// the format by extension, whole or not at all
 /// (temporary files renamed). Warns (UserWarning) when the format cannot
 /// keep everything (STL: no vertex order, parts, UVs or colours), and when
 /// a file beside an OBJ (its material library, a texture) that csrbf did
@@ -334,10 +341,21 @@ pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<PyMesh> {
 #[pyo3(signature = (mesh, path, *, force = false))]
 pub fn write_mesh(
     py: Python<'_>,
-    mesh: PyRef<'_, PyMesh>,
+    mesh: &Bound<'_, PyAny>,
     path: PathBuf,
     force: bool,
 ) -> PyResult<()> {
+    if let Ok(v) = mesh.cast::<crate::volume::PyVolumeMesh>() {
+        if !csrbf_mesh::volume::VolumeFormat::is_volume_path(&path) {
+            return Err(crate::Error::new_err(format!(
+                "{}: a VolumeMesh is written as one of {} (its boundary surface: mesh.boundary())",
+                path.display(),
+                csrbf_mesh::volume::VolumeFormat::EXTENSIONS
+            )));
+        }
+        return crate::volume::write(py, &v.borrow(), &path);
+    }
+    let mesh: PyRef<'_, PyMesh> = mesh.extract()?;
     let m = &mesh.inner;
     let format = csrbf_mesh::Format::from_path(&path).map_err(|e| error(&e))?;
     if let Some(lost) = format.loses(m) {
@@ -629,7 +647,19 @@ pub(crate) fn mesh_arg(py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<Mesh
             let path: PathBuf = mesh.extract().map_err(|_| {
                 PyTypeError::new_err("mesh must be a csrbf.Mesh or a path to a mesh file")
             })?;
-            read_mesh(py, path)?.inner
+            if csrbf_mesh::volume::VolumeFormat::is_volume_path(&path) {
+                return Err(PyTypeError::new_err(format!(
+                    "{} is a volume mesh: morph it with csrbf.morph_volume",
+                    path.display()
+                )));
+            }
+            let loaded = py
+                .detach(|| csrbf_mesh::load(&path))
+                .map_err(|e| error(&e))?;
+            for w in &loaded.warnings {
+                warn(py, w)?;
+            }
+            loaded.mesh
         }
     };
     if let Some(i) = m.positions.iter().position(|p| !p.is_finite()) {

@@ -168,3 +168,50 @@ map_Kd -o 0.1 0.2 -bm 1 -clamp on duck tex.png\nnewmtl b\nKd 1\nmap_Kd b.jpg\n";
         }
     }
 }
+
+/// The volume readers (`.vtk`, `.vtu`, `.msh`) under the same mutations:
+/// every flavour the writers make and files as meshio, Gmsh and ParaView
+/// write them; each case gives an error or a mesh that passes
+/// `VolumeMesh::check`, never a panic or a huge allocation.
+#[test]
+fn every_volume_reader_survives_thousands_of_mutations() {
+    use crate::volume::VolumeMesh;
+    let mut seeds = crate::volume::tests::fuzz_seeds();
+    let bundled =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/volume/sphere_in_box.msh");
+    if let Ok(bytes) = std::fs::read(bundled) {
+        seeds.push((crate::volume::VolumeFormat::Msh, bytes));
+    }
+    let all: Vec<&[u8]> = seeds.iter().map(|(_, b)| b.as_slice()).collect();
+    let start = std::time::Instant::now();
+    let mut report = Vec::new();
+    for (k, (fmt, bytes)) in seeds.iter().enumerate() {
+        let mut rng = Rng::new(7000 + k as u64);
+        let (mut ok, mut refused) = (0, 0);
+        // The small samples get many cases, the real Gmsh file fewer.
+        let cases = if bytes.len() < 20_000 { 10_000 } else { 500 };
+        for case in 0..cases {
+            let input = mutate(bytes, &mut rng, &all);
+            let result = std::panic::catch_unwind(|| {
+                VolumeMesh::from_bytes(&input, *fmt, Path::new("fuzz"))
+            });
+            match result {
+                Err(_) => panic!("{fmt:?} seed {k} case {case}: the reader panicked"),
+                Ok(Ok(mesh)) => {
+                    mesh.check(Path::new("fuzz")).expect("a mesh read is valid");
+                    ok += 1;
+                }
+                Ok(Err(e)) => {
+                    assert!(e.to_string().starts_with("fuzz"), "{e}");
+                    refused += 1;
+                }
+            }
+        }
+        report.push(format!("{fmt:?} seed {k}: {ok} read, {refused} refused"));
+    }
+    eprintln!(
+        "fuzz: {} in {:.1} s",
+        report.join("; "),
+        start.elapsed().as_secs_f64()
+    );
+}

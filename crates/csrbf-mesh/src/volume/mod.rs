@@ -455,3 +455,116 @@ impl VolumeMesh {
         mesh
     }
 }
+
+mod msh;
+mod scan;
+#[cfg(test)]
+pub(crate) mod tests;
+mod vtk;
+mod vtu;
+
+/// A volume mesh file format, with the flavour to write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum VolumeFormat {
+    /// VTK legacy, written BINARY (big-endian, version 4.2 cell layout).
+    /// Reads ASCII and BINARY, the old and the 5.1 cell layouts.
+    Vtk,
+    /// VTK legacy, written ASCII.
+    VtkAscii,
+    /// VTK XML unstructured grid, written as raw appended binary
+    /// (uncompressed). Reads ASCII, base64 and appended data, zlib or not.
+    Vtu,
+    /// VTK XML unstructured grid, written ASCII.
+    VtuAscii,
+    /// Gmsh, written as 4.1 binary. Reads 2.2 and 4.1, ASCII and binary.
+    Msh,
+    /// Gmsh, written as 2.2 ASCII (what older solvers' importers read).
+    Msh22,
+}
+
+impl VolumeFormat {
+    /// The extensions of the volume formats, for messages.
+    pub const EXTENSIONS: &str = ".vtk, .vtu, .msh";
+
+    /// The format of a path by its extension (case-insensitive): `Vtk`,
+    /// `Vtu` or `Msh`.
+    pub fn from_path(path: &Path) -> Result<VolumeFormat> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        Ok(match ext.as_str() {
+            "vtk" => VolumeFormat::Vtk,
+            "vtu" => VolumeFormat::Vtu,
+            "msh" => VolumeFormat::Msh,
+            _ => {
+                let why = if ext.is_empty() {
+                    "has no extension to tell the volume mesh format by".to_string()
+                } else {
+                    format!("unknown volume mesh format {ext:?}")
+                };
+                return Err(MeshError::Invalid {
+                    path: path.to_owned(),
+                    message: format!("{why}; supported: {}", VolumeFormat::EXTENSIONS),
+                });
+            }
+        })
+    }
+
+    /// Whether a path names a volume mesh by its extension.
+    pub fn is_volume_path(path: &Path) -> bool {
+        VolumeFormat::from_path(path).is_ok()
+    }
+}
+
+impl VolumeMesh {
+    /// Reads a volume mesh from a file's bytes; the reader tells ASCII,
+    /// binary and version apart itself. The result is checked
+    /// ([`VolumeMesh::check`]); errors name `path` and the line, byte, node
+    /// or cell.
+    pub fn from_bytes(bytes: &[u8], format: VolumeFormat, path: &Path) -> Result<VolumeMesh> {
+        let mesh = match format {
+            VolumeFormat::Vtk | VolumeFormat::VtkAscii => vtk::read(bytes, path)?,
+            VolumeFormat::Vtu | VolumeFormat::VtuAscii => vtu::read(bytes, path)?,
+            VolumeFormat::Msh | VolumeFormat::Msh22 => msh::read(bytes, path)?,
+        };
+        mesh.check(path)?;
+        Ok(mesh)
+    }
+
+    /// The file's bytes in a format. The mesh is checked first (an error
+    /// names it "the mesh to write").
+    pub fn to_bytes(&self, format: VolumeFormat) -> Result<Vec<u8>> {
+        self.to_bytes_for(format, Path::new("the mesh to write"))
+    }
+
+    fn to_bytes_for(&self, format: VolumeFormat, path: &Path) -> Result<Vec<u8>> {
+        self.check(path)?;
+        Ok(match format {
+            VolumeFormat::Vtk => vtk::write(self, true),
+            VolumeFormat::VtkAscii => vtk::write(self, false),
+            VolumeFormat::Vtu => vtu::write(self, vtu::Encoding::Appended { zlib: false }),
+            VolumeFormat::VtuAscii => vtu::write(self, vtu::Encoding::Ascii),
+            VolumeFormat::Msh => msh::write(self, true, true),
+            VolumeFormat::Msh22 => msh::write(self, false, false),
+        })
+    }
+}
+
+/// Reads a volume mesh; the format comes from the extension.
+pub fn read(path: &Path) -> Result<VolumeMesh> {
+    let format = VolumeFormat::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    VolumeMesh::from_bytes(&bytes, format, path)
+}
+
+/// Writes a volume mesh whole or not at all; the format (and its default
+/// flavour: binary) comes from the extension.
+pub fn write(path: &Path, mesh: &VolumeMesh) -> Result<()> {
+    let bytes = mesh.to_bytes_for(VolumeFormat::from_path(path)?, path)?;
+    crate::write_atomic(path, &bytes)
+}

@@ -41,6 +41,8 @@ from ._csrbf import (
     Report,
     Session,
     System,
+    VolumeMesh,
+    VolumeReport,
     __version__,
     build_profile,
     control_file,
@@ -49,6 +51,7 @@ from ._csrbf import (
     find_symmetry,
     fit,
     mirror_onto_surface,
+    morph_volume,
     read_mesh,
     symmetry_plane,
     write_mesh,
@@ -62,6 +65,8 @@ __all__ = [
     "Report",
     "Session",
     "System",
+    "VolumeMesh",
+    "VolumeReport",
     "__version__",
     "build_profile",
     "control_file",
@@ -70,7 +75,66 @@ __all__ = [
     "find_symmetry",
     "fit",
     "mirror_onto_surface",
+    "morph_volume",
     "read_mesh",
     "symmetry_plane",
     "write_mesh",
+    "from_meshio",
+    "to_meshio",
 ]
+
+
+def to_meshio(mesh):
+    """A VolumeMesh as a ``meshio.Mesh`` (needs meshio): its cell blocks,
+    the zone of every cell as ``cell_data["gmsh:physical"]`` and the zones
+    as ``field_data`` ({name: [tag, dim]}), as meshio keeps Gmsh's physical
+    groups."""
+    import meshio
+    import numpy as np
+
+    blocks = mesh.cells
+    zones = mesh.cell_zones
+    data, start = [], 0
+    for _, cells in blocks:
+        data.append(zones[start : start + len(cells)].astype(np.int32))
+        start += len(cells)
+    field = {name: np.array([tag, dim]) for name, (tag, dim) in mesh.zones.items()}
+    return meshio.Mesh(
+        mesh.points,
+        blocks,
+        cell_data={"gmsh:physical": data} if field else {},
+        field_data=field,
+    )
+
+
+def from_meshio(m):
+    """A ``meshio.Mesh`` as a VolumeMesh: its blocks of linear cells, zones
+    from ``cell_data["gmsh:physical"]`` (or ``"CellEntityIds"``) named by
+    ``field_data``."""
+    import numpy as np
+
+    blocks = [(b.type, b.data) for b in m.cells]
+    zones = None
+    for key in ("gmsh:physical", "CellEntityIds"):
+        if key in m.cell_data:
+            zones = np.concatenate([np.asarray(a).reshape(-1) for a in m.cell_data[key]])
+            break
+    names = {}
+    for name, v in (m.field_data or {}).items():
+        v = np.asarray(v).reshape(-1)
+        if len(v) == 2:
+            names[name] = (int(v[0]), int(v[1]))
+    if zones is not None:
+        dims = {}
+        start = 0
+        for kind, cells in blocks:
+            dim = {"vertex": 0, "line": 1, "triangle": 2, "quad": 2}.get(kind, 3)
+            for t in np.unique(zones[start : start + len(cells)]):
+                dims.setdefault(int(t), dim)
+            start += len(cells)
+        known = {tag for tag, _ in names.values()}
+        for tag, dim in dims.items():
+            if tag != 0 and tag not in known:
+                names[f"zone {tag}"] = (tag, dim)
+    return VolumeMesh(m.points, blocks, zones, names or None)
+

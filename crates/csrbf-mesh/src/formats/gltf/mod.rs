@@ -9,7 +9,6 @@
 //! source of every split vertex, so this reader gives back the vertex order
 //! and count, the parts and the per-corner UVs it was given.
 
-mod base64;
 mod read;
 mod write;
 
@@ -20,5 +19,5 @@ pub use write::{Builder, UvSplit, package, split_uv_seams};
 /// Base64 for the tests' hand-made files.
 #[cfg(test)]
 pub(crate) fn encode_base64_for_tests(data: &[u8]) -> String {
-    base64::base64_encode(data)
+    crate::base64::encode(data)
 }

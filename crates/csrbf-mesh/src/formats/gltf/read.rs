@@ -6,7 +6,6 @@ use std::path::Path;
 use glam::{Mat4, Vec2, Vec3};
 use serde_json::Value;
 
-use super::base64::base64_decode;
 use crate::{
     AlphaMode, Faces, Material, Mesh, MeshError, PartKind, Result, Sampler, TexCoords, TextureMap,
 };
@@ -701,7 +700,7 @@ fn load_uri(uri: &str, path: &Path) -> Result<Vec<u8>> {
         let (_, data) = rest
             .split_once(";base64,")
             .ok_or_else(|| MeshError::parse(path, None, "a data URI is not base64"))?;
-        return base64_decode(data)
+        return crate::base64::decode_lenient(data)
             .ok_or_else(|| MeshError::parse(path, None, "a data URI holds invalid base64"));
     }
     // A model from the web must not read local files: a buffer is a file in

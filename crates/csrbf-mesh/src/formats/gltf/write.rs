@@ -6,7 +6,6 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 use serde_json::{Value, json};
 
-use super::base64::base64_encode;
 use crate::{Faces, Mesh, PartKind};
 
 /// A binary buffer being laid out, with its views and accessors (used by
@@ -122,7 +121,7 @@ pub fn package(mut doc: Value, bin: Vec<u8>, glb: bool) -> Vec<u8> {
     } else {
         doc["buffers"] = json!([{
             "byteLength": bin.len(),
-            "uri": format!("data:application/octet-stream;base64,{}", base64_encode(&bin))
+            "uri": format!("data:application/octet-stream;base64,{}", crate::base64::encode(&bin))
         }]);
         serde_json::to_vec_pretty(&doc).unwrap_or_default()
     }
