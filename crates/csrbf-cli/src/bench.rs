@@ -25,7 +25,9 @@ pub struct BenchArgs {
     controls: Option<PathBuf>,
     /// A synthetic scene: fish (975 V / 92 N), face (6158 V / 32 N), 100k (100k V / 1k N), 1m (1M V / 10k N),
     /// V/N (any sizes, R for about 44 neighbours: 100000/100000 fits 100k starts),
-    /// or scan: the vertices of --mesh with --starts of them spread over it, R --share of its diagonal.
+    /// scan: the vertices of --mesh with --starts of them spread over it, R --share of its diagonal,
+    /// or volume/N/K/S[/R]: a tetrahedral box of N^3 cubes around K^3 cavities of S^3 cubes, the cavities moved (R in cubes, 4),
+    /// every boundary node a control (volume/56/0/0: 1M cells). A volume --mesh takes a boundary morph as --controls.
     #[arg(long)]
     scene: Option<String>,
     /// Starts of --scene scan.
@@ -92,7 +94,7 @@ fn time<T>(runs: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
 }
 
 /// Peak resident memory of this process so far, in MB (Linux; 0 elsewhere).
-fn peak_rss_mb() -> f64 {
+pub(crate) fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
@@ -106,6 +108,25 @@ fn peak_rss_mb() -> f64 {
 pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
     if args.paper {
         return paper(args, progress);
+    }
+    let volume_files = match (&args.mesh, &args.controls) {
+        (Some(m), Some(c)) if crate::volume::is_volume(m) => Some((m.as_path(), c.as_path())),
+        _ => None,
+    };
+    if volume_files.is_some()
+        || args
+            .scene
+            .as_deref()
+            .is_some_and(|s| s.starts_with("volume"))
+    {
+        return crate::volume::bench(
+            args.scene.as_deref(),
+            volume_files,
+            args.runs as usize,
+            args.json,
+            args.export.as_deref(),
+            progress,
+        );
     }
     let solver: SolverChoice = args.solver.parse().map_err(anyhow::Error::msg)?;
     // The faces of --scene scan's mesh, for --export.

@@ -189,3 +189,130 @@ pub fn picture(path: &Path, controls: Option<&Path>, phase: f64) -> Result<Pictu
         inverted_faces,
     })
 }
+
+/// `bench --scene volume/N/K/S`: the box of N^3 cubes (6 tetrahedra each)
+/// around K^3 cavities of S^3 cubes, every cavity moved by half a cube
+/// (and a quarter sideways) and the box's sides held, R four cubes wide
+/// (or R); every boundary node a control. Or a volume mesh and a morph
+/// file.
+pub fn bench(
+    scene: Option<&str>,
+    files: Option<(&Path, &Path)>,
+    runs: usize,
+    json: bool,
+    export: Option<&Path>,
+    progress: &Progress,
+) -> Result<()> {
+    let (name, mesh, morph) = match (scene, files) {
+        (_, Some((m, c))) => (
+            m.display().to_string(),
+            read_volume(m, progress)?,
+            BoundaryMorph::read(c)?,
+        ),
+        (Some(s), None) => {
+            let dims: Vec<f64> = s
+                .strip_prefix("volume/")
+                .map(|r| r.split('/').map(str::parse).collect::<Result<_, _>>())
+                .transpose()
+                .ok()
+                .flatten()
+                .filter(|d: &Vec<f64>| {
+                    (3..=4).contains(&d.len())
+                        && d[..3].iter().all(|x| x.fract() == 0.0 && *x >= 0.0)
+                        && (1.0..=400.0).contains(&d[0])
+                        && d.get(3).is_none_or(|r| *r > 0.0 && r.is_finite())
+                })
+                .with_context(|| {
+                    format!("--scene {s}: expected volume/N/K/S[/R] (N^3 cubes of 6 tetrahedra, 1 to 400; K^3 cavities of S^3 cubes; R in cubes, 4 by default): volume/56/1/20 has 1M cells")
+                })?;
+            let (n, k, c) = (dims[0] as usize, dims[1] as usize, dims[2] as usize);
+            let h = 2.0 / n as f64;
+            let cubes = dims.get(3).copied().unwrap_or(4.0);
+            let mesh = csrbf_mesh::volume::shapes::box_with_cavities(n, k, c);
+            let moved = if k > 0 && c > 0 { "inner" } else { "outer" };
+            let hold: Vec<&str> = if moved == "inner" {
+                vec!["outer"]
+            } else {
+                vec![]
+            };
+            let doc = serde_json::json!({"boundary": {"radius": cubes * h,
+                "move": [{"zone": moved, "translate": [0.5 * h, 0.25 * h, 0.0]}], "hold": hold}});
+            let morph = BoundaryMorph::from_value(&doc, Path::new(s))
+                .map_err(|e| anyhow::anyhow!("{s}: {e}"))?;
+            (format!("volume-{n}-{k}-{c}"), mesh, morph)
+        }
+        (None, None) => bail!("give --scene volume/N/K/S or --mesh and --controls"),
+    };
+    if let Some(dir) = export {
+        let base = dir.join(&name);
+        csrbf_mesh::volume::write(&base.with_extension("vtu"), &mesh)?;
+        let doc = serde_json::json!({"boundary": {
+            "radius": morph.options.radius,
+            "kernel": morph.options.kernel.name(),
+            "move": morph.moves.iter().map(|m| match &m.motion {
+                csrbf_edit::volume::Motion::Rigid(h) => serde_json::json!({"zone": m.zone, "translate": h.translate.map(|t| t.to_array())}),
+                _ => serde_json::json!({"zone": m.zone}),
+            }).collect::<Vec<_>>(),
+            "hold": morph.hold,
+        }});
+        csrbf_mesh::write_atomic(
+            &base.with_extension("json"),
+            serde_json::to_string_pretty(&doc)?.as_bytes(),
+        )?;
+        progress.say(format_args!("wrote {}.vtu and .json", base.display()));
+        return Ok(());
+    }
+    progress.say(format_args!(
+        "{name}: {} nodes, {} cells, R {}",
+        mesh.points.len(),
+        mesh.cells.len(),
+        csrbf::plain_number(morph.options.radius)
+    ));
+    let mut figures = Vec::new();
+    for _ in 0..runs.max(1) {
+        let (_, r) = morph_boundary(&mesh, &morph, 1.0, &mut |_| {})?;
+        figures.push(r);
+    }
+    let median = |f: &dyn Fn(&VolumeReport) -> f64| {
+        let mut v: Vec<f64> = figures.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let last = figures.last().context("no run")?;
+    let (fit, morph_ms, check) = (
+        median(&|r| r.fit_ms),
+        median(&|r| r.morph_ms),
+        median(&|r| r.check_ms),
+    );
+    let solid = last.cells.cells;
+    let value = serde_json::json!({
+        "scene": name,
+        "nodes": mesh.points.len(),
+        "cells": mesh.cells.len(),
+        "solid_cells": solid,
+        "controls": last.controls,
+        "radius": morph.options.radius,
+        "fit_ms": fit,
+        "evaluate_ms": morph_ms - check,
+        "check_ms": check,
+        "total_ms": fit + morph_ms,
+        "inverted_cells": last.cells.inverted.len(),
+        "min_scaled_jacobian_after": last.cells.min_scaled_jacobian_after,
+        "peak_rss_mb": crate::bench::peak_rss_mb(),
+        "runs": runs,
+    });
+    if json {
+        out_line!("{}", serde_json::to_string_pretty(&value)?);
+    } else {
+        out_line!(
+            "{name}: {} nodes, {} cells, {} controls | fit {fit:.1} ms | evaluate {:.1} ms | cell check {check:.1} ms | {} inverted | peak {:.0} MB",
+            mesh.points.len(),
+            solid,
+            last.controls,
+            morph_ms - check,
+            last.cells.inverted.len(),
+            crate::bench::peak_rss_mb()
+        );
+    }
+    Ok(())
+}

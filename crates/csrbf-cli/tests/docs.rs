@@ -166,8 +166,9 @@ fn the_command_blocks_marked_to_run_run() {
 }
 
 /// Every `json` block marked to run is read as what its page describes: a
-/// control file (docs/control-files.md) or a scene file (docs/scenes.md),
-/// with no warning (a misspelt key would be one).
+/// control file (docs/control-files.md), a scene file (docs/scenes.md) or
+/// a boundary-driven morph (docs/volume.md), with no warning (a misspelt
+/// key would be one; a morph refuses it).
 #[test]
 fn the_json_blocks_marked_to_run_are_read_as_their_pages_say() {
     let mut read = 0;
@@ -183,6 +184,12 @@ fn the_json_blocks_marked_to_run_are_read_as_their_pages_say() {
                 }
                 "scenes.md" => {
                     csrbf_anim::SceneFile::parse(&block)
+                        .unwrap_or_else(|e| panic!("{name}: {e}\n{block}"));
+                }
+                "volume.md" => {
+                    let v: serde_json::Value = serde_json::from_str(&block)
+                        .unwrap_or_else(|e| panic!("{name}: {e}\n{block}"));
+                    csrbf_edit::volume::BoundaryMorph::from_value(&v, "volume.md".as_ref())
                         .unwrap_or_else(|e| panic!("{name}: {e}\n{block}"));
                 }
                 other => panic!("{other}: a json block marked to run, but of what?"),

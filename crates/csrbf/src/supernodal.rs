@@ -241,6 +241,8 @@ impl Plan<'_> {
     ) {
         let symbolic = self.symbolic;
         let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+        // (first row, first place, length) of each run of a descendant's rows.
+        let mut runs: Vec<(usize, u32, u32)> = Vec::new();
         for &(d, first, count) in descendants {
             let d = d as usize;
             let Some(ld) = blocks[d].as_deref() else {
@@ -295,11 +297,32 @@ impl Plan<'_> {
                 );
             }
             let rows_at = &d_pattern[first..];
+            // The rows' places in the supernode, as runs of consecutive
+            // places (a descendant's rows mostly are): each column's part of
+            // a run is one slice, subtracted in vector lanes.
+            runs.clear();
+            for (k, &ri) in rows_at.iter().enumerate() {
+                let at = local[ri as usize];
+                match runs.last_mut() {
+                    Some((k0, at0, len)) if *at0 + *len == at && *k0 + *len as usize == k => {
+                        *len += 1
+                    }
+                    _ => runs.push((k, at, 1)),
+                }
+            }
             for (jj, &cj) in rows_at[..take].iter().enumerate() {
                 let col = (cj as usize - columns.0) * rows;
                 let p = &product[jj * below..(jj + 1) * below];
-                for (&ri, &v) in rows_at[jj..].iter().zip(&p[jj..]) {
-                    out[col + local[ri as usize] as usize] -= v;
+                for &(k0, at0, len) in runs.iter() {
+                    let end = k0 + len as usize;
+                    if end <= jj {
+                        continue;
+                    }
+                    let k = k0.max(jj);
+                    let at = col + (at0 as usize + (k - k0));
+                    for (o, v) in out[at..at + (end - k)].iter_mut().zip(&p[k..end]) {
+                        *o -= v;
+                    }
                 }
             }
         }
