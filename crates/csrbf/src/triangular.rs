@@ -181,7 +181,13 @@ impl Split {
         let (mut below, mut top, mut top_work) = (roots, Vec::new(), 0.0);
         // The best cut: its time, its top and its two sets.
         let mut best: Option<(f64, Vec<u32>, Halves)> = None;
-        for _ in 0..MAX_CUTS {
+        // A chain of supernodes (one child each: a separator made of several
+        // supernodes) is walked down without counting as a cut.
+        let mut cuts = 0;
+        for _ in 0..count {
+            if cuts >= MAX_CUTS {
+                break;
+            }
             let halves = deal(&mut below);
             let time = top_work + halves[0].0.max(halves[1].0);
             if best.as_ref().is_none_or(|b| time < b.0) {
@@ -194,6 +200,7 @@ impl Split {
             top_work += own[largest as usize];
             top.push(largest);
             below.extend(&children[largest as usize]);
+            cuts += usize::from(children[largest as usize].len() > 1);
         }
         let (time, mut top, halves) = best?;
         if time > GAIN * total || halves.iter().any(|h| h.1.is_empty()) {
