@@ -26,6 +26,12 @@ head=assets/models/cgal_head.off
 # A fold: the mouth's corner pushed 1.5 R; the faces it turns inside out in red.
 "$csrbf" render -q --mesh "$head" --controls assets/controls/head_fold.json \
   --folds --view left --zoom 2.5 --target=-6,8,-0.5 --size 800x600 --force --out "$out/fold.png"
+# A volume mesh: the sphere in its box moved and turned (the boundary), and
+# pushed too far for its radius (the inverted cells in red).
+"$csrbf" render -q --mesh assets/volume/sphere_in_box.msh --controls assets/volume/move_sphere.json \
+  --before-after --size 1000x420 --force --out "$out/volume-moved.png"
+"$csrbf" render -q --mesh assets/volume/sphere_in_box.msh --controls assets/volume/push_sphere.json \
+  --folds --size 640x480 --force --out "$out/volume-folds.png"
 # The papers' demos: each one's poster (the movies go to target/).
 demos=target/pictures/demos
 mkdir -p target/pictures

@@ -89,10 +89,18 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
         csrbf_anim::camera::axis_name(aimed.up.0),
         aimed.up.1
     ));
+    let volume = crate::volume::is_volume(&a.mesh);
+    if volume && !a.folds {
+        // A volume mesh's boundary see-through: what is inside it (a
+        // cavity's surface, the object the mesh is around) shows.
+        for part in &mut scene.objects[0].parts {
+            part.color[3] *= SEE_THROUGH;
+        }
+    }
     if a.folds
         && let Some(c) = &a.controls
     {
-        let faces = if crate::volume::is_volume(&a.mesh) {
+        let faces = if volume {
             crate::volume::picture(&a.mesh, Some(c), a.phase)?.inverted_faces
         } else {
             let file = crate::common::read_controls(c, progress)?;
