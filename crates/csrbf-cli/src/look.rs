@@ -84,7 +84,7 @@ pub fn mesh_scene(
     if crate::volume::is_volume(mesh) {
         // The boundary surface, morphed by the volume road; the scene shows
         // it as it is (no controls of its own).
-        let p = crate::volume::picture(mesh, controls, phase)?;
+        let p = crate::volume::picture(mesh, controls, phase, false)?;
         let mut moved = p.rest.clone();
         moved.positions = p.moved;
         // The scene names its mesh by the path made whole (`..` resolved),

@@ -101,7 +101,7 @@ pub fn render(a: &RenderArgs, progress: &Progress) -> Result<()> {
         && let Some(c) = &a.controls
     {
         let faces = if volume {
-            crate::volume::picture(&a.mesh, Some(c), a.phase)?.inverted_faces
+            crate::volume::picture(&a.mesh, Some(c), a.phase, false)?.inverted_faces
         } else {
             let file = crate::common::read_controls(c, progress)?;
             inside_out_faces(&aimed.mesh, &file, a.phase)?

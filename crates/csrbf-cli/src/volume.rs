@@ -5,10 +5,10 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use csrbf_edit::Note;
-use csrbf_edit::volume::{BoundaryMorph, VolumeReport, morph_boundary, morph_volume};
+use csrbf_edit::volume::{BoundaryMorph, VolumeMorph, VolumeReport, morph_boundary};
 use csrbf_mesh::volume::{VolumeFormat, VolumeMesh};
 
-use crate::common::{Progress, check_output, check_phase, read_controls};
+use crate::common::{Progress, check_output, check_phase};
 use crate::deform::DeformArgs;
 
 /// Whether a path names a volume mesh by its extension.
@@ -56,26 +56,16 @@ pub fn deform_volume(a: &DeformArgs, progress: &Progress) -> Result<()> {
         a.force,
         false,
     )?;
-    let text = std::fs::read_to_string(&a.controls)
-        .with_context(|| format!("cannot read control file {}", a.controls.display()))?;
-    let root: Option<serde_json::Value> =
-        serde_json::from_str(csrbf_edit::json::strip_bom(&text)).ok();
-    let boundary = root.as_ref().is_some_and(BoundaryMorph::is_boundary);
+    let morph = read_morph(&a.controls)?;
     let mesh = read_volume(&a.mesh, progress)?;
     let mut notes = |n: Note| match n {
         Note::Progress(t) => progress.say(t),
         Note::Warning(t) => err_line!("warning: {t}"),
         _ => {}
     };
-    let (moved, report) = if boundary {
-        let morph = BoundaryMorph::read(&a.controls)?;
-        morph_boundary(&mesh, &morph, a.phase, &mut notes)
-    } else {
-        let file = read_controls(&a.controls, progress)?;
-        let source = a.controls.display().to_string();
-        morph_volume(&mesh, &file, &source, a.phase, a.allow_large, &mut notes)
-    }
-    .with_context(|| a.mesh.display().to_string())?;
+    let (moved, report) = morph
+        .run(&mesh, a.phase, a.allow_large, &mut notes)
+        .with_context(|| a.mesh.display().to_string())?;
     say_report(&report, progress);
     let mut out = mesh;
     out.points = moved;
@@ -89,6 +79,16 @@ pub fn deform_volume(a: &DeformArgs, progress: &Progress) -> Result<()> {
         out_line!("{}", serde_json::to_string_pretty(&value)?);
     }
     Ok(())
+}
+
+/// A control file or a boundary-driven morph by path, the reader's
+/// warnings (a control file's unknown keys) printed.
+fn read_morph(path: &Path) -> Result<VolumeMorph> {
+    let morph = VolumeMorph::read(path)?;
+    for w in morph.warnings() {
+        err_line!("warning: {}: {w}", path.display());
+    }
+    Ok(morph)
 }
 
 /// The report's lines: the summary, per zone, and the advice as a warning.
@@ -138,7 +138,12 @@ pub struct Picture {
 
 /// The surface of a volume mesh to draw, morphed by `controls` (a control
 /// file or a boundary-driven morph) at `phase` when given.
-pub fn picture(path: &Path, controls: Option<&Path>, phase: f64) -> Result<Picture> {
+pub fn picture(
+    path: &Path,
+    controls: Option<&Path>,
+    phase: f64,
+    allow_large: bool,
+) -> Result<Picture> {
     let quiet = Progress::new(false);
     let mesh = read_volume(path, &quiet)?;
     let mut rest = mesh.surface();
@@ -150,29 +155,14 @@ pub fn picture(path: &Path, controls: Option<&Path>, phase: f64) -> Result<Pictu
             inverted_faces: Vec::new(),
         });
     };
-    let text = std::fs::read_to_string(c)
-        .with_context(|| format!("cannot read control file {}", c.display()))?;
-    let root: Option<serde_json::Value> =
-        serde_json::from_str(csrbf_edit::json::strip_bom(&text)).ok();
     let mut notes = |n: Note| {
         if let Note::Warning(t) = n {
             err_line!("warning: {t}");
         }
     };
-    let (points, report) = if root.as_ref().is_some_and(BoundaryMorph::is_boundary) {
-        morph_boundary(&mesh, &BoundaryMorph::read(c)?, phase, &mut notes)
-    } else {
-        let file = read_controls(c, &quiet)?;
-        morph_volume(
-            &mesh,
-            &file,
-            &c.display().to_string(),
-            phase,
-            false,
-            &mut notes,
-        )
-    }
-    .with_context(|| path.display().to_string())?;
+    let (points, report) = read_morph(c)?
+        .run(&mesh, phase, allow_large, &mut notes)
+        .with_context(|| path.display().to_string())?;
     let mut inverted_faces = Vec::new();
     for &cell in &report.cells.inverted {
         let nodes = mesh.cells.cell(cell as usize);
@@ -204,11 +194,21 @@ pub fn bench(
     progress: &Progress,
 ) -> Result<()> {
     let (name, mesh, morph) = match (scene, files) {
-        (_, Some((m, c))) => (
-            m.display().to_string(),
-            read_volume(m, progress)?,
-            BoundaryMorph::read(c)?,
-        ),
+        (_, Some((m, c))) => {
+            if export.is_some() {
+                bail!(
+                    "--export writes the synthetic volume scenes (--scene volume/N/K/S); {} is a file already",
+                    m.display()
+                );
+            }
+            let VolumeMorph::Boundary(morph) = read_morph(c)? else {
+                bail!(
+                    "{}: bench of a volume mesh times a boundary-driven morph (a document with \"boundary\")",
+                    c.display()
+                );
+            };
+            (m.display().to_string(), read_volume(m, progress)?, morph)
+        }
         (Some(s), None) => {
             let dims: Vec<f64> = s
                 .strip_prefix("volume/")

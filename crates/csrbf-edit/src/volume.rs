@@ -110,8 +110,22 @@ fn judge(mesh: &VolumeMesh, rest: &[DVec3], moved: &[DVec3], straight: bool) -> 
 /// counts, the least scaled Jacobians, per zone, and the first phase of
 /// the straight-line morph from `rest` to `moved` at which a cell turns
 /// (exact: each corner's determinant is a cubic in the phase).
-pub fn check_cells(mesh: &VolumeMesh, rest: &[DVec3], moved: &[DVec3]) -> CellCheck {
-    check_cells_with(mesh, rest, moved, true)
+///
+/// Refused when `rest` or `moved` is not one position a node.
+pub fn check_cells(
+    mesh: &VolumeMesh,
+    rest: &[DVec3],
+    moved: &[DVec3],
+) -> Result<CellCheck, EditError> {
+    let n = mesh.points.len();
+    if rest.len() != n || moved.len() != n {
+        return Err(EditError::Morph(format!(
+            "check_cells: {} rest and {} moved positions for {n} nodes",
+            rest.len(),
+            moved.len()
+        )));
+    }
+    Ok(check_cells_with(mesh, rest, moved, true))
 }
 
 fn check_cells_with(
@@ -139,11 +153,13 @@ fn check_cells_with(
         check.cells += 1;
         check.min_scaled_jacobian_before = check.min_scaled_jacobian_before.min(sj_before);
         check.min_scaled_jacobian_after = check.min_scaled_jacobian_after.min(sj_after);
-        if before <= 0.0 {
+        // Not positive, NaN included (a node at a coordinate that is not
+        // a number cannot make a valid cell).
+        if !(before > 0.0) {
             check.inverted_at_rest.push(c as u32);
             continue;
         }
-        if after <= 0.0 {
+        if !(after > 0.0) {
             check.inverted.push(c as u32);
         }
         if first.is_finite() && check.first_inversion.is_none_or(|f| first < f) {
@@ -163,7 +179,7 @@ fn check_cells_with(
             cells: cells.len(),
             inverted: cells
                 .iter()
-                .filter(|&&c| judged[c][0] > 0.0 && judged[c][1] <= 0.0)
+                .filter(|&&c| judged[c][0] > 0.0 && !(judged[c][1] > 0.0))
                 .count(),
             min_scaled_jacobian_after: cells
                 .iter()
@@ -320,7 +336,10 @@ impl VolumeReport {
         )
     }
 
-    fn new(mesh: &VolumeMesh, phase: f64, moved: &[DVec3], cells: CellCheck) -> VolumeReport {
+    /// The report of a morph at `phase`: the cell check's first inversion
+    /// (a share of the way to `moved`) becomes a phase of the document.
+    fn new(mesh: &VolumeMesh, phase: f64, moved: &[DVec3], mut cells: CellCheck) -> VolumeReport {
+        cells.first_inversion = cells.first_inversion.map(|s| s * phase);
         let diag = diagonal(&mesh.points);
         let (mut count, mut largest, mut at) = (0, 0.0f64, 0);
         for (i, (a, b)) in mesh.points.iter().zip(moved).enumerate() {
@@ -410,7 +429,13 @@ fn resolution_surface(mesh: &VolumeMesh) -> csrbf_mesh::Mesh {
 /// The nodes of the zone named `name` (or numbered), for regions naming a
 /// zone.
 fn zone_group(mesh: &VolumeMesh) -> impl Fn(&str) -> Option<Vec<u32>> + '_ {
-    move |name: &str| mesh.zone(name).map(|z| mesh.zone_nodes(z.tag))
+    // Every zone's nodes once (a sweep asks at every step).
+    let nodes: std::collections::HashMap<i32, Vec<u32>> = mesh
+        .zones
+        .iter()
+        .map(|z| (z.tag, mesh.zone_nodes(z.tag)))
+        .collect();
+    move |name: &str| mesh.zone(name).and_then(|z| nodes.get(&z.tag).cloned())
 }
 
 /// Every node of `mesh` moved by the control document `file` at `phase`
@@ -571,6 +596,9 @@ pub struct BoundaryMorph {
     /// Take the morph as a sweep of steps each certified to keep every
     /// cell positive (`"sweep": true`; [`certified_sweep`]).
     pub sweep: bool,
+    /// Fit a zone's control file (`"controls"`) even past the memory limit
+    /// (the CLI's `--allow-large`; not in the document).
+    pub allow_large: bool,
     /// Where the document is (relative file names are taken beside it).
     pub source: std::path::PathBuf,
 }
@@ -808,28 +836,9 @@ impl BoundaryMorph {
             moves,
             hold,
             sweep,
+            allow_large: false,
             source: source.to_owned(),
         })
-    }
-
-    /// Reads a boundary-driven morph file.
-    pub fn read(path: &Path) -> Result<BoundaryMorph, EditError> {
-        let text = std::fs::read_to_string(path).map_err(|source| {
-            EditError::Mesh(csrbf_mesh::MeshError::Io {
-                path: path.to_owned(),
-                source,
-            })
-        })?;
-        let root: Value = serde_json::from_str(crate::json::strip_bom(&text)).map_err(|e| {
-            EditError::Morph(format!(
-                "{}: line {}, column {}: invalid JSON: {e}",
-                path.display(),
-                e.line(),
-                e.column()
-            ))
-        })?;
-        BoundaryMorph::from_value(&root, path)
-            .map_err(|e| EditError::Morph(format!("{}: {e}", path.display())))
     }
 }
 
@@ -957,7 +966,7 @@ fn prescribe(
                     &file,
                     &path.display().to_string(),
                     Some(&surface),
-                    false,
+                    morph.allow_large,
                     notes,
                 )?;
                 let sub: Vec<DVec3> = nodes.iter().map(|&v| mesh.points[v as usize]).collect();
@@ -999,7 +1008,14 @@ fn prescribe(
     for (i, name) in morph.hold.iter().enumerate() {
         let at = format!("{}: boundary.hold[{i}]", morph.source.display());
         let zone = find_zone(mesh, name, &at)?;
-        for v in mesh.zone_nodes(zone.tag) {
+        let nodes = mesh.zone_nodes(zone.tag);
+        if nodes.is_empty() {
+            return Err(EditError::Morph(format!(
+                "{at}: zone {:?} has no cells",
+                zone.name
+            )));
+        }
+        for v in nodes {
             if given[v as usize].is_none() {
                 given[v as usize] = Some(DVec3::ZERO);
                 held += 1;
@@ -1059,9 +1075,16 @@ pub fn morph_boundary(
         t.elapsed().as_secs_f64() * 1e3 - prescribed_ms
     )));
     let sweep = if morph.sweep {
-        let s: Vec<DVec3> = picked.iter().map(|&i| starts[i]).collect();
-        let t: Vec<DVec3> = picked.iter().map(|&i| targets[i]).collect();
-        let found = certified_sweep(mesh, &s, &t, morph.options).map_err(engine)?;
+        // Every prescribed node a control: a subset would leave the others
+        // to be set in place after the sweep, outside its certificate.
+        if picked.len() < starts.len() {
+            notes(Note::Progress(format!(
+                "{at}: the sweep takes all {} boundary nodes as controls (a subset's other nodes would be set in place outside the certificate)",
+                starts.len()
+            )));
+        }
+        let (s, t) = (&starts[..], &targets[..]);
+        let found = certified_sweep(mesh, s, t, morph.options).map_err(engine)?;
         match &found {
             Some(steps) => notes(Note::Progress(format!(
                 "{at}: a sweep of {} step(s), each certified to keep every cell positive",
@@ -1092,7 +1115,12 @@ pub fn morph_boundary(
     // The prescribed nodes exactly where they were prescribed (the map puts
     // them there to its solver's precision).
     for (&v, dv) in nodes.iter().zip(&disp) {
-        out[v as usize] = mesh.points[v as usize] + *dv * phase;
+        // A held node is its rest position itself (-0.0 stays -0.0).
+        out[v as usize] = if *dv == DVec3::ZERO {
+            mesh.points[v as usize]
+        } else {
+            mesh.points[v as usize] + *dv * phase
+        };
     }
     if let Some(v) = out.iter().position(|p| !p.is_finite()) {
         return Err(EditError::Morph(format!(
@@ -1105,7 +1133,11 @@ pub fn morph_boundary(
     let cells = check_cells_with(mesh, &mesh.points, &out, sweep.is_none());
     let check_ms = checked.elapsed().as_secs_f64() * 1e3;
     let mut report = VolumeReport::new(mesh, phase, &out, cells);
-    report.controls = controls;
+    report.controls = if sweep.is_some() {
+        starts.len()
+    } else {
+        controls
+    };
     report.boundary = Some(BoundaryFigures {
         moved_nodes,
         held_nodes,
@@ -1337,6 +1369,91 @@ fn read_controls(path: &Path) -> Result<ControlFile, EditError> {
         })
     })?;
     ControlFile::parse(&text).map_err(|e| EditError::Morph(format!("{}: {e}", path.display())))
+}
+
+/// What a volume mesh is morphed by: a control document (every node by its
+/// map) or a boundary-driven morph (a document with `boundary`). The one
+/// place a front end's file or dict becomes a morph: the CLI's `deform`,
+/// `render` and `bench`, Python's `morph_volume`.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub enum VolumeMorph {
+    /// A control document and the name its messages give it.
+    Controls(ControlFile, String),
+    /// A boundary-driven morph.
+    Boundary(BoundaryMorph),
+}
+
+impl VolumeMorph {
+    /// A parsed JSON document, a boundary-driven morph when its top level
+    /// has `boundary`, else a control file; `source` names it (and places
+    /// a boundary morph's relative files).
+    pub fn from_value(root: &Value, source: &Path) -> Result<VolumeMorph, EditError> {
+        let named = |e: crate::ControlError| EditError::Morph(format!("{}: {e}", source.display()));
+        if BoundaryMorph::is_boundary(root) {
+            return BoundaryMorph::from_value(root, source)
+                .map(VolumeMorph::Boundary)
+                .map_err(named);
+        }
+        let file = ControlFile::from_value(root).map_err(named)?;
+        Ok(VolumeMorph::Controls(file, source.display().to_string()))
+    }
+
+    /// A morph file (JSON), either kind.
+    pub fn read(path: &Path) -> Result<VolumeMorph, EditError> {
+        let text = std::fs::read_to_string(path).map_err(|source| {
+            EditError::Mesh(csrbf_mesh::MeshError::Io {
+                path: path.to_owned(),
+                source,
+            })
+        })?;
+        let root: Value = serde_json::from_str(crate::json::strip_bom(&text)).map_err(|e| {
+            EditError::Morph(format!(
+                "{}: line {}, column {}: invalid JSON: {e}",
+                path.display(),
+                e.line(),
+                e.column()
+            ))
+        })?;
+        if let Err(e) = crate::json::check_duplicate_keys(&text) {
+            return Err(EditError::Morph(format!(
+                "{}: line {}: {e}",
+                path.display(),
+                e.second_line
+            )));
+        }
+        VolumeMorph::from_value(&root, path)
+    }
+
+    /// What the document holds that its reader ignored (a control file's
+    /// unknown keys; a boundary morph refuses them).
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            VolumeMorph::Controls(file, _) => &file.warnings,
+            VolumeMorph::Boundary(_) => &[],
+        }
+    }
+
+    /// Every node of `mesh` moved at `phase`, every cell checked
+    /// ([`morph_volume`] or [`morph_boundary`]).
+    pub fn run(
+        &self,
+        mesh: &VolumeMesh,
+        phase: f64,
+        allow_large: bool,
+        notes: &mut dyn FnMut(Note),
+    ) -> Result<(Vec<DVec3>, VolumeReport), EditError> {
+        match self {
+            VolumeMorph::Controls(file, source) => {
+                morph_volume(mesh, file, source, phase, allow_large, notes)
+            }
+            VolumeMorph::Boundary(b) => {
+                let mut b = b.clone();
+                b.allow_large = allow_large;
+                morph_boundary(mesh, &b, phase, notes)
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -67,6 +67,14 @@ fn inverted_cells_are_the_references_on_random_morphs() {
                     morph_volume(&mesh, &file, "case", s, false, &mut |_| {}).expect("morph");
                 reference_inverted(&mesh, &m).len()
             };
+            // Asked for a phase past it, the report gives the same phase of
+            // the document (not a share of the phase asked for).
+            if p < 0.9 {
+                let (_, later) =
+                    morph_volume(&mesh, &file, "case", 0.95, false, &mut |_| {}).expect("morph");
+                let q = later.cells.first_inversion.expect("turns before 0.95");
+                assert!((q - p).abs() < 1e-9, "case {case}: {q} at 0.95 against {p}");
+            }
             assert_eq!(at((p - 1e-6).max(0.0)), 0, "case {case}: before {p}");
             assert!(at((p + 1e-6).min(1.0)) > 0, "case {case}: after {p}");
             assert!(!report.advice.is_empty());
@@ -360,6 +368,16 @@ fn a_certified_sweep_keeps_every_cell_positive_at_every_phase() {
             assert!(moved[v as usize].distance(want) < 1e-12);
         }
     }
+    // With a tolerance, the sweep still takes every boundary node (a
+    // subset's others would be set in place outside its certificate).
+    let mut with_tolerance = doc(true);
+    with_tolerance["boundary"]["tolerance"] = json!(1e-3);
+    let m = BoundaryMorph::from_value(&with_tolerance, src).expect("parse");
+    let (moved, report) = morph_boundary(&mesh, &m, 1.0, &mut |_| {}).expect("swept");
+    let all = mesh.zone_nodes(shapes::INNER).len() + mesh.zone_nodes(shapes::OUTER).len();
+    assert!(report.boundary.as_ref().is_some_and(|b| b.certified));
+    assert_eq!(report.controls, all);
+    assert!(reference_inverted(&mesh, &moved).is_empty());
     assert!(
         plain_inverted > 0,
         "the single map inverts cells (so the sweep earns its steps): {plain_inverted}"

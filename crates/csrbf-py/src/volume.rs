@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use csrbf_edit::volume::{BoundaryMorph, VolumeReport};
+use csrbf_edit::volume::{VolumeMorph, VolumeReport};
 use csrbf_mesh::volume::{CellKind, VolumeMesh, Zone};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -379,44 +379,22 @@ impl PyVolumeReport {
     }
 }
 
-/// A control document or a boundary-driven morph, from a path or a dict.
-enum Morph {
-    Controls(csrbf_edit::ControlFile),
-    Boundary(BoundaryMorph),
-}
-
-fn morph_arg(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<Morph> {
-    let (value, source) = if controls.is_instance_of::<PyDict>() {
-        (py_json(controls, "controls")?, PathBuf::from("controls"))
+/// A control document or a boundary-driven morph, from a path or a dict
+/// (the edit layer's `VolumeMorph`); a control file's unknown keys warn.
+fn morph_arg(py: Python<'_>, controls: &Bound<'_, PyAny>) -> PyResult<VolumeMorph> {
+    let morph = if controls.is_instance_of::<PyDict>() {
+        VolumeMorph::from_value(&py_json(controls, "controls")?, Path::new("controls"))
     } else {
         let path: PathBuf = controls.extract().map_err(|_| {
             PyTypeError::new_err("controls must be a path to a control file or a dict in its form")
         })?;
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            crate::Error::new_err(format!("cannot read control file {}: {e}", path.display()))
-        })?;
-        let v: serde_json::Value = serde_json::from_str(csrbf_edit::json::strip_bom(&text))
-            .map_err(|e| {
-                crate::Error::new_err(format!(
-                    "{}: line {}, column {}: invalid JSON: {e}",
-                    path.display(),
-                    e.line(),
-                    e.column()
-                ))
-            })?;
-        (v, path)
-    };
-    if BoundaryMorph::is_boundary(&value) {
-        let m = BoundaryMorph::from_value(&value, &source)
-            .map_err(|e| crate::Error::new_err(format!("{}: {e}", source.display())))?;
-        return Ok(Morph::Boundary(m));
+        VolumeMorph::read(&path)
     }
-    let file = csrbf_edit::ControlFile::from_value(&value)
-        .map_err(|e| crate::Error::new_err(format!("{}: {e}", source.display())))?;
-    for w in &file.warnings {
-        warn(py, &format!("{}: {w}", source.display()))?;
+    .map_err(|e| error(&e))?;
+    for w in morph.warnings() {
+        warn(py, w)?;
     }
-    Ok(Morph::Controls(file))
+    Ok(morph)
 }
 
 /// Morphs a volume mesh (`csrbf deform` of a .vtu/.msh/.vtk): a control
@@ -446,16 +424,7 @@ pub fn morph_volume(
     let morph = morph_arg(py, controls)?;
     let m = &mesh.inner;
     let mut notes = Vec::new();
-    let result = py.detach(|| match &morph {
-        Morph::Controls(file) => {
-            csrbf_edit::volume::morph_volume(m, file, "controls", phase, allow_large, &mut |n| {
-                notes.push(n)
-            })
-        }
-        Morph::Boundary(b) => {
-            csrbf_edit::volume::morph_boundary(m, b, phase, &mut |n| notes.push(n))
-        }
-    });
+    let result = py.detach(|| morph.run(m, phase, allow_large, &mut |n| notes.push(n)));
     for n in notes {
         if let csrbf_edit::Note::Warning(w) = n {
             warn(py, &w)?;

@@ -238,10 +238,12 @@ pub fn compose_f64(
             });
         }
         let t = stage.applied_phase();
+        // The region is resolved even at phase 0: a part the mesh lacks is
+        // refused as `compose` refuses it.
+        let (active, weights) = stage.region.weights(&rest32, groups)?;
         if t == 0.0 {
             continue;
         }
-        let (active, weights) = stage.region.weights(&rest32, groups)?;
         // A sweep's steps chain whatever the document's combination says.
         let from = if combine == Combine::Chain || stage.sweep.is_some() {
             &points

@@ -6,9 +6,10 @@
 //! cell). A tetrahedron has one such value up to a factor (its signed
 //! volume times 6); a hexahedron, wedge or pyramid is valid, with a
 //! positive Jacobian everywhere inside, only when all its corner values are
-//! positive (the criterion of Verdict and of the solvers' mesh checks). A
-//! pyramid's apex joins four edges, so it is judged by the four
-//! tetrahedra of its two diagonal splits instead.
+//! positive (the criterion of Verdict and of the solvers' mesh checks: a
+//! necessary condition for a hexahedron, whose Jacobian is not linear). A
+//! pyramid's apex joins four edges; its base corners' determinants are the
+//! tetrahedra of its two diagonal splits, which judge the apex too.
 //!
 //! The scaled Jacobian is the least corner determinant over the product of
 //! its edges' lengths, scaled so that the ideal shape (regular
@@ -43,30 +44,22 @@ pub fn corners(kind: CellKind) -> &'static [[usize; 4]] {
             [4, 5, 3, 1],
             [5, 3, 4, 2],
         ],
-        CellKind::Pyramid => &[
-            [0, 1, 3, 4],
-            [1, 2, 0, 4],
-            [2, 3, 1, 4],
-            [3, 0, 2, 4],
-            // The apex, by the tetrahedra of the two diagonal splits.
-            [0, 1, 2, 4],
-            [0, 2, 3, 4],
-            [1, 2, 3, 4],
-            [0, 1, 3, 4],
-        ],
+        // Each base corner's determinant is a tetrahedron with the apex;
+        // the four are the two diagonal splits' tetrahedra, so the apex is
+        // judged by them too.
+        CellKind::Pyramid => &[[0, 1, 3, 4], [1, 2, 0, 4], [2, 3, 1, 4], [3, 0, 2, 4]],
         _ => &[],
     }
 }
 
 /// The factor that makes a corner of the ideal shape score 1.
-fn ideal_scale(kind: CellKind, corner: usize) -> f64 {
+fn ideal_scale(kind: CellKind) -> f64 {
     match kind {
         CellKind::Tetra => std::f64::consts::SQRT_2,
         CellKind::Wedge => 2.0 / 3f64.sqrt(),
         // The ideal pyramid (every edge equal): its base corners score
-        // 1/sqrt2 unscaled, the tetrahedra of its splits 1/2.
-        CellKind::Pyramid if corner < 4 => std::f64::consts::SQRT_2,
-        CellKind::Pyramid => 2.0,
+        // 1/sqrt2 unscaled.
+        CellKind::Pyramid => std::f64::consts::SQRT_2,
         _ => 1.0,
     }
 }
@@ -88,7 +81,11 @@ pub fn corner_dets(kind: CellKind, p: &[DVec3]) -> impl Iterator<Item = f64> + '
 /// The least corner determinant of a cell (+inf for 0D-2D cells): not
 /// positive when the cell is flat or inside out.
 pub fn min_corner_det(kind: CellKind, p: &[DVec3]) -> f64 {
-    corner_dets(kind, p).fold(f64::INFINITY, f64::min)
+    // NaN wins (a corner that is not a number is not positive).
+    corner_dets(kind, p).fold(
+        f64::INFINITY,
+        |a, b| if b < a || b.is_nan() { b } else { a },
+    )
 }
 
 /// The scaled Jacobian of a cell: 1 for the ideal shape, 0 flat, negative
@@ -96,11 +93,11 @@ pub fn min_corner_det(kind: CellKind, p: &[DVec3]) -> f64 {
 /// of zero length scores 0.
 pub fn scaled_jacobian(kind: CellKind, p: &[DVec3]) -> f64 {
     let mut least = f64::INFINITY;
-    for (i, &[o, a, b, c]) in corners(kind).iter().enumerate() {
+    for &[o, a, b, c] in corners(kind) {
         let (ea, eb, ec) = (p[a] - p[o], p[b] - p[o], p[c] - p[o]);
         let lengths = ea.length() * eb.length() * ec.length();
         let s = if lengths > 0.0 {
-            det3(ea, eb, ec) / lengths * ideal_scale(kind, i)
+            det3(ea, eb, ec) / lengths * ideal_scale(kind)
         } else {
             0.0
         };

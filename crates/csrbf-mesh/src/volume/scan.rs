@@ -344,6 +344,23 @@ pub(super) fn zones(named: Vec<Zone>, cell_zones: &[i32], kinds: &[CellKind]) ->
     zones
 }
 
+/// The zone a field data array names (`name` = [tag, dim], as meshio keeps
+/// Gmsh's physical groups), if its values are a tag and a dimension.
+pub(super) fn named_zone(name: &str, v: &[i64]) -> Option<Zone> {
+    if let [tag, dim] = *v
+        && let (Ok(tag), Ok(dim)) = (i32::try_from(tag), u8::try_from(dim))
+        && tag != 0
+        && dim <= 3
+    {
+        return Some(Zone {
+            name: name.to_string(),
+            tag,
+            dim,
+        });
+    }
+    None
+}
+
 /// The names csrbf reads a cell zone array by, most wanted first.
 pub(super) const ZONE_ARRAYS: [&str; 4] = ["gmsh:physical", "zone", "cell_zone", "CellEntityIds"];
 

@@ -1,20 +1,12 @@
-//! VTK legacy files (`.vtk`): `DATASET UNSTRUCTURED_GRID`, ASCII or BINARY
-//! (big-endian), cells in the old layout (`n i0 i1 ...` per cell) or VTK
-//! 5.1's (`OFFSETS` and `CONNECTIVITY`), zones as an integer cell array
-//! and their names as dataset field data (`name` = [tag, dim], as meshio
-//! keeps Gmsh's physical groups).
-//!
-//! Zone names are read only with a zone array (an integer field data pair
-//! alone could be anything).
-//!
-//! Written as version 4.2 (the old cell layout, which every VTK reads),
-//! zones as the cell array `gmsh:physical` and field data as above.
+//! Reading: the header, then keyword by keyword, each array's values in
+//! ASCII or BINARY.
 
 use std::path::Path;
 
-use super::scan::{self, Binary, Cursor, Scalar, ZONE_ARRAY, ZONE_ARRAYS};
-use super::{CellKind, Cells, VolumeMesh, Zone};
+use super::cells::build_cells;
 use crate::Result;
+use crate::volume::scan::{self, Binary, Cursor, Scalar, ZONE_ARRAYS};
+use crate::volume::{VolumeMesh, Zone};
 
 /// A legacy type name's scalar type; `None` for `bit` and strings.
 fn scalar(name: &str) -> Option<Scalar> {
@@ -186,7 +178,7 @@ impl<'a> Reader<'a> {
 
 /// A legacy array name: `%XX` stands for the byte XX (how VTK writes
 /// spaces and other special characters).
-fn decode_name(name: &str) -> String {
+pub(super) fn decode_name(name: &str) -> String {
     let b = name.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
@@ -209,100 +201,7 @@ fn decode_name(name: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// A name as a legacy file can hold it: one word, `%XX` for what is not a
-/// printable character other than `%`.
-fn encode_name(name: &str) -> String {
-    let mut out = String::new();
-    for &b in name.as_bytes() {
-        if b.is_ascii_graphic() && b != b'%' {
-            out.push(b as char);
-        } else {
-            out.push_str(&format!("%{b:02X}"));
-        }
-    }
-    if out.is_empty() { "%00".into() } else { out }
-}
-
-/// Converts VTK's cell type number and nodes to csrbf's kind, turning
-/// pixels and voxels (VTK types 8 and 11) into quads and hexahedra.
-pub(super) fn vtk_cell(t: i64, nodes: &mut [u32]) -> Result<CellKind, String> {
-    let kind = match t {
-        8 => CellKind::Quad,
-        11 => CellKind::Hexahedron,
-        _ => CellKind::from_vtk(t).ok_or_else(|| {
-            let name = match t {
-                2 => " (poly-vertex)",
-                4 => " (poly-line)",
-                6 => " (triangle strip)",
-                7 => " (polygon)",
-                21..=37 => " (a quadratic or higher-order cell)",
-                42 => " (polyhedron)",
-                60.. => " (a higher-order cell)",
-                _ => "",
-            };
-            format!(
-                "VTK cell type {t}{name}, which csrbf does not read: it reads the linear cells \
-                 (VTK types 1, 3, 5, 8, 9, 10, 11, 12, 13, 14)"
-            )
-        })?,
-    };
-    if nodes.len() != kind.nodes() {
-        return Err(format!(
-            "VTK cell type {t} ({}) with {} nodes, not {}",
-            kind.name(),
-            nodes.len(),
-            kind.nodes()
-        ));
-    }
-    if t == 8 || t == 11 {
-        for q in nodes.chunks_exact_mut(4) {
-            q.swap(2, 3);
-        }
-    }
-    Ok(kind)
-}
-
-/// Builds the cells from offsets (start of each cell, plus the end),
-/// connectivity and types, checking each index; errors name the cell.
-pub(super) fn build_cells(
-    offsets: &[i64],
-    conn: &[i64],
-    types: &[i64],
-    npoints: usize,
-) -> Result<Cells, String> {
-    if offsets.len() != types.len() + 1 {
-        return Err(format!(
-            "{} cell types for {} cells",
-            types.len(),
-            offsets.len().saturating_sub(1)
-        ));
-    }
-    if conn.len() > u32::MAX as usize {
-        return Err("too many cell nodes (more than 2^32)".into());
-    }
-    let mut cells = Cells::default();
-    cells.kinds.reserve(types.len());
-    cells.nodes.reserve(conn.len());
-    let mut nodes = Vec::new();
-    for (c, &t) in types.iter().enumerate() {
-        let (a, b) = (offsets[c], offsets[c + 1]);
-        if a < 0 || b < a || b as u64 > conn.len() as u64 {
-            return Err(format!(
-                "cell {c}'s offsets ({a} to {b}) are not within its {} node indices",
-                conn.len()
-            ));
-        }
-        nodes.clear();
-        for &v in &conn[a as usize..b as usize] {
-            nodes.push(scan::index(v, npoints, || format!("a node of cell {c}"))?);
-        }
-        let kind = vtk_cell(t, &mut nodes).map_err(|e| format!("cell {c} has {e}"))?;
-        cells.push(kind, &nodes);
-    }
-    Ok(cells)
-}
-
-pub(super) fn read(bytes: &[u8], path: &Path) -> Result<VolumeMesh> {
+pub(in crate::volume) fn read(bytes: &[u8], path: &Path) -> Result<VolumeMesh> {
     let mut r = Reader {
         c: Cursor::new(bytes, path),
         binary: false,
@@ -354,12 +253,8 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<VolumeMesh> {
         let line = r.c.line_at(r.c.pos);
         match key.as_str() {
             "field" if section.is_empty() => r.field(|name, _, v| {
-                if let [tag, dim] = v[..]
-                    && let (Ok(tag), Ok(dim)) = (i32::try_from(tag), u8::try_from(dim))
-                    && tag != 0
-                    && dim <= 3
-                {
-                    named.push(Zone { name, tag, dim });
+                if let Some(z) = scan::named_zone(&name, &v) {
+                    named.push(z);
                 }
             })?,
             "points" => {
@@ -577,138 +472,4 @@ fn attribute(
     }
     r.skip_metadata();
     Ok(())
-}
-
-/// Writes a legacy file: ASCII, or BINARY (big-endian).
-pub(super) fn write(mesh: &VolumeMesh, binary: bool) -> Vec<u8> {
-    let mut out = Out {
-        buf: Vec::new(),
-        binary,
-        text: String::new(),
-    };
-    out.head(&format!(
-        "# vtk DataFile Version 4.2\ncsrbf volume mesh\n{}\nDATASET UNSTRUCTURED_GRID\n",
-        if binary { "BINARY" } else { "ASCII" }
-    ));
-    if !mesh.zones.is_empty() {
-        out.head(&format!("FIELD FieldData {}\n", mesh.zones.len()));
-        for z in &mesh.zones {
-            out.head(&format!("{} 1 2 int\n", encode_name(&z.name)));
-            out.ints(&[z.tag as i64, z.dim as i64]);
-        }
-    }
-    out.head(&format!("POINTS {} double\n", mesh.points.len()));
-    if binary {
-        for p in &mesh.points {
-            for v in p.to_array() {
-                out.buf.extend_from_slice(&v.to_be_bytes());
-            }
-        }
-        out.buf.push(b'\n');
-    } else {
-        for p in &mesh.points {
-            for (i, v) in p.to_array().into_iter().enumerate() {
-                scan::push_f64(&mut out.text, v);
-                out.text.push(if i == 2 { '\n' } else { ' ' });
-            }
-        }
-        out.flush();
-    }
-    let c = &mesh.cells;
-    out.head(&format!("CELLS {} {}\n", c.len(), c.len() + c.nodes.len()));
-    let mut list = Vec::with_capacity(c.len() + c.nodes.len());
-    for (_, nodes) in c.iter() {
-        list.push(nodes.len() as i64);
-        list.extend(nodes.iter().map(|&v| v as i64));
-    }
-    out.rows(&list, c.iter().map(|(_, n)| n.len() + 1));
-    out.head(&format!("CELL_TYPES {}\n", c.len()));
-    let types: Vec<i64> = c.kinds.iter().map(|k| k.vtk_type() as i64).collect();
-    out.ints(&types);
-    if !mesh.zones.is_empty() || !mesh.cell_zones.is_empty() {
-        out.head(&format!(
-            "CELL_DATA {}\nSCALARS {ZONE_ARRAY} int 1\nLOOKUP_TABLE default\n",
-            c.len()
-        ));
-        let tags: Vec<i64> = if mesh.cell_zones.is_empty() {
-            vec![0; c.len()]
-        } else {
-            mesh.cell_zones.iter().map(|&t| t as i64).collect()
-        };
-        out.ints(&tags);
-    }
-    out.buf
-}
-
-/// A legacy file being written.
-struct Out {
-    buf: Vec<u8>,
-    binary: bool,
-    text: String,
-}
-
-impl Out {
-    fn head(&mut self, s: &str) {
-        self.buf.extend_from_slice(s.as_bytes());
-    }
-
-    fn flush(&mut self) {
-        self.buf.extend_from_slice(self.text.as_bytes());
-        self.text.clear();
-    }
-
-    /// Integers as 32-bit (binary) or one line of at most 9 each (ASCII).
-    fn ints(&mut self, v: &[i64]) {
-        let rows = std::iter::repeat_n(9, v.len().div_ceil(9));
-        self.rows(v, rows);
-    }
-
-    /// Integers; in ASCII, `rows` gives how many go on each line.
-    fn rows(&mut self, v: &[i64], rows: impl Iterator<Item = usize>) {
-        if self.binary {
-            for &x in v {
-                self.buf.extend_from_slice(&(x as i32).to_be_bytes());
-            }
-            self.buf.push(b'\n');
-            return;
-        }
-        let mut i = 0;
-        for n in rows {
-            let end = (i + n).min(v.len());
-            for (k, x) in v[i..end].iter().enumerate() {
-                if k > 0 {
-                    self.text.push(' ');
-                }
-                self.text.push_str(&x.to_string());
-            }
-            self.text.push('\n');
-            i = end;
-        }
-        self.flush();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn names_round_trip_through_percent_codes() {
-        for name in ["inlet", "far field", "100%", "é x", ""] {
-            let e = encode_name(name);
-            assert!(!e.contains(' ') && !e.is_empty(), "{e}");
-            if !name.is_empty() {
-                assert_eq!(decode_name(&e), name);
-            }
-        }
-    }
-
-    #[test]
-    fn pixels_and_voxels_become_quads_and_hexahedra() {
-        let mut q = vec![0, 1, 2, 3];
-        assert_eq!(vtk_cell(8, &mut q), Ok(CellKind::Quad));
-        assert_eq!(q, [0, 1, 3, 2]);
-        let e = vtk_cell(24, &mut [0; 10]).unwrap_err();
-        assert!(e.contains("24 (a quadratic"), "{e}");
-    }
 }
