@@ -148,23 +148,24 @@ impl Decoder<'_> {
         })
     }
 
+    /// An ASCII array's words parsed, naming the first that is not `what`.
+    fn ascii<T: std::str::FromStr>(&self, a: &Array, what: &str) -> Result<Vec<T>> {
+        self.words(a)
+            .map(|w| {
+                std::str::from_utf8(w)
+                    .ok()
+                    .and_then(|s| s.parse().ok())
+                    .ok_or_else(|| {
+                        self.error(a, format!("{:?} is not {what}", String::from_utf8_lossy(w)))
+                    })
+            })
+            .collect()
+    }
+
     fn floats(&self, a: &Array) -> Result<Vec<f64>> {
         let ty = self.check_type(a)?;
         if a.layout == Layout::Ascii {
-            return self
-                .words(a)
-                .map(|w| {
-                    std::str::from_utf8(w)
-                        .ok()
-                        .and_then(|s| s.parse().ok())
-                        .ok_or_else(|| {
-                            self.error(
-                                a,
-                                format!("{:?} is not a number", String::from_utf8_lossy(w)),
-                            )
-                        })
-                })
-                .collect();
+            return self.ascii(a, "a number");
         }
         let b = self.bytes(a)?;
         if b.len() % ty.size() != 0 {
@@ -181,20 +182,7 @@ impl Decoder<'_> {
             return Err(self.error(a, format!("must hold integers, not {}", a.ty_name)));
         }
         if a.layout == Layout::Ascii {
-            return self
-                .words(a)
-                .map(|w| {
-                    std::str::from_utf8(w)
-                        .ok()
-                        .and_then(|s| s.parse().ok())
-                        .ok_or_else(|| {
-                            self.error(
-                                a,
-                                format!("{:?} is not an integer", String::from_utf8_lossy(w)),
-                            )
-                        })
-                })
-                .collect();
+            return self.ascii(a, "an integer");
         }
         let b = self.bytes(a)?;
         if b.len() % ty.size() != 0 {
