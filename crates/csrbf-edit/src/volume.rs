@@ -267,6 +267,9 @@ pub struct VolumeReport {
     pub cells: CellCheck,
     /// What to do about inverted cells, when some are.
     pub advice: String,
+    /// For a boundary-driven morph that inverts cells: what was measured
+    /// to keep every cell positive.
+    pub remedies: Option<CellRemedies>,
     /// The milliseconds the fit took.
     pub fit_ms: f64,
     /// The milliseconds the morph and the check took.
@@ -318,6 +321,13 @@ impl VolumeReport {
             })),
             "cells": self.cells.to_json(),
             "advice": self.advice,
+            "remedies": self.remedies.as_ref().map(|r| json!({
+                "radius_scale": r.radius_scale,
+                "radius": r.radius,
+                "sweep_steps": r.sweep_steps,
+                "tried_scales": r.tried_scales,
+                "searched_ms": r.searched_ms,
+            })),
             "fit_ms": self.fit_ms,
             "morph_ms": self.morph_ms,
             "check_ms": self.check_ms,
@@ -362,11 +372,139 @@ impl VolumeReport {
             boundary: None,
             cells,
             advice,
+            remedies: None,
             fit_ms: 0.0,
             morph_ms: 0.0,
             check_ms: 0.0,
         }
     }
+}
+
+/// What keeps a boundary-driven morph's cells positive, measured on the
+/// mesh: the smallest radius factor tried (1.5, 2, 3) whose single map
+/// inverts none, and the certified sweep's steps, within a budget.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct CellRemedies {
+    /// The radius factor that inverts none, when one tried does.
+    pub radius_scale: Option<f64>,
+    /// That radius.
+    pub radius: Option<f64>,
+    /// The steps of a sweep certified to keep every cell positive, when
+    /// one was found.
+    pub sweep_steps: Option<usize>,
+    /// The factors tried, in order.
+    pub tried_scales: Vec<f64>,
+    /// The milliseconds the search took.
+    pub searched_ms: f64,
+}
+
+impl CellRemedies {
+    /// The advice as one sentence, or "" when nothing was found.
+    pub fn advice(&self) -> String {
+        let mut found = Vec::new();
+        if let (Some(f), Some(r)) = (self.radius_scale, self.radius) {
+            found.push(format!(
+                "a radius {f}x as large ({}) inverts none",
+                csrbf::plain_number(r)
+            ));
+        }
+        if let Some(k) = self.sweep_steps {
+            found.push(format!(
+                "a sweep (\"sweep\": true) of {k} steps is certified to invert none at any phase"
+            ));
+        }
+        if found.is_empty() {
+            return String::new();
+        }
+        format!("measured: {}", found.join("; "))
+    }
+}
+
+/// Radius factors the remedies try, smallest first.
+const REMEDY_SCALES: [f64; 3] = [1.5, 2.0, 3.0];
+
+/// The remedies of a boundary-driven morph whose cells turn: each radius
+/// factor's map fitted to the prescribed nodes, moved and checked at
+/// `phase`, then the certified sweep, while the time spent stays within
+/// `budget_ms` (a trial begun is finished).
+fn cell_remedies(
+    mesh: &VolumeMesh,
+    starts: &[DVec3],
+    targets: &[DVec3],
+    (nodes, disp): (&[u32], &[DVec3]),
+    options: csrbf::FitOptions,
+    phase: f64,
+    budget_ms: f64,
+) -> CellRemedies {
+    let t = Instant::now();
+    let spent = || t.elapsed().as_secs_f64() * 1e3;
+    let mut r = CellRemedies {
+        radius_scale: None,
+        radius: None,
+        sweep_steps: None,
+        tried_scales: Vec::new(),
+        searched_ms: 0.0,
+    };
+    for f in REMEDY_SCALES {
+        if spent() > budget_ms {
+            break;
+        }
+        r.tried_scales.push(f);
+        let wider = options.with_radius(options.radius * f);
+        let Ok(def) = csrbf::Deformation::fit(starts, targets, wider) else {
+            continue;
+        };
+        let out = place(mesh, &def.displacements(&mesh.points), nodes, disp, phase);
+        if check_cells_with(mesh, &mesh.points, &out, false)
+            .inverted
+            .is_empty()
+        {
+            r.radius_scale = Some(f);
+            r.radius = Some(wider.radius);
+            break;
+        }
+    }
+    let deadline = t + std::time::Duration::from_secs_f64(budget_ms.max(0.0) / 1e3);
+    if spent() <= budget_ms
+        && let Ok(Some(steps)) =
+            certified_sweep_until(mesh, starts, targets, options, Some(deadline))
+    {
+        r.sweep_steps = Some(steps.len());
+    }
+    r.searched_ms = spent();
+    r
+}
+
+/// The nodes moved by `d` at `phase`, the prescribed ones set where they
+/// were prescribed (a held one at its rest coordinates, bit for bit).
+fn place(mesh: &VolumeMesh, d: &[DVec3], nodes: &[u32], disp: &[DVec3], phase: f64) -> Vec<DVec3> {
+    let moved = mesh
+        .points
+        .iter()
+        .zip(d)
+        .map(|(p, d)| *p + *d * phase)
+        .collect();
+    prescribed_at(mesh, moved, nodes, disp, phase)
+}
+
+/// `out` with the prescribed nodes set where they were prescribed at
+/// `phase` (a held one at its rest coordinates, bit for bit).
+fn prescribed_at(
+    mesh: &VolumeMesh,
+    mut out: Vec<DVec3>,
+    nodes: &[u32],
+    disp: &[DVec3],
+    phase: f64,
+) -> Vec<DVec3> {
+    for (&v, dv) in nodes.iter().zip(disp) {
+        out[v as usize] = if *dv == DVec3::ZERO {
+            mesh.points[v as usize]
+        } else {
+            mesh.points[v as usize] + *dv * phase
+        };
+    }
+    out
 }
 
 /// What to try when cells turn.
@@ -1101,27 +1239,12 @@ pub fn morph_boundary(
     };
     let fit_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let mut out = match &sweep {
-        Some(steps) => walk(steps, &mesh.points, phase),
-        None => {
-            let d = def.displacements(&mesh.points);
-            mesh.points
-                .iter()
-                .zip(&d)
-                .map(|(p, d)| *p + *d * phase)
-                .collect()
-        }
-    };
     // The prescribed nodes exactly where they were prescribed (the map puts
     // them there to its solver's precision).
-    for (&v, dv) in nodes.iter().zip(&disp) {
-        // A held node is its rest position itself (-0.0 stays -0.0).
-        out[v as usize] = if *dv == DVec3::ZERO {
-            mesh.points[v as usize]
-        } else {
-            mesh.points[v as usize] + *dv * phase
-        };
-    }
+    let out = match &sweep {
+        Some(steps) => prescribed_at(mesh, walk(steps, &mesh.points, phase), &nodes, &disp, phase),
+        None => place(mesh, &def.displacements(&mesh.points), &nodes, &disp, phase),
+    };
     if let Some(v) = out.iter().position(|p| !p.is_finite()) {
         return Err(EditError::Morph(format!(
             "{at}: the morph put node {v} at a coordinate that is not a finite number"
@@ -1150,6 +1273,18 @@ pub fn morph_boundary(
     report.fit_ms = fit_ms;
     report.morph_ms = t.elapsed().as_secs_f64() * 1e3;
     report.check_ms = check_ms;
+    if !report.cells.inverted.is_empty() && sweep.is_none() {
+        // Measured, within about twice what the morph took (at least a second).
+        let budget = (2.0 * (fit_ms + report.morph_ms)).max(1000.0);
+        let (s, t): (Vec<DVec3>, Vec<DVec3>) =
+            picked.iter().map(|&i| (starts[i], targets[i])).unzip();
+        let r = cell_remedies(mesh, &s, &t, (&nodes, &disp), morph.options, phase, budget);
+        let said = r.advice();
+        if !said.is_empty() {
+            report.advice = format!("{}; {said}", report.advice);
+        }
+        report.remedies = Some(r);
+    }
     Ok((out, report))
 }
 
@@ -1319,15 +1454,34 @@ pub fn certified_sweep(
     targets: &[DVec3],
     options: csrbf::FitOptions,
 ) -> csrbf::Result<Option<Vec<csrbf::Deformation>>> {
+    certified_sweep_until(mesh, starts, targets, options, None)
+}
+
+/// [`certified_sweep`], giving up (None) once `deadline` has passed.
+fn certified_sweep_until(
+    mesh: &VolumeMesh,
+    starts: &[DVec3],
+    targets: &[DVec3],
+    options: csrbf::FitOptions,
+    deadline: Option<Instant>,
+) -> csrbf::Result<Option<Vec<csrbf::Deformation>>> {
     const AIM: f64 = 0.8;
+    let late = || deadline.is_some_and(|d| Instant::now() > d);
     let rest_kappa = conditioning(mesh, &mesh.points);
     if !rest_kappa.is_finite() {
         return Ok(None);
     }
+    let fitted = Instant::now();
     let plain = csrbf::Deformation::fit(starts, targets, options)?;
+    let fit_time = fitted.elapsed();
     let mut k = ((plain.gradient_bound() * rest_kappa / AIM).ceil() as usize).max(1);
+    // A sweep fits every step before it is walked: past the deadline by
+    // the estimate already, it is not begun.
+    if deadline.is_some_and(|d| Instant::now() + fit_time * k.min(csrbf::MAX_STEPS) as u32 > d) {
+        return Ok(None);
+    }
     loop {
-        if k > csrbf::MAX_STEPS {
+        if k > csrbf::MAX_STEPS || late() {
             return Ok(None);
         }
         let sweep = csrbf::Sweep::fit(
@@ -1340,6 +1494,9 @@ pub fn certified_sweep(
         let mut p = mesh.points.clone();
         let mut worst = 0.0f64;
         for (step, bound) in sweep.steps.iter().zip(&sweep.bounds) {
+            if late() {
+                return Ok(None);
+            }
             worst = worst.max(bound * conditioning(mesh, &p));
             if worst >= 1.0 {
                 break;

@@ -343,6 +343,18 @@ fn a_certified_sweep_keeps_every_cell_positive_at_every_phase() {
     let (moved, report) = morph_boundary(&mesh, &plain, 1.0, &mut |_| {}).expect("plain");
     let plain_inverted = reference_inverted(&mesh, &moved).len();
     assert_eq!(report.cells.inverted.len(), plain_inverted);
+    // The remedies were measured: a radius that inverts none, checked
+    // again here by the reference, and the certified sweep's steps.
+    let r = report.remedies.as_ref().expect("remedies searched");
+    assert!(report.advice.contains("measured"), "{}", report.advice);
+    if let Some(f) = r.radius_scale {
+        let mut wider = doc(false);
+        wider["boundary"]["radius"] = json!(0.5 * f);
+        let m = BoundaryMorph::from_value(&wider, src).expect("parse");
+        let (moved, _) = morph_boundary(&mesh, &m, 1.0, &mut |_| {}).expect("wider");
+        assert!(reference_inverted(&mesh, &moved).is_empty(), "R x {f}");
+    }
+    assert!(r.radius_scale.is_some() || r.sweep_steps.is_some(), "{r:?}");
     let swept = BoundaryMorph::from_value(&doc(true), src).expect("parse");
     let mut said = Vec::new();
     for phase in [0.25, 0.5, 0.75, 1.0] {
