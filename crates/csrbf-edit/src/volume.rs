@@ -292,6 +292,9 @@ pub struct BoundaryFigures {
     pub max_error: f64,
     /// Rounds of the greedy selection (1 with every node).
     pub rounds: usize,
+    /// The nodes the map was fitted to, ascending (every prescribed node
+    /// without a tolerance).
+    pub control_nodes: Vec<u32>,
     /// The steps of a sweep (`"sweep": true`), None for the single map.
     pub sweep_steps: Option<usize>,
     /// Whether the sweep is certified to keep every cell positive at every
@@ -316,6 +319,7 @@ impl VolumeReport {
                 "tolerance": b.tolerance,
                 "max_error": b.max_error,
                 "rounds": b.rounds,
+                "control_nodes": b.control_nodes.iter().take(LISTED).collect::<Vec<_>>(),
                 "sweep_steps": b.sweep_steps,
                 "certified": b.certified,
             })),
@@ -1267,6 +1271,15 @@ pub fn morph_boundary(
         tolerance: morph.tolerance,
         max_error,
         rounds,
+        control_nodes: {
+            let mut chosen: Vec<u32> = if sweep.is_some() {
+                nodes.clone()
+            } else {
+                picked.iter().map(|&i| nodes[i]).collect()
+            };
+            chosen.sort_unstable();
+            chosen
+        },
         sweep_steps: sweep.as_ref().map(Vec::len),
         certified: sweep.is_some(),
     });

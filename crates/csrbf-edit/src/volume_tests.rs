@@ -204,6 +204,12 @@ fn boundary_morphs_hold_and_move_zones_where_told() {
                 }
                 Some(t) => {
                     assert!(b.max_error <= t, "motion {k}: {} > {t}", b.max_error);
+                    // The report says which nodes: prescribed ones, ascending.
+                    assert_eq!(b.control_nodes.len(), report.controls);
+                    assert!(b.control_nodes.windows(2).all(|w| w[0] < w[1]));
+                    assert!(b.control_nodes.iter().all(|v| {
+                        inner.binary_search(v).is_ok() || outer.binary_search(v).is_ok()
+                    }));
                     assert!(report.controls <= inner.len() + outer.len());
                 }
             }
