@@ -154,6 +154,13 @@ fn bad_volume_inputs_are_refused_and_nothing_is_written() {
         &["info", "--mesh", arg(&bad_index)],
         &["bad.vtk", "cell 0", "9", "4 nodes"],
     );
+    // A surface written with a volume format's extension: told why.
+    let smile = root().join("assets/controls/head_smile.json");
+    let vtu = dir.path("out_head.vtu");
+    fails(
+        &deform_args(&model("cgal_head.off"), &smile, &vtu),
+        &["out_head.vtu", "holds a volume mesh", ".obj"],
+    );
     let files = dir.files();
     assert!(
         !files.iter().any(|f| f.starts_with("out")),

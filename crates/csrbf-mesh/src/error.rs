@@ -77,6 +77,10 @@ fn unknown_format(path: &std::path::Path, ext: &str) -> String {
     let p = path.display();
     if path.is_dir() {
         format!("{p} is a folder: give a file name ending in one of {SUPPORTED}")
+    } else if crate::volume::VolumeFormat::is_volume_path(path) {
+        format!(
+            "{p}: .{ext} holds a volume mesh (cells), and a surface is wanted here: give one of {SUPPORTED} (`csrbf deform` and `info` read volume meshes; `render` draws their boundary)"
+        )
     } else if ext.is_empty() {
         format!("{p} has no extension to tell the mesh format by: end it in one of {SUPPORTED}")
     } else {
