@@ -39,4 +39,7 @@ mkdir -p target/pictures
 for d in face fish ball brick; do
   cp "$demos/$d/poster.png" "$out/demo-$d.png"
 done
+# The studio's Picker and Composer as the app draws them (on the software
+# renderer here), and the demos' posters as one picture for the README.
+cargo run --release --locked -q -p csrbf-studio --example guide_pictures -- "$demos" "$out"
 echo "pictures: wrote $(ls "$out" | wc -l) pictures into $out/"

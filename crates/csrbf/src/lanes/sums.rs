@@ -12,7 +12,7 @@
 //!
 //! Sixteen lanes pay where the CPU runs 512-bit vectors at full width (AMD
 //! Zen 5: a `vsqrtps` and an FMA take the same time at 256 and 512 bits, so
-//! the rate per lane doubles); on Sapphire Rapids (issue 18's fifth pass)
+//! the rate per lane doubles); on Sapphire Rapids, measured,
 //! they ran no faster than eight, and no slower.
 
 use crate::kernel::Kernel;
