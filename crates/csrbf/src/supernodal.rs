@@ -268,9 +268,13 @@ impl Plan<'_> {
                 d_rows,
             );
             let upper = lower.subrows(0, take);
-            product.clear();
-            product.resize(below * take, 0.0);
-            let mut p = MatMut::from_column_major_slice_mut(&mut product[..], below, take);
+            // Grown, never cleared: every value the scatter reads is written
+            // first (a cleared buffer was a memset a descendant).
+            if product.len() < below * take {
+                product.resize(below * take, 0.0);
+            }
+            let mut p =
+                MatMut::from_column_major_slice_mut(&mut product[..below * take], below, take);
             // The square on top only below its diagonal (the scatter reads
             // no more), the rows under it whole.
             let (square, rest) = p.as_mut().split_at_row_mut(take);
