@@ -80,10 +80,13 @@ pub(super) struct ClosePair {
 /// (see [`crate::FitError::ConflictingStarts`]).
 pub const NEAR_FRACTION: f64 = 0.01;
 
-/// Below this many starts the neighbour graph is built on one thread: the
-/// whole graph then takes well under a millisecond, less than handing work
-/// to rayon's workers and gathering their results.
-const PARALLEL_STARTS: usize = 4096;
+/// Below this many pairs within R (estimated from a sample of the starts)
+/// the neighbour graph is built on one thread: waking rayon's second worker
+/// and gathering the parts costs more than it saves. Measured on two cores:
+/// 1,200 and 2,000 starts of 44 neighbours (53k and 88k pairs) took 0.6 and
+/// 0.9 ms on one thread, 0.15 ms more on two; 4,000 starts of 60 on a
+/// scanned surface (240k) 2.8 ms on one, 1.6-1.9 ms on two.
+pub(super) const PARALLEL_PAIRS: f64 = 150_000.0;
 
 /// Octree leaves handed to one rayon task on the parallel path.
 const CHUNK_LEAVES: usize = 32;
@@ -94,27 +97,31 @@ const CHUNK_LEAVES: usize = 32;
 /// Works by octree leaf: the candidates near a leaf's box are found once,
 /// sorted by index, and tested against each of the leaf's starts, so each
 /// start's neighbours come out in increasing order without a sort.
+/// On both cores when `pairs`, the pairs within R estimated (`None`: too few
+/// starts to estimate), reach [`PARALLEL_PAIRS`].
 pub(super) fn neighbour_graph(
     starts: &[DVec3],
     octree: &Octree,
     radius: f64,
     kernel: Kernel,
+    pairs: Option<f64>,
 ) -> (Graph, Option<ClosePair>, Vec<(u32, u32)>) {
-    neighbour_graph_with(starts, octree, radius, kernel, PARALLEL_STARTS)
+    let parallel = pairs.is_some_and(|p| p >= PARALLEL_PAIRS);
+    neighbour_graph_with(starts, octree, radius, kernel, parallel)
 }
 
-/// [`neighbour_graph`], in parallel from `parallel_starts` starts on.
+/// [`neighbour_graph`], on one thread or on the pool: the same graph.
 fn neighbour_graph_with(
     starts: &[DVec3],
     octree: &Octree,
     radius: f64,
     kernel: Kernel,
-    parallel_starts: usize,
+    parallel: bool,
 ) -> (Graph, Option<ClosePair>, Vec<(u32, u32)>) {
     let n = starts.len();
     let leaves: Vec<_> = octree.leaves().collect();
     let rows = |leaves: &[Leaf<'_>]| rows_of_leaves(starts, leaves, octree, radius, kernel);
-    let parts: Vec<Rows> = if n < parallel_starts {
+    let parts: Vec<Rows> = if !parallel {
         vec![rows(&leaves)]
     } else {
         leaves.par_chunks(CHUNK_LEAVES).map(rows).collect()
@@ -267,8 +274,8 @@ mod tests {
         let starts = starts_with_near_pairs(1500, 3);
         let octree = Octree::new(&starts);
         let (radius, kernel) = (0.15, Kernel::C2);
-        let (g1, c1, n1) = neighbour_graph_with(&starts, &octree, radius, kernel, usize::MAX);
-        let (g2, c2, n2) = neighbour_graph_with(&starts, &octree, radius, kernel, 0);
+        let (g1, c1, n1) = neighbour_graph_with(&starts, &octree, radius, kernel, false);
+        let (g2, c2, n2) = neighbour_graph_with(&starts, &octree, radius, kernel, true);
         assert_eq!(g1, g2);
         assert_eq!(n1, n2);
         assert_eq!(
@@ -291,7 +298,7 @@ mod tests {
         let mut starts = starts_with_near_pairs(1200, 4);
         starts[900] = starts[17];
         let octree = Octree::new(&starts);
-        for parallel in [usize::MAX, 0] {
+        for parallel in [false, true] {
             let (_, close, _) = neighbour_graph_with(&starts, &octree, 0.1, Kernel::C0, parallel);
             let c = close.expect("the duplicate");
             assert_eq!((c.first, c.second, c.d2), (17, 900, 0.0));
