@@ -187,6 +187,7 @@
 
 pub use glam;
 
+mod awake;
 mod binding;
 mod deformation;
 mod diagnose;

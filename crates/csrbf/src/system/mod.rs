@@ -88,7 +88,7 @@ impl System {
     /// plane.
     pub fn new<P: Point>(starts: &[P], options: FitOptions) -> Result<System, FitError> {
         let starts: Vec<DVec3> = starts.iter().map(|p| p.to_dvec3()).collect();
-        System::build(starts, options, None)
+        System::build_awake(starts, options, None)
     }
 
     /// The system for `starts` and `options`, taking this one's ordering
@@ -102,7 +102,22 @@ impl System {
     /// [`System::new`]'s.
     pub fn rebuild<P: Point>(&self, starts: &[P], options: FitOptions) -> Result<System, FitError> {
         let starts: Vec<DVec3> = starts.iter().map(|p| p.to_dvec3()).collect();
-        System::build(starts, options, Some(self))
+        System::build_awake(starts, options, Some(self))
+    }
+
+    /// [`System::build`], with the pool's other workers kept awake through
+    /// it when it has parallel phases (from [`DISSECT_AHEAD`] starts on):
+    /// see [`crate::awake`].
+    fn build_awake(
+        starts: Vec<DVec3>,
+        options: FitOptions,
+        previous: Option<&System>,
+    ) -> Result<System, FitError> {
+        if starts.len() >= DISSECT_AHEAD {
+            crate::awake::with_the_pool_awake(|| System::build(starts, options, previous))
+        } else {
+            System::build(starts, options, previous)
+        }
     }
 
     fn build(

@@ -1,0 +1,150 @@
+//! Keeping the pool's workers awake through work that alternates between
+//! one core and both.
+//!
+//! A fit of a few thousand starts alternates serial phases of a few
+//! milliseconds (the symbolic analysis) with parallel ones (the numeric
+//! factorisation's two halves). Rayon puts an idle worker to sleep within
+//! microseconds, and on a two-core VM a sleeping worker took up to 3 ms to
+//! wake (its virtual CPU halted): the next parallel phase then ran on one
+//! core, every other fit of a 4,000-start scan (numeric 7.5 ms or 11.5 ms).
+//! An OpenMP runtime keeps its threads spinning between parallel regions
+//! for this reason; [`with_the_pool_awake`] does the same for one piece of
+//! work.
+//!
+//! The waiting is done in short jobs ([`SPIN`] each), each queueing the
+//! next until the work is done, never in one job that waits for the work:
+//! a worker that took such a job while a job of the work lay suspended
+//! under it on its stack would wait for work that waits for it.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// How long one waiting job spins (running any job it finds meanwhile)
+/// before it queues the next and returns.
+const SPIN: Duration = Duration::from_micros(50);
+
+/// Runs `work` on the pool while its other workers wait awake: each runs
+/// short jobs that spin and run any job `work` hands out (its joins'
+/// second halves) as an idle worker would, instead of sleeping, until
+/// `work` returns or panics. Called from outside the pool, `work` moves to
+/// one of its workers (the caller sleeps meanwhile: a spinning worker must
+/// not take the core the work needs). Work of less than a millisecond gains
+/// nothing here.
+pub(crate) fn with_the_pool_awake<T: Send>(work: impl FnOnce() -> T + Send) -> T {
+    if rayon::current_num_threads() < 2 {
+        return work();
+    }
+    if rayon::current_thread_index().is_none() {
+        return rayon::scope(|_| with_the_pool_awake(work));
+    }
+    /// Ends the waiting when the work ends, by return or by panic.
+    struct Done(Arc<AtomicBool>);
+    impl Drop for Done {
+        fn drop(&mut self) {
+            self.0.store(true, Ordering::Release);
+        }
+    }
+    let done = Done(Arc::new(AtomicBool::new(false)));
+    let home = rayon::current_thread_index();
+    for _ in 1..rayon::current_num_threads() {
+        let flag = done.0.clone();
+        rayon::spawn(move || wait_awake(flag, home));
+    }
+    work()
+}
+
+/// One waiting job: spins for [`SPIN`] (running what it finds), then
+/// queues the next unless the work is done. The work's own worker (`home`),
+/// waiting in one of the work's joins, passes it on at once: its wait
+/// ends when the join's other half does, not a spin later.
+fn wait_awake(done: Arc<AtomicBool>, home: Option<usize>) {
+    if rayon::current_thread_index() != home {
+        let end = Instant::now() + SPIN;
+        while !done.load(Ordering::Acquire) && Instant::now() < end {
+            if rayon::yield_now() != Some(rayon::Yield::Executed) {
+                std::hint::spin_loop();
+            }
+        }
+    }
+    if !done.load(Ordering::Acquire) {
+        rayon::spawn(move || wait_awake(done, home));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sum(v: &[u64]) -> u64 {
+        if v.len() < 64 {
+            return v.iter().sum();
+        }
+        let (a, b) = v.split_at(v.len() / 2);
+        let (x, y) = rayon::join(|| sum(a), || sum(b));
+        x + y
+    }
+
+    /// The work's own joins still run, on pools of one to four workers,
+    /// called from a worker or from outside, nested, and give what they
+    /// give without the waiting.
+    #[test]
+    fn work_with_joins_inside_completes_on_any_pool() {
+        let v: Vec<u64> = (0..100_000).collect();
+        let want: u64 = v.iter().sum();
+        for threads in [1, 2, 4] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let got = pool.install(|| {
+                with_the_pool_awake(|| sum(&v) + with_the_pool_awake(|| sum(&v[..10])))
+            });
+            assert_eq!(got, want + 45, "{threads} threads");
+        }
+        assert_eq!(with_the_pool_awake(|| sum(&v)), want);
+    }
+
+    /// Many callers at once, from outside the pool and from its own jobs
+    /// (the case where one waiting job would lie over a suspended job of
+    /// the work it waits for), all finish.
+    #[test]
+    fn many_callers_at_once_all_finish() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("a pool");
+        let v: Vec<u64> = (0..200_000).collect();
+        let want: u64 = v.iter().sum();
+        std::thread::scope(|s| {
+            for _ in 0..4 {
+                s.spawn(|| {
+                    for _ in 0..20 {
+                        let got = pool.install(|| {
+                            let (a, b) = rayon::join(
+                                || with_the_pool_awake(|| sum(&v)),
+                                || with_the_pool_awake(|| sum(&v)),
+                            );
+                            a + b
+                        });
+                        assert_eq!(got, 2 * want);
+                    }
+                });
+            }
+        });
+    }
+
+    /// A panic in the work reaches the caller, and the pool goes on.
+    #[test]
+    fn a_panicking_work_ends_the_waiting() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("a pool");
+        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            pool.install(|| with_the_pool_awake(|| panic!("the work")))
+        }));
+        assert!(caught.is_err());
+        assert_eq!(pool.install(|| with_the_pool_awake(|| 7)), 7);
+    }
+}
