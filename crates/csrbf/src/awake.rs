@@ -14,7 +14,11 @@
 //! The waiting is done in short jobs ([`SPIN`] each), each queueing the
 //! next until the work is done, never in one job that waits for the work:
 //! a worker that took such a job while a job of the work lay suspended
-//! under it on its stack would wait for work that waits for it.
+//! under it on its stack would wait for work that waits for it (the first
+//! form of this module hung the test suite so). And the work's own worker,
+//! finding a waiting job on its deque while it waits, runs what lies under
+//! it before queueing it again (two works at once on two workers hung
+//! so: `broadcasts_inside_two_works_at_once_finish`).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -24,7 +28,13 @@ use std::time::{Duration, Instant};
 /// before it queues the next and returns.
 const SPIN: Duration = Duration::from_micros(50);
 
-/// Runs `work` on the pool while its other workers wait awake: each runs
+/// The most workers kept awake beside the work's own: a larger pool's
+/// others sleep as rayon has them (on a machine of many cores, burning them
+/// all through a serial phase would cost more than their waking).
+const MAX_AWAKE: usize = 3;
+
+/// Runs `work` on the pool while up to [`MAX_AWAKE`] other workers wait
+/// awake: each runs
 /// short jobs that spin and run any job `work` hands out (its joins'
 /// second halves) as an idle worker would, instead of sleeping, until
 /// `work` returns or panics. Called from outside the pool, `work` moves to
@@ -47,7 +57,7 @@ pub(crate) fn with_the_pool_awake<T: Send>(work: impl FnOnce() -> T + Send) -> T
     }
     let done = Done(Arc::new(AtomicBool::new(false)));
     let home = rayon::current_thread_index();
-    for _ in 1..rayon::current_num_threads() {
+    for _ in 1..rayon::current_num_threads().min(1 + MAX_AWAKE) {
         let flag = done.0.clone();
         rayon::spawn(move || wait_awake(flag, home));
     }
@@ -55,11 +65,15 @@ pub(crate) fn with_the_pool_awake<T: Send>(work: impl FnOnce() -> T + Send) -> T
 }
 
 /// One waiting job: spins for [`SPIN`] (running what it finds), then
-/// queues the next unless the work is done. The work's own worker (`home`),
-/// waiting in one of the work's joins, passes it on at once: its wait
-/// ends when the join's other half does, not a spin later.
+/// queues the next unless the work is done. On the work's own worker
+/// (`home`), found there while it waits in one of the work's joins (or a
+/// broadcast), it runs one pending job instead of spinning and passes the
+/// waiting on: queued again on that worker's own deque, it would otherwise
+/// be all the worker ever took back, above the very jobs it waits for.
 fn wait_awake(done: Arc<AtomicBool>, home: Option<usize>) {
-    if rayon::current_thread_index() != home {
+    if rayon::current_thread_index() == home {
+        rayon::yield_now();
+    } else {
         let end = Instant::now() + SPIN;
         while !done.load(Ordering::Acquire) && Instant::now() < end {
             if rayon::yield_now() != Some(rayon::Yield::Executed) {
@@ -126,6 +140,36 @@ mod tests {
                                 || with_the_pool_awake(|| sum(&v)),
                             );
                             a + b
+                        });
+                        assert_eq!(got, 2 * want);
+                    }
+                });
+            }
+        });
+    }
+
+    /// A broadcast inside the work (the factorisation clears every
+    /// worker's vector state with one) from two callers at once on two
+    /// workers: each worker is the home of one work, and must still take
+    /// its broadcast job and its joins' halves from under a waiting job.
+    #[test]
+    fn broadcasts_inside_two_works_at_once_finish() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .expect("a pool");
+        let v: Vec<u64> = (0..20_000).collect();
+        let want: u64 = v.iter().sum();
+        std::thread::scope(|s| {
+            for _ in 0..2 {
+                s.spawn(|| {
+                    for _ in 0..100 {
+                        let got = pool.install(|| {
+                            with_the_pool_awake(|| {
+                                let a = sum(&v);
+                                rayon::broadcast(|_| ());
+                                a + sum(&v)
+                            })
                         });
                         assert_eq!(got, 2 * want);
                     }

@@ -80,8 +80,9 @@ pub(super) struct ClosePair {
 /// (see [`crate::FitError::ConflictingStarts`]).
 pub const NEAR_FRACTION: f64 = 0.01;
 
-/// Below this many pairs within R (estimated from a sample of the starts)
-/// the neighbour graph is built on one thread: waking rayon's second worker
+/// Below this many neighbour entries (each pair within R counted from both
+/// ends: starts times their mean neighbours, estimated from a sample) the
+/// neighbour graph is built on one thread: waking rayon's second worker
 /// and gathering the parts costs more than it saves. Measured on two cores:
 /// 1,200 and 2,000 starts of 44 neighbours (53k and 88k pairs) took 0.6 and
 /// 0.9 ms on one thread, 0.15 ms more on two; 4,000 starts of 60 on a
@@ -97,8 +98,8 @@ const CHUNK_LEAVES: usize = 32;
 /// Works by octree leaf: the candidates near a leaf's box are found once,
 /// sorted by index, and tested against each of the leaf's starts, so each
 /// start's neighbours come out in increasing order without a sort.
-/// On both cores when `pairs`, the pairs within R estimated (`None`: too few
-/// starts to estimate), reach [`PARALLEL_PAIRS`].
+/// On both cores when `pairs`, the neighbour entries estimated (`None`: too
+/// few starts to estimate), reach [`PARALLEL_PAIRS`].
 pub(super) fn neighbour_graph(
     starts: &[DVec3],
     octree: &Octree,

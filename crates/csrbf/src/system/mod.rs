@@ -106,8 +106,10 @@ impl System {
     }
 
     /// [`System::build`], with the pool's other workers kept awake through
-    /// it when it has parallel phases (from [`DISSECT_AHEAD`] starts on):
-    /// see [`crate::awake`].
+    /// it from [`DISSECT_AHEAD`] starts on, where its serial phases (the
+    /// symbolic analysis) come between parallel ones (the dissection beside
+    /// the band orderings, the factorisation's halves): see
+    /// [`crate::awake`].
     fn build_awake(
         starts: Vec<DVec3>,
         options: FitOptions,
@@ -147,6 +149,7 @@ impl System {
         }
         let octree = Octree::new(&starts);
         phases.checks_ms = clock.lap();
+        // Neighbour entries: each pair within R from both ends.
         let pairs = estimated.map(|e| e.neighbours * e.starts as f64);
         let (graph, close, near) = neighbour_graph(&starts, &octree, radius, options.kernel, pairs);
         phases.graph_ms = clock.lap();
