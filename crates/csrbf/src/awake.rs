@@ -119,33 +119,60 @@ mod tests {
         assert_eq!(with_the_pool_awake(|| sum(&v)), want);
     }
 
-    /// Many callers at once, from outside the pool and from its own jobs
-    /// (the case where one waiting job would lie over a suspended job of
-    /// the work it waits for), all finish.
+    /// `callers` threads each run `work` `rounds` times on one pool of
+    /// `threads` workers; every result must be `want`, and all must come
+    /// within a minute (a hang fails here, not as CI's timeout).
+    fn callers_finish(
+        threads: usize,
+        callers: usize,
+        rounds: usize,
+        work: fn(&[u64]) -> u64,
+        want: u64,
+    ) {
+        let pool = Arc::new(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool"),
+        );
+        let v: Arc<Vec<u64>> = Arc::new((0..20_000).collect());
+        let (tx, rx) = std::sync::mpsc::channel();
+        for _ in 0..callers {
+            let (pool, v, tx) = (pool.clone(), v.clone(), tx.clone());
+            std::thread::spawn(move || {
+                for _ in 0..rounds {
+                    let got = pool.install(|| work(&v));
+                    if tx.send(got).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        for k in 0..callers * rounds {
+            let got = rx
+                .recv_timeout(Duration::from_secs(60))
+                .unwrap_or_else(|e| panic!("{e}: hung after {k} of {} works", callers * rounds));
+            assert_eq!(got, want);
+        }
+    }
+
+    fn total() -> u64 {
+        (0..20_000u64).sum()
+    }
+
+    /// Many callers at once, from outside the pool, each work waiting
+    /// inside the other's join, nested.
     #[test]
     fn many_callers_at_once_all_finish() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .expect("a pool");
-        let v: Vec<u64> = (0..200_000).collect();
-        let want: u64 = v.iter().sum();
-        std::thread::scope(|s| {
-            for _ in 0..4 {
-                s.spawn(|| {
-                    for _ in 0..20 {
-                        let got = pool.install(|| {
-                            let (a, b) = rayon::join(
-                                || with_the_pool_awake(|| sum(&v)),
-                                || with_the_pool_awake(|| sum(&v)),
-                            );
-                            a + b
-                        });
-                        assert_eq!(got, 2 * want);
-                    }
-                });
-            }
-        });
+        fn work(v: &[u64]) -> u64 {
+            let (a, b) = rayon::join(
+                || with_the_pool_awake(|| sum(v)),
+                || with_the_pool_awake(|| sum(v) + with_the_pool_awake(|| sum(&v[..10]))),
+            );
+            a + b
+        }
+        callers_finish(2, 4, 20, work, 2 * total() + 45);
+        callers_finish(4, 3, 20, work, 2 * total() + 45);
     }
 
     /// A broadcast inside the work (the factorisation clears every
@@ -154,28 +181,15 @@ mod tests {
     /// its broadcast job and its joins' halves from under a waiting job.
     #[test]
     fn broadcasts_inside_two_works_at_once_finish() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .expect("a pool");
-        let v: Vec<u64> = (0..20_000).collect();
-        let want: u64 = v.iter().sum();
-        std::thread::scope(|s| {
-            for _ in 0..2 {
-                s.spawn(|| {
-                    for _ in 0..100 {
-                        let got = pool.install(|| {
-                            with_the_pool_awake(|| {
-                                let a = sum(&v);
-                                rayon::broadcast(|_| ());
-                                a + sum(&v)
-                            })
-                        });
-                        assert_eq!(got, 2 * want);
-                    }
-                });
-            }
-        });
+        fn work(v: &[u64]) -> u64 {
+            with_the_pool_awake(|| {
+                let a = sum(v);
+                rayon::broadcast(|_| ());
+                a + sum(v)
+            })
+        }
+        callers_finish(2, 2, 100, work, 2 * total());
+        callers_finish(4, 3, 50, work, 2 * total());
     }
 
     /// A panic in the work reaches the caller, and the pool goes on.
