@@ -87,12 +87,7 @@ fn picker(root: &Path, demos: &Path, state: &Path, out: &Path) -> Result<(), Err
         mesh: Some(head),
         controls: Some(controls),
     };
-    let state = state.to_path_buf();
-    let mut h = Harness::builder()
-        .with_size([1024.0, 640.0])
-        .wgpu()
-        .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(state)));
-    h.run_steps(2);
+    let mut h = open(args, state, [1024.0, 640.0]);
     if !h.state_mut().settle(Duration::from_secs(60)) {
         return Err("the Picker's preview did not settle within 60 s".into());
     }
@@ -118,12 +113,7 @@ fn composer(scene: &Path, state: &Path, out: &Path) -> Result<(), Error> {
         mesh: Some(scene.to_path_buf()),
         controls: None,
     };
-    let state = state.to_path_buf();
-    let mut h = Harness::builder()
-        .with_size([1280.0, 800.0])
-        .wgpu()
-        .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(state)));
-    h.run_steps(2);
+    let mut h = open(args, state, [1280.0, 800.0]);
     if h.state().loaded_scene().is_none() {
         return Err(format!(
             "{}: the Composer did not open it: {}",
@@ -136,6 +126,18 @@ fn composer(scene: &Path, state: &Path, out: &Path) -> Result<(), Error> {
     h.state_mut().set_playhead(2.167);
     h.run_steps(4);
     save(&mut h, out)
+}
+
+/// The app opened on `args` in a window of `size` points drawn by wgpu,
+/// with its own state folder, its first frames run.
+fn open(args: Args, state: &Path, size: [f32; 2]) -> Harness<'static, StudioApp> {
+    let state = state.to_path_buf();
+    let mut h = Harness::builder()
+        .with_size(size)
+        .wgpu()
+        .build_eframe(move |cc| StudioApp::with_state_dir(cc, args, Some(state)));
+    h.run_steps(2);
+    h
 }
 
 /// The harness's picture as a PNG at `out`, on the colour the window is
