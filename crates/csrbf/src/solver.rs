@@ -193,7 +193,7 @@ impl Factor {
             // tiny system) by faer.
             SymbolicCholeskyRaw::Supernodal(s) => {
                 let inverse = symbolic.perm().map(|p| p.arrays().1);
-                crate::supernodal::factor(s, inverse, a, split.as_deref(), &mut values).err()
+                crate::supernodal::factor(s, inverse, a, &mut values).err()
             }
             SymbolicCholeskyRaw::Simplicial(_) => {
                 let pattern =

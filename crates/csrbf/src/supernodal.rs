@@ -2,17 +2,21 @@
 //!
 //! faer's own numeric factorisation goes supernode by supernode on one
 //! thread (its parallel mode splits each dense block and was slower on two
-//! cores at every size measured). Its structure says more: the elimination
-//! tree's two sets of whole subtrees ([`Split`]) change only their own
-//! columns and read only their own descendants, so the two sets are
-//! factored at once, then the supernodes above them (the top separators,
-//! dense and wide: their dense kernels run on the pool).
+//! cores at every size measured). Its structure says more: the subtrees of
+//! the elimination tree under different children of a supernode change
+//! only their own columns and read only their own descendants, so they are
+//! made at once. The tree is walked on the pool ([`Walk`]): down each
+//! subtree's heavy path, the heavy children of a fork as parallel tasks
+//! (whichever thread is free takes the next), light subtrees in one go;
+//! a wide supernode (the top separators, dense and wide) runs its dense
+//! kernels on the pool too.
 //!
 //! Each supernode is made as faer makes it (left-looking): its columns of
 //! A, less the products of every descendant's rows that reach it, then a
 //! dense Cholesky of its diagonal block and a triangular solve for the
 //! rows below. The values land in faer's layout, so faer's symbolic
-//! structure and this crate's solves read them unchanged.
+//! structure and this crate's solves read them unchanged, and they are the
+//! same on any number of threads.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{
@@ -22,8 +26,10 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::{Accum, MatMut, MatRef, Par};
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock, PoisonError};
+
 use crate::solver::LowerCsc;
-use crate::triangular::Split;
 
 /// A supernode's columns at least this wide run their dense kernels on the
 /// pool (the top separators of a large system).
@@ -35,22 +41,37 @@ const WIDE: usize = 192;
 struct Updates {
     ptr: Vec<usize>,
     entries: Vec<(u32, u32, u32)>,
+    /// Each supernode's multiply-adds: its descendants' products and its
+    /// own dense Cholesky and triangular solve.
+    work: Vec<f64>,
 }
 
 impl Updates {
     fn new(symbolic: &SymbolicSupernodalCholesky<u32>, of_column: &[u32]) -> Updates {
         let count = symbolic.n_supernodes();
+        let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
         let mut lists: Vec<(u32, u32, u32, u32)> = Vec::new();
+        let mut work: Vec<f64> = (0..count)
+            .map(|k| {
+                let width = (end[k] - begin[k]) as f64;
+                let below = symbolic.supernode(k).pattern().len() as f64;
+                width * width * width / 6.0 + width * width * below * 0.5
+            })
+            .collect();
         for d in 0..count {
             let pattern = symbolic.supernode(d).pattern();
+            let d_width = (end[d] - begin[d]) as f64;
             let mut i = 0;
             while i < pattern.len() {
                 let s = of_column[pattern[i] as usize];
-                let end = symbolic.supernode_end()[s as usize];
+                let stop = end[s as usize];
                 let mut j = i + 1;
-                while j < pattern.len() && pattern[j] < end {
+                while j < pattern.len() && pattern[j] < stop {
                     j += 1;
                 }
+                // The product's square (its lower half) and the rows below.
+                let (take, below) = ((j - i) as f64, (pattern.len() - i) as f64);
+                work[s as usize] += d_width * take * ((take + 1.0) * 0.5 + below - take);
                 lists.push((s, d as u32, i as u32, (j - i) as u32));
                 i = j;
             }
@@ -67,6 +88,7 @@ impl Updates {
         Updates {
             ptr,
             entries: lists.into_iter().map(|(_, d, i, c)| (d, i, c)).collect(),
+            work,
         }
     }
 
@@ -138,6 +160,139 @@ impl Work {
     }
 }
 
+/// Factorisations of fewer multiply-adds stay on one thread: below about
+/// a millisecond of work, a second thread's wake-up and the tree walk cost
+/// more than they save.
+const PARALLEL_WORK: f64 = 2e7;
+
+/// A subtree of less work is made by the thread that reaches it, in one
+/// go: the tree is walked in parallel only down to parts of about this
+/// share of the whole (and of [`LIGHT_WORK`] multiply-adds at least).
+const LIGHT_SHARE: f64 = 1.0 / 64.0;
+
+/// See [`LIGHT_SHARE`].
+const LIGHT_WORK: f64 = 2e6;
+
+/// The elimination tree of the supernodes: each one's children (earlier
+/// supernodes: a parent holds its child's first row below the diagonal
+/// block), the roots, and each subtree's multiply-adds.
+struct Tree {
+    ptr: Vec<usize>,
+    children: Vec<u32>,
+    roots: Vec<u32>,
+    subtree: Vec<f64>,
+}
+
+impl Tree {
+    fn new(symbolic: &SymbolicSupernodalCholesky<u32>, of_column: &[u32], own: &[f64]) -> Tree {
+        let count = symbolic.n_supernodes();
+        let parent: Vec<Option<u32>> = (0..count)
+            .map(|k| {
+                symbolic
+                    .supernode(k)
+                    .pattern()
+                    .first()
+                    .map(|&r| of_column[r as usize])
+            })
+            .collect();
+        let mut ptr = vec![0usize; count + 1];
+        for p in parent.iter().flatten() {
+            ptr[*p as usize + 1] += 1;
+        }
+        for k in 0..count {
+            ptr[k + 1] += ptr[k];
+        }
+        let mut next = ptr.clone();
+        let mut children = vec![0u32; ptr[count]];
+        let mut roots = Vec::new();
+        let mut subtree = own.to_vec();
+        for (k, p) in parent.iter().enumerate() {
+            match p {
+                Some(p) => {
+                    children[next[*p as usize]] = k as u32;
+                    next[*p as usize] += 1;
+                    subtree[*p as usize] += subtree[k];
+                }
+                None => roots.push(k as u32),
+            }
+        }
+        Tree {
+            ptr,
+            children,
+            roots,
+            subtree,
+        }
+    }
+
+    fn children(&self, k: u32) -> &[u32] {
+        &self.children[self.ptr[k as usize]..self.ptr[k as usize + 1]]
+    }
+
+    /// The supernodes of `k`'s subtree, ascending (children first).
+    fn ascending(&self, k: u32, out: &mut Vec<u32>) {
+        out.clear();
+        let mut stack = vec![k];
+        while let Some(k) = stack.pop() {
+            out.push(k);
+            stack.extend_from_slice(self.children(k));
+        }
+        out.sort_unstable();
+    }
+}
+
+/// Each supernode's block of values: to be made (taken once, by the
+/// thread that makes it), then made (read by its ancestors' updates).
+struct Blocks<'a> {
+    todo: Vec<Mutex<Option<&'a mut [f64]>>>,
+    made: Vec<OnceLock<&'a [f64]>>,
+}
+
+impl<'a> Blocks<'a> {
+    fn take(&self, k: usize) -> Option<&'a mut [f64]> {
+        self.todo[k]
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+    }
+
+    fn made(&self, k: usize) -> Option<&'a [f64]> {
+        self.made[k].get().copied()
+    }
+}
+
+/// Scratch for the threads: taken by a walk, given back after.
+struct Pool {
+    spare: Mutex<Vec<Work>>,
+    n: usize,
+    widest: usize,
+}
+
+impl Pool {
+    fn take(&self) -> Work {
+        let spare = self
+            .spare
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop();
+        spare.unwrap_or_else(|| Work::new(self.n, self.widest))
+    }
+
+    fn give(&self, work: Work) {
+        self.spare
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(work);
+    }
+}
+
+/// The smaller column of two failed pivots, if any.
+fn first_failure(a: Option<usize>, b: Option<usize>) -> Option<usize> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
 /// The shared, read-only parts of a factorisation.
 struct Plan<'a> {
     symbolic: &'a SymbolicSupernodalCholesky<u32>,
@@ -146,17 +301,32 @@ struct Plan<'a> {
 }
 
 /// Factors A (`a`, lower triangle in the caller's numbering) into `values`
-/// (any contents: every value is written; faer's layout for `symbolic`, whose columns are A's under `inverse`:
-/// `inverse[old] = new`), the two sets of `split` at once when there is
-/// one. Fails with the column (factor numbering) of a pivot that is not
-/// positive.
+/// (any contents: every value is written; faer's layout for `symbolic`,
+/// whose columns are A's under `inverse`: `inverse[old] = new`). A large
+/// factor is made on the pool: its elimination tree's independent
+/// subtrees at once, taken by whichever thread is free, and a wide
+/// supernode's dense kernels on both threads. Fails with the column
+/// (factor numbering) of the first pivot that is not positive: the one a
+/// serial factorisation stops at, on any number of threads.
 pub(crate) fn factor(
     symbolic: &SymbolicSupernodalCholesky<u32>,
     inverse: Option<&[u32]>,
     a: &LowerCsc,
-    split: Option<&Split>,
     values: &mut [f64],
 ) -> Result<(), usize> {
+    factor_from(symbolic, inverse, a, values, PARALLEL_WORK, LIGHT_WORK).map(|_| ())
+}
+
+/// [`factor`], on the pool from `parallel_work` multiply-adds on, walking
+/// down to subtrees of `light_work` at least; the forks of the walk.
+fn factor_from(
+    symbolic: &SymbolicSupernodalCholesky<u32>,
+    inverse: Option<&[u32]>,
+    a: &LowerCsc,
+    values: &mut [f64],
+    parallel_work: f64,
+    light_work: f64,
+) -> Result<usize, usize> {
     let count = symbolic.n_supernodes();
     let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
     let mut of_column = vec![0u32; symbolic.nrows()];
@@ -168,58 +338,127 @@ pub(crate) fn factor(
         a: Permuted::new(a, inverse),
         updates: Updates::new(symbolic, &of_column),
     };
-    // Each supernode's block of values, taken out while it is made.
     let ptr = symbolic.col_ptr_for_val();
-    let mut blocks: Vec<Option<&mut [f64]>> = Vec::with_capacity(count);
+    let mut todo = Vec::with_capacity(count);
     let mut rest = values;
     for k in 0..count {
         let (block, tail) = rest.split_at_mut((ptr[k + 1] - ptr[k]) as usize);
-        blocks.push(Some(block));
+        todo.push(Mutex::new(Some(block)));
         rest = tail;
     }
+    let blocks = Blocks {
+        todo,
+        made: (0..count).map(|_| OnceLock::new()).collect(),
+    };
     let widest = (0..count)
         .map(|k| (end[k] - begin[k]) as usize)
         .max()
         .unwrap_or(0);
-    let n = symbolic.nrows();
-    match split {
-        Some(split) => {
-            let [first, second] = split.sets();
-            // The second set's blocks move to its thread; the first's stay.
-            let mut theirs: Vec<Option<&mut [f64]>> = (0..count).map(|_| None).collect();
-            for &k in second {
-                theirs[k as usize] = blocks[k as usize].take();
+    let pool = Pool {
+        spare: Mutex::new(Vec::new()),
+        n: symbolic.nrows(),
+        widest,
+    };
+    let tree = Tree::new(symbolic, &of_column, &plan.updates.work);
+    let total: f64 = tree.roots.iter().map(|&r| tree.subtree[r as usize]).sum();
+    if total < parallel_work || rayon::current_num_threads() < 2 {
+        let mut work = pool.take();
+        return (0..count)
+            .try_for_each(|k| plan.make(k, &blocks, &mut work, Par::Seq))
+            .map(|()| 0);
+    }
+    let walk = Walk {
+        plan: &plan,
+        tree: &tree,
+        blocks: &blocks,
+        pool: &pool,
+        light: (total * LIGHT_SHARE).max(light_work),
+        forks: AtomicUsize::new(0),
+    };
+    match walk.all(&tree.roots) {
+        Some(column) => Err(column),
+        None => Ok(walk.forks.into_inner()),
+    }
+}
+
+/// A parallel walk of the elimination tree.
+struct Walk<'a> {
+    plan: &'a Plan<'a>,
+    tree: &'a Tree,
+    blocks: &'a Blocks<'a>,
+    pool: &'a Pool,
+    /// Subtrees of less work are made in one go.
+    light: f64,
+    /// Forks taken (for the tests).
+    forks: AtomicUsize,
+}
+
+impl Walk<'_> {
+    /// Makes the subtrees of `roots`, on the pool; the first failed pivot.
+    fn all(&self, roots: &[u32]) -> Option<usize> {
+        match roots {
+            [] => None,
+            [one] => self.subtree(*one),
+            _ => {
+                let (a, b) = roots.split_at(roots.len() / 2);
+                let (a, b) = rayon::join(|| self.all(a), || self.all(b));
+                first_failure(a, b)
             }
-            let (a, b) = rayon::join(
-                || {
-                    let mut work = Work::new(n, widest);
-                    first
-                        .iter()
-                        .try_for_each(|&k| plan.make(k as usize, &mut blocks, &mut work, Par::Seq))
-                        .map(|()| blocks)
-                },
-                || {
-                    let mut work = Work::new(n, widest);
-                    second
-                        .iter()
-                        .try_for_each(|&k| plan.make(k as usize, &mut theirs, &mut work, Par::Seq))
-                        .map(|()| theirs)
-                },
-            );
-            let (mut blocks, mut theirs) = (a?, b?);
-            for &k in second {
-                blocks[k as usize] = theirs[k as usize].take();
-            }
-            let mut work = Work::new(n, widest);
-            for &k in split.top() {
-                plan.make(k as usize, &mut blocks, &mut work, Par::rayon(0))?;
-            }
-            Ok(())
         }
-        None => {
-            let mut work = Work::new(n, widest);
-            (0..count).try_for_each(|k| plan.make(k, &mut blocks, &mut work, Par::Seq))
+    }
+
+    /// Makes `root`'s subtree: down its path of heavy children (its light
+    /// ones made on the way), the heavy children of a fork at once, then
+    /// the path back up. A supernode above a failed pivot is not made.
+    fn subtree(&self, root: u32) -> Option<usize> {
+        let (tree, plan) = (self.tree, self.plan);
+        let mut work = self.pool.take();
+        let mut nodes = Vec::new();
+        // The path, each with the first failure among its light children.
+        let mut path: Vec<(u32, Option<usize>)> = Vec::new();
+        let mut at = root;
+        let below = loop {
+            let mut failed = None;
+            let mut heavy = Vec::new();
+            for &c in tree.children(at) {
+                if tree.subtree[c as usize] < self.light {
+                    tree.ascending(c, &mut nodes);
+                    let made = nodes
+                        .iter()
+                        .try_for_each(|&k| plan.make(k as usize, self.blocks, &mut work, Par::Seq));
+                    failed = first_failure(failed, made.err());
+                } else {
+                    heavy.push(c);
+                }
+            }
+            path.push((at, failed));
+            match heavy[..] {
+                [] => break None,
+                [one] => at = one,
+                _ => {
+                    self.forks.fetch_add(1, Ordering::Relaxed);
+                    self.pool.give(work);
+                    let failed = self.all(&heavy);
+                    work = self.pool.take();
+                    break failed;
+                }
+            }
+        };
+        let mut failed = below;
+        for &(k, light) in path.iter().rev() {
+            failed = first_failure(failed, light);
+            if failed.is_some() {
+                break; // every supernode above is an ancestor of the failure
+            }
+            let par = if plan.width(k as usize) >= WIDE {
+                Par::rayon(0)
+            } else {
+                Par::Seq
+            };
+            failed = plan.make(k as usize, self.blocks, &mut work, par).err();
         }
+        self.pool.give(work);
+        failed
     }
 }
 
@@ -232,7 +471,7 @@ impl Plan<'_> {
     fn update(
         &self,
         descendants: &[(u32, u32, u32)],
-        blocks: &[Option<&mut [f64]>],
+        blocks: &Blocks<'_>,
         local: &[u32],
         columns: (usize, usize),
         rows: usize,
@@ -245,8 +484,8 @@ impl Plan<'_> {
         let mut runs: Vec<(usize, u32, u32)> = Vec::new();
         for &(d, first, count) in descendants {
             let d = d as usize;
-            let Some(ld) = blocks[d].as_deref() else {
-                continue; // cannot happen: a descendant is in the same set
+            let Some(ld) = blocks.made(d) else {
+                continue; // cannot happen: a descendant is made first
             };
             let d_width = (end[d] - begin[d]) as usize;
             let d_pattern = symbolic.supernode(d).pattern();
@@ -332,16 +571,15 @@ impl Plan<'_> {
         }
     }
 
+    /// Supernode `k`'s number of columns.
+    fn width(&self, k: usize) -> usize {
+        (self.symbolic.supernode_end()[k] - self.symbolic.supernode_begin()[k]) as usize
+    }
+
     /// Makes supernode `s`'s columns of L in its block, from A's and its
     /// descendants' (already made, in `blocks`). `par`: the pool for a
     /// wide supernode's dense kernels.
-    fn make(
-        &self,
-        s: usize,
-        blocks: &mut [Option<&mut [f64]>],
-        work: &mut Work,
-        par: Par,
-    ) -> Result<(), usize> {
+    fn make(&self, s: usize, blocks: &Blocks<'_>, work: &mut Work, par: Par) -> Result<(), usize> {
         let symbolic = self.symbolic;
         let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
         let (start, stop) = (begin[s] as usize, end[s] as usize);
@@ -354,8 +592,8 @@ impl Plan<'_> {
         for c in start..stop {
             work.local[c] = (c - start) as u32;
         }
-        let Some(block) = blocks[s].take() else {
-            return Ok(()); // not this thread's supernode: never asked
+        let Some(block) = blocks.take(s) else {
+            return Ok(()); // cannot happen: each supernode is made once
         };
         // Zeroed here, not all at once before: a large factor's fresh pages
         // are first touched by the thread that fills them, both at once.
@@ -370,11 +608,10 @@ impl Plan<'_> {
         }
         // Less each descendant's product: its rows from the first in these
         // columns down, times its rows in these columns. A wide supernode
-        // above both sets (`par`: the pool) has its columns cut in two of
-        // about equal work, each half updated by its own thread.
+        // made on the pool (`par`) has its columns cut in two of about
+        // equal work, each half updated by its own task.
         let descendants = self.updates.of(s);
-
-        let (blocks_ro, local) = (&*blocks, &work.local[..]);
+        let local = &work.local[..];
         let half = if width >= WIDE && matches!(par, Par::Rayon(_)) {
             // Column c holds rows - c values: cut where half of them lie left.
             let total = (rows * width - width * (width - 1) / 2) as f64;
@@ -395,7 +632,7 @@ impl Plan<'_> {
                 || {
                     self.update(
                         descendants,
-                        blocks_ro,
+                        blocks,
                         local,
                         (start, start + half),
                         rows,
@@ -406,7 +643,7 @@ impl Plan<'_> {
                 || {
                     self.update(
                         descendants,
-                        blocks_ro,
+                        blocks,
                         local,
                         (start + half, stop),
                         rows,
@@ -419,7 +656,7 @@ impl Plan<'_> {
         } else {
             self.update(
                 descendants,
-                blocks_ro,
+                blocks,
                 local,
                 (start, stop),
                 rows,
@@ -456,7 +693,10 @@ impl Plan<'_> {
                 }
             }
         };
-        blocks[s] = Some(block);
+        if result.is_ok() {
+            // Read from here on by the ancestors' updates.
+            let _ = blocks.made[s].set(block);
+        }
         result
     }
 }
@@ -519,20 +759,19 @@ mod tests {
         }
     }
 
-    /// Ours, with or without a cut of the tree.
+    /// Ours, serial or walking the tree on the pool however small.
     fn ours(
         symbolic: &SymbolicCholesky<u32>,
         a: &LowerCsc,
-        cut: bool,
-    ) -> (Result<Vec<f64>, usize>, bool) {
+        parallel: bool,
+    ) -> Result<(Vec<f64>, usize), usize> {
         let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
             unreachable!("forced supernodal")
         };
-        let split = if cut { Split::cut(s) } else { None };
         let inverse = symbolic.perm().map(|p| p.arrays().1);
         let mut values = vec![f64::NAN; symbolic.len_val()];
-        let r = factor(s, inverse, a, split.as_ref(), &mut values).map(|()| values);
-        (r, split.is_some())
+        let from = if parallel { 0.0 } else { f64::INFINITY };
+        factor_from(s, inverse, a, &mut values, from, 0.0).map(|forks| (values, forks))
     }
 
     /// The lower triangle of every supernode's diagonal block and all rows
@@ -570,24 +809,23 @@ mod tests {
 
     #[test]
     fn the_factor_is_faers_and_solves_a_on_one_thread_or_two() {
-        let mut cut_seen = false;
+        let mut forks_seen = false;
         for (n, radius, seed) in [(300, 0.25, 1), (1500, 0.12, 2), (4000, 0.08, 3)] {
             let (s, g, a) = random_system(n, radius, seed);
             let order = geometric_dissection(&g, &s, radius);
             for order in [Some(&order[..]), None] {
                 let symbolic = structure(&a, order);
                 let reference = lower_values(&symbolic, &faer_values(&symbolic, &a).expect("SPD"));
-                let (plain, _) = ours(&symbolic, &a, false);
-                let (two, cut) = ours(&symbolic, &a, true);
-                cut_seen |= cut;
-                let plain = plain.expect("SPD");
+                let (plain, _) = ours(&symbolic, &a, false).expect("SPD");
+                let (two, forks) = ours(&symbolic, &a, true).expect("SPD");
+                forks_seen |= forks > 0;
                 let scale = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 for (k, (r, (p, t))) in reference
                     .iter()
                     .zip(
                         lower_values(&symbolic, &plain)
                             .iter()
-                            .zip(lower_values(&symbolic, &two.expect("SPD"))),
+                            .zip(lower_values(&symbolic, &two)),
                     )
                     .enumerate()
                 {
@@ -619,7 +857,7 @@ mod tests {
                 }
             }
         }
-        assert!(cut_seen, "some system was factored on two threads");
+        assert!(forks_seen, "some system's tree was walked on the pool");
     }
 
     #[test]
@@ -635,15 +873,9 @@ mod tests {
             let order = geometric_dissection(&g, &s, 0.15);
             let symbolic = structure(&a, Some(&order));
             let want = faer_values(&symbolic, &a).expect_err("not positive definite");
-            for cut in [false, true] {
-                let (got, _) = ours(&symbolic, &a, cut);
-                let got = got.expect_err("not positive definite");
-                if !cut {
-                    assert_eq!(got, want, "seed {seed}");
-                } else {
-                    // Two threads stop at the first failure of either set.
-                    assert!(got < a.n, "seed {seed}: {got}");
-                }
+            for parallel in [false, true] {
+                let got = ours(&symbolic, &a, parallel).expect_err("not positive definite");
+                assert_eq!(got, want, "seed {seed}, on the pool: {parallel}");
             }
         }
     }

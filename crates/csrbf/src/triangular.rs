@@ -111,16 +111,6 @@ pub(crate) struct Split {
 }
 
 impl Split {
-    /// Its two sets of subtrees, each ascending.
-    pub(crate) fn sets(&self) -> &[Vec<u32>; 2] {
-        &self.sets
-    }
-
-    /// The supernodes above both sets, ascending.
-    pub(crate) fn top(&self) -> &[u32] {
-        &self.top
-    }
-
     /// The cut of a factor with `values` values of L, or `None` when the
     /// factor is too small to gain or its tree has no two halves of about
     /// equal work below a small top.
