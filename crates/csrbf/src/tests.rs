@@ -1380,3 +1380,49 @@ fn starts_out_of_reach_are_those_every_point_is_r_from() {
     assert_eq!(one.starts_out_of_reach(&[p]), [0]);
     assert!(one.starts_out_of_reach(&[p.as_vec3()]).is_empty());
 }
+
+/// A system of 2,000 starts or more is dissected first, its band orderings
+/// made beside the symbolic analysis: either way `Auto` still takes the
+/// solver of fewer multiply-adds, reports both solvers' figures, and gives
+/// the forced solvers' deformation. A thin strip (a narrow band) goes to the
+/// profile, a sphere (a wide one) to the supernodal factor.
+#[test]
+fn a_large_system_takes_the_solver_of_fewer_multiply_adds() {
+    let mut rng = Rng::new(45);
+    let strip: Vec<DVec3> = (0..2400)
+        .map(|i| DVec3::new(i as f64 * 0.01, rng.f64() * 0.03, rng.f64() * 0.03))
+        .collect();
+    let sphere = crate::synthetic::fibonacci_sphere(3000, DVec3::splat(0.5), 0.4, 0.3, 5);
+    let sphere_radius = crate::synthetic::radius_for_neighbours(3000, 0.4, 40.0);
+    for (name, starts, radius, want) in [
+        ("strip", strip, 0.035, "skyline"),
+        ("sphere", sphere, sphere_radius, "supernodal"),
+    ] {
+        let targets: Vec<DVec3> = starts
+            .iter()
+            .map(|s| *s + (rng.vec3() - 0.5) * 0.2 * radius)
+            .collect();
+        let fit = |solver| {
+            let o = options(Kernel::C2, Polynomial::Linear, radius, solver);
+            let system = System::new(&starts, o).expect("fit");
+            let d = system.solve(&targets).expect("solve");
+            (system.stats().clone(), d)
+        };
+        let (stats, auto) = fit(SolverChoice::Auto);
+        assert_eq!(stats.solver, want, "{name}");
+        assert!(stats.bandwidth > 0 && stats.skyline_flops > 0.0, "{name}: {stats:?}");
+        assert!(!stats.orderings.is_empty(), "{name}: the orderings tried");
+        if want == "supernodal" {
+            assert!(stats.factor_flops < stats.skyline_flops, "{name}: {stats:?}");
+        } else {
+            assert_eq!(stats.factor_flops, stats.skyline_flops, "{name}");
+        }
+        for solver in SOLVERS {
+            let (_, forced) = fit(solver);
+            for s in starts.iter().step_by(97) {
+                let gap = (auto.map(*s) - forced.map(*s)).length();
+                assert!(gap <= 1e-9 * radius, "{name} {solver:?}: {gap:e} at {s}");
+            }
+        }
+    }
+}

@@ -4,70 +4,113 @@ use glam::DVec3;
 
 use super::{Clock, FitOptions, FitPhases};
 use crate::error::Result;
-use crate::ordering::{self, Graph};
+use crate::ordering::{self, Band, Chosen, Graph};
 use crate::skyline::{Envelope, Profile};
 use crate::solver::{Factor, LowerCsc, SolverChoice};
 
-/// Chooses and runs the factorisation, timing its phases into `phases`;
-/// `dissection`: the supernodal solver's ordering when made already.
+/// The band orderings' results: the band of the caller's order, the
+/// ordering chosen, and its envelope (the profile solver's storage).
+pub(super) struct Bands {
+    pub(super) before: Band,
+    pub(super) chosen: Chosen,
+    pub(super) envelope: Envelope,
+}
+
+/// Below this many multiply-adds the profile factor takes a few
+/// milliseconds at most: it is taken without trying the supernodal one.
+const SKYLINE_SURE: f64 = 3e7;
+
+/// Orders, chooses and runs the factorisation, timing its phases into
+/// `phases` (from the ordering on) and its multiply-adds into `flops`;
+/// gives back the band orderings made by `bands`. With `dissect_ahead` (a
+/// large system likely to go to the supernodal solver) the dissection is
+/// made first, and `bands` and A's values beside the symbolic analysis,
+/// which reads A's pattern alone.
 #[allow(clippy::too_many_arguments)] // the build's state, passed on once
 pub(super) fn factor(
     starts: &[DVec3],
     graph: &Graph,
-    perm: Vec<u32>,
-    envelope: Envelope,
-    dissection: Option<Vec<u32>>,
+    bands: impl FnOnce() -> Bands + Send,
+    dissect_ahead: bool,
     options: &FitOptions,
     phases: &mut FitPhases,
     flops: &mut f64,
-) -> Result<Factor, crate::error::FitError> {
+) -> Result<(Factor, Bands), crate::error::FitError> {
     let mut clock = Clock::start();
     let kernel = options.kernel;
     let inv_r = 1.0 / options.radius;
     let phi = |i: usize, j: usize| kernel.eval(starts[i].distance(starts[j]) * inv_r);
-    let skyline_flops = envelope.factor_flops();
-    *flops = skyline_flops;
-    let choice = match options.solver {
-        SolverChoice::Auto => {
-            // Below some 30 million multiply-adds the profile factor takes a few
-            // milliseconds at most; beyond, compare with the supernodal fill.
-            if skyline_flops < 3e7 {
-                SolverChoice::Skyline
-            } else {
-                SolverChoice::Supernodal
-            }
-        }
-        c => c,
-    };
-    let skyline = |envelope, phases: &mut FitPhases, mut clock: Clock| {
-        let profile = assemble_profile(graph, &perm, envelope, &phi, kernel.eval(0.0));
+    let diag = kernel.eval(0.0);
+    let skyline = |bands: &Bands, phases: &mut FitPhases, mut clock: Clock| {
+        let perm = bands.chosen.perm.clone();
+        let profile = assemble_profile(graph, &perm, bands.envelope.clone(), &phi, diag);
         phases.assembly_ms += clock.lap();
-        let factor = Factor::skyline(profile, perm.clone());
+        let factor = Factor::skyline(profile, perm);
         phases.numeric_ms = clock.lap();
         factor
     };
-    if choice == SolverChoice::Supernodal {
-        let a = lower_csc(graph, &phi, kernel.eval(0.0));
-        phases.assembly_ms = clock.lap();
-        let order = dissection
-            .unwrap_or_else(|| ordering::geometric_dissection(graph, starts, options.radius));
-        let symbolic = Factor::supernodal_symbolic(&a, Some(&order))?;
-        phases.symbolic_ms = clock.lap();
-        // Take the profile unless the supernodal factor needs fewer
-        // multiply-adds (counted from its structure). Per multiply-add faer
-        // is the faster (measured 8-10 G/s against the profile's 5-6 G/s on
-        // 2,000-10,000 starts), so at equal counts the profile's lower
-        // overhead is all it gives up.
+    // The supernodal factor of the pattern `a` and its symbolic analysis,
+    // unless the profile needs no more multiply-adds (counted from the
+    // structure) and the solver is left to choose. Per multiply-add faer is
+    // the faster (measured 8-10 G/s against the profile's 5-6 G/s on
+    // 2,000-10,000 starts), so at equal counts the profile's lower overhead
+    // is all it gives up.
+    let supernodal = |a: &LowerCsc,
+                      symbolic,
+                      bands: &Bands,
+                      phases: &mut FitPhases,
+                      flops: &mut f64,
+                      mut clock: Clock| {
+        let skyline_flops = bands.envelope.factor_flops();
         let supernodal_flops = Factor::supernodal_flops(&symbolic);
         if options.solver == SolverChoice::Auto && skyline_flops <= supernodal_flops {
-            return skyline(envelope, phases, clock);
+            *flops = skyline_flops;
+            return skyline(bands, phases, clock);
         }
         *flops = supernodal_flops;
-        let factor = Factor::supernodal(symbolic, &a);
+        let factor = Factor::supernodal(symbolic, a);
         phases.numeric_ms = clock.lap();
-        return factor;
+        factor
+    };
+    if dissect_ahead {
+        let order = ordering::geometric_dissection(graph, starts, options.radius);
+        phases.ordering_ms = clock.lap();
+        let mut a = lower_pattern(graph);
+        phases.assembly_ms = clock.lap();
+        let (symbolic, (bands, values)) = rayon::join(
+            || Factor::supernodal_symbolic(&a, Some(&order)),
+            || (bands(), lower_values(graph, &phi, diag, a.row_idx.len())),
+        );
+        a.values = values;
+        let symbolic = symbolic?;
+        phases.symbolic_ms = clock.lap();
+        if options.solver == SolverChoice::Auto && bands.envelope.factor_flops() < SKYLINE_SURE {
+            *flops = bands.envelope.factor_flops();
+            return skyline(&bands, phases, clock).map(|f| (f, bands));
+        }
+        let factor = supernodal(&a, symbolic, &bands, phases, flops, clock);
+        return factor.map(|f| (f, bands));
     }
-    skyline(envelope, phases, clock)
+    let bands = bands();
+    phases.ordering_ms = clock.lap();
+    let skyline_flops = bands.envelope.factor_flops();
+    *flops = skyline_flops;
+    let choice = match options.solver {
+        SolverChoice::Auto if skyline_flops < SKYLINE_SURE => SolverChoice::Skyline,
+        SolverChoice::Auto => SolverChoice::Supernodal,
+        c => c,
+    };
+    if choice == SolverChoice::Supernodal {
+        let a = lower_csc(graph, &phi, diag);
+        phases.assembly_ms = clock.lap();
+        let order = ordering::geometric_dissection(graph, starts, options.radius);
+        let symbolic = Factor::supernodal_symbolic(&a, Some(&order))?;
+        phases.symbolic_ms = clock.lap();
+        let factor = supernodal(&a, symbolic, &bands, phases, flops, clock);
+        return factor.map(|f| (f, bands));
+    }
+    let factor = skyline(&bands, phases, clock);
+    factor.map(|f| (f, bands))
 }
 
 /// A factor of the same structure as `previous` (same graph, ordering and
@@ -131,26 +174,46 @@ fn assemble_profile(
     p
 }
 
-fn lower_csc(graph: &Graph, phi: &impl Fn(usize, usize) -> f64, diag: f64) -> LowerCsc {
+fn lower_csc(graph: &Graph, phi: &(impl Fn(usize, usize) -> f64 + Sync), diag: f64) -> LowerCsc {
+    let mut a = lower_pattern(graph);
+    a.values = lower_values(graph, phi, diag, a.row_idx.len());
+    a
+}
+
+/// A's lower triangle by columns, without its values: each column's
+/// diagonal, then its neighbours below it in order.
+fn lower_pattern(graph: &Graph) -> LowerCsc {
     let n = graph.len();
     let mut col_ptr = Vec::with_capacity(n + 1);
     let mut row_idx = Vec::with_capacity(n + graph.edge_entries() / 2);
-    let mut values = Vec::with_capacity(row_idx.capacity());
     col_ptr.push(0u32);
     for j in 0..n {
         row_idx.push(j as u32);
-        values.push(diag);
         // Neighbour lists are sorted, so rows below the diagonal come in order.
-        for &i in graph.neighbours(j).iter().filter(|&&i| i as usize > j) {
-            row_idx.push(i);
-            values.push(phi(i as usize, j));
-        }
+        row_idx.extend(graph.neighbours(j).iter().filter(|&&i| i as usize > j));
         col_ptr.push(row_idx.len() as u32);
     }
     LowerCsc {
         n,
         col_ptr,
         row_idx,
-        values,
+        values: Vec::new(),
     }
+}
+
+/// The values of [`lower_pattern`]'s `entries` entries, in its order.
+fn lower_values(
+    graph: &Graph,
+    phi: &impl Fn(usize, usize) -> f64,
+    diag: f64,
+    entries: usize,
+) -> Vec<f64> {
+    let mut values = Vec::with_capacity(entries);
+    for j in 0..graph.len() {
+        values.push(diag);
+        for &i in graph.neighbours(j).iter().filter(|&&i| i as usize > j) {
+            values.push(phi(i as usize, j));
+        }
+    }
+    values
 }

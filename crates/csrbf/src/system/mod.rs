@@ -31,7 +31,7 @@ pub use crate::options::{
 pub use estimate::{Estimate, estimate};
 pub(crate) use poly::prow;
 
-use assemble::factor;
+use assemble::{Bands, factor};
 use graph::{neighbour_counts, neighbour_graph, validate};
 use poly::{PolyBlock, poly_block};
 
@@ -178,36 +178,44 @@ impl System {
             return System::refit(p, starts, options, octree, graph, near, clock, phases);
         }
         let identity: Vec<u32> = (0..n as u32).collect();
-        // The band orderings (the profile solver's) and, on the other core,
-        // the dissection the supernodal solver would take, when it is
-        // likely to be taken.
+        // The band orderings (the profile solver's) and the envelope of the
+        // one chosen. A large system likely to go to the supernodal solver
+        // is dissected first, and these run beside its symbolic analysis.
         let bands = || {
-            (
-                ordering::band(&graph, &identity),
-                ordering::order(&graph, options.ordering),
-            )
+            let before = ordering::band(&graph, &identity);
+            let chosen = ordering::order(&graph, options.ordering);
+            let envelope = Envelope::new(&graph, &chosen.perm);
+            Bands {
+                before,
+                chosen,
+                envelope,
+            }
         };
-        let ((before, chosen), dissection) =
-            if n >= DISSECT_AHEAD && options.solver != crate::solver::SolverChoice::Skyline {
-                rayon::join(bands, || {
-                    Some(ordering::geometric_dissection(&graph, &starts, radius))
-                })
-            } else {
-                (bands(), None)
-            };
-        let (perm, after, used) = (chosen.perm, chosen.band, chosen.ordering);
-        let envelope = Envelope::new(&graph, &perm);
-        let skyline_flops = envelope.factor_flops();
-        phases.ordering_ms = clock.lap();
-
+        let dissect_ahead =
+            n >= DISSECT_AHEAD && options.solver != crate::solver::SolverChoice::Skyline;
+        let mut factor_flops = 0.0;
+        let (factor, bands) = factor(
+            &starts,
+            &graph,
+            bands,
+            dissect_ahead,
+            &options,
+            &mut phases,
+            &mut factor_flops,
+        )?;
+        let Bands {
+            before,
+            chosen,
+            envelope,
+        } = bands;
         let mut stats = SystemStats {
             controls: n,
             nonzeros: n + graph.edge_entries(),
             bandwidth_before: before.bandwidth,
             envelope_before: before.envelope,
-            bandwidth: after.bandwidth,
-            envelope: after.envelope,
-            ordering: used.name().to_owned(),
+            bandwidth: chosen.band.bandwidth,
+            envelope: chosen.band.envelope,
+            ordering: chosen.ordering.name().to_owned(),
             orderings: chosen
                 .tried
                 .iter()
@@ -219,21 +227,12 @@ impl System {
                 .collect(),
             profile_bytes: envelope.paper_bytes(),
             dense_bytes: 4 * n * n,
-            skyline_flops,
+            skyline_flops: envelope.factor_flops(),
+            factor_flops,
             ..SystemStats::default()
         };
         neighbour_counts(&graph, &mut stats);
-
-        let factor = factor(
-            &starts,
-            &graph,
-            perm.clone(),
-            envelope,
-            dissection,
-            &options,
-            &mut phases,
-            &mut stats.factor_flops,
-        )?;
+        let perm = chosen.perm;
         clock.lap();
         stats.solver = factor.choice().name().to_owned();
         stats.factor_bytes = factor.value_bytes();
