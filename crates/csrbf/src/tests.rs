@@ -1410,10 +1410,16 @@ fn a_large_system_takes_the_solver_of_fewer_multiply_adds() {
         };
         let (stats, auto) = fit(SolverChoice::Auto);
         assert_eq!(stats.solver, want, "{name}");
-        assert!(stats.bandwidth > 0 && stats.skyline_flops > 0.0, "{name}: {stats:?}");
+        assert!(
+            stats.bandwidth > 0 && stats.skyline_flops > 0.0,
+            "{name}: {stats:?}"
+        );
         assert!(!stats.orderings.is_empty(), "{name}: the orderings tried");
         if want == "supernodal" {
-            assert!(stats.factor_flops < stats.skyline_flops, "{name}: {stats:?}");
+            assert!(
+                stats.factor_flops < stats.skyline_flops,
+                "{name}: {stats:?}"
+            );
         } else {
             assert_eq!(stats.factor_flops, stats.skyline_flops, "{name}");
         }
