@@ -118,7 +118,8 @@ def evaluate(points, tree, c, dcoef, radius, kernel):
 
 
 def median_time(runs, f):
-    times, result = [], None
+    """The median of `runs` timed calls after one untimed (a warm-up, as `csrbf bench` does)."""
+    times, result = [], f()
     for _ in range(runs):
         t = time.perf_counter()
         result = f()

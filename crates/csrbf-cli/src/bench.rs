@@ -77,20 +77,19 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Runs `f` `runs` times; the median in milliseconds.
+/// Runs `f` once untimed (a warm-up: the process's first large allocations
+/// fault their pages in, and the allocator learns to keep them), then
+/// `runs` times; the median in milliseconds. The peer script warms up alike.
 fn time<T>(runs: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
     let mut times = Vec::with_capacity(runs);
-    let mut last = None;
+    let mut last = f()?;
     for _ in 0..runs.max(1) {
         let t = Instant::now();
         let out = f()?;
         times.push(t.elapsed().as_secs_f64() * 1e3);
-        last = Some(out);
+        last = out; // the previous one is dropped outside the timing
     }
-    match last {
-        Some(l) => Ok((median(times), l)),
-        None => bail!("no run"),
-    }
+    Ok((median(times), last))
 }
 
 /// Peak resident memory of this process so far, in MB (Linux; 0 elsewhere).
