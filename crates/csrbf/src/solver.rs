@@ -361,6 +361,13 @@ pub(crate) mod tests {
     pub(crate) fn random_system(n: usize, radius: f64, seed: u64) -> (Vec<DVec3>, Graph, LowerCsc) {
         let mut rng = Rng::new(seed);
         let s: Vec<DVec3> = (0..n).map(|_| rng.vec3()).collect();
+        let (g, a) = system_of(&s, radius);
+        (s, g, a)
+    }
+
+    /// The graph and lower triangle of A (C2) for the starts `s`.
+    pub(crate) fn system_of(s: &[DVec3], radius: f64) -> (Graph, LowerCsc) {
+        let n = s.len();
         let lists: Vec<Vec<u32>> = (0..n)
             .map(|i| {
                 (0..n)
@@ -386,7 +393,7 @@ pub(crate) mod tests {
             }
             a.col_ptr.push(a.row_idx.len() as u32);
         }
-        (s, g, a)
+        (g, a)
     }
 
     #[test]

@@ -394,11 +394,24 @@ struct Walk<'a> {
 }
 
 impl Walk<'_> {
-    /// Makes the subtrees of `roots`, on the pool; the first failed pivot.
+    /// Makes the subtrees of `roots`, on the pool (light ones together, in
+    /// one go: a forest of many small trees is not a task a tree); the
+    /// first failed pivot.
     fn all(&self, roots: &[u32]) -> Option<usize> {
         match roots {
             [] => None,
             [one] => self.subtree(*one),
+            _ if roots
+                .iter()
+                .map(|&r| self.tree.subtree[r as usize])
+                .sum::<f64>()
+                < self.light =>
+            {
+                let mut work = self.pool.take();
+                let failed = self.in_one_go(roots, &mut work);
+                self.pool.give(work);
+                failed
+            }
             _ => {
                 let (a, b) = roots.split_at(roots.len() / 2);
                 let (a, b) = rayon::join(|| self.all(a), || self.all(b));
@@ -407,31 +420,34 @@ impl Walk<'_> {
         }
     }
 
+    /// Makes the subtrees of `roots` on this thread, each in ascending
+    /// order (children first); the first failed pivot of any.
+    fn in_one_go(&self, roots: &[u32], work: &mut Work) -> Option<usize> {
+        let mut nodes = Vec::new();
+        roots.iter().fold(None, |failed, &root| {
+            self.tree.ascending(root, &mut nodes);
+            let made = nodes
+                .iter()
+                .try_for_each(|&k| self.plan.make(k as usize, self.blocks, work, Par::Seq));
+            first_failure(failed, made.err())
+        })
+    }
+
     /// Makes `root`'s subtree: down its path of heavy children (its light
     /// ones made on the way), the heavy children of a fork at once, then
     /// the path back up. A supernode above a failed pivot is not made.
     fn subtree(&self, root: u32) -> Option<usize> {
         let (tree, plan) = (self.tree, self.plan);
         let mut work = self.pool.take();
-        let mut nodes = Vec::new();
         // The path, each with the first failure among its light children.
         let mut path: Vec<(u32, Option<usize>)> = Vec::new();
         let mut at = root;
         let below = loop {
-            let mut failed = None;
-            let mut heavy = Vec::new();
-            for &c in tree.children(at) {
-                if tree.subtree[c as usize] < self.light {
-                    tree.ascending(c, &mut nodes);
-                    let made = nodes
-                        .iter()
-                        .try_for_each(|&k| plan.make(k as usize, self.blocks, &mut work, Par::Seq));
-                    failed = first_failure(failed, made.err());
-                } else {
-                    heavy.push(c);
-                }
-            }
-            path.push((at, failed));
+            let (light, heavy): (Vec<u32>, Vec<u32>) = tree
+                .children(at)
+                .iter()
+                .partition(|&&c| tree.subtree[c as usize] < self.light);
+            path.push((at, self.in_one_go(&light, &mut work)));
             match heavy[..] {
                 [] => break None,
                 [one] => at = one,
@@ -717,6 +733,7 @@ mod tests {
     use crate::solver::Factor;
     use crate::solver::tests::random_system;
     use crate::testing::Rng;
+    use glam::DVec3;
 
     /// A supernodal structure of `a` (forced: faer takes a simplicial one
     /// for most small systems), under a dissection order or faer's AMD.
@@ -858,6 +875,47 @@ mod tests {
             }
         }
         assert!(forks_seen, "some system's tree was walked on the pool");
+    }
+
+    /// A forest (starts in far-apart clusters: one elimination tree each,
+    /// many of them light) walked on the pool gives the serial values, and
+    /// a pivot that fails in one tree is the one faer finds.
+    #[test]
+    fn a_forest_of_trees_is_walked_as_one() {
+        let mut rng = Rng::new(77);
+        for (clusters, each) in [(2, 900), (40, 60), (150, 16)] {
+            let s: Vec<DVec3> = (0..clusters * each)
+                .map(|i| rng.vec3() * 0.5 + DVec3::X * (3 * (i / each)) as f64)
+                .collect();
+            let (g, mut a) = crate::solver::tests::system_of(&s, 0.15);
+            let order = geometric_dissection(&g, &s, 0.15);
+            let symbolic = structure(&a, Some(&order));
+            let reference = lower_values(&symbolic, &faer_values(&symbolic, &a).expect("SPD"));
+            let (two, _) = ours(&symbolic, &a, true).expect("SPD");
+            let scale = reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (k, (r, t)) in reference
+                .iter()
+                .zip(lower_values(&symbolic, &two))
+                .enumerate()
+            {
+                assert!(
+                    (r - t).abs() <= 1e-12 * scale,
+                    "{clusters} trees, value {k}"
+                );
+            }
+            // Coupling too strong in the last cluster only.
+            let last = ((clusters - 1) * each) as u32;
+            for j in 0..a.n {
+                for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
+                    if j as u32 >= last && a.row_idx[k] as usize != j {
+                        a.values[k] *= 3.0;
+                    }
+                }
+            }
+            let want = faer_values(&symbolic, &a).expect_err("not positive definite");
+            let got = ours(&symbolic, &a, true).expect_err("not positive definite");
+            assert_eq!(got, want, "{clusters} trees");
+        }
     }
 
     #[test]
