@@ -2,7 +2,8 @@
 //! X server in memory), driven with `xdotool` as a person would: a press on
 //! the head and a drag place a control vector and set its destination,
 //! Ctrl+S and a typed name save the control file, and a screenshot is kept
-//! in `target/studio-window.png`.
+//! in the build folder (`target/studio-window.png`, or under
+//! `CARGO_TARGET_DIR`).
 //!
 //! Needs Xvfb, xdotool and ImageMagick's `import` (`scripts/setup.sh
 //! --tests` installs them); without them this test fails and says so.
@@ -30,6 +31,12 @@ impl Drop for Killed {
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
+}
+
+/// Where a screenshot is kept: the build folder, wherever cargo has it.
+fn kept(name: &str) -> PathBuf {
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    tmp.parent().unwrap_or(tmp).join(name)
 }
 
 fn need(tool: &str) {
@@ -71,7 +78,6 @@ fn wait_for(what: &str, limit: Duration, mut f: impl FnMut() -> bool) {
 struct Session {
     display: String,
     work: PathBuf,
-    root: PathBuf,
     // Dropped in this order: the app, then its X server, then the turn.
     _app: Killed,
     _xvfb: Killed,
@@ -90,7 +96,6 @@ impl Session {
         let turn = ONE_AT_A_TIME
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let root = csrbf_testkit::root();
         let work = csrbf_testkit::scratch(
             env!("CARGO_TARGET_TMPDIR"),
             &format!("studio-window-{name}"),
@@ -171,7 +176,6 @@ impl Session {
         Session {
             display,
             work,
-            root,
             _app: app,
             _xvfb: xvfb,
             _turn: turn,
@@ -236,7 +240,7 @@ fn the_app_in_a_real_window_places_drags_and_saves() {
     // The frame after the save (the dialog closed): a software rasteriser
     // on a busy machine can take a while to present it, so look until the
     // viewport's centre shows the head again.
-    let shot: PathBuf = root.join("target/studio-window.png");
+    let shot = kept("studio-window.png");
     let centre_pixel = || -> Option<[u8; 4]> {
         let img = session.screenshot(&shot)?;
         Some(img.get_pixel(x as u32 + 40, y as u32).0)
@@ -271,7 +275,7 @@ fn the_app_in_a_real_window_places_drags_and_saves() {
 }
 
 /// Issue 9: the Composer plays the face demo for two seconds in a real
-/// window; screenshots at about 0.5 s and 2 s (kept in `target/`) show the
+/// window; screenshots at about 0.5 s and 2 s (kept in the build folder) show the
 /// head turned and smiling between them.
 #[test]
 fn the_composer_plays_the_face_scene_in_a_real_window() {
@@ -279,10 +283,7 @@ fn the_composer_plays_the_face_scene_in_a_real_window() {
     let session = Session::start("play", &[&root.join("assets/scenes/face.scene.json")]);
     // The viewport's middle (the side panel takes the right, the timeline
     // the bottom).
-    let shots = [
-        session.root.join("target/composer-play-1.png"),
-        session.root.join("target/composer-play-2.png"),
-    ];
+    let shots = [kept("composer-play-1.png"), kept("composer-play-2.png")];
     session.xdotool(&["key", "space"]);
     let started = Instant::now();
     std::thread::sleep(Duration::from_millis(500));
