@@ -1106,7 +1106,38 @@ fn parse_handle(v: &Value, at: &str, warnings: &mut Vec<String>) -> Result<Handl
         )?,
         &here("select"),
     )?;
-    let mut h = Handle::new(select);
+    let mut h = rigid_motion(obj, at, warnings, Handle::new(select))?;
+    if let Some(n) = obj.get("samples").filter(|n| !n.is_null()) {
+        let n = n
+            .as_u64()
+            .filter(|&n| (1..=100_000).contains(&n))
+            .ok_or_else(|| {
+                err(
+                    &here("samples"),
+                    format!("expected a whole number within 1..100000, found {n}"),
+                )
+            })?;
+        h = h.with_samples(n as usize);
+    }
+    if h.rotate.is_none() && h.scale.is_none() && h.translate.is_none() {
+        return Err(err(
+            at,
+            "the handle does not move: give rotate, scale or translate",
+        ));
+    }
+    Ok(h)
+}
+
+/// A rigid motion's `rotate` (`{"axis": [..], "angle_deg": a, "pivot":
+/// [..]}`), `scale` and `translate` of `obj` (at `at`), each optional, given
+/// to `h`: a handle's, and a volume zone's that moves rigidly.
+pub(crate) fn rigid_motion(
+    obj: &serde_json::Map<String, Value>,
+    at: &str,
+    warnings: &mut Vec<String>,
+    mut h: Handle,
+) -> Result<Handle, ControlError> {
+    let here = |k: &str| format!("{at}.{k}");
     if let Some(r) = obj.get("rotate").filter(|r| !r.is_null()) {
         let ro = r.as_object().ok_or_else(|| {
             err(
@@ -1136,24 +1167,6 @@ fn parse_handle(v: &Value, at: &str, warnings: &mut Vec<String>) -> Result<Handl
     }
     if obj.get("translate").is_some_and(|t| !t.is_null()) {
         h = h.with_translation(point(obj.get("translate"), &here("translate"))?);
-    }
-    if let Some(n) = obj.get("samples").filter(|n| !n.is_null()) {
-        let n = n
-            .as_u64()
-            .filter(|&n| (1..=100_000).contains(&n))
-            .ok_or_else(|| {
-                err(
-                    &here("samples"),
-                    format!("expected a whole number within 1..100000, found {n}"),
-                )
-            })?;
-        h = h.with_samples(n as usize);
-    }
-    if h.rotate.is_none() && h.scale.is_none() && h.translate.is_none() {
-        return Err(err(
-            at,
-            "the handle does not move: give rotate, scale or translate",
-        ));
     }
     Ok(h)
 }

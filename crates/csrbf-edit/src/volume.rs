@@ -755,7 +755,7 @@ impl BoundaryMorph {
     /// Reads a boundary-driven morph from its JSON; `source` is the
     /// document's path (relative file names are taken beside it).
     pub fn from_value(root: &Value, source: &Path) -> Result<BoundaryMorph, crate::ControlError> {
-        use crate::controls::{err, number, point};
+        use crate::controls::{err, number};
         let mut warnings = Vec::new();
         let top = root
             .as_object()
@@ -887,45 +887,17 @@ impl BoundaryMorph {
             let (disp, ctl) = (file("displacements")?, file("controls")?);
             let motion = match (rigid, disp, ctl) {
                 (true, None, None) => {
-                    let mut h = csrbf::handle::Handle::new(csrbf::Region::All);
-                    if let Some(t) = o.get("translate").filter(|v| !v.is_null()) {
-                        h = h.with_translation(point(Some(t), &format!("{at}.translate"))?);
-                    }
-                    if let Some(s) = number(o.get("scale"), &format!("{at}.scale"))? {
-                        if !(s > 0.0) {
-                            return Err(err(
-                                &format!("{at}.scale"),
-                                format!("must be > 0, got {s}"),
-                            ));
-                        }
-                        h = h.with_scale(s);
-                    }
-                    if let Some(r) = o.get("rotate").filter(|v| !v.is_null()) {
-                        let rat = format!("{at}.rotate");
-                        let ro = r.as_object().ok_or_else(|| err(&rat, "expected {\"axis\": [x, y, z], \"angle_deg\": a, \"pivot\": [x, y, z]}"))?;
-                        let mut w = Vec::new();
-                        crate::controls::unknown_keys(
-                            ro,
-                            &["axis", "angle_deg", "pivot"],
-                            &rat,
-                            &mut w,
-                        );
-                        if let Some(w) = w.first() {
-                            return Err(err(&rat, w.clone()));
-                        }
-                        let axis = point(ro.get("axis"), &format!("{rat}.axis"))?;
-                        if !(axis.length() > 0.0) {
-                            return Err(err(&format!("{rat}.axis"), "the axis must not be zero"));
-                        }
-                        let angle = number(ro.get("angle_deg"), &format!("{rat}.angle_deg"))?
-                            .ok_or_else(|| {
-                                err(&format!("{rat}.angle_deg"), "missing: the angle in degrees")
-                            })?;
-                        let mut rot = csrbf::handle::Rotation::new(axis, angle);
-                        if ro.get("pivot").is_some_and(|p| !p.is_null()) {
-                            rot = rot.with_pivot(point(ro.get("pivot"), &format!("{rat}.pivot"))?);
-                        }
-                        h = h.with_rotation(rot);
+                    // A rotation's unknown key is an error here (a boundary
+                    // morph keeps no warnings).
+                    let mut unknown = Vec::new();
+                    let h = crate::controls::rigid_motion(
+                        o,
+                        &at,
+                        &mut unknown,
+                        csrbf::handle::Handle::new(csrbf::Region::All),
+                    )?;
+                    if let Some(w) = unknown.first() {
+                        return Err(err(&format!("{at}.rotate"), w.clone()));
                     }
                     Motion::Rigid(h)
                 }

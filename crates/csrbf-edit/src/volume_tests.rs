@@ -282,6 +282,14 @@ fn bad_boundary_morphs_are_refused_by_name() {
             "the axis must not be zero",
         ),
         (
+            json!({"boundary": {"radius": 1, "move": [{"zone": "inner", "rotate": {"axis": [0, 0, 1], "angel_deg": 3}}]}}),
+            "boundary.move[0].rotate",
+        ),
+        (
+            json!({"boundary": {"radius": 1, "move": [{"zone": "inner", "rotate": {"axis": [0, 0, 1]}}]}}),
+            "the angle in degrees",
+        ),
+        (
             json!({"boundary": {"radius": 1, "kernel": "c9", "move": [{"zone": "inner", "translate": [0, 0, 1]}]}}),
             "boundary.kernel",
         ),
