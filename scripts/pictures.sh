@@ -19,7 +19,7 @@ head=assets/models/cgal_head.off
 
 # The smile: rest and deformed through one camera.
 "$csrbf" render -q --mesh "$head" --controls assets/controls/head_smile.json \
-  --before-after --view front --size 1200x520 --force --out "$out/smile-before-after.png"
+  --before-after --view left --size 1200x520 --force --out "$out/smile-before-after.png"
 # The control vectors drawn on the deformed head.
 "$csrbf" render -q --mesh "$head" --controls assets/controls/head_smile.json \
   --overlay --view front --zoom 1.8 --size 800x600 --force --out "$out/smile-controls.png"

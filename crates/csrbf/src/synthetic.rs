@@ -181,7 +181,9 @@ fn moved_scene(name: &str, points: Vec<glam::Vec3>, starts: Vec<DVec3>, r: f64) 
 /// in a random order, each kept unless a kept one is near), R = `share` times the diagonal of
 /// the points' box, destinations smooth random moves of about 0.2 R. What a
 /// user does on a scan: controls on its surface, R a share of its size.
-/// Fewer starts than asked when the mesh has too few distinct vertices.
+/// Fewer starts than asked when the mesh has too few vertices at least
+/// [`SCAN_MIN_GAP`] R apart (a mesh's seams repeat vertices a hair apart:
+/// a fit refuses starts it cannot tell apart).
 pub fn scan_scene(
     name: &str,
     points: Vec<glam::Vec3>,
@@ -197,17 +199,21 @@ pub fn scan_scene(
     } else {
         1.0
     };
-    let chosen = spread_subset(&points, starts, diagonal);
     let r = (share * diagonal).max(f64::MIN_POSITIVE);
+    let chosen = spread_subset(&points, starts, diagonal, SCAN_MIN_GAP * r);
     let s: Vec<DVec3> = chosen.iter().map(|&i| points[i].as_dvec3()).collect();
     moved_scene(name, points, s, r)
 }
 
+/// The closest two starts of a [`scan_scene`] lie, in R: twice the distance
+/// below which two starts are a near pair, so a scene never has one.
+pub const SCAN_MIN_GAP: f64 = 0.02;
+
 /// Up to `n` indices of finite `points`, spread evenly: visited in a seeded
 /// random order, each kept unless a kept one lies within `gap` of it, with
-/// `gap` halved until `n` are kept (a hash grid of cells `gap` wide: linear
-/// time).
-fn spread_subset(points: &[glam::Vec3], n: usize, diagonal: f64) -> Vec<usize> {
+/// `gap` halved until `n` are kept or it would fall below `min_gap` (a hash
+/// grid of cells `gap` wide: linear time).
+fn spread_subset(points: &[glam::Vec3], n: usize, diagonal: f64, min_gap: f64) -> Vec<usize> {
     use std::collections::HashMap;
     let mut order: Vec<usize> = (0..points.len())
         .filter(|&i| points[i].is_finite())
@@ -217,7 +223,7 @@ fn spread_subset(points: &[glam::Vec3], n: usize, diagonal: f64) -> Vec<usize> {
         order.swap(i, rng.below(i + 1));
     }
     // Even spacing on a surface of about a sphere's area for this box.
-    let mut gap = diagonal * (std::f64::consts::PI / n.max(1) as f64).sqrt() * 0.5;
+    let mut gap = (diagonal * (std::f64::consts::PI / n.max(1) as f64).sqrt() * 0.5).max(min_gap);
     loop {
         let cell = |p: DVec3| (p / gap).floor().as_i64vec3();
         let mut grid: HashMap<glam::I64Vec3, Vec<usize>> = HashMap::new();
@@ -243,7 +249,7 @@ fn spread_subset(points: &[glam::Vec3], n: usize, diagonal: f64) -> Vec<usize> {
                 kept.push(i);
             }
         }
-        if kept.len() == n || gap < diagonal * 1e-9 {
+        if kept.len() == n || gap * 0.5 < min_gap.max(diagonal * 1e-9) {
             kept.sort_unstable();
             return kept;
         }
@@ -346,5 +352,35 @@ mod tests {
         ];
         let s = scan_scene("few", few, 10, 0.5);
         assert_eq!(s.starts.len(), 3);
+    }
+
+    /// A mesh whose seams repeat vertices a hair apart, with fewer vertices
+    /// than the starts asked: the scene keeps no two starts closer than
+    /// [`SCAN_MIN_GAP`] R, and it fits (it was refused: "controls 56 and
+    /// 200 start 1.0e-4 apart", on a bundled airplane).
+    #[test]
+    fn a_scan_scene_of_a_mesh_with_seams_fits() {
+        let (grid_points, _) = grid(30);
+        // A bumpy sheet (a flat one is refused with the linear polynomial).
+        let grid_points: Vec<glam::Vec3> = grid_points
+            .iter()
+            .map(|p| glam::Vec3::new(p.x, p.y, 0.2 * (3.0 * p.x).sin() * (3.0 * p.y).cos()))
+            .collect();
+        let mut points = grid_points.clone();
+        points.extend(
+            grid_points
+                .iter()
+                .map(|p| *p + glam::Vec3::new(1e-6, 0.0, 0.0)),
+        );
+        let s = scan_scene("seams", points, 4000, 0.05);
+        let r = s.options.radius;
+        assert!(s.starts.len() <= 31 * 31, "{} starts", s.starts.len());
+        for (i, a) in s.starts.iter().enumerate() {
+            for b in &s.starts[i + 1..] {
+                assert!(a.distance(*b) >= SCAN_MIN_GAP * r, "{a} and {b}, R {r}");
+            }
+        }
+        let system = crate::System::new(&s.starts, s.options).expect("fits");
+        system.solve(&s.targets).expect("solves");
     }
 }
