@@ -30,6 +30,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
 use crate::solver::LowerCsc;
+use crate::triangular::{Tree, of_column};
 
 /// A supernode's columns at least this wide run their dense kernels on the
 /// pool (the top separators of a large system).
@@ -173,73 +174,6 @@ const LIGHT_SHARE: f64 = 1.0 / 64.0;
 /// See [`LIGHT_SHARE`].
 const LIGHT_WORK: f64 = 2e6;
 
-/// The elimination tree of the supernodes: each one's children (earlier
-/// supernodes: a parent holds its child's first row below the diagonal
-/// block), the roots, and each subtree's multiply-adds.
-struct Tree {
-    ptr: Vec<usize>,
-    children: Vec<u32>,
-    roots: Vec<u32>,
-    subtree: Vec<f64>,
-}
-
-impl Tree {
-    fn new(symbolic: &SymbolicSupernodalCholesky<u32>, of_column: &[u32], own: &[f64]) -> Tree {
-        let count = symbolic.n_supernodes();
-        let parent: Vec<Option<u32>> = (0..count)
-            .map(|k| {
-                symbolic
-                    .supernode(k)
-                    .pattern()
-                    .first()
-                    .map(|&r| of_column[r as usize])
-            })
-            .collect();
-        let mut ptr = vec![0usize; count + 1];
-        for p in parent.iter().flatten() {
-            ptr[*p as usize + 1] += 1;
-        }
-        for k in 0..count {
-            ptr[k + 1] += ptr[k];
-        }
-        let mut next = ptr.clone();
-        let mut children = vec![0u32; ptr[count]];
-        let mut roots = Vec::new();
-        let mut subtree = own.to_vec();
-        for (k, p) in parent.iter().enumerate() {
-            match p {
-                Some(p) => {
-                    children[next[*p as usize]] = k as u32;
-                    next[*p as usize] += 1;
-                    subtree[*p as usize] += subtree[k];
-                }
-                None => roots.push(k as u32),
-            }
-        }
-        Tree {
-            ptr,
-            children,
-            roots,
-            subtree,
-        }
-    }
-
-    fn children(&self, k: u32) -> &[u32] {
-        &self.children[self.ptr[k as usize]..self.ptr[k as usize + 1]]
-    }
-
-    /// The supernodes of `k`'s subtree, ascending (children first).
-    fn ascending(&self, k: u32, out: &mut Vec<u32>) {
-        out.clear();
-        let mut stack = vec![k];
-        while let Some(k) = stack.pop() {
-            out.push(k);
-            stack.extend_from_slice(self.children(k));
-        }
-        out.sort_unstable();
-    }
-}
-
 /// Each supernode's block of values: to be made (taken once, by the
 /// thread that makes it), then made (read by its ancestors' updates).
 struct Blocks<'a> {
@@ -329,10 +263,7 @@ fn factor_from(
 ) -> Result<usize, usize> {
     let count = symbolic.n_supernodes();
     let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
-    let mut of_column = vec![0u32; symbolic.nrows()];
-    for k in 0..count {
-        of_column[begin[k] as usize..end[k] as usize].fill(k as u32);
-    }
+    let of_column = of_column(symbolic);
     let plan = Plan {
         symbolic,
         a: Permuted::new(a, inverse),

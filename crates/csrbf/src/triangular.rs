@@ -94,6 +94,89 @@ const MAX_CUTS: usize = 64;
 /// is not worth a second thread's start and the copies.
 const GAIN: f64 = 0.8;
 
+/// The elimination tree of the supernodes: each one's children (earlier
+/// supernodes: a parent holds its child's first row below the diagonal
+/// block), the roots, and each subtree's work (the factorisation's
+/// multiply-adds, or the solve's values of L).
+pub(crate) struct Tree {
+    ptr: Vec<usize>,
+    children: Vec<u32>,
+    pub(crate) roots: Vec<u32>,
+    pub(crate) subtree: Vec<f64>,
+}
+
+impl Tree {
+    /// The tree, each subtree's work the sum of `own` over it.
+    pub(crate) fn new(
+        symbolic: &SymbolicSupernodalCholesky<u32>,
+        of_column: &[u32],
+        own: &[f64],
+    ) -> Tree {
+        let count = symbolic.n_supernodes();
+        let parent: Vec<Option<u32>> = (0..count)
+            .map(|k| {
+                symbolic
+                    .supernode(k)
+                    .pattern()
+                    .first()
+                    .map(|&r| of_column[r as usize])
+            })
+            .collect();
+        let mut ptr = vec![0usize; count + 1];
+        for p in parent.iter().flatten() {
+            ptr[*p as usize + 1] += 1;
+        }
+        for k in 0..count {
+            ptr[k + 1] += ptr[k];
+        }
+        let mut next = ptr.clone();
+        let mut children = vec![0u32; ptr[count]];
+        let mut roots = Vec::new();
+        let mut subtree = own.to_vec();
+        for (k, p) in parent.iter().enumerate() {
+            match p {
+                Some(p) => {
+                    children[next[*p as usize]] = k as u32;
+                    next[*p as usize] += 1;
+                    subtree[*p as usize] += subtree[k];
+                }
+                None => roots.push(k as u32),
+            }
+        }
+        Tree {
+            ptr,
+            children,
+            roots,
+            subtree,
+        }
+    }
+
+    pub(crate) fn children(&self, k: u32) -> &[u32] {
+        &self.children[self.ptr[k as usize]..self.ptr[k as usize + 1]]
+    }
+
+    /// The supernodes of `k`'s subtree, ascending (children first).
+    pub(crate) fn ascending(&self, k: u32, out: &mut Vec<u32>) {
+        out.clear();
+        let mut stack = vec![k];
+        while let Some(k) = stack.pop() {
+            out.push(k);
+            stack.extend_from_slice(self.children(k));
+        }
+        out.sort_unstable();
+    }
+}
+
+/// The supernode of each column.
+pub(crate) fn of_column(symbolic: &SymbolicSupernodalCholesky<u32>) -> Vec<u32> {
+    let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+    let mut of_column = vec![0u32; symbolic.nrows()];
+    for k in 0..symbolic.n_supernodes() {
+        of_column[begin[k] as usize..end[k] as usize].fill(k as u32);
+    }
+    of_column
+}
+
 /// The supernodes cut in two for a solve on two threads: two sets of whole
 /// subtrees of the elimination tree, about equal in values of L, and the
 /// supernodes above them (the top separators). A subtree's supernodes
@@ -128,31 +211,14 @@ impl Split {
             return None;
         }
         let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
-        let mut of_column = vec![0u32; symbolic.nrows()];
-        for k in 0..count {
-            of_column[begin[k] as usize..end[k] as usize].fill(k as u32);
-        }
-        // A supernode's parent holds its first row below the diagonal
-        // block (a later column: a parent comes after its children).
-        let mut children: Vec<Vec<u32>> = vec![Vec::new(); count];
-        let mut roots = Vec::new();
-        let mut subtree: Vec<f64> = (0..count)
+        let own: Vec<f64> = (0..count)
             .map(|k| {
                 let width = (end[k] - begin[k]) as f64;
                 (width + symbolic.supernode(k).pattern().len() as f64) * width
             })
             .collect();
-        let own = subtree.clone();
-        for k in 0..count {
-            match symbolic.supernode(k).pattern().first() {
-                Some(&r) => {
-                    let p = of_column[r as usize] as usize;
-                    children[p].push(k as u32);
-                    subtree[p] += subtree[k];
-                }
-                None => roots.push(k as u32),
-            }
-        }
+        let tree = Tree::new(symbolic, &of_column(symbolic), &own);
+        let (subtree, roots) = (&tree.subtree, tree.roots.clone());
         let total: f64 = own.iter().sum();
         // Take the largest subtree apart (its root to the top) while that
         // shortens the solve on two threads (the top's work plus the larger
@@ -184,13 +250,13 @@ impl Split {
                 best = Some((time, top.clone(), halves));
             }
             let largest = below.remove(0);
-            if children[largest as usize].is_empty() {
+            if tree.children(largest).is_empty() {
                 break;
             }
             top_work += own[largest as usize];
             top.push(largest);
-            below.extend(&children[largest as usize]);
-            cuts += usize::from(children[largest as usize].len() > 1);
+            below.extend(tree.children(largest));
+            cuts += usize::from(tree.children(largest).len() > 1);
         }
         let (time, mut top, halves) = best?;
         if time > GAIN * total || halves.iter().any(|h| h.1.is_empty()) {
@@ -201,7 +267,7 @@ impl Split {
             let mut stack = roots;
             while let Some(k) = stack.pop() {
                 set.push(k);
-                stack.extend(&children[k as usize]);
+                stack.extend(tree.children(k));
             }
             set.sort_unstable();
             set
