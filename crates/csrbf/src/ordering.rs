@@ -194,8 +194,19 @@ const AUTO_ONE_ORDERING: usize = 20_000;
 
 /// Bandwidth and envelope of the matrix with pattern `graph` under `perm`.
 pub fn band(graph: &Graph, perm: &[u32]) -> Band {
-    let inv = inverse(perm);
     let mut out = Band::default();
+    if perm.iter().enumerate().all(|(i, &p)| p as usize == i) {
+        // The caller's own order: each row's first column is its least
+        // neighbour, a plain minimum (no gather through an inverse).
+        for new in 0..graph.len() {
+            let least = graph.neighbours(new).iter().copied().min();
+            let first = least.map_or(new, |j| (j as usize).min(new));
+            out.bandwidth = out.bandwidth.max(new - first);
+            out.envelope += new - first;
+        }
+        return out;
+    }
+    let inv = inverse(perm);
     for (new, &old) in perm.iter().enumerate() {
         let first = graph
             .neighbours(old as usize)
@@ -509,6 +520,41 @@ mod tests {
                 assert!(b.envelope * 5 < ident.envelope, "{b:?} vs {ident:?}");
             }
         }
+    }
+
+    /// The band of the caller's order (its own fast path) and of any other
+    /// against a plain count over every entry.
+    #[test]
+    fn band_counts_each_rows_first_column() {
+        let plain = |g: &Graph, perm: &[u32]| {
+            let inv = inverse(perm);
+            let mut b = Band::default();
+            for i in 0..g.len() {
+                let mut first = inv[i] as usize;
+                for &j in g.neighbours(i) {
+                    first = first.min(inv[j as usize] as usize);
+                }
+                b.bandwidth = b.bandwidth.max(inv[i] as usize - first);
+                b.envelope += inv[i] as usize - first;
+            }
+            b
+        };
+        for seed in 0..4 {
+            let g = shuffled_grid(12, seed);
+            let identity: Vec<u32> = (0..g.len() as u32).collect();
+            let reversed: Vec<u32> = identity.iter().rev().copied().collect();
+            for perm in [identity, reversed, reverse_cuthill_mckee(&g)] {
+                assert_eq!(band(&g, &perm), plain(&g, &perm), "seed {seed}");
+            }
+        }
+        let lonely = Graph::from_lists(&[vec![], vec![2], vec![1]]);
+        assert_eq!(
+            band(&lonely, &[0, 1, 2]),
+            Band {
+                bandwidth: 1,
+                envelope: 1
+            }
+        );
     }
 
     #[test]
