@@ -215,6 +215,7 @@ mod stretch;
 mod supernodal;
 mod surface;
 mod sweep;
+mod symbolic;
 pub mod synthetic;
 mod system;
 mod triangular;

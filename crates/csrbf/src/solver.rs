@@ -5,16 +5,10 @@
 
 use std::sync::Arc;
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::perm::PermRef;
-use faer::sparse::linalg::cholesky::{
-    LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
-};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, Mat, Par, Side};
-
 use crate::error::{FitError, NameError, Result};
+use crate::ordering::Graph;
 use crate::skyline::{Profile, Rhs};
+use crate::symbolic::{LowerCsc, Structure};
 use crate::triangular::Split;
 
 /// Which factorisation to use.
@@ -72,40 +66,17 @@ impl std::str::FromStr for SolverChoice {
 pub(crate) enum Factor {
     /// Profile factor in the numbering `perm` (`perm[new] = old`).
     Skyline { profile: Profile, perm: Vec<u32> },
-    /// faer's supernodal (or simplicial, for tiny systems) factor; it keeps
-    /// its own fill-reducing permutation.
+    /// A supernodal factor in faer's layout; its structure keeps the
+    /// fill-reducing numbering.
     Supernodal {
         /// Its structure, shared by the factors of every matrix with the
         /// same pattern ([`crate::System::rebuild`]).
-        symbolic: Arc<SymbolicCholesky<u32>>,
+        symbolic: Arc<Structure>,
         values: Vec<f64>,
         /// Its subtrees cut in two for a factorisation and a solve on two
-        /// threads (`None`: a small or simplicial factor, made on one).
+        /// threads (`None`: a small factor, made on one).
         split: Option<Arc<Split>>,
     },
-}
-
-/// The lower triangle of A by columns: `col_ptr`, sorted `row_idx` (each
-/// column starting with its diagonal) and `values`.
-pub(crate) struct LowerCsc {
-    pub(crate) n: usize,
-    pub(crate) col_ptr: Vec<u32>,
-    pub(crate) row_idx: Vec<u32>,
-    pub(crate) values: Vec<f64>,
-}
-
-/// faer's parallelism for a numeric factorisation of this much work: its
-/// own threads only on a machine with more than two. On this project's
-/// two-core machine the parallel factorisation was slower at every size
-/// measured (`--example bench_fit`, quiet, medians of 3: 10k controls 92 -> 47 ms
-/// on one thread, 40k 475 -> 345 ms); beyond two cores it is left to faer
-/// (not measured here).
-fn parallelism(work: f64) -> Par {
-    if work > 2e6 && rayon::current_num_threads() > 2 {
-        Par::rayon(0)
-    } else {
-        Par::Seq
-    }
 }
 
 impl Factor {
@@ -119,111 +90,63 @@ impl Factor {
         Ok(Factor::Skyline { profile, perm })
     }
 
-    /// Symbolic analysis (ordering, elimination tree, supernodes): with
-    /// `order` (`order[new] = old`, a permutation of `0..a.n`) in that
+    /// Symbolic analysis (elimination tree, column counts, supernodes) of
+    /// A, whose pattern is `graph` and the diagonal: with `order`
+    /// (`order[new] = old`, a permutation of the graph's nodes) in that
     /// numbering, else after faer's approximate minimum degree.
     pub(crate) fn supernodal_symbolic(
-        a: &LowerCsc,
+        graph: &Graph,
         order: Option<&[u32]>,
-    ) -> Result<SymbolicCholesky<u32>, FitError> {
-        let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
-        let inverse;
-        let ordering = match order {
-            Some(order) if order.len() == a.n => {
-                inverse = crate::ordering::inverse(order);
-                SymmetricOrdering::Custom(PermRef::new_checked(order, &inverse, a.n))
-            }
-            _ => SymmetricOrdering::Amd,
-        };
-        factorize_symbolic_cholesky(pattern, Side::Lower, ordering, Default::default())
-            .map_err(|e| FitError::Solver(format!("{e:?}")))
+    ) -> Result<Structure, FitError> {
+        match order {
+            Some(order) => Structure::new(graph, order.to_vec()),
+            None => Structure::amd(graph),
+        }
     }
 
     /// Multiply-adds of the numeric factorisation a symbolic analysis
     /// stands for: the sum over the columns of L of count^2 / 2 (a column
     /// of `c` entries updates about `c^2 / 2` entries of later columns).
-    pub(crate) fn supernodal_flops(symbolic: &SymbolicCholesky<u32>) -> f64 {
+    pub(crate) fn supernodal_flops(symbolic: &Structure) -> f64 {
         let column = |c: f64| c * (c + 1.0) * 0.5;
-        match symbolic.raw() {
-            SymbolicCholeskyRaw::Simplicial(s) => s
-                .col_ptr()
-                .windows(2)
-                .map(|w| column((w[1] - w[0]) as f64))
-                .sum(),
-            SymbolicCholeskyRaw::Supernodal(s) => {
-                let rows = s.col_ptr_for_row_idx();
-                (0..s.n_supernodes())
-                    .map(|k| {
-                        let width = (s.supernode_end()[k] - s.supernode_begin()[k]) as usize;
-                        let below = (rows[k + 1] - rows[k]) as f64;
-                        // Column t of the supernode: its width - t diagonal
-                        // block rows and the rows below.
-                        (0..width)
-                            .map(|t| column((width - t) as f64 + below))
-                            .sum::<f64>()
-                    })
-                    .sum()
-            }
-        }
+        let s = symbolic.supernodal();
+        let rows = s.col_ptr_for_row_idx();
+        (0..s.n_supernodes())
+            .map(|k| {
+                let width = (s.supernode_end()[k] - s.supernode_begin()[k]) as usize;
+                let below = (rows[k + 1] - rows[k]) as f64;
+                // Column t of the supernode: its width - t diagonal block
+                // rows and the rows below.
+                (0..width)
+                    .map(|t| column((width - t) as f64 + below))
+                    .sum::<f64>()
+            })
+            .sum()
     }
 
     /// Numeric factorisation with a symbolic analysis already made.
-    pub(crate) fn supernodal(
-        symbolic: SymbolicCholesky<u32>,
-        a: &LowerCsc,
-    ) -> Result<Factor, FitError> {
-        let split = match symbolic.raw() {
-            SymbolicCholeskyRaw::Supernodal(s) => Split::of(s, symbolic.len_val()).map(Arc::new),
-            SymbolicCholeskyRaw::Simplicial(_) => None,
-        };
+    pub(crate) fn supernodal(symbolic: Structure, a: &LowerCsc) -> Result<Factor, FitError> {
+        let split = Split::of(symbolic.supernodal(), symbolic.len_val()).map(Arc::new);
         Factor::supernodal_with(Arc::new(symbolic), split, a)
     }
 
     /// [`Factor::supernodal`] of a structure made before (shared with the
     /// factor it came from) and its cut.
     pub(crate) fn supernodal_with(
-        symbolic: Arc<SymbolicCholesky<u32>>,
+        symbolic: Arc<Structure>,
         split: Option<Arc<Split>>,
         a: &LowerCsc,
     ) -> Result<Factor, FitError> {
         let mut values = vec![0.0; symbolic.len_val()];
-        let failed = match symbolic.raw() {
-            // A supernodal structure is factored here, its two sets of
-            // subtrees at once (`crate::supernodal`); a simplicial one (a
-            // tiny system) by faer.
-            SymbolicCholeskyRaw::Supernodal(s) => {
-                let inverse = symbolic.perm().map(|p| p.arrays().1);
-                crate::supernodal::factor(s, inverse, a, &mut values).err()
-            }
-            SymbolicCholeskyRaw::Simplicial(_) => {
-                let pattern =
-                    SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
-                let matrix = SparseColMatRef::new(pattern, &a.values);
-                let par = parallelism(values.len() as f64 * 50.0);
-                let mut mem = MemBuffer::try_new(
-                    symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()),
-                )
-                .map_err(|e| FitError::Solver(format!("{e:?}")))?;
-                let result = symbolic.factorize_numeric_llt(
-                    &mut values,
-                    matrix,
-                    Side::Lower,
-                    Default::default(),
-                    par,
-                    MemStack::new(&mut mem),
-                    Default::default(),
-                );
-                match result {
-                    Err(faer::linalg::solvers::LltError::NonPositivePivot { index }) => Some(index),
-                    Ok(_) => None,
-                }
-            }
-        };
-        if let Some(column) = failed {
-            let control = symbolic
-                .perm()
-                .map(|p| p.arrays().0[column.min(a.n - 1)] as usize)
-                .unwrap_or(column);
+        // Its subtrees on the pool as they come free (`crate::supernodal`).
+        let failed = crate::supernodal::factor(
+            symbolic.supernodal(),
+            Some(symbolic.inverse()),
+            a,
+            &mut values,
+        );
+        if let Err(column) = failed {
+            let control = symbolic.order()[column.min(a.n - 1)] as usize;
             return Err(FitError::NotPositiveDefinite { control });
         }
         clear_upper_vector_state();
@@ -248,49 +171,13 @@ impl Factor {
                 symbolic,
                 values,
                 split,
-            } => {
-                if let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw()
-                    && T::LANES <= crate::triangular::MAX_LANES
-                {
-                    let forward = symbolic.perm().map(|p| p.arrays().0);
-                    crate::triangular::solve_in_place(s, forward, values, split.as_deref(), b);
-                    return;
-                }
-                Self::solve_in_place_faer(symbolic, values, b);
-            }
-        }
-    }
-
-    /// [`Factor::solve_in_place`] through faer's solve (a simplicial
-    /// factor, or more right-hand sides than [`crate::triangular`] takes);
-    /// the reference of [`crate::triangular`]'s tests.
-    pub(crate) fn solve_in_place_faer<T: Rhs>(
-        symbolic: &SymbolicCholesky<u32>,
-        values: &[f64],
-        b: &mut [T],
-    ) {
-        let n = symbolic.nrows();
-        let mut m = Mat::<f64>::from_fn(n, T::LANES, |i, k| b[i].lane(k));
-        // One thread: the triangular solves with a few right-hand
-        // sides read L once each way and are bound by memory; at 1m
-        // (27 MB of L, 4 right-hand sides) rayon took 8.1-14.3 ms
-        // where one thread took 6.9-11.2 ms, and `solve_many`
-        // already runs its solves in parallel.
-        let par = Par::Seq;
-        let mut mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(T::LANES, par));
-        LltRef::new(symbolic, values).solve_in_place_with_conj(
-            Conj::No,
-            m.as_mut(),
-            par,
-            MemStack::new(&mut mem),
-        );
-        // The solve ran on this thread alone: no need to wake the
-        // pool's workers (`clear_upper_vector_state` would).
-        clear_upper_vector_state_here();
-        for (i, v) in b.iter_mut().enumerate().take(n) {
-            for k in 0..T::LANES {
-                v.set_lane(k, m[(i, k)]);
-            }
+            } => crate::triangular::solve_in_place(
+                symbolic.supernodal(),
+                Some(symbolic.order()),
+                values,
+                split.as_deref(),
+                b,
+            ),
         }
     }
 
@@ -328,15 +215,6 @@ pub(crate) fn clear_upper_vector_state() {
     }
 }
 
-/// [`clear_upper_vector_state`] on the calling thread only, after faer ran
-/// on it alone (`Par::Seq`).
-fn clear_upper_vector_state_here() {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx") {
-        zero_upper();
-    }
-}
-
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)] // one instruction with no memory effects, behind a runtime AVX check
 fn zero_upper() {
@@ -354,8 +232,31 @@ pub(crate) mod tests {
 
     use super::*;
     use crate::kernel::Kernel;
-    use crate::ordering::{Graph, geometric_dissection};
+    use crate::ordering::geometric_dissection;
     use crate::testing::{Rng, assert_close};
+
+    /// Solves A x = b in place through faer's supernodal solve: the
+    /// reference of [`crate::triangular`]'s tests.
+    pub(crate) fn solve_with_faer<T: Rhs>(symbolic: &Structure, values: &[f64], b: &mut [T]) {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+        use faer::{Conj, Mat, Par};
+        let order = symbolic.order();
+        let mut m = Mat::<f64>::from_fn(order.len(), T::LANES, |i, k| b[order[i] as usize].lane(k));
+        let s = symbolic.supernodal();
+        let mut mem = MemBuffer::new(s.solve_in_place_scratch::<f64>(T::LANES, Par::Seq));
+        SupernodalLltRef::new(s, values).solve_in_place_with_conj(
+            Conj::No,
+            m.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+        for (i, &old) in order.iter().enumerate() {
+            for k in 0..T::LANES {
+                b[old as usize].set_lane(k, m[(i, k)]);
+            }
+        }
+    }
 
     /// The lower triangle of A for random starts in a cube, and their graph.
     pub(crate) fn random_system(n: usize, radius: f64, seed: u64) -> (Vec<DVec3>, Graph, LowerCsc) {
@@ -401,9 +302,9 @@ pub(crate) mod tests {
         for seed in 0..3 {
             let (s, g, a) = random_system(500 + 250 * seed as usize, 0.2, seed);
             let order = geometric_dissection(&g, &s, 0.2);
-            let amd = Factor::supernodal(Factor::supernodal_symbolic(&a, None).unwrap(), &a)
+            let amd = Factor::supernodal(Factor::supernodal_symbolic(&g, None).unwrap(), &a)
                 .expect("SPD");
-            let nd = Factor::supernodal(Factor::supernodal_symbolic(&a, Some(&order)).unwrap(), &a)
+            let nd = Factor::supernodal(Factor::supernodal_symbolic(&g, Some(&order)).unwrap(), &a)
                 .expect("SPD");
             let mut rng = Rng::new(seed + 10);
             let b: Vec<DVec3> = (0..a.n).map(|_| rng.vec3()).collect();
@@ -419,20 +320,20 @@ pub(crate) mod tests {
         }
     }
 
-    /// The multiply-adds counted from faer's structure against a plain
-    /// count: the column counts of L found by dense symbolic elimination.
+    /// The multiply-adds counted from the structure against a plain count.
+    /// Dense symbolic elimination gives each column of L its rows; each
+    /// supernode's rows below it must be the union of its columns' (faer
+    /// merges small supernodes, their zeros included), and its column `t`
+    /// then costs (its width - t + those rows) squared over two.
     #[test]
     fn supernodal_flops_count_the_columns_of_l() {
+        let column = |c: f64| c * (c + 1.0) * 0.5;
         for (n, radius, seed) in [(40, 0.5, 1), (300, 0.25, 2), (600, 0.2, 3)] {
-            let (s, g, a) = random_system(n, radius, seed);
+            let (s, g, _) = random_system(n, radius, seed);
             let order = geometric_dissection(&g, &s, radius);
             for order in [None, Some(&order[..])] {
-                let symbolic = Factor::supernodal_symbolic(&a, order).unwrap();
-                let perm: Vec<u32> = match symbolic.perm() {
-                    Some(p) => p.arrays().0.to_vec(),
-                    None => (0..n as u32).collect(),
-                };
-                let inv = crate::ordering::inverse(&perm);
+                let symbolic = Factor::supernodal_symbolic(&g, order).unwrap();
+                let inv = symbolic.inverse();
                 let mut m = vec![vec![false; n]; n];
                 for i in 0..n {
                     m[i][i] = true;
@@ -440,7 +341,7 @@ pub(crate) mod tests {
                         m[inv[i] as usize][inv[j as usize] as usize] = true;
                     }
                 }
-                let mut want = 0.0;
+                let mut exact = 0.0;
                 for k in 0..n {
                     let below: Vec<usize> = (k + 1..n).filter(|&i| m[i][k]).collect();
                     for &i in &below {
@@ -448,10 +349,30 @@ pub(crate) mod tests {
                             m[i][j] = true;
                         }
                     }
-                    let c = 1.0 + below.len() as f64;
-                    want += c * (c + 1.0) * 0.5;
+                    exact += column(1.0 + below.len() as f64);
                 }
-                assert_eq!(Factor::supernodal_flops(&symbolic), want, "n {n}");
+                let sn = symbolic.supernodal();
+                let mut want = 0.0;
+                for k in 0..sn.n_supernodes() {
+                    let (b, e) = (
+                        sn.supernode_begin()[k] as usize,
+                        sn.supernode_end()[k] as usize,
+                    );
+                    let rows: Vec<usize> = (e..n).filter(|&i| (b..e).any(|c| m[i][c])).collect();
+                    let pattern: Vec<usize> = sn
+                        .supernode(k)
+                        .pattern()
+                        .iter()
+                        .map(|&i| i as usize)
+                        .collect();
+                    assert_eq!(pattern, rows, "n {n} supernode {k}: its rows below");
+                    want += (0..e - b)
+                        .map(|t| column((e - b - t + rows.len()) as f64))
+                        .sum::<f64>();
+                }
+                let flops = Factor::supernodal_flops(&symbolic);
+                assert_eq!(flops, want, "n {n}");
+                assert!(flops >= exact, "n {n}: {flops} below L's own {exact}");
             }
         }
     }
@@ -466,7 +387,8 @@ pub(crate) mod tests {
             row_idx: vec![0, 2, 1, 2],
             values: vec![1.0, 3.0, 1.0, 1.0],
         };
-        let symbolic = Factor::supernodal_symbolic(&a, Some(&[1, 2, 0])).unwrap();
+        let g = Graph::from_lists(&[vec![2], vec![], vec![0]]);
+        let symbolic = Factor::supernodal_symbolic(&g, Some(&[1, 2, 0])).unwrap();
         let err = Factor::supernodal(symbolic, &a).err();
         assert_eq!(err, Some(FitError::NotPositiveDefinite { control: 0 }));
     }

@@ -29,7 +29,7 @@ use faer::{Accum, MatMut, MatRef, Par};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
-use crate::solver::LowerCsc;
+use crate::symbolic::LowerCsc;
 use crate::triangular::{Tree, of_column};
 
 /// A supernode's columns at least this wide run their dense kernels on the
@@ -786,9 +786,19 @@ mod tests {
                         "n {n} value {k}: cut {t} vs {p}"
                     );
                 }
-                // And it solves A: the residual of a random right-hand side.
+                // And it solves A: the residual of a random right-hand side,
+                // through the fit's own structure (the same as faer's).
+                let structure = Factor::supernodal_symbolic(&g, order).expect("symbolic");
+                let SymbolicCholeskyRaw::Supernodal(theirs) = symbolic.raw() else {
+                    unreachable!("forced supernodal")
+                };
+                assert_eq!(
+                    structure.supernodal().col_ptr_for_val(),
+                    theirs.col_ptr_for_val()
+                );
+                assert_eq!(structure.supernodal().row_idx(), theirs.row_idx());
                 let factor = Factor::Supernodal {
-                    symbolic: std::sync::Arc::new(symbolic),
+                    symbolic: std::sync::Arc::new(structure),
                     values: plain,
                     split: None,
                 };

@@ -801,35 +801,19 @@ fn dots4<const FMA: bool>(columns: [&[f64]; 4], rows: &[Row]) -> [Row; 4] {
 
 #[cfg(test)]
 mod tests {
-    use faer::Side;
-    use faer::sparse::SymbolicSparseColMatRef;
-    use faer::sparse::linalg::SupernodalThreshold;
-    use faer::sparse::linalg::cholesky::{
-        CholeskySymbolicParams, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
-    };
     use glam::{DVec3, DVec4};
 
     use super::*;
-    use crate::solver::tests::random_system;
-    use crate::solver::{Factor, LowerCsc};
+    use crate::solver::Factor;
+    use crate::solver::tests::{random_system, solve_with_faer};
+    use crate::symbolic::LowerCsc;
     use crate::testing::Rng;
 
-    /// The supernodal factor of a random system of `n` starts (faer would
-    /// take a simplicial one for most small systems).
+    /// The supernodal factor of a random system of `n` starts, in faer's
+    /// minimum degree order.
     fn supernodal(n: usize, radius: f64, seed: u64) -> (LowerCsc, Factor) {
-        let (_, _, a) = random_system(n, radius, seed);
-        let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let symbolic =
-            factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
-                .expect("symbolic");
-        assert!(
-            matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)),
-            "n {n}"
-        );
+        let (_, g, a) = random_system(n, radius, seed);
+        let symbolic = Factor::supernodal_symbolic(&g, None).expect("symbolic");
         let factor = Factor::supernodal(symbolic, &a).expect("SPD");
         (a, factor)
     }
@@ -845,9 +829,7 @@ mod tests {
         else {
             unreachable!("a supernodal factor")
         };
-        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-            unreachable!("forced supernodal")
-        };
+        let s = symbolic.supernodal();
         let cut = if split { Split::cut(s) } else { None };
         if split && cut.is_none() {
             return;
@@ -867,7 +849,7 @@ mod tests {
         else {
             unreachable!("a supernodal factor")
         };
-        Factor::solve_in_place_faer(symbolic, values, &mut faer);
+        solve_with_faer(symbolic, values, &mut faer);
         let scale = faer
             .iter()
             .flat_map(|v| (0..T::LANES).map(|k| v.lane(k).abs()))
@@ -916,9 +898,7 @@ mod tests {
         else {
             unreachable!("a supernodal factor")
         };
-        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-            unreachable!("forced supernodal")
-        };
+        let s = symbolic.supernodal();
         let mut rng = Rng::new(5);
         let b: Vec<Row> = (0..a.n)
             .map(|_| {
@@ -963,9 +943,7 @@ mod tests {
         let Factor::Supernodal { symbolic, .. } = &factor else {
             unreachable!("a supernodal factor")
         };
-        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-            unreachable!("forced supernodal")
-        };
+        let s = symbolic.supernodal();
         let split = Split::cut(s).unwrap_or_else(|| panic!("n {n}: no cut"));
         (factor, split)
     }
@@ -981,9 +959,7 @@ mod tests {
             let Factor::Supernodal { symbolic, .. } = &factor else {
                 unreachable!()
             };
-            let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-                unreachable!()
-            };
+            let s = symbolic.supernodal();
             let count = s.n_supernodes();
             let (begin, end) = (s.supernode_begin(), s.supernode_end());
             let mut set_of = vec![None; count];
@@ -1033,9 +1009,7 @@ mod tests {
             else {
                 unreachable!()
             };
-            let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-                unreachable!()
-            };
+            let s = symbolic.supernodal();
             let mut rng = Rng::new(seed + 1);
             let b: Vec<Row> = (0..n)
                 .map(|_| {
@@ -1091,9 +1065,7 @@ mod tests {
                 let Factor::Supernodal { symbolic, .. } = &factor else {
                     unreachable!()
                 };
-                let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-                    unreachable!()
-                };
+                let s = symbolic.supernodal();
                 let widest = (0..s.n_supernodes())
                     .map(|k| (s.supernode_end()[k] - s.supernode_begin()[k]) as usize)
                     .max()
@@ -1108,9 +1080,7 @@ mod tests {
         else {
             unreachable!()
         };
-        let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
-            unreachable!()
-        };
+        let s = symbolic.supernodal();
         let mut rng = Rng::new(11);
         let b: Vec<Row> = (0..a.n)
             .map(|_| {

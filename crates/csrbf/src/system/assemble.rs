@@ -6,7 +6,8 @@ use super::{Clock, FitOptions, FitPhases};
 use crate::error::Result;
 use crate::ordering::{self, Band, Chosen, Graph};
 use crate::skyline::{Envelope, Profile};
-use crate::solver::{Factor, LowerCsc, SolverChoice};
+use crate::solver::{Factor, SolverChoice};
+use crate::symbolic::LowerCsc;
 
 /// The band orderings' results: the band of the caller's order, the
 /// ordering chosen, and its envelope (the profile solver's storage).
@@ -24,8 +25,8 @@ const SKYLINE_SURE: f64 = 3e7;
 /// `phases` (from the ordering on) and its multiply-adds into `flops`;
 /// gives back the band orderings made by `bands`. With `dissect_ahead` (a
 /// large system likely to go to the supernodal solver) the dissection is
-/// made first, and `bands` and A's values beside the symbolic analysis,
-/// which reads A's pattern alone.
+/// made first, and `bands` and A beside the symbolic analysis, which
+/// reads the graph alone.
 #[allow(clippy::too_many_arguments)] // the build's state, passed on once
 pub(super) fn factor(
     starts: &[DVec3],
@@ -75,13 +76,14 @@ pub(super) fn factor(
     if dissect_ahead {
         let order = ordering::geometric_dissection(graph, starts, options.radius);
         phases.ordering_ms = clock.lap();
-        let mut a = lower_pattern(graph);
-        phases.assembly_ms = clock.lap();
-        let (symbolic, (bands, values)) = rayon::join(
-            || Factor::supernodal_symbolic(&a, Some(&order)),
-            || (bands(), lower_values(graph, &phi, diag, a.row_idx.len())),
+        // The symbolic analysis reads the graph alone. A (its pattern and
+        // values) waits on the band orderings' thread: whichever thread is
+        // free first takes it, or a share of its values (the analysis takes
+        // about as long as the band orderings).
+        let (symbolic, (bands, a)) = rayon::join(
+            || Factor::supernodal_symbolic(graph, Some(&order)),
+            || rayon::join(bands, || lower_csc(graph, &phi, diag)),
         );
-        a.values = values;
         let symbolic = symbolic?;
         phases.symbolic_ms = clock.lap();
         if options.solver == SolverChoice::Auto && bands.envelope.factor_flops() < SKYLINE_SURE {
@@ -104,7 +106,7 @@ pub(super) fn factor(
         let a = lower_csc(graph, &phi, diag);
         phases.assembly_ms = clock.lap();
         let order = ordering::geometric_dissection(graph, starts, options.radius);
-        let symbolic = Factor::supernodal_symbolic(&a, Some(&order))?;
+        let symbolic = Factor::supernodal_symbolic(graph, Some(&order))?;
         phases.symbolic_ms = clock.lap();
         let factor = supernodal(&a, symbolic, &bands, phases, flops, clock);
         return factor.map(|f| (f, bands));
@@ -176,7 +178,7 @@ fn assemble_profile(
 
 fn lower_csc(graph: &Graph, phi: &(impl Fn(usize, usize) -> f64 + Sync), diag: f64) -> LowerCsc {
     let mut a = lower_pattern(graph);
-    a.values = lower_values(graph, phi, diag, a.row_idx.len());
+    a.values = lower_values(&a, phi, diag);
     a
 }
 
@@ -201,19 +203,28 @@ fn lower_pattern(graph: &Graph) -> LowerCsc {
     }
 }
 
-/// The values of [`lower_pattern`]'s `entries` entries, in its order.
-fn lower_values(
-    graph: &Graph,
-    phi: &impl Fn(usize, usize) -> f64,
-    diag: f64,
-    entries: usize,
-) -> Vec<f64> {
-    let mut values = Vec::with_capacity(entries);
-    for j in 0..graph.len() {
-        values.push(diag);
-        for &i in graph.neighbours(j).iter().filter(|&&i| i as usize > j) {
-            values.push(phi(i as usize, j));
-        }
-    }
+/// Entries of A's values one task makes: a few hundred microseconds.
+const VALUE_CHUNK: usize = 1 << 14;
+
+/// The values of the pattern `a` (made by [`lower_pattern`]), in its
+/// order, in chunks on the pool.
+fn lower_values(a: &LowerCsc, phi: &(impl Fn(usize, usize) -> f64 + Sync), diag: f64) -> Vec<f64> {
+    use rayon::prelude::*;
+    let mut values = vec![0.0; a.row_idx.len()];
+    values
+        .par_chunks_mut(VALUE_CHUNK)
+        .enumerate()
+        .for_each(|(chunk, out)| {
+            let first = chunk * VALUE_CHUNK;
+            // The column of the chunk's first entry.
+            let mut j = a.col_ptr.partition_point(|&p| p as usize <= first) - 1;
+            for (k, v) in (first..).zip(out) {
+                while a.col_ptr[j + 1] as usize <= k {
+                    j += 1;
+                }
+                let i = a.row_idx[k] as usize;
+                *v = if i == j { diag } else { phi(i, j) };
+            }
+        });
     values
 }
