@@ -137,18 +137,12 @@ impl Factor {
         split: Option<Arc<Split>>,
         a: &LowerCsc,
     ) -> Result<Factor, FitError> {
-        let mut values = vec![0.0; symbolic.len_val()];
         // Its subtrees on the pool as they come free (`crate::supernodal`).
-        let failed = crate::supernodal::factor(
-            symbolic.supernodal(),
-            Some(symbolic.inverse()),
-            a,
-            &mut values,
-        );
-        if let Err(column) = failed {
-            let control = symbolic.order()[column.min(a.n - 1)] as usize;
-            return Err(FitError::NotPositiveDefinite { control });
-        }
+        let values =
+            crate::supernodal::factor(symbolic.supernodal(), Some(symbolic.inverse()), a)
+                .map_err(|column| FitError::NotPositiveDefinite {
+                    control: symbolic.order()[column.min(a.n - 1)] as usize,
+                })?;
         clear_upper_vector_state();
         Ok(Factor::Supernodal {
             symbolic,
