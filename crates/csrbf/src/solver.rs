@@ -8,7 +8,7 @@ use std::sync::Arc;
 use crate::error::{FitError, NameError, Result};
 use crate::ordering::Graph;
 use crate::skyline::{Profile, Rhs};
-use crate::symbolic::{LowerCsc, Structure};
+use crate::symbolic::{Permuted, Structure};
 use crate::triangular::Split;
 
 /// Which factorisation to use.
@@ -125,7 +125,7 @@ impl Factor {
     }
 
     /// Numeric factorisation with a symbolic analysis already made.
-    pub(crate) fn supernodal(symbolic: Structure, a: &LowerCsc) -> Result<Factor, FitError> {
+    pub(crate) fn supernodal(symbolic: Structure, a: &Permuted) -> Result<Factor, FitError> {
         let split = Split::of(symbolic.supernodal(), symbolic.len_val()).map(Arc::new);
         Factor::supernodal_with(Arc::new(symbolic), split, a)
     }
@@ -135,14 +135,15 @@ impl Factor {
     pub(crate) fn supernodal_with(
         symbolic: Arc<Structure>,
         split: Option<Arc<Split>>,
-        a: &LowerCsc,
+        a: &Permuted,
     ) -> Result<Factor, FitError> {
         // Its subtrees on the pool as they come free (`crate::supernodal`).
-        let values =
-            crate::supernodal::factor(symbolic.supernodal(), Some(symbolic.inverse()), a)
-                .map_err(|column| FitError::NotPositiveDefinite {
-                    control: symbolic.order()[column.min(a.n - 1)] as usize,
-                })?;
+        let values = crate::supernodal::factor(symbolic.supernodal(), a).map_err(|column| {
+            let order = symbolic.order();
+            FitError::NotPositiveDefinite {
+                control: order[column.min(order.len() - 1)] as usize,
+            }
+        })?;
         clear_upper_vector_state();
         Ok(Factor::Supernodal {
             symbolic,
@@ -227,7 +228,15 @@ pub(crate) mod tests {
     use super::*;
     use crate::kernel::Kernel;
     use crate::ordering::geometric_dissection;
+    use crate::symbolic::LowerCsc;
     use crate::testing::{Rng, assert_close};
+
+    /// The supernodal factor of `a` (the lower triangle in the caller's
+    /// numbering) with the structure `symbolic`.
+    pub(crate) fn supernodal_of(symbolic: Structure, a: &LowerCsc) -> Result<Factor, FitError> {
+        let permuted = Permuted::new(a, symbolic.inverse());
+        Factor::supernodal(symbolic, &permuted)
+    }
 
     /// Solves A x = b in place through faer's supernodal solve: the
     /// reference of [`crate::triangular`]'s tests.
@@ -296,9 +305,9 @@ pub(crate) mod tests {
         for seed in 0..3 {
             let (s, g, a) = random_system(500 + 250 * seed as usize, 0.2, seed);
             let order = geometric_dissection(&g, &s, 0.2);
-            let amd = Factor::supernodal(Factor::supernodal_symbolic(&g, None).unwrap(), &a)
-                .expect("SPD");
-            let nd = Factor::supernodal(Factor::supernodal_symbolic(&g, Some(&order)).unwrap(), &a)
+            let amd =
+                supernodal_of(Factor::supernodal_symbolic(&g, None).unwrap(), &a).expect("SPD");
+            let nd = supernodal_of(Factor::supernodal_symbolic(&g, Some(&order)).unwrap(), &a)
                 .expect("SPD");
             let mut rng = Rng::new(seed + 10);
             let b: Vec<DVec3> = (0..a.n).map(|_| rng.vec3()).collect();
@@ -383,7 +392,7 @@ pub(crate) mod tests {
         };
         let g = Graph::from_lists(&[vec![2], vec![], vec![0]]);
         let symbolic = Factor::supernodal_symbolic(&g, Some(&[1, 2, 0])).unwrap();
-        let err = Factor::supernodal(symbolic, &a).err();
+        let err = supernodal_of(symbolic, &a).err();
         assert_eq!(err, Some(FitError::NotPositiveDefinite { control: 0 }));
     }
 }

@@ -30,7 +30,7 @@ use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
-use crate::symbolic::LowerCsc;
+use crate::symbolic::Permuted;
 use crate::triangular::{Tree, of_column};
 
 /// A supernode's columns at least this wide run their dense kernels on the
@@ -96,47 +96,6 @@ impl Updates {
 
     fn of(&self, s: usize) -> &[(u32, u32, u32)] {
         &self.entries[self.ptr[s]..self.ptr[s + 1]]
-    }
-}
-
-/// A's lower triangle in the factor's numbering (`inverse[old] = new`), by
-/// columns: what each supernode's columns start from.
-struct Permuted {
-    col_ptr: Vec<usize>,
-    rows: Vec<u32>,
-    values: Vec<f64>,
-}
-
-impl Permuted {
-    fn new(a: &LowerCsc, inverse: Option<&[u32]>) -> Permuted {
-        let new = |i: usize| inverse.map_or(i, |v| v[i] as usize);
-        let mut col_ptr = vec![0usize; a.n + 1];
-        for j in 0..a.n {
-            for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
-                let (r, c) = (new(a.row_idx[k] as usize), new(j));
-                col_ptr[r.min(c) + 1] += 1;
-            }
-        }
-        for j in 0..a.n {
-            col_ptr[j + 1] += col_ptr[j];
-        }
-        let mut next = col_ptr.clone();
-        let mut rows = vec![0u32; col_ptr[a.n]];
-        let mut values = vec![0.0; col_ptr[a.n]];
-        for j in 0..a.n {
-            for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
-                let (r, c) = (new(a.row_idx[k] as usize), new(j));
-                let at = &mut next[r.min(c)];
-                rows[*at] = r.max(c) as u32;
-                values[*at] = a.values[k];
-                *at += 1;
-            }
-        }
-        Permuted {
-            col_ptr,
-            rows,
-            values,
-        }
     }
 }
 
@@ -242,13 +201,13 @@ fn first_failure(a: Option<usize>, b: Option<usize>) -> Option<usize> {
 /// The shared, read-only parts of a factorisation.
 struct Plan<'a> {
     symbolic: &'a SymbolicSupernodalCholesky<u32>,
-    a: Permuted,
+    a: &'a Permuted,
     updates: Updates,
 }
 
-/// Factors A (`a`, lower triangle in the caller's numbering) into values
-/// in faer's layout for `symbolic`, whose columns are A's under `inverse`
-/// (`inverse[old] = new`). The values are not zeroed before: each
+/// Factors A (`a`, its lower triangle in the factor's numbering) into
+/// values in faer's layout for `symbolic`. The values are not zeroed
+/// before: each
 /// supernode's block is, by the thread that makes it (a memset of the
 /// whole factor, serial, took 0.4-0.7 ms of the scan's 6 ms). A large
 /// factor is made on the pool: its elimination tree's independent
@@ -258,23 +217,21 @@ struct Plan<'a> {
 /// serial factorisation stops at, on any number of threads.
 pub(crate) fn factor(
     symbolic: &SymbolicSupernodalCholesky<u32>,
-    inverse: Option<&[u32]>,
-    a: &LowerCsc,
+    a: &Permuted,
 ) -> Result<Vec<f64>, usize> {
-    factor_from(symbolic, inverse, a, PARALLEL_WORK, LIGHT_WORK).map(|(values, _)| values)
+    factor_from(symbolic, a, PARALLEL_WORK, LIGHT_WORK).map(|(values, _)| values)
 }
 
 /// [`factor`], on the pool from `parallel_work` multiply-adds on, walking
 /// down to subtrees of `light_work` at least; and the forks of the walk.
 fn factor_from(
     symbolic: &SymbolicSupernodalCholesky<u32>,
-    inverse: Option<&[u32]>,
-    a: &LowerCsc,
+    a: &Permuted,
     parallel_work: f64,
     light_work: f64,
 ) -> Result<(Vec<f64>, usize), usize> {
     let mut values = Box::<[f64]>::new_uninit_slice(symbolic.len_val());
-    let forks = factor_into(symbolic, inverse, a, &mut values, parallel_work, light_work)?;
+    let forks = factor_into(symbolic, a, &mut values, parallel_work, light_work)?;
     // SAFETY: `factor_into` succeeded, so it made every supernode (it
     // checks), and each one's first step writes its whole block; the
     // blocks tile the values (checked there too).
@@ -286,8 +243,7 @@ fn factor_from(
 /// [`factor_from`] into `values`: every value written when it succeeds.
 fn factor_into(
     symbolic: &SymbolicSupernodalCholesky<u32>,
-    inverse: Option<&[u32]>,
-    a: &LowerCsc,
+    a: &Permuted,
     values: &mut [MaybeUninit<f64>],
     parallel_work: f64,
     light_work: f64,
@@ -297,7 +253,7 @@ fn factor_into(
     let of_column = of_column(symbolic);
     let plan = Plan {
         symbolic,
-        a: Permuted::new(a, inverse),
+        a,
         updates: Updates::new(symbolic, &of_column),
     };
     let ptr = symbolic.col_ptr_for_val();
@@ -699,6 +655,7 @@ mod tests {
     use crate::ordering::geometric_dissection;
     use crate::solver::Factor;
     use crate::solver::tests::random_system;
+    use crate::symbolic::LowerCsc;
     use crate::testing::Rng;
     use glam::DVec3;
 
@@ -752,9 +709,16 @@ mod tests {
         let SymbolicCholeskyRaw::Supernodal(s) = symbolic.raw() else {
             unreachable!("forced supernodal")
         };
-        let inverse = symbolic.perm().map(|p| p.arrays().1);
+        let identity: Vec<u32>;
+        let inverse = match symbolic.perm() {
+            Some(p) => p.arrays().1,
+            None => {
+                identity = (0..a.n as u32).collect();
+                &identity
+            }
+        };
         let from = if parallel { 0.0 } else { f64::INFINITY };
-        factor_from(s, inverse, a, from, 0.0)
+        factor_from(s, &Permuted::new(a, inverse), from, 0.0)
     }
 
     /// The lower triangle of every supernode's diagonal block and all rows

@@ -805,7 +805,7 @@ mod tests {
 
     use super::*;
     use crate::solver::Factor;
-    use crate::solver::tests::{random_system, solve_with_faer};
+    use crate::solver::tests::{random_system, solve_with_faer, supernodal_of};
     use crate::symbolic::LowerCsc;
     use crate::testing::Rng;
 
@@ -814,7 +814,7 @@ mod tests {
     fn supernodal(n: usize, radius: f64, seed: u64) -> (LowerCsc, Factor) {
         let (_, g, a) = random_system(n, radius, seed);
         let symbolic = Factor::supernodal_symbolic(&g, None).expect("symbolic");
-        let factor = Factor::supernodal(symbolic, &a).expect("SPD");
+        let factor = supernodal_of(symbolic, &a).expect("SPD");
         (a, factor)
     }
 

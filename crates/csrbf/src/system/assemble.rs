@@ -7,7 +7,7 @@ use crate::error::Result;
 use crate::ordering::{self, Band, Chosen, Graph};
 use crate::skyline::{Envelope, Profile};
 use crate::solver::{Factor, SolverChoice};
-use crate::symbolic::LowerCsc;
+use crate::symbolic::Permuted;
 
 /// The band orderings' results: the band of the caller's order, the
 /// ordering chosen, and its envelope (the profile solver's storage).
@@ -56,7 +56,7 @@ pub(super) fn factor(
     // the faster (measured 8-10 G/s against the profile's 5-6 G/s on
     // 2,000-10,000 starts), so at equal counts the profile's lower overhead
     // is all it gives up.
-    let supernodal = |a: &LowerCsc,
+    let supernodal = |a: &Permuted,
                       symbolic,
                       bands: &Bands,
                       phases: &mut FitPhases,
@@ -80,9 +80,14 @@ pub(super) fn factor(
         // values) waits on the band orderings' thread: whichever thread is
         // free first takes it, or a share of its values (the analysis takes
         // about as long as the band orderings).
+        let inverse = ordering::inverse(&order);
         let (symbolic, (bands, a)) = rayon::join(
             || Factor::supernodal_symbolic(graph, Some(&order)),
-            || rayon::join(bands, || lower_csc(graph, &phi, diag)),
+            || {
+                rayon::join(bands, || {
+                    Permuted::of_graph(graph, &order, &inverse, &phi, diag)
+                })
+            },
         );
         let symbolic = symbolic?;
         phases.symbolic_ms = clock.lap();
@@ -103,11 +108,11 @@ pub(super) fn factor(
         c => c,
     };
     if choice == SolverChoice::Supernodal {
-        let a = lower_csc(graph, &phi, diag);
-        phases.assembly_ms = clock.lap();
         let order = ordering::geometric_dissection(graph, starts, options.radius);
         let symbolic = Factor::supernodal_symbolic(graph, Some(&order))?;
         phases.symbolic_ms = clock.lap();
+        let a = Permuted::of_graph(graph, symbolic.order(), symbolic.inverse(), &phi, diag);
+        phases.assembly_ms = clock.lap();
         let factor = supernodal(&a, symbolic, &bands, phases, flops, clock);
         return factor.map(|f| (f, bands));
     }
@@ -146,7 +151,8 @@ pub(super) fn refactor(
         Factor::Supernodal {
             symbolic, split, ..
         } => {
-            let a = lower_csc(graph, &phi, kernel.eval(0.0));
+            let diag = kernel.eval(0.0);
+            let a = Permuted::of_graph(graph, symbolic.order(), symbolic.inverse(), &phi, diag);
             phases.assembly_ms = clock.lap();
             let factor = Factor::supernodal_with(symbolic.clone(), split.clone(), &a);
             phases.numeric_ms = clock.lap();
@@ -174,57 +180,4 @@ fn assemble_profile(
         }
     }
     p
-}
-
-fn lower_csc(graph: &Graph, phi: &(impl Fn(usize, usize) -> f64 + Sync), diag: f64) -> LowerCsc {
-    let mut a = lower_pattern(graph);
-    a.values = lower_values(&a, phi, diag);
-    a
-}
-
-/// A's lower triangle by columns, without its values: each column's
-/// diagonal, then its neighbours below it in order.
-fn lower_pattern(graph: &Graph) -> LowerCsc {
-    let n = graph.len();
-    let mut col_ptr = Vec::with_capacity(n + 1);
-    let mut row_idx = Vec::with_capacity(n + graph.edge_entries() / 2);
-    col_ptr.push(0u32);
-    for j in 0..n {
-        row_idx.push(j as u32);
-        // Neighbour lists are sorted, so rows below the diagonal come in order.
-        row_idx.extend(graph.neighbours(j).iter().filter(|&&i| i as usize > j));
-        col_ptr.push(row_idx.len() as u32);
-    }
-    LowerCsc {
-        n,
-        col_ptr,
-        row_idx,
-        values: Vec::new(),
-    }
-}
-
-/// Entries of A's values one task makes: a few hundred microseconds.
-const VALUE_CHUNK: usize = 1 << 14;
-
-/// The values of the pattern `a` (made by [`lower_pattern`]), in its
-/// order, in chunks on the pool.
-fn lower_values(a: &LowerCsc, phi: &(impl Fn(usize, usize) -> f64 + Sync), diag: f64) -> Vec<f64> {
-    use rayon::prelude::*;
-    let mut values = vec![0.0; a.row_idx.len()];
-    values
-        .par_chunks_mut(VALUE_CHUNK)
-        .enumerate()
-        .for_each(|(chunk, out)| {
-            let first = chunk * VALUE_CHUNK;
-            // The column of the chunk's first entry.
-            let mut j = a.col_ptr.partition_point(|&p| p as usize <= first) - 1;
-            for (k, v) in (first..).zip(out) {
-                while a.col_ptr[j + 1] as usize <= k {
-                    j += 1;
-                }
-                let i = a.row_idx[k] as usize;
-                *v = if i == j { diag } else { phi(i, j) };
-            }
-        });
-    values
 }
