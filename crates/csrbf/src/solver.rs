@@ -176,6 +176,55 @@ impl Factor {
         }
     }
 
+    /// The forward half of [`Factor::solve_in_place`]: y with L y = b for
+    /// `b` in the caller's numbering, y in the factor's.
+    pub(crate) fn forward<T: Rhs>(&self, b: &[T]) -> Vec<T> {
+        match self {
+            Factor::Skyline { profile, perm } => {
+                let mut y: Vec<T> = perm.iter().map(|&o| b[o as usize]).collect();
+                profile.forward_in_place(&mut y);
+                y
+            }
+            Factor::Supernodal {
+                symbolic,
+                values,
+                split,
+            } => crate::triangular::forward_solve(
+                symbolic.supernodal(),
+                symbolic.order(),
+                values,
+                split.as_deref(),
+                b,
+            ),
+        }
+    }
+
+    /// The backward half of [`Factor::solve_in_place`]: x with L^T x = y
+    /// for `y` in the factor's numbering (as [`Factor::forward`] gives
+    /// it), into `b` in the caller's.
+    pub(crate) fn backward<T: Rhs>(&self, mut y: Vec<T>, b: &mut [T]) {
+        match self {
+            Factor::Skyline { profile, perm } => {
+                profile.backward_in_place(&mut y);
+                for (new, &old) in perm.iter().enumerate() {
+                    b[old as usize] = y[new];
+                }
+            }
+            Factor::Supernodal {
+                symbolic,
+                values,
+                split,
+            } => crate::triangular::backward_solve(
+                symbolic.supernodal(),
+                symbolic.order(),
+                values,
+                split.as_deref(),
+                &y,
+                b,
+            ),
+        }
+    }
+
     /// Which solver this is.
     pub(crate) fn choice(&self) -> SolverChoice {
         match self {

@@ -67,9 +67,11 @@ fn interpolates_exactly_at_the_starts() {
 fn matches_a_dense_solve_of_the_full_system() {
     for seed in 0..4 {
         let (s, t) = scene(40, 100 + seed);
-        for poly in Polynomial::ALL {
-            let d = Deformation::fit(&s, &t, options(Kernel::C2, poly, 0.5, SolverChoice::Auto))
-                .expect("fit");
+        for (poly, solver) in Polynomial::ALL
+            .into_iter()
+            .flat_map(|p| SOLVERS.into_iter().map(move |s| (p, s)))
+        {
+            let d = Deformation::fit(&s, &t, options(Kernel::C2, poly, 0.5, solver)).expect("fit");
             // Dense [A P; P^T 0] with P = (1, x, y, z), solved by elimination.
             let n = s.len();
             let m = if poly == Polynomial::Linear { n + 4 } else { n };

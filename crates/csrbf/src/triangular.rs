@@ -46,37 +46,83 @@ pub(crate) fn solve_in_place<T: Rhs>(
     split: Option<&Split>,
     b: &mut [T],
 ) {
-    assert!(T::LANES <= MAX_LANES, "at most four right-hand sides a row");
     let n = symbolic.nrows();
     assert_eq!(b.len(), n, "one value per row of the factor");
     let old = |i: usize| forward.map_or(i, |f| f[i] as usize);
-    let mut x: Vec<Row> = (0..n)
-        .map(|i| {
-            let v = b[old(i)];
-            std::array::from_fn(|k| if k < T::LANES { v.lane(k) } else { 0.0 })
-        })
-        .collect();
-    // A factor too small to split runs on this thread alone, its wide
-    // nodes too.
-    let passes = Passes {
-        symbolic,
-        values,
-        cpu: Avx2Fma::detect(),
-        wide: if split.is_some() {
-            WIDE_NODE
-        } else {
-            usize::MAX
-        },
-    };
+    let mut x: Vec<Row> = (0..n).map(|i| row(b[old(i)])).collect();
+    let passes = Passes::new(symbolic, values, split);
     match split {
         Some(split) => passes.solve_split(split, &mut x),
         None => passes.solve(&mut x),
     }
     for (i, r) in x.iter().enumerate() {
-        let v = &mut b[old(i)];
-        for (k, &lane) in r.iter().enumerate().take(T::LANES) {
-            v.set_lane(k, lane);
-        }
+        set_row(&mut b[old(i)], r);
+    }
+}
+
+/// The forward half of [`solve_in_place`]: y with L y = b, `b` in the
+/// caller's numbering, y in the factor's (`y[i]` for the caller's row
+/// `forward[i]`).
+pub(crate) fn forward_solve<T: Rhs>(
+    symbolic: &SymbolicSupernodalCholesky<u32>,
+    forward: &[u32],
+    values: &[f64],
+    split: Option<&Split>,
+    b: &[T],
+) -> Vec<T> {
+    assert_eq!(b.len(), symbolic.nrows(), "one value per row of the factor");
+    let mut x: Vec<Row> = forward.iter().map(|&o| row(b[o as usize])).collect();
+    let passes = Passes::new(symbolic, values, split);
+    match split {
+        Some(split) => passes.forward_split(split, &mut x),
+        None => passes.forward(0..symbolic.n_supernodes(), &mut x, &mut Vec::new()),
+    }
+    x.iter()
+        .map(|r| {
+            let mut v = b[0];
+            set_row(&mut v, r);
+            v
+        })
+        .collect()
+}
+
+/// The backward half of [`solve_in_place`]: x with L^T x = y, `y` in the
+/// factor's numbering (as [`forward_solve`] gives it), into `b` in the
+/// caller's.
+pub(crate) fn backward_solve<T: Rhs>(
+    symbolic: &SymbolicSupernodalCholesky<u32>,
+    forward: &[u32],
+    values: &[f64],
+    split: Option<&Split>,
+    y: &[T],
+    b: &mut [T],
+) {
+    let n = symbolic.nrows();
+    assert!(
+        y.len() == n && b.len() == n,
+        "one value per row of the factor"
+    );
+    let mut x: Vec<Row> = y.iter().map(|&v| row(v)).collect();
+    let passes = Passes::new(symbolic, values, split);
+    match split {
+        Some(split) => passes.backward_split(split, &mut x),
+        None => passes.backward((0..symbolic.n_supernodes()).rev(), &mut x, &mut Vec::new()),
+    }
+    for (r, &o) in x.iter().zip(forward) {
+        set_row(&mut b[o as usize], r);
+    }
+}
+
+/// A value's lanes as a row (the rest zero).
+fn row<T: Rhs>(v: T) -> Row {
+    assert!(T::LANES <= MAX_LANES, "at most four right-hand sides a row");
+    std::array::from_fn(|k| if k < T::LANES { v.lane(k) } else { 0.0 })
+}
+
+/// A row's lanes into a value.
+fn set_row<T: Rhs>(v: &mut T, r: &Row) {
+    for (k, &lane) in r.iter().enumerate().take(T::LANES) {
+        v.set_lane(k, lane);
     }
 }
 
@@ -294,6 +340,11 @@ macro_rules! on_cpu {
     }};
 }
 
+/// A set of supernodes as indices.
+fn nodes(set: &[u32]) -> Vec<usize> {
+    set.iter().map(|&k| k as usize).collect()
+}
+
 /// The two passes over chosen supernodes, compiled for the CPU found.
 #[derive(Clone, Copy)]
 struct Passes<'a> {
@@ -307,7 +358,26 @@ struct Passes<'a> {
     wide: usize,
 }
 
-impl Passes<'_> {
+impl<'a> Passes<'a> {
+    /// The passes over this factor. A factor too small to split runs on
+    /// this thread alone, its wide nodes too.
+    fn new(
+        symbolic: &'a SymbolicSupernodalCholesky<u32>,
+        values: &'a [f64],
+        split: Option<&Split>,
+    ) -> Passes<'a> {
+        Passes {
+            symbolic,
+            values,
+            cpu: Avx2Fma::detect(),
+            wide: if split.is_some() {
+                WIDE_NODE
+            } else {
+                usize::MAX
+            },
+        }
+    }
+
     /// Forward then backward over every supernode.
     fn solve(self, x: &mut [Row]) {
         let mut work = Vec::new();
@@ -316,16 +386,17 @@ impl Passes<'_> {
         self.backward((0..count).rev(), x, &mut work);
     }
 
-    /// [`Passes::solve`] with the two sets of `split` at once. The second
-    /// set works in a copy of `x` whose top rows start at zero (they gather
-    /// its updates, added after), and its rows are copied back.
+    /// [`Passes::solve`] with the two sets of `split` at once.
     fn solve_split(self, split: &Split, x: &mut [Row]) {
-        let (begin, end) = (
-            self.symbolic.supernode_begin(),
-            self.symbolic.supernode_end(),
-        );
-        let rows = |k: u32| begin[k as usize] as usize..end[k as usize] as usize;
-        let nodes = |set: &[u32]| set.iter().map(|&k| k as usize).collect::<Vec<_>>();
+        self.forward_split(split, x);
+        self.backward_split(split, x);
+    }
+
+    /// The forward pass with the two sets of `split` at once. The second
+    /// set works in a copy of `x` whose top rows start at zero (they gather
+    /// its updates, added after); its rows are copied back at the end.
+    fn forward_split(self, split: &Split, x: &mut [Row]) {
+        let rows = self.rows();
         let [first, second] = split.sets.each_ref().map(|s| nodes(s));
         let mut copy = x.to_vec();
         for &k in &split.top {
@@ -336,19 +407,27 @@ impl Passes<'_> {
             || self.forward(first.iter().copied(), x, &mut work),
             || self.forward(second.iter().copied(), &mut copy, &mut work2),
         );
-        // The second set's rows stay in the copy until the end: nothing
-        // else reads them.
         for &k in &split.top {
             for (a, b) in x[rows(k)].iter_mut().zip(&copy[rows(k)]) {
                 *a = std::array::from_fn(|l| a[l] + b[l]);
             }
         }
-        let top = nodes(&split.top);
-        self.forward(top.iter().copied(), x, &mut work);
-        self.backward(top.iter().rev().copied(), x, &mut work);
-        for &k in &split.top {
-            copy[rows(k)].copy_from_slice(&x[rows(k)]);
+        self.forward(nodes(&split.top).into_iter(), x, &mut work);
+        for &k in &split.sets[1] {
+            x[rows(k)].copy_from_slice(&copy[rows(k)]);
         }
+    }
+
+    /// The backward pass with the two sets of `split` at once: the top
+    /// first, then each set on its own copy of `x`, the second's rows
+    /// copied back.
+    fn backward_split(self, split: &Split, x: &mut [Row]) {
+        let rows = self.rows();
+        let [first, second] = split.sets.each_ref().map(|s| nodes(s));
+        let mut work = Vec::new();
+        self.backward(nodes(&split.top).into_iter().rev(), x, &mut work);
+        let mut copy = x.to_vec();
+        let mut work2 = Vec::new();
         rayon::join(
             || self.backward(first.iter().rev().copied(), x, &mut work),
             || self.backward(second.iter().rev().copied(), &mut copy, &mut work2),
@@ -356,6 +435,15 @@ impl Passes<'_> {
         for &k in &split.sets[1] {
             x[rows(k)].copy_from_slice(&copy[rows(k)]);
         }
+    }
+
+    /// The rows of supernode `k`.
+    fn rows(self) -> impl Fn(u32) -> std::ops::Range<usize> + use<'a> {
+        let (begin, end) = (
+            self.symbolic.supernode_begin(),
+            self.symbolic.supernode_end(),
+        );
+        move |k| begin[k as usize] as usize..end[k as usize] as usize
     }
 
     fn forward(self, nodes: impl Iterator<Item = usize>, x: &mut [Row], work: &mut Vec<Row>) {
@@ -946,6 +1034,64 @@ mod tests {
         let s = symbolic.supernodal();
         let split = Split::cut(s).unwrap_or_else(|| panic!("n {n}: no cut"));
         (factor, split)
+    }
+
+    /// The forward and backward halves, on their own (the polynomial block
+    /// and a solve with it use them): backward(forward(b)) is the whole
+    /// solve, and forward's y has y . y' = b . A^-1 b' (the block's S =
+    /// V^T V). On a factor cut in two and on the same factor uncut.
+    #[test]
+    fn the_halves_of_a_solve_make_the_solve() {
+        let (n, radius, seed) = (2000, 0.1, 4);
+        let (factor, split) = cut_of(n, radius, seed);
+        let Factor::Supernodal {
+            symbolic, values, ..
+        } = factor
+        else {
+            unreachable!()
+        };
+        let mut rng = Rng::new(seed + 7);
+        let b: Vec<DVec4> = (0..n)
+            .map(|_| DVec4::new(rng.f64(), rng.f64(), rng.f64(), rng.f64()) - 0.5)
+            .collect();
+        let c: Vec<DVec4> = (0..n)
+            .map(|_| DVec4::new(rng.f64(), rng.f64(), rng.f64(), rng.f64()) - 0.5)
+            .collect();
+        for split in [Some(std::sync::Arc::new(split)), None] {
+            let cut = split.is_some();
+            let factor = Factor::Supernodal {
+                symbolic: symbolic.clone(),
+                values: values.clone(),
+                split,
+            };
+            let mut whole = b.clone();
+            factor.solve_in_place(&mut whole);
+            let y = factor.forward(&b);
+            let mut halves = vec![DVec4::ZERO; n];
+            factor.backward(y.clone(), &mut halves);
+            let scale = whole
+                .iter()
+                .map(|v| v.abs().max_element())
+                .fold(0.0, f64::max);
+            for (i, (u, v)) in halves.iter().zip(&whole).enumerate() {
+                assert!(
+                    (*u - *v).abs().max_element() <= 1e-12 * scale,
+                    "cut {cut} row {i}: {u} vs {v}"
+                );
+            }
+            // y . y' against b . A^-1 c, lane by lane.
+            let y2 = factor.forward(&c);
+            let mut x = c.clone();
+            factor.solve_in_place(&mut x);
+            for k in 0..4 {
+                let ours: f64 = y.iter().zip(&y2).map(|(u, v)| u[k] * v[k]).sum();
+                let want: f64 = b.iter().zip(&x).map(|(u, v)| u[k] * v[k]).sum();
+                assert!(
+                    (ours - want).abs() <= 1e-10 * want.abs().max(1.0),
+                    "cut {cut} lane {k}: {ours} vs {want}"
+                );
+            }
+        }
     }
 
     /// The cut takes every supernode once, each set whole subtrees (every

@@ -51,8 +51,14 @@ impl Profile {
     /// Solves A x = b in place, given the factor from [`Profile::factor`]:
     /// forward substitution with L, then back substitution with L^T.
     pub fn solve_in_place<T: Rhs>(&self, b: &mut [T]) {
+        self.forward_in_place(b);
+        self.backward_in_place(b);
+    }
+
+    /// L y = b in place, row by row: the first half of
+    /// [`Profile::solve_in_place`].
+    pub fn forward_in_place<T: Rhs>(&self, b: &mut [T]) {
         let n = self.envelope.len().min(b.len());
-        // L y = b, row by row.
         for i in 0..n {
             let fi = self.envelope.first(i);
             let row = &self.off[self.envelope.row(i)];
@@ -62,7 +68,12 @@ impl Profile {
             }
             b[i] = s / self.diag[i];
         }
-        // L^T x = y, column by column from the last.
+    }
+
+    /// L^T x = y in place, column by column from the last: the second half
+    /// of [`Profile::solve_in_place`].
+    pub fn backward_in_place<T: Rhs>(&self, b: &mut [T]) {
+        let n = self.envelope.len().min(b.len());
         for i in (0..n).rev() {
             let xi = b[i] / self.diag[i];
             b[i] = xi;

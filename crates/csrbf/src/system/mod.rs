@@ -29,7 +29,6 @@ pub use crate::options::{
     DEFAULT_MEMORY_LIMIT, FitOptions, FitPhases, OrderingFigures, SystemStats,
 };
 pub use estimate::{Estimate, estimate};
-pub(crate) use poly::prow;
 
 use assemble::{Bands, factor};
 use graph::{neighbour_counts, neighbour_graph, validate};
@@ -346,16 +345,19 @@ impl System {
         }
         self.check_near_pairs(&y)?;
         let moves = y.iter().map(|m| m.length()).fold(0.0, f64::max);
-        self.factor.solve_in_place(&mut y);
         let affine = match &self.poly {
-            None => None,
+            None => {
+                self.factor.solve_in_place(&mut y);
+                None
+            }
             Some(pb) => {
-                // r = P^T y (4 x 3), beta = S^-1 r, alpha = y - W beta.
+                // z = L^-1 f, r = V^T z (4 x 3), beta = S^-1 r, and the
+                // coefficients alpha = L^-T (z - V beta) = A^-1 (f - P beta).
+                let mut z = self.factor.forward(&y);
                 let mut r = [DVec3::ZERO; 4];
-                for (s, yi) in starts.iter().zip(&y) {
-                    let p = prow(*s, pb.center, pb.scale);
+                for (vi, zi) in pb.v.iter().zip(&z) {
                     for (k, rk) in r.iter_mut().enumerate() {
-                        *rk += *yi * p[k];
+                        *rk += *zi * vi[k];
                     }
                 }
                 let mut beta = [DVec3::ZERO; 4];
@@ -363,9 +365,10 @@ impl System {
                     let row = pb.s_inv.row(k);
                     *bk = r[0] * row.x + r[1] * row.y + r[2] * row.z + r[3] * row.w;
                 }
-                for (yi, wi) in y.iter_mut().zip(&pb.w) {
-                    *yi -= beta[0] * wi.x + beta[1] * wi.y + beta[2] * wi.z + beta[3] * wi.w;
+                for (zi, vi) in z.iter_mut().zip(&pb.v) {
+                    *zi -= beta[0] * vi.x + beta[1] * vi.y + beta[2] * vi.z + beta[3] * vi.w;
                 }
+                self.factor.backward(z, &mut y);
                 Some(Affine {
                     center: pb.center,
                     scale: pb.scale,

@@ -1,4 +1,6 @@
-//! The polynomial block after elimination: W = A^-1 P and S^-1 = (P^T W)^-1.
+//! The polynomial block after elimination, from the forward half of a solve
+//! alone: V = L^-1 P (A = L L^T in the factor's numbering) and
+//! S^-1 = (V^T V)^-1 = (P^T A^-1 P)^-1.
 
 use glam::{DMat4, DVec3, DVec4};
 
@@ -6,11 +8,13 @@ pub(crate) use crate::deformation::prow;
 use crate::error::FitError;
 use crate::solver::Factor;
 
-/// The polynomial block after elimination: W = A^-1 P and S^-1 = (P^T W)^-1,
-/// with P's rows (1, u) for u the starts centred and scaled.
+/// The polynomial block after elimination: V = L^-1 P (in the factor's
+/// numbering) and S^-1 = (V^T V)^-1, with P's rows (1, u) for u the starts
+/// centred and scaled. A solve then needs one forward and one backward
+/// pass, as without the block: [`super::System`]'s `solution`.
 #[derive(Debug)]
 pub(super) struct PolyBlock {
-    pub(super) w: Vec<DVec4>,
+    pub(super) v: Vec<DVec4>,
     pub(super) s_inv: DMat4,
     pub(super) center: DVec3,
     pub(super) scale: f64,
@@ -25,21 +29,19 @@ pub(super) fn poly_block(starts: &[DVec3], factor: &Factor) -> Result<PolyBlock,
         .fold(0.0, f64::max)
         .max(f64::MIN_POSITIVE);
     let p: Vec<DVec4> = starts.iter().map(|s| prow(*s, center, scale)).collect();
-    let mut w = p.clone();
-    factor.solve_in_place(&mut w);
+    let v = factor.forward(&p);
     let mut s = DMat4::ZERO;
-    for (pi, wi) in p.iter().zip(&w) {
-        s += DMat4::from_cols(*wi * pi.x, *wi * pi.y, *wi * pi.z, *wi * pi.w);
+    for vi in &v {
+        s += DMat4::from_cols(*vi * vi.x, *vi * vi.y, *vi * vi.z, *vi * vi.w);
     }
-    // S is symmetric positive definite when P has full rank.
-    let s = (s + s.transpose()) * 0.5;
+    // S = V^T V is symmetric positive definite when P has full rank.
     let det = s.determinant();
     let diag_product = s.x_axis.x * s.y_axis.y * s.z_axis.z * s.w_axis.w;
     if !(det > diag_product.abs() * 1e-14) || !det.is_finite() {
         return Err(FitError::CoplanarStarts);
     }
     Ok(PolyBlock {
-        w,
+        v,
         s_inv: s.inverse(),
         center,
         scale,
