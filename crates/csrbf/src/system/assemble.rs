@@ -25,8 +25,7 @@ const SKYLINE_SURE: f64 = 3e7;
 /// `phases` (from the ordering on) and its multiply-adds into `flops`;
 /// gives back the band orderings made by `bands`. With `dissect_ahead` (a
 /// large system likely to go to the supernodal solver) the dissection is
-/// made first, and `bands` and A beside the symbolic analysis, which
-/// reads the graph alone.
+/// made and analysed beside `bands`, and A made from the order.
 #[allow(clippy::too_many_arguments)] // the build's state, passed on once
 pub(super) fn factor(
     starts: &[DVec3],
@@ -74,23 +73,30 @@ pub(super) fn factor(
         factor
     };
     if dissect_ahead {
-        let order = ordering::geometric_dissection(graph, starts, options.radius);
-        phases.ordering_ms = clock.lap();
-        // The symbolic analysis reads the graph alone. A (its pattern and
-        // values) waits on the band orderings' thread: whichever thread is
-        // free first takes it, or a share of its values (the analysis takes
-        // about as long as the band orderings).
-        let inverse = ordering::inverse(&order);
-        let (symbolic, (bands, a)) = rayon::join(
-            || Factor::supernodal_symbolic(graph, Some(&order)),
+        // The band orderings read the graph alone: they run beside the
+        // dissection and the symbolic analysis after it, which reads the
+        // graph and the order. A (its pattern and values, in the order) is
+        // taken by whichever thread is free first, or a share of its values
+        // each (the band orderings take about as long as the other two).
+        let ((ordering_ms, symbolic, a), bands) = rayon::join(
             || {
-                rayon::join(bands, || {
-                    Permuted::of_graph(graph, &order, &inverse, &phi, diag)
-                })
+                let mut clock = Clock::start();
+                let order = ordering::geometric_dissection(graph, starts, options.radius);
+                let inverse = ordering::inverse(&order);
+                let ordering_ms = clock.lap();
+                let (symbolic, a) = rayon::join(
+                    || Factor::supernodal_symbolic(graph, Some(&order)),
+                    || Permuted::of_graph(graph, &order, &inverse, &phi, diag),
+                );
+                (ordering_ms, symbolic, a)
             },
+            bands,
         );
+        // The dissection's own time; the rest, until all three are done,
+        // the symbolic analysis's.
+        phases.ordering_ms = ordering_ms;
+        phases.symbolic_ms = clock.lap() - ordering_ms;
         let symbolic = symbolic?;
-        phases.symbolic_ms = clock.lap();
         if options.solver == SolverChoice::Auto && bands.envelope.factor_flops() < SKYLINE_SURE {
             *flops = bands.envelope.factor_flops();
             return skyline(&bands, phases, clock).map(|f| (f, bands));
