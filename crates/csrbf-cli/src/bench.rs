@@ -353,12 +353,27 @@ fn export(s: &Scene, faces: Option<csrbf_mesh::Faces>, dir: &std::path::Path) ->
         positions: s.points.clone(),
         ..Default::default()
     };
-    let base = dir.join(&s.name);
-    csrbf_mesh::write(&base.with_extension("ply"), &mesh)?;
+    let stem = file_stem(&s.name);
+    csrbf_mesh::write(&dir.join(format!("{stem}.ply")), &mesh)?;
     let spec = ControlSpec::new(s.starts.clone(), s.targets.clone(), s.options);
     let file = ControlFile::new(vec![spec], Combine::Chain);
-    csrbf_mesh::write_atomic(&base.with_extension("json"), file.to_text().as_bytes())?;
+    csrbf_mesh::write_atomic(&dir.join(format!("{stem}.json")), file.to_text().as_bytes())?;
     Ok(())
+}
+
+/// A scene's name as a file name inside the export folder: every character
+/// but letters, digits, `-` and `_` made `-` ("100000/100000" is
+/// "100000-100000"; a mesh's path stays in the folder, never over the mesh).
+fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect()
 }
 
 /// The papers' table (Athlon 1 GHz, 2002, rendering at 1024x768 included):
