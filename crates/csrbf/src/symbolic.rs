@@ -219,30 +219,7 @@ impl Structure {
 
     /// The structure in faer's approximate minimum degree order.
     pub(crate) fn amd(graph: &Graph) -> Result<Structure, FitError> {
-        use faer::sparse::linalg::amd;
-        let n = graph.len();
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::with_capacity(graph.edge_entries());
-        col_ptr.push(0u32);
-        for j in 0..n {
-            row_idx.extend_from_slice(graph.neighbours(j));
-            col_ptr.push(row_idx.len() as u32);
-        }
-        let pattern =
-            SymbolicSparseColMatRef::new_unsorted_checked(n, n, &col_ptr[..], None, &row_idx[..]);
-        let (mut order, mut inverse) = (vec![0u32; n], vec![0u32; n]);
-        let mut mem =
-            MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<u32>(n, row_idx.len()))
-                .map_err(|e| FitError::Solver(format!("{e:?}")))?;
-        amd::order_maybe_unsorted(
-            &mut order,
-            &mut inverse,
-            pattern,
-            Default::default(),
-            MemStack::new(&mut mem),
-        )
-        .map_err(|e| FitError::Solver(format!("{e:?}")))?;
-        Structure::new(graph, order)
+        Structure::new(graph, amd_order(graph)?)
     }
 
     /// faer's supernodes, in the numbering [`Structure::order`].
@@ -264,6 +241,33 @@ impl Structure {
     pub(crate) fn len_val(&self) -> usize {
         self.supernodal.len_val()
     }
+}
+
+/// faer's approximate minimum degree order of the graph.
+pub(crate) fn amd_order(graph: &Graph) -> Result<Vec<u32>, FitError> {
+    use faer::sparse::linalg::amd;
+    let n = graph.len();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(graph.edge_entries());
+    col_ptr.push(0u32);
+    for j in 0..n {
+        row_idx.extend_from_slice(graph.neighbours(j));
+        col_ptr.push(row_idx.len() as u32);
+    }
+    let pattern =
+        SymbolicSparseColMatRef::new_unsorted_checked(n, n, &col_ptr[..], None, &row_idx[..]);
+    let (mut order, mut inverse) = (vec![0u32; n], vec![0u32; n]);
+    let mut mem = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<u32>(n, row_idx.len()))
+        .map_err(|e| FitError::Solver(format!("{e:?}")))?;
+    amd::order_maybe_unsorted(
+        &mut order,
+        &mut inverse,
+        pattern,
+        Default::default(),
+        MemStack::new(&mut mem),
+    )
+    .map_err(|e| FitError::Solver(format!("{e:?}")))?;
+    Ok(order)
 }
 
 /// A's pattern in the new numbering, by columns: each column's rows above
