@@ -158,14 +158,18 @@ pub struct FitPhases {
     pub graph_ms: f64,
     /// The band-reducing orderings tried and the envelope.
     pub ordering_ms: f64,
-    /// Kernel values into the profile or the compressed columns.
+    /// Kernel values into the profile or the compressed columns (zero from
+    /// 2,000 starts: A is then made beside the symbolic analysis, and timed
+    /// with it).
     pub assembly_ms: f64,
-    /// The supernodal solver's symbolic analysis (its own ordering, its
-    /// elimination tree); zero for the profile solver.
+    /// The supernodal solver's symbolic analysis (its elimination tree,
+    /// column counts and supernodes; from 2,000 starts, until it, the band
+    /// orderings beside it and A are all done); zero for the profile solver.
     pub symbolic_ms: f64,
     /// The numeric Cholesky factorisation.
     pub numeric_ms: f64,
-    /// The polynomial block (a solve with four right-hand sides).
+    /// The polynomial block (the forward half of a solve with four
+    /// right-hand sides).
     pub polynomial_ms: f64,
 }
 

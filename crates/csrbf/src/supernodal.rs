@@ -207,9 +207,9 @@ struct Plan<'a> {
 
 /// Factors A (`a`, its lower triangle in the factor's numbering) into
 /// values in faer's layout for `symbolic`. The values are not zeroed
-/// before: each
-/// supernode's block is, by the thread that makes it (a memset of the
-/// whole factor, serial, took 0.4-0.7 ms of the scan's 6 ms). A large
+/// before: each supernode's block is, by the thread that makes it (a
+/// memset of the whole factor, serial, took 0.4-0.7 ms of the scan's 6 ms,
+/// when the allocator handed back used memory). A large
 /// factor is made on the pool: its elimination tree's independent
 /// subtrees at once, taken by whichever thread is free, and a wide
 /// supernode's dense kernels on both threads. Fails with the column

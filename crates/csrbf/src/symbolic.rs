@@ -177,6 +177,14 @@ impl Structure {
                 order.len(),
             )));
         }
+        let mut seen = vec![false; n];
+        for (at, &old) in order.iter().enumerate() {
+            if (old as usize) >= n || std::mem::replace(&mut seen[old as usize], true) {
+                return Err(FitError::Solver(format!(
+                    "an order that is not a permutation of 0..{n}: {old} at {at}"
+                )));
+            }
+        }
         let inverse = crate::ordering::inverse(&order);
         let patterns = Patterns::new(graph, &order, &inverse);
         let parent = elimination_tree(&patterns);
@@ -195,9 +203,12 @@ impl Structure {
             .enumerate()
             .all(|(j, &p)| p == NONE || (p as usize > j && (p as usize) < n));
         assert!(valid, "an elimination tree's parent follows its child");
-        // SAFETY: `parent` is the elimination tree of `upper` (the tests
-        // check it equals faer's `prefactorize_symbolic_cholesky`), and
-        // every entry is -1 or an index in `j + 1..n` (checked above).
+        // SAFETY: faer documents the tree as one its
+        // `prefactorize_symbolic_cholesky` made; what its supernodal pass
+        // relies on unchecked is that every parent is -1 or an index below
+        // n, with no cycle: every entry here is -1 or in `j + 1..n`
+        // (checked above). And it is the same tree: `parent` is the
+        // elimination tree of `upper`, which the tests check equals faer's.
         #[allow(unsafe_code)]
         let etree = unsafe { EliminationTreeRef::<u32>::from_inner(&parent) };
         let mut mem = MemBuffer::try_new(factorize_supernodal_symbolic_cholesky_scratch::<u32>(n))
@@ -304,9 +315,9 @@ impl Patterns {
                 let i = inverse[j as usize];
                 upper_rows[up] = i;
                 lower_rows[down] = i;
-                let above = usize::from(i < k);
-                up += above;
-                down += 1 - above;
+                // A self loop (none in a neighbour graph) on neither side.
+                up += usize::from(i < k);
+                down += usize::from(i > k);
             }
             upper_rows[up] = k;
             up += 1;
@@ -618,12 +629,19 @@ mod tests {
     }
 
     #[test]
-    fn an_order_of_another_length_is_refused() {
+    fn an_order_not_a_permutation_is_refused() {
         let (g, _, _) = orders(10, 0.5, 1);
         let err = Structure::new(&g, vec![0, 1, 2]).unwrap_err();
         assert!(
             format!("{err}").contains("3 rows for a system of 10"),
             "{err}"
         );
+        for (order, says) in [
+            (vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 8], "8 at 9"),
+            (vec![0, 1, 2, 3, 4, 5, 6, 7, 8, 10], "10 at 9"),
+        ] {
+            let err = Structure::new(&g, order).unwrap_err();
+            assert!(format!("{err}").contains(says), "{err}");
+        }
     }
 }

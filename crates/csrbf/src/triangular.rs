@@ -74,7 +74,7 @@ pub(crate) fn forward_solve<T: Rhs>(
     let mut x: Vec<Row> = forward.iter().map(|&o| row(b[o as usize])).collect();
     let passes = Passes::new(symbolic, values, split);
     match split {
-        Some(split) => passes.forward_split(split, &mut x),
+        Some(split) => passes.forward_split(split, &mut x, &mut Vec::new()),
         None => passes.forward(0..symbolic.n_supernodes(), &mut x, &mut Vec::new()),
     }
     x.iter()
@@ -105,7 +105,7 @@ pub(crate) fn backward_solve<T: Rhs>(
     let mut x: Vec<Row> = y.iter().map(|&v| row(v)).collect();
     let passes = Passes::new(symbolic, values, split);
     match split {
-        Some(split) => passes.backward_split(split, &mut x),
+        Some(split) => passes.backward_split(split, &mut x, &mut Vec::new()),
         None => passes.backward((0..symbolic.n_supernodes()).rev(), &mut x, &mut Vec::new()),
     }
     for (r, &o) in x.iter().zip(forward) {
@@ -386,26 +386,30 @@ impl<'a> Passes<'a> {
         self.backward((0..count).rev(), x, &mut work);
     }
 
-    /// [`Passes::solve`] with the two sets of `split` at once.
+    /// [`Passes::solve`] with the two sets of `split` at once: the forward
+    /// pass's copy serves the backward one (its top rows made again).
     fn solve_split(self, split: &Split, x: &mut [Row]) {
-        self.forward_split(split, x);
-        self.backward_split(split, x);
+        let mut copy = Vec::new();
+        self.forward_split(split, x, &mut copy);
+        self.backward_split(split, x, &mut copy);
     }
 
     /// The forward pass with the two sets of `split` at once. The second
-    /// set works in a copy of `x` whose top rows start at zero (they gather
-    /// its updates, added after); its rows are copied back at the end.
-    fn forward_split(self, split: &Split, x: &mut [Row]) {
+    /// set works in a copy of `x` (made in `copy`) whose top rows start at
+    /// zero (they gather its updates, added after); its rows are copied
+    /// back at the end.
+    fn forward_split(self, split: &Split, x: &mut [Row], copy: &mut Vec<Row>) {
         let rows = self.rows();
         let [first, second] = split.sets.each_ref().map(|s| nodes(s));
-        let mut copy = x.to_vec();
+        copy.clear();
+        copy.extend_from_slice(x);
         for &k in &split.top {
             copy[rows(k)].fill([0.0; 4]);
         }
         let (mut work, mut work2) = (Vec::new(), Vec::new());
         rayon::join(
             || self.forward(first.iter().copied(), x, &mut work),
-            || self.forward(second.iter().copied(), &mut copy, &mut work2),
+            || self.forward(second.iter().copied(), copy, &mut work2),
         );
         for &k in &split.top {
             for (a, b) in x[rows(k)].iter_mut().zip(&copy[rows(k)]) {
@@ -420,17 +424,25 @@ impl<'a> Passes<'a> {
 
     /// The backward pass with the two sets of `split` at once: the top
     /// first, then each set on its own copy of `x`, the second's rows
-    /// copied back.
-    fn backward_split(self, split: &Split, x: &mut [Row]) {
+    /// copied back. `copy`: the forward pass's (the second set's rows as in
+    /// `x`: only the top's are made again), or empty.
+    fn backward_split(self, split: &Split, x: &mut [Row], copy: &mut Vec<Row>) {
         let rows = self.rows();
         let [first, second] = split.sets.each_ref().map(|s| nodes(s));
         let mut work = Vec::new();
         self.backward(nodes(&split.top).into_iter().rev(), x, &mut work);
-        let mut copy = x.to_vec();
+        if copy.len() == x.len() {
+            for &k in &split.top {
+                copy[rows(k)].copy_from_slice(&x[rows(k)]);
+            }
+        } else {
+            copy.clear();
+            copy.extend_from_slice(x);
+        }
         let mut work2 = Vec::new();
         rayon::join(
             || self.backward(first.iter().rev().copied(), x, &mut work),
-            || self.backward(second.iter().rev().copied(), &mut copy, &mut work2),
+            || self.backward(second.iter().rev().copied(), copy, &mut work2),
         );
         for &k in &split.sets[1] {
             x[rows(k)].copy_from_slice(&copy[rows(k)]);

@@ -49,12 +49,12 @@ pub(super) fn factor(
         phases.numeric_ms = clock.lap();
         factor
     };
-    // The supernodal factor of the pattern `a` and its symbolic analysis,
+    // The supernodal factor of A (`a`) and its symbolic analysis,
     // unless the profile needs no more multiply-adds (counted from the
-    // structure) and the solver is left to choose. Per multiply-add faer is
-    // the faster (measured 8-10 G/s against the profile's 5-6 G/s on
-    // 2,000-10,000 starts), so at equal counts the profile's lower overhead
-    // is all it gives up.
+    // structure) and the solver is left to choose. Per multiply-add the
+    // supernodal factorisation is the faster (measured 8-10 G/s against the
+    // profile's 5-6 G/s on 2,000-10,000 starts), so at equal counts the
+    // profile's lower overhead is all it gives up.
     let supernodal = |a: &Permuted,
                       symbolic,
                       bands: &Bands,
