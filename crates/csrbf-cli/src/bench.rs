@@ -156,6 +156,13 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
     } else if let Some(s) = &args.scene {
         vec![synthetic(s)?]
     } else if let (Some(m), Some(c)) = (&args.mesh, &args.controls) {
+        if args.export.is_some() {
+            bail!(
+                "--export writes the synthetic scenes (--scene NAME, --scene scan); {} and {} are files already",
+                m.display(),
+                c.display()
+            );
+        }
         let mesh = read_mesh(m, progress)?;
         let spec = read_controls(c, progress)?.deformations.swap_remove(0);
         let spec = spec
@@ -361,9 +368,9 @@ fn export(s: &Scene, faces: Option<csrbf_mesh::Faces>, dir: &std::path::Path) ->
     Ok(())
 }
 
-/// A scene's name as a file name inside the export folder: every character
-/// but letters, digits, `-` and `_` made `-` ("100000/100000" is
-/// "100000-100000"; a mesh's path stays in the folder, never over the mesh).
+/// A synthetic scene's name as a file name inside the export folder: every
+/// character but letters, digits, `-` and `_` made `-` ("100000/100000" is
+/// "100000-100000").
 fn file_stem(name: &str) -> String {
     name.chars()
         .map(|c| {
