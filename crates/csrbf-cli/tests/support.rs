@@ -71,8 +71,10 @@ pub fn ok(args: &[&str]) -> String {
     let out = csrbf(args);
     assert!(
         out.status.success(),
-        "csrbf {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
+        "csrbf {args:?} failed ({}): stderr {:?}, stdout {:?}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
