@@ -383,11 +383,14 @@ impl Walk<'_> {
                 }
             }
         };
+        // Nothing above a failure is made (every supernode above is an
+        // ancestor of it), but the light children's failures higher up are
+        // still gathered: one of them may lie in an earlier column.
         let mut failed = below;
         for &(k, light) in path.iter().rev() {
             failed = first_failure(failed, light);
             if failed.is_some() {
-                break; // every supernode above is an ancestor of the failure
+                continue;
             }
             let par = if plan.width(k as usize) >= WIDE {
                 Par::rayon(0)
@@ -855,6 +858,41 @@ mod tests {
             let want = faer_values(&symbolic, &a).expect_err("not positive definite");
             let got = ours(&symbolic, &a, true).expect_err("not positive definite");
             assert_eq!(got, want, "{clusters} trees");
+        }
+    }
+
+    /// Coupling too strong in a few small balls only: pivots fail in
+    /// separate subtrees, some in a light child of a supernode above
+    /// another failure. The pool reports the earliest column, as the
+    /// serial walk and faer do.
+    #[test]
+    fn the_earliest_of_failures_in_separate_subtrees_is_reported() {
+        for seed in 0..24 {
+            let (s, g, mut a) = random_system(1500, 0.12, 40 + seed);
+            let mut rng = Rng::new(90 + seed);
+            let balls: Vec<DVec3> = (0..8).map(|_| rng.vec3()).collect();
+            let strong = |p: DVec3| balls.iter().any(|b| b.distance(p) < 0.1);
+            for j in 0..a.n {
+                for k in a.col_ptr[j] as usize..a.col_ptr[j + 1] as usize {
+                    let i = a.row_idx[k] as usize;
+                    if i != j && strong(s[i]) && strong(s[j]) {
+                        a.values[k] *= 10.0;
+                    }
+                }
+            }
+            let order = geometric_dissection(&g, &s, 0.12);
+            let symbolic = structure(&a, Some(&order));
+            let want = faer_values(&symbolic, &a).expect_err("not positive definite");
+            let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
+                unreachable!("forced supernodal")
+            };
+            let a = Permuted::new(&a, symbolic.perm().expect("ordered").arrays().1);
+            // Subtrees light from none to most: the walk's paths and light
+            // children differ with each.
+            for light in [0.0, 1e4, 1e5, 1e6, 1e7] {
+                let got = factor_from(sn, &a, 0.0, light).expect_err("not positive definite");
+                assert_eq!(got, want, "seed {seed}, light from {light}");
+            }
         }
     }
 
