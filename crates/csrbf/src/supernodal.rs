@@ -663,7 +663,8 @@ mod tests {
     use glam::DVec3;
 
     /// A supernodal structure of `a` (forced: faer takes a simplicial one
-    /// for most small systems), under a dissection order or faer's AMD.
+    /// for most small systems), under a dissection order or faer's AMD,
+    /// relaxed as the fit's.
     fn structure(a: &LowerCsc, order: Option<&[u32]>) -> SymbolicCholesky<u32> {
         let pattern = SymbolicSparseColMatRef::new_checked(a.n, a.n, &a.col_ptr, None, &a.row_idx);
         let inverse;
@@ -676,6 +677,9 @@ mod tests {
         };
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            supernodal_params: faer::sparse::linalg::SymbolicSupernodalParams {
+                relax: Some(crate::symbolic::RELAX),
+            },
             ..Default::default()
         };
         factorize_symbolic_cholesky(pattern, Side::Lower, ordering, params).expect("symbolic")
