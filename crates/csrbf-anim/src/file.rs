@@ -307,11 +307,9 @@ impl SceneFile {
                 _ => format!("{place} (in {path})"),
             };
             // serde_json ends its message with the place, said above.
-            let message = inner.to_string();
-            let suffix = format!(" at line {} column {}", inner.line(), inner.column());
             ParseError {
                 at,
-                message: message.strip_suffix(&suffix).unwrap_or(&message).to_owned(),
+                message: csrbf_edit::json::message_without_place(&inner),
             }
         })
     }

@@ -669,7 +669,7 @@ impl ControlFile {
         let text = crate::json::strip_bom(text);
         let root: Value = serde_json::from_str(text).map_err(|e| ControlError {
             location: format!("line {}, column {}", e.line(), e.column()),
-            message: format!("invalid JSON: {e}"),
+            message: format!("invalid JSON: {}", crate::json::message_without_place(&e)),
         })?;
         crate::json::check_duplicate_keys(text).map_err(|e| ControlError {
             location: format!("line {}", e.second_line),
@@ -1431,6 +1431,20 @@ fn parse_connected(body: &Value, at: &str, origin: Origin) -> Result<Region, Con
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Broken JSON: the place said once, in front (serde_json's message
+    /// ends with it too).
+    #[test]
+    fn broken_json_gives_its_place_once() {
+        for (text, place) in [
+            ("{\"radius\": 1,\n \"controls\": [\n", "line 3, column 0"),
+            ("{\"radius\": 1 x}", "line 1, column 14"),
+        ] {
+            let e = ControlFile::parse(text).expect_err("not JSON").to_string();
+            assert!(e.starts_with(place) && e.contains("invalid JSON: "), "{e}");
+            assert!(!e.contains(" at line "), "{e}");
+        }
+    }
 
     #[test]
     fn the_issue_schema_and_defaults() {

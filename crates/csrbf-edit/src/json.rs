@@ -18,6 +18,14 @@ pub struct DuplicateKey {
     pub second_line: usize,
 }
 
+/// serde_json's message for `e` without the place it ends with (" at line
+/// L column C"), for a caller that says the place itself, once.
+pub fn message_without_place(e: &serde_json::Error) -> String {
+    let message = e.to_string();
+    let suffix = format!(" at line {} column {}", e.line(), e.column());
+    message.strip_suffix(&suffix).unwrap_or(&message).to_owned()
+}
+
 /// The text without a leading UTF-8 byte-order mark.
 pub fn strip_bom(text: &str) -> &str {
     text.strip_prefix('\u{feff}').unwrap_or(text)

@@ -1551,10 +1551,11 @@ impl VolumeMorph {
         })?;
         let root: Value = serde_json::from_str(crate::json::strip_bom(&text)).map_err(|e| {
             EditError::Morph(format!(
-                "{}: line {}, column {}: invalid JSON: {e}",
+                "{}: line {}, column {}: invalid JSON: {}",
                 path.display(),
                 e.line(),
-                e.column()
+                e.column(),
+                crate::json::message_without_place(&e)
             ))
         })?;
         if let Err(e) = crate::json::check_duplicate_keys(&text) {
