@@ -6,7 +6,16 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MeshError {
-    /// The file could not be read or written. The system's error is the
+    /// A mesh file could not be read (missing, a folder, not allowed). The
+    /// system's error is the source, as for [`MeshError::Io`].
+    #[error("cannot read mesh {}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A file could not be read or written. The system's error is the
     /// source (printed after this by error chains, not twice).
     #[error("{}", path.display())]
     Io {
@@ -50,6 +59,7 @@ impl MeshError {
     pub fn full(&self) -> String {
         match self {
             MeshError::Io { path, source } => format!("{}: {source}", path.display()),
+            MeshError::Read { source, .. } => format!("{self}: {source}"),
             other => other.to_string(),
         }
     }

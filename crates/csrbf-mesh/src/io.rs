@@ -30,7 +30,7 @@ pub struct Loaded {
 /// grey or without their picture).
 pub fn load(path: &Path) -> Result<Loaded> {
     let format = Format::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Read {
         path: path.to_owned(),
         source,
     })?;

@@ -225,7 +225,7 @@ fn unknown_extension_lists_the_supported_ones() {
     );
     assert!(matches!(
         crate::read(Path::new("/nonexistent/a.obj")),
-        Err(MeshError::Io { .. })
+        Err(MeshError::Read { .. })
     ));
 }
 

@@ -555,7 +555,7 @@ impl VolumeMesh {
 /// Reads a volume mesh; the format comes from the extension.
 pub fn read(path: &Path) -> Result<VolumeMesh> {
     let format = VolumeFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Read {
         path: path.to_owned(),
         source,
     })?;
