@@ -94,6 +94,9 @@ pub enum Warning {
         count: usize,
         /// The radius of support.
         radius: f64,
+        /// How far the nearest of the listed starts is from the nearest
+        /// vertex it acts on (over R; infinite when it acts on none).
+        nearest: f64,
     },
     /// Controls whose support reaches vertices outside the region: the map is
     /// cut off at the region's edge there (a seam may show).
@@ -279,11 +282,17 @@ impl fmt::Display for Numbered<'_> {
                 controls: c,
                 count,
                 radius,
+                nearest,
             } => write!(
                 f,
-                "{}: {count} start(s) lie farther than R = {} from every vertex it acts on, so they move nothing: controls {}",
+                "{}: {count} start(s) lie farther than R = {} from every vertex it acts on{}, so they move nothing: controls {}",
                 stage(s),
                 number(*radius),
+                if nearest.is_finite() {
+                    format!(" (the nearest {} away)", number(*nearest))
+                } else {
+                    String::new()
+                },
                 controls(c, *count)
             ),
             Warning::SupportCrossesRegion {
@@ -674,11 +683,24 @@ fn diagnose_with(
             .filter(|&j| !touched[j] && !met.get(j).copied().unwrap_or(false))
             .collect();
         if !far.is_empty() {
+            let listed: Vec<usize> = far.iter().copied().take(LISTED).collect();
+            // How far off they are, for the user to weigh against R: the
+            // listed few against every vertex acted on.
+            let nearest = listed
+                .iter()
+                .flat_map(|&j| {
+                    let start = def.starts()[j];
+                    selected
+                        .iter()
+                        .map(move |&i| start.distance(rest[i as usize].as_dvec3()))
+                })
+                .fold(f64::INFINITY, f64::min);
             warnings.push(Warning::StartsFarFromMesh {
                 stage: k,
-                controls: far.iter().copied().take(LISTED).collect(),
+                controls: listed,
                 count: far.len(),
                 radius: def.radius(),
+                nearest,
             });
         }
         // A falloff (or weights that blend) is smooth: no seam to warn of.
@@ -997,6 +1019,7 @@ mod tests {
             controls: vec![2, 5],
             count: 2,
             radius: 0.5,
+            nearest: 0.75,
         };
         let file = w.to_string();
         assert!(
@@ -1225,6 +1248,18 @@ mod tests {
             ),
             "{:?}",
             r.warnings
+        );
+        // How far: from (5, 5, 5) to the grid's corner (1, 1, 0), said.
+        let Warning::StartsFarFromMesh { nearest, .. } = r.warnings[0] else {
+            unreachable!("matched above")
+        };
+        assert!((nearest - 57f64.sqrt()).abs() < 1e-6, "{nearest}");
+        assert!(
+            r.warnings[0]
+                .to_string()
+                .contains("(the nearest 7.55 away)"),
+            "{}",
+            r.warnings[0]
         );
         let empty = Region::Sphere {
             center: DVec3::splat(9.0),
