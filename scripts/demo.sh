@@ -9,9 +9,14 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp/xdg-$(id -u)}"
 mkdir -p out
 cargo build --release -q -p csrbf-cli
 bin=target/release/csrbf
+echo "== The control file: what it asks for and the system it makes (csrbf info) =="
 $bin info --controls assets/controls/head_smile.json
+echo
+echo "== The head deformed by it, and the deformation saved for replay (csrbf deform, csrbf fit) =="
 $bin deform --mesh assets/models/cgal_head.off --controls assets/controls/head_smile.json --out out/head_smile.obj --force
 $bin fit --controls assets/controls/head_smile.json --out out/head_smile.csrbf --force
+echo
+echo "== The papers' face example: scene, models, poster and movie (csrbf demo face) =="
 $bin demo face --out out/demos
 echo
 echo "The movie:  out/demos/face/movie.mp4 (poster: out/demos/face/poster.png, scene: out/demos/face/face.scene.json)"
