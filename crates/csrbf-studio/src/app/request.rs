@@ -58,7 +58,10 @@ mod tests {
         let missing = std::path::Path::new("/no/such/dir/x.obj");
         let e = csrbf_mesh::read(missing).expect_err("no such file");
         let text = reason(&e);
-        assert!(text.starts_with("/no/such/dir/x.obj: "), "{text}");
+        assert!(
+            text.starts_with("cannot read mesh /no/such/dir/x.obj: "),
+            "{text}"
+        );
         let os = std::io::Error::from(std::io::ErrorKind::NotFound).to_string();
         assert!(
             text.contains("No such file") || text.contains(&os),
