@@ -45,7 +45,12 @@ pub fn mesh_scene(
     let mut assets = Assets::new();
     let deformations = match controls {
         Some((path, file)) => {
-            assets.set_controls(path, file);
+            // Keyed as the scene's loader resolves the name (`a/../b` as
+            // `b`), or it would read the file again.
+            assets.set_controls(
+                crate::path::resolve(Path::new(""), &path.display().to_string()),
+                file,
+            );
             vec![DeformationFile {
                 controls: path.display().to_string(),
                 phase: vec![PhaseKeyFile { time: 0.0, phase }],
@@ -54,7 +59,10 @@ pub fn mesh_scene(
         }
         None => Vec::new(),
     };
-    assets.set_mesh(mesh_path, mesh);
+    assets.set_mesh(
+        crate::path::resolve(Path::new(""), &mesh_path.display().to_string()),
+        mesh,
+    );
     let v = |v: Vec3| v.as_dvec3().to_array();
     let file = SceneFile {
         duration: 1.0,
