@@ -541,10 +541,11 @@ fn diagonal(points: &[DVec3]) -> f64 {
     }
 }
 
-/// The boundary surface control documents are resolved on: the mesh's
-/// [`VolumeMesh::surface`], with a part for each zone of 3D cells too (its
+/// The boundary surface control documents are resolved on, and what an
+/// editor shows of a volume mesh: the mesh's [`VolumeMesh::surface`]
+/// (vertex i is node i), with a part for each zone of 3D cells too (its
 /// cells' faces on the boundary), so that a region naming it is known.
-fn resolution_surface(mesh: &VolumeMesh) -> csrbf_mesh::Mesh {
+pub fn editing_surface(mesh: &VolumeMesh) -> csrbf_mesh::Mesh {
     let mut surface = mesh.surface();
     let solid: Vec<_> = mesh.zones.iter().filter(|z| z.dim == 3).collect();
     if solid.is_empty() {
@@ -597,7 +598,7 @@ pub fn morph_volume(
     if !(0.0..=1.0).contains(&phase) {
         return Err(EditError::Deform(csrbf::Error::BadPhase(phase)));
     }
-    let surface = resolution_surface(mesh);
+    let surface = editing_surface(mesh);
     let edit = crate::fit(file, source, Some(&surface), allow_large, notes)?;
     let t = Instant::now();
     let stages: Vec<FittedStage> = edit
@@ -1075,7 +1076,7 @@ fn prescribe(
             }
             Motion::Controls(path) => {
                 let file = read_controls(path)?;
-                let surface = resolution_surface(mesh);
+                let surface = editing_surface(mesh);
                 let edit = crate::fit(
                     &file,
                     &path.display().to_string(),

@@ -1511,3 +1511,145 @@ fn mirror_across_the_found_plane_puts_the_image_on_the_surface() {
             .contains("Mirrored 1 control vector across the plane through")
     );
 }
+
+/// A volume mesh opens in the Picker by its boundary (vertex i is node i):
+/// Export to a volume format writes every node moved as `csrbf deform`
+/// moves it, the boundary where the viewport shows it and every cell
+/// checked; to a surface format, the boundary; a surface mesh is not
+/// written as a volume. A morph that turns cells inside out says so.
+#[test]
+fn a_volume_mesh_is_edited_by_its_boundary_and_exported_morphed() {
+    let volume_path = csrbf_testkit::root().join("assets/volume/sphere_in_box.msh");
+    let mut h = open(
+        Args {
+            mesh: Some(volume_path.clone()),
+            controls: None,
+        },
+        "volume",
+    );
+    assert!(h.state().message().is_none(), "{:?}", h.state().message());
+    let volume = csrbf_mesh::volume::read(&volume_path).expect("read");
+    let doc = h.state().document().expect("open");
+    assert_eq!(doc.mesh.positions.len(), volume.points.len());
+    assert_eq!(doc.mesh.faces.len(), volume.boundary().len());
+    assert!(
+        h.state()
+            .status()
+            .contains("a volume mesh of 712 nodes and 3818 cells"),
+        "{}",
+        h.state().status()
+    );
+    // A box face's middle pushed in a little.
+    let dir = state_dir("volume-out");
+    let controls = dir.join("push.json");
+    std::fs::write(
+        &controls,
+        r#"{"radius": 0.9, "controls": [{"from": [1, 0, 0], "to": [0.9, 0.05, 0]}]}"#,
+    )
+    .expect("write");
+    h.state_mut().open_controls(&controls);
+    settle(&mut h);
+    assert!(h.state().message().is_none(), "{:?}", h.state().message());
+    let shown = h.state().shown_positions().expect("open").to_vec();
+    let out = dir.join("pushed.vtu");
+    h.state_mut().export_mesh(&out);
+    h.run_steps(1);
+    assert!(h.state().message().is_none(), "{:?}", h.state().message());
+    assert!(
+        h.state().status().contains("pushed.vtu")
+            && h.state().status().contains("; 0 cell(s) inside out"),
+        "{}",
+        h.state().status()
+    );
+    let back = csrbf_mesh::volume::read(&out).expect("a volume file");
+    assert_eq!(back.points.len(), volume.points.len());
+    assert_eq!(back.cells.len(), volume.cells.len());
+    let (moved, _) = csrbf_edit::volume::VolumeMorph::read(&controls)
+        .expect("a morph")
+        .run(&volume, 1.0, false, &mut |_| {})
+        .expect("deform's morph");
+    let diag = h.state().document().expect("open").diagonal() as f64;
+    let mut on_boundary = vec![false; volume.points.len()];
+    for f in volume.boundary() {
+        for v in f {
+            on_boundary[v as usize] = true;
+        }
+    }
+    let mut moved_nodes = 0;
+    for (i, p) in back.points.iter().enumerate() {
+        assert!(
+            p.distance(moved[i]) <= 1e-9 * diag,
+            "node {i}: {p} vs {}",
+            moved[i]
+        );
+        if on_boundary[i] {
+            let s = shown[i].as_dvec3();
+            assert!(
+                p.distance(s) <= 1e-5 * diag,
+                "node {i}: {p} exported, {s} shown"
+            );
+        }
+        moved_nodes += usize::from(p.distance(volume.points[i]) > 1e-6);
+    }
+    assert!(
+        moved_nodes > 10 && moved_nodes < volume.points.len(),
+        "{moved_nodes}"
+    );
+    // A surface format: the boundary, said to be one.
+    let surface = dir.join("pushed.obj");
+    h.state_mut().export_mesh(&surface);
+    h.run_steps(1);
+    assert!(h.state().message().is_none(), "{:?}", h.state().message());
+    assert!(
+        h.state().status().contains("the volume's boundary"),
+        "{}",
+        h.state().status()
+    );
+    assert_eq!(
+        csrbf_mesh::read(&surface).expect("a mesh").positions.len(),
+        volume.points.len()
+    );
+    // Too far for its radius: cells turn inside out, and the export says so.
+    let far = dir.join("far.json");
+    std::fs::write(
+        &far,
+        r#"{"radius": 0.5, "controls": [{"from": [1, 0, 0], "to": [0.2, 0, 0]}]}"#,
+    )
+    .expect("write");
+    h.state_mut().open_controls(&far);
+    settle(&mut h);
+    h.state_mut().export_mesh(&dir.join("far.vtu"));
+    h.run_steps(2);
+    let (title, text) = h.state().message().expect("a dialog").clone();
+    assert!(title.contains("inside out"), "{title}: {text}");
+    assert!(
+        !h.state().status().contains("far.vtu"),
+        "{}",
+        h.state().status()
+    );
+    h.get_by_label("OK").click();
+    h.run_steps(1);
+    // A surface mesh is not written as a volume mesh.
+    let ctx = h.ctx.clone();
+    h.state_mut().open_mesh(&ctx, &model("cgal_head.off"));
+    h.run_steps(2);
+    if h.state().message().is_some() {
+        h.get_by_label("Discard").click();
+        h.run_steps(3);
+    }
+    assert!(
+        h.state()
+            .document()
+            .expect("open")
+            .mesh_path
+            .ends_with("cgal_head.off")
+    );
+    h.state_mut().export_mesh(&dir.join("head.vtu"));
+    h.run_steps(1);
+    let (_, text) = h.state().message().expect("a dialog").clone();
+    assert!(
+        text.contains("is a surface mesh") && text.contains(".obj"),
+        "{text}"
+    );
+    assert!(!dir.join("head.vtu").exists());
+}

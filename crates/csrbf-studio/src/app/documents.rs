@@ -5,8 +5,11 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use std::sync::Arc;
+
 use csrbf_edit::controls::ControlFile;
 use csrbf_mesh::Mesh;
+use csrbf_mesh::volume::VolumeFormat;
 use eframe::egui;
 
 use super::files::{self, Purpose, Recovery};
@@ -33,9 +36,31 @@ impl StudioApp {
         if is_scene(path) {
             return self.open_scene(path);
         }
-        let loaded = match csrbf_mesh::load(path) {
-            Ok(l) => l,
-            Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
+        // A volume mesh is edited by its boundary surface (vertex i is node
+        // i); Export morphs every node and checks every cell.
+        let (loaded, volume) = if VolumeFormat::is_volume_path(path) {
+            let volume = match csrbf_mesh::volume::read(path) {
+                Ok(v) => v,
+                Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
+            };
+            let surface = csrbf_edit::volume::editing_surface(&volume);
+            let note = format!(
+                "a volume mesh of {} nodes and {} cells, shown by its boundary ({} faces);                  every node moves, and Export to {} writes it morphed with its cells checked",
+                volume.points.len(),
+                volume.cells.len(),
+                surface.faces.len(),
+                VolumeFormat::EXTENSIONS
+            );
+            let loaded = csrbf_mesh::Loaded {
+                mesh: surface,
+                warnings: vec![note],
+            };
+            (loaded, Some(Arc::new(volume)))
+        } else {
+            match csrbf_mesh::load(path) {
+                Ok(l) => (l, None),
+                Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
+            }
         };
         let mesh = loaded.mesh;
         if mesh.bounds().is_none() {
@@ -48,8 +73,13 @@ impl StudioApp {
             return self.show_error(
                 "Cannot open the mesh",
                 format!(
-                    "{}: the mesh has no faces: the studio places controls on a surface",
-                    path.display()
+                    "{}: the mesh has no faces: the studio places controls on a surface{}",
+                    path.display(),
+                    if volume.is_some() {
+                        " (a volume mesh's boundary: it has no 3D cells)"
+                    } else {
+                        ""
+                    }
                 ),
             );
         }
@@ -76,7 +106,8 @@ impl StudioApp {
             Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
         };
         let id = gpu::new_mesh_id();
-        let model = Model::new(mesh, path, scene, (id, self.screen.software), size, ctx);
+        let mut model = Model::new(mesh, path, scene, (id, self.screen.software), size, ctx);
+        model.volume = volume;
         let up = model.up;
         self.picker.model = Some(model);
         self.picker.gesture = Gesture::None;
@@ -205,6 +236,9 @@ impl StudioApp {
     /// Writes the deformed mesh as shown (any format the CLI writes).
     pub fn export_mesh(&mut self, path: &Path) {
         self.settle(Duration::from_secs(600));
+        if VolumeFormat::is_volume_path(path) {
+            return self.export_volume(path);
+        }
         let Some(m) = self.picker.model.as_ref() else {
             return;
         };
@@ -212,8 +246,64 @@ impl StudioApp {
         // The file's normals carried through the edit (a glTF's UV seams
         // and hard edges kept), computed where it had none.
         mesh.move_vertices(m.shown.to_vec());
+        let of_volume = if m.volume.is_some() {
+            format!(
+                " (the volume's boundary; {} keeps the cells)",
+                VolumeFormat::EXTENSIONS
+            )
+        } else {
+            String::new()
+        };
         match csrbf_mesh::write(path, &mesh) {
-            Ok(()) => self.picker.status = format!("Exported {}", path.display()),
+            Ok(()) => self.picker.status = format!("Exported {}{of_volume}", path.display()),
+            Err(e) => self.show_error("Cannot export the mesh", reason(&e)),
+        }
+    }
+
+    /// Export of an open volume mesh to a volume format: every node moved
+    /// by the document as shown (in f64, as `csrbf deform` moves it), every cell
+    /// checked, the file written whole; the check said in the status, its
+    /// advice in a dialog when cells turn inside out.
+    fn export_volume(&mut self, path: &Path) {
+        let Some(m) = self.picker.model.as_ref() else {
+            return;
+        };
+        let Some(volume) = m.volume.clone() else {
+            return self.show_error(
+                "Cannot export the mesh",
+                format!(
+                    "{}: {} are volume formats, and {} is a surface mesh: export it as one of {}",
+                    path.display(),
+                    VolumeFormat::EXTENSIONS,
+                    m.doc.mesh_path.display(),
+                    super::files::MESH_ENDINGS
+                        .iter()
+                        .map(|e| format!(".{e}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            );
+        };
+        // What the viewport shows: hidden layers left out.
+        let morph = csrbf_edit::volume::VolumeMorph::Controls(
+            m.shown_controls(),
+            "the document".to_owned(),
+        );
+        let morphed = morph
+            .run(&volume, m.doc.phase, false, &mut |_| {})
+            .and_then(|(moved, report)| {
+                let mut out = (*volume).clone();
+                out.points = moved;
+                csrbf_mesh::volume::write(path, &out)?;
+                Ok(report)
+            });
+        match morphed {
+            Ok(report) => {
+                self.picker.status = format!("Exported {}: {}", path.display(), report.summary());
+                if !report.advice.is_empty() {
+                    self.show_error("Cells turn inside out", report.advice);
+                }
+            }
             Err(e) => self.show_error("Cannot export the mesh", reason(&e)),
         }
     }

@@ -68,7 +68,8 @@ impl Purpose {
     /// File name endings listed (others are hidden).
     fn endings(self) -> &'static [&'static str] {
         match self {
-            Purpose::OpenMesh | Purpose::ExportMesh | Purpose::AddObject => MESH_ENDINGS,
+            Purpose::OpenMesh | Purpose::ExportMesh => PICKER_ENDINGS,
+            Purpose::AddObject => MESH_ENDINGS,
             Purpose::OpenControls
             | Purpose::SaveControls
             | Purpose::OpenScene
@@ -84,6 +85,15 @@ impl Purpose {
 
 /// The mesh formats read and written, by file name ending.
 pub const MESH_ENDINGS: &[&str] = &["obj", "ply", "stl", "off", "gltf", "glb"];
+
+/// The volume mesh formats the Picker opens (by their boundary) and exports
+/// morphed ([`csrbf_mesh::volume::VolumeFormat`]'s).
+pub const VOLUME_ENDINGS: &[&str] = &["vtk", "vtu", "msh"];
+
+/// What the Picker opens and exports: surface and volume meshes.
+const PICKER_ENDINGS: &[&str] = &[
+    "obj", "ply", "stl", "off", "gltf", "glb", "vtk", "vtu", "msh",
+];
 
 /// An open file dialog.
 pub struct FileDialog {

@@ -28,6 +28,6 @@ mod timeline;
 mod viewport;
 
 pub use composer::{KeyRef, Mode};
-pub use files::{MESH_ENDINGS, Recovery, state_dir};
+pub use files::{MESH_ENDINGS, Recovery, VOLUME_ENDINGS, state_dir};
 pub use gpu::BIG_MESH_TRIANGLES;
 pub use studio::{Args, StudioApp};

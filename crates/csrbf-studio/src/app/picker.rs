@@ -77,6 +77,9 @@ pub(super) struct Model {
     pub(super) framed: bool,
     /// The control file as last written to the recovery file.
     pub(super) recovered_text: String,
+    /// The volume mesh the document's mesh is the boundary of (vertex i is
+    /// node i), when a volume mesh was opened: what Export morphs.
+    pub(super) volume: Option<Arc<csrbf_mesh::volume::VolumeMesh>>,
 }
 
 impl Model {
@@ -210,6 +213,7 @@ impl Model {
             recovery_at: None,
             framed: false,
             recovered_text: String::new(),
+            volume: None,
             doc,
         }
     }
@@ -224,6 +228,18 @@ pub(super) const STAND_IN_FROM: usize = 100_000;
 pub(super) const SLOW_FRAME: Duration = Duration::from_millis(50);
 
 impl Model {
+    /// The document's control file as the preview shows it: hidden layers
+    /// at phase 0.
+    pub(super) fn shown_controls(&self) -> csrbf_edit::controls::ControlFile {
+        let mut controls = self.doc.controls.clone();
+        for (spec, &h) in controls.deformations.iter_mut().zip(&self.hidden) {
+            if h {
+                spec.phase = 0.0;
+            }
+        }
+        controls
+    }
+
     /// The model moved while frames cost `frame` (the whole frame, as the
     /// person sees it: [`gpu::Screen::frame_cost`]). At the first slow one, its moving
     /// pictures are drawn light from then on: at half resolution, and by a
@@ -451,11 +467,7 @@ impl Picker {
         };
         if m.hidden.iter().any(|&h| h) {
             let mut shown = m.doc.clone();
-            for (spec, &h) in shown.controls.deformations.iter_mut().zip(&m.hidden) {
-                if h {
-                    spec.phase = 0.0;
-                }
-            }
+            shown.controls = m.shown_controls();
             m.preview.edit(&shown, full);
         } else {
             m.preview.edit(&m.doc, full);

@@ -13,7 +13,8 @@ use eframe::egui;
 
 use super::composer::{self, Mode};
 use super::files::{
-    self, Choice, FileDialog, MESH_ENDINGS, Purpose, Recovery, SceneRecovery, state_dir,
+    self, Choice, FileDialog, MESH_ENDINGS, Purpose, Recovery, SceneRecovery, VOLUME_ENDINGS,
+    state_dir,
 };
 use super::gpu::{self, Screen};
 use super::picker::{Gesture, Picker, Tool, ViewSettings};
@@ -267,7 +268,10 @@ impl StudioApp {
         let is_mesh = path
             .extension()
             .and_then(|e| e.to_str())
-            .is_some_and(|e| MESH_ENDINGS.contains(&e.to_ascii_lowercase().as_str()));
+            .map(str::to_ascii_lowercase)
+            .is_some_and(|e| {
+                MESH_ENDINGS.contains(&e.as_str()) || VOLUME_ENDINGS.contains(&e.as_str())
+            });
         if is_scene(path) {
             self.open_scene(path);
         } else if is_mesh {
@@ -1063,7 +1067,17 @@ impl StudioApp {
                 self.open_scene(&p);
             } else if MESH_ENDINGS.contains(&ext.as_str()) && compose {
                 self.add_object(&p);
-            } else if MESH_ENDINGS.contains(&ext.as_str()) {
+            } else if VOLUME_ENDINGS.contains(&ext.as_str()) && compose {
+                self.show_error(
+                    "Cannot add the dropped file",
+                    format!(
+                        "{}: a scene's objects are surface meshes ({}); open a volume mesh in the Picker",
+                        p.display(),
+                        MESH_ENDINGS.join(", ")
+                    ),
+                );
+            } else if MESH_ENDINGS.contains(&ext.as_str()) || VOLUME_ENDINGS.contains(&ext.as_str())
+            {
                 self.open_mesh(ctx, &p);
             } else if ext == "json" && compose {
                 self.with_composer(|c| c.add_deformation(&p));
@@ -1073,9 +1087,10 @@ impl StudioApp {
                 self.show_error(
                     "Cannot open the dropped file",
                     format!(
-                        "{}: the studio reads meshes ({}), control files (.json) and scenes (.scene.json)",
+                        "{}: the studio reads meshes ({}), volume meshes ({}), control files (.json) and scenes (.scene.json)",
                         p.display(),
-                        MESH_ENDINGS.join(", ")
+                        MESH_ENDINGS.join(", "),
+                        VOLUME_ENDINGS.join(", ")
                     ),
                 );
             }
