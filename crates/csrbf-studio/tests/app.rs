@@ -1512,6 +1512,14 @@ fn mirror_across_the_found_plane_puts_the_image_on_the_surface() {
     );
 }
 
+/// Writes a control file and opens it on the studio's mesh; its path.
+fn write_and_open(h: &mut Harness<'_, StudioApp>, path: &Path, text: &str) -> PathBuf {
+    std::fs::write(path, text).expect("write");
+    h.state_mut().open_controls(path);
+    settle(h);
+    path.to_path_buf()
+}
+
 /// A volume mesh opens in the Picker by its boundary (vertex i is node i):
 /// Export to a volume format writes every node moved as `csrbf deform`
 /// moves it, the boundary where the viewport shows it and every cell
@@ -1541,14 +1549,11 @@ fn a_volume_mesh_is_edited_by_its_boundary_and_exported_morphed() {
     );
     // A box face's middle pushed in a little.
     let dir = state_dir("volume-out");
-    let controls = dir.join("push.json");
-    std::fs::write(
-        &controls,
+    let controls = write_and_open(
+        &mut h,
+        &dir.join("push.json"),
         r#"{"radius": 0.9, "controls": [{"from": [1, 0, 0], "to": [0.9, 0.05, 0]}]}"#,
-    )
-    .expect("write");
-    h.state_mut().open_controls(&controls);
-    settle(&mut h);
+    );
     assert!(h.state().message().is_none(), "{:?}", h.state().message());
     let shown = h.state().shown_positions().expect("open").to_vec();
     let out = dir.join("pushed.vtu");
@@ -1610,14 +1615,11 @@ fn a_volume_mesh_is_edited_by_its_boundary_and_exported_morphed() {
         volume.points.len()
     );
     // Too far for its radius: cells turn inside out, and the export says so.
-    let far = dir.join("far.json");
-    std::fs::write(
-        &far,
+    write_and_open(
+        &mut h,
+        &dir.join("far.json"),
         r#"{"radius": 0.5, "controls": [{"from": [1, 0, 0], "to": [0.2, 0, 0]}]}"#,
-    )
-    .expect("write");
-    h.state_mut().open_controls(&far);
-    settle(&mut h);
+    );
     h.state_mut().export_mesh(&dir.join("far.vtu"));
     h.run_steps(2);
     let (title, text) = h.state().message().expect("a dialog").clone();
