@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use std::sync::Arc;
 
+use csrbf_edit::Note;
 use csrbf_edit::controls::ControlFile;
 use csrbf_mesh::Mesh;
 use csrbf_mesh::volume::VolumeFormat;
@@ -44,10 +45,13 @@ impl StudioApp {
                 Err(e) => return self.show_error("Cannot open the mesh", reason(&e)),
             };
             let surface = csrbf_edit::volume::editing_surface(&volume);
+            let solid = (0..volume.cells.len())
+                .filter(|&c| volume.cells.kinds[c].dim() == 3)
+                .count();
             let note = format!(
-                "a volume mesh of {} nodes and {} cells, shown by its boundary ({} faces);                  every node moves, and Export to {} writes it morphed with its cells checked",
+                "a volume mesh of {} nodes and {solid} 3D cells, shown by its boundary ({} faces); \
+                 every node moves, and Export to {} writes it morphed with its cells checked",
                 volume.points.len(),
-                volume.cells.len(),
                 surface.faces.len(),
                 VolumeFormat::EXTENSIONS
             );
@@ -248,7 +252,7 @@ impl StudioApp {
         mesh.move_vertices(m.shown.to_vec());
         let of_volume = if m.volume.is_some() {
             format!(
-                " (the volume's boundary; {} keeps the cells)",
+                " (the volume's boundary faces, every node a vertex; {} keeps the cells)",
                 VolumeFormat::EXTENSIONS
             )
         } else {
@@ -289,19 +293,40 @@ impl StudioApp {
             m.shown_controls(),
             "the document".to_owned(),
         );
-        let morphed = morph
-            .run(&volume, m.doc.phase, false, &mut |_| {})
-            .and_then(|(moved, report)| {
-                let mut out = (*volume).clone();
-                out.points = moved;
-                csrbf_mesh::volume::write(path, &out)?;
-                Ok(report)
-            });
+        // The fit's warnings (a nearly dense system, a sweep that may
+        // fold), as the CLI prints them.
+        let mut warnings = Vec::new();
+        let mut notes = |n: Note| {
+            if let Note::Warning(w) = n {
+                warnings.push(w);
+            }
+        };
+        let morphed =
+            morph
+                .run(&volume, m.doc.phase, false, &mut notes)
+                .and_then(|(moved, report)| {
+                    let mut out = (*volume).clone();
+                    out.points = moved;
+                    csrbf_mesh::volume::write(path, &out)?;
+                    Ok(report)
+                });
         match morphed {
             Ok(report) => {
-                self.picker.status = format!("Exported {}: {}", path.display(), report.summary());
-                if !report.advice.is_empty() {
-                    self.show_error("Cells turn inside out", report.advice);
+                let mut said = format!("Exported {}: {}", path.display(), report.summary());
+                for w in &warnings {
+                    said.push_str("; ");
+                    said.push_str(w);
+                }
+                if report.advice.is_empty() {
+                    self.picker.status = said;
+                } else {
+                    // Written, and what to do about its cells.
+                    let title = if report.cells.inverted.is_empty() {
+                        "Cells turn inside out on the way"
+                    } else {
+                        "Cells turn inside out"
+                    };
+                    self.show_error(title, format!("{said}.\n\n{}", report.advice));
                 }
             }
             Err(e) => self.show_error("Cannot export the mesh", reason(&e)),

@@ -294,6 +294,13 @@ impl StudioApp {
                 .controls_path
                 .clone()
                 .unwrap_or_else(|| m.doc.mesh_path.with_extension("controls.json")),
+            // A volume mesh exported as one keeps its cells.
+            Purpose::ExportMesh if m.volume.is_some() => {
+                let ext = m.doc.mesh_path.extension().unwrap_or_default();
+                m.doc
+                    .mesh_path
+                    .with_extension(format!("deformed.{}", ext.to_string_lossy()))
+            }
             Purpose::ExportMesh => m.doc.mesh_path.with_extension("deformed.obj"),
             Purpose::ExportFitted => m.doc.mesh_path.with_extension("csrbf"),
             _ => m.doc.mesh_path.clone(),
