@@ -94,8 +94,9 @@ pub enum Warning {
         count: usize,
         /// The radius of support.
         radius: f64,
-        /// How far the nearest of the listed starts is from the nearest
-        /// vertex it acts on (over R; infinite when it acts on none).
+        /// How far the nearest of the listed starts is from the vertices it
+        /// acts on (a distance, in the mesh's units; infinite when it acts
+        /// on none).
         nearest: f64,
     },
     /// Controls whose support reaches vertices outside the region: the map is
@@ -288,7 +289,9 @@ impl fmt::Display for Numbered<'_> {
                 "{}: {count} start(s) lie farther than R = {} from every vertex it acts on{}, so they move nothing: controls {}",
                 stage(s),
                 number(*radius),
-                if nearest.is_finite() {
+                if nearest.is_finite() && *count > c.len() {
+                    format!(" (the nearest of those listed {} away)", number(*nearest))
+                } else if nearest.is_finite() {
                     format!(" (the nearest {} away)", number(*nearest))
                 } else {
                     String::new()
@@ -692,9 +695,10 @@ fn diagnose_with(
                     let start = def.starts()[j];
                     selected
                         .iter()
-                        .map(move |&i| start.distance(rest[i as usize].as_dvec3()))
+                        .map(move |&i| start.distance_squared(rest[i as usize].as_dvec3()))
                 })
-                .fold(f64::INFINITY, f64::min);
+                .fold(f64::INFINITY, f64::min)
+                .sqrt();
             warnings.push(Warning::StartsFarFromMesh {
                 stage: k,
                 controls: listed,
@@ -1027,6 +1031,21 @@ mod tests {
             "{file}"
         );
         assert_eq!(w.numbered(Numbering::File).to_string(), file);
+        assert!(file.contains("(the nearest 0.75 away)"), "{file}");
+        // More than listed: the distance is the listed ones', said so.
+        let many = Warning::StartsFarFromMesh {
+            stage: 0,
+            controls: vec![2, 5],
+            count: 12,
+            radius: 0.5,
+            nearest: 0.75,
+        }
+        .to_string();
+        assert!(
+            many.contains("(the nearest of those listed 0.75 away)")
+                && many.ends_with("and 10 more"),
+            "{many}"
+        );
         let editor = w.numbered(Numbering::Editor).to_string();
         assert!(
             editor.starts_with("layer 0: ") && editor.ends_with("controls 2, 5"),
