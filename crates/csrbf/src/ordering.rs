@@ -156,37 +156,75 @@ pub struct Chosen {
 /// envelope of the candidates, so it never widens the caller's order (up to
 /// 20,000 starts; beyond, reverse Cuthill-McKee's).
 pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
-    let pick = |o: Ordering| match o {
+    let mut chosen = order_first(graph, ordering);
+    chosen.complete(graph, ordering);
+    chosen
+}
+
+/// [`order`]'s first candidate alone: reverse Cuthill-McKee for `Auto`,
+/// the narrowest as a rule. Enough for a system bound for the supernodal
+/// solver, which needs the band only to rule the profile solver out;
+/// [`Chosen::complete`] tries the others if it is taken after all.
+pub(crate) fn order_first(graph: &Graph, ordering: Ordering) -> Chosen {
+    let o = candidates(graph.len(), ordering)[0];
+    let perm = numbering(graph, o);
+    let band = band(graph, &perm);
+    Chosen {
+        perm,
+        band,
+        ordering: o,
+        tried: vec![(o, band)],
+    }
+}
+
+/// The numbering of one ordering (`Auto`'s is the caller's order: it is
+/// never asked for).
+fn numbering(graph: &Graph, o: Ordering) -> Vec<u32> {
+    match o {
         Ordering::BreadthFirst => breadth_first(graph),
         Ordering::ReverseCuthillMcKee => reverse_cuthill_mckee(graph),
-        _ => (0..graph.len() as u32).collect(),
-    };
-    let candidates: &[Ordering] = if ordering == Ordering::Auto && graph.len() > AUTO_ONE_ORDERING {
+        Ordering::Identity | Ordering::Auto => (0..graph.len() as u32).collect(),
+    }
+}
+
+/// The orderings [`order`] tries, the first first.
+fn candidates(n: usize, ordering: Ordering) -> &'static [Ordering] {
+    match ordering {
         // A system this big goes to the supernodal solver unless its band
         // is narrow, which reverse Cuthill-McKee finds alone: the two
         // other tries would cost two passes more for nothing.
-        &[Ordering::ReverseCuthillMcKee]
-    } else if ordering == Ordering::Auto {
-        &[
+        Ordering::Auto if n > AUTO_ONE_ORDERING => &[Ordering::ReverseCuthillMcKee],
+        Ordering::Auto => &[
             Ordering::ReverseCuthillMcKee,
             Ordering::BreadthFirst,
             Ordering::Identity,
-        ]
-    } else {
-        std::slice::from_ref(&ordering)
-    };
-    let mut best = Chosen::default();
-    for (k, &o) in candidates.iter().enumerate() {
-        let perm = pick(o);
-        let b = band(graph, &perm);
-        best.tried.push((o, b));
-        if k == 0 || b.envelope < best.band.envelope {
-            best.perm = perm;
-            best.band = b;
-            best.ordering = o;
-        }
+        ],
+        Ordering::BreadthFirst => &[Ordering::BreadthFirst],
+        Ordering::ReverseCuthillMcKee => &[Ordering::ReverseCuthillMcKee],
+        Ordering::Identity => &[Ordering::Identity],
     }
-    best
+}
+
+impl Chosen {
+    /// Tries the candidates of `ordering` not tried yet (after
+    /// [`order_first`]), keeping the smallest envelope; true if it is
+    /// another numbering now.
+    pub(crate) fn complete(&mut self, graph: &Graph, ordering: Ordering) -> bool {
+        let mut changed = false;
+        for &o in candidates(graph.len(), ordering) {
+            if self.tried.iter().any(|(t, _)| *t == o) {
+                continue;
+            }
+            let perm = numbering(graph, o);
+            let b = band(graph, &perm);
+            self.tried.push((o, b));
+            if b.envelope < self.band.envelope {
+                (self.perm, self.band, self.ordering) = (perm, b, o);
+                changed = true;
+            }
+        }
+        changed
+    }
 }
 
 /// Above this many starts `Auto` tries reverse Cuthill-McKee only.
@@ -342,8 +380,48 @@ impl Dissection<'_> {
         let middle = self.perm.len();
         self.dissect(&mut b);
         self.splits.push([begin, middle, self.perm.len()]);
+        z_order(points, &mut sep);
         self.perm.extend_from_slice(&sep);
     }
+}
+
+/// Sorts `ids` along a Z-order (Morton) curve over their bounding box.
+///
+/// A separator's starts in this order: each subtree below touches a patch
+/// of the separator, and a patch's starts come out mostly together, so a
+/// descendant's rows fall into few runs of consecutive rows of the
+/// supernodes above it, the runs the factorisation's scatter adds as
+/// slices. On a scan's surface this about halves the runs; left in the
+/// order the median split left them, the runs are single rows.
+fn z_order(points: &[glam::DVec3], ids: &mut [u32]) {
+    /// Bits of each coordinate in the key (three of them in a `u64`).
+    const BITS: u32 = 21;
+    if ids.len() < 3 {
+        return;
+    }
+    let (mut lo, mut hi) = (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY);
+    for &i in ids.iter() {
+        lo = lo.min(points[i as usize]);
+        hi = hi.max(points[i as usize]);
+    }
+    let cells = f64::from((1u32 << BITS) - 1);
+    let extent = (hi - lo).max_element();
+    let scale = if extent > 0.0 { cells / extent } else { 0.0 };
+    // Spreads the low 21 bits of `x` three apart.
+    let spread = |x: u64| {
+        let mut x = x & 0x1f_ffff;
+        x = (x | (x << 32)) & 0x1f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x1f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    };
+    ids.sort_by_cached_key(|&i| {
+        // In 0..=cells: the float-to-int cast saturates, and NaN (none in
+        // validated starts) would be 0.
+        let q = (points[i as usize] - lo) * scale;
+        spread(q.x as u64) | (spread(q.y as u64) << 1) | (spread(q.z as u64) << 2)
+    });
 }
 
 impl Dissection<'_> {
@@ -622,6 +700,60 @@ mod tests {
             // The top separator is small against the halves (a slab's cut).
             let top = splits.last().copied().unwrap_or_default();
             assert!(g.len() - top[2] < g.len() / 5, "{top:?} of {}", g.len());
+        }
+    }
+
+    /// Runs of consecutive places that `members` fill in `order`.
+    fn runs_in(order: &[u32], members: &[bool]) -> usize {
+        let mut runs = 0;
+        let mut inside = false;
+        for &i in order {
+            let m = members[i as usize];
+            runs += usize::from(m && !inside);
+            inside = m;
+        }
+        runs
+    }
+
+    #[test]
+    fn a_z_order_keeps_a_patch_of_a_separator_together() {
+        // A shuffled 64 x 64 grid on a tilted plane (a separator's slab).
+        let mut rng = Rng::new(5);
+        let mut points = Vec::new();
+        for i in 0..64 {
+            for j in 0..64 {
+                let (x, y) = (f64::from(i), f64::from(j));
+                points.push(glam::DVec3::new(
+                    x,
+                    y,
+                    0.3 * x - 0.2 * y + 0.2 * rng.f64() - 0.1,
+                ));
+            }
+        }
+        let mut ids: Vec<u32> = (0..points.len() as u32).collect();
+        for k in (1..ids.len()).rev() {
+            ids.swap(k, rng.below(k + 1));
+        }
+        let shuffled = ids.clone();
+        z_order(&points, &mut ids);
+        let mut sorted = ids.clone();
+        sorted.sort_unstable();
+        assert!(sorted.iter().enumerate().all(|(k, &i)| i as usize == k));
+        // Discs of about 80 starts: in runs of several starts on average.
+        for _ in 0..16 {
+            let c = glam::DVec2::new(8.0 + 48.0 * rng.f64(), 8.0 + 48.0 * rng.f64());
+            let members: Vec<bool> = points
+                .iter()
+                .map(|p| p.truncate().distance(c) < 5.0)
+                .collect();
+            let count = members.iter().filter(|&&m| m).count();
+            let (z, before) = (runs_in(&ids, &members), runs_in(&shuffled, &members));
+            // A Z-order's jumps cut a disc in a dozen or more runs (measured
+            // 12-19 here); left shuffled, nearly every start is a run.
+            assert!(
+                3 * z < count && 2 * before > count,
+                "{count} starts: {z} runs, {before} shuffled"
+            );
         }
     }
 
