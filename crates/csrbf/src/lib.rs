@@ -190,6 +190,7 @@ pub use glam;
 mod awake;
 mod binding;
 mod deformation;
+mod dense;
 mod diagnose;
 mod displace;
 mod error;

@@ -13,15 +13,15 @@
 //!
 //! Each supernode is made as faer makes it (left-looking): its columns of
 //! A, less the products of every descendant's rows that reach it, then a
-//! dense Cholesky of its diagonal block and a triangular solve for the
-//! rows below. The values land in faer's layout, so faer's symbolic
-//! structure and this crate's solves read them unchanged, and they are the
-//! same on any number of threads.
+//! dense Cholesky of its diagonal block ([`crate::dense`]) and a
+//! triangular solve for the rows below. The values land in faer's layout,
+//! so faer's symbolic structure and this crate's solves read them
+//! unchanged. They are the same on any number of threads to rounding (a
+//! block wide enough to be factored in panels sums in another order), and
+//! the same bits on the same number.
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::{
-    LltError, LltRegularization, cholesky_in_place, cholesky_in_place_scratch,
-};
+use faer::dyn_stack::MemBuffer;
+use faer::linalg::cholesky::llt::factor::cholesky_in_place_scratch;
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::{Accum, MatMut, MatRef, Par};
@@ -613,19 +613,9 @@ impl Plan<'_> {
         let result = {
             let mut ls = MatMut::from_column_major_slice_mut(&mut *block, rows, width);
             let (mut top, bottom) = ls.as_mut().split_at_row_mut(width);
-            let factored = cholesky_in_place(
-                top.as_mut(),
-                LltRegularization {
-                    dynamic_regularization_delta: 0.0,
-                    dynamic_regularization_epsilon: 0.0,
-                },
-                dense,
-                MemStack::new(&mut work.stack),
-                Default::default(),
-            );
-            match factored {
-                Err(LltError::NonPositivePivot { index }) => Err(start + index),
-                Ok(_) => {
+            match crate::dense::cholesky(top.as_mut(), dense, &mut work.stack) {
+                Err(index) => Err(start + index),
+                Ok(()) => {
                     faer::linalg::triangular_solve::solve_lower_triangular_in_place(
                         top.as_ref(),
                         bottom.transpose_mut(),
