@@ -118,8 +118,15 @@ def evaluate(points, tree, c, dcoef, radius, kernel):
 
 
 def median_time(runs, f):
-    """The median of `runs` timed calls after one untimed (a warm-up, as `csrbf bench` does)."""
-    times, result = [], f()
+    """The median of `runs` timed calls after untimed ones, as `csrbf bench` warms up: at
+    least 3 and for 100 ms at least, or one when a call takes a second."""
+    start, result, calls = time.perf_counter(), f(), 1
+    while True:
+        ms = (time.perf_counter() - start) * 1e3
+        if ms >= 1000 or (calls >= 3 and ms >= 100):
+            break
+        result, calls = f(), calls + 1
+    times = []
     for _ in range(runs):
         t = time.perf_counter()
         result = f()

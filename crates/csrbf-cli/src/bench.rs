@@ -77,12 +77,31 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Runs `f` once untimed (a warm-up: the process's first large allocations
-/// fault their pages in, and the allocator learns to keep them), then
-/// `runs` times; the median in milliseconds. The peer script warms up alike.
+/// Untimed calls before the timed ones: at least [`WARM_CALLS`], and
+/// more until [`WARM_MS`] have passed (none begun after [`WARM_CAP_MS`]).
+const WARM_CALLS: usize = 3;
+const WARM_MS: f64 = 100.0;
+const WARM_CAP_MS: f64 = 1000.0;
+
+/// Runs `f` untimed until it is warm, then `runs` times; the median in
+/// milliseconds. Warm: the process's first calls start the thread pool,
+/// fault in the allocator's pages and bring the cores up to speed (a
+/// scan's fit measured 26, 16 and 10 ms, then 7 from the fourth on), so
+/// it is called [`WARM_CALLS`] times and for [`WARM_MS`] at least, or once
+/// when a call takes [`WARM_CAP_MS`]. The peer script warms up alike.
 fn time<T>(runs: usize, mut f: impl FnMut() -> Result<T>) -> Result<(f64, T)> {
-    let mut times = Vec::with_capacity(runs);
+    let warm = Instant::now();
     let mut last = f()?;
+    let mut calls = 1;
+    loop {
+        let ms = warm.elapsed().as_secs_f64() * 1e3;
+        if ms >= WARM_CAP_MS || (calls >= WARM_CALLS && ms >= WARM_MS) {
+            break;
+        }
+        last = f()?;
+        calls += 1;
+    }
+    let mut times = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
         let t = Instant::now();
         let out = f()?;
