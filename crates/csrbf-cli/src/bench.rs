@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use csrbf::Combine;
 use csrbf::synthetic::SyntheticScene;
-use csrbf::{Binding, SolverChoice, System, frame};
+use csrbf::{Binding, FitPhases, SolverChoice, System, frame};
 use csrbf_edit::controls::{ControlFile, ControlSpec};
 use glam::{DVec3, Vec3};
 use serde_json::json;
@@ -250,11 +250,15 @@ pub fn bench(args: &BenchArgs, progress: &Progress) -> Result<()> {
 
 fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
     // Fit: everything that depends on the controls.
+    // Each fit's phases: the timed ones are the last `runs`.
+    let mut phases: Vec<FitPhases> = Vec::new();
     let (fit_ms, (sys, def)) = time(runs, || {
         let sys = System::new(&s.starts, s.options)?;
         let def = sys.solve(&s.targets)?;
+        phases.push(sys.stats().phases);
         Ok((sys, def))
     })?;
+    let phases = median_phases(&phases[phases.len().saturating_sub(runs.max(1))..]);
     let (evaluate_ms, disp) = time(runs, || Ok(def.displacements_f32(&s.points)))?;
     // What the evaluation did, counted in a pass of its own (not timed),
     // and the machine's arithmetic rate measured now, for its roofline.
@@ -310,15 +314,15 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
         "binding_mb": binding.bytes() as f64 / 1e6,
         "pairs": binding.pairs(),
         "fit_ms": fit_ms,
-        "fit_phases_ms": fit_phases(&sys),
+        "fit_phases_ms": fit_phases(&phases),
         "factor": {
             "multiply_adds": st.factor_flops,
             // At the machine's f64 rate on every thread (the roofline's
             // measurement below): the numeric phase's time over this.
             "bound_ms": roofline.f64_bound_ms(st.factor_flops),
             "numeric_over_bound": (st.factor_flops > 0.0)
-                .then(|| sys.stats().phases.numeric_ms / roofline.f64_bound_ms(st.factor_flops)),
-            "multiply_adds_per_ns": st.factor_flops / (sys.stats().phases.numeric_ms * 1e6),
+                .then(|| phases.numeric_ms / roofline.f64_bound_ms(st.factor_flops)),
+            "multiply_adds_per_ns": st.factor_flops / (phases.numeric_ms * 1e6),
         },
         "bind_ms": bind_ms,
         "evaluate_ms": evaluate_ms,
@@ -354,8 +358,7 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
 
 /// Where one build of the system spent its time (the last run's; the
 /// fit's median above also holds the solve).
-fn fit_phases(sys: &System) -> serde_json::Value {
-    let p = sys.stats().phases;
+fn fit_phases(p: &FitPhases) -> serde_json::Value {
     json!({
         "checks": p.checks_ms,
         "graph": p.graph_ms,
@@ -366,6 +369,26 @@ fn fit_phases(sys: &System) -> serde_json::Value {
         "polynomial": p.polynomial_ms,
         "total": p.total_ms(),
     })
+}
+
+/// Each phase's median over `all` (the timed fits).
+fn median_phases(all: &[FitPhases]) -> FitPhases {
+    let of = |f: fn(&FitPhases) -> f64| {
+        if all.is_empty() {
+            0.0
+        } else {
+            median(all.iter().map(f).collect())
+        }
+    };
+    FitPhases {
+        checks_ms: of(|p| p.checks_ms),
+        graph_ms: of(|p| p.graph_ms),
+        ordering_ms: of(|p| p.ordering_ms),
+        assembly_ms: of(|p| p.assembly_ms),
+        symbolic_ms: of(|p| p.symbolic_ms),
+        numeric_ms: of(|p| p.numeric_ms),
+        polynomial_ms: of(|p| p.polynomial_ms),
+    }
 }
 
 /// Writes a scene's points as a mesh and its controls; `faces` are the

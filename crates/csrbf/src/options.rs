@@ -158,7 +158,9 @@ pub struct FitPhases {
     pub checks_ms: f64,
     /// The neighbour graph (starts within R of each other).
     pub graph_ms: f64,
-    /// The band-reducing orderings tried and the envelope.
+    /// The orderings: below 2,000 starts the band-reducing ones and the
+    /// envelope; from 2,000 the dissection (the band orderings then run
+    /// beside the symbolic analysis, and are timed with it).
     pub ordering_ms: f64,
     /// Kernel values into the profile or the compressed columns (zero from
     /// 2,000 starts: A is then made beside the symbolic analysis, and timed
@@ -166,7 +168,7 @@ pub struct FitPhases {
     pub assembly_ms: f64,
     /// The supernodal solver's symbolic analysis (its elimination tree,
     /// column counts and supernodes; from 2,000 starts, until it, the band
-    /// orderings beside it and A are all done); zero for the profile solver.
+    /// ordering beside it and A are all done); zero for the profile solver.
     pub symbolic_ms: f64,
     /// The numeric Cholesky factorisation.
     pub numeric_ms: f64,
