@@ -356,8 +356,8 @@ fn run(s: &Scene, runs: usize) -> Result<serde_json::Value> {
     }))
 }
 
-/// Where one build of the system spent its time (the last run's; the
-/// fit's median above also holds the solve).
+/// Where a build of the system spent its time: each phase's median over
+/// the timed fits, and their sum (the fit's median also holds the solve).
 fn fit_phases(p: &FitPhases) -> serde_json::Value {
     json!({
         "checks": p.checks_ms,

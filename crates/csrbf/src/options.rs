@@ -123,9 +123,7 @@ pub struct SystemStats {
     pub envelope: usize,
     /// The ordering used.
     pub ordering: String,
-    /// Bandwidth and envelope of every ordering tried (a system of 2,000
-    /// starts or more that the supernodal solver takes tries only the
-    /// first, reverse Cuthill-McKee under `Auto`).
+    /// Bandwidth and envelope of every ordering tried.
     pub orderings: Vec<OrderingFigures>,
     /// Profile bytes in the papers' accounting (4-byte values and row starts).
     pub profile_bytes: usize,
@@ -158,9 +156,10 @@ pub struct FitPhases {
     pub checks_ms: f64,
     /// The neighbour graph (starts within R of each other).
     pub graph_ms: f64,
-    /// The orderings: below 2,000 starts the band-reducing ones and the
-    /// envelope; from 2,000 the dissection (the band orderings then run
-    /// beside the symbolic analysis, and are timed with it).
+    /// The orderings: the band-reducing ones and the envelope, or, for a
+    /// system of 2,000 starts or more bound for the supernodal solver, the
+    /// dissection (the band orderings then run beside the symbolic
+    /// analysis, and are timed with it).
     pub ordering_ms: f64,
     /// Kernel values into the profile or the compressed columns (zero from
     /// 2,000 starts: A is then made beside the symbolic analysis, and timed
@@ -168,7 +167,8 @@ pub struct FitPhases {
     pub assembly_ms: f64,
     /// The supernodal solver's symbolic analysis (its elimination tree,
     /// column counts and supernodes; from 2,000 starts, until it, the band
-    /// ordering beside it and A are all done); zero for the profile solver.
+    /// orderings beside it and A are all done, also when the profile solver
+    /// is then taken); zero for the profile solver below 2,000 starts.
     pub symbolic_ms: f64,
     /// The numeric Cholesky factorisation.
     pub numeric_ms: f64,

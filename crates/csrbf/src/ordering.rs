@@ -156,16 +156,20 @@ pub struct Chosen {
 /// envelope of the candidates, so it never widens the caller's order (up to
 /// 20,000 starts; beyond, reverse Cuthill-McKee's).
 pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
+    order_knowing(graph, ordering, None)
+}
+
+/// [`order`], given the band of the caller's order if it is known (the
+/// fit reports it anyway): not measured again.
+pub(crate) fn order_knowing(graph: &Graph, ordering: Ordering, identity: Option<Band>) -> Chosen {
     let mut chosen = order_first(graph, ordering);
-    chosen.complete(graph, ordering);
+    chosen.complete(graph, ordering, identity);
     chosen
 }
 
 /// [`order`]'s first candidate alone: reverse Cuthill-McKee for `Auto`,
-/// the narrowest as a rule. Enough for a system bound for the supernodal
-/// solver, which needs the band only to rule the profile solver out;
-/// [`Chosen::complete`] tries the others if it is taken after all.
-pub(crate) fn order_first(graph: &Graph, ordering: Ordering) -> Chosen {
+/// the narrowest as a rule.
+fn order_first(graph: &Graph, ordering: Ordering) -> Chosen {
     let o = candidates(graph.len(), ordering)[0];
     let perm = numbering(graph, o);
     let band = band(graph, &perm);
@@ -207,23 +211,29 @@ fn candidates(n: usize, ordering: Ordering) -> &'static [Ordering] {
 
 impl Chosen {
     /// Tries the candidates of `ordering` not tried yet (after
-    /// [`order_first`]), keeping the smallest envelope; true if it is
-    /// another numbering now.
-    pub(crate) fn complete(&mut self, graph: &Graph, ordering: Ordering) -> bool {
-        let mut changed = false;
+    /// [`order_first`]), keeping the smallest envelope; `identity`: the
+    /// caller's order's band, if known.
+    fn complete(&mut self, graph: &Graph, ordering: Ordering, identity: Option<Band>) {
         for &o in candidates(graph.len(), ordering) {
             if self.tried.iter().any(|(t, _)| *t == o) {
                 continue;
             }
-            let perm = numbering(graph, o);
-            let b = band(graph, &perm);
+            let known = identity.filter(|_| o == Ordering::Identity);
+            let (perm, b) = match known {
+                // Its numbering is made only if it is taken.
+                Some(b) => (None, b),
+                None => {
+                    let perm = numbering(graph, o);
+                    let b = band(graph, &perm);
+                    (Some(perm), b)
+                }
+            };
             self.tried.push((o, b));
             if b.envelope < self.band.envelope {
-                (self.perm, self.band, self.ordering) = (perm, b, o);
-                changed = true;
+                self.perm = perm.unwrap_or_else(|| numbering(graph, o));
+                (self.band, self.ordering) = (b, o);
             }
         }
-        changed
     }
 }
 
@@ -656,6 +666,8 @@ mod tests {
             assert!(c.band.envelope <= ident.envelope);
             assert_eq!(c.tried.len(), 3);
             assert!(c.tried.iter().all(|(_, b)| c.band.envelope <= b.envelope));
+            // The caller's band given, not measured again: the same choice.
+            assert_eq!(order_knowing(&g, Ordering::Auto, Some(ident)), c);
         }
     }
 

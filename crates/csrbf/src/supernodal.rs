@@ -33,8 +33,10 @@ use std::sync::{Mutex, OnceLock, PoisonError};
 use crate::symbolic::Permuted;
 use crate::triangular::{Tree, of_column};
 
-/// A supernode's columns at least this wide run their dense kernels on the
-/// pool (the top separators of a large system).
+/// A supernode's columns at least this wide run their updates in two
+/// halves and the triangular solve under them on the pool, and their
+/// dense Cholesky in panels on it from [`crate::dense`]'s width on (the top
+/// separators of a large system).
 const WIDE: usize = 192;
 
 /// For each supernode, the earlier supernodes whose rows reach its
@@ -214,7 +216,9 @@ struct Plan<'a> {
 /// subtrees at once, taken by whichever thread is free, and a wide
 /// supernode's dense kernels on both threads. Fails with the column
 /// (factor numbering) of the first pivot that is not positive: the one a
-/// serial factorisation stops at, on any number of threads.
+/// serial factorisation stops at, on any number of threads (a pivot within
+/// rounding of zero aside: a block of [`crate::dense`]'s panels sums in
+/// another order).
 pub(crate) fn factor(
     symbolic: &SymbolicSupernodalCholesky<u32>,
     a: &Permuted,

@@ -17,32 +17,20 @@ pub(super) struct Bands {
     pub(super) envelope: Envelope,
 }
 
-impl Bands {
-    /// Tries the band orderings `bands(false)` left out, for a system taken
-    /// by the profile solver after all; the envelope follows the choice.
-    fn complete(&mut self, graph: &Graph, ordering: crate::ordering::Ordering) {
-        if self.chosen.complete(graph, ordering) {
-            self.envelope = Envelope::new(graph, &self.chosen.perm);
-        }
-    }
-}
-
 /// Below this many multiply-adds the profile factor takes a few
 /// milliseconds at most: it is taken without trying the supernodal one.
 const SKYLINE_SURE: f64 = 3e7;
 
 /// Orders, chooses and runs the factorisation, timing its phases into
 /// `phases` (from the ordering on) and its multiply-adds into `flops`;
-/// gives back the band orderings made by `bands` (`bands(true)`: all of
-/// them, `false`: the first). With `dissect_ahead` (a large system likely
-/// to go to the supernodal solver) the dissection is made and analysed
-/// beside the first band ordering, the others tried only if the profile
-/// solver is taken, and A made from the order.
+/// gives back the band orderings made by `bands`. With `dissect_ahead` (a
+/// large system likely to go to the supernodal solver) the dissection is
+/// made and analysed beside `bands`, and A made from the order.
 #[allow(clippy::too_many_arguments)] // the build's state, passed on once
 pub(super) fn factor(
     starts: &[DVec3],
     graph: &Graph,
-    bands: impl FnOnce(bool) -> Bands + Send,
+    bands: impl FnOnce() -> Bands + Send,
     dissect_ahead: bool,
     options: &FitOptions,
     phases: &mut FitPhases,
@@ -69,15 +57,14 @@ pub(super) fn factor(
     // profile's lower overhead is all it gives up.
     let supernodal = |a: &Permuted,
                       symbolic,
-                      bands: &mut Bands,
+                      bands: &Bands,
                       phases: &mut FitPhases,
                       flops: &mut f64,
                       mut clock: Clock| {
         let skyline_flops = bands.envelope.factor_flops();
         let supernodal_flops = Factor::supernodal_flops(&symbolic);
         if options.solver == SolverChoice::Auto && skyline_flops <= supernodal_flops {
-            bands.complete(graph, options.ordering);
-            *flops = bands.envelope.factor_flops();
+            *flops = skyline_flops;
             return skyline(bands, phases, clock);
         }
         *flops = supernodal_flops;
@@ -103,22 +90,21 @@ pub(super) fn factor(
                 );
                 (ordering_ms, symbolic, a)
             },
-            || bands(false),
+            bands,
         );
         // The dissection's own time; the rest, until all three are done,
         // the symbolic analysis's.
         phases.ordering_ms = ordering_ms;
         phases.symbolic_ms = clock.lap() - ordering_ms;
-        let (symbolic, mut bands) = (symbolic?, bands);
+        let symbolic = symbolic?;
         if options.solver == SolverChoice::Auto && bands.envelope.factor_flops() < SKYLINE_SURE {
-            bands.complete(graph, options.ordering);
             *flops = bands.envelope.factor_flops();
             return skyline(&bands, phases, clock).map(|f| (f, bands));
         }
-        let factor = supernodal(&a, symbolic, &mut bands, phases, flops, clock);
+        let factor = supernodal(&a, symbolic, &bands, phases, flops, clock);
         return factor.map(|f| (f, bands));
     }
-    let mut bands = bands(true);
+    let bands = bands();
     phases.ordering_ms = clock.lap();
     let skyline_flops = bands.envelope.factor_flops();
     *flops = skyline_flops;
@@ -133,7 +119,7 @@ pub(super) fn factor(
         phases.symbolic_ms = clock.lap();
         let a = Permuted::of_graph(graph, symbolic.order(), symbolic.inverse(), &phi, diag);
         phases.assembly_ms = clock.lap();
-        let factor = supernodal(&a, symbolic, &mut bands, phases, flops, clock);
+        let factor = supernodal(&a, symbolic, &bands, phases, flops, clock);
         return factor.map(|f| (f, bands));
     }
     let factor = skyline(&bands, phases, clock);

@@ -177,16 +177,12 @@ impl System {
             return System::refit(p, starts, options, octree, graph, near, clock, phases);
         }
         let identity: Vec<u32> = (0..n as u32).collect();
-        // The band orderings (the profile solver's; all of them, or only the
-        // first) and the envelope of the one chosen. A large system likely
-        // to go to the supernodal solver is dissected first, and these run
-        // beside its symbolic analysis.
-        let bands = |all: bool| {
+        // The band orderings (the profile solver's) and the envelope of the
+        // one chosen. A large system likely to go to the supernodal solver
+        // is dissected first, and these run beside its symbolic analysis.
+        let bands = || {
             let before = ordering::band(&graph, &identity);
-            let mut chosen = ordering::order_first(&graph, options.ordering);
-            if all {
-                chosen.complete(&graph, options.ordering);
-            }
+            let chosen = ordering::order_knowing(&graph, options.ordering, Some(before));
             let envelope = Envelope::new(&graph, &chosen.perm);
             Bands {
                 before,
