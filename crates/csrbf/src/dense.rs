@@ -63,7 +63,7 @@ pub(crate) fn cholesky(
         // of their values lie left, each part's on its own thread.
         let below = below.as_ref();
         let trailing = right.subrows_mut(j1 - j0, n - j1);
-        let cut = half_of_lower(n - j1);
+        let cut = half_of_lower(n - j1, n - j1);
         let (left, rest) = trailing.split_at_col_mut(cut);
         rayon::join(
             || less_product(left, below, 0),
@@ -92,18 +92,18 @@ fn unblocked(a: MatMut<'_, f64>, stack: &mut MemBuffer) -> Result<(), usize> {
     }
 }
 
-/// The first column of the right part when the lower triangle of an `m`
-/// x `m` block is cut in two of about equal values (column c holds
-/// m - c).
-fn half_of_lower(m: usize) -> usize {
-    let total = (m * (m + 1) / 2) as f64;
+/// The first column of the right part when the `width` columns of a block
+/// of `rows` rows, on and below its diagonal (column c holds rows - c
+/// values), are cut in two of about equal values.
+pub(crate) fn half_of_lower(rows: usize, width: usize) -> usize {
+    let total = (rows * width - width * width.saturating_sub(1) / 2) as f64;
     let mut sum = 0.0;
-    (0..m)
+    (0..width)
         .find(|&c| {
-            sum += (m - c) as f64;
+            sum += (rows - c) as f64;
             sum >= total * 0.5
         })
-        .map_or(m, |c| c + 1)
+        .map_or(width, |c| c + 1)
 }
 
 /// Subtracts `l l^T` from the columns `first..first + t.ncols()` of a

@@ -559,15 +559,7 @@ impl Plan<'_> {
         let descendants = self.updates.of(s);
         let local = &work.local[..];
         let half = if width >= WIDE && matches!(par, Par::Rayon(_)) {
-            // Column c holds rows - c values: cut where half of them lie left.
-            let total = (rows * width - width * (width - 1) / 2) as f64;
-            let mut sum = 0.0;
-            (0..width)
-                .find(|&c| {
-                    sum += (rows - c) as f64;
-                    sum >= total * 0.5
-                })
-                .map_or(width, |c| c + 1)
+            crate::dense::half_of_lower(rows, width)
         } else {
             width
         };
