@@ -1018,13 +1018,15 @@ impl Deformation {
 mod tests {
     #[test]
     fn a_warning_numbers_as_the_file_or_as_an_editor() {
-        let w = Warning::StartsFarFromMesh {
+        // Controls 2 and 5 listed of `count` far from the mesh.
+        let far = |count| Warning::StartsFarFromMesh {
             stage: 0,
             controls: vec![2, 5],
-            count: 2,
+            count,
             radius: 0.5,
             nearest: 0.75,
         };
+        let w = far(2);
         let file = w.to_string();
         assert!(
             file.starts_with("deformation 0: ") && file.ends_with("controls 2, 5"),
@@ -1033,14 +1035,7 @@ mod tests {
         assert_eq!(w.numbered(Numbering::File).to_string(), file);
         assert!(file.contains("(the nearest 0.75 away)"), "{file}");
         // More than listed: the distance is the listed ones', said so.
-        let many = Warning::StartsFarFromMesh {
-            stage: 0,
-            controls: vec![2, 5],
-            count: 12,
-            radius: 0.5,
-            nearest: 0.75,
-        }
-        .to_string();
+        let many = far(12).to_string();
         assert!(
             many.contains("(the nearest of those listed 0.75 away)")
                 && many.ends_with("and 10 more"),

@@ -162,27 +162,29 @@ pub fn order(graph: &Graph, ordering: Ordering) -> Chosen {
 /// [`order`], given the band of the caller's order if it is known (the
 /// fit reports it anyway): not measured again.
 pub(crate) fn order_knowing(graph: &Graph, ordering: Ordering, identity: Option<Band>) -> Chosen {
-    let mut chosen = order_first(graph, ordering);
-    chosen.complete(graph, ordering, identity);
-    chosen
-}
-
-/// [`order`]'s first candidate alone: reverse Cuthill-McKee for `Auto`,
-/// the narrowest as a rule.
-fn order_first(graph: &Graph, ordering: Ordering) -> Chosen {
-    let o = candidates(graph.len(), ordering)[0];
-    let perm = numbering(graph, o);
-    let band = band(graph, &perm);
-    Chosen {
-        perm,
-        band,
-        ordering: o,
-        tried: vec![(o, band)],
+    let mut best = Chosen::default();
+    for (k, &o) in candidates(graph.len(), ordering).iter().enumerate() {
+        let known = identity.filter(|_| o == Ordering::Identity);
+        let (perm, b) = match known {
+            // Its numbering is made only if it is taken.
+            Some(b) => (None, b),
+            None => {
+                let perm = numbering(graph, o);
+                let b = band(graph, &perm);
+                (Some(perm), b)
+            }
+        };
+        best.tried.push((o, b));
+        if k == 0 || b.envelope < best.band.envelope {
+            best.perm = perm.unwrap_or_else(|| numbering(graph, o));
+            (best.band, best.ordering) = (b, o);
+        }
     }
+    best
 }
 
-/// The numbering of one ordering (`Auto`'s is the caller's order: it is
-/// never asked for).
+/// The numbering of one ordering (`Auto`, never a candidate, as the
+/// caller's order).
 fn numbering(graph: &Graph, o: Ordering) -> Vec<u32> {
     match o {
         Ordering::BreadthFirst => breadth_first(graph),
@@ -206,34 +208,6 @@ fn candidates(n: usize, ordering: Ordering) -> &'static [Ordering] {
         Ordering::BreadthFirst => &[Ordering::BreadthFirst],
         Ordering::ReverseCuthillMcKee => &[Ordering::ReverseCuthillMcKee],
         Ordering::Identity => &[Ordering::Identity],
-    }
-}
-
-impl Chosen {
-    /// Tries the candidates of `ordering` not tried yet (after
-    /// [`order_first`]), keeping the smallest envelope; `identity`: the
-    /// caller's order's band, if known.
-    fn complete(&mut self, graph: &Graph, ordering: Ordering, identity: Option<Band>) {
-        for &o in candidates(graph.len(), ordering) {
-            if self.tried.iter().any(|(t, _)| *t == o) {
-                continue;
-            }
-            let known = identity.filter(|_| o == Ordering::Identity);
-            let (perm, b) = match known {
-                // Its numbering is made only if it is taken.
-                Some(b) => (None, b),
-                None => {
-                    let perm = numbering(graph, o);
-                    let b = band(graph, &perm);
-                    (Some(perm), b)
-                }
-            };
-            self.tried.push((o, b));
-            if b.envelope < self.band.envelope {
-                self.perm = perm.unwrap_or_else(|| numbering(graph, o));
-                (self.band, self.ordering) = (b, o);
-            }
-        }
     }
 }
 
